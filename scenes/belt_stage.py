@@ -98,8 +98,8 @@ def build_mjcf(geometry: BeltStageGeometry, render_pad_px: int = 0) -> tuple[str
 
 PLATE_HALF_THICKNESS_M = 0.004
 # The board body's frame has z up out of the printed (top) face; the board frame (OpenCV's)
-# has z into the plate. MuJoCo maps a texture's row 0 to the face's -y edge, which the
-# texture's bottom-up storage turns into board +y: so board y runs along body -y.
+# has z into the plate. MuJoCo draws a texture image's row 0 along the face's +y edge and
+# the texture stores board y growing down its rows: so board y runs along body -y.
 BOARD_TO_BODY_R = np.diag([1.0, -1.0, -1.0])
 
 

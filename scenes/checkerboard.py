@@ -63,8 +63,8 @@ class Chessboard:
     def texture(self, px_per_square: int = 64) -> np.ndarray:
         """Texture image of the whole plate, shape (height_px, width_px, 3), uint8 RGB.
 
-        Stored bottom-up, as OpenGL (and so MuJoCo) reads a texture: row 0 is the plate edge at
-        the largest board y. Squares are whole texture pixels, so corners fall on pixel edges.
+        Stored as the plate is seen from the front: row 0 is the plate edge at the smallest
+        board y. Squares are whole texture pixels, so corners fall on pixel edges.
         """
         s = px_per_square
         m = self.margin_mm / self.square_mm * s
@@ -79,7 +79,7 @@ class Chessboard:
         black = ((a[None, :] + b[:, None]) % 2) == 0
         img = np.full((ny * s + 2 * m, nx * s + 2 * m), 255, np.uint8)
         img[m:m + ny * s, m:m + nx * s][black] = 0
-        return np.repeat(np.flipud(img)[:, :, None], 3, axis=2)
+        return np.repeat(img[:, :, None], 3, axis=2)
 
     def texture_png(self, px_per_square: int = 64) -> bytes:
         ok, buf = cv2.imencode(".png", self.texture(px_per_square))

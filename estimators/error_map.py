@@ -1,0 +1,79 @@
+"""Positioning-error maps of a two-axis stage: the seed paper's bivariate quadratic (Eq. 1).
+
+``err(x, y) = c0 + c1 x + c2 y + c3 x^2 + c4 x y + c5 y^2`` with x, y the commanded position in
+mm and err in mm, one map per axis. Goodness of fit as the paper's Table 3: SSE, R^2 and the
+dof-adjusted RMSE = sqrt(SSE / (n - 6)).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+COEF_NAMES = ("c0", "c1", "c2", "c3", "c4", "c5")
+# Monomials are built on x / 1000 to keep the normal equations well conditioned.
+_SCALE = np.array([1.0, 1e-3, 1e-3, 1e-6, 1e-6, 1e-6])
+
+
+def _monomials(x_mm, y_mm) -> np.ndarray:
+    x, y = np.asarray(x_mm, float) / 1000, np.asarray(y_mm, float) / 1000
+    return np.stack([np.ones_like(x), x, y, x * x, x * y, y * y], axis=-1)
+
+
+@dataclasses.dataclass(frozen=True)
+class QuadraticFit:
+    """Least-squares quadratic map of one axis's error.
+
+    coef : (6,) c0..c5 in mm, mm/mm, mm/mm^2.  std : (6,) their 1-sigma (from the residuals).
+    """
+
+    coef: np.ndarray
+    std: np.ndarray
+    sse: float
+    r2: float
+    rmse: float
+    n: int
+
+    def __call__(self, x_mm, y_mm) -> np.ndarray:
+        return _monomials(x_mm, y_mm) @ (self.coef / _SCALE)
+
+    def as_dict(self) -> dict:
+        return {"coef": dict(zip(COEF_NAMES, map(float, self.coef))),
+                "std": dict(zip(COEF_NAMES, map(float, self.std))),
+                "sse": self.sse, "r2": self.r2, "rmse": self.rmse, "n": self.n}
+
+
+def fit_quadratic(x_mm: np.ndarray, y_mm: np.ndarray, err_mm: np.ndarray) -> QuadraticFit:
+    """Fit one axis's error map, (n,), (n,), (n,) -> QuadraticFit. Needs n > 6 spread stations."""
+    A = _monomials(x_mm, y_mm)
+    e = np.asarray(err_mm, float)
+    n = len(e)
+    if n <= 6:
+        raise ValueError(f"{n} stations: the quadratic map needs more than 6")
+    Q, Rm = np.linalg.qr(A)
+    if np.min(np.abs(np.diag(Rm))) < 1e-9 * np.max(np.abs(np.diag(Rm))):
+        raise ValueError("degenerate stations: they do not span a quadratic in x and y")
+    b = np.linalg.solve(Rm, Q.T @ e)
+    r = e - A @ b
+    sse = float(r @ r)
+    sst = float(np.sum((e - e.mean()) ** 2))
+    rmse = float(np.sqrt(sse / (n - 6)))
+    Rinv = np.linalg.inv(Rm)
+    std = rmse * np.sqrt(np.sum(Rinv**2, axis=1))
+    return QuadraticFit(coef=b * _SCALE, std=std * _SCALE, sse=sse,
+                        r2=1 - sse / sst if sst > 0 else float("nan"), rmse=rmse, n=n)
+
+
+def compensated_command(x_target_mm, y_target_mm, fit_x: QuadraticFit, fit_y: QuadraticFit,
+                        iterations: int = 30) -> tuple[np.ndarray, np.ndarray]:
+    """Commands that land on the targets under the fitted maps: cmd + err(cmd) = target.
+
+    Fixed-point iteration cmd <- target - err(cmd); it contracts because the maps' slopes are
+    far below one.
+    """
+    xt, yt = np.asarray(x_target_mm, float), np.asarray(y_target_mm, float)
+    xc, yc = xt.copy(), yt.copy()
+    for _ in range(iterations):
+        xc, yc = xt - fit_x(xc, yc), yt - fit_y(xc, yc)
+    return xc, yc

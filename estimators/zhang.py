@@ -1,0 +1,146 @@
+"""Zhang's camera calibration from several views of a planar target, with standard deviations.
+
+Intrinsics K = [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] in pixels; distortion in OpenCV's order
+(k1, k2, p1, p2, k3). The standard deviations are OpenCV's: the square roots of the diagonal
+of (J^T J)^-1 scaled by the residual variance, i.e. they assume independent corner noise.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import cv2
+import numpy as np
+
+INTRINSIC_NAMES = ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3")
+
+
+class CalibrationError(ValueError):
+    """The views cannot determine the camera (too few, or degenerate)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class CameraCalibration:
+    """Result of :func:`calibrate_camera`.
+
+    K : (3, 3) camera matrix.  dist : (5,) k1, k2, p1, p2, k3.
+    std : 1-sigma of each estimated parameter by name (fixed ones absent).
+    rms_px : RMS reprojection error over all corners.  per_view_rms_px : (n_views,).
+    rvecs, tvecs : (n_views, 3) board-to-camera poses (Rodrigues, and translation in the
+    target's unit).
+    """
+
+    K: np.ndarray
+    dist: np.ndarray
+    std: dict[str, float]
+    rms_px: float
+    per_view_rms_px: np.ndarray
+    rvecs: np.ndarray
+    tvecs: np.ndarray
+    image_size: tuple[int, int]
+
+    def params(self) -> dict[str, float]:
+        K, d = self.K, self.dist
+        return dict(zip(INTRINSIC_NAMES, [K[0, 0], K[1, 1], K[0, 2], K[1, 2], *d[:5]]))
+
+
+def calibrate_camera(object_points: np.ndarray, image_points: list[np.ndarray],
+                     image_size: tuple[int, int], fix_aspect: bool = False,
+                     fix_k3: bool = True, tangential: bool = True) -> CameraCalibration:
+    """Calibrate from views of one planar target.
+
+    Parameters
+    ----------
+    object_points : (n_corners, 3) target points (z = 0) in the target's unit.
+    image_points : list of (n_corners, 2) detected corners, one per view.
+    image_size : (width, height) in pixels.
+    fix_aspect : keep fx / fy at the initial guess's ratio (1).
+    fix_k3, tangential : which distortion terms are estimated.
+    """
+    n_views = len(image_points)
+    if n_views < 3:
+        raise CalibrationError(f"{n_views} usable views: a calibration needs at least 3")
+    obj = np.asarray(object_points, np.float32)
+    if obj.ndim != 2 or obj.shape[1] != 3 or np.any(obj[:, 2] != 0):
+        raise CalibrationError("object points must be (n, 3) on the plane z = 0")
+    imgs = [np.asarray(p, np.float32).reshape(-1, 1, 2) for p in image_points]
+    for p in imgs:
+        if p.shape[0] != obj.shape[0] or not np.isfinite(p).all():
+            raise CalibrationError("every view needs one finite image point per target point")
+    _check_not_degenerate(obj, imgs, image_size)
+    flags = 0
+    if fix_aspect:
+        flags |= cv2.CALIB_FIX_ASPECT_RATIO
+    if fix_k3:
+        flags |= cv2.CALIB_FIX_K3
+    if not tangential:
+        flags |= cv2.CALIB_ZERO_TANGENT_DIST
+    K0 = None
+    if fix_aspect:
+        K0 = cv2.initCameraMatrix2D([obj] * n_views, imgs, image_size, 1.0)
+        K0[1, 1] = K0[0, 0]
+    crit = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 200, 1e-12)
+    rms, K, dist, rvecs, tvecs, std_int, _, per_view = cv2.calibrateCameraExtended(
+        [obj] * n_views, imgs, image_size, K0, None, flags=flags, criteria=crit)
+    dist = np.zeros(5) if dist is None else np.asarray(dist, float).ravel()[:5]
+    std_all = np.asarray(std_int, float).ravel()
+    estimated = {"fx", "fy", "cx", "cy", "k1", "k2"}
+    if tangential:
+        estimated |= {"p1", "p2"}
+    if not fix_k3:
+        estimated.add("k3")
+    std = {name: float(std_all[i]) for i, name in enumerate(INTRINSIC_NAMES) if name in estimated}
+    return CameraCalibration(K=np.asarray(K, float), dist=dist, std=std, rms_px=float(rms),
+                             per_view_rms_px=np.asarray(per_view, float).ravel(),
+                             rvecs=np.asarray(rvecs, float).reshape(-1, 3),
+                             tvecs=np.asarray(tvecs, float).reshape(-1, 3),
+                             image_size=tuple(image_size))
+
+
+def _check_not_degenerate(obj: np.ndarray, imgs: list[np.ndarray], image_size) -> None:
+    """Zhang's constraints vanish when every view is parallel to the image plane.
+
+    With H = K [r1 r2 t] / t_z, the tilt of a view is about |H[2, :2]| * f / sqrt(det H[:2, :2]);
+    f is taken as the image width (a rough focal length is enough to tell 0 from 0.1 rad).
+    """
+    tilts = []
+    for p in imgs:
+        H, _ = cv2.findHomography(obj[:, :2], p.reshape(-1, 2), 0)
+        if H is None:
+            raise CalibrationError("a view's corners are collinear: no homography")
+        H = H / H[2, 2]
+        scale = np.sqrt(abs(np.linalg.det(H[:2, :2])))
+        tilts.append(np.linalg.norm(H[2, :2]) * max(image_size) / scale)
+    if max(tilts) < 0.02:
+        raise CalibrationError("degenerate pose set: all views are parallel to the image plane, "
+                               "tilt the target between views")
+
+
+def intrinsic_covariance(calib: CameraCalibration, object_points: np.ndarray,
+                         image_points: list[np.ndarray], names: tuple[str, ...],
+                         fix_aspect: bool = False) -> np.ndarray:
+    """Full covariance of the estimated intrinsics ``names``, shape (k, k).
+
+    Gauss-Newton information of all views, with each view's pose eliminated (Schur complement),
+    scaled by the residual variance as OpenCV does for its standard deviations. With
+    ``fix_aspect`` fx and fy are one parameter (fy = a fx): name it "fx" and omit "fy".
+    """
+    cols = {n: i for i, n in enumerate(("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3"))}
+    obj = np.asarray(object_points, np.float64)
+    aspect = calib.K[1, 1] / calib.K[0, 0]
+    info = np.zeros((len(names), len(names)))
+    sse, n_res = 0.0, 0
+    for rvec, tvec, pts in zip(calib.rvecs, calib.tvecs, image_points):
+        proj, jac = cv2.projectPoints(obj, rvec, tvec, calib.K, calib.dist)
+        r = (np.asarray(pts, float).reshape(-1, 2) - proj.reshape(-1, 2)).ravel()
+        sse += r @ r
+        n_res += r.size
+        Je = jac[:, :6]
+        Ji = np.column_stack([jac[:, 6 + cols[n]] for n in names])
+        if fix_aspect:
+            Ji[:, names.index("fx")] += aspect * jac[:, 6 + cols["fy"]]
+        A, B, C = Ji.T @ Ji, Ji.T @ Je, Je.T @ Je
+        info += A - B @ np.linalg.solve(C, B.T)
+    n_params = len(names) + 6 * len(calib.rvecs)
+    sigma2 = sse / max(n_res - n_params, 1)
+    return np.linalg.inv(info) * sigma2

@@ -1,0 +1,359 @@
+"""Scenario ``belt-stage``: calibrate the camera, map both axes' positioning errors, compensate.
+
+The procedure of the seed paper, end to end:
+
+1. Zhang calibration from ~20 tilted views of the chessboard (intrinsics with their std).
+2. The board rides the carriage over the paper's 11 x 11 station grid (commanded in pulses);
+   each station's board2cam pose comes from the homography's closed form (Eq. 13-18), refined
+   and cross-checked by PnP.
+3. Travel = displacement of the board from the home station; error = travel - pulse travel.
+   The paper takes camera-centre differences and assumes the board square to the axes; here
+   the board's rotation is shared by all stations and its yaw to the axes is estimated.
+4. A bivariate quadratic map per axis (Eq. 1), with SSE, R^2, RMSE and coefficient std.
+5. Compensation checked at 20 random points that no fit saw.
+
+Fidelity ``render`` renders every view through the lens and detects corners in the pixels;
+``analytic`` projects the true corners exactly and adds the detector's noise.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+from estimators.chessboard import find_chessboard_corners
+from estimators.error_map import COEF_NAMES, compensated_command, fit_quadratic
+from estimators.pose import (board2cam_from_homography, board2cam_pnp, fit_plane, homography, mean_rotation,
+                             translations_given_rotation, undistort_pixels)
+from estimators.travel import board_yaw, travel_common_rotation, travel_from_camera_centres
+from estimators.zhang import calibrate_camera, intrinsic_covariance
+from scenarios.report import Check, Parameter, Report
+from scenes.belt_stage import BeltStageGeometry
+from sim.belt_stage import PULSES_PER_MM, BeltStageSim, BeltStageTruth, intrinsic_view_poses
+from sim.recording import CameraViews
+
+NAME = "belt-stage"
+
+# The paper's 121 stations (Tables 1-2), mm.
+PAPER_STATIONS_X = (0, 100, 170, 230, 310, 400, 540, 610, 760, 890, 980)
+PAPER_STATIONS_Y = (0, 80, 170, 250, 310, 460, 520, 640, 710, 890, 920)
+
+# How the machine is seen: the camera is mounted with its image x along +X and image y along
+# -Y; the board is laid with its x along +X and its y along -Y (scenes.belt_stage).
+X_AXIS_CAM = np.array([1.0, 0.0, 0.0])
+Y_AXIS_CAM = np.array([0.0, -1.0, 0.0])
+BOARD_XY_TO_AXES = np.diag([1.0, -1.0])
+
+
+@dataclasses.dataclass(frozen=True)
+class BeltStageConfig:
+    geometry: BeltStageGeometry = BeltStageGeometry()
+    truth: BeltStageTruth = BeltStageTruth()
+    n_intrinsic_views: int = 20
+    # Detector noise of the analytic fidelity, per axis, 1-sigma (calibrated on renders of
+    # this scene: about 0.075 px RMS in 2-D).
+    corner_noise_px: float = 0.055
+    stations_x_mm: tuple[float, ...] = PAPER_STATIONS_X
+    stations_y_mm: tuple[float, ...] = PAPER_STATIONS_Y
+    n_check: int = 20
+    map_limit_mm: float = 0.1
+    corner_limit_px: float = 0.1
+
+
+@dataclasses.dataclass
+class StationPoses:
+    """Per-station board2cam poses: closed form (from H) and PnP; R (n, 3, 3), t (n, 3) mm."""
+
+    R_closed: np.ndarray
+    t_closed: np.ndarray
+    R_pnp: np.ndarray
+    t_pnp: np.ndarray
+
+
+def run(config: BeltStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool) -> Report:
+    rng = np.random.default_rng(seed)
+    g, truth = config.geometry, config.truth
+    board_pts = g.board.corners_mm()
+    sim = BeltStageSim(g, truth, render=fidelity == "render")
+    size = (g.camera.width, g.camera.height)
+    try:
+        # 1. intrinsic views ------------------------------------------------------------------
+        poses = intrinsic_view_poses(g, config.n_intrinsic_views, rng)
+        calib_views, calib_true = _record(sim, fidelity, config, rng, size,
+                                          [("calib", R, t) for R, t in poses])
+        sim.park_calib_board()
+        used = np.isfinite(calib_views.corners_px).all(axis=(1, 2))
+
+        # 2. stations -------------------------------------------------------------------------
+        xs, ys = np.meshgrid(config.stations_x_mm, config.stations_y_mm)
+        x_pulses = np.rint(xs.ravel() * PULSES_PER_MM).astype(np.int64)
+        y_pulses = np.rint(ys.ravel() * PULSES_PER_MM).astype(np.int64)
+        home = np.flatnonzero((x_pulses == 0) & (y_pulses == 0))
+        if len(home) != 1:
+            raise ValueError("the station grid must contain the home station (0, 0) once")
+        ref = int(home[0])
+        station_views, station_true = _record(sim, fidelity, config, rng, size,
+                                              [("station", xp, yp) for xp, yp in zip(x_pulses, y_pulses)])
+        if not np.isfinite(station_views.corners_px).all():
+            missed = [station_views.names[i] for i in np.flatnonzero(
+                ~np.isfinite(station_views.corners_px).all(axis=(1, 2)))]
+            raise ValueError(f"board not detected at station(s) {', '.join(missed[:5])}")
+
+        # Zhang on the tilted views; the station views join them: fronto-parallel, they say
+        # nothing of the focal length, but they sample the lens over the whole image.
+        calib_points = list(calib_views.corners_px[used]) + list(station_views.corners_px)
+        calib = calibrate_camera(board_pts, calib_points, size, fix_k3=True)
+
+        # 3-4. poses, travel, errors, maps; then the intrinsics' uncertainty carried through
+        cmd = np.stack([x_pulses, y_pulses], axis=1) / PULSES_PER_MM
+        m = measure_maps(board_pts, station_views.corners_px, calib.K, calib.dist, cmd, ref)
+        intr_names = ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2")
+        cov_intr = intrinsic_covariance(calib, board_pts, calib_points, intr_names)
+        std_map = propagated_std(m, board_pts, station_views.corners_px, calib, cmd, ref, intr_names, cov_intr)
+        fit_x, fit_y, yaw, err = m.fit_x, m.fit_y, m.yaw_rad, m.err
+        gx, gy = np.meshgrid(*(np.linspace(0, t, 41) for t in g.travel_mm))
+        gx, gy = gx.ravel(), gy.ravel()
+        true_grid = truth.error_mm(gx, gy)
+        map_rms = _vector_rms(np.stack([fit_x(gx, gy), fit_y(gx, gy)], 1) - true_grid)
+        pfit_x, pfit_y = m.paper_fit_x, m.paper_fit_y
+        map_rms_paper = _vector_rms(np.stack([pfit_x(gx, gy), pfit_y(gx, gy)], 1) - true_grid)
+        st = m.poses
+
+        # 5. compensation at unseen check points ----------------------------------------------
+        targets = rng.uniform([0, 0], g.travel_mm, size=(config.n_check, 2))
+        before, after = [], []
+        for tx, ty in targets:
+            before.append(sim.move(*np.rint(np.array([tx, ty]) * PULSES_PER_MM)) - (tx, ty))
+            cx, cy = compensated_command(tx, ty, fit_x, fit_y)
+            after.append(sim.move(*np.rint(np.array([cx, cy]) * PULSES_PER_MM)) - (tx, ty))
+        before, after = np.array(before), np.array(after)
+
+        # corner fidelity: detected against the exact projection of the true corners
+        corner_err = station_views.corners_px - station_true
+        corner_rms = float(np.sqrt(np.nanmean(np.sum(corner_err**2, axis=-1))))
+        calib_err = calib_views.corners_px[used] - calib_true[used]
+        corner_rms_calib = float(np.sqrt(np.mean(np.sum(calib_err**2, axis=-1))))
+        # in-plane gap: the closed form's depth is noisier and does not enter the travel
+        gap = np.einsum("nij,ni->nj", st.R_pnp[:, :, :2], st.t_closed - st.t_pnp)
+        pose_gap = float(np.max(np.linalg.norm(gap, axis=1)))
+
+        report = Report(scenario=NAME, seed=seed, fidelity=fidelity)
+        report.parameters += _intrinsic_parameters(g.camera, calib)
+        report.parameters += _map_parameters("ex", truth.error_x, fit_x.coef, std_map[:6])
+        report.parameters += _map_parameters("ey", truth.error_y, fit_y.coef, std_map[6:12])
+        report.parameters.append(Parameter("board_yaw_mrad", "mrad", truth.board_yaw_rad * 1e3, yaw * 1e3,
+                                           std_map[12] * 1e3, tolerance=TOL_SIGMA * std_map[12] * 1e3))
+        report.checks += [
+            Check("corner_rms_px", corner_rms, config.corner_limit_px,
+                  note="stations: detected corners vs exact projection of the true corners"),
+            Check("map_rms_mm", map_rms, config.map_limit_mm,
+                  note="estimated vs true error map, vector RMS over a 41 x 41 grid of the travel"),
+            Check("check_rms_before_mm", _vector_rms(before), None,
+                  note=f"{config.n_check} check points, no compensation"),
+            Check("check_rms_after_mm", _vector_rms(after), config.map_limit_mm,
+                  note=f"{config.n_check} check points, commands compensated by the fitted maps"),
+            Check("pose_crosscheck_mm", pose_gap, 3.0,
+                  note="largest in-plane gap between closed-form (Eq. 13-18) and PnP station poses; "
+                       "the closed form takes its scale from one column of H and scatters ~1 mm here"),
+        ]
+        report.info = {
+            "intrinsic_views_used": int(used.sum()),
+            "intrinsic_views_rejected": [calib_views.names[i] for i in np.flatnonzero(~used)],
+            "calibration_rms_px": calib.rms_px,
+            "corner_rms_calib_views_px": corner_rms_calib,
+            "fit": {"x": fit_x.as_dict(), "y": fit_y.as_dict(),
+                    "note": "std in report parameters adds the intrinsics' covariance to the fit's own"},
+            "paper_method": {
+                "note": "camera-centre differences, board assumed square to the axes",
+                "map_rms_mm": map_rms_paper,
+                "fit": {"x": pfit_x.as_dict(), "y": pfit_y.as_dict()}},
+            "stations": len(cmd),
+        }
+        report.rrd = None
+        artifacts = {"sim": sim, "calib": calib, "calib_views": calib_views, "calib_true": calib_true,
+                     "station_views": station_views, "station_true": station_true, "cmd": cmd,
+                     "err": err, "fits": (fit_x, fit_y), "targets": targets, "before": before,
+                     "after": after, "travel": m.travel, "truth": truth, "geometry": g,
+                     "x_pulses": x_pulses, "y_pulses": y_pulses}
+        if rrd:
+            from scenarios import belt_stage_log
+
+            belt_stage_log.log_run(out_dir / "run.rrd", report, artifacts)
+            report.rrd = "run.rrd"
+        _write_figure(out_dir, artifacts)
+        return report
+    finally:
+        sim.close()
+
+
+TOL_SIGMA = 5.0  # parameter tolerance, in the estimator's own standard deviations
+
+
+@dataclasses.dataclass
+class StageMaps:
+    """Everything measured from the station views for one set of intrinsics."""
+
+    poses: StationPoses
+    travel: np.ndarray  # (n, 2) mm, ours
+    err: np.ndarray  # (n, 2) mm, travel - pulse travel
+    yaw_rad: float
+    yaw_std_rad: float  # from the spread of the per-station yaws
+    fit_x: object
+    fit_y: object
+    paper_fit_x: object
+    paper_fit_y: object
+
+    def vector(self) -> np.ndarray:
+        return np.r_[self.fit_x.coef, self.fit_y.coef, self.yaw_rad]
+
+
+def measure_maps(board_pts: np.ndarray, corners_px: np.ndarray, K: np.ndarray, dist: np.ndarray,
+                 cmd: np.ndarray, ref: int) -> StageMaps:
+    """Stations' corners (n, n_corners, 2) and commands (n, 2) mm to the two error maps."""
+    st = station_poses(board_pts, corners_px, K, dist)
+    R_common = mean_rotation(st.R_pnp)
+    normalized = np.stack([_normalized(c, K, dist) for c in corners_px])
+    # the carriage moves in a plane: fit it once over all stations, then solve each station
+    # for its two in-plane coordinates only
+    t_free, _ = translations_given_rotation(R_common, board_pts, normalized, st.t_pnp)
+    origin, _, basis = fit_plane(t_free)
+    t_plane, _ = translations_given_rotation(R_common, board_pts, normalized, t_free, plane=(origin, basis))
+    travel = travel_common_rotation(R_common, t_plane, ref, X_AXIS_CAM, Y_AXIS_CAM)
+    travel_paper = travel_from_camera_centres(st.R_closed, st.t_closed, ref, BOARD_XY_TO_AXES)
+    yaws = np.array([board_yaw(R, X_AXIS_CAM, Y_AXIS_CAM, BOARD_XY_TO_AXES) for R in st.R_pnp])
+    rel = cmd - cmd[ref]
+    err, err_paper = travel - rel, travel_paper - rel
+    x, y = cmd[:, 0], cmd[:, 1]
+    return StageMaps(
+        poses=st, travel=travel, err=err,
+        yaw_rad=board_yaw(R_common, X_AXIS_CAM, Y_AXIS_CAM, BOARD_XY_TO_AXES),
+        yaw_std_rad=float(np.std(yaws, ddof=1) / np.sqrt(len(yaws))),
+        fit_x=fit_quadratic(x, y, err[:, 0]), fit_y=fit_quadratic(x, y, err[:, 1]),
+        paper_fit_x=fit_quadratic(x, y, err_paper[:, 0]), paper_fit_y=fit_quadratic(x, y, err_paper[:, 1]))
+
+
+def propagated_std(m: StageMaps, board_pts, corners_px, calib, cmd, ref, names, cov_intr) -> np.ndarray:
+    """1-sigma of (ex c0..c5, ey c0..c5, yaw): station noise plus the intrinsics' covariance.
+
+    The intrinsics are shared by every station, so their error moves the whole map
+    coherently; its effect is the Jacobian of the map coefficients with respect to the
+    intrinsics (central differences at one sigma) sandwiched around their covariance.
+    """
+    base = dict(zip(names, [calib.K[0, 0], calib.K[1, 1], calib.K[0, 2], calib.K[1, 2], *calib.dist[:4]]))
+    J = np.empty((13, len(names)))
+    for j, name in enumerate(names):
+        h = np.sqrt(cov_intr[j, j])
+        vecs = []
+        for sign in (1, -1):
+            p = dict(base)
+            p[name] += sign * h
+            K = np.array([[p["fx"], 0, p["cx"]], [0, p["fy"], p["cy"]], [0, 0, 1]])
+            dist = np.array([p["k1"], p["k2"], p["p1"], p["p2"], calib.dist[4]])
+            vecs.append(measure_maps(board_pts, corners_px, K, dist, cmd, ref).vector())
+        J[:, j] = (vecs[0] - vecs[1]) / (2 * h)
+    own = np.r_[m.fit_x.std, m.fit_y.std, m.yaw_std_rad]
+    return np.sqrt(own**2 + np.einsum("ij,jk,ik->i", J, cov_intr, J))
+
+
+def station_poses(board_pts: np.ndarray, corners_px: np.ndarray, K: np.ndarray, dist: np.ndarray) -> StationPoses:
+    """Closed-form and PnP board2cam poses of every station, (n_stations, n_corners, 2) in."""
+    out = {k: [] for k in ("R_closed", "t_closed", "R_pnp", "t_pnp")}
+    for c in corners_px:
+        H = homography(board_pts[:, :2], undistort_pixels(c, K, dist))
+        R0, t0 = board2cam_from_homography(H, K)
+        R1, t1 = board2cam_pnp(board_pts, c, K, dist, guess=(R0, t0))
+        for k, v in zip(out, (R0, t0, R1, t1)):
+            out[k].append(v)
+    return StationPoses(**{k: np.array(v) for k, v in out.items()})
+
+
+def _normalized(pixels: np.ndarray, K: np.ndarray, dist: np.ndarray) -> np.ndarray:
+    ideal = undistort_pixels(pixels, K, dist)
+    return (ideal - K[:2, 2]) / np.diag(K)[:2]
+
+
+def _record(sim: BeltStageSim, fidelity: str, config: BeltStageConfig, rng: np.random.Generator,
+            size, steps) -> tuple[CameraViews, np.ndarray]:
+    """Drive the sim through ``steps`` and record what the camera gives the estimators.
+
+    Returns the views (images and detected corners, NaN where undetected) and the true
+    corner projections (n_views, n_corners, 2), which stay in the scenario.
+    """
+    board = config.geometry.board
+    names, images, corners, true = [], [], [], []
+    for kind, a, b in steps:
+        if kind == "calib":
+            sim.place_calib_board(a, b)
+            names.append(f"view{len(names):02d}")
+        else:
+            sim.move(a, b)
+            names.append(f"x{a / PULSES_PER_MM:g}_y{b / PULSES_PER_MM:g}")
+        true.append(sim.true_corners_px(calib=kind == "calib"))
+        if fidelity == "render":
+            img = sim.render(calib=kind == "calib")
+            images.append(img)
+            c = find_chessboard_corners(img, board.cols, board.rows)
+            corners.append(np.full((board.n_corners, 2), np.nan) if c is None else c)
+        else:
+            corners.append(true[-1] + rng.normal(0, config.corner_noise_px, true[-1].shape))
+    views = CameraViews(image_size=size, names=names, images=images or None, corners_px=np.array(corners))
+    return views, np.array(true)
+
+
+def _vector_rms(d: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(np.sum(np.asarray(d) ** 2, axis=-1))))
+
+
+def _intrinsic_parameters(camera, calib) -> list[Parameter]:
+    truth = dataclasses.asdict(camera)
+    est = calib.params()
+    out = []
+    for name in ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2"):
+        std = calib.std.get(name)
+        unit = "px" if name in ("fx", "fy", "cx", "cy") else "1"
+        # the estimator's own std, with a floor for renders whose corner noise is not quite
+        # independent
+        floor = 0.5 if unit == "px" else 2e-3
+        out.append(Parameter(name, unit, truth[name], est[name], std, tolerance=max(TOL_SIGMA * std, floor)))
+    return out
+
+
+def _map_parameters(prefix: str, truth_coef, coef, std) -> list[Parameter]:
+    units = ("mm", "mm/mm", "mm/mm", "mm/mm^2", "mm/mm^2", "mm/mm^2")
+    return [Parameter(f"{prefix}_{n}", u, float(t), float(e), float(s), tolerance=TOL_SIGMA * float(s))
+            for n, u, t, e, s in zip(COEF_NAMES, units, truth_coef, coef, std)]
+
+
+def _write_figure(out_dir: Path, a: dict) -> None:
+    """error_map.png: measured station errors and the true and fitted maps, both axes."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    cmd, err, (fx, fy), truth = a["cmd"], a["err"], a["fits"], a["truth"]
+    g = a["geometry"]
+    gx, gy = np.meshgrid(np.linspace(0, g.travel_mm[0], 61), np.linspace(0, g.travel_mm[1], 61))
+    true = truth.error_mm(gx.ravel(), gy.ravel())
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.6), constrained_layout=True)
+    for ax, k, fit, label in ((axes[0], 0, fx, "X"), (axes[1], 1, fy, "Y")):
+        cs = ax.contourf(gx, gy, true[:, k].reshape(gx.shape), 20, cmap="viridis")
+        ax.contour(gx, gy, fit(gx, gy), cs.levels[::2], colors="w", linewidths=0.7, linestyles="--")
+        ax.scatter(cmd[:, 0], cmd[:, 1], c=err[:, k], cmap="viridis", norm=cs.norm, edgecolors="k", s=28)
+        fig.colorbar(cs, ax=ax, label=f"{label} error (mm)")
+        ax.set(title=f"{label} axis: true map (fill), fit (dashed), stations (dots)",
+               xlabel="X command (mm)", ylabel="Y command (mm)", aspect="equal")
+    t, b, af = a["targets"], a["before"], a["after"]
+    ax = axes[2]
+    ax.quiver(t[:, 0], t[:, 1], b[:, 0], b[:, 1], color="tab:red", angles="xy", scale_units="xy",
+              scale=0.02, label="before (x50)")
+    ax.quiver(t[:, 0], t[:, 1], af[:, 0], af[:, 1], color="tab:green", angles="xy", scale_units="xy",
+              scale=0.002, label="after (x500)")
+    ax.set(title="check points: error before and after compensation", xlabel="X (mm)",
+           ylabel="Y (mm)", xlim=(-50, g.travel_mm[0] + 50), ylim=(-50, g.travel_mm[1] + 50), aspect="equal")
+    ax.legend(loc="upper left")
+    fig.savefig(out_dir / "error_map.png", dpi=90)
+    plt.close(fig)

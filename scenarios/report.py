@@ -1,0 +1,133 @@
+"""The run report (CONTRACT: DIR/report.json), shared by every scenario."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+
+class BadInput(ValueError):
+    """Input the command cannot use: the CLI prints one line and exits with status 2."""
+
+
+@dataclasses.dataclass
+class Parameter:
+    """An estimated quantity that has a truth. ok = |estimate - truth| <= tolerance."""
+
+    name: str
+    unit: str
+    truth: float
+    estimate: float
+    std: float | None
+    tolerance: float
+
+    @property
+    def ok(self) -> bool:
+        return bool(abs(self.estimate - self.truth) <= self.tolerance)
+
+    def as_dict(self) -> dict:
+        return {"name": self.name, "unit": self.unit, "truth": _num(self.truth),
+                "estimate": _num(self.estimate), "std": _num(self.std),
+                "tolerance": _num(self.tolerance), "ok": self.ok}
+
+
+@dataclasses.dataclass
+class Check:
+    """A named figure with a limit. ``op`` says which side passes: value <= limit or >=.
+
+    A check without a limit (None) is a figure reported for context; it always passes.
+    """
+
+    name: str
+    value: float
+    limit: float | None
+    op: str = "<="
+    note: str = ""
+
+    @property
+    def ok(self) -> bool:
+        if self.limit is None:
+            return True
+        if not math.isfinite(self.value):
+            return False
+        return bool(self.value <= self.limit if self.op == "<=" else self.value >= self.limit)
+
+    def as_dict(self) -> dict:
+        d = {"name": self.name, "value": _num(self.value), "limit": _num(self.limit),
+             "op": self.op, "ok": self.ok}
+        if self.note:
+            d["note"] = self.note
+        return d
+
+
+@dataclasses.dataclass
+class Report:
+    scenario: str
+    seed: int
+    fidelity: str
+    parameters: list[Parameter] = dataclasses.field(default_factory=list)
+    checks: list[Check] = dataclasses.field(default_factory=list)
+    info: dict = dataclasses.field(default_factory=dict)  # extra figures, not pass/fail
+    rrd: str | None = None
+    elapsed_s: float = 0.0
+
+    @property
+    def ok(self) -> bool:
+        return all(p.ok for p in self.parameters) and all(c.ok for c in self.checks)
+
+    def as_dict(self) -> dict:
+        d = {"scenario": self.scenario, "seed": self.seed, "fidelity": self.fidelity,
+             "parameters": [p.as_dict() for p in self.parameters],
+             "checks": [c.as_dict() for c in self.checks],
+             "ok": self.ok}
+        if self.rrd is not None:
+            d["rrd"] = self.rrd
+        d["elapsed_s"] = round(self.elapsed_s, 3)
+        if self.info:
+            d["info"] = _plain(self.info)
+        return d
+
+    def write(self, out_dir: Path) -> Path:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        path = out_dir / "report.json"
+        path.write_text(json.dumps(self.as_dict(), indent=2) + "\n")
+        return path
+
+    def table(self) -> str:
+        """Truth-versus-estimate table in Markdown (for the terminal and the rerun text panel)."""
+        lines = ["| parameter | unit | truth | estimate | std | tol | ok |", "|---|---|---|---|---|---|---|"]
+        for p in self.parameters:
+            std = "" if p.std is None else f"{p.std:.4g}"
+            lines.append(f"| {p.name} | {p.unit} | {p.truth:.6g} | {p.estimate:.6g} | {std} | "
+                         f"{p.tolerance:.3g} | {'yes' if p.ok else 'NO'} |")
+        lines += ["", "| check | value | limit | ok |", "|---|---|---|---|"]
+        for c in self.checks:
+            limit = "" if c.limit is None else f"{c.op} {c.limit:.4g}"
+            lines.append(f"| {c.name} | {c.value:.4g} | {limit} | {'yes' if c.ok else 'NO'} |")
+        return "\n".join(lines)
+
+
+def _num(x):
+    if x is None:
+        return None
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def _plain(obj):
+    """JSON-ready copy: numpy scalars and arrays to Python numbers and lists."""
+    if isinstance(obj, dict):
+        return {str(k): _plain(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_plain(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _plain(obj.tolist())
+    if isinstance(obj, (np.floating, float)):
+        return _num(obj)
+    if isinstance(obj, np.integer):
+        return int(obj)
+    return obj

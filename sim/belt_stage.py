@@ -1,0 +1,211 @@
+"""The as-built belt stage: injected error maps and board misalignment, realised in MuJoCo.
+
+Commands are stepper pulses (25,000 pulses = 100 mm). The true carriage position is the
+commanded one plus the axis error map of the seed paper's form (Eq. 1),
+``e(x, y) = c0 + c1 x + c2 y + c3 x^2 + c4 x y + c5 y^2`` (x, y commanded, mm), written
+into the slide joints; everything the camera sees then comes from MuJoCo's kinematics.
+The machine is homed at pulse (0, 0), which makes the true error there zero: c0 = 0.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import mujoco
+import numpy as np
+
+from scenes.belt_stage import (CALIB_BOARD_GROUP, CALIB_BOARD_PARK, STAGE_BOARD_GROUP,
+                               BeltStageGeometry, board_to_body, build_mjcf)
+from sim.camera import MJ_TO_CV, world_to_cv_camera
+from sim.renderer import LensRenderer
+
+PULSES_PER_MM = 250.0  # 25,000 pulses = 100 mm
+
+# Magnitude of the paper's Table 3 fits (Eq. 20-21, with the typesetting slips corrected),
+# units mm, mm/mm, mm/mm^2; c0 = 0 by homing.
+PAPER_ERROR_X = (0.0, 5.888e-3, 1.699e-3, 4.817e-6, -1.264e-6, 3.190e-8)
+PAPER_ERROR_Y = (0.0, 1.572e-3, 7.542e-3, -4.046e-7, 1.129e-6, 3.310e-6)
+
+
+def quadratic_terms(x_mm: np.ndarray, y_mm: np.ndarray) -> np.ndarray:
+    """Monomials (1, x, y, x^2, xy, y^2) of the error map, shape (n, 6)."""
+    x, y = np.asarray(x_mm, float), np.asarray(y_mm, float)
+    return np.stack([np.ones_like(x), x, y, x * x, x * y, y * y], axis=-1)
+
+
+@dataclasses.dataclass(frozen=True)
+class BeltStageTruth:
+    """What was injected; never shown to an estimator.
+
+    error_x, error_y : (6,) coefficients c0..c5 of each axis's error map (mm).
+    board_yaw_rad : rotation of the board about world +z relative to the stage axes.
+    """
+
+    error_x: tuple[float, ...] = PAPER_ERROR_X
+    error_y: tuple[float, ...] = PAPER_ERROR_Y
+    board_yaw_rad: float = 4e-3
+
+    def __post_init__(self):
+        if len(self.error_x) != 6 or len(self.error_y) != 6:
+            raise ValueError("error maps take six coefficients c0..c5")
+        if self.error_x[0] != 0 or self.error_y[0] != 0:
+            raise ValueError("c0 must be 0: the stage is homed at pulse (0, 0)")
+
+    def error_mm(self, x_cmd_mm: np.ndarray, y_cmd_mm: np.ndarray) -> np.ndarray:
+        """True positioning error (ex, ey) at commanded positions, shape (n, 2) mm."""
+        m = quadratic_terms(x_cmd_mm, y_cmd_mm)
+        return np.stack([m @ np.asarray(self.error_x), m @ np.asarray(self.error_y)], axis=-1)
+
+
+class BeltStageSim:
+    """The stage in MuJoCo: move by pulses, read true board poses, render the camera."""
+
+    def __init__(self, geometry: BeltStageGeometry, truth: BeltStageTruth, render: bool = True):
+        self.geometry = geometry
+        self.truth = truth
+        pad = geometry.camera.padding_px()
+        xml, assets = build_mjcf(geometry, render_pad_px=pad)
+        self.model = mujoco.MjModel.from_xml_string(xml, assets)
+        self.data = mujoco.MjData(self.model)
+        self._board = self.model.body("board").id
+        self._calib = self.model.body("calib_board").id
+        self._cam = self.model.camera("overhead").id
+        half = truth.board_yaw_rad / 2
+        self.model.body_quat[self._board] = [np.cos(half), 0, 0, np.sin(half)]
+        self._b2body_R, self._b2body_t = board_to_body(geometry)
+        self.renderer = LensRenderer(self.model, "overhead", geometry.camera) if render else None
+        self.move(0, 0)
+
+    # --- motion ---------------------------------------------------------------------------
+    def move(self, x_pulses: int, y_pulses: int) -> np.ndarray:
+        """Command the stage; returns the true carriage position (x, y) in mm."""
+        cmd = np.array([x_pulses, y_pulses], float) / PULSES_PER_MM
+        true_mm = cmd + self.truth.error_mm(cmd[:1], cmd[1:])[0]
+        self.data.qpos[:2] = true_mm / 1000
+        mujoco.mj_kinematics(self.model, self.data)
+        mujoco.mj_camlight(self.model, self.data)
+        return true_mm
+
+    def carriage_mm(self) -> np.ndarray:
+        return self.data.xpos[self.model.body("y_carriage").id][:2] * 1000
+
+    # --- truth in camera terms --------------------------------------------------------------
+    def cam2world(self) -> tuple[np.ndarray, np.ndarray]:
+        """OpenCV camera frame to world: rotation (3, 3), position (3,) m."""
+        R = self.data.cam_xmat[self._cam].reshape(3, 3) @ MJ_TO_CV
+        return R, self.data.cam_xpos[self._cam].copy()
+
+    def board2world(self, body: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Board frame (OpenCV convention, m) to world, from MuJoCo's body pose."""
+        b = self._board if body is None else body
+        R_body = self.data.xmat[b].reshape(3, 3)
+        return R_body @ self._b2body_R, self.data.xpos[b] + R_body @ self._b2body_t
+
+    def board2cam(self, body: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Board frame to the OpenCV camera frame: rotation (3, 3), translation (3,) in mm."""
+        Rb, pb = self.board2world(body)
+        Rc, pc = self.cam2world()
+        return Rc.T @ Rb, Rc.T @ (pb - pc) * 1000
+
+    def true_corners_px(self, calib: bool = False) -> np.ndarray:
+        """Exact (distorted) projection of the board's inner corners, shape (n, 2) px."""
+        Rb, pb = self.board2world(self._calib if calib else None)
+        world = pb + (self.geometry.board.corners_mm() / 1000) @ Rb.T
+        Rc, pc = self.cam2world()
+        cam = world_to_cv_camera(world, pc, self.data.cam_xmat[self._cam].reshape(3, 3))
+        return self.geometry.camera.project(cam)
+
+    # --- the calibration board, held in front of the camera -----------------------------------
+    def place_calib_board(self, R_board2cam: np.ndarray, t_board2cam_mm: np.ndarray) -> None:
+        """Put the free board at a pose given in the camera frame (t in mm)."""
+        Rc, pc = self.cam2world()
+        R_b2w = Rc @ R_board2cam
+        p_b2w = pc + Rc @ (np.asarray(t_board2cam_mm) / 1000)
+        R_body = R_b2w @ self._b2body_R.T
+        p_body = p_b2w - R_body @ self._b2body_t
+        mocap = self.model.body_mocapid[self._calib]
+        self.data.mocap_pos[mocap] = p_body
+        q = np.empty(4)
+        mujoco.mju_mat2Quat(q, R_body.ravel())
+        self.data.mocap_quat[mocap] = q
+        mujoco.mj_kinematics(self.model, self.data)
+
+    def park_calib_board(self) -> None:
+        mocap = self.model.body_mocapid[self._calib]
+        self.data.mocap_pos[mocap] = CALIB_BOARD_PARK
+        self.data.mocap_quat[mocap] = [1, 0, 0, 0]
+        mujoco.mj_kinematics(self.model, self.data)
+
+    # --- the camera --------------------------------------------------------------------------
+    def render(self, calib: bool = False) -> np.ndarray:
+        """What the camera sees, through its lens: (height, width, 3) uint8.
+
+        ``calib`` shows the free calibration board and hides the stage's, so each image holds
+        exactly one board.
+        """
+        if self.renderer is None:
+            raise RuntimeError("this simulator was built without a renderer")
+        self.renderer.show_groups({STAGE_BOARD_GROUP: not calib, CALIB_BOARD_GROUP: calib})
+        return self.renderer.render(self.data)
+
+    def close(self) -> None:
+        if self.renderer is not None:
+            self.renderer.close()
+
+
+def intrinsic_view_poses(geometry: BeltStageGeometry, n_views: int, rng: np.random.Generator,
+                         depth_mm: tuple[float, float] = (750.0, 1150.0),
+                         max_tilt_rad: float = 0.6, edge_px: float = 12.0):
+    """Board poses in the camera frame for intrinsic calibration, spread over the image.
+
+    Board centres are aimed at a jittered grid of image points (corners included, where the
+    lens bends most) with tilts up to ``max_tilt_rad``; a pose is redrawn until every corner
+    lands at least ``edge_px`` inside the image. Returns a list of (R (3, 3), t (3,) mm).
+    """
+    cam = geometry.camera
+    board = geometry.board
+    corners = board.corners_mm()
+    centre = np.r_[board.centre_mm, 0.0]
+    half = np.array(board.size_mm) / 2
+    nx = int(np.ceil(np.sqrt(n_views * 4 / 3)))
+    ny = int(np.ceil(n_views / nx))
+    # grid fractions 0..1 of the feasible range of the board centre: 0 and 1 touch the edges
+    targets = [(i / max(nx - 1, 1), j / max(ny - 1, 1)) for j in range(ny) for i in range(nx)][:n_views]
+    poses = []
+    for fu, fv in targets:
+        for _ in range(2000):
+            tilt = rng.uniform(-max_tilt_rad, max_tilt_rad, 2)
+            spin = rng.uniform(-0.4, 0.4)
+            R = _rotvec_to_matrix(np.array([tilt[0], tilt[1], spin]))
+            z = rng.uniform(*depth_mm)
+            hw, hh = half[0] * cam.fx / z, half[1] * cam.fy / z  # plate half size, px
+            fu_j, fv_j = np.clip([fu + rng.uniform(-0.1, 0.1), fv + rng.uniform(-0.1, 0.1)], 0, 1)
+            u = hw + fu_j * (cam.width - 2 * hw)
+            v = hh + fv_j * (cam.height - 2 * hh)
+            c_cam = np.array([(u - cam.cx) / cam.fx * z, (v - cam.cy) / cam.fy * z, z])
+            t = c_cam - R @ centre
+            pts = corners @ R.T + t
+            outer = np.array([[sx * half[0], sy * half[1], 0] for sx in (-1, 1) for sy in (-1, 1)])
+            plate = (outer + centre) @ R.T + t
+            # the printed face must face the camera (board z, into the plate, points away)
+            if R[2, 2] <= 0.3:
+                continue
+            uv = cam.project(pts)
+            uv_plate = cam.project(plate)
+            inside = ((uv > edge_px) & (uv < [cam.width - edge_px, cam.height - edge_px])).all()
+            plate_in = ((uv_plate > 0) & (uv_plate < [cam.width, cam.height])).all()
+            if inside and plate_in:
+                poses.append((R, t))
+                break
+        else:
+            raise RuntimeError("could not place a calibration view inside the image")
+    return poses
+
+
+def _rotvec_to_matrix(r: np.ndarray) -> np.ndarray:
+    theta = np.linalg.norm(r)
+    if theta < 1e-15:
+        return np.eye(3)
+    k = r / theta
+    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + np.sin(theta) * K + (1 - np.cos(theta)) * K @ K
