@@ -6,6 +6,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import cv2
 import numpy as np
 
@@ -67,61 +69,41 @@ def mean_rotation(R: np.ndarray) -> np.ndarray:
     return U @ np.diag([1, 1, np.linalg.det(U @ Vt)]) @ Vt
 
 
-def translations_given_rotation(R: np.ndarray, board_points: np.ndarray, normalized: np.ndarray,
-                                t0: np.ndarray, plane: tuple[np.ndarray, np.ndarray] | None = None,
-                                iterations: int = 10) -> tuple[np.ndarray, np.ndarray]:
-    """Per-view translations for views that share one rotation (a target that only translates).
+@dataclasses.dataclass(frozen=True)
+class Plane:
+    """A plane fitted to points: centroid (3,), unit normal (3,), in-plane basis (3, 2), and the
+    covariance (2, 2) of its slopes (rad) along the two basis directions."""
 
-    Gauss-Newton on the normalised image residuals of all views at once, analytic Jacobian.
-    With ``plane`` the translations are confined to a plane (the carriage's plane of motion):
-    t = origin + basis @ s, two unknowns per view instead of three, which removes each view's
-    depth noise from its lateral position.
+    centroid: np.ndarray
+    normal: np.ndarray
+    basis: np.ndarray
+    slope_cov: np.ndarray
 
-    Parameters
-    ----------
-    R : (3, 3) the common board2cam rotation.
-    board_points : (n_points, 3) target points.
-    normalized : (n_views, n_points, 2) ideal normalised image coordinates (K^-1, undistorted).
-    t0 : (n_views, 3) starting translations.
-    plane : (origin (3,), basis (3, 2)) or None.
+    def tilted(self, slopes: np.ndarray) -> "Plane":
+        """The plane through the same centroid with extra slopes (2,) along its basis."""
+        n = self.normal - self.basis @ np.asarray(slopes, float)
+        n /= np.linalg.norm(n)
+        B = self.basis - np.outer(n, n @ self.basis)
+        B[:, 0] /= np.linalg.norm(B[:, 0])
+        B[:, 1] -= B[:, 0] * (B[:, 0] @ B[:, 1])
+        B[:, 1] /= np.linalg.norm(B[:, 1])
+        return Plane(self.centroid, n, B, self.slope_cov)
 
-    Returns
-    -------
-    t : (n_views, 3) translations.  cov : (n_views, 3, 3) their covariances, scaled by each
-    view's residual variance (rank 2 on a plane).
+    def intersect_rays(self, points: np.ndarray) -> np.ndarray:
+        """Where the rays from the origin (the camera centre) through points (n, 3) meet it."""
+        return points * ((self.centroid @ self.normal) / (points @ self.normal))[:, None]
+
+
+def fit_plane(points: np.ndarray) -> Plane:
+    """Total-least-squares plane through points (n, 3), with the covariance of its slopes.
+
+    The slope covariance is that of a regression of the out-of-plane residuals on the in-plane
+    coordinates, scaled by the residual variance.
     """
-    P = board_points @ R.T  # (n_points, 3)
-    if plane is None:
-        origin, B = np.zeros(3), np.eye(3)
-    else:
-        origin, B = np.asarray(plane[0], float), np.asarray(plane[1], float)
-    s = (np.asarray(t0, float) - origin) @ B  # least-squares start on the plane (B orthonormal)
-    v, k = s.shape
-    for _ in range(iterations):
-        X = P[None] + (origin + s @ B.T)[:, None, :]  # (v, n, 3)
-        z = X[..., 2]
-        r = normalized - X[..., :2] / z[..., None]  # (v, n, 2)
-        # d(x/z)/dt = [1/z, 0, -x/z^2], d(y/z)/dt = [0, 1/z, -y/z^2]
-        Jt = np.zeros(r.shape + (3,))
-        Jt[..., 0, 0] = 1 / z
-        Jt[..., 1, 1] = 1 / z
-        Jt[..., 0, 2] = -X[..., 0] / z**2
-        Jt[..., 1, 2] = -X[..., 1] / z**2
-        J = (Jt @ B).reshape(v, -1, k)
-        r = r.reshape(v, -1)
-        JtJ = np.einsum("vki,vkj->vij", J, J)
-        step = np.linalg.solve(JtJ, np.einsum("vki,vk->vi", J, r)[..., None])[..., 0]
-        s += step
-        if np.max(np.abs(step)) < 1e-13 * (1 + np.max(np.abs(s))):
-            break
-    dof = max(r.shape[1] - k, 1)
-    s2 = np.sum(r**2, axis=1) / dof
-    cov_s = np.linalg.inv(JtJ) * s2[:, None, None]
-    return origin + s @ B.T, B @ cov_s @ B.T
-
-
-def fit_plane(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Least-squares plane through points (n, 3): centroid (3,), unit normal (3,), basis (3, 2)."""
     c = points.mean(axis=0)
     _, _, Vt = np.linalg.svd(points - c, full_matrices=False)
-    return c, Vt[2], Vt[:2].T
+    n, B = Vt[2], Vt[:2].T
+    xy = (points - c) @ B
+    d = (points - c) @ n
+    dof = max(len(points) - 3, 1)
+    return Plane(c, n, B, np.linalg.inv(xy.T @ xy) * (d @ d) / dof)

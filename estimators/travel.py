@@ -27,14 +27,13 @@ def travel_from_camera_centres(R_board2cam: np.ndarray, t_board2cam: np.ndarray,
     return -(C[:, :2] - C[ref, :2]) @ np.asarray(board_xy_to_axes).T
 
 
-def machine_axes_on_board_plane(R_common: np.ndarray, x_axis_cam: np.ndarray,
-                                y_axis_cam: np.ndarray) -> np.ndarray:
-    """Unit machine X and Y directions in the camera frame, projected onto the board plane.
+def machine_axes_on_plane(normal: np.ndarray, x_axis_cam: np.ndarray, y_axis_cam: np.ndarray) -> np.ndarray:
+    """Unit machine X and Y directions in the camera frame, projected onto a plane.
 
     ``x_axis_cam``, ``y_axis_cam`` (3,) are the nominal directions of the machine axes as seen
     by the camera (its mount). Returns (2, 3), rows X then Y, orthonormal, in the plane.
     """
-    n = R_common[:, 2]
+    n = np.asarray(normal, float)
     X = np.asarray(x_axis_cam, float) - n * (n @ x_axis_cam)
     X /= np.linalg.norm(X)
     Y = np.asarray(y_axis_cam, float) - n * (n @ y_axis_cam)
@@ -43,26 +42,25 @@ def machine_axes_on_board_plane(R_common: np.ndarray, x_axis_cam: np.ndarray,
     return np.stack([X, Y])
 
 
-def travel_common_rotation(R_common: np.ndarray, t_board2cam: np.ndarray, ref: int,
-                           x_axis_cam: np.ndarray, y_axis_cam: np.ndarray) -> np.ndarray:
-    """Travel from the board's translations in the camera frame, sharing one rotation.
+def travel_in_plane(points_cam: np.ndarray, ref: int, normal: np.ndarray, x_axis_cam: np.ndarray,
+                    y_axis_cam: np.ndarray) -> np.ndarray:
+    """Travel of a point carried by the stage, from its positions (n, 3) in the camera frame.
 
-    A translating stage does not turn the board, so the well-determined translations t are
-    differenced and resolved on the machine axes; the poorly determined per-view tilt, which
-    the camera-centre difference multiplies by the stand-off distance, drops out.
+    The differences from station ``ref`` are resolved on the machine axes projected onto the
+    plane of motion (unit ``normal``).
     """
-    axes = machine_axes_on_board_plane(R_common, x_axis_cam, y_axis_cam)
-    return (t_board2cam - t_board2cam[ref]) @ axes.T
+    axes = machine_axes_on_plane(normal, x_axis_cam, y_axis_cam)
+    return (points_cam - points_cam[ref]) @ axes.T
 
 
-def board_yaw(R_common: np.ndarray, x_axis_cam: np.ndarray, y_axis_cam: np.ndarray,
+def board_yaw(R_board2cam: np.ndarray, normal: np.ndarray, x_axis_cam: np.ndarray, y_axis_cam: np.ndarray,
               board_xy_to_axes: np.ndarray) -> float:
     """Angle (rad) of the board's nominal X direction from the machine X axis, about +Z.
 
     +Z = X cross Y of the machine. Zero when the board sits as ``board_xy_to_axes`` says.
     """
-    axes = machine_axes_on_board_plane(R_common, x_axis_cam, y_axis_cam)
+    axes = machine_axes_on_plane(normal, x_axis_cam, y_axis_cam)
     # direction of the board's nominal X in the camera frame
-    bx = R_common[:, :2] @ np.linalg.solve(board_xy_to_axes, [1.0, 0.0])
+    bx = R_board2cam[:, :2] @ np.linalg.solve(board_xy_to_axes, [1.0, 0.0])
     c, s = axes @ bx
     return float(np.arctan2(s, c))

@@ -29,21 +29,23 @@ class BeltStageGeometry:
     """Nominal geometry. Lengths in mm (the machine's unit), converted to m in the MJCF."""
 
     travel_mm: tuple[float, float] = (1000.0, 1000.0)
-    board: Chessboard = Chessboard(cols=8, rows=5, square_mm=50.0, margin_mm=25.0)
+    board: Chessboard = Chessboard(cols=9, rows=6, square_mm=50.0, margin_mm=25.0)
     camera: PinholeCamera = PinholeCamera()
     board_top_mm: float = 60.0  # height of the board face above the floor
-    camera_height_mm: float = 1720.0  # camera centre above the floor
+    camera_height_mm: float = 1840.0  # camera centre above the floor: the plate stays in view
 
     @property
     def camera_pos_mm(self) -> np.ndarray:
         return np.array([self.travel_mm[0] / 2, self.travel_mm[1] / 2, self.camera_height_mm])
 
 
-def build_mjcf(geometry: BeltStageGeometry, render_pad_px: int = 0) -> tuple[str, dict[str, bytes]]:
+def build_mjcf(geometry: BeltStageGeometry, render_pad_px: int = 0,
+               supersample: int = 1) -> tuple[str, dict[str, bytes]]:
     """MJCF text and its assets (the board texture PNG).
 
     ``render_pad_px`` widens the render buffer so a padded ideal image can be rendered for the
-    lens model; the camera's intrinsics stay those of ``geometry.camera``.
+    lens model, ``supersample`` times larger for anti-aliasing; the camera's intrinsics stay
+    those of ``geometry.camera``.
     """
     g = geometry
     cam = g.camera
@@ -52,7 +54,8 @@ def build_mjcf(geometry: BeltStageGeometry, render_pad_px: int = 0) -> tuple[str
     z_board = g.board_top_mm / 1000
     cam_pos = g.camera_pos_mm / 1000
     attrs = " ".join(f'{k}="{v}"' for k, v in cam.mjcf_attributes().items())
-    off_w, off_h = cam.width + 2 * render_pad_px + 64, cam.height + 2 * render_pad_px + 64
+    off_w = (cam.width + 2 * render_pad_px) * supersample
+    off_h = (cam.height + 2 * render_pad_px) * supersample
     plate_t = PLATE_HALF_THICKNESS_M
     xml = f"""
 <mujoco model="belt-stage">

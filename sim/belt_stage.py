@@ -60,11 +60,12 @@ class BeltStageTruth:
 class BeltStageSim:
     """The stage in MuJoCo: move by pulses, read true board poses, render the camera."""
 
-    def __init__(self, geometry: BeltStageGeometry, truth: BeltStageTruth, render: bool = True):
+    def __init__(self, geometry: BeltStageGeometry, truth: BeltStageTruth, render: bool = True,
+                 supersample: int = 2):
         self.geometry = geometry
         self.truth = truth
         pad = geometry.camera.padding_px()
-        xml, assets = build_mjcf(geometry, render_pad_px=pad)
+        xml, assets = build_mjcf(geometry, render_pad_px=pad, supersample=supersample)
         self.model = mujoco.MjModel.from_xml_string(xml, assets)
         self.data = mujoco.MjData(self.model)
         self._board = self.model.body("board").id
@@ -73,7 +74,8 @@ class BeltStageSim:
         half = truth.board_yaw_rad / 2
         self.model.body_quat[self._board] = [np.cos(half), 0, 0, np.sin(half)]
         self._b2body_R, self._b2body_t = board_to_body(geometry)
-        self.renderer = LensRenderer(self.model, "overhead", geometry.camera) if render else None
+        self.renderer = (LensRenderer(self.model, "overhead", geometry.camera, supersample)
+                         if render else None)
         self.move(0, 0)
 
     # --- motion ---------------------------------------------------------------------------

@@ -5,6 +5,7 @@ One ``LensRenderer`` per process (a GL context does not survive ``fork``: use sp
 
 from __future__ import annotations
 
+import cv2
 import mujoco
 import numpy as np
 from scipy import ndimage
@@ -19,15 +20,20 @@ class LensRenderer:
     widened by a border so that every distorted pixel samples inside the ideal image.
     """
 
-    def __init__(self, model: mujoco.MjModel, camera: str, lens: PinholeCamera):
+    def __init__(self, model: mujoco.MjModel, camera: str, lens: PinholeCamera, supersample: int = 1):
         self.model = model
         self.camera_id = model.camera(camera).id
         self.lens = lens
         self.pad = lens.padding_px()
+        self.supersample = supersample
         w, h = lens.width + 2 * self.pad, lens.height + 2 * self.pad
-        if w > model.vis.global_.offwidth or h > model.vis.global_.offheight:
-            raise ValueError(f"offscreen buffer too small for a {w}x{h} render")
-        self._renderer = mujoco.Renderer(model, h, w)
+        self._size = (w, h)
+        # Rendering k times larger on the same sensor scales fx and cx + 0.5 by k: an area
+        # average of k x k blocks then returns exactly this camera's pixels, anti-aliased.
+        ws, hs = w * supersample, h * supersample
+        if ws > model.vis.global_.offwidth or hs > model.vis.global_.offheight:
+            raise ValueError(f"offscreen buffer too small for a {ws}x{hs} render")
+        self._renderer = mujoco.Renderer(model, hs, ws)
         map_x, map_y = lens.distortion_maps(self.pad)
         self._coords = np.stack([map_y, map_x]).astype(np.float64)
         self._padded_sensor = np.array([w, h], float) * PIXEL_PITCH_M
@@ -46,6 +52,8 @@ class LensRenderer:
             ideal = self._renderer.render()
         finally:
             self.model.cam_sensorsize[self.camera_id] = sensor
+        if self.supersample > 1:
+            ideal = cv2.resize(ideal, self._size, interpolation=cv2.INTER_AREA)
         if not self.lens.dist.any():
             p = self.pad
             return ideal[p:p + self.lens.height, p:p + self.lens.width].copy()
