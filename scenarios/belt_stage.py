@@ -177,13 +177,13 @@ def run(config: BeltStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: b
                      "station_views": station_views, "station_true": station_true, "cmd": cmd,
                      "err": err, "fits": (fit_x, fit_y), "targets": targets, "before": before,
                      "after": after, "travel": m.travel, "truth": truth, "geometry": g,
-                     "x_pulses": x_pulses, "y_pulses": y_pulses}
+                     "x_pulses": x_pulses, "y_pulses": y_pulses, "limit_mm": config.map_limit_mm}
+        _write_figure(out_dir, artifacts)
         if rrd:
             from scenarios import belt_stage_log
 
             belt_stage_log.log_run(out_dir / "run.rrd", report, artifacts)
             report.rrd = "run.rrd"
-        _write_figure(out_dir, artifacts)
         return report
     finally:
         sim.close()
@@ -355,16 +355,15 @@ def _write_figure(out_dir: Path, a: dict) -> None:
         ax.contour(gx, gy, fit(gx, gy), cs.levels[::2], colors="w", linewidths=0.7, linestyles="--")
         ax.scatter(cmd[:, 0], cmd[:, 1], c=err[:, k], cmap="viridis", norm=cs.norm, edgecolors="k", s=28)
         fig.colorbar(cs, ax=ax, label=f"{label} error (mm)")
-        ax.set(title=f"{label} axis: true map (fill), fit (dashed), stations (dots)",
+        ax.set(title=f"{label} error: truth (fill), fit (dashed), stations (dots)",
                xlabel="X command (mm)", ylabel="Y command (mm)", aspect="equal")
-    t, b, af = a["targets"], a["before"], a["after"]
+    b, af = np.linalg.norm(a["before"], axis=1), np.linalg.norm(a["after"], axis=1)
     ax = axes[2]
-    ax.quiver(t[:, 0], t[:, 1], b[:, 0], b[:, 1], color="tab:red", angles="xy", scale_units="xy",
-              scale=0.02, label="before (x50)")
-    ax.quiver(t[:, 0], t[:, 1], af[:, 0], af[:, 1], color="tab:green", angles="xy", scale_units="xy",
-              scale=0.002, label="after (x500)")
-    ax.set(title="check points: error before and after compensation", xlabel="X (mm)",
-           ylabel="Y (mm)", xlim=(-50, g.travel_mm[0] + 50), ylim=(-50, g.travel_mm[1] + 50), aspect="equal")
-    ax.legend(loc="upper left")
+    k = np.arange(1, len(b) + 1)
+    ax.semilogy(k, b, "o", color="tab:red", label="before compensation")
+    ax.semilogy(k, af, "o", color="tab:green", label="after compensation")
+    ax.axhline(a["limit_mm"], color="k", ls=":", label=f"limit {a['limit_mm']:g} mm")
+    ax.set(title="check points (unseen by the fit)", xlabel="check point", ylabel="|position error| (mm)")
+    ax.legend(loc="center right")
     fig.savefig(out_dir / "error_map.png", dpi=90)
     plt.close(fig)

@@ -1,0 +1,70 @@
+"""``calibench camera``: calibrate a camera from real chessboard photos (CONTRACT: intrinsics.json)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from estimators.chessboard import find_chessboard_corners
+from estimators.zhang import CalibrationError, calibrate_camera
+from scenarios.report import BadInput
+from scenes.checkerboard import Chessboard
+
+
+def calibrate_photos(paths: list[Path], cols: int, rows: int, square_mm: float, fix_aspect: bool = False,
+                     radial: int = 3, tangential: bool = True) -> dict:
+    """Detect the board in every photo, calibrate on those where it is found."""
+    if cols < 2 or rows < 2 or square_mm <= 0:
+        raise BadInput("camera: --cols and --rows must be >= 2 and --square-mm > 0")
+    if radial not in (2, 3):
+        raise BadInput("camera: --radial must be 2 or 3")
+    used, points, rejected = [], [], {}
+    size = None
+    for p in paths:
+        if not p.is_file():
+            raise BadInput(f"camera: no such image {p}")
+        img = cv2.imread(str(p), cv2.IMREAD_GRAYSCALE)
+        if img is None:
+            rejected[p.name] = "not a readable image"
+            continue
+        if size is None:
+            size = img.shape[::-1]
+        elif img.shape[::-1] != size:
+            rejected[p.name] = f"size {img.shape[1]}x{img.shape[0]} differs from {size[0]}x{size[1]}"
+            continue
+        corners = find_chessboard_corners(img, cols, rows)
+        if corners is None:
+            rejected[p.name] = f"no {cols}x{rows} chessboard found"
+            continue
+        used.append(p.name)
+        points.append(corners)
+    if len(used) < 3:
+        raise BadInput(f"camera: the board was found in {len(used)} image(s); a calibration needs at least 3")
+    board = Chessboard(cols=cols, rows=rows, square_mm=square_mm)
+    try:
+        calib = calibrate_camera(board.corners_mm(), points, size, fix_aspect=fix_aspect,
+                                 fix_k3=radial < 3, tangential=tangential)
+    except CalibrationError as e:
+        raise BadInput(f"camera: {e}") from None
+    return {
+        "image_size": list(size),
+        "K": calib.K.tolist(),
+        "dist": calib.dist.tolist(),
+        "std": calib.std,
+        "rms_px": calib.rms_px,
+        "per_view_rms_px": dict(zip(used, map(float, calib.per_view_rms_px))),
+        "used": used,
+        "rejected": rejected,
+        "model": {"fix_aspect": fix_aspect, "radial": radial, "tangential": tangential},
+    }
+
+
+def run_camera(paths: list[Path], cols: int, rows: int, square_mm: float, fix_aspect: bool, radial: int,
+               tangential: bool, out_dir: Path) -> dict:
+    result = calibrate_photos(paths, cols, rows, square_mm, fix_aspect, radial, tangential)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / "intrinsics.json").write_text(json.dumps(result, indent=2) + "\n")
+    return result

@@ -1,0 +1,148 @@
+"""The ``calibench`` command line (CONTRACT.md). Bad input: one line on stderr, exit status 2."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+EXIT_OK, EXIT_CHECK_FAILED, EXIT_BAD_INPUT = 0, 1, 2
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that reports a usage error in one line (it prints usage plus a line by default)."""
+
+    def error(self, message: str):
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: {message} (see {self.prog} --help)\n")
+
+
+def _parser() -> argparse.ArgumentParser:
+    from scenarios.registry import PLANNED, SCENARIOS
+
+    names = ", ".join(SCENARIOS)
+    p = _Parser(prog="calibench", description="Simulation-first test bench for calibrating measuring machines.")
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    r = sub.add_parser("run", help="simulate a scenario, calibrate, compare with the truth",
+                       description=f"Run a scenario ({names}) or all of them; writes DIR/report.json and DIR/run.rrd.")
+    r.add_argument("scenario", help=f"one of: {names}; or 'all'")
+    r.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    r.add_argument("--out", type=Path, help="output folder (default ./calibench-out/<scenario>)")
+    r.add_argument("--fidelity", choices=("render", "analytic"), default="render",
+                   help="render: pixels through MuJoCo's renderer and the real detector; "
+                        "analytic: exact projection plus detector noise (default render)")
+    r.add_argument("--config", type=Path, help="TOML file with one table per scenario overriding its defaults")
+    r.add_argument("--no-rrd", action="store_true", help="do not write the rerun recording")
+
+    f = sub.add_parser("fit", help="fit the scenario's error model to a recording (CSV)",
+                       description="Fit the scenario's calibration model to a stage recording; writes DIR/fit.json.")
+    f.add_argument("scenario", help=f"one of: {', '.join(n for n, s in SCENARIOS.items() if s.fit_model)}")
+    f.add_argument("recording", type=Path, help="CSV with x_cmd_mm, y_cmd_mm, x_meas_mm, y_meas_mm")
+    f.add_argument("--out", type=Path, help="output folder (default ./calibench-out/<scenario>)")
+
+    c = sub.add_parser("camera", help="calibrate a camera from chessboard photos",
+                       description="Calibrate a camera from real chessboard photos; writes DIR/intrinsics.json.")
+    c.add_argument("images", nargs="+", type=Path, help="photos of the chessboard")
+    c.add_argument("--cols", type=int, required=True, help="inner corners per row")
+    c.add_argument("--rows", type=int, required=True, help="inner corners per column")
+    c.add_argument("--square-mm", type=float, required=True, help="side of a square, mm")
+    c.add_argument("--fix-aspect", action="store_true", help="keep fx = fy")
+    c.add_argument("--radial", type=int, choices=(2, 3), default=3, help="radial terms k1..k3 (default 3)")
+    c.add_argument("--no-tangential", action="store_true", help="no tangential terms p1, p2")
+    c.add_argument("--out", type=Path, default=Path("calibench-out/camera"), help="output folder")
+    p.epilog = f"Scenarios planned but not built yet: {', '.join(PLANNED)}."
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    try:
+        return {"run": _run, "fit": _fit, "camera": _camera}[args.command](args)
+    except KeyboardInterrupt:
+        print("calibench: interrupted", file=sys.stderr)
+        return 130
+    except Exception as e:  # noqa: BLE001 - bad input is reported in one line
+        from scenarios.report import BadInput
+        from sim.recording import RecordingError
+
+        if isinstance(e, (BadInput, RecordingError)):
+            print(f"calibench: {e}", file=sys.stderr)
+            return EXIT_BAD_INPUT
+        raise
+
+
+def _scenario(name: str):
+    from scenarios.registry import PLANNED, SCENARIOS
+    from scenarios.report import BadInput
+
+    if name in SCENARIOS:
+        return SCENARIOS[name]
+    if name in PLANNED:
+        raise BadInput(f"scenario {name!r} is not built yet (available: {', '.join(SCENARIOS)})")
+    raise BadInput(f"unknown scenario {name!r} (available: {', '.join(SCENARIOS)})")
+
+
+def _run(args) -> int:
+    from scenarios.config import load_toml, override
+    from scenarios.registry import SCENARIOS
+    from scenarios.report import BadInput
+
+    names = list(SCENARIOS) if args.scenario == "all" else [args.scenario]
+    scenarios = [_scenario(n) for n in names]
+    table = load_toml(args.config) if args.config else {}
+    unknown = [k for k in table if k not in SCENARIOS]
+    if unknown:
+        raise BadInput(f"config {args.config}: unknown scenario table(s) {', '.join(unknown)}")
+    configs = {s.name: override(s.config(), table.get(s.name, {}), s.name) for s in scenarios}
+    status = EXIT_OK
+    for s in scenarios:
+        if args.out is None:
+            out = Path("calibench-out") / s.name
+        else:
+            out = args.out / s.name if args.scenario == "all" else args.out
+        t0 = time.perf_counter()
+        print(f"calibench: {s.name} (seed {args.seed}, {args.fidelity})", file=sys.stderr, flush=True)
+        try:
+            report = s.run(configs[s.name], args.seed, args.fidelity, out, not args.no_rrd)
+        except ValueError as e:
+            raise BadInput(f"{s.name}: {e}") from None
+        report.elapsed_s = time.perf_counter() - t0
+        path = report.write(out)
+        print(report.table())
+        print(f"\n{s.name}: {'ok' if report.ok else 'FAILED'} in {report.elapsed_s:.1f} s -> {path}")
+        if not report.ok:
+            status = EXIT_CHECK_FAILED
+    return status
+
+
+def _fit(args) -> int:
+    from scenarios.stage_fit import run_fit
+
+    s = _scenario(args.scenario)
+    if s.fit_model is None:
+        from scenarios.report import BadInput
+
+        raise BadInput(f"fit: scenario {s.name!r} has no fit model")
+    out = args.out or Path("calibench-out") / s.name
+    result = run_fit(s.name, s.fit_model, args.recording, out)
+    for axis, a in result["axes"].items():
+        print(f"{axis}: SSE {a['sse']:.4g} mm^2  R^2 {a['r2']:.4f}  RMSE {a['rmse']:.4f} mm  (n = {a['n']})")
+    print(f"-> {out / 'fit.json'}")
+    return EXIT_OK
+
+
+def _camera(args) -> int:
+    from scenarios.camera_calibration import run_camera
+
+    r = run_camera(args.images, args.cols, args.rows, args.square_mm, args.fix_aspect, args.radial,
+                   not args.no_tangential, args.out)
+    K = r["K"]
+    print(f"fx {K[0][0]:.3f}  fy {K[1][1]:.3f}  cx {K[0][2]:.3f}  cy {K[1][2]:.3f}  "
+          f"rms {r['rms_px']:.3f} px  ({len(r['used'])} used, {len(r['rejected'])} rejected)")
+    print(f"-> {args.out / 'intrinsics.json'}")
+    return EXIT_OK
+
+
+if __name__ == "__main__":
+    sys.exit(main())

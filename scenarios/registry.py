@@ -1,0 +1,24 @@
+"""The scenarios by name: each declares its config, its run, and its model for ``fit``."""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Callable
+
+from scenarios import belt_stage
+
+
+@dataclasses.dataclass(frozen=True)
+class Scenario:
+    name: str
+    config: type
+    run: Callable  # (config, seed, fidelity, out_dir, rrd) -> Report
+    fit_model: str | None = None  # the calibration model ``calibench fit`` applies
+
+
+SCENARIOS = {
+    belt_stage.NAME: Scenario(belt_stage.NAME, belt_stage.BeltStageConfig, belt_stage.run, "quadratic"),
+}
+
+# Named in the contract, built by later issues.
+PLANNED = ("vision-stage", "probe-scanner", "arm-cmm", "stewart")
