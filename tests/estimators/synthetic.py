@@ -1,0 +1,54 @@
+"""Synthetic data from a known truth, independent of MuJoCo and of the estimators."""
+
+import cv2
+import numpy as np
+
+from scenes.checkerboard import Chessboard
+
+
+def raster_chessboard(board: Chessboard, K: np.ndarray, R: np.ndarray, t: np.ndarray,
+                      size=(640, 480), supersample: int = 8, background: float = 90.0) -> np.ndarray:
+    """Grey image of a board at pose (R, t) (board2cam, mm) through an ideal pinhole.
+
+    Each pixel averages supersample^2 samples mapped back onto the board plane by the inverse
+    homography: an exact area-sampled image up to the supersampling.
+    """
+    W, Hh = size
+    Hi = np.linalg.inv(K @ np.c_[R[:, 0], R[:, 1], t])
+    sq, m = board.square_mm, board.margin_mm
+    off = (np.arange(supersample) + 0.5) / supersample - 0.5
+    v, u = np.mgrid[0:Hh, 0:W].astype(float)
+    acc = np.zeros((Hh, W))
+    for dv in off:
+        for du in off:
+            p = np.stack([u + du, v + dv, np.ones_like(u)], -1) @ Hi.T
+            X, Y = p[..., 0] / p[..., 2], p[..., 1] / p[..., 2]
+            a, b = np.floor(X / sq) + 1, np.floor(Y / sq) + 1
+            squares = (a >= 0) & (a <= board.cols) & (b >= 0) & (b <= board.rows)
+            plate = (X >= -sq - m) & (X <= board.cols * sq + m) & (Y >= -sq - m) & (Y <= board.rows * sq + m)
+            val = np.where(plate, 255.0, background)
+            acc += np.where(squares & ((a + b) % 2 == 0), 0.0, val)
+    return np.clip(np.rint(acc / supersample**2), 0, 255).astype(np.uint8)
+
+
+def project(board_pts, K, R, t, dist=None):
+    rvec = cv2.Rodrigues(R)[0]
+    p, _ = cv2.projectPoints(np.asarray(board_pts, float), rvec, np.asarray(t, float), K,
+                             np.zeros(5) if dist is None else dist)
+    return p.reshape(-1, 2)
+
+
+def random_views(rng, board_pts, K, n_views, size=(640, 480), depth=(500.0, 900.0), tilt=0.5, dist=None):
+    """Poses whose corners all land inside the image; returns [(R, t)], [(n, 2) pixels]."""
+    poses, pix = [], []
+    centre = board_pts.mean(axis=0)
+    while len(poses) < n_views:
+        R = cv2.Rodrigues(np.r_[rng.uniform(-tilt, tilt, 2), rng.uniform(-0.3, 0.3)])[0]
+        z = rng.uniform(*depth)
+        c = np.array([rng.uniform(-0.3, 0.3) * z, rng.uniform(-0.2, 0.2) * z, z])
+        t = c - R @ centre
+        p = project(board_pts, K, R, t, dist)
+        if (p > 5).all() and (p < np.array(size) - 5).all():
+            poses.append((R, t))
+            pix.append(p)
+    return poses, pix

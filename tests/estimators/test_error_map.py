@@ -1,0 +1,84 @@
+"""The quadratic error map (the seed's Eq. 1): synthetic truth, std honesty, the paper's Table 3."""
+
+import numpy as np
+import pytest
+
+from estimators.error_map import compensated_command, fit_quadratic
+from scenarios.stage_fit import fit_recording
+from sim.recording import StageRecording
+
+TRUE = np.array([0.05, 5.9e-3, 1.7e-3, 4.8e-6, -1.26e-6, 3.2e-8])
+
+
+def _grid():
+    x, y = np.meshgrid(np.linspace(0, 980, 11), np.linspace(0, 920, 11))
+    return x.ravel(), y.ravel()
+
+
+def _truth(x, y):
+    return TRUE @ np.stack([np.ones_like(x), x, y, x * x, x * y, y * y])
+
+
+def test_recovers_coefficients_within_their_std_and_the_std_is_honest():
+    x, y = _grid()
+    rng = np.random.default_rng(7)
+    sigma = 0.02
+    est, std, rmse = [], [], []
+    for _ in range(300):
+        f = fit_quadratic(x, y, _truth(x, y) + rng.normal(0, sigma, x.size))
+        est.append(f.coef)
+        std.append(f.std)
+        rmse.append(f.rmse)
+    est, std = np.array(est), np.array(std)
+    assert np.all(np.abs(est[0] - TRUE) <= 5 * std[0])
+    assert np.all(np.abs(est.mean(axis=0) - TRUE) <= 4 * std.mean(axis=0) / np.sqrt(300))
+    np.testing.assert_allclose(est.std(axis=0, ddof=1) / std.mean(axis=0), 1, atol=0.15)
+    assert np.mean(rmse) == pytest.approx(sigma, rel=0.05)
+
+
+def test_goodness_of_fit_definitions():
+    x, y = _grid()
+    e = _truth(x, y) + np.random.default_rng(8).normal(0, 0.1, x.size)
+    f = fit_quadratic(x, y, e)
+    r = e - f(x, y)
+    assert f.sse == pytest.approx(r @ r)
+    assert f.rmse == pytest.approx(np.sqrt(f.sse / (x.size - 6)))
+    assert f.r2 == pytest.approx(1 - f.sse / np.sum((e - e.mean()) ** 2))
+
+
+def test_degenerate_stations_are_refused():
+    x = np.linspace(0, 900, 20)
+    with pytest.raises(ValueError, match="degenerate"):
+        fit_quadratic(x, np.zeros(20), x * 1e-3)  # one line: y terms undetermined
+    with pytest.raises(ValueError, match="more than 6"):
+        fit_quadratic(x[:5], x[:5], x[:5])
+
+
+def test_compensated_command_lands_on_target():
+    x, y = _grid()
+    fx = fit_quadratic(x, y, _truth(x, y))
+    fy = fit_quadratic(x, y, 0.5 * _truth(y, x))
+    tx, ty = np.array([10.0, 500.0, 990.0]), np.array([900.0, 20.0, 600.0])
+    cx, cy = compensated_command(tx, ty, fx, fy)
+    np.testing.assert_allclose(cx + fx(cx, cy), tx, atol=1e-9)
+    np.testing.assert_allclose(cy + fy(cx, cy), ty, atol=1e-9)
+
+
+def test_paper_table_3(shared_data):
+    """The seed paper's Table 3, from its measured Tables 1-2 (../shared/data/seed_belt_stage):
+    SSE 31.96 / 24.08 mm^2, R^2 0.9749 / 0.9833, RMSE 0.5272 / 0.4576 mm."""
+    d = shared_data / "seed_belt_stage"
+    ex = np.loadtxt(d / "x_axis_error_mm.csv", delimiter=",", skiprows=1)
+    ey = np.loadtxt(d / "y_axis_error_mm.csv", delimiter=",", skiprows=1)
+    assert np.array_equal(ex[:, :2], ey[:, :2])
+    rec = StageRecording(x_cmd_mm=ex[:, 0], y_cmd_mm=ex[:, 1], x_meas_mm=ex[:, 0] + ex[:, 2],
+                         y_meas_mm=ex[:, 1] + ey[:, 2])
+    fit = fit_recording("belt-stage", "quadratic", rec)["axes"]
+    for axis, sse, r2, rmse in (("x", 31.96, 0.9749, 0.5272), ("y", 24.08, 0.9833, 0.4576)):
+        assert round(fit[axis]["sse"], 2) == sse
+        assert round(fit[axis]["r2"], 4) == r2
+        assert round(fit[axis]["rmse"], 4) == rmse
+        assert fit[axis]["n"] == 121
+    # the paper's printed coefficients, with the two typesetting slips the data README names
+    assert fit["x"]["coef"]["c0"] == pytest.approx(0.1896, abs=1e-4)
+    assert fit["y"]["coef"]["c5"] == pytest.approx(3.31e-6, abs=1e-8)

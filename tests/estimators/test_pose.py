@@ -1,0 +1,82 @@
+"""Extrinsics: the homography closed form (the seed's Eq. 13-18) and PnP against the truth."""
+
+import cv2
+import numpy as np
+import pytest
+
+from estimators.pose import (board2cam_from_homography, board2cam_pnp, fit_plane, homography,
+                             mean_rotation, undistort_pixels)
+from scenes.checkerboard import Chessboard
+from tests.estimators.synthetic import project
+
+BOARD = Chessboard(cols=9, rows=6, square_mm=50.0)
+K = np.array([[562.45, 0, 319.05], [0, 569.96, 239.31], [0, 0, 1]])
+DIST = np.array([-0.12, 0.08, 4e-4, -3e-4, 0.0])
+
+
+def _pose(rotvec, t):
+    return cv2.Rodrigues(np.array(rotvec, float))[0], np.array(t, float)
+
+
+@pytest.mark.parametrize("rotvec,t", [((0.0, 0.0, 0.01), (-200, -120, 1800)),
+                                      ((0.4, -0.3, 1.0), (-50, 20, 900))])
+def test_closed_form_is_exact_on_noiseless_points(rotvec, t):
+    R, t = _pose(rotvec, t)
+    pix = project(BOARD.corners_mm(), K, R, t, DIST)
+    H = homography(BOARD.corners_mm()[:, :2], undistort_pixels(pix, K, DIST))
+    R0, t0 = board2cam_from_homography(H, K)
+    # exact up to OpenCV's iterative undistortion (about 1e-7 rad)
+    np.testing.assert_allclose(R0, R, atol=1e-6)
+    np.testing.assert_allclose(t0, t, atol=1e-3)
+
+
+def test_pnp_within_its_noise_and_closed_form_close_to_it():
+    rng = np.random.default_rng(4)
+    R, t = _pose((0.05, -0.04, 0.02), (-220, -130, 1780))
+    obj = BOARD.corners_mm()
+    sigma = 0.05
+    gaps, errs = [], []
+    for _ in range(50):
+        pix = project(obj, K, R, t, DIST) + rng.normal(0, sigma, (len(obj), 2))
+        R0, t0 = board2cam_from_homography(homography(obj[:, :2], undistort_pixels(pix, K, DIST)), K)
+        R1, t1 = board2cam_pnp(obj, pix, K, DIST, guess=(R0, t0))
+        c = obj.mean(axis=0)
+        errs.append((R1 @ c + t1) - (R @ c + t))  # the board centroid, where tilt decouples
+        gaps.append(t0 - t1)
+    errs = np.array(errs)
+    # lateral: sigma * Z / f / sqrt(n) per axis; depth: much weaker (scale of a small board)
+    lateral = sigma * 1780 / 566 / np.sqrt(len(obj))
+    assert np.all(np.std(errs[:, :2], axis=0) < 1.5 * lateral)
+    assert np.all(np.abs(errs[:, :2].mean(axis=0)) < 4 * lateral / np.sqrt(50))
+    assert np.max(np.abs(np.array(gaps)[:, :2])) < 3.0  # mm: the closed form is algebraic
+
+
+def test_mean_rotation_of_rotations_around_one():
+    rng = np.random.default_rng(5)
+    R, _ = _pose((0.2, 0.1, -0.3), (0, 0, 1))
+    noisy = np.array([R @ cv2.Rodrigues(rng.normal(0, 1e-3, 3))[0] for _ in range(400)])
+    ang = np.linalg.norm(cv2.Rodrigues(mean_rotation(noisy) @ R.T)[0])
+    assert ang < 4 * 1e-3 / np.sqrt(400) * np.sqrt(3)
+
+
+def test_plane_fit_and_its_slope_covariance():
+    """Slopes of the fitted plane scatter as its covariance says (Monte-Carlo, 300 draws)."""
+    rng = np.random.default_rng(6)
+    xy = rng.uniform(-500, 500, (121, 2))
+    slopes, covs = [], []
+    for _ in range(300):
+        z = 1800 + 2e-3 * xy[:, 0] - 1e-3 * xy[:, 1] + rng.normal(0, 0.2, 121)
+        pl = fit_plane(np.c_[xy, z])
+        n = pl.normal * np.sign(pl.normal[2])
+        slopes.append(-n[:2] / n[2])
+        covs.append(pl.slope_cov)
+    slopes = np.array(slopes)
+    np.testing.assert_allclose(slopes.mean(axis=0), [2e-3, -1e-3], atol=4 * 0.2 / 290 / np.sqrt(121 * 300))
+    predicted = np.sqrt(np.diag(np.mean(covs, axis=0)))
+    np.testing.assert_allclose(np.sort(np.std(slopes, axis=0)), np.sort(predicted), rtol=0.15)
+
+
+def test_ray_plane_intersection_removes_depth_noise():
+    pl = fit_plane(np.array([[0, 0, 1000.0], [100, 0, 1000], [0, 100, 1000], [100, 100, 1000]]))
+    p = np.array([[30.0, 40.0, 1000.0]])
+    np.testing.assert_allclose(pl.intersect_rays(p * 1.01), p, atol=1e-9)
