@@ -53,9 +53,14 @@ class BeltStageConfig:
     geometry: BeltStageGeometry = BeltStageGeometry()
     truth: BeltStageTruth = BeltStageTruth()
     n_intrinsic_views: int = 20
+    # Sensor noise of the rendered images, 1-sigma in grey levels (an 8-bit machine-vision
+    # camera at mid grey: read plus shot noise of 1-3 levels).
+    pixel_noise_dn: float = 2.0
+    # Optics' point-spread function, Gaussian 1-sigma in pixels (a sharp lens slightly defocused).
+    psf_px: float = 0.8
     # Detector noise of the analytic fidelity, per axis, 1-sigma (calibrated on renders of
-    # this scene: about 0.04 px RMS in 2-D on the stations, 0.01-0.03 on the tilted views).
-    corner_noise_px: float = 0.03
+    # this scene with the sensor below: 0.012 px RMS in 2-D on stations and tilted views alike).
+    corner_noise_px: float = 0.0085
     stations_x_mm: tuple[float, ...] = PAPER_STATIONS_X
     stations_y_mm: tuple[float, ...] = PAPER_STATIONS_Y
     n_check: int = 20
@@ -303,7 +308,8 @@ def _record(sim: BeltStageSim, fidelity: str, config: BeltStageConfig, rng: np.r
             names.append(f"x{a / PULSES_PER_MM:g}_y{b / PULSES_PER_MM:g}")
         true.append(sim.true_corners_px(calib=kind == "calib"))
         if fidelity == "render":
-            img = sim.render(calib=kind == "calib")
+            img = sim.render(calib=kind == "calib", rng=rng, noise_dn=config.pixel_noise_dn,
+                             psf_px=config.psf_px)
             images.append(img)
             c = find_chessboard_corners(img, board.cols, board.rows)
             corners.append(np.full((board.n_corners, 2), np.nan) if c is None else c)

@@ -56,7 +56,10 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = _parser().parse_args(argv)
+    try:
+        args = _parser().parse_args(argv)
+    except SystemExit as e:  # usage errors (status 2) and --help (0), as a return value
+        return e.code if isinstance(e.code, int) else EXIT_BAD_INPUT
     try:
         return {"run": _run, "fit": _fit, "camera": _camera}[args.command](args)
     except KeyboardInterrupt:

@@ -72,13 +72,19 @@ def build_mjcf(geometry: BeltStageGeometry, render_pad_px: int = 0,
     <material name="frame" rgba="0.35 0.37 0.4 1"/>
     <material name="carriage" rgba="0.55 0.3 0.15 1"/>
     <material name="floor" rgba="0.18 0.2 0.22 1"/>
+    <material name="camera" rgba="0.1 0.1 0.12 1"/>
   </asset>
   <worldbody>
-    <light name="top" pos="{tx / 2} {ty / 2} 3" dir="0 0 -1" directional="true" diffuse="0.4 0.4 0.4"/>
+    <!-- no shadows: the mast and boom would shade the plate in the measurement images -->
+    <light name="top" pos="{tx / 2} {ty / 2} 3" dir="0 0 -1" directional="true" diffuse="0.4 0.4 0.4" castshadow="false"/>
     <geom name="floor" type="plane" size="{tx + 1} {ty + 1} 0.05" pos="{tx / 2} {ty / 2} 0" material="floor"/>
     <geom name="rail_x_front" type="box" size="{tx / 2 + 0.3} 0.02 0.01" pos="{tx / 2} -0.35 0.01" material="frame"/>
     <geom name="rail_x_back" type="box" size="{tx / 2 + 0.3} 0.02 0.01" pos="{tx / 2} {ty + 0.35} 0.01" material="frame"/>
     <camera name="overhead" pos="{cam_pos[0]} {cam_pos[1]} {cam_pos[2]}" xyaxes="1 0 0 0 1 0" {attrs}/>
+    <!-- camera housing, boom and mast: above the lens and outside the field of view -->
+    <geom name="camera_housing" type="box" size="0.035 0.03 0.03" pos="{cam_pos[0]} {cam_pos[1]} {cam_pos[2] + 0.035}" material="camera" contype="0" conaffinity="0"/>
+    <geom name="boom" type="box" size="{(cam_pos[0] + 0.75) / 2} 0.02 0.02" pos="{(cam_pos[0] - 0.75) / 2} {cam_pos[1]} {cam_pos[2] + 0.085}" material="frame" contype="0" conaffinity="0"/>
+    <geom name="mast" type="box" size="0.03 0.03 {(cam_pos[2] + 0.105) / 2}" pos="-0.75 {cam_pos[1]} {(cam_pos[2] + 0.105) / 2}" material="frame" contype="0" conaffinity="0"/>
     <body name="x_carriage" pos="0 0 0">
       <joint name="x" type="slide" axis="1 0 0" range="-0.05 {tx + 0.05}" damping="50"/>
       <geom name="gantry" type="box" size="0.04 {ty / 2 + 0.37} 0.012" pos="0 {ty / 2} 0.022" material="frame" mass="8"/>

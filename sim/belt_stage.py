@@ -139,16 +139,18 @@ class BeltStageSim:
         mujoco.mj_kinematics(self.model, self.data)
 
     # --- the camera --------------------------------------------------------------------------
-    def render(self, calib: bool = False) -> np.ndarray:
+    def render(self, calib: bool = False, rng: np.random.Generator | None = None,
+               noise_dn: float = 0.0, psf_px: float = 0.0) -> np.ndarray:
         """What the camera sees, through its lens: (height, width, 3) uint8.
 
         ``calib`` shows the free calibration board and hides the stage's, so each image holds
-        exactly one board.
+        exactly one board. ``psf_px`` (1-sigma, px) is the optics' blur and ``noise_dn`` (grey
+        levels, 1-sigma, drawn from ``rng``) the sensor's noise.
         """
         if self.renderer is None:
             raise RuntimeError("this simulator was built without a renderer")
         self.renderer.show_groups({STAGE_BOARD_GROUP: not calib, CALIB_BOARD_GROUP: calib})
-        return self.renderer.render(self.data)
+        return self.renderer.render(self.data, rng, noise_dn, psf_px)
 
     def close(self) -> None:
         if self.renderer is not None:

@@ -43,8 +43,14 @@ class LensRenderer:
         for g, on in groups.items():
             self.option.geomgroup[g] = int(on)
 
-    def render(self, data: mujoco.MjData) -> np.ndarray:
-        """Distorted RGB image, shape (height, width, 3), uint8."""
+    def render(self, data: mujoco.MjData, rng: np.random.Generator | None = None,
+               noise_dn: float = 0.0, psf_px: float = 0.0) -> np.ndarray:
+        """Distorted RGB image, shape (height, width, 3), uint8.
+
+        ``psf_px`` blurs with the optics' point-spread function (Gaussian, 1-sigma in pixels);
+        ``noise_dn`` then adds the sensor's noise (Gaussian, 1-sigma in grey levels, drawn from
+        ``rng``) before quantisation.
+        """
         sensor = self.model.cam_sensorsize[self.camera_id].copy()
         self.model.cam_sensorsize[self.camera_id] = self._padded_sensor
         try:
@@ -56,13 +62,19 @@ class LensRenderer:
             ideal = cv2.resize(ideal, self._size, interpolation=cv2.INTER_AREA)
         if not self.lens.dist.any():
             p = self.pad
-            return ideal[p:p + self.lens.height, p:p + self.lens.width].copy()
-        # Float bilinear sampling: cv2.remap quantises positions to 1/32 px.
-        out = np.empty((self.lens.height, self.lens.width, 3), np.uint8)
-        for c in range(3):
-            out[..., c] = np.clip(np.rint(ndimage.map_coordinates(
-                ideal[..., c].astype(np.float32), self._coords, order=1, mode="nearest")), 0, 255)
-        return out
+            img = ideal[p:p + self.lens.height, p:p + self.lens.width].astype(np.float32)
+        else:
+            # Float bilinear sampling: cv2.remap quantises positions to 1/32 px.
+            img = np.stack([ndimage.map_coordinates(ideal[..., c].astype(np.float32), self._coords,
+                                                    order=1, mode="nearest") for c in range(3)], axis=-1)
+        if psf_px > 0:
+            img = cv2.GaussianBlur(img, (0, 0), psf_px)
+        if noise_dn > 0:
+            if rng is None:
+                raise ValueError("sensor noise needs a random generator")
+            # one noise field for the three channels: a monochrome sensor seen as RGB
+            img = img + rng.normal(0.0, noise_dn, img.shape[:2])[..., None].astype(np.float32)
+        return np.clip(np.rint(img), 0, 255).astype(np.uint8)
 
     def close(self) -> None:
         self._renderer.close()

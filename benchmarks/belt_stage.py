@@ -1,0 +1,58 @@
+"""Throughput of the belt-stage pieces on this machine: ``python benchmarks/belt_stage.py``.
+
+Prints renders/s, detections/s, pose pipeline stations/s and whole runs per fidelity.
+"""
+
+import os
+import platform
+import time
+from pathlib import Path
+from tempfile import TemporaryDirectory
+
+import sim  # noqa: F401  (MUJOCO_GL before mujoco)
+import numpy as np
+
+from estimators.chessboard import find_chessboard_corners
+from scenarios import belt_stage
+from scenes.belt_stage import BeltStageGeometry
+from sim.belt_stage import BeltStageSim, BeltStageTruth
+
+
+def rate(fn, n):
+    t = time.perf_counter()
+    for i in range(n):
+        fn(i)
+    return n / (time.perf_counter() - t)
+
+
+def cpu_model() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def main():
+    print(f"machine: {cpu_model()}, {os.cpu_count()} cores, "
+          f"python {platform.python_version()}, MUJOCO_GL={os.environ.get('MUJOCO_GL')}")
+    g = BeltStageGeometry()
+    s = BeltStageSim(g, BeltStageTruth())
+    xs = np.linspace(0, 245_000, 16).astype(int)
+    print(f"render (640x480, 2x supersampled, lens): {rate(lambda i: (s.move(xs[i], xs[i]), s.render()), 16):6.1f} frames/s")
+    img = s.render()
+    print(f"chessboard detection + saddle refinement: {rate(lambda i: find_chessboard_corners(img, 9, 6), 16):6.1f} images/s")
+    s.close()
+    cfg = belt_stage.BeltStageConfig()
+    with TemporaryDirectory() as d:
+        for fidelity, n in (("analytic", 3), ("render", 1)):
+            t = time.perf_counter()
+            for seed in range(n):
+                belt_stage.run(cfg, seed, fidelity, Path(d), rrd=False)
+            print(f"whole run, {fidelity:8s}: {(time.perf_counter() - t) / n:6.1f} s per run")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,106 @@
+"""The command line: contract outputs, the real-data figures, and bad input (one line, exit 2)."""
+
+import json
+import shutil
+
+import numpy as np
+import pytest
+
+from scenarios.cli import main
+
+
+def _bad(capsys, argv, fragment):
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "Traceback" not in err
+    assert fragment in err
+    return err
+
+
+def test_bad_input_exits_2_with_one_line(capsys, tmp_path):
+    _bad(capsys, ["run", "no-such-scenario"], "unknown scenario")
+    _bad(capsys, ["run", "stewart"], "not built yet")
+    _bad(capsys, ["fit", "belt-stage", str(tmp_path / "missing.csv")], "cannot read")
+    _bad(capsys, ["run", "belt-stage", "--config", str(tmp_path / "missing.toml")], "cannot read config")
+    (tmp_path / "bad.toml").write_text("this is = = not toml")
+    _bad(capsys, ["run", "belt-stage", "--config", str(tmp_path / "bad.toml")], "not valid TOML")
+    (tmp_path / "key.toml").write_text("[belt-stage]\nno_such_key = 3\n")
+    _bad(capsys, ["run", "belt-stage", "--config", str(tmp_path / "key.toml")], "unknown key")
+    (tmp_path / "type.toml").write_text("[belt-stage.truth]\nboard_yaw_rad = 'big'\n")
+    _bad(capsys, ["run", "belt-stage", "--config", str(tmp_path / "type.toml")], "must be a number")
+    (tmp_path / "c0.toml").write_text("[belt-stage.truth]\nerror_x = [1, 0, 0, 0, 0, 0]\n")
+    _bad(capsys, ["run", "belt-stage", "--config", str(tmp_path / "c0.toml")], "homed")
+    (tmp_path / "nocol.csv").write_text("x_cmd_mm,y_cmd_mm,x_meas_mm\n1,2,3\n")
+    _bad(capsys, ["fit", "belt-stage", str(tmp_path / "nocol.csv")], "missing column(s) y_meas_mm")
+    (tmp_path / "nan.csv").write_text("x_cmd_mm,y_cmd_mm,x_meas_mm,y_meas_mm\n1,2,3,nan\n")
+    _bad(capsys, ["fit", "belt-stage", str(tmp_path / "nan.csv")], "not finite")
+    (tmp_path / "line.csv").write_text("x_cmd_mm,y_cmd_mm,x_meas_mm,y_meas_mm\n"
+                                       + "".join(f"{x},0,{x},0\n" for x in range(20)))
+    _bad(capsys, ["fit", "belt-stage", str(tmp_path / "line.csv")], "degenerate")
+    _bad(capsys, ["camera", str(tmp_path / "none.jpg"), "--cols", "9", "--rows", "6", "--square-mm", "25"],
+         "no such image")
+    assert main(["run"]) == 2  # argparse, in one line
+    assert "\n" not in capsys.readouterr().err.strip()
+
+
+def test_config_overrides_reach_the_run(tmp_path):
+    (tmp_path / "c.toml").write_text("[belt-stage]\nn_intrinsic_views = 15\n"
+                                     "[belt-stage.truth]\nboard_yaw_rad = -0.002\n")
+    out = tmp_path / "out"
+    status = main(["run", "all", "--fidelity", "analytic", "--no-rrd", "--config", str(tmp_path / "c.toml"),
+                   "--out", str(out)])
+    rep = json.loads((out / "belt-stage" / "report.json").read_text())
+    assert status == 0 and "rrd" not in rep
+    yaw = next(p for p in rep["parameters"] if p["name"] == "board_yaw_mrad")
+    assert yaw["truth"] == pytest.approx(-2.0)
+    assert rep["info"]["intrinsic_views_used"] == 15
+
+
+def test_fit_reproduces_the_papers_table_3(shared_data, tmp_path):
+    d = shared_data / "seed_belt_stage"
+    ex = np.loadtxt(d / "x_axis_error_mm.csv", delimiter=",", skiprows=1)
+    ey = np.loadtxt(d / "y_axis_error_mm.csv", delimiter=",", skiprows=1)
+    rows = ["x_cmd_mm,y_cmd_mm,x_meas_mm,y_meas_mm"]
+    rows += [f"{x:g},{y:g},{x + a:.4f},{y + b:.4f}" for (x, y, a), (_, _, b) in zip(ex, ey[:, :3])]
+    (tmp_path / "paper.csv").write_text("\n".join(rows) + "\n")
+    assert main(["fit", "belt-stage", str(tmp_path / "paper.csv"), "--out", str(tmp_path)]) == 0
+    fit = json.loads((tmp_path / "fit.json").read_text())
+    assert fit["model"] == "quadratic" and fit["unit"] == "mm"
+    table3 = {"x": (31.96, 0.9749, 0.5272), "y": (24.08, 0.9833, 0.4576)}
+    for axis, (sse, r2, rmse) in table3.items():
+        a = fit["axes"][axis]
+        assert (round(a["sse"], 2), round(a["r2"], 4), round(a["rmse"], 4)) == (sse, r2, rmse)
+        assert set(a["coef"]) == {"c0", "c1", "c2", "c3", "c4", "c5"}
+
+
+def test_camera_on_opencv_left_meets_the_reference(shared_data, tmp_path):
+    """OpenCV's sample: fx = fy = 535.916, (cx, cy) = (342.283, 235.571), RMS 0.393 px."""
+    images = sorted((shared_data / "opencv_left").glob("*.jpg"))
+    # a photo without this board is listed as rejected, not fatal
+    shutil.copy(shared_data / "boofcv_circles" / "image00000.jpg", tmp_path / "circles.jpg")
+    argv = [str(p) for p in images + [tmp_path / "circles.jpg"]]
+    assert main(["camera", *argv, "--cols", "9", "--rows", "6", "--square-mm", "25", "--fix-aspect",
+                 "--out", str(tmp_path)]) == 0
+    r = json.loads((tmp_path / "intrinsics.json").read_text())
+    K = np.array(r["K"])
+    assert abs(K[0, 0] / 535.916 - 1) < 0.01 and K[0, 0] == pytest.approx(K[1, 1])
+    assert np.hypot(K[0, 2] - 342.283, K[1, 2] - 235.571) < 3
+    assert r["rms_px"] < 0.5
+    assert r["image_size"] == [640, 480] and len(r["dist"]) == 5
+    assert len(r["used"]) == 13 and "circles.jpg" in r["rejected"]
+    assert set(r["per_view_rms_px"]) == set(r["used"])
+    assert {"fx", "fy", "cx", "cy"} <= set(r["std"])
+
+
+def test_camera_on_boofcv_chess_meets_the_reference(shared_data, tmp_path):
+    """BoofCV's own result (its model: 2 radial terms, no tangential): fx 701.01, fy 698.65,
+    cx 308.46, cy 246.84."""
+    images = sorted((shared_data / "boofcv_chess").glob("*.jpg"))
+    assert main(["camera", *map(str, images), "--cols", "4", "--rows", "6", "--square-mm", "30",
+                 "--radial", "2", "--no-tangential", "--out", str(tmp_path)]) == 0
+    r = json.loads((tmp_path / "intrinsics.json").read_text())
+    K = np.array(r["K"])
+    assert abs(K[0, 0] / 701.01 - 1) < 0.01 and abs(K[1, 1] / 698.65 - 1) < 0.01
+    assert np.hypot(K[0, 2] - 308.46, K[1, 2] - 246.84) < 3
+    assert r["rms_px"] < 0.5
+    assert r["dist"][2:] == [0.0, 0.0, 0.0]
