@@ -41,11 +41,17 @@ def main():
     g = BeltStageGeometry()
     s = BeltStageSim(g, BeltStageTruth())
     xs = np.linspace(0, 245_000, 16).astype(int)
-    print(f"render (640x480, 2x supersampled, lens): {rate(lambda i: (s.move(xs[i], xs[i]), s.render()), 16):6.1f} frames/s")
-    img = s.render()
+    cfg = belt_stage.BeltStageConfig()
+    rng = np.random.default_rng(0)
+
+    def frame(i):
+        s.move(xs[i], xs[i])
+        return s.render(rng=rng, noise_dn=cfg.pixel_noise_dn, psf_px=cfg.psf_px)
+
+    print(f"render (640x480, 2x supersampled, lens, blur, noise): {rate(frame, 16):6.1f} frames/s")
+    img = frame(0)
     print(f"chessboard detection + saddle refinement: {rate(lambda i: find_chessboard_corners(img, 9, 6), 16):6.1f} images/s")
     s.close()
-    cfg = belt_stage.BeltStageConfig()
     with TemporaryDirectory() as d:
         for fidelity, n in (("analytic", 3), ("render", 1)):
             t = time.perf_counter()

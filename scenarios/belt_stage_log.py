@@ -22,8 +22,8 @@ def log_run(path: Path, report, a: dict) -> None:
     try:
         sim, g = a["sim"], a["geometry"]
         model = sim.model
-        paths = rrlog.log_mujoco_bodies(rec, model, textures={
-            "board": (g.board.texture(16), None), "calib_board": (g.board.texture(16), None)})
+        texture = g.board.texture(16)
+        paths = rrlog.log_mujoco_bodies(rec, model, textures={"board": texture, "calib_board": texture})
         R_c2w, p_c2w = sim.cam2world()
         cam = g.camera
         rrlog.log_camera(rec, "world/overhead", cam.K, (cam.width, cam.height), R_c2w, p_c2w)

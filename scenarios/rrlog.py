@@ -69,11 +69,11 @@ def _geom_mesh(model, g: int) -> trimesh.Trimesh | None:
 
 
 def log_mujoco_bodies(rec: rr.RecordingStream, model, root: str = "world",
-                      textures: dict[str, tuple[np.ndarray, np.ndarray]] | None = None) -> dict[int, str]:
+                      textures: dict[str, np.ndarray] | None = None) -> dict[int, str]:
     """Log every body's geoms once (static, in the body frame). Returns body id -> entity path.
 
-    ``textures`` maps a geom name to (image (h, w, 3), uv of its top face corners (4, 2)),
-    drawn as a textured quad on the geom's +z face (e.g. a calibration plate).
+    ``textures`` maps a box geom's name to an image (h, w, 3) drawn on its +z face as MuJoCo
+    draws a 2-D texture there (e.g. a calibration plate).
     """
     paths = nested_paths(model, root)
     textures = textures or {}
@@ -82,8 +82,7 @@ def log_mujoco_bodies(rec: rr.RecordingStream, model, root: str = "world",
         gname = model.geom(g).name or f"geom{g}"
         parent = paths.get(b, root)
         if gname in textures:
-            img, _ = textures[gname]
-            _log_textured_top(rec, f"{parent}/{gname}", model, g, img)
+            _log_textured_top(rec, f"{parent}/{gname}", model, g, textures[gname])
             continue
         mesh = _geom_mesh(model, g)
         if mesh is None:
