@@ -97,3 +97,12 @@ def test_paper_method_is_worse_and_board_yaw_matters(tmp_path):
     rep = belt_stage.run(belt_stage.BeltStageConfig(), 0, "analytic", tmp_path, rrd=False)
     ours = {c.name: c.value for c in rep.checks}["map_rms_mm"]
     assert rep.info["paper_method"]["map_rms_mm"] > 10 * ours
+
+
+def test_a_run_is_reproducible_from_its_seed(tmp_path):
+    a = belt_stage.run(belt_stage.BeltStageConfig(), 5, "analytic", tmp_path, rrd=False).as_dict()
+    b = belt_stage.run(belt_stage.BeltStageConfig(), 5, "analytic", tmp_path, rrd=False).as_dict()
+    c = belt_stage.run(belt_stage.BeltStageConfig(), 6, "analytic", tmp_path, rrd=False).as_dict()
+    for d in (a, b, c):
+        d.pop("elapsed_s")
+    assert a == b and a != c
