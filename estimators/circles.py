@@ -1,0 +1,138 @@
+"""Sub-pixel centres of dark circles on a bright plate, and the perspective bias of circle centres.
+
+Pixels in OpenCV's convention (centre of the top-left pixel at (0, 0)). The extraction is the
+classic one made sub-pixel: threshold (Otsu) and contour to find the blob, then edge points along
+radial rays at the mid grey level (linear interpolation of a smoothed profile), then a
+least-squares conic through them. The conic's centre is the ellipse centre; under perspective it
+is not the image of the circle's centre, and :func:`ellipse_centre_bias` gives the difference
+exactly from the image conic of the circle.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import cv2
+import numpy as np
+from scipy import ndimage
+
+
+@dataclasses.dataclass(frozen=True)
+class CircleFit:
+    """centre (2,) px; radius_px (mean of the ellipse's semi-axes); rms_px of the edge points
+    about the conic (geometric, approximate); n_edge points used."""
+
+    centre: np.ndarray
+    radius_px: float
+    rms_px: float
+    n_edge: int
+
+
+def find_dark_circle(gray: np.ndarray, near: np.ndarray | None = None, min_radius_px: float = 10.0,
+                     n_rays: int = 720, smooth_px: float = 1.0) -> CircleFit | None:
+    """The dark, whole (not cut by the border) circle whose centre is nearest ``near``.
+
+    ``near`` defaults to the image centre. Returns None when no such circle is in the image.
+    """
+    img = np.asarray(gray)
+    if img.ndim == 3:
+        img = cv2.cvtColor(img, cv2.COLOR_RGB2GRAY)
+    h, w = img.shape
+    near = np.array([(w - 1) / 2, (h - 1) / 2]) if near is None else np.asarray(near, float)
+    blur = cv2.GaussianBlur(img, (0, 0), 1.5)
+    level, mask = cv2.threshold(blur, 0, 255, cv2.THRESH_BINARY_INV + cv2.THRESH_OTSU)
+    contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    best, best_d = None, np.inf
+    for c in contours:
+        pts = c.reshape(-1, 2)
+        if len(pts) < 20:
+            continue
+        if pts[:, 0].min() <= 1 or pts[:, 1].min() <= 1 or pts[:, 0].max() >= w - 2 or pts[:, 1].max() >= h - 2:
+            continue  # cut by the border: its centre would be biased
+        (cx, cy), r = cv2.minEnclosingCircle(c)
+        area = cv2.contourArea(c)
+        if r < min_radius_px or area < 0.8 * np.pi * r * r:
+            continue  # too small, or not round
+        d = np.hypot(cx - near[0], cy - near[1])
+        if d < best_d:
+            best, best_d = (np.array([cx, cy]), r), d
+    if best is None:
+        return None
+    dark = float(np.median(img[mask > 0]))
+    bright = float(np.median(img[mask == 0]))
+    if bright - dark < 20:
+        return None
+    smooth = ndimage.gaussian_filter(img.astype(np.float32), smooth_px)
+    edge = radial_edge_points(smooth, best[0], best[1], (dark + bright) / 2, n_rays)
+    if len(edge) < 0.8 * n_rays:
+        return None
+    centre, axes, rms = fit_conic_centre(edge)
+    return CircleFit(centre=centre, radius_px=float(np.mean(axes)), rms_px=rms, n_edge=len(edge))
+
+
+def radial_edge_points(image: np.ndarray, centre: np.ndarray, radius: float, level: float,
+                       n_rays: int, half_width: float | None = None, step: float = 0.25) -> np.ndarray:
+    """Where each radial ray crosses ``level`` near ``radius``, shape (n_found, 2) px.
+
+    Profiles are sampled bilinearly every ``step`` px over +-``half_width`` around the radius;
+    the crossing is linearly interpolated between the two samples that bracket the level.
+    """
+    hw = half_width if half_width is not None else max(6.0, 0.15 * radius)
+    ang = np.linspace(0, 2 * np.pi, n_rays, endpoint=False)
+    d = np.stack([np.cos(ang), np.sin(ang)], axis=1)  # (n_rays, 2)
+    rr = np.arange(radius - hw, radius + hw + step / 2, step)  # (n_samples,)
+    pts = centre + d[:, None, :] * rr[None, :, None]  # (n_rays, n_samples, 2)
+    prof = ndimage.map_coordinates(image, [pts[..., 1].ravel(), pts[..., 0].ravel()], order=1,
+                                   mode="nearest").reshape(pts.shape[:2])
+    above = prof >= level
+    # first dark-to-bright transition going outwards
+    trans = (~above[:, :-1]) & above[:, 1:]
+    ok = trans.any(axis=1)
+    k = np.argmax(trans, axis=1)
+    rows = np.flatnonzero(ok)
+    k = k[rows]
+    p0, p1 = prof[rows, k], prof[rows, k + 1]
+    frac = (level - p0) / (p1 - p0)
+    r_edge = rr[k] + frac * step
+    return centre + d[rows] * r_edge[:, None]
+
+
+def fit_conic_centre(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """Least-squares ellipse through points (n, 2): centre (2,), semi-axes (2,), rms residual.
+
+    The conic a x^2 + b xy + c y^2 + d x + e y = 1 is fitted on coordinates centred and scaled
+    for conditioning; the residual is the algebraic one scaled to pixels at the mean radius.
+    """
+    m = points.mean(axis=0)
+    s = np.sqrt(np.mean(np.sum((points - m) ** 2, axis=1)))
+    x, y = ((points - m) / s).T
+    A = np.stack([x * x, x * y, y * y, x, y], axis=1)
+    coef, *_ = np.linalg.lstsq(A, np.ones_like(x), rcond=None)
+    a, b, c, d, e = coef
+    M = np.array([[2 * a, b], [b, 2 * c]])
+    centre_n = np.linalg.solve(M, [-d, -e])
+    # semi-axes from the conic in centred form
+    k = 1 - (a * centre_n[0] ** 2 + b * centre_n[0] * centre_n[1] + c * centre_n[1] ** 2
+             + d * centre_n[0] + e * centre_n[1])
+    ev = np.linalg.eigvalsh(np.array([[a, b / 2], [b / 2, c]]))
+    axes = np.sqrt(k / ev) * s
+    resid = A @ coef - 1
+    rms = float(np.sqrt(np.mean(resid**2)) * s / 2)  # algebraic -> ~geometric for a circle
+    return m + s * centre_n, axes, rms
+
+
+def ellipse_centre_bias(K: np.ndarray, R_plane2cam: np.ndarray, t_centre_cam: np.ndarray,
+                        radius: float) -> np.ndarray:
+    """Image of a circle's ellipse centre minus the image of its centre, (2,) px.
+
+    The circle lies in the plane z = 0 of a frame whose origin is the circle's centre, placed by
+    ``R_plane2cam`` (3, 3) and ``t_centre_cam`` (3,) (same length unit as ``radius``). Its image
+    is the conic C' = H^-T diag(1, 1, -r^2) H^-1 with H = K [r1 r2 t]; the ellipse centre is
+    C'^-1 (0, 0, 1) dehomogenised. Zero for a fronto-parallel view; grows as r^2 tilt / Z.
+    """
+    H = K @ np.column_stack([R_plane2cam[:, 0], R_plane2cam[:, 1], t_centre_cam])
+    Hi = np.linalg.inv(H)
+    C = Hi.T @ np.diag([1.0, 1.0, -radius * radius]) @ Hi
+    c = np.linalg.solve(C, [0.0, 0.0, 1.0])
+    p = H[:, 2]
+    return c[:2] / c[2] - p[:2] / p[2]
