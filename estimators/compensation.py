@@ -8,7 +8,9 @@ commands the reading s that satisfies s + e(s) = target.
   along one axis, linearly interpolated between them, a function of that axis's reading only.
 - :func:`fit_polynomial` (Eq. 5-9 for degree 3: 10 coefficients a0..a9 on 1, u, v, u^2, uv, v^2,
   u^3, u^2 v, u v^2, v^3), least squares; any total degree.
-- :func:`select_degree`: the degree by k-fold cross-validation (the better model).
+- :func:`select_model`: the better model, by k-fold cross-validation among polynomials of any
+  degree and the cubic plus a periodic term along the axis's own coordinate (a scale's or a
+  screw's periodic error), its period searched too.
 """
 
 from __future__ import annotations
@@ -25,64 +27,104 @@ def monomial_powers(degree: int) -> list[tuple[int, int]]:
     return [(d - j, j) for d in range(degree + 1) for j in range(d + 1)]
 
 
-def design(u: np.ndarray, v: np.ndarray, degree: int) -> np.ndarray:
-    """Monomials of (u, v) / 100 mm up to ``degree``, shape (n, n_terms)."""
+def design(u: np.ndarray, v: np.ndarray, degree: int, period_mm: float | None = None,
+           along: int = 0) -> np.ndarray:
+    """Monomials of (u, v) / 100 mm up to ``degree``, then (with ``period_mm``) sin and cos of
+    2 pi w / period with w = u (``along`` 0) or v (1); shape (n, n_terms)."""
     a, b = np.asarray(u, float) / _SCALE, np.asarray(v, float) / _SCALE
-    return np.stack([a**i * b**j for i, j in monomial_powers(degree)], axis=-1)
+    cols = [a**i * b**j for i, j in monomial_powers(degree)]
+    if period_mm is not None:
+        w = 2 * np.pi * (np.asarray(u, float) if along == 0 else np.asarray(v, float)) / period_mm
+        cols += [np.sin(w), np.cos(w)]
+    return np.stack(cols, axis=-1)
 
 
 @dataclasses.dataclass(frozen=True)
 class Polynomial:
-    """A bivariate polynomial error model. ``coef`` (n_terms,) in um / mm^(i+j) (unscaled)."""
+    """A bivariate polynomial error model, optionally plus one periodic term along one axis.
+
+    ``coef`` (n_terms,): monomial coefficients in um / mm^(i+j), then (with a period) the sine
+    and cosine amplitudes in um.
+    """
 
     degree: int
     coef: np.ndarray
     rmse: float  # sqrt(SSE / (n - n_terms)), um
+    period_mm: float | None = None
+    along: int = 0
+
+    @property
+    def name(self) -> str:
+        if self.period_mm is None:
+            return f"polynomial of degree {self.degree}"
+        return f"degree-{self.degree} polynomial + period {self.period_mm:.1f} mm along {'XY'[self.along]}"
 
     def __call__(self, u, v) -> np.ndarray:
-        return design(u, v, self.degree) @ (self.coef * self._scales())
+        return design(u, v, self.degree, self.period_mm, self.along) @ (self.coef * self._scales())
 
     def _scales(self) -> np.ndarray:
-        return np.array([_SCALE ** (i + j) for i, j in monomial_powers(self.degree)])
+        s = [_SCALE ** (i + j) for i, j in monomial_powers(self.degree)]
+        return np.array(s + ([1.0, 1.0] if self.period_mm is not None else []))
 
     def coef_std(self, u: np.ndarray, v: np.ndarray, sigma_um: float) -> np.ndarray:
         """1-sigma of ``coef`` for independent errors of ``sigma_um`` at the fitted points."""
-        A = design(u, v, self.degree)
+        A = design(u, v, self.degree, self.period_mm, self.along)
         return sigma_um * np.sqrt(np.diag(np.linalg.inv(A.T @ A))) / self._scales()
 
 
-def fit_polynomial(u: np.ndarray, v: np.ndarray, err_um: np.ndarray, degree: int = 3) -> Polynomial:
-    """Least-squares polynomial of total ``degree``; (n,), (n,), (n,) -> Polynomial."""
-    A = design(u, v, degree)
+def fit_polynomial(u: np.ndarray, v: np.ndarray, err_um: np.ndarray, degree: int = 3,
+                   period_mm: float | None = None, along: int = 0) -> Polynomial:
+    """Least-squares fit; (n,), (n,), (n,) -> Polynomial. Degree 3 alone is the seed's Eq. 5-9."""
+    A = design(u, v, degree, period_mm, along)
     n, p = A.shape
     if n <= p:
         raise ValueError(f"{n} points cannot fit {p} coefficients of a degree-{degree} polynomial")
     if np.linalg.matrix_rank(A) < p:
         raise ValueError("degenerate points: they do not span the polynomial")
-    c, *_ = np.linalg.lstsq(A, np.asarray(err_um, float), rcond=None)
-    r = err_um - A @ c
-    scales = np.array([_SCALE ** (i + j) for i, j in monomial_powers(degree)])
-    return Polynomial(degree=degree, coef=c / scales, rmse=float(np.sqrt(r @ r / (n - p))))
+    e = np.asarray(err_um, float)
+    c, *_ = np.linalg.lstsq(A, e, rcond=None)
+    r = e - A @ c
+    model = Polynomial(degree=degree, coef=c, rmse=float(np.sqrt(r @ r / (n - p))), period_mm=period_mm, along=along)
+    return dataclasses.replace(model, coef=c / model._scales())
 
 
-def select_degree(u: np.ndarray, v: np.ndarray, err_um: np.ndarray, degrees=range(1, 9), folds: int = 10,
-                  seed: int = 0) -> tuple[int, dict[int, float]]:
-    """Total degree with the least k-fold cross-validated RMS error; returns (degree, {d: rms})."""
+def cv_rms(u, v, err_um, folds: int = 10, seed: int = 0, **model) -> float:
+    """k-fold cross-validated RMS error (um) of ``fit_polynomial(..., **model)``."""
     n = len(err_um)
-    order = np.random.default_rng(seed).permutation(n)
     fold = np.empty(n, int)
-    fold[order] = np.arange(n) % folds
-    cv = {}
-    for d in degrees:
-        if len(monomial_powers(d)) >= n * (folds - 1) / folds:
-            break
-        sq = 0.0
-        for k in range(folds):
-            train, test = fold != k, fold == k
-            m = fit_polynomial(u[train], v[train], err_um[train], d)
-            sq += float(np.sum((err_um[test] - m(u[test], v[test])) ** 2))
-        cv[d] = float(np.sqrt(sq / n))
-    return min(cv, key=cv.get), cv
+    fold[np.random.default_rng(seed).permutation(n)] = np.arange(n) % folds
+    sq = 0.0
+    for k in range(folds):
+        train, test = fold != k, fold == k
+        m = fit_polynomial(u[train], v[train], err_um[train], **model)
+        sq += float(np.sum((err_um[test] - m(u[test], v[test])) ** 2))
+    return float(np.sqrt(sq / n))
+
+
+def select_model(u: np.ndarray, v: np.ndarray, err_um: np.ndarray, along: int, degrees=range(1, 9),
+                 periods_mm: np.ndarray | None = None, folds: int = 10) -> tuple[Polynomial, dict[str, float]]:
+    """The candidate with the least cross-validated RMS error, refitted on all points.
+
+    Candidates: polynomials of each degree, and the cubic plus a periodic term along ``along``
+    (the axis whose own scale or screw would make it) for each period in ``periods_mm``
+    (default 20 to 200 mm, log-spaced). Returns the model and {candidate: cv rms (um)}.
+    """
+    n = len(err_um)
+    cands = [dict(degree=d) for d in degrees if len(monomial_powers(d)) < n * (folds - 1) / folds]
+    span = float(np.ptp(u if along == 0 else v))
+    periods = np.geomspace(20.0, min(200.0, span), 60) if periods_mm is None else periods_mm
+    cands += [dict(degree=3, period_mm=float(p), along=along) for p in periods]
+    scores = {}
+    for c in cands:
+        scores[fit_name(c)] = (cv_rms(u, v, err_um, folds, **c), c)
+    best = min(scores.values(), key=lambda t: t[0])[1]
+    return fit_polynomial(u, v, err_um, **best), {k: s for k, (s, _) in scores.items()}
+
+
+def fit_name(c: dict) -> str:
+    if c.get("period_mm") is None:
+        return f"degree {c['degree']}"
+    return f"degree {c['degree']} + period {c['period_mm']:.1f} mm"
 
 
 @dataclasses.dataclass(frozen=True)
