@@ -88,22 +88,25 @@ def fit_polynomial(u: np.ndarray, v: np.ndarray, err_um: np.ndarray, degree: int
     return dataclasses.replace(model, coef=c / model._scales())
 
 
-def cv_rms(u, v, err_um, folds: int = 10, seed: int = 0, **model) -> float:
-    """k-fold cross-validated RMS error (um) of ``fit_polynomial(..., **model)``."""
+def cv_rms(u, v, err_um, folds: int = 10, seed: int = 0, **model) -> tuple[float, float]:
+    """k-fold cross-validated RMS error (um) of ``fit_polynomial(..., **model)``, and the
+    standard error of its mean square (from the spread of the folds), um^2."""
     n = len(err_um)
     fold = np.empty(n, int)
     fold[np.random.default_rng(seed).permutation(n)] = np.arange(n) % folds
-    sq = 0.0
+    mse = np.empty(folds)
     for k in range(folds):
         train, test = fold != k, fold == k
         m = fit_polynomial(u[train], v[train], err_um[train], **model)
-        sq += float(np.sum((err_um[test] - m(u[test], v[test])) ** 2))
-    return float(np.sqrt(sq / n))
+        mse[k] = float(np.mean((err_um[test] - m(u[test], v[test])) ** 2))
+    return float(np.sqrt(mse.mean())), float(mse.std(ddof=1) / np.sqrt(folds))
 
 
 def select_model(u: np.ndarray, v: np.ndarray, err_um: np.ndarray, along: int, degrees=range(1, 9),
                  periods_mm: np.ndarray | None = None, folds: int = 10) -> tuple[Polynomial, dict[str, float]]:
-    """The candidate with the least cross-validated RMS error, refitted on all points.
+    """The simplest candidate within one standard error of the least cross-validated error
+    (the one-standard-error rule: the minimum over many candidates, periods above all, is
+    itself optimistic), refitted on all points.
 
     Candidates: polynomials of each degree, and the cubic plus a periodic term along ``along``
     (the axis whose own scale or screw would make it) for each period in ``periods_mm``
@@ -114,11 +117,15 @@ def select_model(u: np.ndarray, v: np.ndarray, err_um: np.ndarray, along: int, d
     span = float(np.ptp(u if along == 0 else v))
     periods = np.geomspace(20.0, min(200.0, span), 60) if periods_mm is None else periods_mm
     cands += [dict(degree=3, period_mm=float(p), along=along) for p in periods]
-    scores = {}
-    for c in cands:
-        scores[fit_name(c)] = (cv_rms(u, v, err_um, folds, **c), c)
-    best = min(scores.values(), key=lambda t: t[0])[1]
-    return fit_polynomial(u, v, err_um, **best), {k: s for k, (s, _) in scores.items()}
+    scored = [(c, *cv_rms(u, v, err_um, folds, **c)) for c in cands]
+    rms_min, se_min = min((rms, se) for _, rms, se in scored)
+    within = [(_n_terms(c), rms, c) for c, rms, _ in scored if rms**2 <= rms_min**2 + se_min]
+    best = min(within, key=lambda t: (t[0], t[1]))[2]
+    return fit_polynomial(u, v, err_um, **best), {fit_name(c): rms for c, rms, _ in scored}
+
+
+def _n_terms(c: dict) -> int:
+    return len(monomial_powers(c["degree"])) + (2 if c.get("period_mm") is not None else 0)
 
 
 def fit_name(c: dict) -> str:

@@ -69,17 +69,20 @@ def _geom_mesh(model, g: int) -> trimesh.Trimesh | None:
 
 
 def log_mujoco_bodies(rec: rr.RecordingStream, model, root: str = "world",
-                      textures: dict[str, np.ndarray] | None = None) -> dict[int, str]:
+                      textures: dict[str, np.ndarray] | None = None, skip=lambda name: False) -> dict[int, str]:
     """Log every body's geoms once (static, in the body frame). Returns body id -> entity path.
 
     ``textures`` maps a box geom's name to an image (h, w, 3) drawn on its +z face as MuJoCo
-    draws a 2-D texture there (e.g. a calibration plate).
+    draws a 2-D texture there (e.g. a calibration plate); geoms whose name ``skip`` accepts are
+    left out (many small ones a scenario draws better itself).
     """
     paths = nested_paths(model, root)
     textures = textures or {}
     for g in range(model.ngeom):
         b = model.geom_bodyid[g]
         gname = model.geom(g).name or f"geom{g}"
+        if skip(gname):
+            continue
         parent = paths.get(b, root)
         if gname in textures:
             _log_textured_top(rec, f"{parent}/{gname}", model, g, textures[gname])
@@ -100,10 +103,17 @@ def _log_textured_top(rec, path, model, g, image):
     hx, hy, hz = model.geom_size[g]
     R = trimesh.transformations.quaternion_matrix(model.geom_quat[g])[:3, :3]
     corners = np.array([[-hx, -hy, hz], [hx, -hy, hz], [hx, hy, hz], [-hx, hy, hz]]) @ R.T + model.geom_pos[g]
-    # MuJoCo draws image row 0 along the face's +y edge; rerun's texcoord v = 0 is row 0.
-    uv = np.array([[0, 1], [1, 1], [1, 0], [0, 0]], float)
+    log_textured_quad(rec, path, corners, image)
+
+
+def log_textured_quad(rec: rr.RecordingStream, path: str, corners: np.ndarray, image: np.ndarray) -> None:
+    """A flat quad (corners (4, 3): -x-y, +x-y, +x+y, -x+y of its own frame) showing ``image``
+    with row 0 along its +y edge, as MuJoCo draws a 2-D texture on a box face."""
+    uv = np.array([[0, 1], [1, 1], [1, 0], [0, 0]], float)  # rerun's texcoord v = 0 is row 0
+    normal = np.cross(corners[1] - corners[0], corners[3] - corners[0])
+    normal /= np.linalg.norm(normal)
     rec.log(path, rr.Mesh3D(vertex_positions=corners, triangle_indices=[[0, 1, 2], [0, 2, 3]],
-                            vertex_normals=np.tile(R[:, 2], (4, 1)), vertex_texcoords=uv,
+                            vertex_normals=np.tile(normal, (4, 1)), vertex_texcoords=uv,
                             albedo_texture=image), static=True)
 
 

@@ -5,24 +5,48 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
+
+from estimators.compensation import fit_polynomial
 from estimators.error_map import fit_quadratic
 from scenarios.report import BadInput
 from sim.recording import StageRecording, load_stage_csv
 
+N_COEF = {"quadratic": 6, "cubic": 10}
+
 
 def fit_recording(scenario: str, model: str, recording: StageRecording) -> dict:
-    """Per-axis fits of the error (measured - commanded) against the commanded position."""
-    if model != "quadratic":
+    """Per-axis fits of the error (measured - commanded) against the commanded position.
+
+    ``quadratic``: the belt-stage seed's Eq. 1 (c0..c5); ``cubic``: the vision-stage seed's
+    Eq. 5-9 (a0..a9 on 1, x, y, x^2, xy, y^2, x^3, x^2 y, x y^2, y^3).
+    """
+    if model not in N_COEF:
         raise BadInput(f"fit: model {model!r} is not implemented")
     axes = {}
+    x, y = recording.x_cmd_mm, recording.y_cmd_mm
     for axis, err in (("x", recording.x_err_mm), ("y", recording.y_err_mm)):
         try:
-            f = fit_quadratic(recording.x_cmd_mm, recording.y_cmd_mm, err)
+            if model == "quadratic":
+                axes[axis] = fit_quadratic(x, y, err).as_dict()
+            else:
+                axes[axis] = _cubic(x, y, err)
         except ValueError as e:
             raise BadInput(f"fit: axis {axis}: {e}") from None
-        axes[axis] = f.as_dict()
+    p = N_COEF[model]
     return {"scenario": scenario, "model": model, "axes": axes, "unit": "mm",
-            "note": "rmse = sqrt(sse / (n - 6)); std are 1-sigma from the residuals"}
+            "note": f"rmse = sqrt(sse / (n - {p})); std are 1-sigma from the residuals"}
+
+
+def _cubic(x, y, err) -> dict:
+    f = fit_polynomial(x, y, err, degree=3)
+    r = err - f(x, y)
+    sse = float(r @ r)
+    sst = float(np.sum((err - err.mean()) ** 2))
+    names = [f"a{k}" for k in range(10)]
+    return {"coef": dict(zip(names, map(float, f.coef))),
+            "std": dict(zip(names, map(float, f.coef_std(x, y, f.rmse)))),
+            "sse": sse, "r2": 1 - sse / sst if sst > 0 else None, "rmse": f.rmse, "n": len(err)}
 
 
 def run_fit(scenario: str, model: str, csv_path: Path, out_dir: Path) -> dict:

@@ -80,6 +80,7 @@ def build_mjcf(g: VisionStageGeometry, tile_offsets_mm: np.ndarray | None = None
     place (the plate's manufacturing error); the sim passes it, nominal is zero."""
     cam = g.camera
     attrs = " ".join(f'{k}="{v}"' for k, v in cam.mjcf_attributes().items())
+    pad = cam.padding_px()  # the renderer's border, kept for a lens with distortion
     z_plate = g.plate_surface_mm / 1000
     z_cam = z_plate + g.working_distance_mm / 1000
     xg = np.array(g.x_guide_ref_mm) / 1000
@@ -97,22 +98,26 @@ def build_mjcf(g: VisionStageGeometry, tile_offsets_mm: np.ndarray | None = None
     # under the microscope at readings (0, 0) and the plate frame's origin (circle 0, 0) at the
     # plate origin reading.
     error_joints = lambda p: "\n".join([  # noqa: E731
-        f'<joint name="{p}x" type="slide" axis="-1 0 0" range="-0.01 0.01"/>',
-        f'<joint name="{p}y" type="slide" axis="0 -1 0" range="-0.01 0.01"/>',
-        f'<joint name="{p}z" type="slide" axis="0 0 1" range="-0.01 0.01"/>',
-        f'<joint name="{p}a" type="hinge" axis="-1 0 0" range="-0.01 0.01"/>',
-        f'<joint name="{p}b" type="hinge" axis="0 -1 0" range="-0.01 0.01"/>',
-        f'<joint name="{p}c" type="hinge" axis="0 0 1" range="-0.01 0.01"/>'])
+        f'<joint name="{p}x" type="slide" axis="-1 0 0" range="-0.01 0.01" class="error"/>',
+        f'<joint name="{p}y" type="slide" axis="0 -1 0" range="-0.01 0.01" class="error"/>',
+        f'<joint name="{p}z" type="slide" axis="0 0 1" range="-0.01 0.01" class="error"/>',
+        f'<joint name="{p}a" type="hinge" axis="-1 0 0" range="-0.01 0.01" class="error"/>',
+        f'<joint name="{p}b" type="hinge" axis="0 -1 0" range="-0.01 0.01" class="error"/>',
+        f'<joint name="{p}c" type="hinge" axis="0 0 1" range="-0.01 0.01" class="error"/>'])
     xml = f"""
 <mujoco model="vision-stage">
   <compiler angle="radian"/>
   <option gravity="0 0 -9.81" timestep="0.002"/>
   <visual>
-    <global offwidth="{cam.width}" offheight="{cam.height}"/>
+    <global offwidth="{cam.width + 2 * pad}" offheight="{cam.height + 2 * pad}"/>
     <headlight ambient="0.6 0.6 0.6" diffuse="0.2 0.2 0.2" specular="0 0 0"/>
     <map znear="0.001" zfar="50"/>
   </visual>
-  <default><joint damping="5" armature="0.01"/></default>
+  <default>
+    <joint damping="5" armature="0.01"/>
+    <!-- error joints are set kinematically; stiff springs hold them if the world is stepped -->
+    <default class="error"><joint stiffness="1e5" damping="100"/></default>
+  </default>
   <asset>
     <texture name="circle" type="2d" file="circle.png"/>
     <material name="circle" texture="circle" emission="1" specular="0" shininess="0"/>

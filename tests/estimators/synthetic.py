@@ -52,3 +52,19 @@ def random_views(rng, board_pts, K, n_views, size=(640, 480), depth=(500.0, 900.
             poses.append((R, t))
             pix.append(p)
     return poses, pix
+
+
+def raster_disc(K: np.ndarray, R: np.ndarray, t: np.ndarray, radius: float, size=(768, 576),
+                supersample: int = 4, dark: float = 20.0, bright: float = 230.0) -> np.ndarray:
+    """Float image of a dark disc of ``radius`` centred at the origin of the plane (R, t)."""
+    W, Hh = size
+    Hi = np.linalg.inv(K @ np.c_[R[:, 0], R[:, 1], t])
+    off = (np.arange(supersample) + 0.5) / supersample - 0.5
+    v, u = np.mgrid[0:Hh, 0:W].astype(float)
+    acc = np.zeros((Hh, W))
+    for dv in off:
+        for du in off:
+            p = np.stack([u + du, v + dv, np.ones_like(u)], -1) @ Hi.T
+            X, Y = p[..., 0] / p[..., 2], p[..., 1] / p[..., 2]
+            acc += np.where(X * X + Y * Y <= radius * radius, dark, bright)
+    return acc / supersample**2

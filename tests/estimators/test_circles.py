@@ -1,0 +1,49 @@
+"""Circle centres on exact synthetic images, and the perspective bias of a circle's centre."""
+
+import cv2
+import numpy as np
+import pytest
+
+from estimators.circles import ellipse_centre_bias, find_dark_circle
+from tests.estimators.synthetic import raster_disc
+
+F = 150.0 / 0.0104
+K = np.array([[F, 0, 383.5], [0, F, 287.5], [0, 0, 1]])
+
+
+def _image(R, t, rng, noise=2.0, blur=0.8):
+    img = cv2.GaussianBlur(raster_disc(K, R, t, 2.5), (0, 0), blur) + rng.normal(0, noise, (576, 768))
+    return np.clip(np.rint(img), 0, 255).astype(np.uint8)
+
+
+def test_fronto_parallel_centres_within_a_hundredth_of_a_pixel():
+    rng = np.random.default_rng(10)
+    errs = []
+    for _ in range(6):
+        t = np.array([rng.uniform(-0.4, 0.4), rng.uniform(-0.3, 0.3), 150.0])
+        fit = find_dark_circle(_image(np.eye(3), t, rng), )
+        truth = (K @ t)[:2] / t[2]
+        errs.append(fit.centre - truth)
+        assert fit.radius_px == pytest.approx(2.5 * F / 150, rel=2e-3)
+    assert np.sqrt(np.mean(np.sum(np.square(errs), axis=1))) < 0.01
+
+
+def test_tilted_view_bias_is_predicted_by_the_image_conic():
+    """At 0.3 rad tilt the ellipse centre lies about a pixel from the image of the circle's
+    centre; the conic's prediction removes it to the detector's noise."""
+    rng = np.random.default_rng(11)
+    R = cv2.Rodrigues(np.array([0.3, 0.06, 0.0]))[0]
+    t = np.array([0.02, -0.03, 150.0])
+    fit = find_dark_circle(_image(R, t, rng))
+    truth = (K @ t)[:2] / t[2]
+    bias = ellipse_centre_bias(K, R, t, 2.5)
+    assert np.linalg.norm(bias) > 0.5
+    assert np.linalg.norm(fit.centre - truth - bias) < 0.01
+    assert np.allclose(ellipse_centre_bias(K, np.eye(3), t, 2.5), 0, atol=1e-12)
+
+
+def test_no_whole_circle_gives_none():
+    rng = np.random.default_rng(12)
+    assert find_dark_circle(np.full((576, 768), 200, np.uint8)) is None
+    cut = _image(np.eye(3), np.array([3.0, 0.0, 150.0]), rng)  # centre 2900 px off: only an arc
+    assert find_dark_circle(cut) is None
