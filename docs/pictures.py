@@ -8,8 +8,11 @@ import mujoco
 import numpy as np
 
 from estimators.chessboard import find_chessboard_corners
+from estimators.circles import find_dark_circle
 from scenes.belt_stage import BeltStageGeometry
+from scenes.vision_stage import VisionStageGeometry
 from sim.belt_stage import BeltStageSim, BeltStageTruth
+from sim.vision_stage import VisionStageSim, VisionStageTruth
 
 HERE = Path(__file__).parent
 
@@ -34,6 +37,23 @@ def main() -> None:
     for u, v in corners:
         cv2.circle(view, (int(round(u)), int(round(v))), 3, (40, 220, 90), -1, cv2.LINE_AA)
     cv2.imwrite(str(HERE / "belt_stage.png"), np.hstack([overview, view])[..., ::-1])
+    s.close()
+    vision_stage()
+
+
+def vision_stage() -> None:
+    """The microscope's view of a circle near the image centre, with the detected centre."""
+    g = VisionStageGeometry()
+    s = VisionStageSim(g, VisionStageTruth(), np.random.default_rng(0))
+    s.move(7.02, 8.98)
+    img = s.render(noise_dn=2.0, psf_px=1.0)
+    fit = find_dark_circle(img)
+    view = img.copy()
+    c = tuple(int(round(x)) for x in fit.centre)
+    cv2.drawMarker(view, c, (40, 220, 90), cv2.MARKER_CROSS, 40, 2, cv2.LINE_AA)
+    cv2.circle(view, c, int(round(fit.radius_px)), (40, 220, 90), 1, cv2.LINE_AA)
+    cv2.drawMarker(view, (384, 288), (230, 60, 50), cv2.MARKER_TILTED_CROSS, 20, 1, cv2.LINE_AA)
+    cv2.imwrite(str(HERE / "vision_stage_microscope.png"), view[..., ::-1])
     s.close()
 
 
