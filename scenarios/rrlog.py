@@ -172,6 +172,14 @@ def log_arrows3d(rec: rr.RecordingStream, path: str, origins: np.ndarray, vector
     rec.log(path, rr.Arrows3D(origins=origins, vectors=vectors, colors=color, radii=radius), static=static)
 
 
+def log_line_strips2d(rec: rr.RecordingStream, path: str, strips: list[np.ndarray], color) -> None:
+    rec.log(path, rr.LineStrips2D([np.asarray(s, float) for s in strips], colors=color), static=True)
+
+
+def log_line_strips3d(rec: rr.RecordingStream, path: str, strips: list[np.ndarray], color) -> None:
+    rec.log(path, rr.LineStrips3D([np.asarray(s, float) for s in strips], colors=color), static=True)
+
+
 def log_scalar(rec: rr.RecordingStream, path: str, value: float) -> None:
     rec.log(path, rr.Scalars([float(value)]))
 

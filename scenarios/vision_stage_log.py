@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from scenarios import rrlog
+from scenes.camera import MJ_TO_CV
 
 ARROW_GAIN = 1000.0  # um-sized errors drawn 1000 x (1 um -> 1 mm)
 
@@ -65,7 +66,5 @@ def log_run(path: Path, report, a: dict) -> None:
 
 
 def _cam2world(sim):
-    from sim.camera import MJ_TO_CV
-
     c = sim.model.camera("microscope").id
     return sim.data.cam_xmat[c].reshape(3, 3) @ MJ_TO_CV, sim.data.cam_xpos[c].copy()

@@ -17,7 +17,7 @@ import dataclasses
 import numpy as np
 
 from scenes.checkerboard import Chessboard
-from sim.camera import PinholeCamera
+from scenes.camera import PinholeCamera
 
 STAGE_BOARD_GROUP = 2
 CALIB_BOARD_GROUP = 3

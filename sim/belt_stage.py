@@ -16,7 +16,7 @@ import numpy as np
 
 from scenes.belt_stage import (CALIB_BOARD_GROUP, CALIB_BOARD_PARK, STAGE_BOARD_GROUP,
                                BeltStageGeometry, board_to_body, build_mjcf)
-from sim.camera import MJ_TO_CV, world_to_cv_camera
+from scenes.camera import MJ_TO_CV, world_to_cv_camera
 from sim.renderer import LensRenderer
 
 PULSES_PER_MM = 250.0  # 25,000 pulses = 100 mm

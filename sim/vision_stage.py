@@ -20,7 +20,7 @@ import mujoco
 import numpy as np
 
 from scenes.vision_stage import VisionStageGeometry, build_mjcf
-from sim.camera import world_to_cv_camera
+from scenes.camera import MJ_TO_CV, world_to_cv_camera
 from sim.renderer import LensRenderer
 
 
@@ -207,8 +207,6 @@ class VisionStageSim:
 
     def plate2cam(self) -> tuple[np.ndarray, np.ndarray]:
         """The plate frame in the OpenCV camera frame: R (3, 3), t (3,) mm."""
-        from sim.camera import MJ_TO_CV
-
         Rc = self.data.cam_xmat[self._cam].reshape(3, 3) @ MJ_TO_CV
         Rp = self.data.xmat[self._plate].reshape(3, 3)
         return Rc.T @ Rp, Rc.T @ (self.data.xpos[self._plate] - self.data.cam_xpos[self._cam]) * 1000

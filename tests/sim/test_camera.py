@@ -8,7 +8,7 @@ import pytest
 from estimators.chessboard import find_chessboard_corners
 from scenes.belt_stage import BeltStageGeometry, build_mjcf
 from sim.belt_stage import BeltStageSim, BeltStageTruth
-from sim.camera import PIXEL_PITCH_M, PinholeCamera
+from scenes.camera import PIXEL_PITCH_M, PinholeCamera
 
 
 def test_projection_matches_opencv():
@@ -91,3 +91,17 @@ def test_stage_moves_by_pulses_plus_the_error_map():
         np.testing.assert_allclose(true_mm, cmd + truth.error_mm(cmd[:1], cmd[1:])[0], atol=1e-12)
         np.testing.assert_allclose(sim.carriage_mm(), true_mm, atol=1e-9)  # from MuJoCo's kinematics
     np.testing.assert_allclose(sim.move(0, 0), [0, 0], atol=1e-12)  # homed: no error at (0, 0)
+
+
+def test_probe_rays_match_the_exact_rounded_square():
+    """MuJoCo's mj_ray on the wall geoms against the estimator's closed-form reading: two
+    independent routes to the same geometry (the walls are chords: <0.1 um sagitta)."""
+    from estimators.rotary_probe import rounded_square_rho
+    from scenes.probe_scanner import ProbeScannerGeometry
+    from sim.probe_scanner import ProbeScannerSim, ProbeScannerTruth
+
+    truth = ProbeScannerTruth()
+    sim = ProbeScannerSim(ProbeScannerGeometry(), truth)
+    th = np.linspace(0, 2 * np.pi, 400, endpoint=False)
+    exact = rounded_square_rho(th, truth.d_mm, truth.dL_mm, truth.alpha0_rad, truth.plate_centre_mm, 22.5, 5.0)
+    np.testing.assert_allclose(sim.exact_rho("plate", th), exact, atol=1e-4)

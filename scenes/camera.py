@@ -1,4 +1,4 @@
-"""The world's camera: exact pinhole intrinsics in MJCF plus Brown-Conrady lens distortion.
+"""A camera as built: exact pinhole intrinsics for the MJCF, Brown-Conrady lens distortion.
 
 Frames. MuJoCo's camera frame looks along -z with y up; calibench's camera frame is OpenCV's:
 x right, y down, z forward (``cv = diag(1, -1, -1) @ mj``). Pixels use OpenCV's convention:

@@ -1,0 +1,101 @@
+"""The as-built frame tracer: the rail's true (d, dL, alpha0), the plate's placement, the probe.
+
+A reading is MuJoCo's ray from the stylus's start point Q along the rail against the walls of
+one part (``mj_ray``), at the turntable's true angle; the probe then adds its noise and the
+linear encoder quantises. The table's angle at a sample is the encoder's nominal angle plus a
+small jitter (the sampling's timing).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import mujoco
+import numpy as np
+
+from scenes.probe_scanner import LENS_GROUP, PLATE_GROUP, ProbeScannerGeometry, build_mjcf
+
+
+@dataclasses.dataclass(frozen=True)
+class ProbeScannerTruth:
+    d_mm: float = 8.0
+    dL_mm: float = 3.0
+    alpha0_rad: float = 0.35
+    plate_centre_mm: tuple[float, float] = (0.12, -0.08)  # the plate as clamped in the holder
+    probe_noise_um: float = 2.0  # 1-sigma, before quantisation
+    quantum_um: float = 5.0  # the linear encoder's step
+    angle_jitter_deg: float = 0.003  # 1-sigma
+
+
+@dataclasses.dataclass
+class Scan:
+    """One turn of the tracer: encoder angles (n,) rad and readings (n,) mm."""
+
+    theta_rad: np.ndarray
+    rho_mm: np.ndarray
+
+
+class ProbeScannerSim:
+    def __init__(self, geometry: ProbeScannerGeometry, truth: ProbeScannerTruth):
+        self.geometry, self.truth = geometry, truth
+        xml = build_mjcf(geometry, truth.d_mm, truth.dL_mm, truth.alpha0_rad, truth.plate_centre_mm)
+        self.model = mujoco.MjModel.from_xml_string(xml)
+        self.data = mujoco.MjData(self.model)
+        self._theta = self.model.jnt_qposadr[self.model.joint("theta").id]
+        self._q = self.model.site("Q").id
+        self._dir = self.model.site("rail_dir").id
+        self._geomid = np.zeros(1, np.int32)
+
+    def turn_to(self, theta_rad: float) -> None:
+        self.data.qpos[self._theta] = theta_rad
+        mujoco.mj_kinematics(self.model, self.data)
+
+    def ray_mm(self, part: str) -> float:
+        """Exact distance from Q along the rail to ``part``'s wall at the current angle, mm."""
+        group = np.zeros(6, np.uint8)
+        group[PLATE_GROUP if part == "plate" else LENS_GROUP] = 1
+        q = self.data.site_xpos[self._q]
+        u = self.data.site_xpos[self._dir] - q
+        u /= np.linalg.norm(u)
+        dist = mujoco.mj_ray(self.model, self.data, q, u, group, 1, -1, self._geomid)
+        if dist < 0:
+            raise RuntimeError(f"the stylus found no wall of the {part} at angle {self.data.qpos[self._theta]:.4f}")
+        return dist * 1000
+
+    def exact_rho(self, part: str, theta_rad: np.ndarray) -> np.ndarray:
+        """Noise-free readings at true table angles (n,) -> (n,) mm."""
+        out = np.empty(len(theta_rad))
+        for i, th in enumerate(theta_rad):
+            self.turn_to(th)
+            out[i] = self.ray_mm(part)
+        return out
+
+    def scan(self, part: str, rng: np.random.Generator) -> tuple[Scan, np.ndarray]:
+        """One turn: the recording and, kept apart, the true table angles (n,)."""
+        n = self.geometry.samples_per_turn
+        nominal = np.arange(n) * 2 * np.pi / n
+        true_theta = nominal + rng.normal(0, np.deg2rad(self.truth.angle_jitter_deg), n)
+        return self.record(self.exact_rho(part, true_theta), rng), true_theta
+
+    def record(self, exact_rho_mm: np.ndarray, rng: np.random.Generator) -> Scan:
+        """The probe's noise and the encoder's quantisation on exact readings."""
+        t = self.truth
+        n = len(exact_rho_mm)
+        noisy = exact_rho_mm + rng.normal(0, t.probe_noise_um / 1000, n)
+        q = t.quantum_um / 1000
+        return Scan(theta_rad=np.arange(n) * 2 * np.pi / n, rho_mm=np.round(noisy / q) * q)
+
+    def true_outline_mm(self, part: str) -> np.ndarray:
+        """The part's exact outline in the holder frame, dense, (n, 2) mm."""
+        g = self.geometry
+        if part == "plate":
+            return densify(g.plate.outline(n_per_corner=4000), 0.001) + np.asarray(self.truth.plate_centre_mm)
+        return g.lens.outline(n=200000)
+
+
+def densify(outline_mm: np.ndarray, step_mm: float) -> np.ndarray:
+    """A closed polyline resampled every ``step_mm`` of arc length, (m, 2)."""
+    closed = np.vstack([outline_mm, outline_mm[:1]])
+    s = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(closed, axis=0), axis=1))]
+    t = np.arange(0.0, s[-1], step_mm)
+    return np.c_[np.interp(t, s, closed[:, 0]), np.interp(t, s, closed[:, 1])]
