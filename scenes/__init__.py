@@ -3,7 +3,7 @@
 ``SCENES`` maps each scene's name to a function returning its default MJCF and assets.
 """
 
-from scenes import belt_stage, probe_scanner, vision_stage
+from scenes import arm_cmm, belt_stage, probe_scanner, vision_stage
 
 
 def _belt_stage_default():
@@ -19,8 +19,17 @@ def _probe_scanner_default():
     return probe_scanner.build_mjcf(probe_scanner.ProbeScannerGeometry(), n.d_mm, n.dL_mm, n.alpha0_rad), {}
 
 
+def _arm_cmm_default():
+    import numpy as np
+
+    g = arm_cmm.ArmGeometry()
+    return arm_cmm.build_mjcf(g, g.a_mm, g.d_mm, g.alpha_rad, np.zeros(7), g.reflector_offset_mm,
+                              (2.2, -0.9, 0.35), (1, 0, 0, 0), ((0.45, 0.25, -0.15), (0.45, -0.35, -0.15))), {}
+
+
 SCENES = {
     "belt-stage": _belt_stage_default,
     "vision-stage": _vision_stage_default,
     "probe-scanner": _probe_scanner_default,
+    "arm-cmm": _arm_cmm_default,
 }
