@@ -109,9 +109,10 @@ class ArmSim:
         return np.array(out[:n])
 
     def postures_in_cone(self, cone_mm: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:
-        """n different true postures with the probe at ``cone_mm`` (inverse kinematics on
-        MuJoCo's site Jacobian, damped least squares, from random starts)."""
-        target = np.asarray(cone_mm, float) / 1000
+        """n different true postures with the probe seated in the cone at ``cone_mm``: each
+        seating puts the ball's centre ``cone_seat_um`` (1-sigma) off the cone's centre (inverse
+        kinematics on MuJoCo's site Jacobian, damped least squares, from random starts)."""
+        cone = np.asarray(cone_mm, float) / 1000
         lim = np.array(self.geometry.joint_limits_rad)
         out, tries = [], 0
         while len(out) < n:
@@ -119,6 +120,7 @@ class ArmSim:
             if tries > 50 * n:
                 raise ValueError(f"the cone at {cone_mm} mm is out of the arm's reach")
             q = rng.uniform(lim[:, 0], lim[:, 1])
+            target = cone + rng.normal(0, self.truth.cone_seat_um * 1e-6, 3)
             for _ in range(100):
                 self.set_posture(q)
                 mujoco.mj_comPos(self.model, self.data)  # the Jacobian needs the dof axes
