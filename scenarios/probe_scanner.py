@@ -68,7 +68,8 @@ def run(config: ProbeScannerConfig, seed: int, fidelity: str, out_dir: Path, rrd
     }
     rms = {k: float(np.sqrt(np.mean(tree.query(p)[0] ** 2))) for k, p in contours.items()}
 
-    report = Report(scenario=NAME, seed=seed, fidelity=fidelity)
+    # no pixels here: the sensors are MuJoCo's geometry plus noise models, whatever was asked
+    report = Report(scenario=NAME, seed=seed, fidelity="analytic")
     # the four minima give alpha0 through asin(d / a): a d within the requirement moves it by
     # up to requirement / a, so that is alpha0's requirement for the paper's method
     req = config.d_requirement_mm
