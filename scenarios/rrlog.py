@@ -176,8 +176,9 @@ def log_line_strips2d(rec: rr.RecordingStream, path: str, strips: list[np.ndarra
     rec.log(path, rr.LineStrips2D([np.asarray(s, float) for s in strips], colors=color), static=True)
 
 
-def log_line_strips3d(rec: rr.RecordingStream, path: str, strips: list[np.ndarray], color) -> None:
-    rec.log(path, rr.LineStrips3D([np.asarray(s, float) for s in strips], colors=color), static=True)
+def log_line_strips3d(rec: rr.RecordingStream, path: str, strips: list[np.ndarray], color,
+                      static: bool = True) -> None:
+    rec.log(path, rr.LineStrips3D([np.asarray(s, float) for s in strips], colors=color), static=static)
 
 
 def log_scalar(rec: rr.RecordingStream, path: str, value: float) -> None:

@@ -3,7 +3,7 @@
 ``SCENES`` maps each scene's name to a function returning its default MJCF and assets.
 """
 
-from scenes import arm_cmm, belt_stage, probe_scanner, vision_stage
+from scenes import arm_cmm, belt_stage, probe_scanner, stewart, vision_stage
 
 
 def _belt_stage_default():
@@ -27,9 +27,15 @@ def _arm_cmm_default():
                               (2.2, -0.9, 0.35), (1, 0, 0, 0), ((0.45, 0.25, -0.15), (0.45, -0.35, -0.15))), {}
 
 
+def _stewart_default():
+    g = stewart.StewartGeometry()
+    return stewart.build_mjcf(g, g.base_hinges_mm, g.platform_hinges_mm, g.reflectors_mm, g.station_holes_mm), {}
+
+
 SCENES = {
     "belt-stage": _belt_stage_default,
     "vision-stage": _vision_stage_default,
     "probe-scanner": _probe_scanner_default,
     "arm-cmm": _arm_cmm_default,
+    "stewart": _stewart_default,
 }

@@ -19,7 +19,6 @@ def _bad(capsys, argv, fragment):
 
 def test_bad_input_exits_2_with_one_line(capsys, tmp_path):
     _bad(capsys, ["run", "no-such-scenario"], "unknown scenario")
-    _bad(capsys, ["run", "stewart"], "not built yet")
     _bad(capsys, ["fit", "belt-stage", str(tmp_path / "missing.csv")], "cannot read")
     _bad(capsys, ["run", "belt-stage", "--config", str(tmp_path / "missing.toml")], "cannot read config")
     (tmp_path / "bad.toml").write_text("this is = = not toml")

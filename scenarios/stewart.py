@@ -1,0 +1,207 @@
+"""Scenario ``stewart``: calibrate a Stewart platform's 42 leg parameters with tracker lengths.
+
+1. The tracker's three stations (its rotation centre in holes M1-M3): trilateration from the
+   lengths to three reference nests of known position (Eq. 1), uncertainty by Eq. 4-5.
+2. A platform pose: the three reflectors multilaterated from the three stations, then the rigid
+   transform of their known platform coordinates.
+3. One-step: 60 poses with all six legs' readings; per leg, the seven unknowns by least squares.
+4. Two-step, per leg: the leg locked, the platform translated (orientation held) to nine
+   non-coplanar places, three times at three orientations 10 degrees apart: the platform origin
+   runs on a sphere of the leg's length about B - R r (Eq. 2); the three centres give r, then
+   B and l.
+5. Held-out poses: the pose computed from the legs' readings (forward kinematics) with the
+   nominal and with the calibrated parameters, against the true pose.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+from estimators.pose import mean_rotation
+from estimators.stewart import (calibrate_leg, fit_sphere, forward_kinematics, multilaterate, rigid_transform,
+                                trilaterate)
+from scenarios.report import Check, Parameter, Report
+from scenes.stewart import StewartGeometry
+from sim.stewart import StewartSim, StewartTruth
+
+NAME = "stewart"
+TOL_SIGMA = 5.0
+LEG_PARAMS = ("a", "b", "c", "m", "n", "q", "l")
+
+
+@dataclasses.dataclass(frozen=True)
+class StewartConfig:
+    geometry: StewartGeometry = StewartGeometry()
+    truth: StewartTruth = StewartTruth()
+    n_poses: int = 60
+    n_holdout: int = 20
+    translation_mm: float = 150.0  # the machine's working range about home
+    rotation_deg: float = 10.0
+    closure_limit_um: float = 0.1
+    after_limit_um: float = 20.0
+
+
+def _rot(w):
+    th = np.linalg.norm(w)
+    if th < 1e-15:
+        return np.eye(3)
+    k = w / th
+    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + np.sin(th) * K + (1 - np.cos(th)) * K @ K
+
+
+def random_poses(n, rng, config):
+    home = np.array([0, 0, config.geometry.home_height_mm])
+    rot = np.deg2rad(config.rotation_deg)
+    return [(_rot(rng.uniform(-rot, rot, 3)), home + rng.uniform(-1, 1, 3) * config.translation_mm) for _ in range(n)]
+
+
+def locate_stations(sim: StewartSim):
+    """Each station from its lengths to the three nests (Eq. 1), with covariance (Eq. 4-5)."""
+    g = sim.geometry
+    out = []
+    for s in range(3):
+        d = sim.distances_mm(s, g.reference_nests_mm)
+        out.append(trilaterate(g.reference_nests_mm, d, sim.length_sigma_mm(d), above=np.array([0, 0, 1.0])))
+    return np.array([p for p, _ in out]), [c for _, c in out]
+
+
+def measure_pose(sim: StewartSim, stations: np.ndarray, R_guess, t_guess):
+    """The platform's pose from the tracker: reflectors multilaterated, then a rigid fit."""
+    g = sim.geometry
+    refl_true = sim.reflectors_mm()
+    pts = []
+    for k in range(3):
+        d = np.array([sim.distances_mm(s, refl_true[k:k + 1])[0] for s in range(3)])
+        guess = R_guess @ g.reflectors_mm[k] + t_guess
+        pts.append(multilaterate(stations, d, sim.length_sigma_mm(d), guess)[0])
+    return rigid_transform(g.reflectors_mm, np.array(pts))
+
+
+def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool) -> Report:
+    rng = np.random.default_rng(seed)
+    g = config.geometry
+    sim = StewartSim(g, config.truth, np.random.default_rng(rng.integers(2**63)))
+    stations, station_cov = locate_stations(sim)
+    station_err = np.linalg.norm(stations - sim.stations, axis=1)
+
+    # one-step data
+    poses = random_poses(config.n_poses, rng, config)
+    meas_R, meas_t, readings = [], [], []
+    for R, t in poses:
+        sim.set_pose(R, t)
+        readings.append(sim.readings_mm())
+        Rm, tm = measure_pose(sim, stations, R, t)
+        meas_R.append(Rm)
+        meas_t.append(tm)
+    meas_R, meas_t, readings = np.array(meas_R), np.array(meas_t), np.array(readings)
+    # each equation's sigma: the reading plus what the pose's error does at the hinge (~1 um)
+    sigma = np.full(len(poses), np.hypot(config.truth.reading_noise_um, 1.0) / 1000)
+    legs = [calibrate_leg(meas_R, meas_t, readings[:, i], g.platform_hinges_mm[i], g.base_hinges_mm[i],
+                          g.initial_lengths_mm[i], sigma) for i in range(6)]
+
+    # two-step
+    two_step, spheres = [], []
+    for i in range(6):
+        cal, sph = two_step_leg(sim, stations, i, rng)
+        two_step.append(cal)
+        spheres.append(sph)
+
+    # held-out poses: the pose from the readings, nominal vs calibrated
+    hold = random_poses(config.n_holdout, rng, config)
+    err = {"before": [], "after": [], "two_step": []}
+    nominal = (g.platform_hinges_mm, g.base_hinges_mm, g.initial_lengths_mm)
+    one = (np.array([c.r for c in legs]), np.array([c.B for c in legs]), np.array([c.l for c in legs]))
+    two = (np.array([c[0] for c in two_step]), np.array([c[1] for c in two_step]), np.array([c[2] for c in two_step]))
+    home = (np.eye(3), np.array([0, 0, g.home_height_mm]))
+    for R, t in hold:
+        sim.set_pose(R, t)
+        read = sim.readings_mm()
+        true_pts = sim.r @ R.T + t
+        for key, (r, B, l) in (("before", nominal), ("after", one), ("two_step", two)):
+            Rf, tf = forward_kinematics(l + read, r, B, *home)
+            # the pose's error seen at the nominal hinge points (position and turn together)
+            err[key].append(np.linalg.norm((g.platform_hinges_mm @ Rf.T + tf) - (g.platform_hinges_mm @ R.T + t), axis=1))
+    rms = {k: float(np.sqrt(np.mean(np.square(v)))) * 1000 for k, v in err.items()}
+
+    report = Report(scenario=NAME, seed=seed, fidelity="analytic")
+    truth_vals = [np.r_[sim.r[i], sim.B[i], sim.l0[i]] for i in range(6)]
+    for i, c in enumerate(legs):
+        est = np.r_[c.r, c.B, c.l]
+        for k, name in enumerate(LEG_PARAMS):
+            report.parameters.append(Parameter(f"leg{i + 1}_{name}", "mm", float(truth_vals[i][k]), float(est[k]),
+                                               float(c.std[k]), TOL_SIGMA * float(c.std[k])))
+    predicted = np.array([np.sqrt(np.diag(c)) for c in station_cov]) * 1000
+    report.checks += [
+        Check("loop_closure_um", sim.max_closure_um, config.closure_limit_um,
+              note="largest gap between a leg's end and its platform hinge over every pose set"),
+        Check("station_error_um", float(station_err.max() * 1000), float(5 * predicted.max() * np.sqrt(3)),
+              note="largest station position error; limit 5 x its propagated 1-sigma (Eq. 4-5)"),
+        Check("pose_rms_before_um", rms["before"], None, note=f"{config.n_holdout} held-out poses, nominal parameters"),
+        Check("pose_rms_after_um", rms["after"], config.after_limit_um, note="held-out poses, one-step calibration"),
+        Check("pose_rms_after_two_step_um", rms["two_step"], None, note="held-out poses, two-step calibration"),
+    ]
+    two_err = np.array([np.r_[c[0], c[1], c[2]] for c in two_step]) - np.array(truth_vals)
+    one_err = np.array([np.r_[c.r, c.B, c.l] for c in legs]) - np.array(truth_vals)
+    report.info = {
+        "compare_rms_error_mm": {"one_step": float(np.sqrt(np.mean(one_err**2))),
+                                 "two_step": float(np.sqrt(np.mean(two_err**2)))},
+        "two_step": {f"leg{i + 1}": dict(zip(LEG_PARAMS, map(float, np.r_[c[0], c[1], c[2]]))) for i, c in enumerate(two_step)},
+        "station_error_um": (station_err * 1000).tolist(),
+        "station_sigma_um": predicted.tolist(),
+        "leg_whitened_rms": [c.rms for c in legs],
+    }
+    artifacts = dict(sim=sim, poses=poses, stations=stations, spheres=spheres, config=config)
+    if rrd:
+        from scenarios import stewart_log
+
+        stewart_log.log_run(out_dir / "run.rrd", report, artifacts)
+        report.rrd = "run.rrd"
+    return report
+
+
+def two_step_leg(sim: StewartSim, stations: np.ndarray, i: int, rng):
+    """Lock leg i at its home length; translate the platform at three fixed orientations so the
+    leg keeps its length; fit a sphere to each set of platform origins (Eq. 2)."""
+    g = sim.geometry
+    home_t = np.array([0, 0, g.home_height_mm])
+    # the sphere's centre lies along the leg: a wide cap pins it, and wide turns between the
+    # three orientations keep r from amplifying the centres' errors (by 1 / turn)
+    orientations = [np.eye(3), _rot(np.deg2rad([10.0, 0, 0])), _rot(np.deg2rad([0, 10.0, 0]))]
+    sim.set_pose(np.eye(3), home_t)
+    locked = sim.readings_mm()[i]
+    L = sim.leg_lengths_mm()[i]
+    centres, radii, Rs, pts_all = [], [], [], []
+    for R0 in orientations:
+        c_true = sim.B[i] - R0 @ sim.r[i]  # the platform origin's sphere (truth drives the motion)
+        u0 = (home_t - c_true) / np.linalg.norm(home_t - c_true)
+        a, b = np.linalg.svd(np.c_[u0, u0, u0].T)[2][1:]  # two directions across u0
+        dirs = [u0] + [np.cos(cap) * u0 + np.sin(cap) * (np.cos(k) * a + np.sin(k) * b)
+                       for cap in (0.12, 0.24) for k in np.deg2rad([0, 90, 180, 270])]
+        ts = []
+        for dvec in dirs:
+            t = c_true + L * dvec
+            sim.set_pose(R0, t)
+            Rm, tm = measure_pose(sim, stations, R0, t)
+            ts.append(tm)
+            Rs.append(Rm)
+        c, rad = fit_sphere(np.array(ts))
+        centres.append(c)
+        radii.append(rad)
+        pts_all.append(np.array(ts))
+    # centres C_o = B - R_o r: differences give r; then B and l. The orientations are the
+    # measured ones (mean of each group of five), not what was commanded.
+
+
+    n = len(Rs) // 3
+    measured = [mean_rotation(np.array(Rs[n * k:n * (k + 1)])) for k in range(3)]
+    orientations = measured
+    A = np.vstack([orientations[0] - orientations[k] for k in (1, 2)])
+    y = np.r_[centres[1] - centres[0], centres[2] - centres[0]]
+    r = np.linalg.lstsq(A, y, rcond=None)[0]
+    B = np.mean([centres[k] + orientations[k] @ r for k in range(3)], axis=0)
+    l = float(np.mean(radii) - locked)
+    return (r, B, l), [(c, rad, p) for c, rad, p in zip(centres, radii, pts_all)]

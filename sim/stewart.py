@@ -1,0 +1,89 @@
+"""The as-built Stewart platform and the tracker's interferometric lengths.
+
+Truth: base hinges, platform hinges and initial leg lengths off their nominal values (drawn
+from the run's seed, about 0.1-1 mm), the tracker's rotation centre in each hole of the plate.
+A pose is set in MuJoCo from closed-form inverse kinematics (universal-joint angles, slide,
+platform free joint), and the loop closure is measured, not assumed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import mujoco
+import numpy as np
+
+from scenes.stewart import StewartGeometry, build_mjcf
+
+
+@dataclasses.dataclass(frozen=True)
+class StewartTruth:
+    hinge_error_mm: float = 0.4  # 1-sigma, each coordinate of each hinge
+    length_error_mm: float = 0.5  # 1-sigma, each initial length
+    station_offset_mm: float = 0.5  # 1-sigma: where the tracker's centre sits in a hole
+    length_noise_um: tuple = (0.3, 0.3)  # interferometer: a + b * L(m), 1-sigma
+    reading_noise_um: float = 1.0  # the legs' length readings
+
+
+class StewartSim:
+    def __init__(self, geometry: StewartGeometry, truth: StewartTruth, rng: np.random.Generator):
+        g = geometry
+        self.geometry, self.truth, self.rng = g, truth, rng
+        self.B = g.base_hinges_mm + rng.normal(0, truth.hinge_error_mm, (6, 3))
+        self.r = g.platform_hinges_mm + rng.normal(0, truth.hinge_error_mm, (6, 3))
+        self.l0 = g.initial_lengths_mm + rng.normal(0, truth.length_error_mm, 6)
+        self.stations = g.station_holes_mm + rng.normal(0, truth.station_offset_mm, (3, 3))
+        self.model = mujoco.MjModel.from_xml_string(build_mjcf(g, self.B, self.r, g.reflectors_mm, self.stations))
+        self.data = mujoco.MjData(self.model)
+        m = self.model
+        self._ux = [m.jnt_qposadr[m.joint(f"leg{i}_ux").id] for i in range(6)]
+        self._uy = [m.jnt_qposadr[m.joint(f"leg{i}_uy").id] for i in range(6)]
+        self._slide = [m.jnt_qposadr[m.joint(f"leg{i}_slide").id] for i in range(6)]
+        self._free = m.jnt_qposadr[m.joint("platform").id]
+        self._ends = [m.site(f"leg{i}_end").id for i in range(6)]
+        self._plat = [m.site(f"plat{i}").id for i in range(6)]
+        self._refl = [m.site(f"reflector{k}").id for k in range(3)]
+        self.max_closure_um = 0.0
+
+    def set_pose(self, R: np.ndarray, t_mm: np.ndarray) -> None:
+        """Put the platform at pose (R, t) and every leg where it must be; record loop closure."""
+        q = self.data.qpos
+        q[self._free:self._free + 3] = np.asarray(t_mm) / 1000
+        quat = np.empty(4)
+        mujoco.mju_mat2Quat(quat, np.asarray(R, float).ravel())
+        q[self._free + 3:self._free + 7] = quat
+        P = self.r @ R.T + t_mm
+        for i in range(6):
+            v = P[i] - self.B[i]
+            L = np.linalg.norm(v)
+            u = v / L
+            # Rx(a) Ry(b) e_z = (sin b, -sin a cos b, cos a cos b) = u
+            q[self._uy[i]] = np.arcsin(u[0])
+            q[self._ux[i]] = np.arctan2(-u[1], u[2])
+            q[self._slide[i]] = L / 1000
+        mujoco.mj_kinematics(self.model, self.data)
+        gap = max(np.linalg.norm(self.data.site_xpos[e] - self.data.site_xpos[p]) for e, p in zip(self._ends, self._plat))
+        self.max_closure_um = max(self.max_closure_um, gap * 1e6)
+
+    def leg_lengths_mm(self) -> np.ndarray:
+        """True hinge-to-hinge lengths from MuJoCo's state (the slides)."""
+        return np.array([self.data.qpos[s] for s in self._slide]) * 1000
+
+    def readings_mm(self) -> np.ndarray:
+        """What the legs' length sensors read: length - initial length, noisy."""
+        return self.leg_lengths_mm() - self.l0 + self.rng.normal(0, self.truth.reading_noise_um / 1000, 6)
+
+    def reflectors_mm(self) -> np.ndarray:
+        return np.array([self.data.site_xpos[s] for s in self._refl]) * 1000
+
+    def length_sigma_mm(self, L_mm) -> np.ndarray:
+        a, b = self.truth.length_noise_um
+        return (a + b * np.asarray(L_mm) / 1000) / 1000
+
+    def distances_mm(self, station: int, points_mm: np.ndarray) -> np.ndarray:
+        """The tracker's interferometric lengths from its centre in hole ``station``."""
+        L = np.linalg.norm(np.asarray(points_mm) - self.stations[station], axis=1)
+        return L + self.rng.normal(0, self.length_sigma_mm(L))
+
+    def platform_hinges_world_mm(self) -> np.ndarray:
+        return np.array([self.data.site_xpos[s] for s in self._plat]) * 1000

@@ -1,0 +1,27 @@
+"""stewart end to end through the CLI: 42 leg parameters, checks, both methods, the rrd."""
+
+import json
+
+from scenarios.cli import main
+from scenarios.rrlog import entity_paths
+
+
+def test_run_meets_the_acceptance(tmp_path):
+    assert main(["run", "stewart", "--seed", "0", "--out", str(tmp_path)]) == 0
+    rep = json.loads((tmp_path / "report.json").read_text())
+    params = [p for p in rep["parameters"]]
+    assert len(params) == 42
+    assert {f"leg{i}_{k}" for i in range(1, 7) for k in "abcmnql"} == {p["name"] for p in params}
+    for p in params:
+        assert p["std"] > 0 and abs(p["estimate"] - p["truth"]) <= p["tolerance"], p
+    c = {ch["name"]: ch["value"] for ch in rep["checks"]}
+    assert c["loop_closure_um"] <= 0.1
+    assert c["station_error_um"] < 30
+    assert c["pose_rms_after_um"] < c["pose_rms_before_um"] / 100
+    assert c["pose_rms_after_um"] < c["pose_rms_after_two_step_um"]  # the one-step method wins
+    cmp = rep["info"]["compare_rms_error_mm"]
+    assert cmp["one_step"] < cmp["two_step"]
+    paths = entity_paths(tmp_path / "run.rrd")
+    expected = {"/world/platform", "/world/leg0/leg0_rod", "/tracker/stations", "/tracker/beams",
+                "/two_step/leg1/sphere0", "/report"}
+    assert expected <= paths, expected - paths
