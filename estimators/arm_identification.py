@@ -23,22 +23,7 @@ import numpy as np
 from scipy import linalg
 
 from estimators.arm_kinematics import PARAM_NAMES, DHChain, frames, jacobian
-
-
-def _skew(v: np.ndarray) -> np.ndarray:
-    """Skew matrices of vectors (n, 3) -> (n, 3, 3)."""
-    S = np.zeros(v.shape[:-1] + (3, 3))
-    S[..., 0, 1], S[..., 0, 2], S[..., 1, 2] = -v[..., 2], v[..., 1], -v[..., 0]
-    S[..., 1, 0], S[..., 2, 0], S[..., 2, 1] = v[..., 2], -v[..., 1], v[..., 0]
-    return S
-
-
-def _expm(w: np.ndarray) -> np.ndarray:
-    th = np.linalg.norm(w)
-    if th < 1e-15:
-        return np.eye(3)
-    K = _skew(w / th)
-    return np.eye(3) + np.sin(th) * K + (1 - np.cos(th)) * K @ K
+from estimators.rotations import matrix_to_rotvec, rigid_transform, rotvec_to_matrix, skew
 
 
 def spherical(y: np.ndarray) -> np.ndarray:
@@ -60,15 +45,6 @@ def spherical_jacobian(y: np.ndarray) -> np.ndarray:
     J[:, 2, 1] = -y[:, 1] * y[:, 2] / (r2 * s)
     J[:, 2, 2] = s / r2
     return J
-
-
-def kabsch(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """R, t minimising |R src + t - dst|, (n, 3) each."""
-    cs, cd = src.mean(axis=0), dst.mean(axis=0)
-    U, _, Vt = np.linalg.svd((src - cs).T @ (dst - cd))
-    D = np.diag([1, 1, np.sign(np.linalg.det(Vt.T @ U.T))])
-    R = Vt.T @ D @ U.T
-    return R, cd - R @ cs
 
 
 # --- the tracker -------------------------------------------------------------------------------
@@ -106,7 +82,7 @@ class TrackerProblem:
         y = np.stack([r * np.cos(el) * np.cos(az), r * np.cos(el) * np.sin(az), r * np.sin(el)], axis=1)
         F = frames(self.chain, self.q)
         p = F[:, 7, :3, 3] + F[:, 7, :3, :3] @ self.offset_nominal
-        R, t = kabsch(p, y)
+        R, t = rigid_transform(p, y)
         return TrackerState(np.zeros(25), R, t, self.offset_nominal.copy())
 
     def points(self, s: TrackerState) -> np.ndarray:
@@ -127,14 +103,14 @@ class TrackerProblem:
         y = p @ s.R.T + s.t
         Js = spherical_jacobian(y) / self.sigma[:, :, None]
         Jd = np.einsum("ij,njk->nik", s.R, jacobian(self.chain, self.q, s.delta, s.offset))
-        Jw = -_skew(p @ s.R.T)  # left perturbation of R
+        Jw = -skew(p @ s.R.T)  # left perturbation of R
         Jt = np.broadcast_to(np.eye(3), (len(y), 3, 3))
         Jo = np.einsum("ij,njk->nik", s.R, F[:, 7, :3, :3])
         Jy = np.concatenate([Jd, Jw, Jt, Jo], axis=2)
         return np.einsum("nij,njk->nik", Js, Jy).reshape(-1, 34)
 
     def update(self, s: TrackerState, step: np.ndarray) -> TrackerState:
-        return TrackerState(s.delta + step[:25], _expm(step[25:28]) @ s.R, s.t + step[28:31], s.offset + step[31:34])
+        return TrackerState(s.delta + step[:25], rotvec_to_matrix(step[25:28]) @ s.R, s.t + step[28:31], s.offset + step[31:34])
 
 
 # --- cones and a length bar -----------------------------------------------------------------------
@@ -295,17 +271,9 @@ def identify_identifiable(problem) -> Identification:
 def _values(problem, s) -> np.ndarray:
     """The state as a vector in the problem's parameter order (rotations as their angles)."""
     if isinstance(s, TrackerState):
-        w = _log(s.R)
+        w = matrix_to_rotvec(s.R)
         return np.r_[s.delta, w, s.t, s.offset]
     return np.r_[s.delta, s.cones.ravel()]
-
-
-def _log(R: np.ndarray) -> np.ndarray:
-    c = np.clip((np.trace(R) - 1) / 2, -1, 1)
-    th = np.arccos(c)
-    if th < 1e-12:
-        return np.zeros(3)
-    return th / (2 * np.sin(th)) * np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
 
 
 def parameter_scales(names) -> np.ndarray:

@@ -20,6 +20,8 @@ import dataclasses
 
 import numpy as np
 
+from estimators.rotations import rigid_transform, rotvec_to_matrix
+
 
 def trilaterate(known: np.ndarray, dist: np.ndarray, sigma: np.ndarray, above: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The point at distances ``dist`` (3,) from ``known`` (3, 3), on the side of their plane
@@ -72,15 +74,6 @@ def multilaterate(stations: np.ndarray, dist: np.ndarray, sigma: np.ndarray, sta
     return p, np.linalg.inv(J.T @ (w[:, None] * J))
 
 
-def rigid_transform(platform_pts: np.ndarray, base_pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """R, t with R p + t = b in the least-squares sense, (n, 3) each, n >= 3 not collinear."""
-    cp, cb = platform_pts.mean(axis=0), base_pts.mean(axis=0)
-    U, _, Vt = np.linalg.svd((platform_pts - cp).T @ (base_pts - cb))
-    D = np.diag([1, 1, np.sign(np.linalg.det(Vt.T @ U.T))])
-    R = Vt.T @ D @ U.T
-    return R, cb - R @ cp
-
-
 def fit_sphere(points: np.ndarray) -> tuple[np.ndarray, float]:
     """Centre (3,) and radius of the least-squares sphere through points (n >= 4, not coplanar).
 
@@ -124,36 +117,25 @@ def calibrate_leg(R: np.ndarray, t: np.ndarray, readings: np.ndarray, r0: np.nda
     each equation (length units); Gauss-Newton on |R r + t - B| - (l + reading) = 0."""
     x = np.r_[r0, B0, l0].astype(float)
     w = 1 / np.asarray(sigma, float)
-    for _ in range(50):
-        p = np.einsum("nij,j->ni", R, x[:3]) + t
-        v = p - x[3:6]
+
+    def linearise(x):
+        v = np.einsum("nij,j->ni", R, x[:3]) + t - x[3:6]
         L = np.linalg.norm(v, axis=1)
         u = v / L[:, None]
         res = (L - (x[6] + readings)) * w
-        J = np.c_[np.einsum("ni,nij->nj", u, R), -u, -np.ones(len(u))] * w[:, None]
+        return res, np.c_[np.einsum("ni,nij->nj", u, R), -u, -np.ones(len(u))] * w[:, None]
+
+    for _ in range(50):
+        res, J = linearise(x)
         step = np.linalg.lstsq(J, -res, rcond=None)[0]
         x = x + step
         if np.max(np.abs(step)) < 1e-12:
             break
-    p = np.einsum("nij,j->ni", R, x[:3]) + t
-    v = p - x[3:6]
-    L = np.linalg.norm(v, axis=1)
-    u = v / L[:, None]
-    res = (L - (x[6] + readings)) * w
-    J = np.c_[np.einsum("ni,nij->nj", u, R), -u, -np.ones(len(u))] * w[:, None]
+    res, J = linearise(x)
     dof = max(len(res) - 7, 1)
     s2 = res @ res / dof
     cov = np.linalg.inv(J.T @ J) * s2
     return LegCalibration(r=x[:3], B=x[3:6], l=float(x[6]), std=np.sqrt(np.diag(cov)), rms=float(np.sqrt(s2)))
-
-
-def _rot(w: np.ndarray) -> np.ndarray:
-    th = np.linalg.norm(w)
-    if th < 1e-15:
-        return np.eye(3)
-    k = w / th
-    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.eye(3) + np.sin(th) * K + (1 - np.cos(th)) * K @ K
 
 
 def leg_lengths(R: np.ndarray, t: np.ndarray, r: np.ndarray, B: np.ndarray) -> np.ndarray:
@@ -173,7 +155,7 @@ def forward_kinematics(lengths: np.ndarray, r: np.ndarray, B: np.ndarray, R0: np
         Rr = r @ R.T
         J = np.c_[np.cross(Rr, u), u]  # d L / d(omega, t): u . (omega x Rr) = omega . (Rr x u)
         step = np.linalg.solve(J, lengths - L)
-        R = _rot(step[:3]) @ R
+        R = rotvec_to_matrix(step[:3]) @ R
         t = t + step[3:]
         if np.max(np.abs(step)) < 1e-13:
             break

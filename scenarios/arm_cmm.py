@@ -23,8 +23,9 @@ from pathlib import Path
 import numpy as np
 
 from estimators.arm_identification import (ConeProblem, TrackerProblem, identifiable_basis, identify,
-                                           identify_identifiable, kabsch,
-                                           observability_index, parameter_scales, select_postures)
+                                           identify_identifiable, observability_index, parameter_scales,
+                                           select_postures)
+from estimators.rotations import rigid_transform
 from estimators.arm_kinematics import PARAM_NAMES, DHChain, point_in_link7
 from scenarios.report import Check, Parameter, Report
 from scenes.arm_cmm import ArmGeometry
@@ -110,7 +111,7 @@ def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool
     cone_ident = identify_identifiable(cone_problem)
     cone_basis = cone_ident.basis
     p_cone = point_in_link7(chain, q_hold, cone_ident.state.delta)
-    R_c, t_c = kabsch(p_cone, sim.probe_mm(holdout))  # the cones fix no base frame: compare shapes
+    R_c, t_c = rigid_transform(p_cone, sim.probe_mm(holdout))  # the cones fix no base frame: compare shapes
     rms["cone"] = _rms(p_cone @ R_c.T + t_c - sim.probe_mm(holdout))
 
     # no pixels here: the sensors are MuJoCo's geometry plus noise models, whatever was asked

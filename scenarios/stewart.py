@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from estimators.pose import mean_rotation
+from estimators.rotations import rotvec_to_matrix
 from estimators.stewart import (calibrate_leg, fit_sphere, forward_kinematics, multilaterate, rigid_transform,
                                 trilaterate)
 from scenarios.report import Check, Parameter, Report
@@ -44,19 +45,10 @@ class StewartConfig:
     after_limit_um: float = 20.0
 
 
-def _rot(w):
-    th = np.linalg.norm(w)
-    if th < 1e-15:
-        return np.eye(3)
-    k = w / th
-    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.eye(3) + np.sin(th) * K + (1 - np.cos(th)) * K @ K
-
-
 def random_poses(n, rng, config):
     home = np.array([0, 0, config.geometry.home_height_mm])
     rot = np.deg2rad(config.rotation_deg)
-    return [(_rot(rng.uniform(-rot, rot, 3)), home + rng.uniform(-1, 1, 3) * config.translation_mm) for _ in range(n)]
+    return [(rotvec_to_matrix(rng.uniform(-rot, rot, 3)), home + rng.uniform(-1, 1, 3) * config.translation_mm) for _ in range(n)]
 
 
 def locate_stations(sim: StewartSim):
@@ -170,7 +162,7 @@ def two_step_leg(sim: StewartSim, stations: np.ndarray, i: int, rng):
     home_t = np.array([0, 0, g.home_height_mm])
     # the sphere's centre lies along the leg: a wide cap pins it, and wide turns between the
     # three orientations keep r from amplifying the centres' errors (by 1 / turn)
-    orientations = [np.eye(3), _rot(np.deg2rad([10.0, 0, 0])), _rot(np.deg2rad([0, 10.0, 0]))]
+    orientations = [np.eye(3), rotvec_to_matrix(np.deg2rad([10.0, 0, 0])), rotvec_to_matrix(np.deg2rad([0, 10.0, 0]))]
     sim.set_pose(np.eye(3), home_t)
     locked = sim.readings_mm()[i]
     L = sim.leg_lengths_mm()[i]

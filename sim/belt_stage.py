@@ -13,6 +13,7 @@ import dataclasses
 
 import mujoco
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from scenes.belt_stage import (CALIB_BOARD_GROUP, CALIB_BOARD_PARK, STAGE_BOARD_GROUP,
                                BeltStageGeometry, board_to_body, build_mjcf)
@@ -180,7 +181,7 @@ def intrinsic_view_poses(geometry: BeltStageGeometry, n_views: int, rng: np.rand
         for _ in range(2000):
             tilt = rng.uniform(-max_tilt_rad, max_tilt_rad, 2)
             spin = rng.uniform(-0.4, 0.4)
-            R = _rotvec_to_matrix(np.array([tilt[0], tilt[1], spin]))
+            R = Rotation.from_rotvec([tilt[0], tilt[1], spin]).as_matrix()
             z = rng.uniform(*depth_mm)
             hw, hh = half[0] * cam.fx / z, half[1] * cam.fy / z  # plate half size, px
             fu_j, fv_j = np.clip([fu + rng.uniform(-0.1, 0.1), fv + rng.uniform(-0.1, 0.1)], 0, 1)
@@ -204,12 +205,3 @@ def intrinsic_view_poses(geometry: BeltStageGeometry, n_views: int, rng: np.rand
         else:
             raise RuntimeError("could not place a calibration view inside the image")
     return poses
-
-
-def _rotvec_to_matrix(r: np.ndarray) -> np.ndarray:
-    theta = np.linalg.norm(r)
-    if theta < 1e-15:
-        return np.eye(3)
-    k = r / theta
-    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.eye(3) + np.sin(theta) * K + (1 - np.cos(theta)) * K @ K
