@@ -69,6 +69,10 @@ class TrackerProblem:
         sigma (n, 3) their 1-sigma; the reflector's nominal offset in link 7 (3,)."""
         self.chain, self.q, self.meas, self.sigma = chain, np.asarray(q_rad, float), measured, sigma
         self.offset_nominal = np.asarray(offset_nominal_mm, float)
+        # the tracker's rotation is reported as the small turn from this reference (the first
+        # start's): the same coordinates its std is computed in. Share it between problems whose
+        # estimates are compared.
+        self.R_ref: np.ndarray | None = None
         if not (np.isfinite(self.q).all() and np.isfinite(measured).all()):
             raise ValueError("tracker data must be finite")
 
@@ -83,6 +87,8 @@ class TrackerProblem:
         F = frames(self.chain, self.q)
         p = F[:, 7, :3, 3] + F[:, 7, :3, :3] @ self.offset_nominal
         R, t = rigid_transform(p, y)
+        if self.R_ref is None:
+            self.R_ref = R
         return TrackerState(np.zeros(25), R, t, self.offset_nominal.copy())
 
     def points(self, s: TrackerState) -> np.ndarray:
@@ -271,7 +277,7 @@ def identify_identifiable(problem) -> Identification:
 def _values(problem, s) -> np.ndarray:
     """The state as a vector in the problem's parameter order (rotations as their angles)."""
     if isinstance(s, TrackerState):
-        w = matrix_to_rotvec(s.R)
+        w = matrix_to_rotvec(s.R @ problem.R_ref.T)
         return np.r_[s.delta, w, s.t, s.offset]
     return np.r_[s.delta, s.cones.ravel()]
 

@@ -90,6 +90,7 @@ def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool
         results[label] = (problem, ident, elapsed)
     problem, ident, ident_s = results["chosen"]
     exact = tracker_problem(sim, chain, candidates[chosen_idx], candidates[chosen_idx], None)
+    exact.R_ref = problem.R_ref  # the tracker's turn, from the same reference
     effective = identify(exact, ident.basis)
 
     # 4. held-out postures, in the tracker frame (where the model's frame choices cancel)
@@ -147,8 +148,9 @@ def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool
     }
     artifacts = dict(sim=sim, chain=chain, postures=candidates[chosen_idx], problem=problem, ident=ident,
                      start=start, holdout=holdout, y_true=y_true, y_before=y_before, R_bt=R_bt, t_bt=t_bt)
-    _write_figure(out_dir, artifacts)
-    if rrd:
+    if out_dir is not None:  # a Monte-Carlo trial keeps only the numbers
+        _write_figure(out_dir, artifacts)
+    if rrd and out_dir is not None:
         from scenarios import arm_cmm_log
 
         arm_cmm_log.log_run(out_dir / "run.rrd", report, artifacts)
@@ -184,3 +186,29 @@ def _write_figure(out_dir: Path, a: dict) -> None:
     ax.legend()
     fig.savefig(out_dir / "arm_cmm.png", dpi=90)
     plt.close(fig)
+
+
+def trial_parameters(config: ArmCmmConfig, seed: int) -> list[Parameter]:
+    """The Monte-Carlo unit: tracker identification at ``n_postures`` random postures, each kept
+    parameter against its effective truth (no planning, no cones, no figures)."""
+    rng = np.random.default_rng(seed)
+    sim = ArmSim(config.geometry, config.truth)
+    chain = chain_of(config.geometry)
+    q = sim.random_postures(config.n_postures, rng)
+    noisy = tracker_problem(sim, chain, q, sim.encoders(q, rng), rng)
+    ident = identify_identifiable(noisy)
+    exact = tracker_problem(sim, chain, q, q, None)
+    exact.R_ref = noisy.R_ref  # the tracker's turn, from the same reference
+    effective = identify(exact, ident.basis)
+    out = []
+    for name in ident.estimate:
+        f = 1e6 if name.startswith(("dalpha", "dtheta", "tracker_r")) else 1.0
+        out.append(Parameter(name, "urad" if f > 1 else "mm", effective.estimate[name] * f, ident.estimate[name] * f,
+                             ident.std[name] * f, TOL_SIGMA * ident.std[name] * f))
+    return out
+
+
+def prior(config: ArmCmmConfig, rng: np.random.Generator) -> ArmCmmConfig:
+    """Each of the 25 errors drawn as N(0, |Table 1's value|): mm and rad as in Table 1."""
+    scale = np.abs(np.array(config.truth.delta))
+    return dataclasses.replace(config, truth=dataclasses.replace(config.truth, delta=tuple(rng.normal(0, scale))))

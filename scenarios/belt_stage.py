@@ -183,8 +183,9 @@ def run(config: BeltStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: b
                      "err": err, "fits": (fit_x, fit_y), "targets": targets, "before": before,
                      "after": after, "travel": m.travel, "truth": truth, "geometry": g,
                      "x_pulses": x_pulses, "y_pulses": y_pulses, "limit_mm": config.map_limit_mm}
-        _write_figure(out_dir, artifacts)
-        if rrd:
+        if out_dir is not None:  # a Monte-Carlo trial keeps only the numbers
+            _write_figure(out_dir, artifacts)
+        if rrd and out_dir is not None:
             from scenarios import belt_stage_log
 
             belt_stage_log.log_run(out_dir / "run.rrd", report, artifacts)
@@ -373,3 +374,13 @@ def _write_figure(out_dir: Path, a: dict) -> None:
     ax.legend(loc="center right")
     fig.savefig(out_dir / "error_map.png", dpi=90)
     plt.close(fig)
+
+
+def prior(config: BeltStageConfig, rng: np.random.Generator) -> BeltStageConfig:
+    """Error-map coefficients c1..c5 each scaled by 1 + 0.2 N(0, 1) (mm, mm/mm, mm/mm^2; c0 = 0 by
+    homing); board yaw uniform in +-5 mrad."""
+    t = config.truth
+    ex = (0.0,) + tuple(np.array(t.error_x[1:]) * (1 + 0.2 * rng.standard_normal(5)))
+    ey = (0.0,) + tuple(np.array(t.error_y[1:]) * (1 + 0.2 * rng.standard_normal(5)))
+    truth = dataclasses.replace(t, error_x=ex, error_y=ey, board_yaw_rad=float(rng.uniform(-5e-3, 5e-3)))
+    return dataclasses.replace(config, truth=truth)

@@ -41,6 +41,19 @@ def _parser() -> argparse.ArgumentParser:
     f.add_argument("recording", type=Path, help="CSV with x_cmd_mm, y_cmd_mm, x_meas_mm, y_meas_mm")
     f.add_argument("--out", type=Path, help="output folder (default ./calibench-out/<scenario>)")
 
+    mc = sub.add_parser("montecarlo", help="an accuracy study: many trials, truth drawn from the prior",
+                        description="Run N trials of a scenario (truth from its prior, noise from its sensors); "
+                                    "writes DIR/trials.parquet, DIR/summary.json, DIR/study.png. "
+                                    "Rerunning the same command resumes: finished trials are kept.")
+    mc.add_argument("scenario", help=f"one of: {names}")
+    mc.add_argument("--trials", type=int, required=True, help="number of trials")
+    mc.add_argument("--workers", type=int, help="local worker processes (default: all cores)")
+    mc.add_argument("--scheduler", help="address of a Dask scheduler (tcp://host:8786) instead of local workers")
+    mc.add_argument("--seed", type=int, default=0, help="study seed (default 0)")
+    mc.add_argument("--out", type=Path, help="output folder (default ./calibench-out/<scenario>-montecarlo)")
+    mc.add_argument("--fidelity", choices=("render", "analytic"), default="analytic",
+                    help="sensor fidelity of each trial (default analytic)")
+
     c = sub.add_parser("camera", help="calibrate a camera from chessboard photos",
                        description="Calibrate a camera from real chessboard photos; writes DIR/intrinsics.json.")
     c.add_argument("images", nargs="+", type=Path, help="photos of the chessboard")
@@ -61,9 +74,9 @@ def main(argv: list[str] | None = None) -> int:
     except SystemExit as e:  # usage errors (status 2) and --help (0), as a return value
         return e.code if isinstance(e.code, int) else EXIT_BAD_INPUT
     try:
-        return {"run": _run, "fit": _fit, "camera": _camera}[args.command](args)
+        return {"run": _run, "fit": _fit, "camera": _camera, "montecarlo": _montecarlo}[args.command](args)
     except KeyboardInterrupt:
-        print("calibench: interrupted", file=sys.stderr)
+        print("calibench: interrupted; finished trials are kept, rerun the same command to resume", file=sys.stderr)
         return 130
     except Exception as e:  # noqa: BLE001 - bad input is reported in one line
         from scenarios.report import BadInput
@@ -133,6 +146,22 @@ def _fit(args) -> int:
         print(f"{axis}: SSE {a['sse']:.4g} mm^2  R^2 {a['r2']:.4f}  RMSE {a['rmse']:.4f} mm  (n = {a['n']})")
     print(f"-> {out / 'fit.json'}")
     return EXIT_OK
+
+
+def _montecarlo(args) -> int:
+    from scenarios.montecarlo import run_study
+
+    _scenario(args.scenario)
+    out = args.out or Path("calibench-out") / f"{args.scenario}-montecarlo"
+    s = run_study(args.scenario, args.trials, args.seed, args.fidelity, out, args.workers, args.scheduler)
+    print(f"{s['scenario']}: {s['trials']} trials ({s['failed']} failed) in {s['elapsed_s']:.1f} s")
+    print("| parameter | unit | bias | rmse | mean std | coverage 95 % |\n|---|---|---|---|---|---|")
+    for p in s["parameters"]:
+        cov = "" if p["coverage_95"] is None else f"{p['coverage_95']:.3f}"
+        std = "" if p["mean_std"] is None else f"{p['mean_std']:.4g}"
+        print(f"| {p['name']} | {p['unit']} | {p['bias']:.4g} | {p['rmse']:.4g} | {std} | {cov} |")
+    print(f"-> {out / 'summary.json'}")
+    return EXIT_OK if s["failed"] == 0 else EXIT_CHECK_FAILED
 
 
 def _camera(args) -> int:

@@ -108,8 +108,9 @@ def run(config: ProbeScannerConfig, seed: int, fidelity: str, out_dir: Path, rrd
                      contours_plate=contour_points(plate.theta_rad, plate.rho_mm, lsq.d_mm, lsq.dL_mm, lsq.alpha0_rad), ms=ms, sweep=sweep, rms_m=rms_m, minima=minima,
                      contours=contours, outline=outline, config=config, paper=paper, lsq=lsq,
                      plate_outline=sim.true_outline_mm("plate"))
-    _write_figure(out_dir, artifacts)
-    if rrd:
+    if out_dir is not None:  # a Monte-Carlo trial keeps only the numbers
+        _write_figure(out_dir, artifacts)
+    if rrd and out_dir is not None:
         from scenarios import probe_scanner_log
 
         probe_scanner_log.log_run(out_dir / "run.rrd", report, artifacts)
@@ -164,3 +165,11 @@ def _write_figure(out_dir: Path, a: dict) -> None:
     ax.legend(fontsize=8, loc="upper right")
     fig.savefig(out_dir / "probe_scanner.png", dpi=90)
     plt.close(fig)
+
+
+def prior(config: ProbeScannerConfig, rng: np.random.Generator) -> ProbeScannerConfig:
+    """d uniform 6-10 mm, dL 2-4 mm, alpha0 0.25-0.45 rad, plate centre N(0, 0.15 mm) each axis."""
+    truth = dataclasses.replace(config.truth, d_mm=float(rng.uniform(6, 10)), dL_mm=float(rng.uniform(2, 4)),
+                                alpha0_rad=float(rng.uniform(0.25, 0.45)),
+                                plate_centre_mm=tuple(rng.normal(0, 0.15, 2)))
+    return dataclasses.replace(config, truth=truth)

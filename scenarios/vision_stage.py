@@ -211,8 +211,9 @@ def run(config: VisionStageConfig, seed: int, fidelity: str, out_dir: Path, rrd:
                               cubic, cubic_true, u, v, sigma_um, verification, selected)
         artifacts = dict(sim=sim, readings=readings, err_um=err_um, true_err=true_err, models=models,
                          verification=verification, images=images, s00=s00, geometry=g)
-        _write_figure(out_dir, artifacts, config)
-        if rrd:
+        if out_dir is not None:  # a Monte-Carlo trial keeps only the numbers
+            _write_figure(out_dir, artifacts, config)
+        if rrd and out_dir is not None:
             from scenarios import vision_stage_log
 
             vision_stage_log.log_run(out_dir / "run.rrd", report, artifacts)
@@ -381,3 +382,9 @@ def _write_figure(out_dir: Path, a: dict, config) -> None:
     ax.legend()
     fig.savefig(out_dir / "vision_stage.png", dpi=90)
     plt.close(fig)
+
+
+def prior(config: VisionStageConfig, rng: np.random.Generator) -> VisionStageConfig:
+    """The plate laid at phi uniform in 0.5-2.5 mrad; the machine's errors as configured."""
+    truth = dataclasses.replace(config.truth, plate_phi_rad=float(rng.uniform(0.5e-3, 2.5e-3)))
+    return dataclasses.replace(config, truth=truth)

@@ -65,7 +65,9 @@ def test_identification_recovers_the_effective_truth_with_honest_std(arm):
         q = sim.random_postures(50, rng)
         noisy = tracker_problem(sim, chain, q, sim.encoders(q, rng), rng)
         ident = identify_identifiable(noisy)
-        exact = identify(tracker_problem(sim, chain, q, q, None), ident.basis)
+        exact_problem = tracker_problem(sim, chain, q, q, None)
+        exact_problem.R_ref = noisy.R_ref
+        exact = identify(exact_problem, ident.basis)
         z += [(ident.estimate[n] - exact.estimate[n]) / ident.std[n] for n in ident.estimate]
         assert ident.rms == pytest.approx(1.0, abs=0.25)  # the noise model is the truth's
     z = np.array(z)

@@ -1,0 +1,215 @@
+"""``calibench montecarlo``: accuracy studies of a scenario (CONTRACT: trials.parquet, summary.json).
+
+Each trial draws the truth from the scenario's declared prior (its ``prior(config, rng)``) and
+the noise from its sensor models, runs the pipeline, and returns plain data: one row with
+``trial, seed, ok, error, elapsed_s`` and ``<name>.truth / .estimate / .std`` per parameter.
+A trial is reproducible from (study seed, trial index) alone.
+
+Execution goes through a ``concurrent.futures.Executor``: a local pool of spawned processes
+(a forked child of a process with a GL context hangs), or a Dask cluster's executor with
+``--scheduler``. Finished trials are appended to DIR/trials.jsonl at once (the journal: nothing
+is lost on interruption, and a rerun of the same command skips them); trials.parquet and
+summary.json are written from the journal.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import json
+import math
+import multiprocessing
+import os
+import sys
+import time
+import traceback
+from pathlib import Path
+
+import numpy as np
+
+from scenarios.report import BadInput
+
+JOURNAL = "trials.jsonl"
+
+
+def trial_seed(study_seed: int, index: int) -> int:
+    """The trial's own seed, from the study's and its index (independent streams)."""
+    return int(np.random.SeedSequence([int(study_seed), int(index)]).generate_state(1)[0])
+
+
+def run_trial(scenario: str, study_seed: int, index: int, fidelity: str) -> dict:
+    """One trial, in a worker process; never raises (a failure is a row with its error)."""
+    import scenarios  # noqa: F401  (OpenCV single-threaded, MUJOCO_GL via sim)
+    import sim  # noqa: F401
+
+    seed = trial_seed(study_seed, index)
+    row = {"trial": index, "seed": seed, "ok": True, "error": None}
+    t0 = time.perf_counter()
+    try:
+        from scenarios.registry import SCENARIOS
+
+        s = SCENARIOS[scenario]
+        module = sys.modules[s.run.__module__]
+        rng = np.random.default_rng(seed)
+        config = module.prior(s.config(), rng)
+        if hasattr(module, "trial_parameters"):
+            params = module.trial_parameters(config, seed)
+        else:
+            params = s.run(config, seed, fidelity, None, False).parameters
+        for p in params:
+            row[f"{p.name}.truth"] = float(p.truth)
+            row[f"{p.name}.estimate"] = float(p.estimate)
+            row[f"{p.name}.std"] = None if p.std is None else float(p.std)
+            row[f"{p.name}.unit"] = p.unit
+    except Exception as e:  # noqa: BLE001 - recorded, the study goes on
+        row["ok"] = False
+        row["error"] = f"{type(e).__name__}: {e}".splitlines()[0]
+        row["traceback"] = traceback.format_exc(limit=3)
+    row["elapsed_s"] = time.perf_counter() - t0
+    return row
+
+
+def load_journal(out_dir: Path) -> dict[int, dict]:
+    """Finished trials by index (a torn last line from an interruption is ignored)."""
+    path = out_dir / JOURNAL
+    done = {}
+    if path.exists():
+        for line in path.read_text().splitlines():
+            try:
+                row = json.loads(line)
+            except json.JSONDecodeError:
+                continue
+            done[int(row["trial"])] = row
+    return done
+
+
+def make_executor(workers: int | None, scheduler: str | None):
+    """(executor, closer): a spawn process pool, or a Dask cluster's executor."""
+    if scheduler:
+        try:
+            from distributed import Client
+        except ImportError:
+            raise BadInput("--scheduler needs Dask distributed (pip install distributed)") from None
+        try:
+            client = Client(scheduler, timeout="10s")
+        except OSError as e:
+            raise BadInput(f"cannot reach the Dask scheduler at {scheduler}: {e}") from None
+        return client.get_executor(), client.close
+    n = workers or os.cpu_count() or 1
+    ex = cf.ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context("spawn"))
+    return ex, lambda: ex.shutdown(wait=False, cancel_futures=True)
+
+
+def run_study(scenario: str, trials: int, seed: int, fidelity: str, out_dir: Path, workers: int | None = None,
+              scheduler: str | None = None, executor: cf.Executor | None = None, progress: bool | None = None) -> dict:
+    """Run the missing trials of a study, journal them as they finish, write the outputs."""
+    from scenarios.registry import SCENARIOS
+
+    if scenario not in SCENARIOS:
+        raise BadInput(f"unknown scenario {scenario!r} (available: {', '.join(SCENARIOS)})")
+    if trials < 1:
+        raise BadInput("--trials must be at least 1")
+    out_dir.mkdir(parents=True, exist_ok=True)
+    meta = {"scenario": scenario, "seed": seed, "fidelity": fidelity}
+    meta_path = out_dir / "study.json"
+    if meta_path.exists() and json.loads(meta_path.read_text()) != meta:
+        raise BadInput(f"{out_dir} holds a different study ({meta_path.read_text().strip()}); use another --out")
+    meta_path.write_text(json.dumps(meta) + "\n")
+    done = load_journal(out_dir)
+    todo = [i for i in range(trials) if i not in done]
+    t0 = time.perf_counter()
+    if todo:
+        own = executor is None
+        if own:
+            executor, close = make_executor(workers, scheduler)
+        bar = _progress(len(todo), trials - len(todo), progress)
+        try:
+            with open(out_dir / JOURNAL, "a") as journal:
+                futures = [executor.submit(run_trial, scenario, seed, i, fidelity) for i in todo]
+                for fut in cf.as_completed(futures):
+                    row = fut.result()
+                    journal.write(json.dumps(row) + "\n")
+                    journal.flush()
+                    done[row["trial"]] = row
+                    bar.update(1)
+        finally:
+            bar.close()
+            if own:
+                close()
+    rows = [done[i] for i in sorted(done) if i < trials]
+    summary = summarise(scenario, rows, time.perf_counter() - t0)
+    write_outputs(out_dir, rows, summary)
+    return summary
+
+
+def _progress(total: int, initial: int, enabled: bool | None):
+    """A progress bar (trials/s, ETA) on an interactive terminal; silent otherwise and in CI."""
+    from tqdm import tqdm
+
+    if enabled is None:
+        enabled = sys.stderr.isatty() and not os.environ.get("CI")
+    return tqdm(total=total + initial, initial=initial, unit="trial", disable=not enabled, file=sys.stderr)
+
+
+def summarise(scenario: str, rows: list[dict], elapsed_s: float) -> dict:
+    """Bias, RMSE, mean reported std and 95 % coverage of every parameter over the good trials."""
+    good = [r for r in rows if r["ok"]]
+    names = sorted({k[:-len(".estimate")] for r in good for k in r if k.endswith(".estimate")})
+    params = []
+    for n in names:
+        err = np.array([r[f"{n}.estimate"] - r[f"{n}.truth"] for r in good if f"{n}.estimate" in r])
+        std = np.array([r.get(f"{n}.std") for r in good if f"{n}.estimate" in r], dtype=object)
+        has_std = all(s is not None for s in std)
+        std = std.astype(float) if has_std else None
+        unit = next((r[f"{n}.unit"] for r in good if f"{n}.unit" in r), "")
+        params.append({
+            "name": n, "unit": unit, "n": int(len(err)),
+            "bias": float(np.mean(err)), "rmse": float(np.sqrt(np.mean(err**2))),
+            "mean_std": float(np.mean(std)) if has_std else None,
+            "coverage_95": float(np.mean(np.abs(err) <= 1.96 * std)) if has_std else None,
+        })
+    return {"scenario": scenario, "trials": len(rows), "failed": len(rows) - len(good),
+            "elapsed_s": round(elapsed_s, 3), "parameters": params,
+            "errors": sorted({r["error"] for r in rows if not r["ok"]})[:10]}
+
+
+def write_outputs(out_dir: Path, rows: list[dict], summary: dict) -> None:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    keys = ["trial", "seed", "ok", "error", "elapsed_s"]
+    cols = sorted({k for r in rows for k in r if k not in keys and k != "traceback" and not k.endswith(".unit")})
+    table = {k: [r.get(k) for r in rows] for k in keys + cols}
+    pq.write_table(pa.table(table), out_dir / "trials.parquet")
+    (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    if summary["parameters"]:
+        _figure(out_dir, rows, summary)
+
+
+def _figure(out_dir: Path, rows: list[dict], summary: dict) -> None:
+    """study.png: normalised errors against N(0, 1), and each parameter's coverage."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    good = [r for r in rows if r["ok"]]
+    with_std = [p for p in summary["parameters"] if p["coverage_95"] is not None]
+    fig, axes = plt.subplots(1, 2, figsize=(14, 4.5), constrained_layout=True)
+    ax = axes[0]
+    z = [(r[f"{p['name']}.estimate"] - r[f"{p['name']}.truth"]) / r[f"{p['name']}.std"]
+         for p in with_std for r in good if r.get(f"{p['name']}.std")]
+    if z:
+        ax.hist(np.clip(z, -6, 6), bins=60, density=True, color="tab:blue", alpha=0.6, label="(estimate - truth) / std")
+        x = np.linspace(-6, 6, 200)
+        ax.plot(x, np.exp(-x * x / 2) / math.sqrt(2 * math.pi), "k", label="N(0, 1): an honest std")
+        ax.legend()
+    ax.set(title=f"{summary['scenario']}: {len(good)} trials", xlabel="normalised error")
+    ax = axes[1]
+    names = [p["name"] for p in with_std]
+    ax.bar(range(len(names)), [p["coverage_95"] for p in with_std], color="tab:green")
+    ax.axhspan(0.93, 0.97, color="k", alpha=0.1, label="0.93-0.97")
+    ax.set_xticks(range(len(names)), names, rotation=90, fontsize=7)
+    ax.set(ylim=(0, 1.05), ylabel="coverage of +-1.96 std", title="coverage per parameter")
+    ax.legend(loc="lower right")
+    fig.savefig(out_dir / "study.png", dpi=90)
+    plt.close(fig)
