@@ -123,7 +123,11 @@ def run_study(scenario: str, trials: int, seed: int, fidelity: str, out_dir: Pat
             executor, close = make_executor(workers, scheduler)
         bar = _progress(len(todo), trials - len(todo), progress)
         try:
-            with open(out_dir / JOURNAL, "a") as journal:
+            path = out_dir / JOURNAL
+            torn = path.exists() and path.stat().st_size and not path.read_bytes().endswith(b"\n")
+            with open(path, "a") as journal:
+                if torn:  # an interruption cut the last line: start a fresh one
+                    journal.write("\n")
                 futures = [executor.submit(run_trial, scenario, seed, i, fidelity) for i in todo]
                 for fut in cf.as_completed(futures):
                     row = fut.result()

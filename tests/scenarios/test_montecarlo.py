@@ -1,0 +1,82 @@
+"""Monte-Carlo studies: resume after an interruption, Dask equals the process pool, the summary's
+statistics, bad input."""
+
+import concurrent.futures as cf
+import json
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+
+from scenarios.cli import main
+from scenarios.montecarlo import JOURNAL, load_journal, run_study, summarise, trial_seed
+
+
+def _estimates(out):
+    t = pq.read_table(out / "trials.parquet").to_pydict()
+    cols = sorted(k for k in t if k.endswith(".estimate"))
+    return np.array([t[c] for c in cols]).T, t["trial"]
+
+
+def test_interrupted_study_keeps_finished_trials(tmp_path):
+    """A study cut off after 3 of 6 trials (a torn line as the kill left it) resumes: the
+    finished trials are kept as they were, only the missing ones run."""
+    with cf.ThreadPoolExecutor(1) as ex:
+        run_study("arm-cmm", 3, 7, "analytic", tmp_path, executor=ex, progress=False)
+    first = (tmp_path / JOURNAL).read_text().splitlines()
+    with open(tmp_path / JOURNAL, "a") as f:
+        f.write('{"trial": 3, "se')  # the kill came mid-write
+    with cf.ThreadPoolExecutor(1) as ex:
+        summary = run_study("arm-cmm", 6, 7, "analytic", tmp_path, executor=ex, progress=False)
+    lines = [ln for ln in (tmp_path / JOURNAL).read_text().splitlines() if ln.endswith("}")]
+    assert lines[:3] == first  # untouched
+    assert sorted(load_journal(tmp_path)) == list(range(6))
+    assert summary["trials"] == 6 and summary["failed"] == 0
+    est, trials = _estimates(tmp_path)
+    assert trials == list(range(6))
+
+
+def test_dask_cluster_gives_the_pool_s_results(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    pool_dir, dask_dir = tmp_path / "pool", tmp_path / "dask"
+    run_study("arm-cmm", 4, 11, "analytic", pool_dir, workers=2, progress=False)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        run_study("arm-cmm", 4, 11, "analytic", dask_dir, scheduler=cluster.scheduler_address, progress=False)
+    a, ta = _estimates(pool_dir)
+    b, tb = _estimates(dask_dir)
+    assert ta == tb
+    np.testing.assert_array_equal(a, b)
+
+
+def test_trials_are_reproducible_and_independent():
+    assert trial_seed(0, 5) == trial_seed(0, 5)
+    assert len({trial_seed(0, i) for i in range(100)} | {trial_seed(1, i) for i in range(100)}) == 200
+
+
+def test_summary_statistics():
+    rows = [{"trial": i, "ok": True, "p.truth": 0.0, "p.estimate": e, "p.std": 1.0, "p.unit": "mm"}
+            for i, e in enumerate([0.5, -1.0, 2.5, 0.0])] + [{"trial": 4, "ok": False, "error": "boom"}]
+    s = summarise("x", rows, 1.0)
+    (p,) = s["parameters"]
+    assert s["trials"] == 5 and s["failed"] == 1
+    assert p["bias"] == pytest.approx(0.5) and p["rmse"] == pytest.approx(np.sqrt((0.25 + 1 + 6.25) / 4))
+    assert p["mean_std"] == 1.0 and p["coverage_95"] == pytest.approx(0.75)
+
+
+def test_bad_input(tmp_path, capsys):
+    assert main(["montecarlo", "nope", "--trials", "3"]) == 2
+    assert main(["montecarlo", "arm-cmm", "--trials", "0", "--out", str(tmp_path)]) == 2
+    (tmp_path / "study.json").write_text(json.dumps({"scenario": "stewart", "seed": 0, "fidelity": "analytic"}))
+    assert main(["montecarlo", "arm-cmm", "--trials", "2", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and "different study" in err
+
+
+def test_cli_study_writes_the_contract_files(tmp_path):
+    assert main(["montecarlo", "probe-scanner", "--trials", "2", "--workers", "1", "--out", str(tmp_path)]) == 0
+    s = json.loads((tmp_path / "summary.json").read_text())
+    assert s["scenario"] == "probe-scanner" and s["trials"] == 2
+    assert {"name", "unit", "bias", "rmse", "mean_std", "coverage_95"} <= set(s["parameters"][0])
+    t = pq.read_table(tmp_path / "trials.parquet").to_pydict()
+    assert {"trial", "seed", "ok", "error", "elapsed_s", "d_lsq.truth", "d_lsq.estimate", "d_lsq.std"} <= set(t)
+    assert (tmp_path / "study.png").is_file()
