@@ -200,11 +200,17 @@ def trial_parameters(config: ArmCmmConfig, seed: int) -> list[Parameter]:
     exact = tracker_problem(sim, chain, q, q, None)
     exact.R_ref = noisy.R_ref  # the tracker's turn, from the same reference
     effective = identify(exact, ident.basis)
+    # the Cramer-Rao bound: the exact problem's whitened Jacobian at the truth, the tracker's
+    # stated noise (unscaled by any residual)
+    J = exact.jacobian(effective.state)[:, ident.basis.kept]
+    crlb = np.sqrt(np.diag(np.linalg.inv(J.T @ J)))
+    names = exact.names
+    bound = {names[j]: crlb[i] for i, j in enumerate(ident.basis.kept)}
     out = []
     for name in ident.estimate:
         f = 1e6 if name.startswith(("dalpha", "dtheta", "tracker_r")) else 1.0
         out.append(Parameter(name, "urad" if f > 1 else "mm", effective.estimate[name] * f, ident.estimate[name] * f,
-                             ident.std[name] * f, TOL_SIGMA * ident.std[name] * f))
+                             ident.std[name] * f, TOL_SIGMA * ident.std[name] * f, crlb=bound[name] * f))
     return out
 
 

@@ -60,6 +60,8 @@ def run_trial(scenario: str, study_seed: int, index: int, fidelity: str) -> dict
             row[f"{p.name}.estimate"] = float(p.estimate)
             row[f"{p.name}.std"] = None if p.std is None else float(p.std)
             row[f"{p.name}.unit"] = p.unit
+            if p.crlb is not None:
+                row[f"{p.name}.crlb"] = float(p.crlb)
     except Exception as e:  # noqa: BLE001 - recorded, the study goes on
         row["ok"] = False
         row["error"] = f"{type(e).__name__}: {e}".splitlines()[0]
@@ -165,11 +167,18 @@ def summarise(scenario: str, rows: list[dict], elapsed_s: float) -> dict:
         has_std = all(s is not None for s in std)
         std = std.astype(float) if has_std else None
         unit = next((r[f"{n}.unit"] for r in good if f"{n}.unit" in r), "")
+        crlb = np.array([r[f"{n}.crlb"] for r in good if f"{n}.crlb" in r])
+        extra = {}
+        if len(crlb) == len(err) and len(err) > 1:
+            # efficiency: the bound's variance over the estimates' own (about their mean)
+            extra["crlb_std"] = float(np.sqrt(np.mean(crlb**2)))
+            extra["efficiency"] = float(np.mean(crlb**2) / np.var(err, ddof=1))
         params.append({
             "name": n, "unit": unit, "n": int(len(err)),
             "bias": float(np.mean(err)), "rmse": float(np.sqrt(np.mean(err**2))),
             "mean_std": float(np.mean(std)) if has_std else None,
             "coverage_95": float(np.mean(np.abs(err) <= 1.96 * std)) if has_std else None,
+            **extra,
         })
     return {"scenario": scenario, "trials": len(rows), "failed": len(rows) - len(good),
             "elapsed_s": round(elapsed_s, 3), "parameters": params,

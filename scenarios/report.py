@@ -24,6 +24,7 @@ class Parameter:
     estimate: float
     std: float | None
     tolerance: float
+    crlb: float | None = None  # Cramer-Rao bound on the std, where a scenario computes it
 
     @property
     def ok(self) -> bool:
