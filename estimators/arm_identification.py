@@ -64,10 +64,14 @@ class TrackerProblem:
     N_FRAME = 6  # nuisance columns that are always estimated (the frame)
 
     def __init__(self, chain: DHChain, q_rad: np.ndarray, measured: np.ndarray, sigma: np.ndarray,
-                 offset_nominal_mm: np.ndarray):
+                 offset_nominal_mm: np.ndarray, encoder_sigma_rad: float = 0.0):
         """q (n, 6) encoder readings; measured (n, 3) range (mm), azimuth, elevation (rad);
-        sigma (n, 3) their 1-sigma; the reflector's nominal offset in link 7 (3,)."""
+        sigma (n, 3) their 1-sigma; the reflector's nominal offset in link 7 (3,); the encoders'
+        1-sigma, which reaches the measurement through the arm (each posture's residuals are
+        whitened by the full 3 x 3 covariance, tracker and encoders together)."""
         self.chain, self.q, self.meas, self.sigma = chain, np.asarray(q_rad, float), measured, sigma
+        self.encoder_sigma = float(encoder_sigma_rad)
+        self._W = None  # per-posture whitening (n, 3, 3), made at the first start
         self.offset_nominal = np.asarray(offset_nominal_mm, float)
         # the tracker's rotation is reported as the small turn from this reference (the first
         # start's): the same coordinates its std is computed in. Share it between problems whose
@@ -89,7 +93,23 @@ class TrackerProblem:
         R, t = rigid_transform(p, y)
         if self.R_ref is None:
             self.R_ref = R
-        return TrackerState(np.zeros(25), R, t, self.offset_nominal.copy())
+        state = TrackerState(np.zeros(25), R, t, self.offset_nominal.copy())
+        if self._W is None:
+            self._W = self._whitening(state)
+        return state
+
+    def _whitening(self, s: TrackerState) -> np.ndarray:
+        """L^-1 of each posture's covariance diag(sigma^2) + G Sigma_q G^T, G = d(sph)/d(q)."""
+        cov = np.einsum("ni,ij->nij", self.sigma**2, np.eye(3))
+        if self.encoder_sigma > 0:
+            F = frames(self.chain, self.q, s.delta)
+            p = F[:, 7, :3, 3] + F[:, 7, :3, :3] @ s.offset
+            y = p @ s.R.T + s.t
+            # a joint's turn moves the point as that joint's zero offset does
+            Jq = jacobian(self.chain, self.q, s.delta, s.offset)[:, :, [3, 7, 11, 15, 19, 23]]
+            G = np.einsum("nij,jk,nkl->nil", spherical_jacobian(y), s.R, Jq)
+            cov = cov + self.encoder_sigma**2 * np.einsum("nij,nkj->nik", G, G)
+        return np.linalg.inv(np.linalg.cholesky(cov))
 
     def points(self, s: TrackerState) -> np.ndarray:
         """Reflector positions in the tracker frame, (n, 3)."""
@@ -98,16 +118,20 @@ class TrackerProblem:
         return p @ s.R.T + s.t
 
     def residuals(self, s: TrackerState) -> np.ndarray:
+        if self._W is None:
+            self.start()
         d = spherical(self.points(s)) - self.meas
         d[:, 1] = (d[:, 1] + np.pi) % (2 * np.pi) - np.pi
-        return (d / self.sigma).ravel()
+        return np.einsum("nij,nj->ni", self._W, d).ravel()
 
     def jacobian(self, s: TrackerState) -> np.ndarray:
         """Whitened d(residuals) / d(delta, frame rotation, frame translation, offset), (3n, 34)."""
         F = frames(self.chain, self.q, s.delta)
         p = F[:, 7, :3, 3] + F[:, 7, :3, :3] @ s.offset
         y = p @ s.R.T + s.t
-        Js = spherical_jacobian(y) / self.sigma[:, :, None]
+        if self._W is None:
+            self.start()
+        Js = np.einsum("nij,njk->nik", self._W, spherical_jacobian(y))
         Jd = np.einsum("ij,njk->nik", s.R, jacobian(self.chain, self.q, s.delta, s.offset))
         Jw = -skew(p @ s.R.T)  # left perturbation of R
         Jt = np.broadcast_to(np.eye(3), (len(y), 3, 3))

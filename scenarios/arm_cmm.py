@@ -55,7 +55,9 @@ def chain_of(g: ArmGeometry) -> DHChain:
 def tracker_problem(sim: ArmSim, chain: DHChain, q_true, q_read, rng) -> TrackerProblem:
     meas = sim.tracker(q_true, rng)
     sigma = sim.tracker_sigma(meas)
-    return TrackerProblem(chain, q_read, meas, sigma, np.array(sim.geometry.reflector_offset_mm, float))
+    # exact data (no rng) have exact encoders too
+    enc = sim.truth.encoder_noise_urad * 1e-6 if rng is not None else 0.0
+    return TrackerProblem(chain, q_read, meas, sigma, np.array(sim.geometry.reflector_offset_mm, float), enc)
 
 
 def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool) -> Report:
@@ -200,9 +202,9 @@ def trial_parameters(config: ArmCmmConfig, seed: int) -> list[Parameter]:
     exact = tracker_problem(sim, chain, q, q, None)
     exact.R_ref = noisy.R_ref  # the tracker's turn, from the same reference
     effective = identify(exact, ident.basis)
-    # the Cramer-Rao bound: the exact problem's whitened Jacobian at the truth, the tracker's
-    # stated noise (unscaled by any residual)
-    J = exact.jacobian(effective.state)[:, ident.basis.kept]
+    # the Cramer-Rao bound: the Jacobian at the truth whitened by the full noise model (tracker
+    # and encoders), unscaled by any residual
+    J = noisy.jacobian(effective.state)[:, ident.basis.kept]
     crlb = np.sqrt(np.diag(np.linalg.inv(J.T @ J)))
     names = exact.names
     bound = {names[j]: crlb[i] for i, j in enumerate(ident.basis.kept)}
