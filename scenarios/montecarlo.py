@@ -196,6 +196,24 @@ def write_outputs(out_dir: Path, rows: list[dict], summary: dict) -> None:
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     if summary["parameters"]:
         _figure(out_dir, rows, summary)
+        _log(out_dir, summary)
+
+
+def _log(out_dir: Path, summary: dict) -> None:
+    """study.rrd: the figure and the coverage table, for the rerun viewer."""
+    from scenarios import rrlog
+
+    rec = rrlog.open_recording(out_dir / "study.rrd", f"calibench-{summary['scenario']}-study")
+    try:
+        lines = ["| parameter | unit | bias | rmse | mean std | coverage 95 % | efficiency |", "|---|---|---|---|---|---|---|"]
+        for p in summary["parameters"]:
+            f = lambda v: "" if v is None else f"{v:.4g}"  # noqa: E731
+            lines.append(f"| {p['name']} | {p['unit']} | {f(p['bias'])} | {f(p['rmse'])} | {f(p['mean_std'])} | "
+                         f"{f(p['coverage_95'])} | {f(p.get('efficiency'))} |")
+        rrlog.log_text(rec, "study/summary", f"# {summary['scenario']}: {summary['trials']} trials\n\n" + "\n".join(lines))
+        rrlog.log_figure(rec, "study/figure", out_dir / "study.png")
+    finally:
+        rrlog.close(rec)
 
 
 def _figure(out_dir: Path, rows: list[dict], summary: dict) -> None:
