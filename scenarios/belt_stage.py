@@ -275,6 +275,10 @@ def propagated_std(m: StageMaps, board_pts, corners_px, calib, cmd, ref, names, 
         h[j] = np.sqrt(m.plane.slope_cov[j, j])
         Js[:, j] = (at(base, h) - at(base, -h)) / (2 * h[j])
     own = np.r_[m.fit_x.std, m.fit_y.std, m.yaw_std_rad]
+    # errors are measured from the home station, whose own scatter (the per-station RMSE) moves
+    # every error alike: a common offset the residuals cannot show, so it joins c0's variance
+    own[0] = np.hypot(own[0], m.fit_x.rmse)
+    own[6] = np.hypot(own[6], m.fit_y.rmse)
     common = np.einsum("ij,jk,ik->i", J, cov_intr, J) + np.einsum("ij,jk,ik->i", Js, m.plane.slope_cov, Js)
     return np.sqrt(own**2 + common)
 
