@@ -62,14 +62,18 @@ def locate_stations(sim: StewartSim):
 
 
 def measure_pose(sim: StewartSim, stations: np.ndarray, R_guess, t_guess):
-    """The platform's pose from the tracker: reflectors multilaterated, then a rigid fit."""
-    g = sim.geometry
+    """The platform's pose from the tracker: reflectors multilaterated, then a rigid fit.
+    Returns R, t and the raw lengths (3 reflectors x 3 stations) they came from."""
     refl_true = sim.reflectors_mm()
-    pts = []
-    for k in range(3):
-        d = np.array([sim.distances_mm(s, refl_true[k:k + 1])[0] for s in range(3)])
-        guess = R_guess @ g.reflectors_mm[k] + t_guess
-        pts.append(multilaterate(stations, d, sim.length_sigma_mm(d), guess)[0])
+    d = np.array([[sim.distances_mm(s, refl_true[k:k + 1])[0] for s in range(3)] for k in range(3)])
+    R, t = pose_from_lengths(sim, stations, d, R_guess, t_guess)
+    return R, t, d
+
+
+def pose_from_lengths(sim: StewartSim, stations: np.ndarray, d: np.ndarray, R_guess, t_guess):
+    g = sim.geometry
+    pts = [multilaterate(stations, d[k], sim.length_sigma_mm(d[k]), R_guess @ g.reflectors_mm[k] + t_guess)[0]
+           for k in range(3)]
     return rigid_transform(g.reflectors_mm, np.array(pts))
 
 
@@ -82,18 +86,40 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
 
     # one-step data
     poses = random_poses(config.n_poses, rng, config)
-    meas_R, meas_t, readings = [], [], []
+    meas_R, meas_t, readings, lengths = [], [], [], []
     for R, t in poses:
         sim.set_pose(R, t)
         readings.append(sim.readings_mm())
-        Rm, tm = measure_pose(sim, stations, R, t)
+        Rm, tm, d = measure_pose(sim, stations, R, t)
         meas_R.append(Rm)
         meas_t.append(tm)
+        lengths.append(d)
     meas_R, meas_t, readings = np.array(meas_R), np.array(meas_t), np.array(readings)
     # each equation's sigma: the reading plus what the pose's error does at the hinge (~1 um)
     sigma = np.full(len(poses), np.hypot(config.truth.reading_noise_um, 1.0) / 1000)
-    legs = [calibrate_leg(meas_R, meas_t, readings[:, i], g.platform_hinges_mm[i], g.base_hinges_mm[i],
-                          g.initial_lengths_mm[i], sigma) for i in range(6)]
+
+    def solve_legs(R_all, t_all):
+        return [calibrate_leg(R_all, t_all, readings[:, i], g.platform_hinges_mm[i], g.base_hinges_mm[i],
+                              g.initial_lengths_mm[i], sigma) for i in range(6)]
+
+    legs = solve_legs(meas_R, meas_t)
+    # The stations' errors are shared by every pose: a common-mode error the residuals cannot
+    # show. Carry their covariance (Eq. 4-5) through the poses to the legs: central differences
+    # of the whole pipeline at one sigma along each station's principal axes.
+    common = np.zeros(42)
+    for s_idx, cov in enumerate(station_cov):
+        w, V = np.linalg.eigh(cov)
+        for k in range(3):
+            h = np.sqrt(max(w[k], 0.0)) * V[:, k]
+            vec = []
+            for sign in (1, -1):
+                st = stations.copy()
+                st[s_idx] += sign * h
+                pr = [pose_from_lengths(sim, st, d, R, t) for d, R, t in zip(lengths, meas_R, meas_t)]
+                vec.append(np.array([np.r_[c.r, c.B, c.l] for c in
+                                     solve_legs(np.array([p[0] for p in pr]), np.array([p[1] for p in pr]))]).ravel())
+            common += ((vec[0] - vec[1]) / 2) ** 2
+    legs = [dataclasses.replace(c, std=np.sqrt(c.std**2 + common[7 * i:7 * i + 7])) for i, c in enumerate(legs)]
 
     # two-step
     two_step, spheres = [], []
@@ -177,7 +203,7 @@ def two_step_leg(sim: StewartSim, stations: np.ndarray, i: int, rng):
         for dvec in dirs:
             t = c_true + L * dvec
             sim.set_pose(R0, t)
-            Rm, tm = measure_pose(sim, stations, R0, t)
+            Rm, tm, _ = measure_pose(sim, stations, R0, t)
             ts.append(tm)
             Rs.append(Rm)
         c, rad = fit_sphere(np.array(ts))
