@@ -6,29 +6,34 @@ import numpy as np
 from scenes.checkerboard import Chessboard
 
 
-def raster_chessboard(board: Chessboard, K: np.ndarray, R: np.ndarray, t: np.ndarray,
-                      size=(640, 480), supersample: int = 8, background: float = 90.0) -> np.ndarray:
-    """Grey image of a board at pose (R, t) (board2cam, mm) through an ideal pinhole.
-
-    Each pixel averages supersample^2 samples mapped back onto the board plane by the inverse
-    homography: an exact area-sampled image up to the supersampling.
-    """
+def area_sample(K: np.ndarray, R: np.ndarray, t: np.ndarray, shade, size, supersample: int) -> np.ndarray:
+    """Float image of a plane at pose (R, t) through an ideal pinhole: each pixel averages
+    supersample^2 samples mapped back onto the plane by the inverse homography, where
+    ``shade(X, Y)`` gives the grey level (exact area sampling up to the supersampling)."""
     W, Hh = size
     Hi = np.linalg.inv(K @ np.c_[R[:, 0], R[:, 1], t])
-    sq, m = board.square_mm, board.margin_mm
     off = (np.arange(supersample) + 0.5) / supersample - 0.5
     v, u = np.mgrid[0:Hh, 0:W].astype(float)
     acc = np.zeros((Hh, W))
     for dv in off:
         for du in off:
             p = np.stack([u + du, v + dv, np.ones_like(u)], -1) @ Hi.T
-            X, Y = p[..., 0] / p[..., 2], p[..., 1] / p[..., 2]
-            a, b = np.floor(X / sq) + 1, np.floor(Y / sq) + 1
-            squares = (a >= 0) & (a <= board.cols) & (b >= 0) & (b <= board.rows)
-            plate = (X >= -sq - m) & (X <= board.cols * sq + m) & (Y >= -sq - m) & (Y <= board.rows * sq + m)
-            val = np.where(plate, 255.0, background)
-            acc += np.where(squares & ((a + b) % 2 == 0), 0.0, val)
-    return np.clip(np.rint(acc / supersample**2), 0, 255).astype(np.uint8)
+            acc += shade(p[..., 0] / p[..., 2], p[..., 1] / p[..., 2])
+    return acc / supersample**2
+
+
+def raster_chessboard(board: Chessboard, K: np.ndarray, R: np.ndarray, t: np.ndarray,
+                      size=(640, 480), supersample: int = 8, background: float = 90.0) -> np.ndarray:
+    """uint8 image of a board at pose (R, t) (board2cam, mm)."""
+    sq, m = board.square_mm, board.margin_mm
+
+    def shade(X, Y):
+        a, b = np.floor(X / sq) + 1, np.floor(Y / sq) + 1
+        squares = (a >= 0) & (a <= board.cols) & (b >= 0) & (b <= board.rows)
+        plate = (X >= -sq - m) & (X <= board.cols * sq + m) & (Y >= -sq - m) & (Y <= board.rows * sq + m)
+        return np.where(squares & ((a + b) % 2 == 0), 0.0, np.where(plate, 255.0, background))
+
+    return np.clip(np.rint(area_sample(K, R, t, shade, size, supersample)), 0, 255).astype(np.uint8)
 
 
 def project(board_pts, K, R, t, dist=None):
@@ -57,14 +62,5 @@ def random_views(rng, board_pts, K, n_views, size=(640, 480), depth=(500.0, 900.
 def raster_disc(K: np.ndarray, R: np.ndarray, t: np.ndarray, radius: float, size=(768, 576),
                 supersample: int = 4, dark: float = 20.0, bright: float = 230.0) -> np.ndarray:
     """Float image of a dark disc of ``radius`` centred at the origin of the plane (R, t)."""
-    W, Hh = size
-    Hi = np.linalg.inv(K @ np.c_[R[:, 0], R[:, 1], t])
-    off = (np.arange(supersample) + 0.5) / supersample - 0.5
-    v, u = np.mgrid[0:Hh, 0:W].astype(float)
-    acc = np.zeros((Hh, W))
-    for dv in off:
-        for du in off:
-            p = np.stack([u + du, v + dv, np.ones_like(u)], -1) @ Hi.T
-            X, Y = p[..., 0] / p[..., 2], p[..., 1] / p[..., 2]
-            acc += np.where(X * X + Y * Y <= radius * radius, dark, bright)
-    return acc / supersample**2
+    return area_sample(K, R, t, lambda X, Y: np.where(X * X + Y * Y <= radius * radius, dark, bright),
+                       size, supersample)
