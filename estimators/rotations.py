@@ -24,6 +24,22 @@ def rotvec_to_matrix(w: np.ndarray) -> np.ndarray:
     return np.eye(3) + np.sin(th) * K + (1 - np.cos(th)) * K @ K
 
 
+def rotvecs_to_matrices(w: np.ndarray) -> np.ndarray:
+    """Rodrigues for many rotation vectors at once: (n, 3) rad -> (n, 3, 3)."""
+    w = np.asarray(w, float)
+    th = np.linalg.norm(w, axis=1)
+    small = th < 1e-15
+    k = w / np.where(small, 1.0, th)[:, None]
+    K = np.zeros((len(w), 3, 3))
+    K[:, 0, 1], K[:, 0, 2], K[:, 1, 2] = -k[:, 2], k[:, 1], -k[:, 0]
+    K -= K.transpose(0, 2, 1)
+    s = np.where(small, 0.0, np.sin(th))[:, None, None]
+    c = np.where(small, 0.0, 1 - np.cos(th))[:, None, None]
+    out = np.eye(3) + s * K + c * K @ K
+    out[small] = np.eye(3) + np.array([skew(x) for x in w[small]]).reshape(-1, 3, 3)
+    return out
+
+
 def matrix_to_rotvec(R: np.ndarray) -> np.ndarray:
     """Inverse of :func:`rotvec_to_matrix` for angles below pi, (3, 3) -> (3,)."""
     th = np.arccos(np.clip((np.trace(R) - 1) / 2, -1, 1))

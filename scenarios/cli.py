@@ -75,6 +75,9 @@ def main(argv: list[str] | None = None) -> int:
         return e.code if isinstance(e.code, int) else EXIT_BAD_INPUT
     try:
         return {"run": _run, "fit": _fit, "camera": _camera, "montecarlo": _montecarlo}[args.command](args)
+    except BrokenPipeError:  # the reader went away (| head): nothing to say
+        sys.stderr.close()
+        return EXIT_OK
     except KeyboardInterrupt:
         print("calibench: interrupted; finished trials are kept, rerun the same command to resume", file=sys.stderr)
         return 130
@@ -149,17 +152,14 @@ def _fit(args) -> int:
 
 
 def _montecarlo(args) -> int:
-    from scenarios.montecarlo import run_study
+    from scenarios.montecarlo import run_study, summary_table
 
     _scenario(args.scenario)
     out = args.out or Path("calibench-out") / f"{args.scenario}-montecarlo"
     s = run_study(args.scenario, args.trials, args.seed, args.fidelity, out, args.workers, args.scheduler)
-    print(f"{s['scenario']}: {s['trials']} trials ({s['failed']} failed) in {s['elapsed_s']:.1f} s")
-    print("| parameter | unit | bias | rmse | mean std | coverage 95 % |\n|---|---|---|---|---|---|")
-    for p in s["parameters"]:
-        cov = "" if p["coverage_95"] is None else f"{p['coverage_95']:.3f}"
-        std = "" if p["mean_std"] is None else f"{p['mean_std']:.4g}"
-        print(f"| {p['name']} | {p['unit']} | {p['bias']:.4g} | {p['rmse']:.4g} | {std} | {cov} |")
+    print(f"{s['scenario']}: {s['trials']} trials ({s['resumed']} kept from an earlier run, {s['failed']} failed); "
+          f"this run took {s['elapsed_s']:.1f} s")
+    print(summary_table(s))
     print(f"-> {out / 'summary.json'}")
     return EXIT_OK if s["failed"] == 0 else EXIT_CHECK_FAILED
 

@@ -31,9 +31,12 @@ class Parameter:
         return bool(abs(self.estimate - self.truth) <= self.tolerance)
 
     def as_dict(self) -> dict:
-        return {"name": self.name, "unit": self.unit, "truth": _num(self.truth),
-                "estimate": _num(self.estimate), "std": _num(self.std),
-                "tolerance": _num(self.tolerance), "ok": self.ok}
+        out = {"name": self.name, "unit": self.unit, "truth": _num(self.truth),
+               "estimate": _num(self.estimate), "std": _num(self.std),
+               "tolerance": _num(self.tolerance), "ok": self.ok}
+        if self.crlb is not None:
+            out["crlb"] = _num(self.crlb)
+        return out
 
 
 @dataclasses.dataclass

@@ -4,7 +4,9 @@
    lengths to three reference nests of known position (Eq. 1), uncertainty by Eq. 4-5.
 2. A platform pose: the three reflectors multilaterated from the three stations, then the rigid
    transform of their known platform coordinates.
-3. One-step: 60 poses with all six legs' readings; per leg, the seven unknowns by least squares.
+3. One-step: 60 poses with all six legs' readings; per leg, the seven unknowns by least squares;
+   then the joint maximum likelihood over stations, poses and legs (every tracker length and leg
+   reading weighted by its 1-sigma), whose covariance is reported and compared with the CRLB.
 4. Two-step, per leg: the leg locked, the platform translated (orientation held) to nine
    non-coplanar places, three times at three orientations 10 degrees apart: the platform origin
    runs on a sphere of the leg's length about B - R r (Eq. 2); the three centres give r, then
@@ -22,8 +24,8 @@ import numpy as np
 
 from estimators.pose import mean_rotation
 from estimators.rotations import rotvec_to_matrix
-from estimators.stewart import (calibrate_leg, fit_sphere, forward_kinematics, multilaterate, rigid_transform,
-                                trilaterate)
+from estimators.stewart import (LegCalibration, TrackerObservations, adjust_jointly, calibrate_leg, fit_sphere,
+                                forward_kinematics, joint_information, multilaterate, rigid_transform, trilaterate)
 from scenarios.report import Check, Parameter, Report
 from scenes.stewart import StewartGeometry
 from sim.stewart import StewartSim, StewartTruth
@@ -52,13 +54,15 @@ def random_poses(n, rng, config):
 
 
 def locate_stations(sim: StewartSim):
-    """Each station from its lengths to the three nests (Eq. 1), with covariance (Eq. 4-5)."""
+    """Each station from its lengths to the three nests (Eq. 1), with covariance (Eq. 4-5), and
+    the lengths (3 stations, 3 nests)."""
     g = sim.geometry
-    out = []
+    out, lengths = [], []
     for s in range(3):
         d = sim.distances_mm(s, g.reference_nests_mm)
+        lengths.append(d)
         out.append(trilaterate(g.reference_nests_mm, d, sim.length_sigma_mm(d), above=np.array([0, 0, 1.0])))
-    return np.array([p for p, _ in out]), [c for _, c in out]
+    return np.array([p for p, _ in out]), [c for _, c in out], np.array(lengths)
 
 
 def measure_pose(sim: StewartSim, stations: np.ndarray, R_guess, t_guess):
@@ -81,7 +85,7 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
     rng = np.random.default_rng(seed)
     g = config.geometry
     sim = StewartSim(g, config.truth, np.random.default_rng(rng.integers(2**63)))
-    stations, station_cov = locate_stations(sim)
+    stations, station_cov, nest_lengths = locate_stations(sim)
     station_err = np.linalg.norm(stations - sim.stations, axis=1)
 
     # one-step data
@@ -102,24 +106,20 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
         return [calibrate_leg(R_all, t_all, readings[:, i], g.platform_hinges_mm[i], g.base_hinges_mm[i],
                               g.initial_lengths_mm[i], sigma) for i in range(6)]
 
-    legs = solve_legs(meas_R, meas_t)
-    # The stations' errors are shared by every pose: a common-mode error the residuals cannot
-    # show. Carry their covariance (Eq. 4-5) through the poses to the legs: central differences
-    # of the whole pipeline at one sigma along each station's principal axes.
-    common = np.zeros(42)
-    for s_idx, cov in enumerate(station_cov):
-        w, V = np.linalg.eigh(cov)
-        for k in range(3):
-            h = np.sqrt(max(w[k], 0.0)) * V[:, k]
-            vec = []
-            for sign in (1, -1):
-                st = stations.copy()
-                st[s_idx] += sign * h
-                pr = [pose_from_lengths(sim, st, d, R, t) for d, R, t in zip(lengths, meas_R, meas_t)]
-                vec.append(np.array([np.r_[c.r, c.B, c.l] for c in
-                                     solve_legs(np.array([p[0] for p in pr]), np.array([p[1] for p in pr]))]).ravel())
-            common += ((vec[0] - vec[1]) / 2) ** 2
-    legs = [dataclasses.replace(c, std=np.sqrt(c.std**2 + common[7 * i:7 * i + 7])) for i, c in enumerate(legs)]
+    pipeline = solve_legs(meas_R, meas_t)
+    # The sequential pipeline leaves information unused (the legs' readings say where the
+    # platform is too, and every pose says where the stations are): finish with the joint
+    # maximum likelihood over stations, poses and legs, whose covariance reaches the CRLB.
+    a_um, b_um_per_m = config.truth.length_noise_um
+    obs = TrackerObservations(g.reference_nests_mm, nest_lengths, g.reflectors_mm, np.array(lengths), readings,
+                              (a_um / 1000, b_um_per_m / 1e6),
+                              config.truth.reading_noise_um / 1000)
+    joint = adjust_jointly(obs, stations, meas_R, meas_t, np.array([c.r for c in pipeline]),
+                           np.array([c.B for c in pipeline]), np.array([c.l for c in pipeline]))
+    bound = np.sqrt(np.diag(joint_information(obs, sim.stations, np.array([R for R, _ in poses]),
+                                              np.array([t for _, t in poses]), sim.r, sim.B, sim.l0)))
+    legs = [LegCalibration(joint.r[i], joint.B[i], float(joint.l[i]), joint.std[7 * i:7 * i + 7], joint.rms)
+            for i in range(6)]
 
     # two-step
     two_step, spheres = [], []
@@ -138,7 +138,6 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
     for R, t in hold:
         sim.set_pose(R, t)
         read = sim.readings_mm()
-        true_pts = sim.r @ R.T + t
         for key, (r, B, l) in (("before", nominal), ("after", one), ("two_step", two)):
             Rf, tf = forward_kinematics(l + read, r, B, *home)
             # the pose's error seen at the nominal hinge points (position and turn together)
@@ -151,7 +150,8 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
         est = np.r_[c.r, c.B, c.l]
         for k, name in enumerate(LEG_PARAMS):
             report.parameters.append(Parameter(f"leg{i + 1}_{name}", "mm", float(truth_vals[i][k]), float(est[k]),
-                                               float(c.std[k]), TOL_SIGMA * float(c.std[k])))
+                                               float(c.std[k]), TOL_SIGMA * float(c.std[k]),
+                                               crlb=float(bound[7 * i + k])))
     predicted = np.array([np.sqrt(np.diag(c)) for c in station_cov]) * 1000
     report.checks += [
         Check("loop_closure_um", sim.max_closure_um, config.closure_limit_um,
@@ -170,7 +170,9 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
         "two_step": {f"leg{i + 1}": dict(zip(LEG_PARAMS, map(float, np.r_[c[0], c[1], c[2]]))) for i, c in enumerate(two_step)},
         "station_error_um": (station_err * 1000).tolist(),
         "station_sigma_um": predicted.tolist(),
-        "leg_whitened_rms": [c.rms for c in legs],
+        "whitened_rms": joint.rms,
+        "pipeline_rms_error_mm": float(np.sqrt(np.mean((np.array([np.r_[c.r, c.B, c.l] for c in pipeline])
+                                                        - np.array(truth_vals))**2))),
     }
     artifacts = dict(sim=sim, poses=poses, stations=stations, spheres=spheres, config=config)
     if rrd and out_dir is not None:

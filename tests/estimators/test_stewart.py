@@ -3,8 +3,10 @@
 import numpy as np
 import pytest
 
-from estimators.stewart import (calibrate_leg, fit_sphere, forward_kinematics, leg_lengths, multilaterate,
-                                rigid_transform, trilaterate)
+from estimators.rotations import rotvec_to_matrix
+from estimators.stewart import (TrackerObservations, _joint_residuals, adjust_jointly, calibrate_leg, fit_sphere,
+                                forward_kinematics, joint_information, leg_lengths, multilaterate, rigid_transform,
+                                trilaterate)
 
 NESTS = np.array([[700.0, -500.0, 0.0], [800.0, 500.0, 700.0], [-700.0, 700.0, 1300.0]])
 STATION = np.array([1500.0, -500.0, 300.0])
@@ -88,3 +90,72 @@ def test_forward_kinematics_inverts_the_leg_lengths():
     Rf, tf = forward_kinematics(leg_lengths(R, t, r, B), r, B, np.eye(3), np.array([0, 0, 750.0]))
     np.testing.assert_allclose(Rf, R, atol=1e-10)
     np.testing.assert_allclose(tf, t, atol=1e-8)
+
+
+def _hexapod():
+    a = np.deg2rad([-15, 15, 105, 135, 225, 255])
+    B = np.c_[500 * np.cos(a), 500 * np.sin(a), np.zeros(6)]
+    b = np.deg2rad([-45, 45, 75, 165, 195, 285])
+    r = np.c_[300 * np.cos(b), 300 * np.sin(b), np.zeros(6)]
+    return r, B
+
+
+def _joint_problem(rng, n=40, sigma=(0.3e-3, 0.3e-6), reading_sigma=1e-3):
+    """A truth (stations, poses, legs) and what the tracker and the legs would read of it."""
+    r, B = _hexapod()
+    r, B = r + rng.normal(0, 0.4, (6, 3)), B + rng.normal(0, 0.4, (6, 3))
+    l = np.full(6, 650.0) + rng.normal(0, 0.5, 6)
+    stations = np.array([[1500.0, -500.0, 300.0], [1400.0, 600.0, 250.0], [-900.0, 1300.0, 350.0]])
+    refl = np.array([[250.0, 0, 30], [-125, 216, 30], [-125, -216, 30]])
+    R = np.array([_rot(rng.uniform(-0.17, 0.17, 3)) for _ in range(n)])
+    t = np.array([0, 0, 750.0]) + rng.uniform(-150, 150, (n, 3))
+
+    def noisy(L):
+        return L + rng.normal(0, sigma[0] + sigma[1] * L)
+
+    nest_L = noisy(np.linalg.norm(NESTS[None] - stations[:, None], axis=2))
+    P = np.einsum("nij,kj->nki", R, refl) + t[:, None]
+    refl_L = noisy(np.linalg.norm(P[:, :, None] - stations[None, None], axis=3))
+    legs = np.linalg.norm(np.einsum("nij,lj->nli", R, r) + t[:, None] - B, axis=2)
+    readings = legs - l + rng.normal(0, reading_sigma, legs.shape)
+    obs = TrackerObservations(NESTS, nest_L, refl, refl_L, readings, sigma, reading_sigma)
+    return obs, (stations, R, t, r, B, l)
+
+
+def test_joint_jacobian_matches_finite_differences():
+    rng = np.random.default_rng(30)
+    obs, (S, R, t, r, B, l) = _joint_problem(rng, n=4)
+    res, J = _joint_residuals(obs, S, R, t, r, B, l)
+    n, h = len(R), 1e-6
+    x0 = np.zeros(J.shape[1])
+
+    def f(x):
+        Rx = np.array([rotvec_to_matrix(x[9 + 6 * i:12 + 6 * i]) @ R[i] for i in range(n)])
+        tx = t + x[9:9 + 6 * n].reshape(n, 6)[:, 3:]
+        legs = x[9 + 6 * n:].reshape(6, 7)
+        return _joint_residuals(obs, S + x[:9].reshape(3, 3), Rx, tx, r + legs[:, :3], B + legs[:, 3:6],
+                                l + legs[:, 6])[0]
+
+    Jn = np.array([(f(x0 + h * e) - f(x0 - h * e)) / (2 * h) for e in np.eye(len(x0))]).T
+    np.testing.assert_allclose(J, Jn, atol=1e-6 * np.abs(J).max())
+
+
+def test_joint_adjustment_recovers_the_legs_and_its_std_is_the_bound():
+    """From a start 0.3 mm off everywhere, 15 noisy calibrations: every leg parameter within 5 of
+    its std, the normalised errors' RMS within 15 % of 1 (630 samples: 3 sigma is 8 %), and the
+    reported std equal to the CRLB at the truth within 2 % (the problem is nearly linear)."""
+    rng = np.random.default_rng(31)
+    z = []
+    for _ in range(15):
+        obs, (S, R, t, r, B, l) = _joint_problem(rng)
+        n = len(R)
+        R0 = np.array([rotvec_to_matrix(w) @ Ri for w, Ri in zip(rng.normal(0, 1e-4, (n, 3)), R)])
+        cal = adjust_jointly(obs, S + 0.3, R0, t + 0.3, r + 0.3, B - 0.3, l + 0.3)
+        est = np.c_[cal.r, cal.B, cal.l].ravel()
+        z.append((est - np.c_[r, B, l].ravel()) / cal.std)
+        bound = np.sqrt(np.diag(joint_information(obs, S, R, t, r, B, l)))
+        np.testing.assert_allclose(cal.std, bound, rtol=0.02)
+        assert 0.7 < cal.rms < 1.3
+    z = np.array(z)
+    assert np.all(np.abs(z) < 5)
+    assert 0.85 < np.sqrt(np.mean(z**2)) < 1.15
