@@ -106,7 +106,7 @@ class TrackerProblem:
             p = F[:, 7, :3, 3] + F[:, 7, :3, :3] @ s.offset
             y = p @ s.R.T + s.t
             # a joint's turn moves the point as that joint's zero offset does
-            Jq = jacobian(self.chain, self.q, s.delta, s.offset)[:, :, [3, 7, 11, 15, 19, 23]]
+            Jq = jacobian(self.chain, self.q, s.delta, s.offset, F)[:, :, [3, 7, 11, 15, 19, 23]]
             G = np.einsum("nij,jk,nkl->nil", spherical_jacobian(y), s.R, Jq)
             cov = cov + self.encoder_sigma**2 * np.einsum("nij,nkj->nik", G, G)
         return np.linalg.inv(np.linalg.cholesky(cov))
@@ -132,7 +132,7 @@ class TrackerProblem:
         if self._W is None:
             self.start()
         Js = np.einsum("nij,njk->nik", self._W, spherical_jacobian(y))
-        Jd = np.einsum("ij,njk->nik", s.R, jacobian(self.chain, self.q, s.delta, s.offset))
+        Jd = np.einsum("ij,njk->nik", s.R, jacobian(self.chain, self.q, s.delta, s.offset, F))
         Jw = -skew(p @ s.R.T)  # left perturbation of R
         Jt = np.broadcast_to(np.eye(3), (len(y), 3, 3))
         Jo = np.einsum("ij,njk->nik", s.R, F[:, 7, :3, :3])
@@ -232,8 +232,9 @@ def identifiable_basis(problem, state=None, rel_tol: float = 1e-4) -> Basis:
         dropped += list(cols[piv[rank:]])
     kept = np.sort(np.array(kept))
     reasons = {}
-    for j in dropped:
-        coef, *_ = np.linalg.lstsq(Js[:, kept], Js[:, j], rcond=None)
+    coefs = np.linalg.lstsq(Js[:, kept], Js[:, dropped], rcond=None)[0] if dropped else None
+    for m, j in enumerate(dropped):
+        coef = coefs[:, m]
         order = np.argsort(-np.abs(coef))
         big = [f"{names[kept[k]]} ({coef[k]:+.2f})" for k in order[:3] if abs(coef[k]) > 0.05 * abs(coef[order[0]])]
         reasons[names[j]] = "moves the data as " + " + ".join(big)
@@ -295,7 +296,12 @@ def identify_identifiable(problem) -> Identification:
     again = identifiable_basis(problem, first.state)
     if set(again.kept) == set(basis.kept):
         return first
-    return identify(problem, again)
+    # restart from the solution with the newly dropped parameters back at nominal (kept fixed
+    # there), so the fit is re-expressed in the new basis rather than carried over
+    reset = np.zeros(len(problem.names))
+    newly = np.setdiff1d(basis.kept, again.kept)
+    reset[newly] = -_values(problem, first.state)[newly]
+    return identify(problem, again, state=problem.update(first.state, reset))
 
 
 def _values(problem, s) -> np.ndarray:

@@ -38,12 +38,10 @@ class DHChain:
     def actual(self, delta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(a, d, alpha, theta_offset), each (7,), of the arm with errors ``delta`` (25,)."""
         e = np.asarray(delta, float)
-        per = e[:24].reshape(6, 4)
-        a = self.a_mm + np.r_[per[:, 0], 0.0]
-        d = self.d_mm + np.r_[per[:, 1], e[24]]
-        alpha = self.alpha_rad + np.r_[per[:, 2], 0.0]
-        theta0 = np.r_[per[:, 3], 0.0]
-        return a, d, alpha, theta0
+        per = np.zeros((7, 4))  # link 7 has only d
+        per[:6] = e[:24].reshape(6, 4)
+        per[6, 1] = e[24]
+        return self.a_mm + per[:, 0], self.d_mm + per[:, 1], self.alpha_rad + per[:, 2], per[:, 3]
 
 
 def table1_delta(path) -> np.ndarray:
@@ -54,9 +52,9 @@ def table1_delta(path) -> np.ndarray:
 
 
 def _dh(theta, d, a, alpha) -> np.ndarray:
-    """DH transforms, theta (n,) and scalars -> (n, 4, 4)."""
+    """DH transforms, theta (..., k) and d, a, alpha (k,) -> (..., k, 4, 4)."""
     ct, st = np.cos(theta), np.sin(theta)
-    ca, sa = np.cos(alpha), np.sin(alpha)
+    ca, sa = np.broadcast_to(np.cos(alpha), ct.shape), np.broadcast_to(np.sin(alpha), ct.shape)
     T = np.zeros(theta.shape + (4, 4))
     T[..., 0, 0], T[..., 0, 1], T[..., 0, 2], T[..., 0, 3] = ct, -st * ca, st * sa, a * ct
     T[..., 1, 0], T[..., 1, 1], T[..., 1, 2], T[..., 1, 3] = st, ct * ca, -ct * sa, a * st
@@ -65,16 +63,27 @@ def _dh(theta, d, a, alpha) -> np.ndarray:
     return T
 
 
+def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """u x v over the last axis (np.cross's axis juggling costs more than the arithmetic here)."""
+    out = np.empty(np.broadcast_shapes(u.shape, v.shape))
+    out[..., 0] = u[..., 1] * v[..., 2] - u[..., 2] * v[..., 1]
+    out[..., 1] = u[..., 2] * v[..., 0] - u[..., 0] * v[..., 2]
+    out[..., 2] = u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
+    return out
+
+
 def frames(chain: DHChain, q_rad: np.ndarray, delta: np.ndarray | None = None) -> np.ndarray:
     """Frames 0..7 in the base frame, (n, 8, 4, 4), for postures (n, 6)."""
     q = np.atleast_2d(np.asarray(q_rad, float))
     a, d, alpha, th0 = chain.actual(np.zeros(25) if delta is None else delta)
     n = len(q)
+    theta = np.zeros((n, 7))
+    theta[:, :N_JOINTS] = q
+    links = _dh(theta + th0, d, a, alpha)  # all seven links at once
     F = np.empty((n, 8, 4, 4))
     F[:, 0] = np.eye(4)
     for i in range(7):
-        theta = (q[:, i] if i < N_JOINTS else np.zeros(n)) + th0[i]
-        F[:, i + 1] = F[:, i] @ _dh(theta, d[i], a[i], alpha[i])
+        F[:, i + 1] = F[:, i] @ links[:, i]
     return F
 
 
@@ -90,25 +99,22 @@ def point_in_link7(chain: DHChain, q_rad: np.ndarray, delta: np.ndarray | None =
 
 
 def jacobian(chain: DHChain, q_rad: np.ndarray, delta: np.ndarray | None = None,
-             offset_mm: np.ndarray | None = None) -> np.ndarray:
+             offset_mm: np.ndarray | None = None, F: np.ndarray | None = None) -> np.ndarray:
     """d(point) / d(delta), (n, 3, 25), analytic.
 
     For link i (joint frame z_{i-1}, origin o_{i-1}; after Rot(Z) and the translations, x_i and
     o_i): d/d theta_i = z_{i-1} x (p - o_{i-1}), d/d d_i = z_{i-1}, d/d a_i = x_i,
-    d/d alpha_i = x_i x (p - o_i).
+    d/d alpha_i = x_i x (p - o_i). ``F``: the frames, when the caller has them already.
     """
-    F = frames(chain, q_rad, delta)
+    F = frames(chain, q_rad, delta) if F is None else F
     p = F[:, 7, :3, 3]
     if offset_mm is not None:
         p = p + F[:, 7, :3, :3] @ np.asarray(offset_mm, float)
     n = len(F)
+    z_prev, o_prev = F[:, :6, :3, 2], F[:, :6, :3, 3]  # (n, 6, 3)
+    x_i, o_i = F[:, 1:7, :3, 0], F[:, 1:7, :3, 3]
+    per = np.stack([x_i, z_prev, _cross(x_i, p[:, None] - o_i), _cross(z_prev, p[:, None] - o_prev)], axis=3)
     J = np.empty((n, 3, 25))
-    for i in range(6):
-        z_prev, o_prev = F[:, i, :3, 2], F[:, i, :3, 3]
-        x_i, o_i = F[:, i + 1, :3, 0], F[:, i + 1, :3, 3]
-        J[:, :, 4 * i + 0] = x_i
-        J[:, :, 4 * i + 1] = z_prev
-        J[:, :, 4 * i + 2] = np.cross(x_i, p - o_i)
-        J[:, :, 4 * i + 3] = np.cross(z_prev, p - o_prev)
+    J[:, :, :24] = per.transpose(0, 2, 1, 3).reshape(n, 3, 24)  # (link, [a, d, alpha, theta])
     J[:, :, 24] = F[:, 6, :3, 2]  # dd7 moves along z_6
     return J
