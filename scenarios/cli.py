@@ -54,6 +54,18 @@ def _parser() -> argparse.ArgumentParser:
     mc.add_argument("--fidelity", choices=("render", "analytic"), default="analytic",
                     help="sensor fidelity of each trial (default analytic)")
 
+    d = sub.add_parser("discover", help="where a recording disagrees with the twin, and which physics is missing",
+                       description="Compare a recording with the twin replaying its commands; locate the "
+                                   "mismatch, name and fit the missing effects, show the held-out fit improve. "
+                                   "Writes DIR/discovery.json and DIR/discovery.png.")
+    d.add_argument("scenario", help="one of: belt-stage, vision-stage, arm-cmm")
+    d.add_argument("recording", type=Path, help="CSV in the CONTRACT's stage or arm format")
+    d.add_argument("--out", type=Path, help="output folder (default ./calibench-out/<scenario>-discover)")
+    d.add_argument("--seed", type=int, default=0, help="seed of the permutation tests (default 0)")
+    d.add_argument("--holdout", choices=("pass", "rows", "columns", "blocks"),
+                   help="what cross-validation holds out (default: passes if the recording has several, "
+                        "else whole rows of a grid, else contiguous blocks)")
+
     c = sub.add_parser("camera", help="calibrate a camera from chessboard photos",
                        description="Calibrate a camera from real chessboard photos; writes DIR/intrinsics.json.")
     c.add_argument("images", nargs="+", type=Path, help="photos of the chessboard")
@@ -74,7 +86,8 @@ def main(argv: list[str] | None = None) -> int:
     except SystemExit as e:  # usage errors (status 2) and --help (0), as a return value
         return e.code if isinstance(e.code, int) else EXIT_BAD_INPUT
     try:
-        return {"run": _run, "fit": _fit, "camera": _camera, "montecarlo": _montecarlo}[args.command](args)
+        return {"run": _run, "fit": _fit, "camera": _camera, "montecarlo": _montecarlo,
+                "discover": _discover}[args.command](args)
     except BrokenPipeError:  # the reader went away (| head): nothing to say
         sys.stderr.close()
         return EXIT_OK
@@ -162,6 +175,25 @@ def _montecarlo(args) -> int:
     print(summary_table(s))
     print(f"-> {out / 'summary.json'}")
     return EXIT_OK if s["failed"] == 0 else EXIT_CHECK_FAILED
+
+
+def _discover(args) -> int:
+    from scenarios.discover import run_discover
+
+    out = args.out or Path("calibench-out") / f"{args.scenario}-discover"
+    d = run_discover(args.scenario, args.recording, out, args.seed, args.holdout)
+    f = d["fit"]
+    print(f"{d['scenario']}: {d['samples']} samples; held-out RMS {f['cv_rms_nominal'] * 1000:.2f} um with the "
+          f"scene model, {f['cv_rms_final'] * 1000:.2f} um with what was found ({d['holdout']})")
+    for e in d["effects"]:
+        print(f"- {e['name']} ({e['axis']}): {e['physics']}; held-out RMS {e['cv_rms_before'] * 1000:.2f} -> "
+              f"{e['cv_rms_after'] * 1000:.2f} um")
+    for c in d["confounded"]:
+        print(f"- cannot separate {c['effect']} ({c['axis']}): {c['why']}; to separate: {c['experiment']}")
+    if not d["effects"]:
+        print("- nothing missing: the scene model explains the recording to its repeatability")
+    print(f"-> {out / 'discovery.json'}")
+    return EXIT_OK
 
 
 def _camera(args) -> int:

@@ -73,8 +73,8 @@ class StageRecording:
             w.writerows([[f"{v:.9g}" for v in row] for row in data])
 
 
-def load_stage_csv(path: str | Path) -> StageRecording:
-    """Read a stage recording; one clear RecordingError for any defect."""
+def _read_columns(path: str | Path, required: tuple, optional: tuple) -> dict[str, np.ndarray]:
+    """Numeric columns of a CSV by name; one clear RecordingError for any defect."""
     path = Path(path)
     try:
         with open(path, newline="") as f:
@@ -86,14 +86,14 @@ def load_stage_csv(path: str | Path) -> StageRecording:
     if not rows or not rows[0]:
         raise RecordingError(f"{path} is empty")
     header = [h.strip() for h in rows[0]]
-    missing = [c for c in StageRecording.REQUIRED if c not in header]
+    missing = [c for c in required if c not in header]
     if missing:
         raise RecordingError(f"{path}: missing column(s) {', '.join(missing)}")
     body = [r for r in rows[1:] if any(cell.strip() for cell in r)]
     if not body:
         raise RecordingError(f"{path}: no data rows")
     fields = {}
-    for name in StageRecording.REQUIRED + StageRecording.OPTIONAL:
+    for name in required + optional:
         if name not in header:
             continue
         j = header.index(name)
@@ -108,4 +108,41 @@ def load_stage_csv(path: str | Path) -> StageRecording:
         if bad.any():
             raise RecordingError(f"{path} line {int(np.argmax(bad)) + 2}: column {name} is not finite")
         fields[name] = values
-    return StageRecording(**fields)
+    return fields
+
+
+def load_stage_csv(path: str | Path) -> StageRecording:
+    """Read a stage recording; one clear RecordingError for any defect."""
+    return StageRecording(**_read_columns(path, StageRecording.REQUIRED, StageRecording.OPTIONAL))
+
+
+@dataclasses.dataclass
+class ArmRecording:
+    """Encoder readings (n, 6) rad and the reference's probe centre (n, 3) mm; t_s, temp_c."""
+
+    q_rad: np.ndarray
+    xyz_mm: np.ndarray
+    t_s: np.ndarray | None = None
+    temp_c: np.ndarray | None = None
+
+    def to_csv(self, path) -> None:
+        cols = [f"q{j}_deg" for j in range(1, 7)] + ["x_mm", "y_mm", "z_mm"]
+        data = [np.rad2deg(self.q_rad), self.xyz_mm]
+        if self.t_s is not None:
+            cols.append("t_s")
+            data.append(self.t_s[:, None])
+        if self.temp_c is not None:
+            cols.append("temp_c")
+            data.append(self.temp_c[:, None])
+        np.savetxt(path, np.hstack(data), delimiter=",", header=",".join(cols), comments="", fmt="%.9g")
+
+
+ARM_REQUIRED = tuple(f"q{j}_deg" for j in range(1, 7)) + ("x_mm", "y_mm", "z_mm")
+
+
+def load_arm_csv(path: str | Path) -> ArmRecording:
+    """Read an arm recording (CONTRACT: q1_deg..q6_deg, x_mm, y_mm, z_mm; t_s, temp_c optional)."""
+    cols = _read_columns(path, ARM_REQUIRED, ("t_s", "temp_c"))
+    q = np.deg2rad(np.stack([cols[f"q{j}_deg"] for j in range(1, 7)], axis=1))
+    return ArmRecording(q, np.stack([cols["x_mm"], cols["y_mm"], cols["z_mm"]], axis=1), cols.get("t_s"),
+                        cols.get("temp_c"))

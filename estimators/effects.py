@@ -1,0 +1,304 @@
+"""Candidate effects: physical terms a simulation may have left out, each with units and bounds.
+
+One small interface, many small implementations (CONTRACT's vocabulary). An effect is linear in
+its coefficients once its shape is fixed: ``columns(drivers) -> (n, k)`` in the signal's unit
+(mm), ``describe(coef, cov) -> (params, stderr, physics)``. Shapes with a nonlinear parameter (a
+period) are fixed by :func:`best_period` on the data they are fitted to.
+
+``drivers`` is a plain dict of (n,) arrays: ``x``, ``y`` (commanded, mm), ``dir_x``, ``dir_y``
+(+1 / -1 / 0), ``t_s``, ``temp_c``, ``run`` for stages; ``q`` (n, 6) rad, ``J`` (n, 3, 25) the
+chain's parameter Jacobian, ``a``, ``d`` (7,) link lengths for the arm. A missing driver means
+the candidate does not apply (``applies`` is False).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+AXES = ("x", "y")
+
+
+@dataclasses.dataclass(frozen=True)
+class Effect:
+    """Base: a name from the vocabulary, the signal it acts on (``axis``: x, y or xyz), the
+    drivers it needs."""
+
+    name: str = ""
+    axis: str = "x"
+    needs: tuple[str, ...] = ()
+
+    @property
+    def key(self) -> str:
+        return f"{self.name}:{self.axis}"
+
+    def applies(self, drivers: dict) -> bool:
+        return all(drivers.get(k) is not None and np.ptp(np.asarray(drivers[k], float)) > 0 for k in self.needs)
+
+    def columns(self, drivers: dict) -> np.ndarray:
+        raise NotImplementedError
+
+    def describe(self, coef: np.ndarray, cov: np.ndarray) -> tuple[dict, dict, str]:
+        raise NotImplementedError
+
+
+def _std(cov, i):
+    return float(np.sqrt(max(cov[i, i], 0.0)))
+
+
+@dataclasses.dataclass(frozen=True)
+class Backlash(Effect):
+    """Lost motion on reversal: +B/2 approaching forward, -B/2 backward."""
+
+    name: str = "backlash"
+
+    def __post_init__(self):
+        object.__setattr__(self, "needs", (f"dir_{self.axis}",))
+
+    def columns(self, d):
+        return (np.asarray(d[f"dir_{self.axis}"], float) / 2)[:, None]
+
+    def describe(self, coef, cov):
+        B = float(coef[0])
+        return ({"reversal_mm": B}, {"reversal_mm": _std(cov, 0)},
+                f"lost motion on reversal of the {self.axis.upper()} drive: {B * 1000:+.1f} um between the two "
+                f"directions of approach (+B/2 approaching forward, -B/2 backward)")
+
+
+@dataclasses.dataclass(frozen=True)
+class Periodic(Effect):
+    """A sinusoid in the axis's own position: pulley run-out, belt tooth, lead screw."""
+
+    name: str = "periodic"
+    period_mm: float = 0.0
+    period_std: float | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "needs", (self.axis,))
+
+    def columns(self, d):
+        ph = 2 * np.pi * np.asarray(d[self.axis], float) / self.period_mm
+        return np.stack([np.sin(ph), np.cos(ph)], axis=1)
+
+    def describe(self, coef, cov):
+        s, c = coef
+        amp = float(np.hypot(s, c))
+        g = np.array([s, c]) / max(amp, 1e-300)  # d amp / d (s, c)
+        amp_std = float(np.sqrt(max(g @ cov[:2, :2] @ g, 0.0)))
+        params = {"period_mm": self.period_mm, "amplitude_mm": amp, "phase_rad": float(np.arctan2(c, s))}
+        stderr = {"period_mm": self.period_std, "amplitude_mm": amp_std}
+        return (params, stderr,
+                f"a once-per-{self.period_mm:.1f} mm error of the {self.axis.upper()} axis, {amp * 1000:.1f} um "
+                f"amplitude: something in the drive turns once every {self.period_mm:.1f} mm of travel (a pulley's or "
+                f"screw's run-out, a belt's tooth pattern)")
+
+
+@dataclasses.dataclass(frozen=True)
+class ThermalExpansion(Effect):
+    """Scale proportional to the temperature change: e = k (T - T_mean) u, k in ppm/K."""
+
+    name: str = "thermal_expansion"
+
+    def __post_init__(self):
+        object.__setattr__(self, "needs", (self.axis, "temp_c"))
+
+    def columns(self, d):
+        T = np.asarray(d["temp_c"], float)
+        return ((T - T.mean()) * np.asarray(d[self.axis], float) * 1e-6)[:, None]
+
+    def describe(self, coef, cov):
+        k = float(coef[0])
+        return ({"ppm_per_k": k}, {"ppm_per_k": _std(cov, 0)},
+                f"the {self.axis.upper()} scale (or its reference) grows {k:.2f} ppm per kelvin of the logged "
+                f"temperature: thermal expansion the simulation does not have")
+
+
+@dataclasses.dataclass(frozen=True)
+class ThermalDrift(Effect):
+    """An offset that follows the temperature (mm/K), or time when no temperature is logged."""
+
+    name: str = "thermal_drift"
+    driver: str = "temp_c"
+
+    def __post_init__(self):
+        object.__setattr__(self, "needs", (self.driver,))
+
+    def columns(self, d):
+        v = np.asarray(d[self.driver], float)
+        v = v / 3600 if self.driver == "t_s" else v
+        return (v - v.mean())[:, None]
+
+    @property
+    def unit(self) -> str:
+        return "mm_per_h" if self.driver == "t_s" else "mm_per_k"
+
+    def describe(self, coef, cov):
+        k = float(coef[0])
+        per = "hour" if self.driver == "t_s" else "kelvin"
+        return ({self.unit: k}, {self.unit: _std(cov, 0)},
+                f"the whole {self.axis.upper()} axis shifts {k * 1000:+.2f} um per {per}, wherever it is: a drift "
+                f"of the reference, not of the scale")
+
+
+@dataclasses.dataclass(frozen=True)
+class Polynomial(Effect):
+    """Smooth terms beyond the scene's own model: x^i y^j for each (i, j) in ``powers``.
+
+    Named by what they mean for the signal's axis: terms in the signal's own position are a
+    nonlinear ``positioning`` error, terms in the other axis's position only are that axis's
+    ``straightness``, mixed terms are ``cross_coupling``.
+    """
+
+    name: str = "positioning"
+    powers: tuple[tuple[int, int], ...] = ()
+
+    def __post_init__(self):
+        object.__setattr__(self, "needs", ("x", "y"))
+
+    def columns(self, d):
+        x, y = np.asarray(d["x"], float), np.asarray(d["y"], float)
+        sx, sy = max(np.ptp(x), 1e-9), max(np.ptp(y), 1e-9)  # scaled: coefficients in mm at full travel
+        return np.stack([((x - x.min()) / sx) ** i * ((y - y.min()) / sy) ** j for i, j in self.powers], axis=1)
+
+    def describe(self, coef, cov):
+        params = {f"x{i}y{j}_mm": float(c) for (i, j), c in zip(self.powers, coef)}
+        stderr = {f"x{i}y{j}_mm": _std(cov, k) for k, (i, j) in enumerate(self.powers)}
+        what = {"positioning": f"the {self.axis.upper()} axis's positioning error bends more than the scene's model "
+                               f"allows along its own travel",
+                "straightness": f"the {self.axis.upper()} reading follows the other axis's position beyond the "
+                                f"scene's model: that axis's travel is not straight",
+                "cross_coupling": f"the {self.axis.upper()} error depends on both positions together beyond the "
+                                  f"scene's model"}[self.name]
+        return params, stderr, what + " (coefficients: mm at full travel)"
+
+
+def polynomial_candidates(axis: str, degree: int) -> list[Polynomial]:
+    """The next order of smooth terms above a scene model of total ``degree`` in (x, y)."""
+    own, other = (0, 1) if axis == "x" else (1, 0)
+    n = degree + 1
+    terms = {"positioning": [], "straightness": [], "cross_coupling": []}
+    for k in (n, n + 1):
+        for i in range(k + 1):
+            p = (i, k - i)
+            if p[other] == 0:
+                terms["positioning"].append(p)
+            elif p[own] == 0:
+                terms["straightness"].append(p)
+            elif k == n:
+                terms["cross_coupling"].append(p)
+    return [Polynomial(name=name, axis=axis, powers=tuple(pw)) for name, pw in terms.items() if pw]
+
+
+# --- the arm ----------------------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class Geometry(Effect):
+    """Kinematic parameter errors of the chain (its identifiable combinations)."""
+
+    name: str = "geometry"
+    axis: str = "xyz"
+    kept: tuple[int, ...] = ()
+    names: tuple[str, ...] = ()
+
+    def __post_init__(self):
+        object.__setattr__(self, "needs", ("J",))
+
+    def columns(self, d):
+        J = np.asarray(d["J"], float)[:, :, list(self.kept)]
+        return J.reshape(-1, len(self.kept))
+
+    def describe(self, coef, cov):
+        unit = {n: ("rad" if n.startswith(("dalpha", "dtheta")) else "mm") for n in self.names}
+        params = {n: float(c) for n, c in zip(self.names, coef)}
+        stderr = {n: _std(cov, i) for i, n in enumerate(self.names)}
+        big = sorted(params, key=lambda n: -abs(params[n]) / max(stderr[n], 1e-300))[:3]
+        return (params, stderr,
+                "the arm's link lengths, offsets and twists differ from the drawing (largest: "
+                + ", ".join(f"{n} {params[n] * (1e6 if unit[n] == 'rad' else 1000):+.0f} "
+                            f"{'urad' if unit[n] == 'rad' else 'um'}" for n in big) + ")")
+
+
+@dataclasses.dataclass(frozen=True)
+class EncoderEccentricity(Effect):
+    """A once-per-turn angle error of joint j: dq = A sin(q + phase) (the reading is off)."""
+
+    name: str = "encoder_eccentricity"
+    axis: str = "xyz"
+    joint: int = 1
+
+    def __post_init__(self):
+        object.__setattr__(self, "needs", ("J", "q"))
+
+    @property
+    def key(self) -> str:
+        return f"{self.name}:joint{self.joint}"
+
+    def columns(self, d):
+        q = np.asarray(d["q"], float)[:, self.joint - 1]
+        Jt = np.asarray(d["J"], float)[:, :, 4 * (self.joint - 1) + 3]  # d p / d theta_j, (n, 3)
+        # the true angle is the reading minus the error: p moves by -J dq
+        return -np.stack([(Jt * np.sin(q)[:, None]).ravel(), (Jt * np.cos(q)[:, None]).ravel()], axis=1)
+
+    def describe(self, coef, cov):
+        s, c = coef  # A sin(q + ph) = A cos(ph) sin q + A sin(ph) cos q
+        amp = float(np.hypot(s, c))
+        g = np.array([s, c]) / max(amp, 1e-300)
+        amp_std = float(np.sqrt(max(g @ cov[:2, :2] @ g, 0.0)))
+        return ({"joint": self.joint, "amplitude_urad": amp * 1e6, "phase_rad": float(np.arctan2(c, s))},
+                {"amplitude_urad": amp_std * 1e6},
+                f"joint {self.joint}'s encoder reads {amp * 1e6:.0f} urad off once per turn: its disc is mounted "
+                f"off-centre (eccentricity)")
+
+
+@dataclasses.dataclass(frozen=True)
+class ArmThermalExpansion(Effect):
+    """Every link length grows by k (T - T_mean): the chain's a and d scaled together."""
+
+    name: str = "thermal_expansion"
+    axis: str = "xyz"
+
+    def __post_init__(self):
+        object.__setattr__(self, "needs", ("J", "temp_c"))
+
+    def columns(self, d):
+        J = np.asarray(d["J"], float)
+        a, dd = np.asarray(d["a"], float), np.asarray(d["d"], float)
+        grow = np.zeros(25)
+        grow[0:24:4], grow[1:24:4], grow[24] = a[:6], dd[:6], dd[6]
+        T = np.asarray(d["temp_c"], float)
+        return ((J @ grow) * ((T - T.mean()) * 1e-6)[:, None]).reshape(-1, 1)
+
+    def describe(self, coef, cov):
+        k = float(coef[0])
+        return ({"ppm_per_k": k}, {"ppm_per_k": _std(cov, 0)},
+                f"the links grow {k:.1f} ppm per kelvin of the logged temperature: thermal growth of the arm")
+
+
+def stage_candidates(drivers: dict) -> list[Effect]:
+    """Every stage candidate that the recording's columns can support (periodic added by the
+    caller once its period is found)."""
+    out = []
+    for a in AXES:
+        out += [Backlash(axis=a), ThermalExpansion(axis=a), ThermalDrift(axis=a, driver="temp_c")]
+        if drivers.get("temp_c") is None:
+            out.append(ThermalDrift(axis=a, driver="t_s"))
+    return [e for e in out if e.applies(drivers)]
+
+
+def best_period(u: np.ndarray, r: np.ndarray, base: np.ndarray, periods: np.ndarray) -> tuple[float, float]:
+    """The period (mm) whose sinusoid in ``u`` (n,) best explains ``r`` (n,) beside the columns
+    ``base`` (n, p), and the fraction of r's variance it explains: a least-squares periodogram
+    (Lomb-Scargle with the baseline floating), vectorised over ``periods`` (m,)."""
+    Q, _ = np.linalg.qr(base)
+    r_perp = r - Q @ (Q.T @ r)
+    ph = 2 * np.pi * u[:, None] / periods[None, :]  # (n, m)
+    S, C = np.sin(ph), np.cos(ph)
+    S -= Q @ (Q.T @ S)
+    C -= Q @ (Q.T @ C)
+    ss, cc, sc = (S * S).sum(0), (C * C).sum(0), (S * C).sum(0)
+    sr, cr = S.T @ r_perp, C.T @ r_perp
+    det = ss * cc - sc * sc
+    ok = det > 1e-9 * np.maximum(ss * cc, 1e-300)
+    explained = np.where(ok, (cc * sr * sr - 2 * sc * sr * cr + ss * cr * cr) / np.where(ok, det, 1), 0.0)
+    k = int(np.argmax(explained))
+    return float(periods[k]), float(explained[k] / max(r_perp @ r_perp, 1e-300))

@@ -1,0 +1,168 @@
+"""Blinded recordings with concealed effects: the proof set for ``calibench discover``.
+
+Separate code from the candidate library (``estimators.effects``): the effects here are written
+as the physics of a machine (a drive that lags on reversal, a pulley that runs out, a scale that
+warms, a rail with a bump), realised on top of the MuJoCo twin's own motion. The truth goes to a
+sealed manifest that ``discover`` never reads; only the suite opens it afterwards.
+
+Kinds: stages (belt-stage, vision-stage): ``null``, ``backlash``, ``periodic``, ``thermal``,
+``combined`` (backlash + periodic + thermal), ``bump`` (a local defect no candidate has); the
+arm: ``null``, ``eccentricity`` (one joint's encoder), ``thermal`` (the links' growth).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+
+from sim.recording import ArmRecording, StageRecording
+from sim.replay import replay_stage
+
+STAGE_KINDS = ("null", "backlash", "periodic", "thermal", "combined", "bump")
+ARM_KINDS = ("null", "eccentricity", "thermal")
+REFERENCE_NOISE_UM = 1.0  # the reference instrument (interferometer / microscope), 1-sigma
+PASS_OFFSET_UM = 0.3  # each pass's own offset: correlated noise that must not become a term
+
+
+@dataclasses.dataclass(frozen=True)
+class StagePlan:
+    """ISO 230-2 style lines: along X at three Y levels and along Y at three X levels, each
+    forward then backward, ``passes`` times; ``step_mm`` fine enough for a 30 mm period."""
+
+    travel_mm: tuple[float, float]
+    step_mm: float
+    passes: int = 4
+    seconds_per_station: float = 3.0
+
+
+PLANS = {"belt-stage": StagePlan((500.0, 400.0), 6.5), "vision-stage": StagePlan((300.0, 200.0), 4.5)}
+
+
+def stage_commands(plan: StagePlan) -> dict:
+    """Commanded positions (n,) x, y, with pass id and the direction each axis last moved."""
+    tx, ty = plan.travel_mm
+    xs, ys = np.arange(0, tx + 1e-9, plan.step_mm), np.arange(0, ty + 1e-9, plan.step_mm)
+    rows = []
+    for p in range(plan.passes):
+        for y0 in (0.15 * ty, 0.5 * ty, 0.85 * ty):
+            rows += [(x, y0, p) for x in xs] + [(x, y0, p) for x in xs[::-1]]
+        for x0 in (0.15 * tx, 0.5 * tx, 0.85 * tx):
+            rows += [(x0, y, p) for y in ys] + [(x0, y, p) for y in ys[::-1]]
+    c = np.array(rows)
+    x, y = c[:, 0], c[:, 1]
+    dirs = np.zeros((len(c), 2))
+    last = np.array([1.0, 1.0])
+    prev = np.array([-1.0, -1.0])  # homed from below
+    for i, pos in enumerate(c[:, :2]):
+        step = pos - prev
+        last = np.where(step > 0, 1.0, np.where(step < 0, -1.0, last))
+        dirs[i], prev = last, pos
+    return {"x": x, "y": y, "run": c[:, 2], "dir_x": dirs[:, 0], "dir_y": dirs[:, 1],
+            "t_s": np.arange(len(c)) * plan.seconds_per_station}
+
+
+def stage_recording(scenario: str, kind: str, seed: int) -> tuple[StageRecording, dict]:
+    """A blinded recording of ``kind`` and its sealed truth (effects with their parameters)."""
+    if kind not in STAGE_KINDS:
+        raise ValueError(f"unknown kind {kind!r}")
+    rng = np.random.default_rng(seed)
+    plan = PLANS[scenario]
+    c = stage_commands(plan)
+    x, y, n = c["x"], c["y"], len(c["x"])
+    pos = replay_stage(scenario, x, y)
+    err = np.zeros((n, 2))
+    # the as-built machine differs smoothly from the twin (the scene's model absorbs this)
+    u, v = x / plan.travel_mm[0], y / plan.travel_mm[1]
+    for k in range(2):
+        err[:, k] += rng.normal(0, 0.02, 6) @ np.stack([np.ones(n), u, v, u * u, u * v, v * v])
+    T = 20.0 + np.cumsum(rng.normal(0, 0.002, n))  # a quiet room: the logged temperature wanders
+    effects = []
+    wanted = {"combined": ("backlash", "periodic", "thermal")}.get(kind, (kind,))
+    axis_of = {"x": 0, "y": 1}
+    pick = [str(a) for a in rng.permutation(["x", "y"])]
+    if "backlash" in wanted:
+        a = pick[0]
+        B = rng.uniform(5, 15) / 1000
+        err[:, axis_of[a]] += B / 2 * c[f"dir_{a}"]
+        effects.append({"name": "backlash", "axis": a, "params": {"reversal_mm": B}})
+    if "periodic" in wanted:
+        a = pick[1] if kind == "combined" else pick[0]
+        P, A, ph = rng.uniform(30, 100), rng.uniform(4, 10) / 1000, rng.uniform(0, 2 * np.pi)
+        pos_a = x if a == "x" else y
+        err[:, axis_of[a]] += A * np.sin(2 * np.pi * pos_a / P + ph)
+        effects.append({"name": "periodic", "axis": a, "params": {"period_mm": P, "amplitude_mm": A}})
+    if "thermal" in wanted:
+        rise, tau = rng.uniform(2, 5), c["t_s"][-1] / rng.uniform(1.5, 3)
+        T = T + rise * (1 - np.exp(-c["t_s"] / tau))
+        k = rng.uniform(10, 25)  # ppm/K: the scale's mismatch with the part (aluminium vs glass)
+        for a, u_a in (("x", x), ("y", y)):
+            err[:, axis_of[a]] += k * 1e-6 * (T - T[0]) * u_a
+            effects.append({"name": "thermal_expansion", "axis": a, "params": {"ppm_per_k": k},
+                            "temperature_rise_k": rise})
+    if kind == "bump":
+        x0, w, h = rng.uniform(0.2, 0.8) * plan.travel_mm[0], rng.uniform(8, 15), rng.uniform(8, 15) / 1000
+        err[:, 1] += h * np.exp(-0.5 * ((x - x0) / w) ** 2)  # the X rail's bump lifts the carriage sideways
+        effects.append({"name": "nonsmooth", "axis": "y", "params": {"x_mm": x0, "width_mm": w, "height_mm": h}})
+    run = c["run"].astype(int)
+    err += rng.normal(0, PASS_OFFSET_UM / 1000, (plan.passes, 2))[run]
+    err += rng.normal(0, REFERENCE_NOISE_UM / 1000, (n, 2))
+    meas = pos + err
+    rec = StageRecording(x_cmd_mm=x, y_cmd_mm=y, x_meas_mm=meas[:, 0], y_meas_mm=meas[:, 1], t_s=c["t_s"],
+                         dir_x=c["dir_x"], dir_y=c["dir_y"], temp_c=np.round(T, 3), run=run.astype(float))
+    return rec, {"scenario": scenario, "kind": kind, "seed": seed, "effects": effects,
+                 "noise_um": REFERENCE_NOISE_UM}
+
+
+def arm_recording(kind: str, seed: int, n: int = 300, noise_um: float = 10.0) -> tuple[ArmRecording, dict]:
+    """A blinded arm recording: the twin with its Table 1 errors, probed at ``n`` postures by a
+    reference of ``noise_um`` 1-sigma per coordinate, with the concealed effect of ``kind``."""
+    from scenes.arm_cmm import ArmGeometry
+    from sim.arm_cmm import ArmSim, ArmTruth
+
+    if kind not in ARM_KINDS:
+        raise ValueError(f"unknown kind {kind!r}")
+    rng = np.random.default_rng(seed)
+    g, truth = ArmGeometry(), ArmTruth()
+    sim = ArmSim(g, truth)
+    q = sim.random_postures(n, rng)
+    t = np.arange(n) * 20.0
+    T = 20.0 + np.cumsum(rng.normal(0, 0.002, n))
+    q_read = q + rng.normal(0, truth.encoder_noise_urad * 1e-6, q.shape)
+    effects = []
+    if kind == "eccentricity":
+        j, A, ph = int(rng.integers(1, 7)), rng.uniform(300, 600) * 1e-6, rng.uniform(0, 2 * np.pi)
+        q_read[:, j - 1] += A * np.sin(q[:, j - 1] + ph)
+        effects.append({"name": "encoder_eccentricity", "axis": "xyz",
+                        "params": {"joint": j, "amplitude_urad": A * 1e6, "phase_rad": ph}})
+    if kind == "thermal":
+        rise, k = rng.uniform(2, 5), rng.uniform(10, 25)
+        T = T + rise * (1 - np.exp(-t / (t[-1] / 2)))
+        effects.append({"name": "thermal_expansion", "axis": "xyz", "params": {"ppm_per_k": k},
+                        "temperature_rise_k": rise})
+        xyz = np.empty((n, 3))
+        base = np.asarray(truth.delta, float)
+        for i in range(n):  # each posture on the arm as long as it then was
+            grow = k * 1e-6 * (T[i] - T[0])
+            delta = base.copy()
+            delta[0:24:4] += grow * (np.asarray(g.a_mm[:6]) + base[0:24:4])
+            delta[1:24:4] += grow * (np.asarray(g.d_mm[:6]) + base[1:24:4])
+            delta[24] += grow * (g.d_mm[6] + base[24])
+            xyz[i] = ArmSim(g, dataclasses.replace(truth, delta=tuple(delta))).probe_mm(q[i:i + 1])[0]
+    else:
+        xyz = sim.probe_mm(q)
+    xyz = xyz + rng.normal(0, noise_um / 1000, xyz.shape)
+    return (ArmRecording(q_read, xyz, t, np.round(T, 3)),
+            {"scenario": "arm-cmm", "kind": kind, "seed": seed, "effects": effects, "noise_um": noise_um})
+
+
+def write_blinded(out_dir: Path, name: str, recording, manifest: dict) -> Path:
+    """``name``.csv for discover; the truth sealed in ``name``.manifest.json beside it."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    path = out_dir / f"{name}.csv"
+    recording.to_csv(path)
+    (out_dir / f"{name}.manifest.json").write_text(json.dumps(manifest, indent=1) + "\n")
+    return path

@@ -1,0 +1,46 @@
+"""The twin replays a recording's commands: where the machine model says it went.
+
+``discover`` compares a recording with this; the concealed-effect generator builds on it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+
+def replay_stage(scenario: str, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Where the twin's carriage / table really is for each command in turn, (n, 2) mm."""
+    if scenario == "belt-stage":
+        from scenes.belt_stage import BeltStageGeometry
+        from sim.belt_stage import PULSES_PER_MM, BeltStageSim, BeltStageTruth
+
+        sim = BeltStageSim(BeltStageGeometry(), BeltStageTruth(), render=False)
+        home = sim.carriage_mm()
+        out = np.empty((len(x), 2))
+        for i, (a, b) in enumerate(zip(x, y)):
+            sim.move(int(round(a * PULSES_PER_MM)), int(round(b * PULSES_PER_MM)))
+            out[i] = sim.carriage_mm() - home
+        return out
+    if scenario == "vision-stage":
+        from scenes.vision_stage import VisionStageGeometry
+        from sim.vision_stage import VisionStageSim, VisionStageTruth
+
+        truth = dataclasses.replace(VisionStageTruth(), repeatability_um=0.0)
+        sim = VisionStageSim(VisionStageGeometry(), truth, np.random.default_rng(0), render=False)
+        home = sim.true_point_mm(0.0, 0.0)
+        out = np.empty((len(x), 2))
+        for i, (a, b) in enumerate(zip(x, y)):
+            sim.move(a, b)
+            out[i] = sim.point_in_body_mm("table") - home
+        return out
+    raise ValueError(f"no stage twin for {scenario!r}")
+
+
+def replay_arm(q_rad: np.ndarray) -> np.ndarray:
+    """The nominal arm's probe centre (base frame) at encoder readings (n, 6) rad, (n, 3) mm."""
+    from scenes.arm_cmm import ArmGeometry
+    from sim.arm_cmm import ArmSim, ArmTruth
+
+    return ArmSim(ArmGeometry(), ArmTruth(delta=(0.0,) * 25)).probe_mm(q_rad)

@@ -1,0 +1,59 @@
+"""discover through the CLI: discovery.json per the contract, figures, bad input in one line."""
+
+import json
+
+
+from scenarios.cli import main
+from sim.concealed import arm_recording, stage_recording, write_blinded
+
+
+def test_stage_discovery_json_follows_the_contract(tmp_path):
+    rec, manifest = stage_recording("vision-stage", "backlash", 7)
+    path = write_blinded(tmp_path, "rec", rec, manifest)
+    assert main(["discover", "vision-stage", str(path), "--out", str(tmp_path / "out")]) == 0
+    d = json.loads((tmp_path / "out" / "discovery.json").read_text())
+    assert d["scenario"] == "vision-stage" and d["unit"] == "mm" and d["samples"] == len(rec)
+    assert set(d["fit"]) == {"rms_nominal", "cv_rms_nominal", "cv_rms_final"}
+    e = d["effects"][0]
+    assert {"name", "axis", "params", "stderr", "physics", "cv_rms_before", "cv_rms_after"} <= set(e)
+    truth = manifest["effects"][0]
+    assert (e["name"], e["axis"]) == ("backlash", truth["axis"])
+    # the reversal within 5 standard errors of the truth (stderr from the repeatability)
+    assert abs(e["params"]["reversal_mm"] - truth["params"]["reversal_mm"]) < 5 * e["stderr"]["reversal_mm"]
+    assert d["located"][0]["driver"] == f"dir_{truth['axis']}"
+    assert (tmp_path / "out" / "discovery.png").stat().st_size > 10_000
+
+
+def test_arm_discovery(tmp_path):
+    rec, manifest = arm_recording("eccentricity", 11)
+    path = write_blinded(tmp_path, "arm", rec, manifest)
+    assert main(["discover", "arm-cmm", str(path), "--out", str(tmp_path)]) == 0
+    d = json.loads((tmp_path / "discovery.json").read_text())
+    names = [e["name"] for e in d["effects"]]
+    assert names[:2] == ["geometry", "encoder_eccentricity"]
+    ecc = d["effects"][1]["params"]
+    assert ecc["joint"] == manifest["effects"][0]["params"]["joint"]
+
+
+def test_thermal_expansion_without_a_temperature_change_is_called_confounded(tmp_path):
+    rec, manifest = stage_recording("belt-stage", "null", 3)
+    from scenarios.discover import discover_stage
+
+    d, _ = discover_stage("belt-stage", rec)
+    assert any(c["effect"] == "thermal_expansion" and "several K" in c["experiment"] for c in d["confounded"])
+
+
+def test_bad_recordings_get_one_line(tmp_path, capsys):
+    bad = tmp_path / "bad.csv"
+    bad.write_text("x_cmd_mm,y_cmd_mm,x_meas_mm\n1,2,3\n")
+    assert main(["discover", "belt-stage", str(bad), "--out", str(tmp_path)]) == 2
+    assert "missing column(s) y_meas_mm" in capsys.readouterr().err
+    nan = tmp_path / "nan.csv"
+    nan.write_text("x_cmd_mm,y_cmd_mm,x_meas_mm,y_meas_mm\n" + "\n".join(f"{i},0,{i},nan" for i in range(30)))
+    assert main(["discover", "belt-stage", str(nan), "--out", str(tmp_path)]) == 2
+    assert main(["discover", "stewart", str(nan), "--out", str(tmp_path)]) == 2
+    line = tmp_path / "line.csv"  # every station on one line: the error map is not determined
+    line.write_text("x_cmd_mm,y_cmd_mm,x_meas_mm,y_meas_mm\n" + "\n".join(f"{i},0,{i},0" for i in range(30)))
+    assert main(["discover", "belt-stage", str(line), "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 3 and all(e.startswith("calibench: ") for e in err)
