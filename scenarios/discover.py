@@ -53,7 +53,8 @@ def folds_for(rec_run, x, y, holdout: str | None) -> tuple[np.ndarray, str]:
 
 
 # --- stages --------------------------------------------------------------------------------------
-def discover_stage(scenario: str, rec, seed: int = 0, holdout: str | None = None) -> tuple[dict, dict]:
+def discover_stage(scenario: str, rec, seed: int = 0, holdout: str | None = None,
+                   floor: float = dsc.FLOOR) -> tuple[dict, dict]:
     """discovery.json's content for a stage recording, and what the figure needs."""
     from sim.replay import replay_stage
 
@@ -86,13 +87,13 @@ def discover_stage(scenario: str, rec, seed: int = 0, holdout: str | None = None
             f = np.arange(1 / hi, 1 / lo, 1 / (5 * np.ptp(u)))
             candidates.append(dsc.PeriodSearch(a, 1 / f))
         candidates += polynomial_candidates(a, deg)
-    found, terms = dsc.select(signals, candidates, drivers, fold, noise)
+    found, terms = dsc.select(signals, candidates, drivers, fold, noise, floor=floor)
 
     # nonsmooth: what stands out of the repeatability after the accepted effects
     pos_key, pos_inv = np.unique(np.stack([x, y], axis=1).round(6), axis=0, return_inverse=True)
     pos_inv = pos_inv.ravel()
     for s in signals:
-        table = dsc.find_nonsmooth(s, terms[s.axis], drivers, pos_inv, pos_key, noise[s.axis], fold)
+        table = dsc.find_nonsmooth(s, terms[s.axis], drivers, pos_inv, pos_key, noise[s.axis], fold, floor)
         if table is not None:
             cv_sq = {t.axis: float(np.sum(dsc.cv_residuals(t, terms[t.axis], drivers, fold, {}) ** 2))
                      for t in signals}
@@ -204,7 +205,7 @@ def _confounds(signals, terms, found, candidates, drivers, rec):
 
 
 # --- the arm ---------------------------------------------------------------------------------------
-def discover_arm(rec, seed: int = 0) -> tuple[dict, dict]:
+def discover_arm(rec, seed: int = 0, floor: float = dsc.FLOOR) -> tuple[dict, dict]:
     from estimators.arm_kinematics import PARAM_NAMES, DHChain, jacobian
     from scenes.arm_cmm import ArmGeometry
     from sim.replay import replay_arm
@@ -234,7 +235,7 @@ def discover_arm(rec, seed: int = 0) -> tuple[dict, dict]:
         candidates.append(ArmThermalExpansion())
     fold = np.minimum(np.arange(n) * 5 // n, 4)
     noise = {"xyz": dsc.Noise(None, 0.0, 0)}
-    found, terms = dsc.select([sig], candidates, drivers, fold, noise)
+    found, terms = dsc.select([sig], candidates, drivers, fold, noise, floor=floor)
     effects, fitted = _describe([sig], terms, found, drivers, noise)
     # where: the residual after the geometry against each joint angle and the temperature
     located = []
@@ -259,6 +260,19 @@ def discover_arm(rec, seed: int = 0) -> tuple[dict, dict]:
            "scene_model": "the nominal DH chain (Table 1 drawing values)", "not_accepted": found.rejected,
            "confounded": []}
     return out, {"signals": [sig], "fitted": fitted}
+
+
+def paper_belt_recording(data_dir: Path):
+    """The seed paper's measured belt-stage tables (../shared/data/seed_belt_stage) as a stage
+    recording: one row per station, error = measured - commanded (no passes, no directions)."""
+    from sim.recording import StageRecording
+
+    ex = np.loadtxt(Path(data_dir) / "x_axis_error_mm.csv", delimiter=",", skiprows=1)
+    ey = np.loadtxt(Path(data_dir) / "y_axis_error_mm.csv", delimiter=",", skiprows=1)
+    if not np.array_equal(ex[:, :2], ey[:, :2]):
+        raise BadInput("the X and Y tables list different stations")
+    x, y = ex[:, 0], ex[:, 1]
+    return StageRecording(x_cmd_mm=x, y_cmd_mm=y, x_meas_mm=x + ex[:, 2], y_meas_mm=y + ey[:, 2])
 
 
 # --- the command -----------------------------------------------------------------------------------

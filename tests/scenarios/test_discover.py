@@ -57,3 +57,15 @@ def test_bad_recordings_get_one_line(tmp_path, capsys):
     assert main(["discover", "belt-stage", str(line), "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 3 and all(e.startswith("calibench: ") for e in err)
+
+
+def test_paper_belt_stage_residual_is_table_3_and_lives_in_y(shared_data):
+    """The seed paper's measured tables with its quadratic as the simulation: the residual RMS is
+    Table 3's, sqrt((31.96 + 24.08) / 242) = 0.4812 mm (to its printed digits), and the located
+    structure is the Y error against y."""
+    from scenarios.discover import discover_stage, paper_belt_recording
+
+    d, _ = discover_stage("belt-stage", paper_belt_recording(shared_data / "seed_belt_stage"), 0, "columns")
+    assert abs(d["fit"]["rms_nominal"] - (31.96 + 24.08) ** 0.5 / 242**0.5) < 2e-4
+    top = d["located"][0]
+    assert (top["signal"], top["driver"]) == ("y_meas - y_sim", "y")
