@@ -47,6 +47,13 @@ def _std(cov, i):
     return float(np.sqrt(max(cov[i, i], 0.0)))
 
 
+def _amplitude(s: float, c: float, cov: np.ndarray) -> tuple[float, float, float]:
+    """Amplitude, its std (first order) and phase of s sin + c cos."""
+    amp = float(np.hypot(s, c))
+    g = np.array([s, c]) / max(amp, 1e-300)  # d amp / d (s, c)
+    return amp, float(np.sqrt(max(g @ cov[:2, :2] @ g, 0.0))), float(np.arctan2(c, s))
+
+
 @dataclasses.dataclass(frozen=True)
 class Backlash(Effect):
     """Lost motion on reversal: +B/2 approaching forward, -B/2 backward."""
@@ -82,11 +89,8 @@ class Periodic(Effect):
         return np.stack([np.sin(ph), np.cos(ph)], axis=1)
 
     def describe(self, coef, cov):
-        s, c = coef
-        amp = float(np.hypot(s, c))
-        g = np.array([s, c]) / max(amp, 1e-300)  # d amp / d (s, c)
-        amp_std = float(np.sqrt(max(g @ cov[:2, :2] @ g, 0.0)))
-        params = {"period_mm": self.period_mm, "amplitude_mm": amp, "phase_rad": float(np.arctan2(c, s))}
+        amp, amp_std, phase = _amplitude(*coef, cov)
+        params = {"period_mm": self.period_mm, "amplitude_mm": amp, "phase_rad": phase}
         stderr = {"period_mm": self.period_std, "amplitude_mm": amp_std}
         return (params, stderr,
                 f"a once-per-{self.period_mm:.1f} mm error of the {self.axis.upper()} axis, {amp * 1000:.1f} um "
@@ -240,11 +244,8 @@ class EncoderEccentricity(Effect):
         return -np.stack([(Jt * np.sin(q)[:, None]).ravel(), (Jt * np.cos(q)[:, None]).ravel()], axis=1)
 
     def describe(self, coef, cov):
-        s, c = coef  # A sin(q + ph) = A cos(ph) sin q + A sin(ph) cos q
-        amp = float(np.hypot(s, c))
-        g = np.array([s, c]) / max(amp, 1e-300)
-        amp_std = float(np.sqrt(max(g @ cov[:2, :2] @ g, 0.0)))
-        return ({"joint": self.joint, "amplitude_urad": amp * 1e6, "phase_rad": float(np.arctan2(c, s))},
+        amp, amp_std, phase = _amplitude(*coef, cov)  # A sin(q + ph) = A cos(ph) sin q + A sin(ph) cos q
+        return ({"joint": self.joint, "amplitude_urad": amp * 1e6, "phase_rad": phase},
                 {"amplitude_urad": amp_std * 1e6},
                 f"joint {self.joint}'s encoder reads {amp * 1e6:.0f} urad off once per turn: its disc is mounted "
                 f"off-centre (eccentricity)")
