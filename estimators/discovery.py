@@ -27,9 +27,9 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-from scipy import optimize, stats
+from scipy import optimize
 
-from estimators.effects import Effect, Periodic, best_period
+from estimators.effects import Periodic, best_period
 
 FLOOR = 0.10  # practical floor: an effect must cut its axis's held-out RMS by 10 %
 Z_MIN = 5.0  # and be at least 5 standard errors from zero
@@ -425,7 +425,3 @@ def confounded(sig: Signal, terms: list, candidate, drivers: dict, cache: dict, 
     left = C - Q @ (Q.T @ C)
     return float(1 - np.sum(left**2) / np.sum(C**2))
 
-
-def chi2_excess(means: np.ndarray, sd: np.ndarray) -> float:
-    """p-value that station means are pure noise of the given sd."""
-    return float(stats.chi2.sf(np.sum((means / sd) ** 2), len(means)))

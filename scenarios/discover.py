@@ -128,14 +128,13 @@ def _describe(signals, terms, found, drivers, noise):
         fitted[a] = res
         for t, start, k in fixed:
             p, e, text = t.describe(coef[start:start + k], cov[start:start + k, start:start + k])
-            described[(t.key if not hasattr(t, "periods") else f"periodic:{a}")] = (t, p, e, text)
+            described[t.key] = (t, p, e, text)
     effects = []
     for st in found.steps:
         key = st.term.key
         t, p, e, text = described[key]
-        entry = {"name": t.name, "axis": st.axis, "params": _plain(p), "stderr": _plain(e), "physics": text,
-                 "cv_rms_before": st.cv_before, "cv_rms_after": st.cv_after}
-        effects.append(entry)
+        effects.append({"name": t.name, "axis": st.axis, "params": _plain(p), "stderr": _plain(e), "physics": text,
+                        "cv_rms_before": st.cv_before, "cv_rms_after": st.cv_after})
     return effects, fitted
 
 
