@@ -7,13 +7,13 @@ Monte-Carlo unit of work), analytic fidelity.
 import os
 import time
 
-import sim  # noqa: F401  (MUJOCO_GL before mujoco)
+import calibench.sim  # noqa: F401  (MUJOCO_GL before mujoco)
 import numpy as np
 
-from estimators.arm_identification import identify_identifiable
-from scenarios.arm_cmm import chain_of, tracker_problem
-from scenes.arm_cmm import ArmGeometry
-from sim.arm_cmm import ArmSim, ArmTruth
+from calibench.estimators.arm_identification import identify_identifiable
+from calibench.scenarios.arm_cmm import chain_of, tracker_problem
+from calibench.scenes.arm_cmm import ArmGeometry
+from calibench.sim.arm_cmm import ArmSim, ArmTruth
 
 
 def main():

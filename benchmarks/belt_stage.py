@@ -9,13 +9,13 @@ import time
 from pathlib import Path
 from tempfile import TemporaryDirectory
 
-import sim  # noqa: F401  (MUJOCO_GL before mujoco)
+import calibench.sim  # noqa: F401  (MUJOCO_GL before mujoco)
 import numpy as np
 
-from estimators.chessboard import find_chessboard_corners
-from scenarios import belt_stage
-from scenes.belt_stage import BeltStageGeometry
-from sim.belt_stage import BeltStageSim, BeltStageTruth
+from calibench.estimators.chessboard import find_chessboard_corners
+from calibench.scenarios import belt_stage
+from calibench.scenes.belt_stage import BeltStageGeometry
+from calibench.sim.belt_stage import BeltStageSim, BeltStageTruth
 
 
 def rate(fn, n):

@@ -15,10 +15,10 @@ import sys
 import time
 from pathlib import Path
 
-from estimators import discovery as dsc
-from scenarios.discover import discover_arm, discover_stage, paper_belt_recording
-from scenarios.discover_suite import SUITE, run_case, score, table
-from sim.concealed import arm_recording, stage_recording
+from calibench.estimators import discovery as dsc
+from calibench.scenarios.discover import discover_arm, discover_stage, paper_belt_recording
+from calibench.scenarios.discover_suite import SUITE, run_case, score, table
+from calibench.sim.concealed import arm_recording, stage_recording
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
 

@@ -14,8 +14,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from scenarios.montecarlo import load_journal, run_study
-from scenarios.registry import SCENARIOS
+from calibench.scenarios.montecarlo import load_journal, run_study
+from calibench.scenarios.registry import SCENARIOS
 
 RENDERED = ("belt-stage", "vision-stage")  # the others report fidelity "analytic" only
 

@@ -2,17 +2,17 @@
 
 from pathlib import Path
 
-import sim  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
+import calibench.sim  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
 import cv2
 import mujoco
 import numpy as np
 
-from estimators.chessboard import find_chessboard_corners
-from estimators.circles import find_dark_circle
-from scenes.belt_stage import BeltStageGeometry
-from scenes.vision_stage import VisionStageGeometry
-from sim.belt_stage import BeltStageSim, BeltStageTruth
-from sim.vision_stage import VisionStageSim, VisionStageTruth
+from calibench.estimators.chessboard import find_chessboard_corners
+from calibench.estimators.circles import find_dark_circle
+from calibench.scenes.belt_stage import BeltStageGeometry
+from calibench.scenes.vision_stage import VisionStageGeometry
+from calibench.sim.belt_stage import BeltStageSim, BeltStageTruth
+from calibench.sim.vision_stage import VisionStageSim, VisionStageTruth
 
 HERE = Path(__file__).parent
 

@@ -22,8 +22,8 @@ import dataclasses
 import numpy as np
 from scipy import linalg
 
-from estimators.arm_kinematics import PARAM_NAMES, DHChain, frames, jacobian
-from estimators.rotations import matrix_to_rotvec, rigid_transform, rotvec_to_matrix, skew
+from calibench.estimators.arm_kinematics import PARAM_NAMES, DHChain, frames, jacobian
+from calibench.estimators.rotations import matrix_to_rotvec, rigid_transform, rotvec_to_matrix, skew
 
 
 def spherical(y: np.ndarray) -> np.ndarray:

@@ -29,7 +29,7 @@ import dataclasses
 import numpy as np
 from scipy import optimize
 
-from estimators.effects import Periodic, best_period
+from calibench.estimators.effects import Periodic, best_period
 
 FLOOR = 0.10  # practical floor: an effect must cut its axis's held-out RMS by 10 %
 Z_MIN = 5.0  # and be at least 5 standard errors from zero

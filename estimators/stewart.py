@@ -20,7 +20,7 @@ import dataclasses
 
 import numpy as np
 
-from estimators.rotations import rigid_transform, rotvec_to_matrix, rotvecs_to_matrices
+from calibench.estimators.rotations import rigid_transform, rotvec_to_matrix, rotvecs_to_matrices
 
 
 def trilaterate(known: np.ndarray, dist: np.ndarray, sigma: np.ndarray, above: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -22,14 +22,14 @@ from pathlib import Path
 
 import numpy as np
 
-from estimators.arm_identification import (ConeProblem, TrackerProblem, identifiable_basis, identify,
+from calibench.estimators.arm_identification import (ConeProblem, TrackerProblem, identifiable_basis, identify,
                                            identify_identifiable, observability_index, parameter_scales,
                                            select_postures)
-from estimators.rotations import rigid_transform
-from estimators.arm_kinematics import PARAM_NAMES, DHChain, point_in_link7
-from scenarios.report import Check, Parameter, Report
-from scenes.arm_cmm import ArmGeometry
-from sim.arm_cmm import ArmSim, ArmTruth
+from calibench.estimators.rotations import rigid_transform
+from calibench.estimators.arm_kinematics import PARAM_NAMES, DHChain, point_in_link7
+from calibench.scenarios.report import Check, Parameter, Report
+from calibench.scenes.arm_cmm import ArmGeometry
+from calibench.sim.arm_cmm import ArmSim, ArmTruth
 
 NAME = "arm-cmm"
 TOL_SIGMA = 5.0
@@ -153,7 +153,7 @@ def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool
     if out_dir is not None:  # a Monte-Carlo trial keeps only the numbers
         _write_figure(out_dir, artifacts)
     if rrd and out_dir is not None:
-        from scenarios import arm_cmm_log
+        from calibench.scenarios import arm_cmm_log
 
         arm_cmm_log.log_run(out_dir / "run.rrd", report, artifacts)
         report.rrd = "run.rrd"

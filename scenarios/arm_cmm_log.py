@@ -11,8 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
-from scenarios import rrlog
-from scenarios.arm_cmm import posture_residuals
+from calibench.scenarios import rrlog
+from calibench.scenarios.arm_cmm import posture_residuals
 
 
 def log_run(path: Path, report, a: dict) -> None:

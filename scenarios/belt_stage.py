@@ -24,16 +24,16 @@ from pathlib import Path
 
 import numpy as np
 
-from estimators.chessboard import find_chessboard_corners
-from estimators.error_map import COEF_NAMES, compensated_command, fit_quadratic
-from estimators.pose import (Plane, board2cam_from_homography, board2cam_pnp, fit_plane, homography,
+from calibench.estimators.chessboard import find_chessboard_corners
+from calibench.estimators.error_map import COEF_NAMES, compensated_command, fit_quadratic
+from calibench.estimators.pose import (Plane, board2cam_from_homography, board2cam_pnp, fit_plane, homography,
                              mean_rotation, undistort_pixels)
-from estimators.travel import board_yaw, travel_from_camera_centres, travel_in_plane
-from estimators.zhang import calibrate_camera, intrinsic_covariance
-from scenarios.report import Check, Parameter, Report
-from scenes.belt_stage import BeltStageGeometry
-from sim.belt_stage import PULSES_PER_MM, BeltStageSim, BeltStageTruth, intrinsic_view_poses
-from sim.recording import CameraViews
+from calibench.estimators.travel import board_yaw, travel_from_camera_centres, travel_in_plane
+from calibench.estimators.zhang import calibrate_camera, intrinsic_covariance
+from calibench.scenarios.report import Check, Parameter, Report
+from calibench.scenes.belt_stage import BeltStageGeometry
+from calibench.sim.belt_stage import PULSES_PER_MM, BeltStageSim, BeltStageTruth, intrinsic_view_poses
+from calibench.sim.recording import CameraViews
 
 NAME = "belt-stage"
 
@@ -186,7 +186,7 @@ def run(config: BeltStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: b
         if out_dir is not None:  # a Monte-Carlo trial keeps only the numbers
             _write_figure(out_dir, artifacts)
         if rrd and out_dir is not None:
-            from scenarios import belt_stage_log
+            from calibench.scenarios import belt_stage_log
 
             belt_stage_log.log_run(out_dir / "run.rrd", report, artifacts)
             report.rrd = "run.rrd"

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
-from scenarios import rrlog
-from sim.belt_stage import PULSES_PER_MM
+from calibench.scenarios import rrlog
+from calibench.sim.belt_stage import PULSES_PER_MM
 
 ARROW_GAIN = 20.0  # error arrows are drawn 20 x their size
 

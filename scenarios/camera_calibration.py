@@ -8,10 +8,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from estimators.chessboard import find_chessboard_corners
-from estimators.zhang import CalibrationError, calibrate_camera
-from scenarios.report import BadInput
-from scenes.checkerboard import Chessboard
+from calibench.estimators.chessboard import find_chessboard_corners
+from calibench.estimators.zhang import CalibrationError, calibrate_camera
+from calibench.scenarios.report import BadInput
+from calibench.scenes.checkerboard import Chessboard
 
 
 def calibrate_photos(paths: list[Path], cols: int, rows: int, square_mm: float, fix_aspect: bool = False,

@@ -18,7 +18,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _parser() -> argparse.ArgumentParser:
-    from scenarios.registry import PLANNED, SCENARIOS
+    from calibench.scenarios.registry import PLANNED, SCENARIOS
 
     names = ", ".join(SCENARIOS)
     p = _Parser(prog="calibench", description="Simulation-first test bench for calibrating measuring machines.")
@@ -95,8 +95,8 @@ def main(argv: list[str] | None = None) -> int:
         print("calibench: interrupted; finished trials are kept, rerun the same command to resume", file=sys.stderr)
         return 130
     except Exception as e:  # noqa: BLE001 - bad input is reported in one line
-        from scenarios.report import BadInput
-        from sim.recording import RecordingError
+        from calibench.scenarios.report import BadInput
+        from calibench.sim.recording import RecordingError
 
         if isinstance(e, (BadInput, RecordingError)):
             print(f"calibench: {e}", file=sys.stderr)
@@ -105,8 +105,8 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _scenario(name: str):
-    from scenarios.registry import PLANNED, SCENARIOS
-    from scenarios.report import BadInput
+    from calibench.scenarios.registry import PLANNED, SCENARIOS
+    from calibench.scenarios.report import BadInput
 
     if name in SCENARIOS:
         return SCENARIOS[name]
@@ -116,9 +116,9 @@ def _scenario(name: str):
 
 
 def _run(args) -> int:
-    from scenarios.config import load_toml, override
-    from scenarios.registry import SCENARIOS
-    from scenarios.report import BadInput
+    from calibench.scenarios.config import load_toml, override
+    from calibench.scenarios.registry import SCENARIOS
+    from calibench.scenarios.report import BadInput
 
     names = list(SCENARIOS) if args.scenario == "all" else [args.scenario]
     scenarios = [_scenario(n) for n in names]
@@ -149,11 +149,11 @@ def _run(args) -> int:
 
 
 def _fit(args) -> int:
-    from scenarios.stage_fit import run_fit
+    from calibench.scenarios.stage_fit import run_fit
 
     s = _scenario(args.scenario)
     if s.fit_model is None:
-        from scenarios.report import BadInput
+        from calibench.scenarios.report import BadInput
 
         raise BadInput(f"fit: scenario {s.name!r} has no fit model")
     out = args.out or Path("calibench-out") / s.name
@@ -165,7 +165,7 @@ def _fit(args) -> int:
 
 
 def _montecarlo(args) -> int:
-    from scenarios.montecarlo import run_study, summary_table
+    from calibench.scenarios.montecarlo import run_study, summary_table
 
     _scenario(args.scenario)
     out = args.out or Path("calibench-out") / f"{args.scenario}-montecarlo"
@@ -178,7 +178,7 @@ def _montecarlo(args) -> int:
 
 
 def _discover(args) -> int:
-    from scenarios.discover import run_discover
+    from calibench.scenarios.discover import run_discover
 
     out = args.out or Path("calibench-out") / f"{args.scenario}-discover"
     d = run_discover(args.scenario, args.recording, out, args.seed, args.holdout)
@@ -197,7 +197,7 @@ def _discover(args) -> int:
 
 
 def _camera(args) -> int:
-    from scenarios.camera_calibration import run_camera
+    from calibench.scenarios.camera_calibration import run_camera
 
     r = run_camera(args.images, args.cols, args.rows, args.square_mm, args.fix_aspect, args.radial,
                    not args.no_tangential, args.out)

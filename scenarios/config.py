@@ -17,7 +17,7 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from scenarios.report import BadInput
+from calibench.scenarios.report import BadInput
 
 
 def load_toml(path: str | Path) -> dict:

@@ -15,10 +15,10 @@ from pathlib import Path
 
 import numpy as np
 
-from estimators import discovery as dsc
-from estimators.effects import (ArmThermalExpansion, EncoderEccentricity, Geometry, polynomial_candidates,
+from calibench.estimators import discovery as dsc
+from calibench.estimators.effects import (ArmThermalExpansion, EncoderEccentricity, Geometry, polynomial_candidates,
                                 stage_candidates)
-from scenarios.report import BadInput
+from calibench.scenarios.report import BadInput
 
 STAGE_DEGREE = {"belt-stage": 2, "vision-stage": 3}
 SUPPORTED = ("belt-stage", "vision-stage", "arm-cmm")
@@ -56,7 +56,7 @@ def folds_for(rec_run, x, y, holdout: str | None) -> tuple[np.ndarray, str]:
 def discover_stage(scenario: str, rec, seed: int = 0, holdout: str | None = None,
                    floor: float = dsc.FLOOR) -> tuple[dict, dict]:
     """discovery.json's content for a stage recording, and what the figure needs."""
-    from sim.replay import replay_stage
+    from calibench.sim.replay import replay_stage
 
     n = len(rec)
     x, y = rec.x_cmd_mm, rec.y_cmd_mm
@@ -205,9 +205,9 @@ def _confounds(signals, terms, found, candidates, drivers, rec):
 
 # --- the arm ---------------------------------------------------------------------------------------
 def discover_arm(rec, seed: int = 0, floor: float = dsc.FLOOR) -> tuple[dict, dict]:
-    from estimators.arm_kinematics import PARAM_NAMES, DHChain, jacobian
-    from scenes.arm_cmm import ArmGeometry
-    from sim.replay import replay_arm
+    from calibench.estimators.arm_kinematics import PARAM_NAMES, DHChain, jacobian
+    from calibench.scenes.arm_cmm import ArmGeometry
+    from calibench.sim.replay import replay_arm
 
     n = len(rec.q_rad)
     if n < 40:
@@ -264,7 +264,7 @@ def discover_arm(rec, seed: int = 0, floor: float = dsc.FLOOR) -> tuple[dict, di
 def paper_belt_recording(data_dir: Path):
     """The seed paper's measured belt-stage tables (../shared/data/seed_belt_stage) as a stage
     recording: one row per station, error = measured - commanded (no passes, no directions)."""
-    from sim.recording import StageRecording
+    from calibench.sim.recording import StageRecording
 
     ex = np.loadtxt(Path(data_dir) / "x_axis_error_mm.csv", delimiter=",", skiprows=1)
     ey = np.loadtxt(Path(data_dir) / "y_axis_error_mm.csv", delimiter=",", skiprows=1)
@@ -276,7 +276,7 @@ def paper_belt_recording(data_dir: Path):
 
 # --- the command -----------------------------------------------------------------------------------
 def run_discover(scenario: str, csv_path: Path, out_dir: Path, seed: int = 0, holdout: str | None = None) -> dict:
-    from sim.recording import load_arm_csv, load_stage_csv
+    from calibench.sim.recording import load_arm_csv, load_stage_csv
 
     if scenario not in SUPPORTED:
         raise BadInput(f"discover supports {', '.join(SUPPORTED)}, not {scenario!r}")

@@ -17,8 +17,8 @@ import dataclasses
 
 import numpy as np
 
-from scenarios.discover import discover_arm, discover_stage
-from sim.concealed import arm_recording, stage_recording
+from calibench.scenarios.discover import discover_arm, discover_stage
+from calibench.sim.concealed import arm_recording, stage_recording
 
 SUITE = (
     [("belt-stage", k, s) for k, seeds in (("null", 4), ("backlash", 2), ("periodic", 2), ("thermal", 2),

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import binom, chi2
 
-from scenarios.report import BadInput
+from calibench.scenarios.report import BadInput
 
 JOURNAL = "trials.jsonl"
 
@@ -39,14 +39,14 @@ def trial_seed(study_seed: int, index: int) -> int:
 
 def run_trial(scenario: str, study_seed: int, index: int, fidelity: str) -> dict:
     """One trial, in a worker process; never raises (a failure is a row with its error)."""
-    import scenarios  # noqa: F401  (OpenCV single-threaded, MUJOCO_GL via sim)
-    import sim  # noqa: F401
+    import calibench.scenarios  # noqa: F401  (OpenCV single-threaded, MUJOCO_GL via sim)
+    import calibench.sim  # noqa: F401
 
     seed = trial_seed(study_seed, index)
     row = {"trial": index, "seed": seed, "ok": True, "error": None}
     t0 = time.perf_counter()
     try:
-        from scenarios.registry import SCENARIOS
+        from calibench.scenarios.registry import SCENARIOS
 
         s = SCENARIOS[scenario]
         module = sys.modules[s.run.__module__]
@@ -117,7 +117,7 @@ def make_executor(workers: int | None, scheduler: str | None):
 def run_study(scenario: str, trials: int, seed: int, fidelity: str, out_dir: Path, workers: int | None = None,
               scheduler: str | None = None, executor: cf.Executor | None = None, progress: bool | None = None) -> dict:
     """Run the missing trials of a study, journal them as they finish, write the outputs."""
-    from scenarios.registry import SCENARIOS
+    from calibench.scenarios.registry import SCENARIOS
 
     if scenario not in SCENARIOS:
         raise BadInput(f"unknown scenario {scenario!r} (available: {', '.join(SCENARIOS)})")
@@ -237,7 +237,7 @@ def write_outputs(out_dir: Path, rows: list[dict], summary: dict) -> None:
 
 def _log(out_dir: Path, summary: dict) -> None:
     """study.rrd: the figure and the coverage table, for the rerun viewer."""
-    from scenarios import rrlog
+    from calibench.scenarios import rrlog
 
     rec = rrlog.open_recording(out_dir / "study.rrd", f"calibench-{summary['scenario']}-study")
     try:

@@ -17,10 +17,10 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial import cKDTree
 
-from estimators.rotary_probe import calibrate_lsq, calibrate_paper, contour_points, fit_minima
-from scenarios.report import Check, Parameter, Report
-from scenes.probe_scanner import ProbeScannerGeometry, ProbeScannerNominal
-from sim.probe_scanner import ProbeScannerSim, ProbeScannerTruth
+from calibench.estimators.rotary_probe import calibrate_lsq, calibrate_paper, contour_points, fit_minima
+from calibench.scenarios.report import Check, Parameter, Report
+from calibench.scenes.probe_scanner import ProbeScannerGeometry, ProbeScannerNominal
+from calibench.sim.probe_scanner import ProbeScannerSim, ProbeScannerTruth
 
 NAME = "probe-scanner"
 TOL_SIGMA = 5.0
@@ -111,7 +111,7 @@ def run(config: ProbeScannerConfig, seed: int, fidelity: str, out_dir: Path, rrd
     if out_dir is not None:  # a Monte-Carlo trial keeps only the numbers
         _write_figure(out_dir, artifacts)
     if rrd and out_dir is not None:
-        from scenarios import probe_scanner_log
+        from calibench.scenarios import probe_scanner_log
 
         probe_scanner_log.log_run(out_dir / "run.rrd", report, artifacts)
         report.rrd = "run.rrd"

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from scenarios import rrlog
+from calibench.scenarios import rrlog
 
 
 def log_run(path: Path, report, a: dict) -> None:

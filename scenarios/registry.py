@@ -5,7 +5,7 @@ from __future__ import annotations
 import dataclasses
 from typing import Callable
 
-from scenarios import arm_cmm, belt_stage, probe_scanner, stewart, vision_stage
+from calibench.scenarios import arm_cmm, belt_stage, probe_scanner, stewart, vision_stage
 
 
 @dataclasses.dataclass(frozen=True)

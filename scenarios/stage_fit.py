@@ -7,10 +7,10 @@ from pathlib import Path
 
 import numpy as np
 
-from estimators.compensation import fit_polynomial
-from estimators.error_map import fit_quadratic
-from scenarios.report import BadInput
-from sim.recording import StageRecording, load_stage_csv
+from calibench.estimators.compensation import fit_polynomial
+from calibench.estimators.error_map import fit_quadratic
+from calibench.scenarios.report import BadInput
+from calibench.sim.recording import StageRecording, load_stage_csv
 
 N_COEF = {"quadratic": 6, "cubic": 10}
 

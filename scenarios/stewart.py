@@ -22,13 +22,13 @@ from pathlib import Path
 
 import numpy as np
 
-from estimators.pose import mean_rotation
-from estimators.rotations import rotvec_to_matrix
-from estimators.stewart import (LegCalibration, TrackerObservations, adjust_jointly, calibrate_leg, fit_sphere,
+from calibench.estimators.pose import mean_rotation
+from calibench.estimators.rotations import rotvec_to_matrix
+from calibench.estimators.stewart import (LegCalibration, TrackerObservations, adjust_jointly, calibrate_leg, fit_sphere,
                                 forward_kinematics, joint_information, multilaterate, rigid_transform, trilaterate)
-from scenarios.report import Check, Parameter, Report
-from scenes.stewart import StewartGeometry
-from sim.stewart import StewartSim, StewartTruth
+from calibench.scenarios.report import Check, Parameter, Report
+from calibench.scenes.stewart import StewartGeometry
+from calibench.sim.stewart import StewartSim, StewartTruth
 
 NAME = "stewart"
 TOL_SIGMA = 5.0
@@ -176,7 +176,7 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
     }
     artifacts = dict(sim=sim, poses=poses, stations=stations, spheres=spheres, config=config)
     if rrd and out_dir is not None:
-        from scenarios import stewart_log
+        from calibench.scenarios import stewart_log
 
         stewart_log.log_run(out_dir / "run.rrd", report, artifacts)
         report.rrd = "run.rrd"

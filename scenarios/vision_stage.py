@@ -24,13 +24,13 @@ from pathlib import Path
 
 import numpy as np
 
-from estimators import iso230_2
-from estimators.circles import find_dark_circle
-from estimators.compensation import LineRuler, compensated_command, fit_polynomial, select_model
-from scenarios.report import Check, Parameter, Report
-from scenes.vision_stage import VisionStageGeometry
-from sim.vision_stage import LineRuler as RulerArtefact
-from sim.vision_stage import VisionStageSim, VisionStageTruth
+from calibench.estimators import iso230_2
+from calibench.estimators.circles import find_dark_circle
+from calibench.estimators.compensation import LineRuler, compensated_command, fit_polynomial, select_model
+from calibench.scenarios.report import Check, Parameter, Report
+from calibench.scenes.vision_stage import VisionStageGeometry
+from calibench.sim.vision_stage import LineRuler as RulerArtefact
+from calibench.sim.vision_stage import VisionStageSim, VisionStageTruth
 
 NAME = "vision-stage"
 TOL_SIGMA = 5.0
@@ -214,7 +214,7 @@ def run(config: VisionStageConfig, seed: int, fidelity: str, out_dir: Path, rrd:
         if out_dir is not None:  # a Monte-Carlo trial keeps only the numbers
             _write_figure(out_dir, artifacts, config)
         if rrd and out_dir is not None:
-            from scenarios import vision_stage_log
+            from calibench.scenarios import vision_stage_log
 
             vision_stage_log.log_run(out_dir / "run.rrd", report, artifacts)
             report.rrd = "run.rrd"

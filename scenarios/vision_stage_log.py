@@ -10,8 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
-from scenarios import rrlog
-from scenes.camera import MJ_TO_CV
+from calibench.scenarios import rrlog
+from calibench.scenes.camera import MJ_TO_CV
 
 ARROW_GAIN = 1000.0  # um-sized errors drawn 1000 x (1 um -> 1 mm)
 

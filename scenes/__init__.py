@@ -3,7 +3,7 @@
 ``SCENES`` maps each scene's name to a function returning its default MJCF and assets.
 """
 
-from scenes import arm_cmm, belt_stage, probe_scanner, stewart, vision_stage
+from calibench.scenes import arm_cmm, belt_stage, probe_scanner, stewart, vision_stage
 
 
 def _belt_stage_default():

@@ -16,8 +16,8 @@ import dataclasses
 
 import numpy as np
 
-from scenes.checkerboard import Chessboard
-from scenes.camera import PinholeCamera
+from calibench.scenes.checkerboard import Chessboard
+from calibench.scenes.camera import PinholeCamera
 
 STAGE_BOARD_GROUP = 2
 CALIB_BOARD_GROUP = 3

@@ -22,7 +22,7 @@ import dataclasses
 import cv2
 import numpy as np
 
-from scenes.camera import PinholeCamera
+from calibench.scenes.camera import PinholeCamera
 
 TILE_MM = 15.0
 TILE_HALF_THICKNESS_M = 0.0005

@@ -20,7 +20,7 @@ import dataclasses
 import mujoco
 import numpy as np
 
-from scenes.arm_cmm import ArmGeometry, build_mjcf
+from calibench.scenes.arm_cmm import ArmGeometry, build_mjcf
 
 # The seed's Table 1 errors, in the estimators' order: (da, dd, dalpha, dtheta) of links 1-6
 # (mm, mm, rad, rad), then dd7 (mm).

@@ -15,10 +15,10 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from scenes.belt_stage import (CALIB_BOARD_GROUP, CALIB_BOARD_PARK, STAGE_BOARD_GROUP,
+from calibench.scenes.belt_stage import (CALIB_BOARD_GROUP, CALIB_BOARD_PARK, STAGE_BOARD_GROUP,
                                BeltStageGeometry, board_to_body, build_mjcf)
-from scenes.camera import MJ_TO_CV, world_to_cv_camera
-from sim.renderer import LensRenderer
+from calibench.scenes.camera import MJ_TO_CV, world_to_cv_camera
+from calibench.sim.renderer import LensRenderer
 
 PULSES_PER_MM = 250.0  # 25,000 pulses = 100 mm
 

@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.recording import ArmRecording, StageRecording
-from sim.replay import replay_stage
+from calibench.sim.recording import ArmRecording, StageRecording
+from calibench.sim.replay import replay_stage
 
 STAGE_KINDS = ("null", "backlash", "periodic", "thermal", "combined", "bump")
 ARM_KINDS = ("null", "eccentricity", "thermal")
@@ -119,8 +119,8 @@ def stage_recording(scenario: str, kind: str, seed: int) -> tuple[StageRecording
 def arm_recording(kind: str, seed: int, n: int = 300, noise_um: float = 10.0) -> tuple[ArmRecording, dict]:
     """A blinded arm recording: the twin with its Table 1 errors, probed at ``n`` postures by a
     reference of ``noise_um`` 1-sigma per coordinate, with the concealed effect of ``kind``."""
-    from scenes.arm_cmm import ArmGeometry
-    from sim.arm_cmm import ArmSim, ArmTruth
+    from calibench.scenes.arm_cmm import ArmGeometry
+    from calibench.sim.arm_cmm import ArmSim, ArmTruth
 
     if kind not in ARM_KINDS:
         raise ValueError(f"unknown kind {kind!r}")

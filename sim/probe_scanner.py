@@ -13,7 +13,7 @@ import dataclasses
 import mujoco
 import numpy as np
 
-from scenes.probe_scanner import LENS_GROUP, PLATE_GROUP, ProbeScannerGeometry, build_mjcf
+from calibench.scenes.probe_scanner import LENS_GROUP, PLATE_GROUP, ProbeScannerGeometry, build_mjcf
 
 
 @dataclasses.dataclass(frozen=True)

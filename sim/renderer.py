@@ -10,7 +10,7 @@ import mujoco
 import numpy as np
 from scipy import ndimage
 
-from scenes.camera import PIXEL_PITCH_M, PinholeCamera
+from calibench.scenes.camera import PIXEL_PITCH_M, PinholeCamera
 
 
 class LensRenderer:

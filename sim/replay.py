@@ -13,8 +13,8 @@ import numpy as np
 def replay_stage(scenario: str, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Where the twin's carriage / table really is for each command in turn, (n, 2) mm."""
     if scenario == "belt-stage":
-        from scenes.belt_stage import BeltStageGeometry
-        from sim.belt_stage import PULSES_PER_MM, BeltStageSim, BeltStageTruth
+        from calibench.scenes.belt_stage import BeltStageGeometry
+        from calibench.sim.belt_stage import PULSES_PER_MM, BeltStageSim, BeltStageTruth
 
         sim = BeltStageSim(BeltStageGeometry(), BeltStageTruth(), render=False)
         home = sim.carriage_mm()
@@ -24,8 +24,8 @@ def replay_stage(scenario: str, x: np.ndarray, y: np.ndarray) -> np.ndarray:
             out[i] = sim.carriage_mm() - home
         return out
     if scenario == "vision-stage":
-        from scenes.vision_stage import VisionStageGeometry
-        from sim.vision_stage import VisionStageSim, VisionStageTruth
+        from calibench.scenes.vision_stage import VisionStageGeometry
+        from calibench.sim.vision_stage import VisionStageSim, VisionStageTruth
 
         truth = dataclasses.replace(VisionStageTruth(), repeatability_um=0.0)
         sim = VisionStageSim(VisionStageGeometry(), truth, np.random.default_rng(0), render=False)
@@ -40,7 +40,7 @@ def replay_stage(scenario: str, x: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 def replay_arm(q_rad: np.ndarray) -> np.ndarray:
     """The nominal arm's probe centre (base frame) at encoder readings (n, 6) rad, (n, 3) mm."""
-    from scenes.arm_cmm import ArmGeometry
-    from sim.arm_cmm import ArmSim, ArmTruth
+    from calibench.scenes.arm_cmm import ArmGeometry
+    from calibench.sim.arm_cmm import ArmSim, ArmTruth
 
     return ArmSim(ArmGeometry(), ArmTruth(delta=(0.0,) * 25)).probe_mm(q_rad)

@@ -13,7 +13,7 @@ import dataclasses
 import mujoco
 import numpy as np
 
-from scenes.stewart import StewartGeometry, build_mjcf
+from calibench.scenes.stewart import StewartGeometry, build_mjcf
 
 
 @dataclasses.dataclass(frozen=True)

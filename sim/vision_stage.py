@@ -19,9 +19,9 @@ import dataclasses
 import mujoco
 import numpy as np
 
-from scenes.vision_stage import VisionStageGeometry, build_mjcf
-from scenes.camera import MJ_TO_CV, world_to_cv_camera
-from sim.renderer import LensRenderer
+from calibench.scenes.vision_stage import VisionStageGeometry, build_mjcf
+from calibench.scenes.camera import MJ_TO_CV, world_to_cv_camera
+from calibench.sim.renderer import LensRenderer
 
 
 @dataclasses.dataclass(frozen=True)

@@ -3,7 +3,7 @@
 import cv2
 import numpy as np
 
-from scenes.checkerboard import Chessboard
+from calibench.scenes.checkerboard import Chessboard
 
 
 def area_sample(K: np.ndarray, R: np.ndarray, t: np.ndarray, shade, size, supersample: int) -> np.ndarray:

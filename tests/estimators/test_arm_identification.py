@@ -7,13 +7,13 @@ implementation independent of the estimator's kinematics.
 import numpy as np
 import pytest
 
-from estimators.arm_identification import (ConeProblem, TrackerProblem, identifiable_basis, identify,
+from calibench.estimators.arm_identification import (ConeProblem, TrackerProblem, identifiable_basis, identify,
                                            identify_identifiable, observability_index, parameter_scales,
                                            select_postures)
-from estimators.arm_kinematics import point_in_link7
-from scenarios.arm_cmm import chain_of, tracker_problem
-from scenes.arm_cmm import ArmGeometry
-from sim.arm_cmm import TABLE1_DELTA, ArmSim, ArmTruth
+from calibench.estimators.arm_kinematics import point_in_link7
+from calibench.scenarios.arm_cmm import chain_of, tracker_problem
+from calibench.scenes.arm_cmm import ArmGeometry
+from calibench.sim.arm_cmm import TABLE1_DELTA, ArmSim, ArmTruth
 
 
 @pytest.fixture(scope="module")
@@ -45,7 +45,7 @@ def test_tracker_jacobian_matches_differences(arm):
 
 
 PARAM_IS_ANGLE = [n.startswith(("dalpha", "dtheta")) for n in
-                  __import__("estimators.arm_kinematics", fromlist=["PARAM_NAMES"]).PARAM_NAMES]
+                  __import__("calibench.estimators.arm_kinematics", fromlist=["PARAM_NAMES"]).PARAM_NAMES]
 
 
 def test_dropped_parameters_are_named_with_their_partners(arm):

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from estimators.arm_kinematics import DHChain, jacobian, point_in_link7, table1_delta
+from calibench.estimators.arm_kinematics import DHChain, jacobian, point_in_link7, table1_delta
 
 
 @pytest.fixture(scope="module")

@@ -4,8 +4,8 @@ import cv2
 import numpy as np
 import pytest
 
-from estimators.chessboard import find_chessboard_corners, refine_saddle
-from scenes.checkerboard import Chessboard
+from calibench.estimators.chessboard import find_chessboard_corners, refine_saddle
+from calibench.scenes.checkerboard import Chessboard
 from tests.estimators.synthetic import project, raster_chessboard
 
 BOARD = Chessboard(cols=9, rows=6, square_mm=25.0, margin_mm=25.0)

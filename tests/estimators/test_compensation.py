@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from estimators.compensation import (LineRuler, compensated_command, fit_polynomial, monomial_powers,
+from calibench.estimators.compensation import (LineRuler, compensated_command, fit_polynomial, monomial_powers,
                                      select_model)
 
 TRUE = np.array([0.3, 0.19, 0.08, 1.5e-4, -2e-5, -1.1e-4, -3.9e-7, 2e-8, 6e-8, -8e-7])  # um / mm^k

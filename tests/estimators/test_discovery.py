@@ -2,9 +2,9 @@
 
 import numpy as np
 
-from estimators import discovery as dsc
-from estimators.arm_kinematics import DHChain, jacobian, point_in_link7
-from estimators.effects import Backlash, EncoderEccentricity, best_period
+from calibench.estimators import discovery as dsc
+from calibench.estimators.arm_kinematics import DHChain, jacobian, point_in_link7
+from calibench.estimators.effects import Backlash, EncoderEccentricity, best_period
 
 
 def test_periodogram_and_refinement_find_the_period():

@@ -4,9 +4,9 @@ import cv2
 import numpy as np
 import pytest
 
-from estimators.pose import (board2cam_from_homography, board2cam_pnp, fit_plane, homography,
+from calibench.estimators.pose import (board2cam_from_homography, board2cam_pnp, fit_plane, homography,
                              mean_rotation, undistort_pixels)
-from scenes.checkerboard import Chessboard
+from calibench.scenes.checkerboard import Chessboard
 from tests.estimators.synthetic import project
 
 BOARD = Chessboard(cols=9, rows=6, square_mm=50.0)

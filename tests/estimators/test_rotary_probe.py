@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from estimators.rotary_probe import (MinimumFit, ScannerCalibration, calibrate_lsq, calibrate_paper,
+from calibench.estimators.rotary_probe import (MinimumFit, ScannerCalibration, calibrate_lsq, calibrate_paper,
                                      contour_points, fit_minima, rounded_square_rho, solve_four_minima)
 
 A, R = 22.5, 5.0

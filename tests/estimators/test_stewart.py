@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from estimators.rotations import rotvec_to_matrix
-from estimators.stewart import (TrackerObservations, _joint_residuals, adjust_jointly, calibrate_leg, fit_sphere,
+from calibench.estimators.rotations import rotvec_to_matrix
+from calibench.estimators.stewart import (TrackerObservations, _joint_residuals, adjust_jointly, calibrate_leg, fit_sphere,
                                 forward_kinematics, joint_information, leg_lengths, multilaterate, rigid_transform,
                                 trilaterate)
 

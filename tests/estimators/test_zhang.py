@@ -4,8 +4,8 @@ reported std honest (Monte-Carlo spread), full covariance equal to OpenCV's diag
 import numpy as np
 import pytest
 
-from estimators.zhang import CalibrationError, calibrate_camera, intrinsic_covariance
-from scenes.checkerboard import Chessboard
+from calibench.estimators.zhang import CalibrationError, calibrate_camera, intrinsic_covariance
+from calibench.scenes.checkerboard import Chessboard
 from tests.estimators.synthetic import project, random_views
 
 BOARD = Chessboard(cols=9, rows=6, square_mm=30.0)

@@ -6,9 +6,9 @@ import json
 import numpy as np
 import pytest
 
-from scenarios import belt_stage
-from scenarios.cli import main
-from scenarios.rrlog import entity_paths
+from calibench.scenarios import belt_stage
+from calibench.scenarios.cli import main
+from calibench.scenarios.rrlog import entity_paths
 
 INTRINSICS = ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2")
 MAP = tuple(f"{a}_c{i}" for a in ("ex", "ey") for i in range(6))

@@ -6,7 +6,7 @@ import shutil
 import numpy as np
 import pytest
 
-from scenarios.cli import main
+from calibench.scenarios.cli import main
 
 
 def _bad(capsys, argv, fragment):

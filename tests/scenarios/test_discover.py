@@ -3,8 +3,8 @@
 import json
 
 
-from scenarios.cli import main
-from sim.concealed import arm_recording, stage_recording, write_blinded
+from calibench.scenarios.cli import main
+from calibench.sim.concealed import arm_recording, stage_recording, write_blinded
 
 
 def test_stage_discovery_json_follows_the_contract(tmp_path):
@@ -37,7 +37,7 @@ def test_arm_discovery(tmp_path):
 
 def test_thermal_expansion_without_a_temperature_change_is_called_confounded(tmp_path):
     rec, manifest = stage_recording("belt-stage", "null", 3)
-    from scenarios.discover import discover_stage
+    from calibench.scenarios.discover import discover_stage
 
     d, _ = discover_stage("belt-stage", rec)
     assert any(c["effect"] == "thermal_expansion" and "several K" in c["experiment"] for c in d["confounded"])
@@ -63,7 +63,7 @@ def test_paper_belt_stage_residual_is_table_3_and_lives_in_y(shared_data):
     """The seed paper's measured tables with its quadratic as the simulation: the residual RMS is
     Table 3's, sqrt((31.96 + 24.08) / 242) = 0.4812 mm (to its printed digits), and the located
     structure is the Y error against y."""
-    from scenarios.discover import discover_stage, paper_belt_recording
+    from calibench.scenarios.discover import discover_stage, paper_belt_recording
 
     d, _ = discover_stage("belt-stage", paper_belt_recording(shared_data / "seed_belt_stage"), 0, "columns")
     assert abs(d["fit"]["rms_nominal"] - (31.96 + 24.08) ** 0.5 / 242**0.5) < 2e-4

@@ -1,7 +1,7 @@
 """The concealed-effect suite (issue 8's acceptance): 34 blinded recordings through discover,
 scored against their sealed manifests only afterwards (see scenarios/discover_suite.py)."""
 
-from scenarios.discover_suite import SUITE, run_case, score, table
+from calibench.scenarios.discover_suite import SUITE, run_case, score, table
 
 
 def test_concealed_effect_suite():

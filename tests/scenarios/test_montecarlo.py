@@ -8,8 +8,8 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 
-from scenarios.cli import main
-from scenarios.montecarlo import JOURNAL, load_journal, run_study, summarise, trial_seed
+from calibench.scenarios.cli import main
+from calibench.scenarios.montecarlo import JOURNAL, load_journal, run_study, summarise, trial_seed
 
 
 def _estimates(out):
@@ -80,6 +80,6 @@ def test_cli_study_writes_the_contract_files(tmp_path):
     t = pq.read_table(tmp_path / "trials.parquet").to_pydict()
     assert {"trial", "seed", "ok", "error", "elapsed_s", "d_lsq.truth", "d_lsq.estimate", "d_lsq.std"} <= set(t)
     assert (tmp_path / "study.png").is_file()
-    from scenarios.rrlog import entity_paths
+    from calibench.scenarios.rrlog import entity_paths
 
     assert {"/study/summary", "/study/figure"} <= entity_paths(tmp_path / "study.rrd")

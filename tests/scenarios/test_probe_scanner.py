@@ -4,12 +4,12 @@ import json
 
 import numpy as np
 
-from estimators.rotary_probe import calibrate_lsq, calibrate_paper
-from scenarios import probe_scanner
-from scenarios.cli import main
-from scenarios.rrlog import entity_paths
-from scenes.probe_scanner import ProbeScannerGeometry
-from sim.probe_scanner import ProbeScannerSim, ProbeScannerTruth
+from calibench.estimators.rotary_probe import calibrate_lsq, calibrate_paper
+from calibench.scenarios import probe_scanner
+from calibench.scenarios.cli import main
+from calibench.scenarios.rrlog import entity_paths
+from calibench.scenes.probe_scanner import ProbeScannerGeometry
+from calibench.sim.probe_scanner import ProbeScannerSim, ProbeScannerTruth
 
 
 def test_run_meets_the_acceptance(tmp_path):

@@ -2,8 +2,8 @@
 
 import json
 
-from scenarios.cli import main
-from scenarios.rrlog import entity_paths
+from calibench.scenarios.cli import main
+from calibench.scenarios.rrlog import entity_paths
 
 
 def test_run_meets_the_acceptance(tmp_path):

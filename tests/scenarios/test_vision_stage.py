@@ -5,9 +5,9 @@ import json
 import numpy as np
 import pytest
 
-from scenarios import vision_stage
-from scenarios.cli import main
-from scenarios.rrlog import entity_paths
+from calibench.scenarios import vision_stage
+from calibench.scenarios.cli import main
+from calibench.scenarios.rrlog import entity_paths
 
 
 @pytest.fixture(scope="module")

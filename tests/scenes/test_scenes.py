@@ -4,8 +4,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from scenes import SCENES
-from scenes.checkerboard import Chessboard
+from calibench.scenes import SCENES
+from calibench.scenes.checkerboard import Chessboard
 
 
 @pytest.mark.parametrize("name", sorted(SCENES))

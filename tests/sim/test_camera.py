@@ -5,10 +5,10 @@ import mujoco
 import numpy as np
 import pytest
 
-from estimators.chessboard import find_chessboard_corners
-from scenes.belt_stage import BeltStageGeometry, build_mjcf
-from sim.belt_stage import BeltStageSim, BeltStageTruth
-from scenes.camera import PIXEL_PITCH_M, PinholeCamera
+from calibench.estimators.chessboard import find_chessboard_corners
+from calibench.scenes.belt_stage import BeltStageGeometry, build_mjcf
+from calibench.sim.belt_stage import BeltStageSim, BeltStageTruth
+from calibench.scenes.camera import PIXEL_PITCH_M, PinholeCamera
 
 
 def test_projection_matches_opencv():
@@ -96,9 +96,9 @@ def test_stage_moves_by_pulses_plus_the_error_map():
 def test_probe_rays_match_the_exact_rounded_square():
     """MuJoCo's mj_ray on the wall geoms against the estimator's closed-form reading: two
     independent routes to the same geometry (the walls are chords: <0.1 um sagitta)."""
-    from estimators.rotary_probe import rounded_square_rho
-    from scenes.probe_scanner import ProbeScannerGeometry
-    from sim.probe_scanner import ProbeScannerSim, ProbeScannerTruth
+    from calibench.estimators.rotary_probe import rounded_square_rho
+    from calibench.scenes.probe_scanner import ProbeScannerGeometry
+    from calibench.sim.probe_scanner import ProbeScannerSim, ProbeScannerTruth
 
     truth = ProbeScannerTruth()
     sim = ProbeScannerSim(ProbeScannerGeometry(), truth)
