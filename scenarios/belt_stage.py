@@ -33,7 +33,7 @@ from calibench.estimators.zhang import calibrate_camera, intrinsic_covariance
 from calibench.scenarios.report import Check, Parameter, Report
 from calibench.scenes.belt_stage import BeltStageGeometry
 from calibench.sim.belt_stage import PULSES_PER_MM, BeltStageSim, BeltStageTruth, intrinsic_view_poses
-from calibench.sim.recording import CameraViews
+from calibench.recordings import CameraViews
 
 NAME = "belt-stage"
 

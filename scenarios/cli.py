@@ -96,7 +96,7 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     except Exception as e:  # noqa: BLE001 - bad input is reported in one line
         from calibench.scenarios.report import BadInput
-        from calibench.sim.recording import RecordingError
+        from calibench.recordings import RecordingError
 
         if isinstance(e, (BadInput, RecordingError)):
             print(f"calibench: {e}", file=sys.stderr)

@@ -264,7 +264,7 @@ def discover_arm(rec, seed: int = 0, floor: float = dsc.FLOOR) -> tuple[dict, di
 def paper_belt_recording(data_dir: Path):
     """The seed paper's measured belt-stage tables (../shared/data/seed_belt_stage) as a stage
     recording: one row per station, error = measured - commanded (no passes, no directions)."""
-    from calibench.sim.recording import StageRecording
+    from calibench.recordings import StageRecording
 
     ex = np.loadtxt(Path(data_dir) / "x_axis_error_mm.csv", delimiter=",", skiprows=1)
     ey = np.loadtxt(Path(data_dir) / "y_axis_error_mm.csv", delimiter=",", skiprows=1)
@@ -276,7 +276,7 @@ def paper_belt_recording(data_dir: Path):
 
 # --- the command -----------------------------------------------------------------------------------
 def run_discover(scenario: str, csv_path: Path, out_dir: Path, seed: int = 0, holdout: str | None = None) -> dict:
-    from calibench.sim.recording import load_arm_csv, load_stage_csv
+    from calibench.recordings import load_arm_csv, load_stage_csv
 
     if scenario not in SUPPORTED:
         raise BadInput(f"discover supports {', '.join(SUPPORTED)}, not {scenario!r}")

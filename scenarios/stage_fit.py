@@ -10,7 +10,7 @@ import numpy as np
 from calibench.estimators.compensation import fit_polynomial
 from calibench.estimators.error_map import fit_quadratic
 from calibench.scenarios.report import BadInput
-from calibench.sim.recording import StageRecording, load_stage_csv
+from calibench.recordings import StageRecording, load_stage_csv
 
 N_COEF = {"quadratic": 6, "cubic": 10}
 

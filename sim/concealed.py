@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from calibench.sim.recording import ArmRecording, StageRecording
+from calibench.recordings import ArmRecording, StageRecording
 from calibench.sim.replay import replay_stage
 
 STAGE_KINDS = ("null", "backlash", "periodic", "thermal", "combined", "bump")

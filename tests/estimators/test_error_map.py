@@ -5,7 +5,7 @@ import pytest
 
 from calibench.estimators.error_map import compensated_command, fit_quadratic
 from calibench.scenarios.stage_fit import fit_recording
-from calibench.sim.recording import StageRecording
+from calibench.recordings import StageRecording
 
 TRUE = np.array([0.05, 5.9e-3, 1.7e-3, 4.8e-6, -1.26e-6, 3.2e-8])
 

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from calibench.sim.recording import RecordingError, StageRecording, load_stage_csv
+from calibench.recordings import RecordingError, StageRecording, load_stage_csv
 
 
 def test_csv_round_trip_keeps_optional_columns(tmp_path):

@@ -1,0 +1,217 @@
+"""Recordings: what an instrument records, the one interface between world and algorithms.
+
+Simulated and real recordings load into the same small dataclasses of numpy arrays, with units
+in the field names. Truth never goes in here. This module sits outside the four rooms and needs
+only numpy: a user with real data loads a recording without importing the simulation.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+
+class RecordingError(ValueError):
+    """A recording that cannot be used as it is (missing column, NaN, unreadable file)."""
+
+
+@dataclasses.dataclass
+class CameraViews:
+    """Views of a chessboard by one camera.
+
+    images : list of (height, width, 3) uint8, or None (analytic fidelity: no pixels).
+    corners_px : (n_views, n_corners, 2) the detector's output, NaN where a view was not
+        detected; filled by the detector for images, by the sensor model otherwise.
+    names : one label per view (file name or station).
+    """
+
+    image_size: tuple[int, int]
+    names: list[str]
+    images: list[np.ndarray] | None = None
+    corners_px: np.ndarray | None = None
+
+
+@dataclasses.dataclass
+class StageRecording:
+    """Stations of a two-axis stage: commanded and measured positions (mm), CONTRACT format.
+
+    Optional columns are None when absent.
+    """
+
+    x_cmd_mm: np.ndarray
+    y_cmd_mm: np.ndarray
+    x_meas_mm: np.ndarray
+    y_meas_mm: np.ndarray
+    t_s: np.ndarray | None = None
+    dir_x: np.ndarray | None = None
+    dir_y: np.ndarray | None = None
+    temp_c: np.ndarray | None = None
+    run: np.ndarray | None = None
+
+    REQUIRED = ("x_cmd_mm", "y_cmd_mm", "x_meas_mm", "y_meas_mm")
+    OPTIONAL = ("t_s", "dir_x", "dir_y", "temp_c", "run")
+
+    def __len__(self) -> int:
+        return len(self.x_cmd_mm)
+
+    @property
+    def x_err_mm(self) -> np.ndarray:
+        return self.x_meas_mm - self.x_cmd_mm
+
+    @property
+    def y_err_mm(self) -> np.ndarray:
+        return self.y_meas_mm - self.y_cmd_mm
+
+    def to_csv(self, path: str | Path) -> None:
+        cols = [c for c in self.REQUIRED + self.OPTIONAL if getattr(self, c) is not None]
+        data = np.column_stack([getattr(self, c) for c in cols])
+        with open(path, "w", newline="") as f:
+            w = csv.writer(f)
+            w.writerow(cols)
+            w.writerows([[f"{v:.9g}" for v in row] for row in data])
+
+
+def _read_columns(path: str | Path, required: tuple, optional: tuple) -> dict[str, np.ndarray]:
+    """Numeric columns of a CSV by name; one clear RecordingError for any defect."""
+    path = Path(path)
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as f:
+            rows = list(csv.reader(f))
+    except OSError as e:
+        raise RecordingError(f"cannot read {path}: {e.strerror}") from None
+    except UnicodeDecodeError:
+        raise RecordingError(f"{path} is not a text CSV file") from None
+    if not rows or not rows[0]:
+        raise RecordingError(f"{path} is empty")
+    header = [h.strip() for h in rows[0]]
+    missing = [c for c in required if c not in header]
+    if missing:
+        raise RecordingError(f"{path}: missing column(s) {', '.join(missing)}")
+    body = [r for r in rows[1:] if any(cell.strip() for cell in r)]
+    if not body:
+        raise RecordingError(f"{path}: no data rows")
+    fields = {}
+    for name in required + optional:
+        if name not in header:
+            continue
+        j = header.index(name)
+        values = np.empty(len(body))
+        for i, r in enumerate(body):
+            try:
+                values[i] = float(r[j])
+            except (IndexError, ValueError):
+                cell = r[j] if j < len(r) else ""
+                raise RecordingError(f"{path} line {i + 2}: column {name} is {cell!r}, not a number") from None
+        bad = ~np.isfinite(values)
+        if bad.any():
+            raise RecordingError(f"{path} line {int(np.argmax(bad)) + 2}: column {name} is not finite")
+        fields[name] = values
+    return fields
+
+
+def load_stage_csv(path: str | Path) -> StageRecording:
+    """Read a stage recording; one clear RecordingError for any defect."""
+    return StageRecording(**_read_columns(path, StageRecording.REQUIRED, StageRecording.OPTIONAL))
+
+
+@dataclasses.dataclass
+class ArmRecording:
+    """Postures of a serial arm and the point a reference instrument measured at each.
+
+    q_rad : (n, n_joints) encoder readings, rad.
+    xyz_mm : (n, 3) the measured point in the instrument's own frame, mm.
+    xyz_std_mm : (n, 3) the instrument's 1-sigma per value, mm, or None.
+    t_s, temp_c : (n,) seconds since start and machine temperature, or None.
+    """
+
+    q_rad: np.ndarray
+    xyz_mm: np.ndarray
+    t_s: np.ndarray | None = None
+    temp_c: np.ndarray | None = None
+    xyz_std_mm: np.ndarray | None = None
+
+    def __len__(self) -> int:
+        return len(self.q_rad)
+
+    @property
+    def n_joints(self) -> int:
+        return self.q_rad.shape[1]
+
+    def subset(self, rows: np.ndarray) -> "ArmRecording":
+        """The recording restricted to ``rows`` (indices or a boolean mask)."""
+        pick = lambda v: None if v is None else v[rows]  # noqa: E731
+        return ArmRecording(self.q_rad[rows], self.xyz_mm[rows], pick(self.t_s), pick(self.temp_c),
+                            pick(self.xyz_std_mm))
+
+    def to_csv(self, path) -> None:
+        cols = [f"q{j}_deg" for j in range(1, self.n_joints + 1)] + ["x_mm", "y_mm", "z_mm"]
+        data = [np.rad2deg(self.q_rad), self.xyz_mm]
+        if self.xyz_std_mm is not None:
+            cols += ["x_std_mm", "y_std_mm", "z_std_mm"]
+            data.append(self.xyz_std_mm)
+        for name in ("t_s", "temp_c"):
+            if getattr(self, name) is not None:
+                cols.append(name)
+                data.append(getattr(self, name)[:, None])
+        np.savetxt(path, np.hstack(data), delimiter=",", header=",".join(cols), comments="", fmt="%.9g")
+
+
+ARM_REQUIRED = tuple(f"q{j}_deg" for j in range(1, 7)) + ("x_mm", "y_mm", "z_mm")
+ARM_OPTIONAL = ("x_std_mm", "y_std_mm", "z_std_mm", "t_s", "temp_c")
+
+
+def _joint_columns(path: Path) -> int:
+    """How many q<j>_deg columns the header names, q1 upward without a gap."""
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as f:
+            header = [h.strip() for h in next(csv.reader(f), [])]
+    except (OSError, UnicodeDecodeError):
+        return 0  # _read_columns says what is wrong
+    n = 0
+    while f"q{n + 1}_deg" in header:
+        n += 1
+    return n
+
+
+def load_arm_csv(path: str | Path, n_joints: int | None = None) -> ArmRecording:
+    """Read an arm recording (CONTRACT, "Arms"): q1_deg..qN_deg, x_mm, y_mm, z_mm; optional
+    x_std_mm, y_std_mm, z_std_mm, t_s, temp_c.
+
+    ``n_joints``: the arm's joint count; a recording with another count is refused. Angles that
+    are evidently radians (every |q| below 2 pi over a spread of postures) and positions that are
+    evidently metres are refused too: the format says degrees and millimetres.
+    """
+    path = Path(path)
+    found = _joint_columns(path)
+    n = n_joints if n_joints is not None else max(found, 1)
+    if n_joints is not None and found and found != n_joints:
+        raise RecordingError(f"{path}: {found} joint column(s) (q1_deg..q{found}_deg) but the arm has "
+                             f"{n_joints} joints")
+    q_cols = tuple(f"q{j}_deg" for j in range(1, n + 1))
+    cols = _read_columns(path, q_cols + ("x_mm", "y_mm", "z_mm"), ARM_OPTIONAL)
+    q_deg = np.stack([cols[c] for c in q_cols], axis=1)
+    xyz = np.stack([cols["x_mm"], cols["y_mm"], cols["z_mm"]], axis=1)
+    if len(q_deg) >= 10 and np.ptp(q_deg, axis=0).max() > 0.5 and np.abs(q_deg).max() <= 2 * np.pi:
+        raise RecordingError(f"{path}: every joint angle lies within +-{np.abs(q_deg).max():.2f}: these look like "
+                             "radians, the format wants degrees (q<j>_deg)")
+    if np.abs(q_deg).max() > 3600:
+        raise RecordingError(f"{path}: a joint angle of {np.abs(q_deg).max():.3g} deg: not an angle in degrees")
+    if len(xyz) >= 10 and np.ptp(xyz, axis=0).max() > 0 and np.ptp(xyz, axis=0).max() < 5.0:
+        raise RecordingError(f"{path}: the measured points span only {np.ptp(xyz, axis=0).max():.3g} in x, y and z: "
+                             "metres? the format wants millimetres (x_mm, y_mm, z_mm)")
+    if np.abs(xyz).max() > 1e6:
+        raise RecordingError(f"{path}: a measured coordinate of {np.abs(xyz).max():.3g} mm (over a kilometre): "
+                             "wrong unit or a corrupt value")
+    std = None
+    std_cols = ("x_std_mm", "y_std_mm", "z_std_mm")
+    present = [c for c in std_cols if c in cols]
+    if present and len(present) < 3:
+        raise RecordingError(f"{path}: {', '.join(present)} without the others: give all of x_std_mm, y_std_mm, z_std_mm")
+    if present:
+        std = np.stack([cols[c] for c in std_cols], axis=1)
+        if np.any(std < 0):
+            raise RecordingError(f"{path} line {int(np.argmax(np.any(std < 0, axis=1))) + 2}: a negative std")
+    return ArmRecording(np.deg2rad(q_deg), xyz, cols.get("t_s"), cols.get("temp_c"), std)
