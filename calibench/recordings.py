@@ -199,7 +199,8 @@ def load_arm_csv(path: str | Path, n_joints: int | None = None) -> ArmRecording:
                              "radians, the format wants degrees (q<j>_deg)")
     if np.abs(q_deg).max() > 3600:
         raise RecordingError(f"{path}: a joint angle of {np.abs(q_deg).max():.3g} deg: not an angle in degrees")
-    if len(xyz) >= 10 and np.ptp(xyz, axis=0).max() > 0 and np.ptp(xyz, axis=0).max() < 5.0:
+    # the arm moved (a joint over 20 deg) yet its point stayed within 5: the unit, not the arm
+    if len(xyz) >= 10 and np.ptp(q_deg, axis=0).max() > 20 and 0 < np.ptp(xyz, axis=0).max() < 5.0:
         raise RecordingError(f"{path}: the measured points span only {np.ptp(xyz, axis=0).max():.3g} in x, y and z: "
                              "metres? the format wants millimetres (x_mm, y_mm, z_mm)")
     if np.abs(xyz).max() > 1e6:

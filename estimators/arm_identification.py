@@ -1,18 +1,25 @@
-"""Identification of an arm CMM's 25 parameter errors, with identifiability analysis first.
+"""Identification of a serial arm's parameter errors, with identifiability analysis first.
 
-Two data sources, one method:
-- :class:`TrackerProblem`: a laser tracker's range and two angles of a reflector on the stylus;
-  nuisance: the base-to-tracker transform and the reflector's offset in link 7 (the laser-
-  tracker seed's frame and flange-to-reflector calibration, estimated jointly).
-- :class:`ConeProblem`: single-point articulation in two cones of a calibrated length bar; nuisance:
-  the two cone centres (their distance constrained to the bar's length).
+Three kinds of data, one method:
+- :class:`PointProblem`: points measured by an instrument in its own frame (a laser tracker's
+  Cartesian output, a CMM), from one or several recordings, each with its own base-to-
+  instrument transform (the laser-tracker seed's base calibration); the tool point is always
+  estimated (its Tool0 calibration). Optionally the joints' compliance under gravity.
+- :class:`TrackerProblem`: a laser tracker's range and two angles of the tool point, one frame.
+- :class:`ConeProblem`: single-point articulation in two cones of a calibrated length bar;
+  nuisance: the two cone centres (their distance constrained to the bar's length).
 
-:func:`identifiable_basis` takes the whitened Jacobian at the start, removes what the nuisance
-can explain (its column space), and runs QR with column pivoting on the scaled remainder: the
-columns beyond the numerical rank are the parameters the data cannot tell apart from the others;
-each is reported with the parameters it is a combination of. :func:`identify` then solves for the
-identifiable basis only (Levenberg-Marquardt), the dropped parameters held at zero, and returns
-standard deviations from (J^T J)^-1 scaled by the residual variance.
+:func:`identifiable_basis` takes the whitened Jacobian at the start and runs QR with column
+pivoting group by group (what is always estimated, then the kinematic parameters, then Hayati's
+betas, then the compliances), each on what the kept columns cannot explain: a column beyond the
+numerical rank is a parameter the data cannot tell from the others and is dropped, with the
+parameters it is a combination of. :func:`identify` solves for the kept parameters
+(Levenberg-Marquardt), the dropped ones held at zero, and reports convergence and standard
+deviations from the whitened normal matrix.
+
+Compliance (``compliance<j>``, rad / N m internally): joint j's link turns by c_j tau_j from its
+motor's (encoder's) angle, tau_j the gravity torque computed from the chain's masses at the
+encoder reading (:func:`estimators.arm_kinematics.gravity_torques`).
 """
 
 from __future__ import annotations
@@ -22,7 +29,8 @@ import dataclasses
 import numpy as np
 from scipy import linalg
 
-from calibench.estimators.arm_kinematics import PARAM_NAMES, DHChain, frames, jacobian
+from calibench.estimators.arm_kinematics import (Chain, gravity_moments, jacobian, joint_axes, n_params, param_names,
+                                                 pose, theta_index)
 from calibench.estimators.rotations import matrix_to_rotvec, rigid_transform, rotvec_to_matrix, skew
 
 
@@ -47,32 +55,260 @@ def spherical_jacobian(y: np.ndarray) -> np.ndarray:
     return J
 
 
-# --- the tracker -------------------------------------------------------------------------------
+def _cross3(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    return np.cross(u, v)
+
+
+# --- points in the instrument's frame ------------------------------------------------------------
+@dataclasses.dataclass
+class PointState:
+    """delta (5 N + 3,) kinematic errors and tool; comp: the compliances (rad / N m), first about
+    the joints' axes then across them (tilt); R (k, 3, 3), t (k, 3) mm each recording's
+    base-to-instrument transform (y = R p + t)."""
+
+    delta: np.ndarray
+    comp: np.ndarray
+    R: np.ndarray
+    t: np.ndarray
+
+
+class PointProblem:
+    """Tool points measured in the instrument's frame.
+
+    chain : the nominal arm (its ``tool_mm`` is the first guess of the tool point).
+    q_rad : (n, N) encoder readings; xyz_mm : (n, 3) measured points.
+    recording : (n,) int, which recording (own base frame) each row comes from; 0 if None.
+    sigma_mm : (n, 3) the instrument's stated 1-sigma per value, or None (then one common
+        sigma is estimated from the residuals).
+    compliance_joints : joints (1-based) whose compliance under gravity is a parameter (needs
+        the chain's masses); empty for a geometry-only model.
+    tilt_joints : joints whose bearing tilts under the moment across their axis (rad / N m):
+        everything the joint carries turns by c M_perp about the joint's origin.
+    prior : None, or the prior's scale: each kinematic error (not the tool, the frames or the
+        compliances) gets a zero-mean Gaussian prior of ``prior`` times its typical size
+        (:func:`parameter_scales`: 0.1 mm, 1 mrad), the tolerances of a machined arm. The solve
+        is then the maximum a posteriori estimate: what the data cannot pin down (a narrow band
+        of a joint, one sign of a torque) stays near the drawing instead of absorbing the
+        recording's own structure, which is what carries a calibration to postures it has not
+        seen. The std are posterior std.
+    """
+
+    def __init__(self, chain: Chain, q_rad: np.ndarray, xyz_mm: np.ndarray, recording: np.ndarray | None = None,
+                 sigma_mm: np.ndarray | None = None, compliance_joints=(), tilt_joints=(), prior: float | None = None):
+        self.chain = chain
+        self.q = np.asarray(q_rad, float)
+        self.y = np.asarray(xyz_mm, float)
+        n, N = self.q.shape
+        self.rec = np.zeros(n, int) if recording is None else np.asarray(recording, int)
+        self.n_rec = int(self.rec.max()) + 1
+        self.sigma = None if sigma_mm is None else np.asarray(sigma_mm, float)
+        self.extra_var = 0.0  # model-error variance (mm^2) added to every value: see reweight()
+        self.cj = np.asarray(sorted(compliance_joints), int)
+        self.tj = np.asarray(sorted(tilt_joints), int)
+        self.compliance = len(self.cj) + len(self.tj) > 0
+        if self.compliance and not chain.has_masses:
+            raise ValueError("a compliance model needs the arm's masses")
+        # gravity's moments at the readings, once: the links' sag is small enough that the
+        # moments at the sagged posture differ by second-order amounts
+        if self.compliance:
+            M = gravity_moments(chain, self.q)
+            w, _ = joint_axes(pose(chain, self.q))
+            self.tau = np.einsum("nij,nij->ni", w, M)[:, self.cj - 1]
+            Mt, wt = M[:, self.tj - 1], w[:, self.tj - 1]
+            self.m_perp = Mt - np.einsum("nij,nij->ni", Mt, wt)[:, :, None] * wt
+        else:
+            self.tau, self.m_perp = np.zeros((n, 0)), np.zeros((n, 0, 3))
+        if not (np.isfinite(self.q).all() and np.isfinite(self.y).all()):
+            raise ValueError("point data must be finite")
+        self.N = N
+        self.nk = n_params(N)
+        self.nc = len(self.cj) + len(self.tj)
+        frame = ("rx", "ry", "rz", "x", "y", "z")
+        suffix = [""] if self.n_rec == 1 else [f"_{r + 1}" for r in range(self.n_rec)]
+        self.frame_names = tuple(f"base_{f}{s}" for s in suffix for f in frame)
+        self.R_ref: np.ndarray | None = None
+        self.prior = prior
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return (param_names(self.N) + tuple(f"compliance{j}" for j in self.cj)
+                + tuple(f"tilt_compliance{j}" for j in self.tj) + self.frame_names)
+
+    @property
+    def always(self) -> np.ndarray:
+        """Columns always estimated: the base frames and the tool point."""
+        nf = len(self.frame_names)
+        return np.r_[np.arange(self.nk - 3, self.nk), np.arange(len(self.names) - nf, len(self.names))]
+
+    @property
+    def groups(self) -> list[np.ndarray]:
+        N, nk = self.N, self.nk
+        kin = np.array([5 * i + k for i in range(N) for k in range(4)])
+        beta = np.array([5 * i + 4 for i in range(N)])
+        out = [kin, beta]
+        if self.compliance:
+            out.append(np.arange(nk, nk + self.nc))
+        return out
+
+    def weights(self) -> np.ndarray:
+        """1 / sigma per value, (n, 3): the stated sigma and the model-error variance."""
+        var = (self.sigma**2 if self.sigma is not None else np.zeros_like(self.y)) + self.extra_var
+        if not np.any(var > 0):
+            return np.ones_like(self.y)  # nothing stated yet: unit weights until reweight()
+        return 1.0 / np.sqrt(np.maximum(var, 1e-12))
+
+    def start(self) -> PointState:
+        """Nominal arm; each base frame from a rigid fit of its measured points to the nominal ones."""
+        p = pose(self.chain, self.q).point
+        R, t = np.empty((self.n_rec, 3, 3)), np.empty((self.n_rec, 3))
+        for r in range(self.n_rec):
+            m = self.rec == r
+            if m.sum() < 3:
+                raise ValueError(f"recording {r + 1} has {m.sum()} rows: a base frame needs at least 3")
+            R[r], t[r] = rigid_transform(p[m], self.y[m])
+        if self.R_ref is None:
+            self.R_ref = R.copy()
+        return PointState(np.zeros(self.nk), np.zeros(self.nc), R, t)
+
+    def _q_eff(self, s: PointState, q=None, tau=None) -> np.ndarray:
+        q, tau = (self.q, self.tau) if q is None else (q, tau)
+        if not self.compliance or tau is None:
+            return q
+        out = q.copy()
+        out[:, self.cj - 1] += s.comp[:len(self.cj)] * tau
+        return out
+
+    def _tilt(self, s: PointState, P, m_perp) -> np.ndarray:
+        """The tool point's shift from the bearings' tilt, (n, 3) mm, and its columns (n, 3, nt)."""
+        _, o = joint_axes(P)
+        cols = _cross3(m_perp, P.point[:, None] - o[:, self.tj - 1]).transpose(0, 2, 1)
+        return cols @ s.comp[len(self.cj):], cols
+
+    def base_points(self, s: PointState, q_rad: np.ndarray | None = None) -> np.ndarray:
+        """Modelled tool points in the arm's base frame, (n, 3) mm: this problem's postures, or
+        others ``q_rad`` (m, N) (their gravity loads computed here)."""
+        if q_rad is None:
+            q_eff, m_perp = self._q_eff(s), self.m_perp
+        else:
+            q_rad = np.atleast_2d(np.asarray(q_rad, float))
+            tau, m_perp = None, None
+            if self.compliance:
+                other = PointProblem(self.chain, q_rad, np.zeros((len(q_rad), 3)), compliance_joints=self.cj,
+                                     tilt_joints=self.tj)
+                tau, m_perp = other.tau, other.m_perp
+            q_eff = self._q_eff(s, q_rad, tau)
+        P = pose(self.chain, q_eff, s.delta)
+        return P.point + (self._tilt(s, P, m_perp)[0] if len(self.tj) else 0.0)
+
+    def model(self, s: PointState, q_rad: np.ndarray | None = None, frame: int = 0) -> np.ndarray:
+        """Modelled points (n, 3) in the instrument frame: this problem's rows (each in its own
+        recording's frame), or postures ``q_rad`` (m, N) in recording ``frame``'s."""
+        p = self.base_points(s, q_rad)
+        rec = self.rec if q_rad is None else np.full(len(p), frame)
+        return np.einsum("nij,nj->ni", s.R[rec], p) + s.t[rec]
+
+    def _prior_rows(self) -> tuple[np.ndarray, np.ndarray]:
+        """Which parameters carry the prior, (k,) indices, and its sigma (k,)."""
+        idx = np.arange(self.nk - 3)
+        return idx, parameter_scales([self.names[i] for i in idx]) * self.prior
+
+    def residuals(self, s: PointState) -> np.ndarray:
+        r = ((self.y - self.model(s)) * self.weights()).ravel()
+        if self.prior is None:
+            return r
+        idx, sig = self._prior_rows()
+        return np.r_[r, s.delta[idx] / sig]
+
+    def jacobian(self, s: PointState) -> np.ndarray:
+        """Whitened d(residuals) / d(parameters), (3 n, len(names)); residual = y - model."""
+        q_eff = self._q_eff(s)
+        P = pose(self.chain, q_eff, s.delta)
+        Jk = jacobian(self.chain, P=P)  # (n, 3, nk) base frame
+        R = s.R[self.rec]
+        n = len(self.q)
+        cols = [np.einsum("nij,njk->nik", R, Jk)]
+        p = P.point
+        if len(self.cj):
+            Jq = Jk[:, :, [theta_index(j) for j in self.cj]]
+            cols.append(np.einsum("nij,njk->nik", R, Jq * self.tau[:, None, :]))
+        if len(self.tj):
+            shift, Jt = self._tilt(s, P, self.m_perp)
+            cols.append(np.einsum("nij,njk->nik", R, Jt))
+            p = p + shift
+        Rp = np.einsum("nij,nj->ni", R, p)
+        Jf = np.zeros((n, 3, 6 * self.n_rec))
+        for r in range(self.n_rec):
+            m = self.rec == r
+            Jf[m, :, 6 * r:6 * r + 3] = -skew(Rp[m])  # left perturbation of R
+            Jf[m, :, 6 * r + 3:6 * r + 6] = np.eye(3)
+        cols.append(Jf)
+        J = (-np.concatenate(cols, axis=2) * self.weights()[:, :, None]).reshape(3 * n, -1)
+        if self.prior is None:
+            return J
+        idx, sig = self._prior_rows()
+        Jp = np.zeros((len(idx), J.shape[1]))
+        Jp[np.arange(len(idx)), idx] = 1.0 / sig
+        return np.r_[J, Jp]
+
+    def update(self, s: PointState, step: np.ndarray) -> PointState:
+        nk, nc = self.nk, self.nc
+        f = step[nk + nc:].reshape(self.n_rec, 6)
+        R = np.stack([rotvec_to_matrix(f[r, :3]) @ s.R[r] for r in range(self.n_rec)])
+        comp = s.comp + step[nk:nk + nc] if nc else s.comp
+        return PointState(s.delta + step[:nk], comp, R, s.t + f[:, 3:])
+
+    def values(self, s: PointState) -> np.ndarray:
+        w = np.stack([matrix_to_rotvec(s.R[r] @ self.R_ref[r].T) for r in range(self.n_rec)])
+        frames = np.c_[w, s.t].ravel()
+        return np.r_[s.delta, s.comp if self.compliance else np.zeros(0), frames]
+
+    def reweight(self, s: PointState, dof: int) -> float:
+        """Set the model-error variance so that the whitened residuals have unit variance (a
+        variance component: what the stated sigma does not cover); returns its sigma (mm)."""
+        e2 = (self.y - self.model(s)) ** 2
+        base = self.sigma**2 if self.sigma is not None else np.zeros_like(e2)
+        target = max(dof, 1)
+
+        def chi2(v):
+            return float(np.sum(e2 / np.maximum(base + v, 1e-12)))
+
+        if chi2(0.0) <= target:
+            self.extra_var = 0.0
+            return 0.0
+        lo, hi = 0.0, float(np.mean(e2)) + 1e-12
+        while chi2(hi) > target:
+            hi *= 4
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if chi2(mid) > target else (lo, mid)
+        self.extra_var = hi
+        return float(np.sqrt(hi))
+
+
+# --- a tracker's spherical measurements ------------------------------------------------------------
 @dataclasses.dataclass
 class TrackerState:
-    """delta (25,); base2tracker R (3, 3), t (3,) mm; reflector offset in link 7 (3,) mm."""
+    """delta (5 N + 3,); base2tracker R (3, 3), t (3,) mm."""
 
     delta: np.ndarray
     R: np.ndarray
     t: np.ndarray
-    offset: np.ndarray
 
 
 class TrackerProblem:
-    NUISANCE = ("tracker_rx", "tracker_ry", "tracker_rz", "tracker_x", "tracker_y", "tracker_z",
-                "reflector_x", "reflector_y", "reflector_z")
-    N_FRAME = 6  # nuisance columns that are always estimated (the frame)
+    NUISANCE = ("tracker_rx", "tracker_ry", "tracker_rz", "tracker_x", "tracker_y", "tracker_z")
 
-    def __init__(self, chain: DHChain, q_rad: np.ndarray, measured: np.ndarray, sigma: np.ndarray,
-                 offset_nominal_mm: np.ndarray, encoder_sigma_rad: float = 0.0):
-        """q (n, 6) encoder readings; measured (n, 3) range (mm), azimuth, elevation (rad);
-        sigma (n, 3) their 1-sigma; the reflector's nominal offset in link 7 (3,); the encoders'
-        1-sigma, which reaches the measurement through the arm (each posture's residuals are
-        whitened by the full 3 x 3 covariance, tracker and encoders together)."""
+    def __init__(self, chain: Chain, q_rad: np.ndarray, measured: np.ndarray, sigma: np.ndarray,
+                 encoder_sigma_rad: float = 0.0):
+        """q (n, N) encoder readings; measured (n, 3) range (mm), azimuth, elevation (rad);
+        sigma (n, 3) their 1-sigma; the encoders' 1-sigma, which reaches the measurement
+        through the arm (each posture's residuals are whitened by the full 3 x 3 covariance,
+        tracker and encoders together)."""
         self.chain, self.q, self.meas, self.sigma = chain, np.asarray(q_rad, float), measured, sigma
+        self.N = self.q.shape[1]
+        self.nk = n_params(self.N)
         self.encoder_sigma = float(encoder_sigma_rad)
         self._W = None  # per-posture whitening (n, 3, 3), made at the first start
-        self.offset_nominal = np.asarray(offset_nominal_mm, float)
         # the tracker's rotation is reported as the small turn from this reference (the first
         # start's): the same coordinates its std is computed in. Share it between problems whose
         # estimates are compared.
@@ -82,18 +318,27 @@ class TrackerProblem:
 
     @property
     def names(self) -> tuple[str, ...]:
-        return PARAM_NAMES + self.NUISANCE
+        return param_names(self.N) + self.NUISANCE
+
+    @property
+    def always(self) -> np.ndarray:
+        """The tracker's frame and the tool point."""
+        return np.r_[np.arange(self.nk - 3, self.nk), np.arange(self.nk, self.nk + 6)]
+
+    @property
+    def groups(self) -> list[np.ndarray]:
+        return [np.array([5 * i + k for i in range(self.N) for k in range(4)]), np.arange(4, 5 * self.N, 5)]
+
+    def cartesian(self) -> np.ndarray:
+        r, az, el = self.meas.T
+        return np.stack([r * np.cos(el) * np.cos(az), r * np.cos(el) * np.sin(az), r * np.sin(el)], axis=1)
 
     def start(self) -> TrackerState:
         """Nominal arm; the frame from a rigid fit of the measured points to the nominal ones."""
-        r, az, el = self.meas.T
-        y = np.stack([r * np.cos(el) * np.cos(az), r * np.cos(el) * np.sin(az), r * np.sin(el)], axis=1)
-        F = frames(self.chain, self.q)
-        p = F[:, 7, :3, 3] + F[:, 7, :3, :3] @ self.offset_nominal
-        R, t = rigid_transform(p, y)
+        R, t = rigid_transform(pose(self.chain, self.q).point, self.cartesian())
         if self.R_ref is None:
             self.R_ref = R
-        state = TrackerState(np.zeros(25), R, t, self.offset_nominal.copy())
+        state = TrackerState(np.zeros(self.nk), R, t)
         if self._W is None:
             self._W = self._whitening(state)
         return state
@@ -102,20 +347,17 @@ class TrackerProblem:
         """L^-1 of each posture's covariance diag(sigma^2) + G Sigma_q G^T, G = d(sph)/d(q)."""
         cov = np.einsum("ni,ij->nij", self.sigma**2, np.eye(3))
         if self.encoder_sigma > 0:
-            F = frames(self.chain, self.q, s.delta)
-            p = F[:, 7, :3, 3] + F[:, 7, :3, :3] @ s.offset
-            y = p @ s.R.T + s.t
+            P = pose(self.chain, self.q, s.delta)
+            y = P.point @ s.R.T + s.t
             # a joint's turn moves the point as that joint's zero offset does
-            Jq = jacobian(self.chain, self.q, s.delta, s.offset, F)[:, :, [3, 7, 11, 15, 19, 23]]
+            Jq = jacobian(self.chain, P=P)[:, :, [theta_index(j) for j in range(1, self.N + 1)]]
             G = np.einsum("nij,jk,nkl->nil", spherical_jacobian(y), s.R, Jq)
             cov = cov + self.encoder_sigma**2 * np.einsum("nij,nkj->nik", G, G)
         return np.linalg.inv(np.linalg.cholesky(cov))
 
     def points(self, s: TrackerState) -> np.ndarray:
-        """Reflector positions in the tracker frame, (n, 3)."""
-        F = frames(self.chain, self.q, s.delta)
-        p = F[:, 7, :3, 3] + F[:, 7, :3, :3] @ s.offset
-        return p @ s.R.T + s.t
+        """Tool points in the tracker frame, (n, 3)."""
+        return pose(self.chain, self.q, s.delta).point @ s.R.T + s.t
 
     def residuals(self, s: TrackerState) -> np.ndarray:
         if self._W is None:
@@ -125,22 +367,24 @@ class TrackerProblem:
         return np.einsum("nij,nj->ni", self._W, d).ravel()
 
     def jacobian(self, s: TrackerState) -> np.ndarray:
-        """Whitened d(residuals) / d(delta, frame rotation, frame translation, offset), (3n, 34)."""
-        F = frames(self.chain, self.q, s.delta)
-        p = F[:, 7, :3, 3] + F[:, 7, :3, :3] @ s.offset
-        y = p @ s.R.T + s.t
+        """Whitened d(residuals) / d(delta, frame rotation, frame translation), (3n, 5 N + 9)."""
+        P = pose(self.chain, self.q, s.delta)
+        y = P.point @ s.R.T + s.t
         if self._W is None:
             self.start()
         Js = np.einsum("nij,njk->nik", self._W, spherical_jacobian(y))
-        Jd = np.einsum("ij,njk->nik", s.R, jacobian(self.chain, self.q, s.delta, s.offset, F))
-        Jw = -skew(p @ s.R.T)  # left perturbation of R
+        Jd = np.einsum("ij,njk->nik", s.R, jacobian(self.chain, P=P))
+        Jw = -skew(P.point @ s.R.T)  # left perturbation of R
         Jt = np.broadcast_to(np.eye(3), (len(y), 3, 3))
-        Jo = np.einsum("ij,njk->nik", s.R, F[:, 7, :3, :3])
-        Jy = np.concatenate([Jd, Jw, Jt, Jo], axis=2)
-        return np.einsum("nij,njk->nik", Js, Jy).reshape(-1, 34)
+        Jy = np.concatenate([Jd, Jw, Jt], axis=2)
+        return np.einsum("nij,njk->nik", Js, Jy).reshape(len(y) * 3, -1)
 
     def update(self, s: TrackerState, step: np.ndarray) -> TrackerState:
-        return TrackerState(s.delta + step[:25], rotvec_to_matrix(step[25:28]) @ s.R, s.t + step[28:31], s.offset + step[31:34])
+        nk = self.nk
+        return TrackerState(s.delta + step[:nk], rotvec_to_matrix(step[nk:nk + 3]) @ s.R, s.t + step[nk + 3:nk + 6])
+
+    def values(self, s: TrackerState) -> np.ndarray:
+        return np.r_[s.delta, matrix_to_rotvec(s.R @ self.R_ref.T), s.t]
 
 
 # --- cones and a length bar -----------------------------------------------------------------------
@@ -152,75 +396,103 @@ class ConeState:
 
 class ConeProblem:
     NUISANCE = ("cone_a_x", "cone_a_y", "cone_a_z", "cone_b_x", "cone_b_y", "cone_b_z")
-    N_FRAME = 6
 
-    def __init__(self, chain: DHChain, q_rad: np.ndarray, cone: np.ndarray, sigma_mm: float,
+    def __init__(self, chain: Chain, q_rad: np.ndarray, cone: np.ndarray, sigma_mm: float,
                  bar_length_mm: float, bar_sigma_mm: float):
-        """q (n, 6) readings with the probe in cone ``cone`` (n,) of {0, 1}; sigma of a probe
+        """q (n, N) readings with the probe in cone ``cone`` (n,) of {0, 1}; sigma of a probe
         point; the bar's calibrated length and its uncertainty."""
         self.chain, self.q, self.cone = chain, np.asarray(q_rad, float), np.asarray(cone, int)
+        self.N = self.q.shape[1]
+        self.nk = n_params(self.N)
         self.sigma, self.L, self.sigma_L = sigma_mm, bar_length_mm, bar_sigma_mm
         if set(np.unique(self.cone)) != {0, 1}:
             raise ValueError("cone data need postures in both cones of the bar")
 
     @property
     def names(self) -> tuple[str, ...]:
-        return PARAM_NAMES + self.NUISANCE
+        return param_names(self.N) + self.NUISANCE
+
+    @property
+    def always(self) -> np.ndarray:
+        return np.arange(self.nk, self.nk + 6)
+
+    @property
+    def groups(self) -> list[np.ndarray]:
+        kin = np.array([5 * i + k for i in range(self.N) for k in range(4)])
+        return [kin, np.arange(self.nk - 3, self.nk), np.arange(4, 5 * self.N, 5)]
 
     def start(self) -> ConeState:
-        p = frames(self.chain, self.q)[:, 7, :3, 3]
-        return ConeState(np.zeros(25), np.stack([p[self.cone == k].mean(axis=0) for k in (0, 1)]))
+        p = pose(self.chain, self.q).point
+        return ConeState(np.zeros(self.nk), np.stack([p[self.cone == k].mean(axis=0) for k in (0, 1)]))
 
     def residuals(self, s: ConeState) -> np.ndarray:
-        p = frames(self.chain, self.q, s.delta)[:, 7, :3, 3]
+        p = pose(self.chain, self.q, s.delta).point
         r = (p - s.cones[self.cone]) / self.sigma
         bar = (np.linalg.norm(s.cones[0] - s.cones[1]) - self.L) / self.sigma_L
         return np.r_[r.ravel(), bar]
 
     def jacobian(self, s: ConeState) -> np.ndarray:
-        n = len(self.q)
-        J = np.zeros((3 * n + 1, 31))
-        J[:3 * n, :25] = jacobian(self.chain, self.q, s.delta).reshape(-1, 25) / self.sigma
+        n, nk = len(self.q), self.nk
+        J = np.zeros((3 * n + 1, nk + 6))
+        J[:3 * n, :nk] = jacobian(self.chain, self.q, s.delta).reshape(-1, nk) / self.sigma
         for k in (0, 1):
             rows = np.flatnonzero(np.repeat(self.cone == k, 3))
-            J[rows, 25 + 3 * k + np.tile(np.arange(3), n)[rows]] = -1 / self.sigma
+            J[rows, nk + 3 * k + np.tile(np.arange(3), n)[rows]] = -1 / self.sigma
         u = (s.cones[0] - s.cones[1]) / np.linalg.norm(s.cones[0] - s.cones[1])
-        J[-1, 25:28], J[-1, 28:31] = u / self.sigma_L, -u / self.sigma_L
+        J[-1, nk:nk + 3], J[-1, nk + 3:nk + 6] = u / self.sigma_L, -u / self.sigma_L
         return J
 
     def update(self, s: ConeState, step: np.ndarray) -> ConeState:
-        return ConeState(s.delta + step[:25], s.cones + step[25:31].reshape(2, 3))
+        return ConeState(s.delta + step[:self.nk], s.cones + step[self.nk:].reshape(2, 3))
+
+    def values(self, s: ConeState) -> np.ndarray:
+        return np.r_[s.delta, s.cones.ravel()]
 
 
 # --- identifiability and the solver ----------------------------------------------------------------
 @dataclasses.dataclass(frozen=True)
 class Basis:
     """Which columns are estimated (kept, indices into the problem's parameters) and which are
-    dropped, each with the parameters it is a combination of."""
+    dropped, each with why."""
 
     kept: np.ndarray
     dropped: dict[str, str]
 
 
-def identifiable_basis(problem, state=None, rel_tol: float = 1e-4) -> Basis:
-    """Practical rank of the scaled, whitened Jacobian, group by group: the nuisance frame
-    (always kept), then the 25 kinematic parameters, then any further nuisance (e.g. the
-    reflector's offset). Each group is pivoted (QR) on what the kept columns cannot explain, so a
-    later group's column that repeats an earlier one is the one dropped. ``rel_tol`` is relative
-    to the largest column: a dependence that holds only up to the data's own scatter (1e-5 here)
-    is a dependence."""
+def _parallel_note(name: str, partners: list[str], parallel: list[tuple[int, int]]) -> str:
+    """' (parallel axes i-j)' when a dropped d or theta depends on a neighbour across a parallel pair."""
+    import re
+
+    m = re.fullmatch(r"(dd|dtheta|da|dalpha)(\d+)", name)
+    if not m:
+        return ""
+    j = int(m.group(2))
+    for i, k in parallel:
+        if j in (i, k) or j == k + 1:
+            for p in partners:
+                mp = re.fullmatch(r"(dd|dtheta|da|dalpha|dbeta)(\d+)", p)
+                if mp and int(mp.group(2)) in (i, k, k + 1) and int(mp.group(2)) != j:
+                    return f" (parallel axes {i}-{k})"
+    return ""
+
+
+def identifiable_basis(problem, state=None, rel_tol: float = 1e-4, parallel: list | None = None) -> Basis:
+    """Practical rank of the scaled, whitened Jacobian, group by group: ``problem.always`` (kept
+    whatever the data), then each of ``problem.groups`` pivoted (QR) on what the kept columns
+    cannot explain, so a later group's column that repeats an earlier one is the one dropped.
+    ``rel_tol`` is relative to the largest column: a dependence that holds only up to the data's
+    own scatter is a dependence. ``parallel``: consecutive parallel joint pairs, for the reasons."""
     s = problem.start() if state is None else state
-    J = problem.jacobian(s)
     names = problem.names
-    scale = np.linalg.norm(J, axis=0)
-    scale[scale == 0] = 1.0
-    Js = J / scale
-    nf = problem.N_FRAME
-    groups = [np.arange(25), np.arange(25 + nf, J.shape[1])]
-    kept = list(range(25, 25 + nf))
+    # each column as the data move under a typical-size error of its parameter
+    Js = problem.jacobian(s) * parameter_scales(names)
+    norm = np.linalg.norm(Js, axis=0)
+    zero = norm < 1e-9 * max(norm.max(), 1e-300)
+    kept = [int(k) for k in problem.always]
     dropped = []
     top = np.linalg.norm(Js, axis=0).max()
-    for cols in groups:
+    for cols in problem.groups:
+        cols = np.array([c for c in cols if c not in kept and not zero[c]], int)
         if len(cols) == 0:
             continue
         Q, _ = np.linalg.qr(Js[:, kept])
@@ -231,13 +503,15 @@ def identifiable_basis(problem, state=None, rel_tol: float = 1e-4) -> Basis:
         kept += list(cols[piv[:rank]])
         dropped += list(cols[piv[rank:]])
     kept = np.sort(np.array(kept))
-    reasons = {}
+    reasons = {names[j]: "does not move the data at all" for j in np.flatnonzero(zero)
+               if j not in kept and any(j in g for g in problem.groups)}
     coefs = np.linalg.lstsq(Js[:, kept], Js[:, dropped], rcond=None)[0] if dropped else None
     for m, j in enumerate(dropped):
         coef = coefs[:, m]
         order = np.argsort(-np.abs(coef))
-        big = [f"{names[kept[k]]} ({coef[k]:+.2f})" for k in order[:3] if abs(coef[k]) > 0.05 * abs(coef[order[0]])]
-        reasons[names[j]] = "moves the data as " + " + ".join(big)
+        big = [(names[kept[k]], coef[k]) for k in order[:3] if abs(coef[k]) > 0.05 * abs(coef[order[0]])]
+        text = "moves the data as " + " + ".join(f"{n} ({c:+.2f})" for n, c in big)
+        reasons[names[j]] = text + _parallel_note(names[j], [n for n, _ in big], parallel or [])
     return Basis(kept=kept, dropped=reasons)
 
 
@@ -249,16 +523,21 @@ class Identification:
     basis: Basis
     rms: float  # whitened residual RMS (1 when the noise model is right)
     iterations: int
+    converged: bool = True
+    cov: np.ndarray | None = None  # of the kept parameters, in basis.kept order
 
 
-def identify(problem, basis: Basis, state=None, max_iter: int = 50) -> Identification:
-    """Levenberg-Marquardt over the kept parameters; std from the whitened normal matrix."""
+def identify(problem, basis: Basis, state=None, max_iter: int = 50, xtol: float = 1e-8) -> Identification:
+    """Levenberg-Marquardt over the kept parameters; std from the whitened normal matrix.
+
+    Converged when the last step moved no parameter by more than ``xtol`` of its std; a solve
+    that ran out of iterations (or of trust) says so in ``converged``."""
     s = problem.start() if state is None else state
     k = basis.kept
     lam = 1e-3
     r = problem.residuals(s)
     cost = r @ r
-    it = 0
+    it, converged = 0, False
     for it in range(1, max_iter + 1):
         J = problem.jacobian(s)[:, k]
         A, g = J.T @ J, J.T @ r
@@ -274,47 +553,47 @@ def identify(problem, basis: Basis, state=None, max_iter: int = 50) -> Identific
             lam *= 10
             if lam > 1e12:
                 break
-        if np.max(np.abs(step_k) * np.sqrt(np.diag(A))) < 1e-8 or lam > 1e12:
+        small = np.max(np.abs(step_k) * np.sqrt(np.diag(A))) < xtol
+        if small or lam > 1e12:
+            # no step lowers the cost any more: at a minimum if the gradient says so too
+            converged = bool(small or np.max(np.abs(g) / np.sqrt(np.maximum(np.diag(A), 1e-300))) < 1e-6 * max(
+                np.sqrt(cost), 1.0))
             break
     J = problem.jacobian(s)[:, k]
     dof = max(len(r) - len(k), 1)
     s2 = cost / dof
     cov = np.linalg.inv(J.T @ J) * s2
     names = problem.names
-    values = _values(problem, s)
-    return Identification(state=s, estimate={names[j]: values[j] for j in k},
+    values = problem.values(s)
+    return Identification(state=s, estimate={names[j]: float(values[j]) for j in k},
                           std={names[j]: float(np.sqrt(cov[i, i])) for i, j in enumerate(k)},
-                          basis=basis, rms=float(np.sqrt(s2)), iterations=it)
+                          basis=basis, rms=float(np.sqrt(s2)), iterations=it, converged=converged, cov=cov)
 
 
-def identify_identifiable(problem) -> Identification:
+def identify_identifiable(problem, parallel: list | None = None) -> Identification:
     """Basis at the start, solve, then the basis again at the solution: a dependence that only
     holds once the model fits (e.g. all points of one cone coinciding) shows there; if the basis
     changes, solve again with it."""
-    basis = identifiable_basis(problem)
+    basis = identifiable_basis(problem, parallel=parallel)
     first = identify(problem, basis)
-    again = identifiable_basis(problem, first.state)
+    again = identifiable_basis(problem, first.state, parallel=parallel)
     if set(again.kept) == set(basis.kept):
         return first
     # restart from the solution with the newly dropped parameters back at nominal (kept fixed
     # there), so the fit is re-expressed in the new basis rather than carried over
     reset = np.zeros(len(problem.names))
     newly = np.setdiff1d(basis.kept, again.kept)
-    reset[newly] = -_values(problem, first.state)[newly]
+    reset[newly] = -problem.values(first.state)[newly]
     return identify(problem, again, state=problem.update(first.state, reset))
 
 
-def _values(problem, s) -> np.ndarray:
-    """The state as a vector in the problem's parameter order (rotations as their angles)."""
-    if isinstance(s, TrackerState):
-        w = matrix_to_rotvec(s.R @ problem.R_ref.T)
-        return np.r_[s.delta, w, s.t, s.offset]
-    return np.r_[s.delta, s.cones.ravel()]
-
-
 def parameter_scales(names) -> np.ndarray:
-    """Typical sizes to make columns comparable: 0.1 mm for lengths, 1 mrad for angles."""
-    return np.array([1e-3 if n.startswith(("dalpha", "dtheta", "tracker_r")) else 0.1 for n in names])
+    """Typical sizes to make columns comparable: 0.1 mm for lengths, 1 mrad for angles,
+    10 urad / N m for a joint's compliance (a robot's gearbox: 1e5 N m / rad), 1 urad / N m for a
+    bearing's tilt."""
+    return np.array([1e-3 if n.startswith(("dalpha", "dtheta", "dbeta", "tracker_r", "base_r", "cone_r")) else
+                     1e-5 if n.startswith("compliance") else 1e-6 if n.startswith("tilt_compliance") else 0.1
+                     for n in names])
 
 
 def observability_index(J: np.ndarray) -> float:

@@ -1,12 +1,23 @@
-"""Kinematics of a Denavit-Hartenberg arm and its full-differential error model (the arm-CMM seed).
+"""Kinematics of a serial arm: forward kinematics, the parameter Jacobian, gravity torques.
 
-Convention (the seed paper's): T(i-1, i) = Rot(Z, theta_i) Trans(0, 0, d_i) Trans(a_i, 0, 0)
-Rot(X, alpha_i); the probe is the origin of frame 7 (link 7, the stylus, has theta_7 = 0).
-Lengths in mm, angles in rad. The 25 error parameters are, for links 1-6, (da, dd, dalpha,
-dtheta) each, then dd7 (the stylus length): an actual arm adds them to a, d, alpha and the
-joint zero. dP = J d(delta) with the analytic 3 x 25 Jacobian of any point fixed in link 7.
+Conventions (CONTRACT.md, "Arms"), for joint i = 1..N with reading q_i:
 
-Everything is vectorised over postures: q is (n, 6).
+- ``dh``:  T_i = RotZ(theta_i + q_i) TransZ(d_i) TransX(a_i) RotX(alpha_i) RotY(beta_i)
+- ``mdh`` (Craig): T_i = RotX(alpha_i) RotY(beta_i) TransX(a_i) RotZ(theta_i + q_i) TransZ(d_i)
+
+beta_i (Hayati's turn about y) is zero nominally. It is the parameter that describes a small
+tilt between two nearly parallel axes, where DH's common normal is ill-defined and the d's of
+the parallel joints become one combination (the identification drops the dependent ones).
+
+Frames: the base is frame 0, link frame i follows T_i, the flange is frame N; the measured point
+is ``tool_mm`` in the flange frame. Lengths mm, angles rad, masses kg, torques N m.
+
+Parameter errors (``delta``, ``(5 N + 3,)``): per joint (da, dd, dalpha, dtheta, dbeta) added to
+the nominal values (dtheta is the joint's zero offset), then the tool point's (dx, dy, dz) in the
+flange frame. Names: ``da1 .. dbetaN, tool_x, tool_y, tool_z`` (:func:`param_names`).
+
+Everything is vectorised over postures: q is ``(n, N)``; the loop runs over the 5 N elementary
+motions of the chain, never over postures.
 """
 
 from __future__ import annotations
@@ -15,52 +26,129 @@ import dataclasses
 
 import numpy as np
 
-N_JOINTS = 6
-PARAM_NAMES = tuple(f"{k}{i}" for i in range(1, 7) for k in ("da", "dd", "dalpha", "dtheta")) + ("dd7",)
-PARAM_UNITS = tuple("urad" if n.startswith(("dalpha", "dtheta")) else "mm" for n in PARAM_NAMES)
+KINDS = ("da", "dd", "dalpha", "dtheta", "dbeta")
+_A, _D, _ALPHA, _THETA, _BETA = range(5)
+# each joint's elementary motions in order: (kind, axis index, which parameter)
+OPS = {
+    "dh": (("rot", 2, _THETA), ("trans", 2, _D), ("trans", 0, _A), ("rot", 0, _ALPHA), ("rot", 1, _BETA)),
+    "mdh": (("rot", 0, _ALPHA), ("rot", 1, _BETA), ("trans", 0, _A), ("rot", 2, _THETA), ("trans", 2, _D)),
+}
+N_TOOL = 3
 
 
 @dataclasses.dataclass(frozen=True)
-class DHChain:
-    """Nominal DH parameters of links 1..7, each (7,): a, d (mm), alpha (rad); theta_7 = 0."""
+class Chain:
+    """A serial arm as the estimators see it: nominal kinematics and, optionally, the masses
+    that load its joints under gravity.
 
+    a_mm, d_mm, alpha_rad, theta_rad : (N,) nominal DH (or modified DH) values.
+    tool_mm : (3,) the measured point in the flange frame.
+    mass_kg : (N,) mass of the link each joint moves, or None (no gravity model).
+    com_mm : (N, 3) each link's centre of mass in its own link frame.
+    tool_mass_kg : mass carried at the tool point.
+    gravity_m_s2 : (3,) gravity in the base frame.
+    """
+
+    convention: str
     a_mm: np.ndarray
     d_mm: np.ndarray
     alpha_rad: np.ndarray
+    theta_rad: np.ndarray
+    tool_mm: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(3))
+    mass_kg: np.ndarray | None = None
+    com_mm: np.ndarray | None = None
+    tool_mass_kg: float = 0.0
+    gravity_m_s2: np.ndarray = dataclasses.field(default_factory=lambda: np.array([0.0, 0.0, -9.81]))
 
-    @classmethod
-    def from_csv(cls, path) -> "DHChain":
-        """The seed's Table 1 layout: link, a_mm, delta_a_mm, d_mm, delta_d_mm, alpha_rad, ..."""
-        t = np.genfromtxt(path, delimiter=",", names=True)
-        return cls(a_mm=np.asarray(t["a_mm"], float), d_mm=np.asarray(t["d_mm"], float),
-                   alpha_rad=np.asarray(t["alpha_rad"], float))
+    def __post_init__(self):
+        if self.convention not in OPS:
+            raise ValueError(f"convention {self.convention!r}: dh or mdh")
 
-    def actual(self, delta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """(a, d, alpha, theta_offset), each (7,), of the arm with errors ``delta`` (25,)."""
-        e = np.asarray(delta, float)
-        per = np.zeros((7, 4))  # link 7 has only d
-        per[:6] = e[:24].reshape(6, 4)
-        per[6, 1] = e[24]
-        return self.a_mm + per[:, 0], self.d_mm + per[:, 1], self.alpha_rad + per[:, 2], per[:, 3]
+    @property
+    def n_joints(self) -> int:
+        return len(self.a_mm)
 
+    @property
+    def has_masses(self) -> bool:
+        return self.mass_kg is not None
 
-def table1_delta(path) -> np.ndarray:
-    """The 25 parameter errors of the seed's Table 1, in PARAM_NAMES order (mm, rad)."""
-    t = np.genfromtxt(path, delimiter=",", names=True)
-    per = np.stack([t["delta_a_mm"], t["delta_d_mm"], t["delta_alpha_rad"], t["delta_theta_rad"]], axis=1)
-    return np.r_[per[:6].ravel(), t["delta_d_mm"][6]]
+    def nominal(self) -> np.ndarray:
+        """(N, 5) nominal a, d, alpha, theta, beta per joint."""
+        return np.stack([self.a_mm, self.d_mm, self.alpha_rad, self.theta_rad, np.zeros(self.n_joints)], axis=1)
 
 
-def _dh(theta, d, a, alpha) -> np.ndarray:
-    """DH transforms, theta (..., k) and d, a, alpha (k,) -> (..., k, 4, 4)."""
-    ct, st = np.cos(theta), np.sin(theta)
-    ca, sa = np.broadcast_to(np.cos(alpha), ct.shape), np.broadcast_to(np.sin(alpha), ct.shape)
-    T = np.zeros(theta.shape + (4, 4))
-    T[..., 0, 0], T[..., 0, 1], T[..., 0, 2], T[..., 0, 3] = ct, -st * ca, st * sa, a * ct
-    T[..., 1, 0], T[..., 1, 1], T[..., 1, 2], T[..., 1, 3] = st, ct * ca, -ct * sa, a * st
-    T[..., 2, 1], T[..., 2, 2], T[..., 2, 3] = sa, ca, d
-    T[..., 3, 3] = 1.0
-    return T
+def param_names(n_joints: int) -> tuple[str, ...]:
+    """Names of the error parameters, in ``delta``'s order."""
+    return tuple(f"{k}{i}" for i in range(1, n_joints + 1) for k in KINDS) + ("tool_x", "tool_y", "tool_z")
+
+
+def param_is_angle(names) -> np.ndarray:
+    return np.array([n.startswith(("dalpha", "dtheta", "dbeta")) for n in names])
+
+
+def n_params(n_joints: int) -> int:
+    return 5 * n_joints + N_TOOL
+
+
+def theta_index(joint: int) -> int:
+    """Index in ``delta`` of joint ``joint``'s (1-based) zero offset: d(point)/d(q_joint)."""
+    return 5 * (joint - 1) + _THETA
+
+
+@dataclasses.dataclass
+class Pose:
+    """The chain at n postures.
+
+    axis : (n, 5 N, 3) base-frame direction of each elementary motion.
+    origin : (n, 5 N, 3) where it acts (mm); rotations turn about axis through origin.
+    link_R, link_o : (n, N + 1, 3, 3) and (n, N + 1, 3) frames 0..N.
+    point : (n, 3) the tool point (mm).
+    """
+
+    axis: np.ndarray
+    origin: np.ndarray
+    link_R: np.ndarray
+    link_o: np.ndarray
+    point: np.ndarray
+
+
+def _turn(R: np.ndarray, axis: int, angle) -> np.ndarray:
+    """R @ Rot(axis, angle) for R (n, 3, 3), angle scalar or (n,): two columns mix."""
+    c, s = np.cos(angle), np.sin(angle)
+    c, s = np.broadcast_to(c, R.shape[:1])[:, None], np.broadcast_to(s, R.shape[:1])[:, None]
+    i, j = {0: (1, 2), 1: (2, 0), 2: (0, 1)}[axis]
+    out = R.copy()
+    out[:, :, i] = c * R[:, :, i] + s * R[:, :, j]
+    out[:, :, j] = -s * R[:, :, i] + c * R[:, :, j]
+    return out
+
+
+def pose(chain: Chain, q_rad: np.ndarray, delta: np.ndarray | None = None) -> Pose:
+    """The chain at postures ``q_rad`` (n, N) with errors ``delta`` (5 N + 3,) (zero if None)."""
+    q = np.atleast_2d(np.asarray(q_rad, float))
+    N = chain.n_joints
+    if q.shape[1] != N:
+        raise ValueError(f"postures have {q.shape[1]} joints, the chain {N}")
+    delta = np.zeros(n_params(N)) if delta is None else np.asarray(delta, float)
+    values = chain.nominal() + delta[:5 * N].reshape(N, 5)
+    n = len(q)
+    R = np.broadcast_to(np.eye(3), (n, 3, 3)).copy()
+    o = np.zeros((n, 3))
+    axis, origin = np.empty((n, 5 * N, 3)), np.empty((n, 5 * N, 3))
+    link_R, link_o = np.empty((n, N + 1, 3, 3)), np.empty((n, N + 1, 3))
+    link_R[:, 0], link_o[:, 0] = R, o
+    ops = OPS[chain.convention]
+    for i in range(N):
+        for k, (kind, ax, which) in enumerate(ops):
+            axis[:, 5 * i + which], origin[:, 5 * i + which] = R[:, :, ax], o
+            v = values[i, which] + (q[:, i] if which == _THETA else 0.0)
+            if kind == "rot":
+                R = _turn(R, ax, v)
+            else:
+                o = o + R[:, :, ax] * v
+        link_R[:, i + 1], link_o[:, i + 1] = R, o
+    tool = chain.tool_mm + delta[5 * N:]
+    return Pose(axis, origin, link_R, link_o, o + R @ tool)
 
 
 def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -72,49 +160,68 @@ def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     return out
 
 
-def frames(chain: DHChain, q_rad: np.ndarray, delta: np.ndarray | None = None) -> np.ndarray:
-    """Frames 0..7 in the base frame, (n, 8, 4, 4), for postures (n, 6)."""
-    q = np.atleast_2d(np.asarray(q_rad, float))
-    a, d, alpha, th0 = chain.actual(np.zeros(25) if delta is None else delta)
-    n = len(q)
-    theta = np.zeros((n, 7))
-    theta[:, :N_JOINTS] = q
-    links = _dh(theta + th0, d, a, alpha)  # all seven links at once
-    F = np.empty((n, 8, 4, 4))
-    F[:, 0] = np.eye(4)
-    for i in range(7):
-        F[:, i + 1] = F[:, i] @ links[:, i]
-    return F
+def point(chain: Chain, q_rad: np.ndarray, delta: np.ndarray | None = None) -> np.ndarray:
+    """Base-frame position of the tool point, (n, 3) mm."""
+    return pose(chain, q_rad, delta).point
 
 
-def point_in_link7(chain: DHChain, q_rad: np.ndarray, delta: np.ndarray | None = None,
-                   offset_mm: np.ndarray | None = None) -> np.ndarray:
-    """Base-frame position of a point fixed in frame 7 (the probe when ``offset_mm`` is None),
-    (n, 3)."""
-    F = frames(chain, q_rad, delta)
-    p = F[:, 7, :3, 3]
-    if offset_mm is not None:
-        p = p + F[:, 7, :3, :3] @ np.asarray(offset_mm, float)
-    return p
+def jacobian(chain: Chain, q_rad: np.ndarray | None = None, delta: np.ndarray | None = None,
+             P: Pose | None = None) -> np.ndarray:
+    """d(point) / d(delta), (n, 3, 5 N + 3), analytic.
 
-
-def jacobian(chain: DHChain, q_rad: np.ndarray, delta: np.ndarray | None = None,
-             offset_mm: np.ndarray | None = None, F: np.ndarray | None = None) -> np.ndarray:
-    """d(point) / d(delta), (n, 3, 25), analytic.
-
-    For link i (joint frame z_{i-1}, origin o_{i-1}; after Rot(Z) and the translations, x_i and
-    o_i): d/d theta_i = z_{i-1} x (p - o_{i-1}), d/d d_i = z_{i-1}, d/d a_i = x_i,
-    d/d alpha_i = x_i x (p - o_i). ``F``: the frames, when the caller has them already.
+    A turn about a unit axis w through o moves the point by w x (p - o); a shift along w by w;
+    the tool offset moves it through the flange's rotation. ``P``: the pose, when the caller has
+    it already. Column ``theta_index(j)`` is also d(point) / d(q_j).
     """
-    F = frames(chain, q_rad, delta) if F is None else F
-    p = F[:, 7, :3, 3]
-    if offset_mm is not None:
-        p = p + F[:, 7, :3, :3] @ np.asarray(offset_mm, float)
-    n = len(F)
-    z_prev, o_prev = F[:, :6, :3, 2], F[:, :6, :3, 3]  # (n, 6, 3)
-    x_i, o_i = F[:, 1:7, :3, 0], F[:, 1:7, :3, 3]
-    per = np.stack([x_i, z_prev, _cross(x_i, p[:, None] - o_i), _cross(z_prev, p[:, None] - o_prev)], axis=3)
-    J = np.empty((n, 3, 25))
-    J[:, :, :24] = per.transpose(0, 2, 1, 3).reshape(n, 3, 24)  # (link, [a, d, alpha, theta])
-    J[:, :, 24] = F[:, 6, :3, 2]  # dd7 moves along z_6
+    P = pose(chain, q_rad, delta) if P is None else P
+    N = P.link_R.shape[1] - 1
+    n = len(P.point)
+    J = np.empty((n, 3, n_params(N)))
+    ops = OPS[chain.convention]
+    rot = np.zeros(5 * N, bool)
+    for kind, _, which in ops:
+        rot[which::5] = kind == "rot"
+    cols = P.axis.copy()
+    cols[:, rot] = _cross(P.axis[:, rot], P.point[:, None] - P.origin[:, rot])
+    J[:, :, :5 * N] = cols.transpose(0, 2, 1)
+    J[:, :, 5 * N:] = P.link_R[:, N]
     return J
+
+
+def gravity_moments(chain: Chain, q_rad: np.ndarray | None = None, delta: np.ndarray | None = None,
+                    P: Pose | None = None) -> np.ndarray:
+    """The moment of the weight each joint carries, about a point on its axis, (n, N, 3) N m in
+    the base frame: M_i = sum over the links l >= i of (c_l - o_i) x (m_l g), c_l a centre of
+    mass (the tool's mass sits at the tool point), o_i the joint's frame origin on its axis."""
+    if not chain.has_masses:
+        raise ValueError("the chain has no masses: gravity moments need mass_kg and com_mm")
+    P = pose(chain, q_rad, delta) if P is None else P
+    N = chain.n_joints
+    g = np.asarray(chain.gravity_m_s2, float)
+    com = P.link_o[:, 1:] + np.einsum("nlij,lj->nli", P.link_R[:, 1:], np.asarray(chain.com_mm, float))
+    weights = np.asarray(chain.mass_kg, float)[None, :, None] * g  # (1, N, 3) N
+    f = np.concatenate([np.broadcast_to(weights, com.shape), (chain.tool_mass_kg * g)[None, None].repeat(len(com), 0)],
+                       axis=1)
+    x = np.concatenate([com, P.point[:, None]], axis=1) / 1000.0  # m
+    # moments about the base origin and forces, summed from the tip inward: links l..N and the tool
+    moment = np.cumsum(_cross(x, f)[:, ::-1], axis=1)[:, ::-1]
+    force = np.cumsum(f[:, ::-1], axis=1)[:, ::-1]
+    o = P.origin[:, _THETA::5] / 1000.0
+    return moment[:, :N] - _cross(o, force[:, :N])  # about o_i: M_0 - o_i x F
+
+
+def joint_axes(P: Pose) -> tuple[np.ndarray, np.ndarray]:
+    """Each joint's axis (n, N, 3) and a point on it (n, N, 3) mm."""
+    return P.axis[:, _THETA::5], P.origin[:, _THETA::5]
+
+
+def gravity_torques(chain: Chain, q_rad: np.ndarray | None = None, delta: np.ndarray | None = None,
+                    P: Pose | None = None) -> np.ndarray:
+    """The torque gravity puts on each joint (the generalized gravity force), (n, N) N m.
+
+    tau_i = w_i . M_i, w_i joint i's axis and M_i the moment of the weight it carries
+    (:func:`gravity_moments`). Positive tau_i turns joint i positively; a joint of compliance c
+    deflects by c tau_i.
+    """
+    P = pose(chain, q_rad, delta) if P is None else P
+    return np.einsum("nij,nij->ni", P.axis[:, _THETA::5], gravity_moments(chain, P=P))

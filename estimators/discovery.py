@@ -135,6 +135,9 @@ def _term_columns(term, drivers, sig: Signal, others: np.ndarray, train: np.ndar
         P, _ = best_period(sig.u[train], sig.r[train], others[train], term.periods)
         P, _ = refine_period(sig.u[train], sig.r[train], others[train], P, rel=_grid_rel(term.periods, P))
         return Periodic(axis=term.axis, period_mm=P).columns({term.axis: sig.u})
+    if hasattr(term, "fix"):  # a searched shape (a transmission's harmonic), on the training rows
+        rows = np.ones(len(sig.r), bool) if train is None else train
+        return term.fix(sig.r, others, rows, drivers).columns(drivers)
     if term.key not in cache:
         cache[term.key] = term.columns(drivers)
     return cache[term.key]
@@ -172,6 +175,9 @@ def fit_terms(sig: Signal, terms: list, drivers: dict, cache: dict, sigma: float
             P, P_std = refine_period(sig.u, sig.r, X, P0, rel=_grid_rel(t.periods, P0))
             t = Periodic(axis=t.axis, period_mm=P, period_std=P_std)
             cols = t.columns({t.axis: sig.u})
+        elif hasattr(t, "fix"):
+            t = t.fix(sig.r, X, np.ones(len(sig.r), bool), drivers)
+            cols = t.columns(drivers)
         else:
             cols = _term_columns(t, drivers, sig, X, None, cache)
         fixed.append((t, X.shape[1], cols.shape[1]))

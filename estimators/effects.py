@@ -6,9 +6,12 @@ its coefficients once its shape is fixed: ``columns(drivers) -> (n, k)`` in the 
 period) are fixed by :func:`best_period` on the data they are fitted to.
 
 ``drivers`` is a plain dict of (n,) arrays: ``x``, ``y`` (commanded, mm), ``dir_x``, ``dir_y``
-(+1 / -1 / 0), ``t_s``, ``temp_c``, ``run`` for stages; ``q`` (n, 6) rad, ``J`` (n, 3, 25) the
-chain's parameter Jacobian, ``a``, ``d`` (7,) link lengths for the arm. A missing driver means
-the candidate does not apply (``applies`` is False).
+(+1 / -1 / 0), ``t_s``, ``temp_c``, ``run`` for stages; for an N-joint arm ``q`` (n, N) rad,
+``J`` (n, 3, 5 N + 3) the chain's parameter Jacobian, ``Jq`` (n, 3, N) d(point) / d(q),
+``tau`` (n, N) the joints' gravity torques (N m, from the twin), ``grow`` (5 N + 3,) the chain's
+lengths in the Jacobian's layout. A missing driver means the candidate does not apply
+(``applies`` is False). Searched shapes (a transmission's harmonic) are fixed by their
+``fix(r, others, rows, drivers)`` on the rows they are fitted to.
 """
 
 from __future__ import annotations
@@ -212,14 +215,19 @@ class Geometry(Effect):
         return J.reshape(-1, len(self.kept))
 
     def describe(self, coef, cov):
-        unit = {n: ("rad" if n.startswith(("dalpha", "dtheta")) else "mm") for n in self.names}
+        angle = {n: n.startswith(("dalpha", "dtheta", "dbeta")) for n in self.names}
         params = {n: float(c) for n, c in zip(self.names, coef)}
         stderr = {n: _std(cov, i) for i, n in enumerate(self.names)}
         big = sorted(params, key=lambda n: -abs(params[n]) / max(stderr[n], 1e-300))[:3]
         return (params, stderr,
                 "the arm's link lengths, offsets and twists differ from the drawing (largest: "
-                + ", ".join(f"{n} {params[n] * (1e6 if unit[n] == 'rad' else 1000):+.0f} "
-                            f"{'urad' if unit[n] == 'rad' else 'um'}" for n in big) + ")")
+                + ", ".join(f"{n} {params[n] * (1e6 if angle[n] else 1000):+.0f} {'urad' if angle[n] else 'um'}"
+                            for n in big) + ")")
+
+
+def _joint_column(d: dict, joint: int) -> np.ndarray:
+    """d(point) / d(q_joint), (n, 3): how a turn of the joint moves the measured point."""
+    return np.asarray(d["Jq"], float)[:, :, joint - 1]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -231,7 +239,7 @@ class EncoderEccentricity(Effect):
     joint: int = 1
 
     def __post_init__(self):
-        object.__setattr__(self, "needs", ("J", "q"))
+        object.__setattr__(self, "needs", ("Jq", "q"))
 
     @property
     def key(self) -> str:
@@ -239,7 +247,7 @@ class EncoderEccentricity(Effect):
 
     def columns(self, d):
         q = np.asarray(d["q"], float)[:, self.joint - 1]
-        Jt = np.asarray(d["J"], float)[:, :, 4 * (self.joint - 1) + 3]  # d p / d theta_j, (n, 3)
+        Jt = _joint_column(d, self.joint)
         # the true angle is the reading minus the error: p moves by -J dq
         return -np.stack([(Jt * np.sin(q)[:, None]).ravel(), (Jt * np.cos(q)[:, None]).ravel()], axis=1)
 
@@ -252,22 +260,220 @@ class EncoderEccentricity(Effect):
 
 
 @dataclasses.dataclass(frozen=True)
+class JointCompliance(Effect):
+    """Joint j's link turns by c tau_j from its encoder's angle, tau_j the gravity torque on the
+    joint (``tau`` (n, N) N m, from the twin's physics)."""
+
+    name: str = "joint_compliance"
+    axis: str = "xyz"
+    joint: int = 1
+
+    def __post_init__(self):
+        object.__setattr__(self, "needs", ("Jq", "tau"))
+
+    @property
+    def key(self) -> str:
+        return f"{self.name}:joint{self.joint}"
+
+    def applies(self, drivers):
+        tau = drivers.get("tau")
+        return drivers.get("Jq") is not None and tau is not None and np.ptp(np.asarray(tau)[:, self.joint - 1]) > 0
+
+    def columns(self, d):
+        tau = np.asarray(d["tau"], float)[:, self.joint - 1]
+        return (_joint_column(d, self.joint) * (tau * 1e-6)[:, None]).reshape(-1, 1)  # coefficient: urad / N m
+
+    def describe(self, coef, cov):
+        c = float(coef[0])
+        stiff = f" (a stiffness of {1e6 / c:.3g} N m / rad)" if c > 0 else ""
+        return ({"joint": self.joint, "urad_per_nm": c}, {"urad_per_nm": _std(cov, 0)},
+                f"joint {self.joint} gives way under the gravity torque it carries: {c:.3g} urad per N m{stiff}")
+
+
+@dataclasses.dataclass(frozen=True)
+class Transmission(Effect):
+    """Joint j's angle error periodic in its own angle beyond once per turn: dq = a sin(h q) +
+    b cos(h q), ``harmonic`` h in cycles per turn of the joint (gear and encoder harmonics need
+    not be whole numbers of the joint's turn)."""
+
+    name: str = "transmission"
+    axis: str = "xyz"
+    joint: int = 1
+    harmonic: float = 2.0
+    harmonic_std: float = 0.0
+
+    def __post_init__(self):
+        object.__setattr__(self, "needs", ("Jq", "q"))
+
+    @property
+    def key(self) -> str:
+        return f"{self.name}:joint{self.joint}"
+
+    def columns(self, d):
+        q = np.asarray(d["q"], float)[:, self.joint - 1]
+        Jt = _joint_column(d, self.joint)
+        h = self.harmonic * q
+        return -np.stack([(Jt * np.sin(h)[:, None]).ravel(), (Jt * np.cos(h)[:, None]).ravel()], axis=1)
+
+    def describe(self, coef, cov):
+        amp, amp_std, phase = _amplitude(*coef, cov)
+        return ({"joint": self.joint, "harmonics": [self.harmonic], "amplitude_urad": [amp * 1e6],
+                 "phase_rad": [phase]},
+                {"amplitude_urad": [amp_std * 1e6], "harmonics": [self.harmonic_std]},
+                f"joint {self.joint}'s angle is {amp * 1e6:.0f} urad off {self.harmonic:.2f} times per turn: a "
+                f"harmonic of its gear train or encoder")
+
+
+@dataclasses.dataclass(frozen=True)
+class TransmissionSearch:
+    """A transmission candidate whose harmonic is found on the data it is fitted to
+    (:func:`best_harmonic`): fixed by :meth:`fix` on the training rows."""
+
+    joint: int
+    harmonics: np.ndarray
+    axis: str = "xyz"
+    name: str = "transmission"
+
+    @property
+    def key(self) -> str:
+        return f"{self.name}:joint{self.joint}"
+
+    def fix(self, r: np.ndarray, others: np.ndarray, rows: np.ndarray, drivers: dict) -> Transmission:
+        """The best harmonic on rows ``rows`` (bool over the signal's rows) beside ``others``."""
+        q = np.asarray(drivers["q"], float)[:, self.joint - 1]
+        Jt = _joint_column(drivers, self.joint)
+        h, h_std = best_harmonic(q, Jt, r, others, self.harmonics, rows)
+        return Transmission(joint=self.joint, harmonic=h, harmonic_std=h_std)
+
+
+def best_harmonic(q: np.ndarray, Jt: np.ndarray, r: np.ndarray, base: np.ndarray, harmonics: np.ndarray,
+                  rows: np.ndarray | None = None, n_peaks: int = 3) -> tuple[float, float]:
+    """The harmonic h (cycles per turn) whose angle error a sin(h q) + b cos(h q), seen through
+    ``Jt`` (n, 3), best explains ``r`` (3 n,) beside ``base`` (3 n, p), on ``rows`` (3 n,) bool.
+
+    The grid over ``harmonics`` ranks by the residual's projection alone (the columns are not
+    orthogonalised against ``base``: cheap, and the ranking barely moves); the best ``n_peaks``
+    are then refined by golden section on the exact criterion. Returns h and a rough std (a
+    quarter of the grid's spacing)."""
+    rows = np.ones(len(r), bool) if rows is None else rows
+    Q = np.linalg.qr(base[rows])[0] if base.shape[1] else np.zeros((int(rows.sum()), 0))
+    rr = r[rows] - Q @ (Q.T @ r[rows])
+    n = len(q)
+
+    def columns(hs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        ph = q[:, None] * hs[None, :]  # (n, m)
+        S = (Jt[:, :, None] * np.sin(ph)[:, None, :]).reshape(3 * n, len(hs))[rows]
+        C = (Jt[:, :, None] * np.cos(ph)[:, None, :]).reshape(3 * n, len(hs))[rows]
+        return S, C
+
+    def explained(S: np.ndarray, C: np.ndarray) -> np.ndarray:
+        ss, cc, sc = (S * S).sum(0), (C * C).sum(0), (S * C).sum(0)
+        sr, cr = S.T @ rr, C.T @ rr
+        det = ss * cc - sc * sc
+        ok = det > 1e-9 * np.maximum(ss * cc, 1e-300)
+        return np.where(ok, (cc * sr * sr - 2 * sc * sr * cr + ss * cr * cr) / np.where(ok, det, 1), 0.0)
+
+    def exact(hs: np.ndarray) -> np.ndarray:
+        S, C = columns(hs)
+        return explained(S - Q @ (Q.T @ S), C - Q @ (Q.T @ C))
+
+    grid = np.asarray(harmonics, float)
+    score = explained(*columns(grid))
+    peaks = [k for k in range(len(grid)) if score[k] >= score[max(k - 1, 0)] and score[k] >= score[min(k + 1, len(grid) - 1)]]
+    peaks = sorted(peaks, key=lambda k: -score[k])[:n_peaks] or [int(np.argmax(score))]
+    step = float(np.median(np.diff(grid))) if len(grid) > 1 else 0.1
+    g = (np.sqrt(5) - 1) / 2
+    best = (-np.inf, grid[peaks[0]])
+    for k in peaks:
+        lo, hi = grid[k] - step, grid[k] + step
+        for _ in range(25):
+            a, b = hi - g * (hi - lo), lo + g * (hi - lo)
+            ea, eb = exact(np.array([a, b]))
+            lo, hi = (lo, b) if ea > eb else (a, hi)
+        h = 0.5 * (lo + hi)
+        e = float(exact(np.array([h]))[0])
+        if e > best[0]:
+            best = (e, h)
+    return float(best[1]), step / 4
+
+
+def harmonic_grid(q_joint: np.ndarray, top: float = 60.0) -> np.ndarray:
+    """Harmonics 2..top cycles per turn, spaced to resolve the joint's span of angles (a quarter
+    of a cycle over the span)."""
+    span = max(float(np.ptp(q_joint)), 1e-3)
+    step = min(0.25, 0.25 * 2 * np.pi / span)
+    return np.arange(1.75, top + 1e-9, step)
+
+
+@dataclasses.dataclass(frozen=True)
+class JointTable(Effect):
+    """``nonsmooth`` on an arm: joint j's angle error as a free value in each band of its angle
+    (``edges`` (k + 1,) rad), for structure no candidate explains: a lookup table, not a law."""
+
+    name: str = "nonsmooth"
+    axis: str = "xyz"
+    joint: int = 1
+    edges: tuple = ()
+
+    def __post_init__(self):
+        object.__setattr__(self, "needs", ("Jq", "q"))
+
+    @property
+    def key(self) -> str:
+        return f"{self.name}:joint{self.joint}"
+
+    def bands(self, q_joint: np.ndarray) -> np.ndarray:
+        return np.clip(np.searchsorted(self.edges, q_joint, side="right") - 1, 0, len(self.edges) - 2)
+
+    def columns(self, d):
+        q = np.asarray(d["q"], float)[:, self.joint - 1]
+        Jt = _joint_column(d, self.joint)
+        X = np.zeros((len(q), 3, len(self.edges) - 1))
+        X[np.arange(len(q)), :, self.bands(q)] = -Jt
+        return X.reshape(-1, len(self.edges) - 1)
+
+    def describe(self, coef, cov):
+        coef = coef - coef.mean()  # a common part is a zero offset, which the geometry has
+        k = int(np.argmax(np.abs(coef)))
+        lo, hi = np.degrees(self.edges[k]), np.degrees(self.edges[k + 1])
+        where = f"as a function of q{self.joint}, largest at {lo:.0f} to {hi:.0f} deg"
+        return ({"joint": self.joint, "where": where, "peak_urad": float(coef[k]) * 1e6},
+                {"peak_urad": _std(cov, k) * 1e6},
+                f"joint {self.joint}'s angle error varies with its angle in a way no candidate explains ({where}, "
+                f"{coef[k] * 1e6:+.0f} urad): modelled as a table over its angle")
+
+
+def joint_table(q_joint: np.ndarray, joint: int, min_rows: int = 30, max_bands: int = 16) -> JointTable | None:
+    """Bands of equal counts over the joint's angles (at least ``min_rows`` each), or None."""
+    k = min(max_bands, len(q_joint) // min_rows)
+    if k < 3 or np.ptp(q_joint) < 1e-3:
+        return None
+    edges = np.unique(np.quantile(q_joint, np.linspace(0, 1, k + 1)))
+    if len(edges) < 4:
+        return None
+    edges[0], edges[-1] = -np.inf, np.inf
+    return JointTable(joint=joint, edges=tuple(edges))
+
+
+@dataclasses.dataclass(frozen=True)
 class ArmThermalExpansion(Effect):
-    """Every link length grows by k (T - T_mean): the chain's a and d scaled together."""
+    """Every link length grows by k (T - T_mean): the chain's a and d and the tool scaled
+    together (``grow`` (5 N + 3,) the lengths in delta's layout, zeros at the angles)."""
 
     name: str = "thermal_expansion"
     axis: str = "xyz"
 
     def __post_init__(self):
-        object.__setattr__(self, "needs", ("J", "temp_c"))
+        object.__setattr__(self, "needs", ("J", "temp_c", "grow"))
+
+    def applies(self, drivers):
+        T = drivers.get("temp_c")
+        return drivers.get("J") is not None and drivers.get("grow") is not None and T is not None and np.ptp(T) > 0
 
     def columns(self, d):
         J = np.asarray(d["J"], float)
-        a, dd = np.asarray(d["a"], float), np.asarray(d["d"], float)
-        grow = np.zeros(25)
-        grow[0:24:4], grow[1:24:4], grow[24] = a[:6], dd[:6], dd[6]
         T = np.asarray(d["temp_c"], float)
-        return ((J @ grow) * ((T - T.mean()) * 1e-6)[:, None]).reshape(-1, 1)
+        return ((J @ np.asarray(d["grow"], float)) * ((T - T.mean()) * 1e-6)[:, None]).reshape(-1, 1)
 
     def describe(self, coef, cov):
         k = float(coef[0])

@@ -1,8 +1,14 @@
-"""Scenario ``arm-cmm``: identify an articulated-arm CMM's parameter errors with a laser tracker
-(and, separately, with cones and a length bar), after choosing the postures.
+"""Scenario ``arm-cmm``: identify a serial arm's parameter errors with a laser tracker (and,
+separately, with cones and a length bar), after choosing the postures.
 
-1. Identifiability: the whitened Jacobian at the start, the tracker frame always estimated,
-   then the 25 kinematic parameters by pivoted QR; the rest are dropped, with the reason.
+The arm is the seed's 6-joint arm CMM unless the config names another (``arm = "ARM.toml"`` or a
+built-in name such as ``ur10``; CONTRACT.md, "Arms"). Its truth may carry joint stiffness: the
+links then sag under gravity (MuJoCo's physics), which the geometry-only identification here does
+not model, so a study shows what that costs.
+
+1. Identifiability: the whitened Jacobian at the start, the tracker frame and the tool point
+   always estimated, then the kinematic parameters (and Hayati's beta where two axes are
+   parallel) by pivoted QR; the rest are dropped, with the reason.
 2. Postures: 50 chosen greedily from 600 candidates to maximise the observability index O1
    (Borm and Menq's geometric mean of singular values), against 50 random ones.
 3. Identification from tracker measurements (range and two angles, each with its noise), and
@@ -26,9 +32,9 @@ from calibench.estimators.arm_identification import (ConeProblem, TrackerProblem
                                            identify_identifiable, observability_index, parameter_scales,
                                            select_postures)
 from calibench.estimators.rotations import rigid_transform
-from calibench.estimators.arm_kinematics import PARAM_NAMES, DHChain, point_in_link7
+from calibench.estimators.arm_kinematics import Chain, param_names, point
+from calibench.scenarios.arms import chain_of
 from calibench.scenarios.report import Check, Parameter, Report
-from calibench.scenes.arm_cmm import ArmGeometry
 from calibench.sim.arm_cmm import ArmSim, ArmTruth
 
 NAME = "arm-cmm"
@@ -37,7 +43,7 @@ TOL_SIGMA = 5.0
 
 @dataclasses.dataclass(frozen=True)
 class ArmCmmConfig:
-    geometry: ArmGeometry = ArmGeometry()
+    arm: str = "arm-cmm"  # a built-in arm's name or an ARM.toml
     truth: ArmTruth = ArmTruth()
     n_postures: int = 50
     n_candidates: int = 600
@@ -48,24 +54,25 @@ class ArmCmmConfig:
     after_limit_mm: float = 0.02  # the tracker's own noise is about 0.01 mm at 2.5 m
 
 
-def chain_of(g: ArmGeometry) -> DHChain:
-    return DHChain(a_mm=np.array(g.a_mm, float), d_mm=np.array(g.d_mm, float), alpha_rad=np.array(g.alpha_rad, float))
-
-
-def tracker_problem(sim: ArmSim, chain: DHChain, q_true, q_read, rng) -> TrackerProblem:
+def tracker_problem(sim: ArmSim, chain: Chain, q_true, q_read, rng) -> TrackerProblem:
+    """The tracker's measurements at motor angles ``q_true`` (n, N) with encoder readings
+    ``q_read``; exact (no noise, no encoder noise in the model) without ``rng``."""
     meas = sim.tracker(q_true, rng)
     sigma = sim.tracker_sigma(meas)
-    # exact data (no rng) have exact encoders too
     enc = sim.truth.encoder_noise_urad * 1e-6 if rng is not None else 0.0
-    return TrackerProblem(chain, q_read, meas, sigma, np.array(sim.geometry.reflector_offset_mm, float), enc)
+    return TrackerProblem(chain, q_read, meas, sigma, enc)
+
+
+def _is_angle(name: str) -> bool:
+    return name.startswith(("dalpha", "dtheta", "dbeta", "tracker_r"))
 
 
 def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool) -> Report:
     # the arm's instruments are geometric: one fidelity (MuJoCo's kinematics plus sensor noise)
     rng = np.random.default_rng(seed)
-    g, truth = config.geometry, config.truth
-    sim = ArmSim(g, truth)
-    chain = chain_of(g)
+    truth = config.truth
+    sim = ArmSim(config.arm, truth)
+    chain = chain_of(sim.arm)
 
     # 1-2. identifiability and postures, planned on candidates before measuring
     candidates = sim.random_postures(config.n_candidates, rng)
@@ -99,11 +106,11 @@ def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool
     R_bt, t_bt = sim.base2tracker()
     y_true = sim.probe_mm(holdout) @ R_bt.T + t_bt
     start = problem.start()
-    y_before = point_in_link7(chain, q_hold) @ start.R.T + start.t
+    y_before = point(chain, q_hold) @ start.R.T + start.t
     rms = {"before": _rms(y_before - y_true)}
     for label, (_, idn, _) in results.items():
         st = idn.state
-        rms[label] = _rms(point_in_link7(chain, q_hold, st.delta) @ st.R.T + st.t - y_true)
+        rms[label] = _rms(point(chain, q_hold, st.delta) @ st.R.T + st.t - y_true)
 
     # cones and a length bar alone
     cones = [np.asarray(truth.cone_a_mm), np.asarray(truth.cone_b_mm)]
@@ -113,14 +120,14 @@ def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool
                                truth.bar_length_mm, config.bar_sigma_mm)
     cone_ident = identify_identifiable(cone_problem)
     cone_basis = cone_ident.basis
-    p_cone = point_in_link7(chain, q_hold, cone_ident.state.delta)
+    p_cone = point(chain, q_hold, cone_ident.state.delta)
     R_c, t_c = rigid_transform(p_cone, sim.probe_mm(holdout))  # the cones fix no base frame: compare shapes
     rms["cone"] = _rms(p_cone @ R_c.T + t_c - sim.probe_mm(holdout))
 
     # no pixels here: the sensors are MuJoCo's geometry plus noise models, whatever was asked
     report = Report(scenario=NAME, seed=seed, fidelity="analytic")
     for name in (names[k] for k in ident.basis.kept):
-        angle = name.startswith(("dalpha", "dtheta", "tracker_r"))
+        angle = _is_angle(name)
         f = 1e6 if angle else 1.0
         report.parameters.append(Parameter(name, "urad" if angle else "mm", effective.estimate[name] * f,
                                            ident.estimate[name] * f, ident.std[name] * f,
@@ -144,7 +151,8 @@ def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool
         "dropped_cone": cone_basis.dropped,
         "whitened_rms_tracker": ident.rms,
         "whitened_rms_cone": cone_ident.rms,
-        "injected_delta": dict(zip(PARAM_NAMES, map(float, truth.delta))),
+        "arm": sim.arm.name,
+        "injected_delta": dict(zip(param_names(sim.n_joints), map(float, sim.delta))),
         "cone_estimates": {k: v for k, v in cone_ident.estimate.items()},
         "observability_index": "O1 = (prod sigma_i)^(1/L) / sqrt(rows), columns scaled 0.1 mm / 1 mrad",
     }
@@ -165,7 +173,7 @@ def _rms(d: np.ndarray) -> float:
 
 
 def posture_residuals(a: dict) -> tuple[np.ndarray, np.ndarray]:
-    """Per chosen posture: |measured - modelled| reflector position (mm), nominal and identified."""
+    """Per chosen posture: |measured - modelled| tool point (mm), nominal and identified."""
     problem, st0, st = a["problem"], a["start"], a["ident"].state
     r, az, el = problem.meas.T
     y = np.stack([r * np.cos(el) * np.cos(az), r * np.cos(el) * np.sin(az), r * np.sin(el)], axis=1)
@@ -194,8 +202,8 @@ def trial_parameters(config: ArmCmmConfig, seed: int) -> list[Parameter]:
     """The Monte-Carlo unit: tracker identification at ``n_postures`` random postures, each kept
     parameter against its effective truth (no planning, no cones, no figures)."""
     rng = np.random.default_rng(seed)
-    sim = ArmSim(config.geometry, config.truth)
-    chain = chain_of(config.geometry)
+    sim = ArmSim(config.arm, config.truth)
+    chain = chain_of(sim.arm)
     q = sim.random_postures(config.n_postures, rng)
     noisy = tracker_problem(sim, chain, q, sim.encoders(q, rng), rng)
     ident = identify_identifiable(noisy)
@@ -210,13 +218,14 @@ def trial_parameters(config: ArmCmmConfig, seed: int) -> list[Parameter]:
     bound = {names[j]: crlb[i] for i, j in enumerate(ident.basis.kept)}
     out = []
     for name in ident.estimate:
-        f = 1e6 if name.startswith(("dalpha", "dtheta", "tracker_r")) else 1.0
+        f = 1e6 if _is_angle(name) else 1.0
         out.append(Parameter(name, "urad" if f > 1 else "mm", effective.estimate[name] * f, ident.estimate[name] * f,
                              ident.std[name] * f, TOL_SIGMA * ident.std[name] * f, crlb=bound[name] * f))
     return out
 
 
 def prior(config: ArmCmmConfig, rng: np.random.Generator) -> ArmCmmConfig:
-    """Each of the 25 errors drawn as N(0, |Table 1's value|): mm and rad as in Table 1."""
-    scale = np.abs(np.array(config.truth.delta))
+    """Each error drawn as N(0, |the default truth's value|) (Table 1 for the seed's arm): mm and
+    rad."""
+    scale = np.abs(ArmSim(config.arm, config.truth).delta)
     return dataclasses.replace(config, truth=dataclasses.replace(config.truth, delta=tuple(rng.normal(0, scale))))

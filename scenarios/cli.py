@@ -34,12 +34,28 @@ def _parser() -> argparse.ArgumentParser:
                         "analytic: exact projection plus detector noise (default render)")
     r.add_argument("--config", type=Path, help="TOML file with one table per scenario overriding its defaults")
     r.add_argument("--no-rrd", action="store_true", help="do not write the rerun recording")
+    r.add_argument("--arm", help="arm-cmm: ARM.toml or a built-in arm (arm-cmm, ur10) instead of the seed's arm")
 
-    f = sub.add_parser("fit", help="fit the scenario's error model to a recording (CSV)",
-                       description="Fit the scenario's calibration model to a stage recording; writes DIR/fit.json.")
-    f.add_argument("scenario", help=f"one of: {', '.join(n for n, s in SCENARIOS.items() if s.fit_model)}")
-    f.add_argument("recording", type=Path, help="CSV with x_cmd_mm, y_cmd_mm, x_meas_mm, y_meas_mm")
+    fit_names = ", ".join([n for n, s in SCENARIOS.items() if s.fit_model] + ["arm-cmm"])
+    f = sub.add_parser("fit", help="fit the scenario's error model to real recordings (CSV)",
+                       description="Fit the scenario's calibration model to recordings; writes DIR/fit.json. "
+                                   "Stages: one recording (x_cmd_mm, y_cmd_mm, x_meas_mm, y_meas_mm). arm-cmm: "
+                                   "one or more training recordings (q1_deg.., x_mm, y_mm, z_mm), each with its "
+                                   "own base frame, and recordings to test the result on.")
+    f.add_argument("scenario", help=f"one of: {fit_names}")
+    f.add_argument("recordings", type=Path, nargs="+", metavar="RECORDING", help="CSV recording(s)")
     f.add_argument("--out", type=Path, help="output folder (default ./calibench-out/<scenario>)")
+    f.add_argument("--arm", help="arm-cmm: ARM.toml or a built-in arm (arm-cmm, ur10); default the seed's arm")
+    f.add_argument("--test", type=Path, action="append", default=[], metavar="CSV",
+                   help="arm-cmm: a recording in the first training recording's frame to test on (repeatable)")
+    f.add_argument("--test-new-frame", type=Path, action="append", default=[], metavar="CSV",
+                   help="arm-cmm: a recording from another setup: registered on 20 %% of its rows, tested on "
+                        "the rest (repeatable)")
+    f.add_argument("--holdout", type=float, metavar="F",
+                   help="arm-cmm: keep a fraction F of every training recording out of the fit (fixed seed)")
+    f.add_argument("--model", choices=("geometry", "physics"),
+                   help="arm-cmm: geometry (kinematics, base, tool) or physics (and the joints' compliance "
+                        "under gravity); default physics when the arm has masses")
 
     mc = sub.add_parser("montecarlo", help="an accuracy study: many trials, truth drawn from the prior",
                         description="Run N trials of a scenario (truth from its prior, noise from its sensors); "
@@ -53,6 +69,7 @@ def _parser() -> argparse.ArgumentParser:
     mc.add_argument("--out", type=Path, help="output folder (default ./calibench-out/<scenario>-montecarlo)")
     mc.add_argument("--fidelity", choices=("render", "analytic"), default="analytic",
                     help="sensor fidelity of each trial (default analytic)")
+    mc.add_argument("--arm", help="arm-cmm: ARM.toml or a built-in arm (arm-cmm, ur10)")
 
     d = sub.add_parser("discover", help="where a recording disagrees with the twin, and which physics is missing",
                        description="Compare a recording with the twin replaying its commands; locate the "
@@ -62,6 +79,7 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("recording", type=Path, help="CSV in the CONTRACT's stage or arm format")
     d.add_argument("--out", type=Path, help="output folder (default ./calibench-out/<scenario>-discover)")
     d.add_argument("--seed", type=int, default=0, help="seed of the permutation tests (default 0)")
+    d.add_argument("--arm", help="arm-cmm: ARM.toml or a built-in arm (arm-cmm, ur10); default the seed's arm")
     d.add_argument("--holdout", choices=("pass", "rows", "columns", "blocks"),
                    help="what cross-validation holds out (default: passes if the recording has several, "
                         "else whole rows of a grid, else contiguous blocks)")
@@ -95,10 +113,11 @@ def main(argv: list[str] | None = None) -> int:
         print("calibench: interrupted; finished trials are kept, rerun the same command to resume", file=sys.stderr)
         return 130
     except Exception as e:  # noqa: BLE001 - bad input is reported in one line
-        from calibench.scenarios.report import BadInput
         from calibench.recordings import RecordingError
+        from calibench.scenarios.report import BadInput
+        from calibench.scenes.arm_cmm import ArmFileError
 
-        if isinstance(e, (BadInput, RecordingError)):
+        if isinstance(e, (BadInput, RecordingError, ArmFileError)):
             print(f"calibench: {e}", file=sys.stderr)
             return EXIT_BAD_INPUT
         raise
@@ -127,6 +146,10 @@ def _run(args) -> int:
     if unknown:
         raise BadInput(f"config {args.config}: unknown scenario table(s) {', '.join(unknown)}")
     configs = {s.name: override(s.config(), table.get(s.name, {}), s.name) for s in scenarios}
+    if args.arm is not None:
+        if "arm-cmm" not in configs:
+            raise BadInput(f"--arm applies to arm-cmm, not {args.scenario}")
+        configs["arm-cmm"] = override(configs["arm-cmm"], {"arm": args.arm}, "arm-cmm")
     status = EXIT_OK
     for s in scenarios:
         if args.out is None:
@@ -149,19 +172,49 @@ def _run(args) -> int:
 
 
 def _fit(args) -> int:
-    from calibench.scenarios.stage_fit import run_fit
+    from calibench.scenarios.report import BadInput
 
     s = _scenario(args.scenario)
-    if s.fit_model is None:
-        from calibench.scenarios.report import BadInput
-
-        raise BadInput(f"fit: scenario {s.name!r} has no fit model")
     out = args.out or Path("calibench-out") / s.name
-    result = run_fit(s.name, s.fit_model, args.recording, out)
+    if s.name == "arm-cmm":
+        return _fit_arm(args, out)
+    arm_only = [o for o, v in (("--arm", args.arm), ("--test", args.test), ("--test-new-frame", args.test_new_frame),
+                               ("--holdout", args.holdout), ("--model", args.model)) if v]
+    if arm_only:
+        raise BadInput(f"fit {s.name}: {', '.join(arm_only)} apply to arm-cmm only")
+    if s.fit_model is None:
+        raise BadInput(f"fit: scenario {s.name!r} has no fit model")
+    if len(args.recordings) != 1:
+        raise BadInput(f"fit {s.name}: one recording, not {len(args.recordings)}")
+    from calibench.scenarios.stage_fit import run_fit
+
+    result = run_fit(s.name, s.fit_model, args.recordings[0], out)
     for axis, a in result["axes"].items():
         print(f"{axis}: SSE {a['sse']:.4g} mm^2  R^2 {a['r2']:.4f}  RMSE {a['rmse']:.4f} mm  (n = {a['n']})")
     print(f"-> {out / 'fit.json'}")
     return EXIT_OK
+
+
+def _fit_arm(args, out: Path) -> int:
+    from calibench.scenarios.arm_fit import run_arm_fit
+
+    r = run_arm_fit(args.recordings, args.arm, args.test, args.test_new_frame, args.holdout, args.model, out)
+    f = r["fit"]
+    print(f"{r['arm']}, model {r['model']}: {r['samples']} training rows, {len(r['parameters'])} parameters "
+          f"({len(r['dropped'])} dropped); fit mean {f['mean_mm']:.3f} mm, rms {f['rms_mm']:.3f} mm, "
+          f"max {f['max_mm']:.3f} mm")
+    for title, block in (("held out", r.get("holdout", {})), ("test", r.get("test", {}))):
+        for name, e in block.items():
+            print(f"  {title} {name}: mean {e['mean_mm']:.3f}  rms {e['rms_mm']:.3f}  p95 {e['p95_mm']:.3f}  "
+                  f"max {e['max_mm']:.3f} mm  (n = {e['samples']})")
+    for name, rows in r.get("flagged", {}).items():
+        print(f"  left out of {name}: rows {', '.join(str(x['row']) for x in rows)} (see fit.json)")
+    for w in r["coverage"]["warnings"]:
+        print(f"  warning: {w}")
+    if not r["converged"]:
+        print("  the solve did not converge: the figures are of its last iterate", file=sys.stderr)
+    print(f"-> {out / 'fit.json'}")
+    return EXIT_OK if r["converged"] else EXIT_CHECK_FAILED
 
 
 def _montecarlo(args) -> int:
@@ -169,7 +222,16 @@ def _montecarlo(args) -> int:
 
     _scenario(args.scenario)
     out = args.out or Path("calibench-out") / f"{args.scenario}-montecarlo"
-    s = run_study(args.scenario, args.trials, args.seed, args.fidelity, out, args.workers, args.scheduler)
+    arm = None
+    if args.arm is not None:
+        from calibench.scenarios.report import BadInput
+        from calibench.scenes.arm_cmm import BUILTIN, load_arm
+
+        if args.scenario != "arm-cmm":
+            raise BadInput(f"--arm applies to arm-cmm, not {args.scenario}")
+        load_arm(args.arm)  # a bad file is said here, not in every trial
+        arm = args.arm if args.arm in BUILTIN else str(Path(args.arm).resolve())
+    s = run_study(args.scenario, args.trials, args.seed, args.fidelity, out, args.workers, args.scheduler, arm=arm)
     print(f"{s['scenario']}: {s['trials']} trials ({s['resumed']} kept from an earlier run, {s['failed']} failed); "
           f"this run took {s['elapsed_s']:.1f} s")
     print(summary_table(s))
@@ -181,7 +243,11 @@ def _discover(args) -> int:
     from calibench.scenarios.discover import run_discover
 
     out = args.out or Path("calibench-out") / f"{args.scenario}-discover"
-    d = run_discover(args.scenario, args.recording, out, args.seed, args.holdout)
+    if args.arm is not None and args.scenario != "arm-cmm":
+        from calibench.scenarios.report import BadInput
+
+        raise BadInput(f"--arm applies to arm-cmm, not {args.scenario}")
+    d = run_discover(args.scenario, args.recording, out, args.seed, args.holdout, args.arm)
     f = d["fit"]
     print(f"{d['scenario']}: {d['samples']} samples; held-out RMS {f['cv_rms_nominal'] * 1000:.2f} um with the "
           f"scene model, {f['cv_rms_final'] * 1000:.2f} um with what was found ({d['holdout']})")
@@ -192,6 +258,8 @@ def _discover(args) -> int:
         print(f"- cannot separate {c['effect']} ({c['axis']}): {c['why']}; to separate: {c['experiment']}")
     if not d["effects"]:
         print("- nothing missing: the scene model explains the recording to its repeatability")
+    if d.get("summary"):
+        print(d["summary"])
     print(f"-> {out / 'discovery.json'}")
     return EXIT_OK
 

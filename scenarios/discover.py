@@ -16,8 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from calibench.estimators import discovery as dsc
-from calibench.estimators.effects import (ArmThermalExpansion, EncoderEccentricity, Geometry, polynomial_candidates,
-                                stage_candidates)
+from calibench.estimators.effects import polynomial_candidates, stage_candidates
 from calibench.scenarios.report import BadInput
 
 STAGE_DEGREE = {"belt-stage": 2, "vision-stage": 3}
@@ -139,8 +138,14 @@ def _describe(signals, terms, found, drivers, noise):
 
 
 def _plain(d):
-    return {k: (v if isinstance(v, str) or v is None else float(v) if not isinstance(v, (int, np.integer))
-                else int(v)) for k, v in d.items()}
+    def one(v):
+        if isinstance(v, str) or v is None:
+            return v
+        if isinstance(v, (list, tuple, np.ndarray)):
+            return [one(x) for x in v]
+        return int(v) if isinstance(v, (int, np.integer)) else float(v)
+
+    return {k: one(v) for k, v in d.items()}
 
 
 def _locate_stage(signals, drivers, seed):
@@ -204,45 +209,172 @@ def _confounds(signals, terms, found, candidates, drivers, rec):
 
 
 # --- the arm ---------------------------------------------------------------------------------------
-def discover_arm(rec, seed: int = 0, floor: float = dsc.FLOOR) -> tuple[dict, dict]:
-    from calibench.estimators.arm_kinematics import PARAM_NAMES, DHChain, jacobian
-    from calibench.scenes.arm_cmm import ArmGeometry
-    from calibench.sim.replay import replay_arm
+ARM_EXPERIMENTS = {
+    "joint_compliance": "take postures where the other joints change this joint's gravity torque (the elbow "
+                        "folded and stretched at the same shoulder angle), or add a known payload",
+    "encoder_eccentricity": "take postures at the same gravity torque over the joint's whole turn",
+    "transmission": "measure over a wider range of the joint's angle at a finer step",
+    "thermal_expansion": "let the arm's temperature change by several K during the recording",
+}
 
-    n = len(rec.q_rad)
-    if n < 40:
-        raise BadInput(f"{n} postures: discover needs at least 40 for the arm's 25 parameters")
-    g = ArmGeometry()
-    chain = DHChain(np.array(g.a_mm, float), np.array(g.d_mm, float), np.array(g.alpha_rad, float))
-    sim = replay_arm(rec.q_rad)
-    J = jacobian(chain, rec.q_rad)
-    drivers = {"q": rec.q_rad, "J": J, "a": np.array(g.a_mm, float), "d": np.array(g.d_mm, float),
-               "temp_c": rec.temp_c, "t_s": rec.t_s}
-    # the identifiable combinations of the 25 parameters, from the posture set
-    Jf = J.reshape(-1, 25)
-    scale = np.linalg.norm(Jf, axis=0)
-    from scipy.linalg import qr
 
-    _, R, piv = qr(Jf / scale, mode="economic", pivoting=True)
-    rank = int(np.sum(np.abs(np.diag(R)) > 1e-6 * np.abs(R[0, 0])))
-    kept = tuple(sorted(int(i) for i in piv[:rank]))
-    geometry = Geometry(kept=kept, names=tuple(PARAM_NAMES[i] for i in kept))
-    sig = dsc.Signal("xyz_meas - xyz_sim", "xyz", (rec.xyz_mm - sim).ravel(), np.zeros((3 * n, 0)),
-                     np.repeat(np.arange(n), 3))
-    candidates = [geometry] + [EncoderEccentricity(joint=j) for j in range(1, 7)]
-    if rec.temp_c is not None and np.ptp(rec.temp_c) > 0:
-        candidates.append(ArmThermalExpansion())
+def arm_drivers(arm, q_rad: np.ndarray, temp_c=None, t_s=None) -> tuple[dict, np.ndarray]:
+    """What the arm's candidates need, and the twin's tool points: MuJoCo's nominal (rigid) arm
+    at the readings (n, 3) mm, its gravity torques (MuJoCo's inverse dynamics) when the arm has
+    masses, the chain's Jacobians."""
+    from calibench.estimators.arm_kinematics import jacobian, pose, theta_index
+    from calibench.scenarios.arms import chain_of
+    from calibench.sim.arm_cmm import ArmSim, ArmTruth
+
+    N = arm.n_joints
+    twin = ArmSim(arm, ArmTruth(delta=(0.0,) * (5 * N + 3)))
+    sim = twin.point_mm(q_rad)
+    chain = chain_of(arm)
+    P = pose(chain, q_rad)
+    J = jacobian(chain, P=P)
+    grow = np.zeros(5 * N + 3)
+    grow[0:5 * N:5], grow[1:5 * N:5], grow[5 * N:] = arm.a_mm, arm.d_mm, arm.tool_mm
+    drivers = {"q": q_rad, "J": J, "Jq": J[:, :, [theta_index(j) for j in range(1, N + 1)]], "grow": grow,
+               "temp_c": temp_c, "t_s": t_s, "tau": twin.gravity_torques(q_rad) if arm.has_masses else None,
+               "point": P.point, "flange_R": P.link_R[:, N]}
+    return drivers, sim
+
+
+def discover_arm(rec, seed: int = 0, floor: float = dsc.FLOOR, arm="arm-cmm") -> tuple[dict, dict]:
+    """discovery.json's content for an arm recording (in any instrument frame), and the figure's.
+
+    The scene model: MuJoCo's nominal arm replays the encoder readings; the base-to-instrument
+    frame and the tool point are registered with the data (always, as a user would); what is
+    left is searched: the chain's geometry, each joint's compliance under the twin's gravity
+    torques, encoder eccentricity, transmission harmonics, thermal growth, then a table over a
+    joint's angle for what none of them explains.
+    """
+    from calibench.estimators.arm_identification import PointProblem, identifiable_basis
+    from calibench.estimators.arm_screening import screen
+    from calibench.estimators.effects import (ArmThermalExpansion, EncoderEccentricity, Geometry, JointCompliance,
+                                              TransmissionSearch, harmonic_grid, joint_table)
+    from calibench.estimators.rotations import rigid_transform, skew
+    from calibench.scenarios.arms import chain_of, load_arm
+
+    arm = load_arm(arm) if isinstance(arm, (str, Path)) else arm
+    N = arm.n_joints
+    if rec.n_joints != N:
+        raise BadInput(f"the recording has {rec.n_joints} joints, the arm {arm.name} {N}")
+    flagged = screen(rec.q_rad, rec.xyz_mm)
+    # without a calibrated model neither row of a disagreeing repeat can be trusted: both go
+    drop = sorted({int(i) for i in flagged.stale} | {int(i) for i in flagged.pairs.ravel()})
+    keep = np.setdiff1d(np.arange(len(rec.q_rad)), drop)
+    q, xyz = rec.q_rad[keep], rec.xyz_mm[keep]
+    n = len(q)
+    n_kin = 4 * N + len(arm.parallel_pairs())
+    if n < max(40, 2 * n_kin):
+        raise BadInput(f"{n} usable postures: discover needs at least {max(40, 2 * n_kin)} for the "
+                       f"{arm.name}'s parameters")
+    temp = None if rec.temp_c is None else rec.temp_c[keep]
+    t_s = None if rec.t_s is None else rec.t_s[keep]
+    drivers, sim = arm_drivers(arm, q, temp, t_s)
+    # the base frame, registered: the measured points taken into the arm's base frame
+    R, t = rigid_transform(sim, xyz)
+    meas_base = (xyz - t) @ R
+    r = meas_base - sim
+    # the scene model's free columns: the frame (small turn and shift) and the tool point
+    frame = np.concatenate([-skew(sim), np.broadcast_to(np.eye(3), (n, 3, 3)), drivers["flange_R"]], axis=2)
+    sig = dsc.Signal("xyz_meas - xyz_sim", "xyz", r.ravel(), frame.reshape(3 * n, -1), np.repeat(np.arange(n), 3))
+    chain = chain_of(arm)
+    problem = PointProblem(chain, q, meas_base)
+    basis = identifiable_basis(problem, parallel=arm.parallel_pairs())
+    nk = 5 * N
+    kin = tuple(int(k) for k in basis.kept if k < nk)
+    geometry = Geometry(kept=kin, names=tuple(problem.names[k] for k in kin))
+    candidates = [geometry] + [EncoderEccentricity(joint=j) for j in range(1, N + 1)]
+    candidates += [TransmissionSearch(joint=j, harmonics=harmonic_grid(q[:, j - 1])) for j in range(1, N + 1)]
+    not_applicable = {}
+    if drivers["tau"] is not None:
+        candidates += [JointCompliance(joint=j) for j in range(1, N + 1)]
+    else:
+        not_applicable["joint_compliance"] = f"the arm file {arm.name} gives no masses: no gravity torques"
+    thermal = ArmThermalExpansion()
+    if thermal.applies(drivers):
+        candidates.append(thermal)
+    candidates = [c for c in candidates if not hasattr(c, "applies") or c.applies(drivers)]
     fold = np.minimum(np.arange(n) * 5 // n, 4)
     noise = {"xyz": dsc.Noise(None, 0.0, 0)}
     found, terms = dsc.select([sig], candidates, drivers, fold, noise, floor=floor)
+    # what no candidate explains: a table over one joint's angle, kept if it helps held out
+    cache = {}
+    cv_now = dsc._rms(dsc.cv_residuals(sig, terms["xyz"], drivers, fold, cache))
+    best = None
+    for j in range(1, N + 1):
+        table = joint_table(q[:, j - 1], j)
+        if table is None:
+            continue
+        cv = dsc._rms(dsc.cv_residuals(sig, terms["xyz"] + [table], drivers, fold, cache))
+        if cv < (1 - floor) * cv_now and (best is None or cv < best[1]):
+            best = (table, cv)
+    if best is not None:
+        terms["xyz"].append(best[0])
+        found.steps.append(dsc.Step(best[0], "xyz", found.cv_final, best[1], 1 - best[1] / cv_now))
+        found.cv_final = best[1]
     effects, fitted = _describe([sig], terms, found, drivers, noise)
-    # where: the residual after the geometry against each joint angle and the temperature
-    located = []
+    confounded = _arm_confounds(sig, terms["xyz"], candidates, drivers, found)
+    located = _locate_arm(sig, terms["xyz"], drivers, q, temp, seed)
+    names = [e["name"] for e in effects if e["name"] != "geometry"]
+    out = {"scenario": "arm-cmm", "arm": arm.name, "samples": n, "unit": "mm", "located": located,
+           "effects": effects,
+           "fit": {"rms_nominal": float(np.sqrt(np.mean(sig.r**2))), "cv_rms_nominal": found.cv_nominal,
+                   "cv_rms_final": found.cv_final},
+           "holdout": "five contiguous blocks of postures",
+           "scene_model": f"MuJoCo's nominal {arm.name} (drawing values, rigid), the base frame and tool registered",
+           "dropped": [{"name": k, "why": v} for k, v in basis.dropped.items()],
+           "left_out_rows": [{"row": int(i), "why": "stale reading (repeats the previous row's point)"}
+                             for i in flagged.stale]
+           + [{"row": int(i), "why": f"a repeat of row {int(o)} at the same angles disagrees by {d:.3f} mm"}
+              for (a, b), d in zip(flagged.pairs, flagged.distance_mm) for i, o in ((a, b), (b, a))],
+           "not_accepted": {**found.rejected, **not_applicable}, "confounded": confounded,
+           "summary": _arm_summary(arm.name, found, effects, names)}
+    return out, {"signals": [sig], "fitted": fitted}
+
+
+def _arm_summary(name: str, found, effects: list, names: list) -> str:
+    if not names:
+        return (f"the nominal {name} with its geometry calibrated explains the recording to "
+                f"{found.cv_final * 1000:.0f} um (held out): nothing else found")
+    steps = "; ".join(f"{e['name']} (joint {e['params'].get('joint', '-')}): {e['cv_rms_before'] * 1000:.0f} -> "
+                      f"{e['cv_rms_after'] * 1000:.0f} um" for e in effects if e["name"] != "geometry")
+    return (f"the nominal {name} leaves out {', '.join(dict.fromkeys(names))}; held-out RMS "
+            f"{found.cv_nominal * 1000:.0f} um with the drawing, {found.cv_final * 1000:.0f} um with what was found "
+            f"({steps})")
+
+
+def _arm_confounds(sig, terms, candidates, drivers, found) -> list[dict]:
+    """Compliance and eccentricity of one joint look alike when the joint's gravity torque is
+    nearly a sinusoid of its own angle: say so when the data cannot tell them apart."""
+    out = []
+    accepted = {t.key for t in terms}
+    for c in candidates:
+        if c.key in accepted or c.name not in ("joint_compliance", "encoder_eccentricity"):
+            continue
+        other = ("encoder_eccentricity" if c.name == "joint_compliance" else "joint_compliance") + f":joint{c.joint}"
+        if other not in accepted:
+            continue
+        frac = dsc.confounded(sig, terms, c, drivers, {})
+        if frac > 0.9:
+            out.append({"effect": c.name, "axis": "xyz", "with": other,
+                        "why": f"joint {c.joint}'s gravity torque is nearly a sinusoid of its own angle in these "
+                               f"postures: {100 * frac:.0f} % of {c.name}'s effect is what {other} already explains",
+                        "experiment": ARM_EXPERIMENTS[c.name]})
+    return out
+
+
+def _locate_arm(sig, terms, drivers, q, temp, seed) -> list[dict]:
+    """The residual after the geometry against each joint angle and the temperature."""
     rng = np.random.default_rng(seed)
-    geo = [t for t in terms["xyz"] if t.name == "geometry"]
+    n = len(q)
+    geo = [t for t in terms if t.name == "geometry"]
     _, _, _, res = dsc.fit_terms(sig, geo, drivers, {}, None)
     res3 = res.reshape(n, 3)
-    for name, v in [(f"q{j}", rec.q_rad[:, j - 1]) for j in range(1, 7)] + [("temp_c", rec.temp_c)]:
+    located = []
+    for name, v in [(f"q{j}", q[:, j - 1]) for j in range(1, q.shape[1] + 1)] + [("temp_c", temp)]:
         if v is None or np.ptp(v) == 0:
             continue
         best = max((dsc.permutation_p(res3[:, k], v, np.zeros(n), name == "temp_c", rng, 99) + (k,)
@@ -252,13 +384,7 @@ def discover_arm(rec, seed: int = 0, floor: float = dsc.FLOOR) -> tuple[dict, di
                             "driver": name, "score": best[0], "p_value": best[1],
                             "where": f"over the whole range of {name}"})
     located.sort(key=lambda d: -d["score"])
-    out = {"scenario": "arm-cmm", "samples": n, "unit": "mm", "located": located, "effects": effects,
-           "fit": {"rms_nominal": float(np.sqrt(np.mean(sig.r**2))), "cv_rms_nominal": found.cv_nominal,
-                   "cv_rms_final": found.cv_final},
-           "holdout": "five contiguous blocks of postures",
-           "scene_model": "the nominal DH chain (Table 1 drawing values)", "not_accepted": found.rejected,
-           "confounded": []}
-    return out, {"signals": [sig], "fitted": fitted}
+    return located
 
 
 def paper_belt_recording(data_dir: Path):
@@ -275,13 +401,17 @@ def paper_belt_recording(data_dir: Path):
 
 
 # --- the command -----------------------------------------------------------------------------------
-def run_discover(scenario: str, csv_path: Path, out_dir: Path, seed: int = 0, holdout: str | None = None) -> dict:
+def run_discover(scenario: str, csv_path: Path, out_dir: Path, seed: int = 0, holdout: str | None = None,
+                 arm: str | Path | None = None) -> dict:
     from calibench.recordings import load_arm_csv, load_stage_csv
 
     if scenario not in SUPPORTED:
         raise BadInput(f"discover supports {', '.join(SUPPORTED)}, not {scenario!r}")
     if scenario == "arm-cmm":
-        out, fig = discover_arm(load_arm_csv(csv_path), seed)
+        from calibench.scenes.arm_cmm import load_arm
+
+        description = load_arm(arm or "arm-cmm")
+        out, fig = discover_arm(load_arm_csv(csv_path, description.n_joints), seed, arm=description)
     else:
         out, fig = discover_stage(scenario, load_stage_csv(csv_path), seed, holdout)
     out_dir.mkdir(parents=True, exist_ok=True)

@@ -15,6 +15,7 @@ summary.json are written from the journal.
 from __future__ import annotations
 
 import concurrent.futures as cf
+import dataclasses
 import json
 import math
 import multiprocessing
@@ -37,7 +38,7 @@ def trial_seed(study_seed: int, index: int) -> int:
     return int(np.random.SeedSequence([int(study_seed), int(index)]).generate_state(1)[0])
 
 
-def run_trial(scenario: str, study_seed: int, index: int, fidelity: str) -> dict:
+def run_trial(scenario: str, study_seed: int, index: int, fidelity: str, arm: str | None = None) -> dict:
     """One trial, in a worker process; never raises (a failure is a row with its error)."""
     import calibench.scenarios  # noqa: F401  (OpenCV single-threaded, MUJOCO_GL via sim)
     import calibench.sim  # noqa: F401
@@ -51,7 +52,8 @@ def run_trial(scenario: str, study_seed: int, index: int, fidelity: str) -> dict
         s = SCENARIOS[scenario]
         module = sys.modules[s.run.__module__]
         rng = np.random.default_rng(seed)
-        config = module.prior(s.config(), rng)
+        base = s.config() if arm is None else dataclasses.replace(s.config(), arm=arm)
+        config = module.prior(base, rng)
         if hasattr(module, "trial_parameters"):
             params = module.trial_parameters(config, seed)
         else:
@@ -71,10 +73,10 @@ def run_trial(scenario: str, study_seed: int, index: int, fidelity: str) -> dict
     return row
 
 
-def run_trials(scenario: str, study_seed: int, indices: list[int], fidelity: str) -> list[dict]:
+def run_trials(scenario: str, study_seed: int, indices: list[int], fidelity: str, arm: str | None = None) -> list[dict]:
     """Several trials in one task: millisecond trials would otherwise spend more time in
     inter-process traffic than in the estimator."""
-    return [run_trial(scenario, study_seed, i, fidelity) for i in indices]
+    return [run_trial(scenario, study_seed, i, fidelity, arm) for i in indices]
 
 
 def chunk_size(n_todo: int, fidelity: str) -> int:
@@ -115,7 +117,8 @@ def make_executor(workers: int | None, scheduler: str | None):
 
 
 def run_study(scenario: str, trials: int, seed: int, fidelity: str, out_dir: Path, workers: int | None = None,
-              scheduler: str | None = None, executor: cf.Executor | None = None, progress: bool | None = None) -> dict:
+              scheduler: str | None = None, executor: cf.Executor | None = None, progress: bool | None = None,
+              arm: str | None = None) -> dict:
     """Run the missing trials of a study, journal them as they finish, write the outputs."""
     from calibench.scenarios.registry import SCENARIOS
 
@@ -125,6 +128,8 @@ def run_study(scenario: str, trials: int, seed: int, fidelity: str, out_dir: Pat
         raise BadInput("--trials must be at least 1")
     out_dir.mkdir(parents=True, exist_ok=True)
     meta = {"scenario": scenario, "seed": seed, "fidelity": fidelity}
+    if arm is not None:
+        meta["arm"] = arm
     meta_path = out_dir / "study.json"
     if meta_path.exists() and json.loads(meta_path.read_text()) != meta:
         raise BadInput(f"{out_dir} holds a different study ({meta_path.read_text().strip()}); use another --out")
@@ -144,7 +149,7 @@ def run_study(scenario: str, trials: int, seed: int, fidelity: str, out_dir: Pat
                 if torn:  # an interruption cut the last line: start a fresh one
                     journal.write("\n")
                 k = chunk_size(len(todo), fidelity)
-                futures = [executor.submit(run_trials, scenario, seed, todo[j:j + k], fidelity)
+                futures = [executor.submit(run_trials, scenario, seed, todo[j:j + k], fidelity, arm)
                            for j in range(0, len(todo), k)]
                 for fut in cf.as_completed(futures):
                     for row in fut.result():

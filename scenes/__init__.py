@@ -19,12 +19,13 @@ def _probe_scanner_default():
     return probe_scanner.build_mjcf(probe_scanner.ProbeScannerGeometry(), n.d_mm, n.dL_mm, n.alpha0_rad), {}
 
 
-def _arm_cmm_default():
-    import numpy as np
-
-    g = arm_cmm.ArmGeometry()
-    return arm_cmm.build_mjcf(g, g.a_mm, g.d_mm, g.alpha_rad, np.zeros(7), g.reflector_offset_mm,
-                              (2.2, -0.9, 0.35), (1, 0, 0, 0), ((0.45, 0.25, -0.15), (0.45, -0.35, -0.15))), {}
+def _arm(name: str, stiffness_nm_per_rad: float):
+    """A built-in arm with its tracker, cones and a spring on every joint (its sag under gravity
+    is what the steps settle)."""
+    arm = arm_cmm.load_arm(name)
+    k = [stiffness_nm_per_rad] * arm.n_joints
+    return arm_cmm.build_mjcf(arm, None, None, k, (2.2, -0.9, 0.35), (1, 0, 0, 0),
+                              ((0.45, 0.25, -0.15), (0.45, -0.35, -0.15))), {}
 
 
 def _stewart_default():
@@ -36,6 +37,7 @@ SCENES = {
     "belt-stage": _belt_stage_default,
     "vision-stage": _vision_stage_default,
     "probe-scanner": _probe_scanner_default,
-    "arm-cmm": _arm_cmm_default,
+    "arm-cmm": lambda: _arm("arm-cmm", 2e4),
+    "arm-cmm/ur10": lambda: _arm("ur10", 2e5),
     "stewart": _stewart_default,
 }

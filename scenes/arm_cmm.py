@@ -1,87 +1,275 @@
-"""Scene ``arm-cmm``: a 6-joint articulated-arm CMM with a probe stylus, a laser tracker, a cone
-and a length bar.
+"""Scene ``arm-cmm``: any serial arm described by an ARM.toml, with its masses, a laser tracker,
+a cone and a length bar.
 
-World frame = the arm's base frame, z up, metres. The arm is a chain of Denavit-Hartenberg frames
-(the seed's convention T = Rot(Z, theta) Trans(0, 0, d) Trans(a, 0, 0) Rot(X, alpha)): body
-``joint{i}`` is frame i-1 turned by the joint's zero offset, its hinge turns about its z axis,
-and body ``link{i}`` sits at (a_i, 0, d_i) turned by alpha_i about x: frame i. The probe is the
-origin of frame 7 (site ``probe``); the tracker's reflector is a site fixed in link 7.
-Contacts are off: the arm is a kinematic instrument; masses and inertias are those of a passive
-arm of about 1 m reach, so gravity is there for later experiments.
+An arm is data (CONTRACT.md, "Arms"): :func:`load_arm` reads an ARM.toml (or a built-in name:
+``arm-cmm`` is the seed's 6-joint arm CMM, ``ur10`` the Universal Robots UR10) into an
+:class:`ArmDescription`; :func:`build_mjcf` turns a description, with as-built parameter values,
+into MJCF.
+
+World frame = the arm's base frame, z up, metres. Joint i is body ``joint{i}``: the hinge frame
+(its z axis is the joint's axis, the joint's zero offset included), a hinge ``q{i}``, the link's
+mass and centre of mass; its child body ``link{i}`` is link frame i of the convention (dh or
+mdh). The tool point is site ``probe`` in the flange frame (body ``link{N}``), the tool's mass
+in body ``tool``. Each hinge may carry a spring (its stiffness, N m / rad) whose reference the
+simulation sets to the motor's angle: the link then settles where the spring holds gravity.
+Contacts are off: the arm is a measuring instrument.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
+import tomllib
+from pathlib import Path
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
-# The seed's Table 1, nominal: a, d (mm) and alpha (rad) of links 1..7.
-NOMINAL_A_MM = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-NOMINAL_D_MM = (100.0, 150.0, 450.0, 100.0, 350.0, 100.0, 150.0)
-NOMINAL_ALPHA_RAD = (-np.pi / 2, np.pi / 2, np.pi / 2, -np.pi / 2, -np.pi / 2, np.pi / 2, 0.0)
-LINK_MASS_KG = (1.5, 1.2, 1.4, 0.6, 0.9, 0.35, 0.08)
-LINK_RADIUS_M = (0.035, 0.03, 0.025, 0.025, 0.02, 0.018, 0.004)
+ARMS_DIR = Path(__file__).resolve().parent / "arms"
+BUILTIN = {"arm-cmm": ARMS_DIR / "arm_cmm.toml", "ur10": ARMS_DIR / "ur10.toml"}
+MAX_JOINTS = 12
+
+
+class ArmFileError(ValueError):
+    """An arm description that cannot be used (one line naming the file and the field)."""
 
 
 @dataclasses.dataclass(frozen=True)
-class ArmGeometry:
-    a_mm: tuple = NOMINAL_A_MM
-    d_mm: tuple = NOMINAL_D_MM
-    alpha_rad: tuple = NOMINAL_ALPHA_RAD
-    joint_limits_rad: tuple = ((-np.pi, np.pi),) * 6
-    reflector_offset_mm: tuple = (0.0, 0.0, 0.0)  # nominal: the reflector replaces the probe ball
+class ArmDescription:
+    """A serial arm: nominal kinematics (mm, rad), masses, the tool.
+
+    a_mm, d_mm, alpha_rad, theta_rad : (N,) per joint, base to flange.
+    range_rad : (N, 2) the postures a simulation draws from.
+    mass_kg : (N,) or None; com_mm : (N, 3) or None, in each link's own frame.
+    tool_mm : (3,) the measured point in the flange frame (a first guess on real data).
+    """
+
+    name: str
+    convention: str
+    a_mm: tuple
+    d_mm: tuple
+    alpha_rad: tuple
+    theta_rad: tuple
+    range_rad: tuple
+    tool_mm: tuple = (0.0, 0.0, 0.0)
+    mass_kg: tuple | None = None
+    com_mm: tuple | None = None
+    tool_mass_kg: float = 0.0
+    gravity_m_s2: tuple = (0.0, 0.0, -9.81)
+    source: str = ""
+
+    @property
+    def n_joints(self) -> int:
+        return len(self.a_mm)
+
+    @property
+    def has_masses(self) -> bool:
+        return self.mass_kg is not None
+
+    @property
+    def reach_mm(self) -> float:
+        """An upper bound of the tool point's distance from the first joint's axis."""
+        return float(np.sum(np.abs(self.a_mm)) + np.sum(np.abs(self.d_mm[1:])) + np.linalg.norm(self.tool_mm))
+
+    def parallel_pairs(self, tol_rad: float = math.radians(5)) -> list[tuple[int, int]]:
+        """Consecutive joints (1-based) whose axes are (nearly) parallel, nominally."""
+        al = np.asarray(self.alpha_rad)
+        pairs = []
+        for i in range(self.n_joints - 1):
+            # dh: alpha_i turns z_{i-1} into z_i; mdh: alpha_{i+1} turns z_i into z_{i+1}
+            twist = al[i] if self.convention == "dh" else al[i + 1]
+            if abs(math.sin(twist)) < math.sin(tol_rad):
+                pairs.append((i + 1, i + 2))
+        return pairs
 
 
-def _quat_z(t):
-    return f"{np.cos(t / 2):.15g} 0 0 {np.sin(t / 2):.15g}"
+def load_arm(spec: str | Path) -> ArmDescription:
+    """An ARM.toml by path, or a built-in arm by name (``arm-cmm``, ``ur10``)."""
+    path = BUILTIN.get(str(spec), Path(spec))
+    try:
+        with open(path, "rb") as f:
+            table = tomllib.load(f)
+    except FileNotFoundError:
+        known = ", ".join(BUILTIN)
+        raise ArmFileError(f"arm {spec}: no such file (or built-in arm: {known})") from None
+    except OSError as e:
+        raise ArmFileError(f"cannot read arm {path}: {e.strerror}") from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
+        raise ArmFileError(f"arm {path} is not valid TOML: {e}") from None
+    return arm_from_table(table, str(path))
 
 
-def _quat_x(t):
-    return f"{np.cos(t / 2):.15g} {np.sin(t / 2):.15g} 0 0"
+def _number(table: dict, key: str, where: str, default=None, lo=-math.inf, hi=math.inf) -> float:
+    if key not in table:
+        if default is None:
+            raise ArmFileError(f"{where}: missing field {key}")
+        return default
+    v = table[key]
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        raise ArmFileError(f"{where}: {key} must be a finite number, not {v!r}")
+    if not lo <= v <= hi:
+        raise ArmFileError(f"{where}: {key} = {v} is out of range [{lo}, {hi}]")
+    return float(v)
 
 
-def build_mjcf(g: ArmGeometry, a_mm, d_mm, alpha_rad, theta0_rad, reflector_offset_mm,
-               tracker_pos_m, tracker_quat, cones_m) -> str:
-    """MJCF of an arm with the given (as-built) DH values, the tracker at its pose, the cones."""
-    body = ""
-    close = ""
-    for i in range(7):
-        a, d, al = a_mm[i] / 1000, d_mm[i] / 1000, alpha_rad[i]
-        r = LINK_RADIUS_M[i]
-        joint = (f'<joint name="q{i + 1}" type="hinge" axis="0 0 1" range="{g.joint_limits_rad[i][0]} '
-                 f'{g.joint_limits_rad[i][1]}" damping="0.5" armature="0.01"/>') if i < 6 else ""
-        length = np.hypot(a, d)
-        geom = (f'<geom name="link{i + 1}" type="capsule" fromto="0 0 0 {a} 0 {d}" size="{r}" '
-                f'mass="{LINK_MASS_KG[i]}" rgba="0.75 0.75 0.78 1" contype="0" conaffinity="0"/>'
-                if length > 1e-9 else "")
+def _vector(table: dict, key: str, where: str, n: int, default=None) -> tuple:
+    if key not in table:
+        if default is None:
+            raise ArmFileError(f"{where}: missing field {key}")
+        return tuple(default)
+    v = table[key]
+    if (not isinstance(v, list) or len(v) != n
+            or not all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in v)):
+        raise ArmFileError(f"{where}: {key} must be a list of {n} finite numbers, not {v!r}")
+    return tuple(float(x) for x in v)
+
+
+def arm_from_table(t: dict, where: str = "arm") -> ArmDescription:
+    """Validate a parsed ARM.toml; every defect is one ArmFileError naming the field."""
+    known = {"name", "convention", "gravity_m_s2", "joint", "tool"}
+    extra = set(t) - known
+    if extra:
+        raise ArmFileError(f"{where}: unknown field(s) {', '.join(sorted(extra))} (known: {', '.join(sorted(known))})")
+    name = t.get("name", Path(where).stem)
+    if not isinstance(name, str) or not name:
+        raise ArmFileError(f"{where}: name must be a text")
+    conv = t.get("convention")
+    if conv not in ("dh", "mdh"):
+        raise ArmFileError(f"{where}: convention must be \"dh\" or \"mdh\", not {conv!r}")
+    joints = t.get("joint")
+    if not isinstance(joints, list) or not joints or not all(isinstance(j, dict) for j in joints):
+        raise ArmFileError(f"{where}: no [[joint]] tables (one per joint, base to flange)")
+    if len(joints) > MAX_JOINTS:
+        raise ArmFileError(f"{where}: {len(joints)} joints; at most {MAX_JOINTS}")
+    a, d, al, th, rng, mass, com = [], [], [], [], [], [], []
+    jkeys = {"a_mm", "d_mm", "alpha_deg", "theta_deg", "range_deg", "mass_kg", "com_mm"}
+    for i, j in enumerate(joints, 1):
+        w = f"{where}: joint {i}"
+        extra = set(j) - jkeys
+        if extra:
+            raise ArmFileError(f"{w}: unknown field(s) {', '.join(sorted(extra))} (known: {', '.join(sorted(jkeys))})")
+        a.append(_number(j, "a_mm", w, lo=-1e5, hi=1e5))
+        d.append(_number(j, "d_mm", w, lo=-1e5, hi=1e5))
+        al.append(math.radians(_number(j, "alpha_deg", w, lo=-360, hi=360)))
+        th.append(math.radians(_number(j, "theta_deg", w, default=0.0, lo=-360, hi=360)))
+        lo, hi = _vector(j, "range_deg", w, 2, default=(-180.0, 180.0))
+        if not -720 <= lo < hi <= 720:
+            raise ArmFileError(f"{w}: range_deg must be [low, high] with -720 <= low < high <= 720")
+        rng.append((math.radians(lo), math.radians(hi)))
+        has_m, has_c = "mass_kg" in j, "com_mm" in j
+        if has_m != has_c:
+            raise ArmFileError(f"{w}: mass_kg and com_mm go together (the gravity model needs both)")
+        if has_m:
+            mass.append(_number(j, "mass_kg", w, lo=0.0, hi=1e4))
+            com.append(_vector(j, "com_mm", w, 3))
+    if mass and len(mass) != len(joints):
+        raise ArmFileError(f"{where}: mass_kg and com_mm on {len(mass)} of {len(joints)} joints: give them for "
+                           "every joint or none")
+    tool = t.get("tool", {})
+    if not isinstance(tool, dict):
+        raise ArmFileError(f"{where}: [tool] must be a table")
+    extra = set(tool) - {"offset_mm", "mass_kg"}
+    if extra:
+        raise ArmFileError(f"{where}: [tool]: unknown field(s) {', '.join(sorted(extra))} (known: mass_kg, offset_mm)")
+    g = _vector(t, "gravity_m_s2", where, 3, default=(0.0, 0.0, -9.81))
+    if mass and not 1.0 < np.linalg.norm(g) < 100.0:
+        raise ArmFileError(f"{where}: gravity_m_s2 has magnitude {np.linalg.norm(g):.3g}: expected about 9.81")
+    return ArmDescription(
+        name=name, convention=conv, a_mm=tuple(a), d_mm=tuple(d), alpha_rad=tuple(al), theta_rad=tuple(th),
+        range_rad=tuple(rng), tool_mm=_vector(tool, "offset_mm", f"{where}: [tool]", 3, default=(0.0, 0.0, 0.0)),
+        mass_kg=tuple(mass) if mass else None, com_mm=tuple(com) if com else None,
+        tool_mass_kg=_number(tool, "mass_kg", f"{where}: [tool]", default=0.0, lo=0.0, hi=1e4),
+        gravity_m_s2=g, source=where)
+
+
+# --- MJCF ---------------------------------------------------------------------------------------
+def _quat(R: np.ndarray) -> str:
+    x, y, z, w = Rotation.from_matrix(R).as_quat()
+    return f"{w:.17g} {x:.17g} {y:.17g} {z:.17g}"
+
+
+def _rot(axis: str, angle: float) -> np.ndarray:
+    return Rotation.from_euler(axis, angle).as_matrix()
+
+
+def joint_frames(convention: str, a, d, alpha, theta, beta) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """One joint's two rigid pieces around its hinge: (pre_R, pre_t) the hinge frame in the
+    previous link frame, (post_R, post_t) the link frame in the hinge frame; metres as given."""
+    if convention == "dh":  # RotZ(theta + q) | TransZ(d) TransX(a) RotX(alpha) RotY(beta)
+        return _rot("z", theta), np.zeros(3), _rot("x", alpha) @ _rot("y", beta), np.array([a, 0.0, d])
+    # mdh: RotX(alpha) RotY(beta) TransX(a) RotZ(theta + q) | TransZ(d)
+    R = _rot("x", alpha) @ _rot("y", beta)
+    return R @ _rot("z", theta), R @ np.array([a, 0.0, 0.0]), np.eye(3), np.array([0.0, 0.0, d])
+
+
+def build_mjcf(arm: ArmDescription, values: np.ndarray | None = None, tool_mm=None, stiffness_nm_per_rad=None,
+               tracker_pos_m=None, tracker_quat=None, cones_m=None) -> str:
+    """MJCF of ``arm`` built with as-built ``values`` (N, 5): a, d (mm), alpha, theta, beta (rad)
+    per joint (nominal when None), the tool point ``tool_mm`` (3,), each hinge's spring
+    ``stiffness_nm_per_rad`` (N,) (none when None or inf), the tracker's pose and the cones."""
+    N = arm.n_joints
+    if values is None:
+        values = np.stack([arm.a_mm, arm.d_mm, arm.alpha_rad, arm.theta_rad, np.zeros(N)], axis=1)
+    values = np.asarray(values, float)
+    tool = np.asarray(arm.tool_mm if tool_mm is None else tool_mm, float) / 1000
+    k = np.full(N, np.inf) if stiffness_nm_per_rad is None else np.asarray(stiffness_nm_per_rad, float)
+    g = arm.gravity_m_s2
+    body, close = "", ""
+    for i in range(N):
+        a, d, al, th, be = values[i]
+        pre_R, pre_t, post_R, post_t = joint_frames(arm.convention, a / 1000, d / 1000, al, th, be)
+        spring = f' stiffness="{k[i]:.17g}"' if np.isfinite(k[i]) else ""
+        if arm.has_masses:
+            m = max(arm.mass_kg[i], 1e-6)
+            c = post_R @ (np.asarray(arm.com_mm[i]) / 1000) + post_t
+            # statics need only mass and centre; the inertia is a rod's, for stepping
+            inertia = m * (0.05**2 + float(post_t @ post_t) / 12)
+        else:
+            m, c, inertia = 0.1, post_t / 2, 1e-3
+        # armature 0.1 kg m^2: a geared motor's rotor seen through its reduction; with the 0.5 ms
+        # step it keeps a stiff joint's spring stable when the model is stepped
+        length = float(np.linalg.norm(post_t))
+        geom = (f'<geom type="capsule" fromto="0 0 0 {post_t[0]:.9g} {post_t[1]:.9g} {post_t[2]:.9g}" size="0.03" '
+                f'rgba="0.75 0.75 0.78 1"/>' if length > 1e-6 else
+                '<geom type="sphere" size="0.035" rgba="0.75 0.75 0.78 1"/>')
         body += f"""
-      <body name="joint{i + 1}" quat="{_quat_z(theta0_rad[i])}">
-        {joint}
+      <body name="joint{i + 1}" pos="{pre_t[0]:.17g} {pre_t[1]:.17g} {pre_t[2]:.17g}" quat="{_quat(pre_R)}">
+        <joint name="q{i + 1}" type="hinge" axis="0 0 1" damping="2" armature="0.1"{spring}/>
+        <inertial pos="{c[0]:.17g} {c[1]:.17g} {c[2]:.17g}" mass="{m:.17g}" diaginertia="{inertia:.9g} {inertia:.9g} {inertia:.9g}"/>
         {geom}
-        <body name="link{i + 1}" pos="{a} 0 {d}" quat="{_quat_x(al)}">"""
+        <body name="link{i + 1}" pos="{post_t[0]:.17g} {post_t[1]:.17g} {post_t[2]:.17g}" quat="{_quat(post_R)}">"""
         close = "\n        </body>\n      </body>" + close
-    ro = np.asarray(reflector_offset_mm) / 1000
+    tool_mass = max(arm.tool_mass_kg, 1e-6)
     body += f"""
-          <site name="probe" pos="0 0 0" size="0.003" rgba="0.9 0.2 0.2 1"/>
-          <site name="reflector" pos="{ro[0]} {ro[1]} {ro[2]}" size="0.006" rgba="0.9 0.9 0.2 1"/>"""
-    tp = np.asarray(tracker_pos_m)
-    ca, cb = (np.asarray(c) for c in cones_m)
+          <site name="flange" pos="0 0 0" size="0.005" rgba="0.3 0.3 0.9 1"/>
+          <site name="probe" pos="{tool[0]:.17g} {tool[1]:.17g} {tool[2]:.17g}" size="0.006" rgba="0.9 0.2 0.2 1"/>
+          <body name="tool" pos="{tool[0]:.17g} {tool[1]:.17g} {tool[2]:.17g}">
+            <inertial pos="0 0 0" mass="{tool_mass:.17g}" diaginertia="1e-5 1e-5 1e-5"/>
+          </body>"""
+    world = ""
+    if tracker_pos_m is not None:
+        tp = np.asarray(tracker_pos_m, float)
+        world += (f'\n    <body name="tracker" pos="{tp[0]:.17g} {tp[1]:.17g} {tp[2]:.17g}" '
+                  f'quat="{" ".join(f"{v:.17g}" for v in tracker_quat)}">'
+                  '<geom name="tracker_head" type="box" size="0.08 0.06 0.1" rgba="0.85 0.85 0.8 1"/></body>')
+    if cones_m is not None:
+        ca, cb = (np.asarray(c, float) for c in cones_m)
+        world += f"""
+    <geom name="cone_a" type="cylinder" size="0.01 0.01" pos="{ca[0]} {ca[1]} {ca[2] - 0.01}" rgba="0.2 0.6 0.9 1"/>
+    <geom name="cone_b" type="cylinder" size="0.01 0.01" pos="{cb[0]} {cb[1]} {cb[2] - 0.01}" rgba="0.2 0.6 0.9 1"/>
+    <geom name="length_bar" type="capsule" fromto="{ca[0]} {ca[1]} {ca[2] - 0.02} {cb[0]} {cb[1]} {cb[2] - 0.02}" size="0.008" rgba="0.3 0.3 0.35 1"/>"""
+    reach = max(arm.reach_mm / 1000, 0.5)
     return f"""
-<mujoco model="arm-cmm">
-  <compiler angle="radian"/>
-  <option gravity="0 0 -9.81" timestep="0.001"/>
+<mujoco model="{arm.name}">
+  <compiler angle="radian" autolimits="true"/>
+  <option gravity="{g[0]:.17g} {g[1]:.17g} {g[2]:.17g}" timestep="0.0005">
+    <flag contact="disable"/>
+  </option>
   <visual><global offwidth="640" offheight="480"/></visual>
   <worldbody>
-    <light name="top" pos="0 0 3" dir="0 0 -1" directional="true" castshadow="false"/>
-    <geom name="floor" type="plane" size="2 2 0.01" pos="0 0 -0.35" rgba="0.2 0.22 0.25 1" contype="0" conaffinity="0"/>
-    <geom name="pedestal" type="cylinder" size="0.06 0.17" pos="0 0 -0.18" rgba="0.3 0.3 0.32 1" contype="0" conaffinity="0"/>
-    <body name="tracker" pos="{tp[0]} {tp[1]} {tp[2]}" quat="{' '.join(f'{v:.15g}' for v in tracker_quat)}">
-      <geom name="tracker_head" type="box" size="0.08 0.06 0.1" rgba="0.85 0.85 0.8 1" contype="0" conaffinity="0"/>
-    </body>
-    <geom name="cone_a" type="cylinder" size="0.01 0.01" pos="{ca[0]} {ca[1]} {ca[2] - 0.01}" rgba="0.2 0.6 0.9 1" contype="0" conaffinity="0"/>
-    <geom name="cone_b" type="cylinder" size="0.01 0.01" pos="{cb[0]} {cb[1]} {cb[2] - 0.01}" rgba="0.2 0.6 0.9 1" contype="0" conaffinity="0"/>
-    <geom name="length_bar" type="capsule" fromto="{ca[0]} {ca[1]} {ca[2] - 0.02} {cb[0]} {cb[1]} {cb[2] - 0.02}" size="0.008" rgba="0.3 0.3 0.35 1" contype="0" conaffinity="0"/>
+    <light name="top" pos="0 0 {2 * reach:.3f}" dir="0 0 -1" directional="true" castshadow="false"/>
+    <geom name="floor" type="plane" size="{2 * reach:.3f} {2 * reach:.3f} 0.01" pos="0 0 {-0.35 * reach:.3f}" rgba="0.2 0.22 0.25 1"/>
+    <geom name="pedestal" type="cylinder" size="0.06 {0.17 * reach:.3f}" pos="0 0 {-0.18 * reach:.3f}" rgba="0.3 0.3 0.32 1"/>{world}
     <body name="base" pos="0 0 0">{body}{close}
     </body>
   </worldbody>

@@ -1,15 +1,19 @@
-"""The as-built arm CMM and its reference instruments.
+"""The as-built serial arm, its physics, and its reference instruments.
 
-Truth: the 25 parameter errors (default: the seed's Table 1) baked into the MJCF's body frames,
-the tracker's pose relative to the arm's base, the reflector's place on the stylus, and the two
-cones of a calibrated length bar. MuJoCo's kinematics give the true probe and reflector
-positions for the true joint angles; the encoders read them with noise.
+Truth: the kinematic parameter errors baked into the MJCF's body frames (default for the seed's
+arm: its Table 1), each joint's stiffness (a spring between the motor, whose angle the encoder
+reads, and the link), the tracker's pose relative to the arm's base, the cones of a calibrated
+length bar.
+
+Physics: with finite stiffness the link settles where its spring holds gravity. MuJoCo gives
+the gravity torques (``qfrc_bias`` at rest: its recursive Newton-Euler over the MJCF's masses)
+and :meth:`ArmSim.link_angles` solves k (q - q_motor) = tau_gravity(q) by fixed-point iteration
+on them; a test checks the result against the rest MuJoCo reaches by stepping the damped model.
+MuJoCo's kinematics then give the true tool point.
 
 Instruments:
-- a laser tracker: range (interferometer/ADM) and two angles of the reflector, each with its
-  own noise (range: a + b * range; angles: urad);
-- single-point articulation: the probe tip seated in a cone while the arm takes many postures
-  (found by MuJoCo-Jacobian inverse kinematics from random starts), seating scatter in um;
+- a laser tracker: range and two angles of the tool point, each with its own noise;
+- single-point articulation: the probe seated in a cone while the arm takes many postures;
 - a length bar of calibrated length between two cones.
 """
 
@@ -20,23 +24,49 @@ import dataclasses
 import mujoco
 import numpy as np
 
-from calibench.scenes.arm_cmm import ArmGeometry, build_mjcf
+from calibench.scenes.arm_cmm import ArmDescription, build_mjcf, load_arm
 
-# The seed's Table 1 errors, in the estimators' order: (da, dd, dalpha, dtheta) of links 1-6
-# (mm, mm, rad, rad), then dd7 (mm).
+# The seed's Table 1 errors: (da, dd, dalpha, dtheta) of links 1-6 (mm, mm, rad, rad), then dd7,
+# the stylus length (mm): the tool point's z in the flange frame.
 TABLE1_DELTA = (0.10, -0.05, 0.0010, 0.0014, -0.08, 0.11, 0.0014, -0.0023, -0.12, 0.06, -0.0012, 0.0017,
                 0.03, 0.13, 0.0017, 0.0010, 0.07, -0.04, 0.0010, -0.0014, -0.14, 0.05, -0.0010, 0.0010, -0.03)
 
 
+def table1_errors() -> tuple:
+    """Table 1 in the general layout: (da, dd, dalpha, dtheta, dbeta) per joint, tool (x, y, z)."""
+    t = np.asarray(TABLE1_DELTA)
+    per = np.c_[t[:24].reshape(6, 4), np.zeros(6)]
+    return tuple(np.r_[per.ravel(), 0.0, 0.0, t[24]])
+
+
+def default_errors(arm: ArmDescription, seed: int = 0) -> tuple:
+    """The as-built errors a run injects when the config gives none: Table 1 for the seed's arm;
+    for any other arm a fixed draw of the seed's sizes (lengths 0.1 mm, angles 1 mrad; beta only
+    where two axes are parallel, where it is the error DH cannot express)."""
+    if arm.name == "arm-cmm" and arm.n_joints == 6:
+        return table1_errors()
+    rng = np.random.default_rng(seed)
+    N = arm.n_joints
+    per = np.c_[rng.normal(0, 0.1, (N, 2)), rng.normal(0, 1e-3, (N, 3))]
+    per[:, 4] = 0.0
+    for i, _ in arm.parallel_pairs():
+        per[i - 1, 4] = rng.normal(0, 1e-3)
+    return tuple(np.r_[per.ravel(), 0.0, 0.0, 0.0])
+
+
 @dataclasses.dataclass(frozen=True)
 class ArmTruth:
-    delta: tuple = TABLE1_DELTA
+    """The as-built arm and its instruments.
+
+    delta : (5 N + 3,) errors, or () for :func:`default_errors`.
+    stiffness_nm_per_rad : (N,) per joint, or () for a rigid arm (inf is rigid too).
+    """
+
+    delta: tuple = ()
+    stiffness_nm_per_rad: tuple = ()
     tracker_pos_mm: tuple = (2200.0, -900.0, 350.0)  # the tracker's head in the base frame
     tracker_yaw_rad: float = 2.75  # it faces the arm
     tracker_tilt_rad: tuple = (0.004, -0.003)
-    # the reflector sits at the probe (an SMR in the probe's nest): the stylus parameters are
-    # then the flange-to-reflector offset
-    reflector_offset_mm: tuple = (0.0, 0.0, 0.0)
     cone_a_mm: tuple = (450.0, 250.0, -150.0)
     cone_b_mm: tuple = (450.0, -350.0, -150.0)  # 600 mm bar
     encoder_noise_urad: float = 5.0
@@ -59,61 +89,137 @@ class ArmTruth:
 
 
 class ArmSim:
-    def __init__(self, geometry: ArmGeometry, truth: ArmTruth):
-        self.geometry, self.truth = geometry, truth
-        e = np.asarray(truth.delta, float)
-        per = e[:24].reshape(6, 4)
-        a = np.asarray(geometry.a_mm) + np.r_[per[:, 0], 0.0]
-        d = np.asarray(geometry.d_mm) + np.r_[per[:, 1], e[24]]
-        alpha = np.asarray(geometry.alpha_rad) + np.r_[per[:, 2], 0.0]
-        theta0 = np.r_[per[:, 3], 0.0]
+    """The as-built arm in MuJoCo. ``arm``: a description or the name/path of one."""
+
+    def __init__(self, arm: ArmDescription | str, truth: ArmTruth = ArmTruth()):
+        self.arm = load_arm(arm) if isinstance(arm, str) else arm
+        self.truth = truth
+        N = self.arm.n_joints
+        delta = np.asarray(truth.delta if truth.delta else default_errors(self.arm), float)
+        if len(delta) != 5 * N + 3:
+            raise ValueError(f"truth.delta has {len(delta)} values; the arm {self.arm.name} needs 5 x {N} + 3")
+        self.delta = delta
+        nominal = np.stack([self.arm.a_mm, self.arm.d_mm, self.arm.alpha_rad, self.arm.theta_rad, np.zeros(N)], axis=1)
+        k = np.asarray(truth.stiffness_nm_per_rad, float) if len(truth.stiffness_nm_per_rad) else np.full(N, np.inf)
+        if len(k) != N or np.any(k <= 0):
+            raise ValueError(f"truth.stiffness_nm_per_rad: {N} positive values (inf for a rigid joint)")
+        self.stiffness = k
         R, p = truth.tracker2base()
         q = np.empty(4)
         mujoco.mju_mat2Quat(q, R.ravel())
-        xml = build_mjcf(geometry, a, d, alpha, theta0, truth.reflector_offset_mm, p / 1000, q,
-                         (np.asarray(truth.cone_a_mm) / 1000, np.asarray(truth.cone_b_mm) / 1000))
+        xml = build_mjcf(self.arm, nominal + delta[:5 * N].reshape(N, 5), np.asarray(self.arm.tool_mm) + delta[5 * N:],
+                         k, p / 1000, q, (np.asarray(truth.cone_a_mm) / 1000, np.asarray(truth.cone_b_mm) / 1000))
         self.model = mujoco.MjModel.from_xml_string(xml)
         self.data = mujoco.MjData(self.model)
         self._probe = self.model.site("probe").id
-        self._reflector = self.model.site("reflector").id
         self._jac = np.zeros((3, self.model.nv))
 
-    # --- truth -----------------------------------------------------------------------------------
+    @property
+    def n_joints(self) -> int:
+        return self.arm.n_joints
+
+    @property
+    def compliant(self) -> bool:
+        return bool(np.any(np.isfinite(self.stiffness)))
+
+    # --- physics ------------------------------------------------------------------------------------
+    def gravity_torques(self, q_rad: np.ndarray) -> np.ndarray:
+        """The torque gravity puts on each joint at rest, MuJoCo's inverse dynamics, (n, N) N m."""
+        q = np.atleast_2d(q_rad)
+        out = np.empty(q.shape)
+        self.data.qvel[:] = 0.0
+        for i, qq in enumerate(q):
+            self.data.qpos[:] = qq
+            mujoco.mj_kinematics(self.model, self.data)
+            mujoco.mj_comPos(self.model, self.data)
+            mujoco.mj_rne(self.model, self.data, 0, self._rne)
+            out[i] = -self._rne  # qfrc_bias at rest holds gravity: gravity's own torque is its negative
+        return out
+
+    @property
+    def _rne(self) -> np.ndarray:
+        if not hasattr(self, "_rne_buf"):
+            self._rne_buf = np.zeros(self.model.nv)
+        return self._rne_buf
+
+    def link_angles(self, q_motor: np.ndarray, tol_rad: float = 1e-13, max_iter: int = 50) -> np.ndarray:
+        """Where the links settle for motor angles (n, N): k (q - q_motor) = tau_gravity(q).
+
+        Fixed-point iteration on MuJoCo's gravity torques; rigid joints stay at the motor angle.
+        """
+        q_motor = np.atleast_2d(np.asarray(q_motor, float))
+        if not self.compliant:
+            return q_motor.copy()
+        c = np.where(np.isfinite(self.stiffness), 1.0 / self.stiffness, 0.0)
+        q = q_motor.copy()
+        for _ in range(max_iter):
+            q_new = q_motor + c * self.gravity_torques(q)
+            if np.max(np.abs(q_new - q)) < tol_rad:
+                return q_new
+            q = q_new
+        raise RuntimeError("the arm's static equilibrium did not converge (stiffness too low for its weight?)")
+
+    def settle_by_stepping(self, q_motor: np.ndarray, seconds: float = 10.0) -> np.ndarray:
+        """The same equilibrium reached the long way: the model stepped to rest from the motor
+        angle, its springs referenced to it and each joint critically damped (for the test that
+        checks :meth:`link_angles`). Every joint needs a finite stiffness here."""
+        if not np.all(np.isfinite(self.stiffness)):
+            raise ValueError("stepping to rest needs a spring on every joint")
+        q_motor = np.asarray(q_motor, float)
+        self.model.qpos_spring[:] = q_motor
+        self.data.qpos[:], self.data.qvel[:] = q_motor, 0.0
+        mujoco.mj_forward(self.model, self.data)
+        M = np.zeros((self.model.nv, self.model.nv))
+        mujoco.mj_fullM(self.model, self.data, M)
+        saved = self.model.dof_damping.copy()
+        self.model.dof_damping[:] = 2 * np.sqrt(self.stiffness * np.diag(M))
+        try:
+            for _ in range(int(seconds / self.model.opt.timestep)):
+                mujoco.mj_step(self.model, self.data)
+        finally:
+            self.model.dof_damping[:] = saved
+        return self.data.qpos.copy()
+
+    # --- truth ----------------------------------------------------------------------------------
     def set_posture(self, q_rad: np.ndarray) -> None:
-        self.data.qpos[:6] = q_rad
+        self.data.qpos[:] = q_rad
         mujoco.mj_kinematics(self.model, self.data)
 
-    def probe_mm(self, q_rad: np.ndarray) -> np.ndarray:
-        """True probe positions (base frame) for true joint angles (n, 6) -> (n, 3) mm."""
-        return self._site_mm(np.atleast_2d(q_rad), self._probe)
-
-    def reflector_mm(self, q_rad: np.ndarray) -> np.ndarray:
-        return self._site_mm(np.atleast_2d(q_rad), self._reflector)
-
-    def _site_mm(self, q, site):
+    def point_mm(self, q_link: np.ndarray) -> np.ndarray:
+        """True tool points (base frame) for link angles (n, N) -> (n, 3) mm."""
+        q = np.atleast_2d(q_link)
         out = np.empty((len(q), 3))
         for i, qq in enumerate(q):
             self.set_posture(qq)
-            out[i] = self.data.site_xpos[site] * 1000
+            out[i] = self.data.site_xpos[self._probe] * 1000
         return out
 
+    def probe_mm(self, q_motor: np.ndarray) -> np.ndarray:
+        """True tool points for motor angles (n, N): the links settled under gravity first."""
+        return self.point_mm(self.link_angles(q_motor))
+
     # --- postures and instruments ------------------------------------------------------------------
-    def random_postures(self, n: int, rng: np.random.Generator, min_z_mm: float = -300.0) -> np.ndarray:
-        """Postures within the joint limits whose probe stays above ``min_z_mm``, (n, 6)."""
-        lim = np.array(self.geometry.joint_limits_rad)
+    def random_postures(self, n: int, rng: np.random.Generator, min_z_mm: float | None = None) -> np.ndarray:
+        """Motor angles within the description's ranges whose tool point stays above ``min_z_mm``
+        (default: 0.3 of the reach below the base), (n, N)."""
+        lim = np.array(self.arm.range_rad)
+        floor = -0.3 * self.arm.reach_mm if min_z_mm is None else min_z_mm
         out = []
-        while len(out) < n:
-            q = rng.uniform(lim[:, 0], lim[:, 1], (n, 6))
-            z = self.probe_mm(q)[:, 2]
-            out.extend(q[z > min_z_mm])
-        return np.array(out[:n])
+        for _ in range(1000):
+            q = rng.uniform(lim[:, 0], lim[:, 1], (n, self.n_joints))
+            z = self.point_mm(q)[:, 2]
+            out.extend(q[z > floor])
+            if len(out) >= n:
+                return np.array(out[:n])
+        raise ValueError(f"the arm {self.arm.name} rarely keeps its tool above z = {floor:.0f} mm")
 
     def postures_in_cone(self, cone_mm: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:
-        """n different true postures with the probe seated in the cone at ``cone_mm``: each
+        """n different motor postures with the probe seated in the cone at ``cone_mm``: each
         seating puts the ball's centre ``cone_seat_um`` (1-sigma) off the cone's centre (inverse
-        kinematics on MuJoCo's site Jacobian, damped least squares, from random starts)."""
+        kinematics on MuJoCo's site Jacobian, damped least squares, from random starts; the
+        links' sag under gravity is taken into account)."""
         cone = np.asarray(cone_mm, float) / 1000
-        lim = np.array(self.geometry.joint_limits_rad)
+        lim = np.array(self.arm.range_rad)
         out, tries = [], 0
         while len(out) < n:
             tries += 1
@@ -122,26 +228,27 @@ class ArmSim:
             q = rng.uniform(lim[:, 0], lim[:, 1])
             target = cone + rng.normal(0, self.truth.cone_seat_um * 1e-6, 3)
             for _ in range(100):
-                self.set_posture(q)
+                sag = self.link_angles(q)[0] - q
+                self.set_posture(q + sag)
                 mujoco.mj_comPos(self.model, self.data)  # the Jacobian needs the dof axes
                 err = target - self.data.site_xpos[self._probe]
                 if np.linalg.norm(err) < 1e-12:
                     break
                 mujoco.mj_jacSite(self.model, self.data, self._jac, None, self._probe)
-                J = self._jac[:, :6]
+                J = self._jac
                 q = q + J.T @ np.linalg.solve(J @ J.T + 1e-6 * np.eye(3), err)
             if np.linalg.norm(err) < 1e-10:
                 out.append((q + np.pi) % (2 * np.pi) - np.pi)
         return np.array(out)
 
-    def encoders(self, q_true: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-        """What the joint encoders read, (n, 6) rad."""
-        return q_true + rng.normal(0, self.truth.encoder_noise_urad * 1e-6, np.shape(q_true))
+    def encoders(self, q_motor: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """What the joint encoders read, (n, N) rad."""
+        return q_motor + rng.normal(0, self.truth.encoder_noise_urad * 1e-6, np.shape(q_motor))
 
-    def tracker(self, q_true: np.ndarray, rng: np.random.Generator | None) -> np.ndarray:
-        """Range (mm), azimuth and elevation (rad) of the reflector, (n, 3); exact without rng."""
+    def tracker(self, q_motor: np.ndarray, rng: np.random.Generator | None) -> np.ndarray:
+        """Range (mm), azimuth and elevation (rad) of the tool point, (n, 3); exact without rng."""
         R, p = self.truth.tracker2base()
-        y = (self.reflector_mm(q_true) - p) @ R  # into the tracker frame
+        y = (self.probe_mm(q_motor) - p) @ R  # into the tracker frame
         rng_mm = np.linalg.norm(y, axis=1)
         a, b = self.truth.range_noise_um
         sph = np.stack([rng_mm, np.arctan2(y[:, 1], y[:, 0]), np.arcsin(y[:, 2] / rng_mm)], axis=1)

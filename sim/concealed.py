@@ -7,7 +7,9 @@ sealed manifest that ``discover`` never reads; only the suite opens it afterward
 
 Kinds: stages (belt-stage, vision-stage): ``null``, ``backlash``, ``periodic``, ``thermal``,
 ``combined`` (backlash + periodic + thermal), ``bump`` (a local defect no candidate has); the
-arm: ``null``, ``eccentricity`` (one joint's encoder), ``thermal`` (the links' growth).
+arm (any description; the seed's arm CMM and the UR10 in the suite): ``null``, ``eccentricity``
+(one joint's encoder), ``thermal`` (the links' growth), ``compliance`` (joints giving way under
+gravity, by MuJoCo's physics).
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ from calibench.recordings import ArmRecording, StageRecording
 from calibench.sim.replay import replay_stage
 
 STAGE_KINDS = ("null", "backlash", "periodic", "thermal", "combined", "bump")
-ARM_KINDS = ("null", "eccentricity", "thermal")
+ARM_KINDS = ("null", "eccentricity", "thermal", "compliance")
 REFERENCE_NOISE_UM = 1.0  # the reference instrument (interferometer / microscope), 1-sigma
 PASS_OFFSET_UM = 0.3  # each pass's own offset: correlated noise that must not become a term
 
@@ -116,24 +118,34 @@ def stage_recording(scenario: str, kind: str, seed: int) -> tuple[StageRecording
                  "noise_um": REFERENCE_NOISE_UM}
 
 
-def arm_recording(kind: str, seed: int, n: int = 300, noise_um: float = 10.0) -> tuple[ArmRecording, dict]:
-    """A blinded arm recording: the twin with its Table 1 errors, probed at ``n`` postures by a
-    reference of ``noise_um`` 1-sigma per coordinate, with the concealed effect of ``kind``."""
-    from calibench.scenes.arm_cmm import ArmGeometry
+def arm_recording(kind: str, seed: int, n: int = 300, noise_um: float = 10.0,
+                  arm: str = "arm-cmm") -> tuple[ArmRecording, dict]:
+    """A blinded arm recording: the twin with its default as-built errors (Table 1 for the seed's
+    arm), probed at ``n`` postures by a reference of ``noise_um`` 1-sigma per coordinate that
+    reports in its own frame (a tracker's), with the concealed effect of ``kind``:
+
+    - ``eccentricity``: one joint's encoder disc off-centre (the reading is off once per turn);
+    - ``thermal``: the links and tool grow with the logged temperature;
+    - ``compliance``: the two most loaded joints given way under gravity (stiffness drawn so the
+      largest sag is 100-300 urad), the links settled where MuJoCo's physics puts them.
+    """
+    from calibench.scenes.arm_cmm import load_arm
     from calibench.sim.arm_cmm import ArmSim, ArmTruth
 
     if kind not in ARM_KINDS:
-        raise ValueError(f"unknown kind {kind!r}")
+        raise ValueError(f"unknown kind {kind!r} (known: {', '.join(ARM_KINDS)})")
     rng = np.random.default_rng(seed)
-    g, truth = ArmGeometry(), ArmTruth()
-    sim = ArmSim(g, truth)
+    description = load_arm(arm)
+    N = description.n_joints
+    truth = ArmTruth()
+    sim = ArmSim(description, truth)
     q = sim.random_postures(n, rng)
     t = np.arange(n) * 20.0
     T = 20.0 + np.cumsum(rng.normal(0, 0.002, n))
     q_read = q + rng.normal(0, truth.encoder_noise_urad * 1e-6, q.shape)
     effects = []
     if kind == "eccentricity":
-        j, A, ph = int(rng.integers(1, 7)), rng.uniform(300, 600) * 1e-6, rng.uniform(0, 2 * np.pi)
+        j, A, ph = int(rng.integers(1, N + 1)), rng.uniform(300, 600) * 1e-6, rng.uniform(0, 2 * np.pi)
         q_read[:, j - 1] += A * np.sin(q[:, j - 1] + ph)
         effects.append({"name": "encoder_eccentricity", "axis": "xyz",
                         "params": {"joint": j, "amplitude_urad": A * 1e6, "phase_rad": ph}})
@@ -143,19 +155,34 @@ def arm_recording(kind: str, seed: int, n: int = 300, noise_um: float = 10.0) ->
         effects.append({"name": "thermal_expansion", "axis": "xyz", "params": {"ppm_per_k": k},
                         "temperature_rise_k": rise})
         xyz = np.empty((n, 3))
-        base = np.asarray(truth.delta, float)
+        base = sim.delta
+        lengths = np.zeros(5 * N + 3)
+        lengths[0:5 * N:5] = np.asarray(description.a_mm) + base[0:5 * N:5]
+        lengths[1:5 * N:5] = np.asarray(description.d_mm) + base[1:5 * N:5]
+        lengths[5 * N:] = np.asarray(description.tool_mm) + base[5 * N:]
         for i in range(n):  # each posture on the arm as long as it then was
-            grow = k * 1e-6 * (T[i] - T[0])
-            delta = base.copy()
-            delta[0:24:4] += grow * (np.asarray(g.a_mm[:6]) + base[0:24:4])
-            delta[1:24:4] += grow * (np.asarray(g.d_mm[:6]) + base[1:24:4])
-            delta[24] += grow * (g.d_mm[6] + base[24])
-            xyz[i] = ArmSim(g, dataclasses.replace(truth, delta=tuple(delta))).probe_mm(q[i:i + 1])[0]
+            delta = base + k * 1e-6 * (T[i] - T[0]) * lengths
+            xyz[i] = ArmSim(description, dataclasses.replace(truth, delta=tuple(delta))).probe_mm(q[i:i + 1])[0]
+    elif kind == "compliance":
+        if not description.has_masses:
+            raise ValueError(f"the arm {description.name} has no masses: no compliance under gravity")
+        tau = np.abs(sim.gravity_torques(q)).max(axis=0)
+        joints = np.sort(np.argsort(-tau)[:2]) + 1
+        k = np.full(N, np.inf)
+        for j in joints:
+            k[j - 1] = tau[j - 1] / (rng.uniform(100, 300) * 1e-6)
+            effects.append({"name": "joint_compliance", "axis": "xyz",
+                            "params": {"joint": int(j), "urad_per_nm": 1e6 / k[j - 1]}})
+        sim = ArmSim(description, dataclasses.replace(truth, stiffness_nm_per_rad=tuple(k)))
+        xyz = sim.probe_mm(q)  # MuJoCo's gravity torques, the links at their equilibrium
     else:
         xyz = sim.probe_mm(q)
+    R, p = truth.tracker2base()
+    xyz = (xyz - p) @ R  # the instrument reports in its own frame
     xyz = xyz + rng.normal(0, noise_um / 1000, xyz.shape)
     return (ArmRecording(q_read, xyz, t, np.round(T, 3)),
-            {"scenario": "arm-cmm", "kind": kind, "seed": seed, "effects": effects, "noise_um": noise_um})
+            {"scenario": "arm-cmm", "arm": description.name, "kind": kind, "seed": seed, "effects": effects,
+             "noise_um": noise_um})
 
 
 def write_blinded(out_dir: Path, name: str, recording, manifest: dict) -> Path:

@@ -38,9 +38,11 @@ def replay_stage(scenario: str, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     raise ValueError(f"no stage twin for {scenario!r}")
 
 
-def replay_arm(q_rad: np.ndarray) -> np.ndarray:
-    """The nominal arm's probe centre (base frame) at encoder readings (n, 6) rad, (n, 3) mm."""
-    from calibench.scenes.arm_cmm import ArmGeometry
+def replay_arm(q_rad: np.ndarray, arm: str = "arm-cmm") -> np.ndarray:
+    """The nominal (rigid, drawing-value) arm's tool point in its base frame at encoder readings
+    (n, N) rad, (n, 3) mm: MuJoCo's kinematics of the twin."""
+    from calibench.scenes.arm_cmm import load_arm
     from calibench.sim.arm_cmm import ArmSim, ArmTruth
 
-    return ArmSim(ArmGeometry(), ArmTruth(delta=(0.0,) * 25)).probe_mm(q_rad)
+    description = load_arm(arm)
+    return ArmSim(description, ArmTruth(delta=(0.0,) * (5 * description.n_joints + 3))).point_mm(q_rad)

@@ -1,10 +1,12 @@
 """Discovery's pieces on synthetic data from a known truth."""
 
 import numpy as np
+import pytest
 
 from calibench.estimators import discovery as dsc
-from calibench.estimators.arm_kinematics import DHChain, jacobian, point_in_link7
-from calibench.estimators.effects import Backlash, EncoderEccentricity, best_period
+from calibench.estimators.arm_kinematics import Chain, jacobian, point, theta_index
+from calibench.estimators.effects import (Backlash, EncoderEccentricity, JointCompliance, TransmissionSearch,
+                                          best_period, harmonic_grid)
 
 
 def test_periodogram_and_refinement_find_the_period():
@@ -50,18 +52,56 @@ def test_selection_takes_backlash_and_leaves_noise_alone():
     assert found.steps == []
 
 
+def _drivers(chain, q):
+    J = jacobian(chain, q)
+    return {"q": q, "J": J, "Jq": J[:, :, [theta_index(j) for j in range(1, chain.n_joints + 1)]]}
+
+
+def _chain():
+    return Chain("dh", np.array([0, 300, 20, 0, 0, 0.0]), np.array([150, 0, 0, 280, 0, 120.0]),
+                 np.array([np.pi / 2, 0, np.pi / 2, -np.pi / 2, np.pi / 2, 0]), np.zeros(6),
+                 tool_mm=np.array([0.0, 0.0, 60.0]))
+
+
 def test_eccentricity_columns_match_the_chain():
     """Columns times (A cos ph, A sin ph) = where the probe goes when the reading is off by
     A sin(q + ph): against the chain evaluated at the true angle, to first order in A."""
     rng = np.random.default_rng(43)
-    chain = DHChain(np.array([0, 300, 20, 0, 0, 0, 0.0]), np.array([150, 0, 0, 280, 0, 120, 60.0]),
-                    np.array([np.pi / 2, 0, np.pi / 2, -np.pi / 2, np.pi / 2, 0, 0]))
+    chain = _chain()
     q_read = rng.uniform(-np.pi, np.pi, (30, 6))
     A, ph, j = 4e-6, 0.7, 3
     q_true = q_read.copy()
     q_true[:, j - 1] -= A * np.sin(q_read[:, j - 1] + ph)
-    moved = point_in_link7(chain, q_true) - point_in_link7(chain, q_read)
-    e = EncoderEccentricity(joint=j)
-    cols = e.columns({"q": q_read, "J": jacobian(chain, q_read)})
+    moved = point(chain, q_true) - point(chain, q_read)
+    cols = EncoderEccentricity(joint=j).columns(_drivers(chain, q_read))
     # second order: A^2 L ~ 1e-8 mm, against first-order motions of ~1e-3 mm
     np.testing.assert_allclose(cols @ [A * np.cos(ph), A * np.sin(ph)], moved.ravel(), atol=2e-8)
+
+
+def test_transmission_harmonic_is_found_between_whole_numbers():
+    """A joint's angle error at 17.5 cycles per turn (a gear's), found by the harmonic search on
+    data made by the chain at the true angles, with noise."""
+    rng = np.random.default_rng(44)
+    chain = _chain()
+    q_read = rng.uniform(-np.pi, np.pi, (400, 6))
+    q_true = q_read.copy()
+    q_true[:, 1] -= 80e-6 * np.sin(17.5 * q_read[:, 1] + 0.3)
+    r = (point(chain, q_true) - point(chain, q_read) + rng.normal(0, 0.002, (400, 3))).ravel()
+    d = _drivers(chain, q_read)
+    t = TransmissionSearch(joint=2, harmonics=harmonic_grid(q_read[:, 1])).fix(r, np.zeros((1200, 0)),
+                                                                              np.ones(1200, bool), d)
+    assert t.harmonic == pytest.approx(17.5, abs=0.01)
+    coef = np.linalg.lstsq(t.columns(d), r, rcond=None)[0]
+    assert np.hypot(*coef) == pytest.approx(80e-6, rel=0.05)
+
+
+def test_compliance_column_is_the_sag_of_the_gravity_torque():
+    """c tau_j through the joint's column: the chain at q + c tau against the chain at q."""
+    rng = np.random.default_rng(45)
+    chain = _chain()
+    q = rng.uniform(-np.pi, np.pi, (30, 6))
+    tau = rng.uniform(-50, 50, (30, 6))
+    c = 0.2  # urad / N m: sags up to 1e-5 rad, second order 3e-8 mm
+    moved = point(chain, q + np.where(np.arange(6) == 1, c * 1e-6 * tau, 0.0)) - point(chain, q)
+    cols = JointCompliance(joint=2).columns({**_drivers(chain, q), "tau": tau})
+    np.testing.assert_allclose(cols[:, 0] * c, moved.ravel(), atol=5e-8)

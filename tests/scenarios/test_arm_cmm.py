@@ -11,7 +11,7 @@ def test_run_meets_the_acceptance(tmp_path):
     rep = json.loads((tmp_path / "report.json").read_text())
     assert rep["ok"]
     names = {p["name"] for p in rep["parameters"]}
-    assert {"da2", "dtheta2", "dd7", "tracker_x"} <= names and "dtheta1" not in names
+    assert {"da2", "dtheta2", "tool_z", "tracker_x"} <= names and "dtheta1" not in names
     for p in rep["parameters"]:
         assert p["std"] is not None and abs(p["estimate"] - p["truth"]) <= p["tolerance"], p
     c = {ch["name"]: ch for ch in rep["checks"]}

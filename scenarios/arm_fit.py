@@ -1,0 +1,360 @@
+"""``calibench fit arm-cmm``: calibrate any serial arm on measured points, and say how well the
+result carries to other recordings.
+
+Training recordings each get their own base registration; the kinematic parameters, the tool
+point and (``--model physics``) the joints' compliance under gravity are shared. The order of
+work, each step on what the previous left:
+
+1. screen every recording without a model (stale readings, repeats that disagree);
+2. register each base and the tool point on the nominal arm (the laser-tracker seed's base and
+   Tool0 calibration), then find the identifiable parameters at that state and solve for them,
+   each kinematic error with a prior of its typical size (``PRIOR``);
+3. weight: the instrument's stated sigma plus a model-error variance estimated from the
+   residuals (so the reported std mean what they say), and refit;
+4. leave out training rows whose residual no Gaussian scatter of that size explains (p < 1e-6);
+5. test: ``--test`` recordings in the first training recording's frame, ``--test-new-frame``
+   recordings registered on 20 % of their rows (a fixed seed) and judged on the rest,
+   ``--holdout`` rows of the training recordings; and warn where the training postures leave
+   out part of the workspace.
+
+Writes DIR/fit.json (CONTRACT, "fit arm-cmm") and DIR/fit.png.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+
+from calibench.estimators.arm_identification import (Basis, PointProblem, identifiable_basis, identify)
+from calibench.estimators.arm_kinematics import gravity_torques, param_is_angle
+from calibench.estimators.arm_screening import screen
+from calibench.estimators.rotations import matrix_to_rotvec, rigid_transform
+from calibench.recordings import ArmRecording, load_arm_csv
+from calibench.scenarios.arms import chain_of, load_arm, loaded_joints
+from calibench.scenarios.report import BadInput
+
+SPLIT_SEED = 0  # holdout rows and new-frame registration rows: fixed, so runs compare
+REGISTER_FRACTION = 0.2
+OUTLIER_P = 1e-6
+MAX_ROWS = 2_000_000
+# The kinematic errors' prior, in their typical sizes (0.1 mm, 1 mrad): a machined arm's
+# tolerances. On the UR10 trained on its random poses (ur10_C) it is what carries the fit to the
+# other side of the robot (held-out ur10_B: 0.63 mm without, 0.49 with); on enough data it
+# changes nothing (all four series: the same figures to 0.001 mm).
+PRIOR = 1.0
+
+
+@dataclasses.dataclass
+class ArmCalibration:
+    """A fitted arm: the problem (postures, frames), the identification, what was left out."""
+
+    problem: PointProblem
+    ident: object
+    model: str
+    compliance_dropped: dict
+    outliers: np.ndarray  # indices into the problem's rows that were left out of the last fit
+    sigma_model_mm: float
+    names: tuple
+
+    @property
+    def state(self):
+        return self.ident.state
+
+
+def calibrate(chain, q_rad: np.ndarray, xyz_mm: np.ndarray, recording: np.ndarray, sigma_mm: np.ndarray | None,
+              model: str, parallel=(), robust: bool = True, prior: float | None = PRIOR) -> ArmCalibration:
+    """Steps 2-4 of the module's recipe on stacked rows (q (n, N), xyz (n, 3), recording (n,)).
+    ``prior``: the kinematic errors' prior in units of their typical size (None: none)."""
+    joints, why = loaded_joints(chain, q_rad) if model == "physics" else ((), {})
+    keep = np.ones(len(q_rad), bool)
+    outliers = np.zeros(0, int)
+    for _ in range(4):
+        problem = PointProblem(chain, q_rad[keep], xyz_mm[keep], recording[keep],
+                               None if sigma_mm is None else sigma_mm[keep], compliance_joints=joints, prior=prior)
+        n_par = len(problem.names)
+        if 3 * keep.sum() <= n_par + 3:
+            raise BadInput(f"{keep.sum()} postures for {n_par} parameters (base frames, tool, kinematics): "
+                           "far too few to calibrate")
+        reg = identify(problem, Basis(np.sort(problem.always), {}))
+        # what the data determine, without the prior (which would make everything "identifiable")
+        problem.prior = None
+        basis = identifiable_basis(problem, reg.state, parallel=list(parallel))
+        problem.prior = prior
+        ident = identify(problem, basis, reg.state)
+        sigma = 0.0
+        for _ in range(2):
+            sigma = problem.reweight(ident.state, 3 * keep.sum() - len(basis.kept))
+            ident = identify(problem, basis, ident.state)
+        if not robust:
+            break
+        # rows no Gaussian scatter of the fitted size explains: |e|^2 / s^2 beyond chi2(3)'s 1 - 1e-6
+        e = (problem.y - problem.model(ident.state)) * problem.weights()
+        d2 = np.sum(e * e, axis=1)
+        s2 = np.median(d2) / 2.366  # chi2(3)'s median
+        bad = d2 > 30.66 * s2
+        if not bad.any():
+            break
+        rows = np.flatnonzero(keep)
+        outliers = np.r_[outliers, rows[bad]]
+        keep[rows[bad]] = False
+    return ArmCalibration(problem, ident, model, why, np.sort(outliers), sigma, problem.names)
+
+
+def _unit_and_factor(name: str) -> tuple[str, float]:
+    if name.startswith(("compliance", "tilt_compliance")):
+        return "urad_per_nm", 1e6
+    if param_is_angle([name])[0] or name.startswith("base_r"):
+        return "urad", 1e6
+    return "mm", 1.0
+
+
+def _errors(e: np.ndarray) -> dict:
+    d = np.linalg.norm(e, axis=1)
+    return {"samples": int(len(d)), "mean_mm": float(d.mean()), "rms_mm": float(np.sqrt(np.mean(d * d))),
+            "max_mm": float(d.max()), "p95_mm": float(np.percentile(d, 95))}
+
+
+def _arcs(q_deg: np.ndarray, bin_deg: float = 10.0) -> np.ndarray:
+    """Which 10-degree bins of each joint's angle (mod 360) the postures visit, (N, 36) bool."""
+    b = (np.mod(q_deg, 360.0) // bin_deg).astype(int)
+    out = np.zeros((q_deg.shape[1], int(360 / bin_deg)), bool)
+    for j in range(q_deg.shape[1]):
+        out[j, np.unique(b[:, j])] = True
+    return out
+
+
+def _span_deg(q_deg: np.ndarray) -> float:
+    """The arc (deg) a joint's angles cover: 360 minus the largest gap between them, mod 360."""
+    a = np.sort(np.mod(q_deg, 360.0))
+    gaps = np.diff(np.r_[a, a[0] + 360.0])
+    return float(360.0 - gaps.max())
+
+
+def coverage_warnings(chain, q_train: np.ndarray, tests: dict[str, np.ndarray], compliance_joints) -> list[str]:
+    """Where the training postures leave out part of the workspace that a test visits, or that a
+    model would need to see (one sign of a joint's gravity torque, a narrow band of a joint)."""
+    out = []
+    qd = np.degrees(q_train)
+    for j in range(qd.shape[1]):
+        span = _span_deg(qd[:, j])
+        if span < 180.0:
+            out.append(f"q{j + 1} spans only {span:.0f} deg in the training postures")
+    tau = gravity_torques(chain, q_train) if chain.has_masses else None
+    for j in compliance_joints:
+        pos = float(np.mean(tau[:, j - 1] > 0))
+        if pos < 0.02 or pos > 0.98:
+            sign = "positive" if pos > 0.5 else "negative"
+            out.append(f"joint {j}'s gravity torque is {sign} in {100 * max(pos, 1 - pos):.0f} % of the training "
+                       "postures: the model has not seen it loaded the other way")
+    arcs = _arcs(qd)
+    for name, q in tests.items():
+        qt = np.degrees(q)
+        b = (np.mod(qt, 360.0) // 10.0).astype(int)
+        for j in range(qt.shape[1]):
+            outside = float(np.mean(~arcs[j, b[:, j]]))
+            if outside > 0.1:
+                out.append(f"{name}: {100 * outside:.0f} % of its postures put q{j + 1} where no training posture has it")
+        if tau is not None:
+            tt = gravity_torques(chain, q)
+            for j in compliance_joints:
+                train_pos = np.mean(tau[:, j - 1] > 0)
+                if train_pos < 0.02 or train_pos > 0.98:
+                    other = float(np.mean((tt[:, j - 1] > 0) != (train_pos > 0.5)))
+                    if other > 0.1:
+                        out.append(f"{name}: {100 * other:.0f} % of its postures load joint {j} the other way")
+    return out
+
+
+def _load(path: Path, n_joints: int) -> ArmRecording:
+    rec = load_arm_csv(path, n_joints)
+    if len(rec) > MAX_ROWS:
+        raise BadInput(f"{path}: {len(rec)} rows; fit handles up to {MAX_ROWS}: decimate the recording")
+    return rec
+
+
+def _screened(rec: ArmRecording) -> tuple[np.ndarray, list[dict], list[tuple[int, int, float]]]:
+    """Rows kept after the model-free screening, what was flagged, and the disagreeing pairs
+    left for a model to settle."""
+    s = screen(rec.q_rad, rec.xyz_mm)
+    keep = np.ones(len(rec), bool)
+    flagged = []
+    for r in s.stale:
+        keep[r] = False
+        flagged.append({"row": int(r), "why": "stale: repeats the previous row's measurement while the arm moved"})
+    pairs = []
+    for (a, b), d in zip(s.pairs, s.distance_mm):
+        if keep[a] and keep[b]:
+            pairs.append((int(a), int(b), float(d)))
+    return keep, flagged, pairs, s.repeatability_mm
+
+
+def _settle_pairs(keep, flagged, pairs, model_xyz, meas_xyz, repeat_mm):
+    """Of each disagreeing pair, leave out the row farther from the model."""
+    for a, b, d in pairs:
+        ea, eb = (np.linalg.norm(model_xyz[i] - meas_xyz[i]) for i in (a, b))
+        bad, good = (a, b) if ea > eb else (b, a)
+        keep[bad] = False
+        flagged.append({"row": bad, "why": f"the same posture as row {good}, measured {d:.2f} mm away from it "
+                                           f"(repeatability {repeat_mm:.3f} mm); this one is the farther from the model"})
+
+
+def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path], tests_new_frame: list[Path],
+                holdout: float | None, model: str | None, out_dir: Path) -> dict:
+    """The ``fit arm-cmm`` command: fit.json's content (also written to ``out_dir``)."""
+    arm = load_arm(arm_spec or "arm-cmm")
+    if model is None:
+        model = "physics" if arm.has_masses else "geometry"
+    if model == "physics" and not arm.has_masses:
+        raise BadInput(f"--model physics needs the arm's masses (mass_kg and com_mm per joint in {arm.source})")
+    if holdout is not None and not 0.0 < holdout < 0.9:
+        raise BadInput(f"--holdout {holdout}: a fraction between 0 and 0.9")
+    names = [p.name for p in paths + tests + tests_new_frame]
+    if len(set(names)) < len(names):
+        raise BadInput("the same file name appears twice among the recordings: give each recording once")
+    chain = chain_of(arm)
+    N = arm.n_joints
+    train = [_load(p, N) for p in paths]
+    rng = np.random.default_rng(SPLIT_SEED)
+    flagged, pending, held, used = {}, {}, {}, []
+    for p, rec in zip(paths, train):
+        keep, fl, pairs, rep = _screened(rec)
+        flagged[p.name], pending[p.name] = fl, (pairs, rep)
+        if holdout:
+            idx = rng.permutation(len(rec))
+            out = np.zeros(len(rec), bool)
+            out[idx[:int(round(holdout * len(rec)))]] = True
+            held[p.name] = out & keep
+            keep &= ~out
+        used.append(keep)
+    for p, rec, keep in zip(paths, train, used):
+        if keep.sum() < 3:
+            raise BadInput(f"{p}: {keep.sum()} usable rows; a base registration needs at least 3")
+    q = np.vstack([r.q_rad[k] for r, k in zip(train, used)])
+    y = np.vstack([r.xyz_mm[k] for r, k in zip(train, used)])
+    rec_id = np.concatenate([np.full(k.sum(), i) for i, k in enumerate(used)])
+    sig = None
+    if all(r.xyz_std_mm is not None for r in train):
+        sig = np.vstack([r.xyz_std_mm[k] for r, k in zip(train, used)])
+    _check_postures(q, len(paths))
+    cal = calibrate(chain, q, y, rec_id, sig, model, arm.parallel_pairs())
+    # settle the training recordings' disagreeing pairs with the fitted model, refit if any
+    rows_of = np.concatenate([np.flatnonzero(k) for k in used])
+    if any(pending[p.name][0] for p in paths):
+        for i, (p, rec) in enumerate(zip(paths, train)):
+            pairs, rep = pending[p.name]
+            if pairs:
+                _settle_pairs(used[i], flagged[p.name], pairs, cal.problem.model(cal.state, rec.q_rad, frame=i),
+                              rec.xyz_mm, rep)
+        q = np.vstack([r.q_rad[k] for r, k in zip(train, used)])
+        y = np.vstack([r.xyz_mm[k] for r, k in zip(train, used)])
+        rec_id = np.concatenate([np.full(k.sum(), i) for i, k in enumerate(used)])
+        sig = None if sig is None else np.vstack([r.xyz_std_mm[k] for r, k in zip(train, used)])
+        cal = calibrate(chain, q, y, rec_id, sig, model, arm.parallel_pairs())
+        rows_of = np.concatenate([np.flatnonzero(k) for k in used])
+    # model-based outliers of the training rows, by file
+    for i_row in cal.outliers:
+        i_rec = int(rec_id[i_row])
+        flagged[paths[i_rec].name].append({"row": int(rows_of[i_row]),
+                                           "why": "its residual is beyond any Gaussian scatter of the fit's size "
+                                                  "(p < 1e-6): left out of the fit"})
+    s = cal.state
+    prob = cal.problem
+    e_fit = prob.y - prob.model(s)
+    result = {"scenario": "arm-cmm", "arm": arm.name, "model": model, "samples": int(len(prob.y)),
+              "parameters": [], "dropped": [], "converged": bool(cal.ident.converged)}
+    for name in (prob.names[k] for k in cal.ident.basis.kept):
+        if name.startswith("base_"):
+            continue
+        unit, f = _unit_and_factor(name)
+        result["parameters"].append({"name": name, "unit": unit, "estimate": cal.ident.estimate[name] * f,
+                                     "std": cal.ident.std[name] * f})
+    result["dropped"] = [{"name": k, "why": v} for k, v in {**cal.ident.basis.dropped, **cal.compliance_dropped}.items()]
+    bases = {}
+    for i, p in enumerate(paths):
+        bases[p.name] = {"translation_mm": s.t[i].tolist(), "rotvec_rad": matrix_to_rotvec(s.R[i]).tolist()}
+    result["base"] = bases[paths[0].name]
+    result["bases"] = bases
+    result["tool_mm"] = (np.asarray(chain.tool_mm) + s.delta[-3:]).tolist()
+    fit_fig = _errors(e_fit)
+    result["fit"] = {k: fit_fig[k] for k in ("mean_mm", "rms_mm", "max_mm")}
+    result["sigma_model_mm"] = cal.sigma_model_mm
+    figures = {"training": np.linalg.norm(e_fit, axis=1)}
+    if holdout:
+        result["holdout"] = {}
+        for i, (p, rec) in enumerate(zip(paths, train)):
+            m = held[p.name]
+            if m.sum() == 0:
+                continue
+            e = prob.model(s, rec.q_rad[m], frame=i) - rec.xyz_mm[m]
+            result["holdout"][p.name] = {**_errors(e), "fraction": holdout}
+            figures[f"{p.name} (held out)"] = np.linalg.norm(e, axis=1)
+    tested = {}
+    if tests or tests_new_frame:
+        result["test"] = {}
+    for p in tests:
+        rec = _load(p, N)
+        keep, fl, pairs, rep = _screened(rec)
+        _settle_pairs(keep, fl, pairs, prob.model(s, rec.q_rad, frame=0), rec.xyz_mm, rep)
+        e = prob.model(s, rec.q_rad[keep], frame=0) - rec.xyz_mm[keep]
+        result["test"][p.name] = {**_errors(e), "frame": f"{paths[0].name}'s"}
+        flagged[p.name] = fl
+        figures[p.name] = np.linalg.norm(e, axis=1)
+        tested[p.name] = rec.q_rad
+    for p in tests_new_frame:
+        rec = _load(p, N)
+        keep, fl, pairs, rep = _screened(rec)
+        base_pts = prob.base_points(s, rec.q_rad)
+        order = np.random.default_rng(SPLIT_SEED).permutation(np.flatnonzero(keep))
+        k_reg = max(int(round(REGISTER_FRACTION * len(order))), 3)
+        reg_rows, eval_rows = order[:k_reg], np.sort(order[k_reg:])
+        if len(eval_rows) == 0:
+            raise BadInput(f"{p}: {len(order)} usable rows; a new frame needs rows to register on and rows to judge")
+        R, t = rigid_transform(base_pts[reg_rows], rec.xyz_mm[reg_rows])
+        model_xyz = base_pts @ R.T + t
+        ev = np.zeros(len(rec), bool)
+        ev[eval_rows] = True
+        _settle_pairs(ev, fl, [pr for pr in pairs if ev[pr[0]] and ev[pr[1]]], model_xyz, rec.xyz_mm, rep)
+        e = model_xyz[ev] - rec.xyz_mm[ev]
+        result["test"][p.name] = {**_errors(e), "frame": f"registered on {len(reg_rows)} rows ({100 * REGISTER_FRACTION:.0f} %, "
+                                                          f"seed {SPLIT_SEED}), figures on the other {ev.sum()}"}
+        flagged[p.name] = fl
+        figures[p.name] = np.linalg.norm(e, axis=1)
+        tested[p.name] = rec.q_rad
+    result["flagged"] = {k: v for k, v in flagged.items() if v}
+    comp_joints = [int(n[len("compliance"):]) for n in prob.names if n.startswith("compliance")]
+    result["coverage"] = {"warnings": coverage_warnings(chain, q, tested, comp_joints)}
+    out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / "fit.json").write_text(json.dumps(result, indent=2) + "\n")
+    _figure(out_dir / "fit.png", result, figures)
+    return result
+
+
+def _check_postures(q: np.ndarray, n_recordings: int) -> None:
+    """Degenerate posture sets are bad input: too few distinct postures, or one repeated."""
+    distinct = len(np.unique(np.round(np.degrees(q), 2), axis=0))
+    if distinct < 0.1 * len(q) and distinct < 50:
+        raise BadInput(f"{len(q)} rows but only {distinct} distinct postures: repeats carry no new information "
+                       "for calibration")
+    if distinct < 10 + 6 * n_recordings:
+        raise BadInput(f"{distinct} distinct postures: too few to calibrate the arm")
+
+
+def _figure(path: Path, result: dict, figures: dict) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
+    for label, d in figures.items():
+        x = np.sort(d)
+        ax.plot(x, np.arange(1, len(x) + 1) / len(x), label=f"{label}: mean {d.mean():.3f}, max {d.max():.2f} mm")
+    ax.set(xlabel="3-D error |measured - modelled| (mm)", ylabel="fraction of postures",
+           title=f"fit arm-cmm, {result['arm']}, model {result['model']}")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.savefig(path, dpi=90)
+    plt.close(fig)

@@ -1,0 +1,150 @@
+"""``calibench fit arm-cmm`` end to end on recordings the MuJoCo twin made, in the CONTRACT's CSV
+format, as a user's laser-tracker series would come: a compliant UR10 with as-built errors,
+each series in its own tracker frame, a few bad rows. And the bad inputs a user can give."""
+
+import json
+
+import numpy as np
+import pytest
+
+from calibench.estimators.rotations import rotvec_to_matrix
+from calibench.recordings import ArmRecording
+from calibench.scenarios.cli import main
+from calibench.sim.arm_cmm import ArmSim, ArmTruth
+
+NOISE_MM = 0.02
+STIFFNESS = (np.inf, 2.0e5, 1.5e5, np.inf, np.inf, np.inf)  # N m / rad: joints 2 and 3 give way
+
+
+@pytest.fixture(scope="module")
+def series(tmp_path_factory):
+    """Training (600 rows), a test in the same frame (300) and one from another setup (300)."""
+    d = tmp_path_factory.mktemp("ur10")
+    sim = ArmSim("ur10", ArmTruth(stiffness_nm_per_rad=STIFFNESS))
+    rng = np.random.default_rng(0)
+    frames = {"same": (rotvec_to_matrix(np.array([0.01, -0.02, 2.2])), np.array([2100.0, 400.0, -250.0])),
+              "new": (rotvec_to_matrix(np.array([-0.03, 0.01, -0.8])), np.array([-900.0, 1800.0, 100.0]))}
+    paths = {}
+    for name, n, frame in (("train", 600, "same"), ("test", 300, "same"), ("other", 300, "new")):
+        q = sim.random_postures(n, rng)
+        R, t = frames[frame]
+        y = sim.probe_mm(q) @ R.T + t + rng.normal(0, NOISE_MM, (n, 3))
+        q_read = q + rng.normal(0, 2e-6, q.shape)
+        if name == "train":
+            q_read[500:520] = q_read[:20]  # twenty postures visited twice: the recording's repeatability
+            y[500:520] = y[:20] + rng.normal(0, NOISE_MM, (20, 3))
+            y[101] = y[100]  # a stale reading
+            q_read[450] = q_read[200]  # a repeat of row 200's posture ...
+            y[450] = y[200] + [0.0, 0.0, 1.5]  # ... measured 1.5 mm away
+        paths[name] = d / f"{name}.csv"
+        ArmRecording(q_read, y).to_csv(paths[name])
+    return sim, paths
+
+
+def _fit(paths, tmp_path, model, *extra):
+    out = tmp_path / model
+    code = main(["fit", "arm-cmm", str(paths["train"]), "--test", str(paths["test"]), "--test-new-frame",
+                 str(paths["other"]), "--arm", "ur10", "--model", model, "--out", str(out), *extra])
+    return code, json.loads((out / "fit.json").read_text()) if code == 0 else None
+
+
+def test_physics_recovers_the_twins_stiffness_and_carries_to_other_frames(series, tmp_path):
+    sim, paths = series
+    code, phys = _fit(paths, tmp_path, "physics")
+    assert code == 0 and phys["converged"]
+    par = {p["name"]: p for p in phys["parameters"]}
+    for j in (2, 3):
+        p = par[f"compliance{j}"]
+        assert p["unit"] == "urad_per_nm"
+        assert abs(p["estimate"] - 1e6 / STIFFNESS[j - 1]) < 3 * p["std"], p
+    # the noise is 0.02 mm per coordinate: a mean 3-D error of about 0.03 mm where the model is right
+    for name in ("test.csv", "other.csv"):
+        assert phys["test"][name]["mean_mm"] < 0.06, phys["test"][name]
+    assert "registered on" in phys["test"]["other.csv"]["frame"]
+    code, geo = _fit(paths, tmp_path, "geometry")
+    assert code == 0
+    assert not any(p["name"].startswith("compliance") for p in geo["parameters"])
+    for name in ("test.csv", "other.csv"):
+        assert geo["test"][name]["mean_mm"] > 1.5 * phys["test"][name]["mean_mm"]
+    # the UR10's parallel axes, said
+    assert any("parallel axes" in d["why"] for d in phys["dropped"])
+    # the bad rows, found and named (0 = the first data row)
+    flagged = {f["row"]: f["why"] for f in phys["flagged"]["train.csv"]}
+    assert 101 in flagged and "stale" in flagged[101]
+    assert 450 in flagged and "same posture" in flagged[450]
+    assert phys["coverage"]["warnings"] == []
+
+
+def test_holdout_keeps_rows_out_and_reports_them(series, tmp_path):
+    _, paths = series
+    out = tmp_path / "holdout"
+    assert main(["fit", "arm-cmm", str(paths["train"]), str(paths["test"]), "--arm", "ur10", "--holdout", "0.3",
+                 "--out", str(out)]) == 0
+    r = json.loads((out / "fit.json").read_text())
+    assert r["model"] == "physics"  # the default when the arm has masses
+    assert set(r["holdout"]) == {"train.csv", "test.csv"}
+    assert set(r["bases"]) == {"train.csv", "test.csv"}
+    for name, h in r["holdout"].items():
+        assert h["mean_mm"] < 0.06
+        assert abs(h["samples"] - 0.3 * 300 * (2 if name == "train.csv" else 1)) <= 3
+
+
+def test_training_on_half_the_workspace_warns(series, tmp_path):
+    sim, paths = series
+    from calibench.recordings import load_arm_csv
+
+    rec = load_arm_csv(paths["train"], 6)
+    half = rec.subset(np.abs(rec.q_rad[:, 1] + np.pi / 2) < 0.6)  # the upper arm kept near upright
+    path = tmp_path / "narrow.csv"
+    half.to_csv(path)
+    out = tmp_path / "narrow"
+    assert main(["fit", "arm-cmm", str(path), "--test", str(paths["test"]), "--arm", "ur10", "--out", str(out)]) == 0
+    warnings = json.loads((out / "fit.json").read_text())["coverage"]["warnings"]
+    assert any("q2 spans only" in w for w in warnings), warnings
+    assert any("test.csv" in w and "q2" in w for w in warnings), warnings
+
+
+def _write(tmp_path, name, q_deg, xyz):
+    path = tmp_path / name
+    ArmRecording(np.radians(q_deg), xyz).to_csv(path)
+    return path
+
+
+@pytest.mark.parametrize("case", ["missing_field", "joint_count", "nan", "few_postures", "one_posture_repeated",
+                                  "radians", "unknown_arm"])
+def test_bad_input_is_one_line_and_exit_2(series, tmp_path, capsys, case):
+    sim, paths = series
+    from calibench.recordings import load_arm_csv
+
+    rec = load_arm_csv(paths["train"], 6)
+    arm = "ur10"
+    csv = paths["train"]
+    if case == "missing_field":
+        text = (sim.arm.source and open(sim.arm.source).read()).replace("d_mm = 127.3", "", 1)
+        arm = tmp_path / "arm.toml"
+        arm.write_text(text)
+    elif case == "joint_count":
+        csv = _write(tmp_path, "five.csv", np.degrees(rec.q_rad[:, :5]), rec.xyz_mm)
+    elif case == "nan":
+        xyz = rec.xyz_mm.copy()
+        xyz[7, 1] = np.nan
+        csv = _write(tmp_path, "nan.csv", np.degrees(rec.q_rad), xyz)
+    elif case == "few_postures":
+        csv = _write(tmp_path, "few.csv", np.degrees(rec.q_rad[:12]), rec.xyz_mm[:12])
+    elif case == "one_posture_repeated":
+        csv = _write(tmp_path, "same.csv", np.degrees(np.repeat(rec.q_rad[:1], 300, 0)),
+                     np.repeat(rec.xyz_mm[:1], 300, 0) + np.random.default_rng(0).normal(0, 0.01, (300, 3)))
+    elif case == "radians":
+        path = tmp_path / "radians.csv"
+        ArmRecording(np.radians(rec.q_rad), rec.xyz_mm).to_csv(path)  # degrees columns holding radians
+        csv = path
+    elif case == "unknown_arm":
+        arm = tmp_path / "nothing.toml"
+    code = main(["fit", "arm-cmm", str(csv), "--arm", str(arm), "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2, err
+    assert len(err.splitlines()) == 1 and "Traceback" not in err, err
+    expect = {"missing_field": "d_mm", "joint_count": "joint", "nan": "nan", "few_postures": "postures",
+              "one_posture_repeated": "distinct postures", "radians": "radian", "unknown_arm": "no such file"}[case]
+    assert expect in err.lower(), err
+
