@@ -60,10 +60,43 @@ def _cross3(u: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 # --- points in the instrument's frame ------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class AngleTerm:
+    """A joint's angle error as a combination of known functions of its own angle: the reading
+    is off by F(q_j) @ c (rad), the link at q_j - F(q_j) @ c. ``kind``: ``harmonic`` (sin and
+    cos of ``harmonic`` q_j: an encoder's eccentricity at 1, a gear's harmonics beyond) or
+    ``table`` (one value per band of q_j between ``edges_rad``: what no law explains)."""
+
+    joint: int
+    kind: str
+    harmonic: float = 1.0
+    edges_rad: tuple = ()
+    label: str = ""
+
+    def functions(self, q_joint: np.ndarray) -> np.ndarray:
+        """F (n, k) at the joint's angles (n,)."""
+        if self.kind == "harmonic":
+            h = self.harmonic * np.asarray(q_joint, float)
+            return np.stack([np.sin(h), np.cos(h)], axis=1)
+        e = np.asarray(self.edges_rad, float)
+        band = np.clip(np.searchsorted(e, q_joint, side="right") - 1, 0, len(e) - 2)
+        F = np.zeros((len(q_joint), len(e) - 1))
+        F[np.arange(len(q_joint)), band] = 1.0
+        return F
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        stem = f"angle_{self.label or self.kind}{self.joint}"
+        if self.kind == "harmonic":
+            return (f"{stem}_sin", f"{stem}_cos")
+        return tuple(f"{stem}_band{k + 1}" for k in range(len(self.edges_rad) - 1))
+
+
 @dataclasses.dataclass
 class PointState:
     """delta (5 N + 3,) kinematic errors and tool; comp: the compliances (rad / N m), first about
-    the joints' axes then across them (tilt); R (k, 3, 3), t (k, 3) mm each recording's
+    the joints' axes then across them (tilt), then the angle terms' coefficients (rad); R (k, 3, 3),
+    t (k, 3) mm each recording's
     base-to-instrument transform (y = R p + t)."""
 
     delta: np.ndarray
@@ -84,6 +117,8 @@ class PointProblem:
         the chain's masses); empty for a geometry-only model.
     tilt_joints : joints whose bearing tilts under the moment across their axis (rad / N m):
         everything the joint carries turns by c M_perp about the joint's origin.
+    angle_terms : :class:`AngleTerm` s: joint-angle errors as functions of the joint's own
+        angle (a discovery's transmission harmonics, an eccentricity, a table).
     prior : None, or the prior's scale: each kinematic error (not the tool, the frames or the
         compliances) gets a zero-mean Gaussian prior of ``prior`` times its typical size
         (:func:`parameter_scales`: 0.1 mm, 1 mrad), the tolerances of a machined arm. The solve
@@ -94,7 +129,8 @@ class PointProblem:
     """
 
     def __init__(self, chain: Chain, q_rad: np.ndarray, xyz_mm: np.ndarray, recording: np.ndarray | None = None,
-                 sigma_mm: np.ndarray | None = None, compliance_joints=(), tilt_joints=(), prior: float | None = None):
+                 sigma_mm: np.ndarray | None = None, compliance_joints=(), tilt_joints=(), prior: float | None = None,
+                 angle_terms=()):
         self.chain = chain
         self.q = np.asarray(q_rad, float)
         self.y = np.asarray(xyz_mm, float)
@@ -122,7 +158,10 @@ class PointProblem:
             raise ValueError("point data must be finite")
         self.N = N
         self.nk = n_params(N)
-        self.nc = len(self.cj) + len(self.tj)
+        self.terms = tuple(angle_terms)
+        self.F = [t.functions(self.q[:, t.joint - 1]) for t in self.terms]
+        self.na = sum(F.shape[1] for F in self.F)
+        self.nc = len(self.cj) + len(self.tj) + self.na
         frame = ("rx", "ry", "rz", "x", "y", "z")
         suffix = [""] if self.n_rec == 1 else [f"_{r + 1}" for r in range(self.n_rec)]
         self.frame_names = tuple(f"base_{f}{s}" for s in suffix for f in frame)
@@ -132,7 +171,8 @@ class PointProblem:
     @property
     def names(self) -> tuple[str, ...]:
         return (param_names(self.N) + tuple(f"compliance{j}" for j in self.cj)
-                + tuple(f"tilt_compliance{j}" for j in self.tj) + self.frame_names)
+                + tuple(f"tilt_compliance{j}" for j in self.tj) + tuple(n for t in self.terms for n in t.names)
+                + self.frame_names)
 
     @property
     def always(self) -> np.ndarray:
@@ -146,8 +186,11 @@ class PointProblem:
         kin = np.array([5 * i + k for i in range(N) for k in range(4)])
         beta = np.array([5 * i + 4 for i in range(N)])
         out = [kin, beta]
-        if self.compliance:
-            out.append(np.arange(nk, nk + self.nc))
+        n_comp = len(self.cj) + len(self.tj)
+        if n_comp:
+            out.append(np.arange(nk, nk + n_comp))
+        if self.na:
+            out.append(np.arange(nk + n_comp, nk + self.nc))
         return out
 
     def weights(self) -> np.ndarray:
@@ -170,19 +213,23 @@ class PointProblem:
             self.R_ref = R.copy()
         return PointState(np.zeros(self.nk), np.zeros(self.nc), R, t)
 
-    def _q_eff(self, s: PointState, q=None, tau=None) -> np.ndarray:
-        q, tau = (self.q, self.tau) if q is None else (q, tau)
-        if not self.compliance or tau is None:
-            return q
+    def _q_eff(self, s: PointState, q=None, tau=None, F=None) -> np.ndarray:
+        """The links' angles: the readings, sagged by compliance, less the angle terms' errors."""
+        q, tau, F = (self.q, self.tau, self.F) if q is None else (q, tau, F)
         out = q.copy()
-        out[:, self.cj - 1] += s.comp[:len(self.cj)] * tau
+        if self.compliance and tau is not None and len(self.cj):
+            out[:, self.cj - 1] += s.comp[:len(self.cj)] * tau
+        k = len(self.cj) + len(self.tj)
+        for t, Ft in zip(self.terms, F or ()):
+            out[:, t.joint - 1] -= Ft @ s.comp[k:k + Ft.shape[1]]
+            k += Ft.shape[1]
         return out
 
     def _tilt(self, s: PointState, P, m_perp) -> np.ndarray:
         """The tool point's shift from the bearings' tilt, (n, 3) mm, and its columns (n, 3, nt)."""
         _, o = joint_axes(P)
         cols = _cross3(m_perp, P.point[:, None] - o[:, self.tj - 1]).transpose(0, 2, 1)
-        return cols @ s.comp[len(self.cj):], cols
+        return cols @ s.comp[len(self.cj):len(self.cj) + len(self.tj)], cols
 
     def base_points(self, s: PointState, q_rad: np.ndarray | None = None) -> np.ndarray:
         """Modelled tool points in the arm's base frame, (n, 3) mm: this problem's postures, or
@@ -196,7 +243,8 @@ class PointProblem:
                 other = PointProblem(self.chain, q_rad, np.zeros((len(q_rad), 3)), compliance_joints=self.cj,
                                      tilt_joints=self.tj)
                 tau, m_perp = other.tau, other.m_perp
-            q_eff = self._q_eff(s, q_rad, tau)
+            F = [t.functions(q_rad[:, t.joint - 1]) for t in self.terms]
+            q_eff = self._q_eff(s, q_rad, tau, F)
         P = pose(self.chain, q_eff, s.delta)
         return P.point + (self._tilt(s, P, m_perp)[0] if len(self.tj) else 0.0)
 
@@ -235,6 +283,9 @@ class PointProblem:
             shift, Jt = self._tilt(s, P, self.m_perp)
             cols.append(np.einsum("nij,njk->nik", R, Jt))
             p = p + shift
+        for t, Ft in zip(self.terms, self.F):
+            Jq = Jk[:, :, theta_index(t.joint)]  # (n, 3): the link turns by -Ft @ c
+            cols.append(-np.einsum("nij,nj,nk->nik", R, Jq, Ft))
         Rp = np.einsum("nij,nj->ni", R, p)
         Jf = np.zeros((n, 3, 6 * self.n_rec))
         for r in range(self.n_rec):
@@ -260,7 +311,7 @@ class PointProblem:
     def values(self, s: PointState) -> np.ndarray:
         w = np.stack([matrix_to_rotvec(s.R[r] @ self.R_ref[r].T) for r in range(self.n_rec)])
         frames = np.c_[w, s.t].ravel()
-        return np.r_[s.delta, s.comp if self.compliance else np.zeros(0), frames]
+        return np.r_[s.delta, s.comp, frames]
 
     def reweight(self, s: PointState, dof: int) -> float:
         """Set the model-error variance so that the whitened residuals have unit variance (a
@@ -588,10 +639,12 @@ def identify_identifiable(problem, parallel: list | None = None) -> Identificati
 
 
 def parameter_scales(names) -> np.ndarray:
-    """Typical sizes to make columns comparable: 0.1 mm for lengths, 1 mrad for angles,
+    """Typical sizes to make columns comparable: 0.1 mm for lengths, 1 mrad for angles, 100 urad
+    for a joint's angle error terms,
     10 urad / N m for a joint's compliance (a robot's gearbox: 1e5 N m / rad), 1 urad / N m for a
     bearing's tilt."""
     return np.array([1e-3 if n.startswith(("dalpha", "dtheta", "dbeta", "tracker_r", "base_r", "cone_r")) else
+                     1e-4 if n.startswith("angle_") else
                      1e-5 if n.startswith("compliance") else 1e-6 if n.startswith("tilt_compliance") else 0.1
                      for n in names])
 

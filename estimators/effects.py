@@ -437,7 +437,8 @@ class JointTable(Effect):
         k = int(np.argmax(np.abs(coef)))
         lo, hi = np.degrees(self.edges[k]), np.degrees(self.edges[k + 1])
         where = f"as a function of q{self.joint}, largest at {lo:.0f} to {hi:.0f} deg"
-        return ({"joint": self.joint, "where": where, "peak_urad": float(coef[k]) * 1e6},
+        edges = [float(e) for e in np.degrees(self.edges[1:-1])]
+        return ({"joint": self.joint, "where": where, "peak_urad": float(coef[k]) * 1e6, "edges_deg": edges},
                 {"peak_urad": _std(cov, k) * 1e6},
                 f"joint {self.joint}'s angle error varies with its angle in a way no candidate explains ({where}, "
                 f"{coef[k] * 1e6:+.0f} urad): modelled as a table over its angle")

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from calibench.estimators.arm_identification import (Basis, PointProblem, identifiable_basis, identify)
+from calibench.estimators.arm_identification import AngleTerm, Basis, PointProblem, identifiable_basis, identify
 from calibench.estimators.arm_kinematics import gravity_torques, param_is_angle
 from calibench.estimators.arm_screening import screen
 from calibench.estimators.rotations import matrix_to_rotvec, rigid_transform
@@ -65,15 +65,18 @@ class ArmCalibration:
 
 
 def calibrate(chain, q_rad: np.ndarray, xyz_mm: np.ndarray, recording: np.ndarray, sigma_mm: np.ndarray | None,
-              model: str, parallel=(), robust: bool = True, prior: float | None = PRIOR) -> ArmCalibration:
+              model: str, parallel=(), robust: bool = True, prior: float | None = PRIOR,
+              angle_terms=()) -> ArmCalibration:
     """Steps 2-4 of the module's recipe on stacked rows (q (n, N), xyz (n, 3), recording (n,)).
-    ``prior``: the kinematic errors' prior in units of their typical size (None: none)."""
+    ``prior``: the kinematic errors' prior in units of their typical size (None: none);
+    ``angle_terms``: joint-angle errors a discovery found (:func:`angle_terms_from_discovery`)."""
     joints, why = loaded_joints(chain, q_rad) if model == "physics" else ((), {})
     keep = np.ones(len(q_rad), bool)
     outliers = np.zeros(0, int)
     for _ in range(4):
         problem = PointProblem(chain, q_rad[keep], xyz_mm[keep], recording[keep],
-                               None if sigma_mm is None else sigma_mm[keep], compliance_joints=joints, prior=prior)
+                               None if sigma_mm is None else sigma_mm[keep], compliance_joints=joints, prior=prior,
+                               angle_terms=angle_terms)
         n_par = len(problem.names)
         if 3 * keep.sum() <= n_par + 3:
             raise BadInput(f"{keep.sum()} postures for {n_par} parameters (base frames, tool, kinematics): "
@@ -103,7 +106,38 @@ def calibrate(chain, q_rad: np.ndarray, xyz_mm: np.ndarray, recording: np.ndarra
     return ArmCalibration(problem, ident, model, why, np.sort(outliers), sigma, problem.names)
 
 
+def angle_terms_from_discovery(path: Path, n_joints: int) -> list[AngleTerm]:
+    """The joint-angle effects of a ``discover arm-cmm`` result (discovery.json) as terms of the
+    fit: transmission harmonics, encoder eccentricity, a nonsmooth table over a joint's angle."""
+    try:
+        d = json.loads(Path(path).read_text())
+    except OSError as e:
+        raise BadInput(f"cannot read {path}: {e.strerror}") from None
+    except (json.JSONDecodeError, UnicodeDecodeError):
+        raise BadInput(f"{path} is not a discovery.json (not JSON)") from None
+    if not isinstance(d, dict) or d.get("scenario") != "arm-cmm" or not isinstance(d.get("effects"), list):
+        raise BadInput(f"{path} is not the discovery.json of an arm-cmm recording")
+    terms = []
+    for e in d["effects"]:
+        p = e.get("params", {}) if isinstance(e, dict) else {}
+        j = p.get("joint")
+        if e.get("name") not in ("transmission", "encoder_eccentricity", "nonsmooth"):
+            continue
+        if not isinstance(j, int) or not 1 <= j <= n_joints:
+            raise BadInput(f"{path}: effect {e.get('name')} names joint {j!r}; the arm has {n_joints} joints")
+        if e["name"] == "transmission":
+            terms += [AngleTerm(j, "harmonic", harmonic=float(h), label="transmission") for h in p.get("harmonics", [])]
+        elif e["name"] == "encoder_eccentricity":
+            terms.append(AngleTerm(j, "harmonic", harmonic=1.0, label="eccentricity"))
+        elif "edges_deg" in p:
+            edges = np.r_[-np.inf, np.radians(np.asarray(p["edges_deg"], float)), np.inf]
+            terms.append(AngleTerm(j, "table", edges_rad=tuple(edges), label="table"))
+    return terms
+
+
 def _unit_and_factor(name: str) -> tuple[str, float]:
+    if name.startswith("angle_"):
+        return "urad", 1e6
     if name.startswith(("compliance", "tilt_compliance")):
         return "urad_per_nm", 1e6
     if param_is_angle([name])[0] or name.startswith("base_r"):
@@ -202,9 +236,11 @@ def _settle_pairs(keep, flagged, pairs, model_xyz, meas_xyz, repeat_mm):
 
 
 def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path], tests_new_frame: list[Path],
-                holdout: float | None, model: str | None, out_dir: Path) -> dict:
-    """The ``fit arm-cmm`` command: fit.json's content (also written to ``out_dir``)."""
+                holdout: float | None, model: str | None, out_dir: Path, effects: Path | None = None) -> dict:
+    """The ``fit arm-cmm`` command: fit.json's content (also written to ``out_dir``). ``effects``:
+    a discovery.json whose joint-angle effects join the model."""
     arm = load_arm(arm_spec or "arm-cmm")
+    terms = angle_terms_from_discovery(effects, arm.n_joints) if effects is not None else []
     if model is None:
         model = "physics" if arm.has_masses else "geometry"
     if model == "physics" and not arm.has_masses:
@@ -239,7 +275,7 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
     if all(r.xyz_std_mm is not None for r in train):
         sig = np.vstack([r.xyz_std_mm[k] for r, k in zip(train, used)])
     _check_postures(q, len(paths))
-    cal = calibrate(chain, q, y, rec_id, sig, model, arm.parallel_pairs())
+    cal = calibrate(chain, q, y, rec_id, sig, model, arm.parallel_pairs(), angle_terms=terms)
     # settle the training recordings' disagreeing pairs with the fitted model, refit if any
     rows_of = np.concatenate([np.flatnonzero(k) for k in used])
     if any(pending[p.name][0] for p in paths):
@@ -252,7 +288,7 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
         y = np.vstack([r.xyz_mm[k] for r, k in zip(train, used)])
         rec_id = np.concatenate([np.full(k.sum(), i) for i, k in enumerate(used)])
         sig = None if sig is None else np.vstack([r.xyz_std_mm[k] for r, k in zip(train, used)])
-        cal = calibrate(chain, q, y, rec_id, sig, model, arm.parallel_pairs())
+        cal = calibrate(chain, q, y, rec_id, sig, model, arm.parallel_pairs(), angle_terms=terms)
         rows_of = np.concatenate([np.flatnonzero(k) for k in used])
     # model-based outliers of the training rows, by file
     for i_row in cal.outliers:
@@ -265,6 +301,8 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
     e_fit = prob.y - prob.model(s)
     result = {"scenario": "arm-cmm", "arm": arm.name, "model": model, "samples": int(len(prob.y)),
               "parameters": [], "dropped": [], "converged": bool(cal.ident.converged)}
+    if effects is not None:
+        result["effects_from"] = {"file": str(effects), "terms": [t.names[0].rsplit("_", 1)[0] for t in terms]}
     for name in (prob.names[k] for k in cal.ident.basis.kept):
         if name.startswith("base_"):
             continue

@@ -7,7 +7,7 @@ import sys
 import time
 from pathlib import Path
 
-EXIT_OK, EXIT_CHECK_FAILED, EXIT_BAD_INPUT = 0, 1, 2
+EXIT_OK, EXIT_CHECK_FAILED, EXIT_BAD_INPUT, EXIT_INTERNAL = 0, 1, 2, 3
 
 
 class _Parser(argparse.ArgumentParser):
@@ -17,11 +17,24 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_BAD_INPUT, f"{self.prog}: {message} (see {self.prog} --help)\n")
 
 
+def _positive_int(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"{v}: at least 1")
+    return v
+
+
 def _parser() -> argparse.ArgumentParser:
     from calibench.scenarios.registry import PLANNED, SCENARIOS
 
     names = ", ".join(SCENARIOS)
     p = _Parser(prog="calibench", description="Simulation-first test bench for calibrating measuring machines.")
+    from calibench import __version__
+
+    p.add_argument("--version", action="version", version=f"calibench {__version__}")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     r = sub.add_parser("run", help="simulate a scenario, calibrate, compare with the truth",
@@ -56,6 +69,9 @@ def _parser() -> argparse.ArgumentParser:
     f.add_argument("--model", choices=("geometry", "physics"),
                    help="arm-cmm: geometry (kinematics, base, tool) or physics (and the joints' compliance "
                         "under gravity); default physics when the arm has masses")
+    f.add_argument("--effects", type=Path, metavar="DISCOVERY.json",
+                   help="arm-cmm: add the joint-angle effects a discover run found (transmission, eccentricity, "
+                        "a nonsmooth table) to the model")
 
     mc = sub.add_parser("montecarlo", help="an accuracy study: many trials, truth drawn from the prior",
                         description="Run N trials of a scenario (truth from its prior, noise from its sensors); "
@@ -63,7 +79,7 @@ def _parser() -> argparse.ArgumentParser:
                                     "Rerunning the same command resumes: finished trials are kept.")
     mc.add_argument("scenario", help=f"one of: {names}")
     mc.add_argument("--trials", type=int, required=True, help="number of trials")
-    mc.add_argument("--workers", type=int, help="local worker processes (default: all cores)")
+    mc.add_argument("--workers", type=_positive_int, help="local worker processes (default: all cores)")
     mc.add_argument("--scheduler", help="address of a Dask scheduler (tcp://host:8786) instead of local workers")
     mc.add_argument("--seed", type=int, default=0, help="study seed (default 0)")
     mc.add_argument("--out", type=Path, help="output folder (default ./calibench-out/<scenario>-montecarlo)")
@@ -120,7 +136,24 @@ def main(argv: list[str] | None = None) -> int:
         if isinstance(e, (BadInput, RecordingError, ArmFileError)):
             print(f"calibench: {e}", file=sys.stderr)
             return EXIT_BAD_INPUT
-        raise
+        return _internal_error(e, getattr(args, "out", None))
+
+
+def _internal_error(e: Exception, out: Path | None) -> int:
+    """A defect of calibench: one line, the traceback in OUT/error.log (CONTRACT's exit 3)."""
+    import traceback
+
+    where = Path(out) if out is not None and not Path(out).is_file() else Path("calibench-out")
+    text = "".join(traceback.format_exception(e))
+    try:
+        where.mkdir(parents=True, exist_ok=True)
+        (where / "error.log").write_text(text)
+        said = f"the traceback is in {where / 'error.log'}"
+    except OSError:
+        said = "the traceback could not be written"
+    print(f"calibench: internal error ({type(e).__name__}: {str(e).splitlines()[0] if str(e) else ''}); this is a "
+          f"defect of calibench, please report it; {said}", file=sys.stderr)
+    return EXIT_INTERNAL
 
 
 def _scenario(name: str):
@@ -179,7 +212,7 @@ def _fit(args) -> int:
     if s.name == "arm-cmm":
         return _fit_arm(args, out)
     arm_only = [o for o, v in (("--arm", args.arm), ("--test", args.test), ("--test-new-frame", args.test_new_frame),
-                               ("--holdout", args.holdout), ("--model", args.model)) if v]
+                               ("--holdout", args.holdout), ("--model", args.model), ("--effects", args.effects)) if v]
     if arm_only:
         raise BadInput(f"fit {s.name}: {', '.join(arm_only)} apply to arm-cmm only")
     if s.fit_model is None:
@@ -198,7 +231,8 @@ def _fit(args) -> int:
 def _fit_arm(args, out: Path) -> int:
     from calibench.scenarios.arm_fit import run_arm_fit
 
-    r = run_arm_fit(args.recordings, args.arm, args.test, args.test_new_frame, args.holdout, args.model, out)
+    r = run_arm_fit(args.recordings, args.arm, args.test, args.test_new_frame, args.holdout, args.model, out,
+                    args.effects)
     f = r["fit"]
     print(f"{r['arm']}, model {r['model']}: {r['samples']} training rows, {len(r['parameters'])} parameters "
           f"({len(r['dropped'])} dropped); fit mean {f['mean_mm']:.3f} mm, rms {f['rms_mm']:.3f} mm, "

@@ -249,6 +249,14 @@ def discover_arm(rec, seed: int = 0, floor: float = dsc.FLOOR, arm="arm-cmm") ->
     torques, encoder eccentricity, transmission harmonics, thermal growth, then a table over a
     joint's angle for what none of them explains.
     """
+    from threadpoolctl import threadpool_limits
+
+    # thousands of small least-squares solves: one BLAS thread each is faster than several
+    with threadpool_limits(1):
+        return _discover_arm(rec, seed, floor, arm)
+
+
+def _discover_arm(rec, seed: int, floor: float, arm) -> tuple[dict, dict]:
     from calibench.estimators.arm_identification import PointProblem, identifiable_basis
     from calibench.estimators.arm_screening import screen
     from calibench.estimators.effects import (ArmThermalExpansion, EncoderEccentricity, Geometry, JointCompliance,
@@ -347,21 +355,32 @@ def _arm_summary(name: str, found, effects: list, names: list) -> str:
 
 
 def _arm_confounds(sig, terms, candidates, drivers, found) -> list[dict]:
-    """Compliance and eccentricity of one joint look alike when the joint's gravity torque is
-    nearly a sinusoid of its own angle: say so when the data cannot tell them apart."""
+    """Candidates the data cannot tell from what was accepted, in plain words: compliance and
+    eccentricity of one joint look alike when its gravity torque is nearly a sinusoid of its own
+    angle; a compliance the geometry absorbs within these postures (a narrow band of the joint)
+    would still matter on postures that load the joint otherwise."""
     out = []
     accepted = {t.key for t in terms}
     for c in candidates:
         if c.key in accepted or c.name not in ("joint_compliance", "encoder_eccentricity"):
             continue
         other = ("encoder_eccentricity" if c.name == "joint_compliance" else "joint_compliance") + f":joint{c.joint}"
-        if other not in accepted:
-            continue
         frac = dsc.confounded(sig, terms, c, drivers, {})
-        if frac > 0.9:
+        if frac <= 0.9:
+            continue
+        if other in accepted:
             out.append({"effect": c.name, "axis": "xyz", "with": other,
                         "why": f"joint {c.joint}'s gravity torque is nearly a sinusoid of its own angle in these "
                                f"postures: {100 * frac:.0f} % of {c.name}'s effect is what {other} already explains",
+                        "experiment": ARM_EXPERIMENTS[c.name]})
+        elif c.name == "joint_compliance" and np.ptp(drivers["tau"][:, c.joint - 1]) > 0:
+            tau = drivers["tau"][:, c.joint - 1]
+            out.append({"effect": c.name, "axis": "xyz", "with": "geometry",
+                        "why": f"within these postures joint {c.joint}'s gravity torque ({tau.min():.0f} to "
+                               f"{tau.max():.0f} N m) moves the point almost as the kinematic errors do: "
+                               f"{100 * frac:.0f} % of a compliance's effect is absorbed by them, so the recording "
+                               f"cannot show it, yet a calibration without it will not carry to postures that load "
+                               f"the joint otherwise",
                         "experiment": ARM_EXPERIMENTS[c.name]})
     return out
 

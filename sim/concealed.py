@@ -119,7 +119,7 @@ def stage_recording(scenario: str, kind: str, seed: int) -> tuple[StageRecording
 
 
 def arm_recording(kind: str, seed: int, n: int = 300, noise_um: float = 10.0,
-                  arm: str = "arm-cmm") -> tuple[ArmRecording, dict]:
+                  arm: str = "arm-cmm", joint: int | None = None) -> tuple[ArmRecording, dict]:
     """A blinded arm recording: the twin with its default as-built errors (Table 1 for the seed's
     arm), probed at ``n`` postures by a reference of ``noise_um`` 1-sigma per coordinate that
     reports in its own frame (a tracker's), with the concealed effect of ``kind``:
@@ -128,6 +128,8 @@ def arm_recording(kind: str, seed: int, n: int = 300, noise_um: float = 10.0,
     - ``thermal``: the links and tool grow with the logged temperature;
     - ``compliance``: the two most loaded joints given way under gravity (stiffness drawn so the
       largest sag is 100-300 urad), the links settled where MuJoCo's physics puts them.
+
+    ``joint``: the eccentric joint (default: drawn).
     """
     from calibench.scenes.arm_cmm import load_arm
     from calibench.sim.arm_cmm import ArmSim, ArmTruth
@@ -146,6 +148,7 @@ def arm_recording(kind: str, seed: int, n: int = 300, noise_um: float = 10.0,
     effects = []
     if kind == "eccentricity":
         j, A, ph = int(rng.integers(1, N + 1)), rng.uniform(300, 600) * 1e-6, rng.uniform(0, 2 * np.pi)
+        j = joint or j
         q_read[:, j - 1] += A * np.sin(q[:, j - 1] + ph)
         effects.append({"name": "encoder_eccentricity", "axis": "xyz",
                         "params": {"joint": j, "amplitude_urad": A * 1e6, "phase_rad": ph}})

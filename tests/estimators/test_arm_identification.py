@@ -8,7 +8,7 @@ implementation independent of the estimator's kinematics and gravity model.
 import numpy as np
 import pytest
 
-from calibench.estimators.arm_identification import (ConeProblem, PointProblem, identifiable_basis, identify,
+from calibench.estimators.arm_identification import (AngleTerm, ConeProblem, PointProblem, identifiable_basis, identify,
                                                      identify_identifiable, observability_index, parameter_scales,
                                                      select_postures)
 from calibench.estimators.arm_kinematics import param_is_angle, point
@@ -56,11 +56,12 @@ def test_point_jacobian_matches_differences_with_compliance_and_two_frames(tilt)
     rng = np.random.default_rng(5)
     q = sim.random_postures(12, rng)
     rec = np.repeat([0, 1], 6)
+    terms = (AngleTerm(2, "harmonic", harmonic=17.5), AngleTerm(1, "table", edges_rad=(-np.inf, -1.0, 0.5, np.inf)))
     p = PointProblem(chain, q, sim.point_mm(q) + rng.normal(0, 1, (12, 3)), rec, compliance_joints=(2, 3),
-                     tilt_joints=tilt, prior=1.0)
+                     tilt_joints=tilt, prior=1.0, angle_terms=terms)
     s = p.start()
     s.delta = rng.normal(0, 1e-3, p.nk)
-    s.comp = np.array([2e-6, 3e-6, 1e-6][:p.nc])
+    s.comp = np.r_[[2e-6, 3e-6, 1e-6][:2 + len(tilt)], rng.normal(0, 1e-4, 5)]
     J = p.jacobian(s)
     scales = parameter_scales(p.names) * 1e-3
     rel = 1e-3 if tilt else 1e-6

@@ -103,3 +103,25 @@ def test_camera_on_boofcv_chess_meets_the_reference(shared_data, tmp_path):
     assert np.hypot(K[0, 2] - 308.46, K[1, 2] - 246.84) < 3
     assert r["rms_px"] < 0.5
     assert r["dist"][2:] == [0.0, 0.0, 0.0]
+
+
+def test_version_and_internal_errors(tmp_path, capsys, monkeypatch):
+    """--version answers; a defect (here: an estimator that raises) is exit 3, one line, and the
+    traceback in OUT/error.log."""
+    import calibench
+
+    try:
+        main(["--version"])
+    except SystemExit as e:  # argparse's version action exits
+        assert e.code == 0
+    assert calibench.__version__ in capsys.readouterr().out
+    from calibench.scenarios import arm_fit
+
+    def broken(*a, **k):
+        raise RuntimeError("a defect")
+
+    monkeypatch.setattr(arm_fit, "run_arm_fit", broken)
+    assert main(["fit", "arm-cmm", "x.csv", "--out", str(tmp_path)]) == 3
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "internal error" in err and "RuntimeError" in err
+    assert "Traceback" in (tmp_path / "error.log").read_text()

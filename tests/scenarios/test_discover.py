@@ -35,6 +35,34 @@ def test_arm_discovery(tmp_path):
     assert ecc["joint"] == manifest["effects"][0]["params"]["joint"]
 
 
+def test_ur10_compliance_from_mujocos_physics_is_named_with_its_joints(tmp_path):
+    """A UR10 whose shoulder and elbow give way (MuJoCo's springs under MuJoCo's gravity), read
+    by a tracker in its own frame: discover names joint_compliance of joints 2 and 3 and recovers
+    each within 3 std; nothing else."""
+    rec, manifest = arm_recording("compliance", 5, arm="ur10")
+    path = write_blinded(tmp_path, "ur10", rec, manifest)
+    assert main(["discover", "arm-cmm", str(path), "--arm", "ur10", "--out", str(tmp_path)]) == 0
+    d = json.loads((tmp_path / "discovery.json").read_text())
+    found = {e["params"]["joint"]: e for e in d["effects"] if e["name"] == "joint_compliance"}
+    truth = {t["params"]["joint"]: t["params"]["urad_per_nm"] for t in manifest["effects"]}
+    assert set(found) == set(truth) == {2, 3}
+    for j, c in truth.items():
+        assert abs(found[j]["params"]["urad_per_nm"] - c) < 3 * found[j]["stderr"]["urad_per_nm"]
+    assert {e["name"] for e in d["effects"]} == {"geometry", "joint_compliance"}
+
+
+def test_an_eccentric_shoulder_encoder_is_not_called_compliance():
+    """Joint 2's gravity torque is nearly a sinusoid of its own angle; the other joints' angles
+    tell the two apart."""
+    from calibench.scenarios.discover import discover_arm
+
+    for arm in ("arm-cmm", "ur10"):
+        rec, manifest = arm_recording("eccentricity", 6, arm=arm, joint=2)
+        d, _ = discover_arm(rec, arm=arm)
+        names = [(e["name"], e["params"].get("joint")) for e in d["effects"] if e["name"] != "geometry"]
+        assert names == [("encoder_eccentricity", 2)], (arm, names)
+
+
 def test_thermal_expansion_without_a_temperature_change_is_called_confounded(tmp_path):
     rec, manifest = stage_recording("belt-stage", "null", 3)
     from calibench.scenarios.discover import discover_stage
