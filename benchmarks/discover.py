@@ -1,6 +1,7 @@
 """discover's figures on this machine: ``python benchmarks/discover.py [N_NULL]``.
 
-1. The concealed-effect suite (34 blinded recordings): detection, false claims, parameters,
+1. The concealed-effect suite (scenarios/discover_suite.py's SUITE: stages, the seed's arm and a
+   UR10, with compliance made by MuJoCo's physics): detection, false claims, parameters,
    held-out improvement, and the time per recording.
 2. The null calibration of the acceptance floor: N_NULL (default 30) null recordings per
    scenario through discover at several floors; the false-claim rate at each. The house floor
@@ -42,15 +43,17 @@ def null_calibration(n):
     print(f"\nnull calibration: {n} null recordings per scenario (seeds 5000+)")
     print("| scenario | " + " | ".join(f"floor {f:.0%}" for f in floors) + " |")
     print("|---|" + "---|" * len(floors))
-    for sc in ("belt-stage", "vision-stage", "arm-cmm"):
+    for sc in ("belt-stage", "vision-stage", "arm-cmm", "arm-cmm:ur10"):
         claims = {f: 0 for f in floors}
+        arm = sc.partition(":")[2] or "arm-cmm"
         for k in range(n):
-            if sc == "arm-cmm":
-                rec, _ = arm_recording("null", 5000 + k)
+            if sc.startswith("arm-cmm"):
+                rec, _ = arm_recording("null", 5000 + k, arm=arm)
             else:
                 rec, _ = stage_recording(sc, "null", 5000 + k)
             for f in floors:
-                out, _ = discover_arm(rec, 0, f) if sc == "arm-cmm" else discover_stage(sc, rec, 0, None, f)
+                out, _ = (discover_arm(rec, 0, f, arm=arm) if sc.startswith("arm-cmm")
+                          else discover_stage(sc, rec, 0, None, f))
                 claims[f] += any(e["name"] != "geometry" for e in out["effects"])
         print(f"| {sc} | " + " | ".join(f"{claims[f] / n:.0%}" for f in floors) + " |")
     print(f"house floor: {dsc.FLOOR:.0%}")

@@ -106,15 +106,19 @@ def calibrate(chain, q_rad: np.ndarray, xyz_mm: np.ndarray, recording: np.ndarra
     return ArmCalibration(problem, ident, model, why, np.sort(outliers), sigma, problem.names)
 
 
-def angle_terms_from_discovery(path: Path, n_joints: int) -> list[AngleTerm]:
-    """The joint-angle effects of a ``discover arm-cmm`` result (discovery.json) as terms of the
-    fit: transmission harmonics, encoder eccentricity, a nonsmooth table over a joint's angle."""
-    try:
-        d = json.loads(Path(path).read_text())
-    except OSError as e:
-        raise BadInput(f"cannot read {path}: {e.strerror}") from None
-    except (json.JSONDecodeError, UnicodeDecodeError):
-        raise BadInput(f"{path} is not a discovery.json (not JSON)") from None
+def angle_terms_from_discovery(path, n_joints: int) -> list[AngleTerm]:
+    """The joint-angle effects of a ``discover arm-cmm`` result (a discovery.json's path, or its
+    content) as terms of the fit: transmission harmonics, encoder eccentricity, a nonsmooth table
+    over a joint's angle."""
+    if isinstance(path, dict):
+        d, path = path, "the discovery"
+    else:
+        try:
+            d = json.loads(Path(path).read_text())
+        except OSError as e:
+            raise BadInput(f"cannot read {path}: {e.strerror}") from None
+        except (json.JSONDecodeError, UnicodeDecodeError):
+            raise BadInput(f"{path} is not a discovery.json (not JSON)") from None
     if not isinstance(d, dict) or d.get("scenario") != "arm-cmm" or not isinstance(d.get("effects"), list):
         raise BadInput(f"{path} is not the discovery.json of an arm-cmm recording")
     terms = []
@@ -236,11 +240,13 @@ def _settle_pairs(keep, flagged, pairs, model_xyz, meas_xyz, repeat_mm):
 
 
 def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path], tests_new_frame: list[Path],
-                holdout: float | None, model: str | None, out_dir: Path, effects: Path | None = None) -> dict:
+                holdout: float | None, model: str | None, out_dir: Path, effects: Path | str | None = None) -> dict:
     """The ``fit arm-cmm`` command: fit.json's content (also written to ``out_dir``). ``effects``:
-    a discovery.json whose joint-angle effects join the model."""
+    a discovery.json whose joint-angle effects join the model, or ``"discover"``: run the
+    discovery here, on the training rows only (held-out rows never shape the model)."""
     arm = load_arm(arm_spec or "arm-cmm")
-    terms = angle_terms_from_discovery(effects, arm.n_joints) if effects is not None else []
+    run_discovery = str(effects) == "discover"
+    terms = angle_terms_from_discovery(effects, arm.n_joints) if effects is not None and not run_discovery else []
     if model is None:
         model = "physics" if arm.has_masses else "geometry"
     if model == "physics" and not arm.has_masses:
@@ -275,6 +281,13 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
     if all(r.xyz_std_mm is not None for r in train):
         sig = np.vstack([r.xyz_std_mm[k] for r, k in zip(train, used)])
     _check_postures(q, len(paths))
+    discovery = None
+    if run_discovery:
+        from calibench.scenarios.discover import discover_arm
+
+        parts = [r.subset(k) for r, k in zip(train, used)]
+        discovery, _ = discover_arm(parts if len(parts) > 1 else parts[0], arm=arm)
+        terms = angle_terms_from_discovery(discovery, arm.n_joints)
     cal = calibrate(chain, q, y, rec_id, sig, model, arm.parallel_pairs(), angle_terms=terms)
     # settle the training recordings' disagreeing pairs with the fitted model, refit if any
     rows_of = np.concatenate([np.flatnonzero(k) for k in used])
@@ -302,7 +315,10 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
     result = {"scenario": "arm-cmm", "arm": arm.name, "model": model, "samples": int(len(prob.y)),
               "parameters": [], "dropped": [], "converged": bool(cal.ident.converged)}
     if effects is not None:
-        result["effects_from"] = {"file": str(effects), "terms": [t.names[0].rsplit("_", 1)[0] for t in terms]}
+        result["effects_from"] = {"file": "discovery on the training rows" if run_discovery else str(effects),
+                                  "terms": [t.names[0].rsplit("_", 1)[0] for t in terms]}
+        if discovery is not None:
+            result["effects_from"]["summary"] = discovery["summary"]
     for name in (prob.names[k] for k in cal.ident.basis.kept):
         if name.startswith("base_"):
             continue

@@ -69,9 +69,9 @@ def _parser() -> argparse.ArgumentParser:
     f.add_argument("--model", choices=("geometry", "physics"),
                    help="arm-cmm: geometry (kinematics, base, tool) or physics (and the joints' compliance "
                         "under gravity); default physics when the arm has masses")
-    f.add_argument("--effects", type=Path, metavar="DISCOVERY.json",
+    f.add_argument("--effects", metavar="DISCOVERY.json|discover",
                    help="arm-cmm: add the joint-angle effects a discover run found (transmission, eccentricity, "
-                        "a nonsmooth table) to the model")
+                        "a nonsmooth table) to the model; 'discover' runs the discovery here on the training rows")
 
     mc = sub.add_parser("montecarlo", help="an accuracy study: many trials, truth drawn from the prior",
                         description="Run N trials of a scenario (truth from its prior, noise from its sensors); "
@@ -92,7 +92,8 @@ def _parser() -> argparse.ArgumentParser:
                                    "mismatch, name and fit the missing effects, show the held-out fit improve. "
                                    "Writes DIR/discovery.json and DIR/discovery.png.")
     d.add_argument("scenario", help="one of: belt-stage, vision-stage, arm-cmm")
-    d.add_argument("recording", type=Path, help="CSV in the CONTRACT's stage or arm format")
+    d.add_argument("recording", type=Path, nargs="+", help="CSV in the CONTRACT's stage or arm format (arm-cmm: "
+                                                           "one or more, each with its own base frame)")
     d.add_argument("--out", type=Path, help="output folder (default ./calibench-out/<scenario>-discover)")
     d.add_argument("--seed", type=int, default=0, help="seed of the permutation tests (default 0)")
     d.add_argument("--arm", help="arm-cmm: ARM.toml or a built-in arm (arm-cmm, ur10); default the seed's arm")

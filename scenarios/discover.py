@@ -266,30 +266,52 @@ def _discover_arm(rec, seed: int, floor: float, arm) -> tuple[dict, dict]:
 
     arm = load_arm(arm) if isinstance(arm, (str, Path)) else arm
     N = arm.n_joints
-    if rec.n_joints != N:
-        raise BadInput(f"the recording has {rec.n_joints} joints, the arm {arm.name} {N}")
-    flagged = screen(rec.q_rad, rec.xyz_mm)
-    # without a calibrated model neither row of a disagreeing repeat can be trusted: both go
-    drop = sorted({int(i) for i in flagged.stale} | {int(i) for i in flagged.pairs.ravel()})
-    keep = np.setdiff1d(np.arange(len(rec.q_rad)), drop)
-    q, xyz = rec.q_rad[keep], rec.xyz_mm[keep]
+    recs = list(rec) if isinstance(rec, (list, tuple)) else [rec]
+    parts, left_out = [], []
+    for k, r in enumerate(recs):
+        if r.n_joints != N:
+            raise BadInput(f"recording {k + 1} has {r.n_joints} joints, the arm {arm.name} {N}")
+        flagged = screen(r.q_rad, r.xyz_mm)
+        # without a calibrated model neither row of a disagreeing repeat can be trusted: both go
+        drop = sorted({int(i) for i in flagged.stale} | {int(i) for i in flagged.pairs.ravel()})
+        parts.append(np.setdiff1d(np.arange(len(r.q_rad)), drop))
+        tag = {} if len(recs) == 1 else {"recording": k + 1}
+        left_out += [{**tag, "row": int(i), "why": "stale reading (repeats the previous row's point)"}
+                     for i in flagged.stale]
+        left_out += [{**tag, "row": int(i), "why": f"a repeat of row {int(o)} at the same angles disagrees by {d:.3f} mm"}
+                     for (a, b), d in zip(flagged.pairs, flagged.distance_mm) for i, o in ((a, b), (b, a))]
+    q = np.vstack([r.q_rad[k] for r, k in zip(recs, parts)])
+    xyz = np.vstack([r.xyz_mm[k] for r, k in zip(recs, parts)])
+    rec_id = np.concatenate([np.full(len(k), i) for i, k in enumerate(parts)])
     n = len(q)
     n_kin = 4 * N + len(arm.parallel_pairs())
-    if n < max(40, 2 * n_kin):
-        raise BadInput(f"{n} usable postures: discover needs at least {max(40, 2 * n_kin)} for the "
-                       f"{arm.name}'s parameters")
-    temp = None if rec.temp_c is None else rec.temp_c[keep]
-    t_s = None if rec.t_s is None else rec.t_s[keep]
+    if min(len(k) for k in parts) < 12 or n < max(40, 2 * n_kin):
+        raise BadInput(f"{n} usable postures ({', '.join(str(len(k)) for k in parts)} per recording): discover "
+                       f"needs at least {max(40, 2 * n_kin)} for the {arm.name}'s parameters")
+
+    def joined(name):
+        cols = [getattr(r, name) for r in recs]
+        return None if any(c is None for c in cols) else np.concatenate([c[k] for c, k in zip(cols, parts)])
+
+    temp, t_s = joined("temp_c"), joined("t_s")
     drivers, sim = arm_drivers(arm, q, temp, t_s)
-    # the base frame, registered: the measured points taken into the arm's base frame
-    R, t = rigid_transform(sim, xyz)
-    meas_base = (xyz - t) @ R
+    # each recording's base frame, registered: its points taken into the arm's base frame
+    meas_base = np.empty_like(xyz)
+    for i in range(len(recs)):
+        m = rec_id == i
+        R, t = rigid_transform(sim[m], xyz[m])
+        meas_base[m] = (xyz[m] - t) @ R
     r = meas_base - sim
-    # the scene model's free columns: the frame (small turn and shift) and the tool point
-    frame = np.concatenate([-skew(sim), np.broadcast_to(np.eye(3), (n, 3, 3)), drivers["flange_R"]], axis=2)
+    # the scene model's free columns: each frame (small turn and shift) and the shared tool point
+    frame = np.zeros((n, 3, 6 * len(recs) + 3))
+    for i in range(len(recs)):
+        m = rec_id == i
+        frame[m, :, 6 * i:6 * i + 3] = -skew(sim[m])
+        frame[m, :, 6 * i + 3:6 * i + 6] = np.eye(3)
+    frame[:, :, -3:] = drivers["flange_R"]
     sig = dsc.Signal("xyz_meas - xyz_sim", "xyz", r.ravel(), frame.reshape(3 * n, -1), np.repeat(np.arange(n), 3))
     chain = chain_of(arm)
-    problem = PointProblem(chain, q, meas_base)
+    problem = PointProblem(chain, q, meas_base, rec_id)
     basis = identifiable_basis(problem, parallel=arm.parallel_pairs())
     nk = 5 * N
     kin = tuple(int(k) for k in basis.kept if k < nk)
@@ -305,7 +327,8 @@ def _discover_arm(rec, seed: int, floor: float, arm) -> tuple[dict, dict]:
     if thermal.applies(drivers):
         candidates.append(thermal)
     candidates = [c for c in candidates if not hasattr(c, "applies") or c.applies(drivers)]
-    fold = np.minimum(np.arange(n) * 5 // n, 4)
+    # five contiguous blocks of each recording: every fold holds out a fifth of each setup
+    fold = np.concatenate([np.minimum(np.arange(len(k)) * 5 // len(k), 4) for k in parts])
     noise = {"xyz": dsc.Noise(None, 0.0, 0)}
     found, terms = dsc.select([sig], candidates, drivers, fold, noise, floor=floor)
     # what no candidate explains: a table over one joint's angle, kept if it helps held out
@@ -331,13 +354,12 @@ def _discover_arm(rec, seed: int, floor: float, arm) -> tuple[dict, dict]:
            "effects": effects,
            "fit": {"rms_nominal": float(np.sqrt(np.mean(sig.r**2))), "cv_rms_nominal": found.cv_nominal,
                    "cv_rms_final": found.cv_final},
-           "holdout": "five contiguous blocks of postures",
-           "scene_model": f"MuJoCo's nominal {arm.name} (drawing values, rigid), the base frame and tool registered",
-           "dropped": [{"name": k, "why": v} for k, v in basis.dropped.items()],
-           "left_out_rows": [{"row": int(i), "why": "stale reading (repeats the previous row's point)"}
-                             for i in flagged.stale]
-           + [{"row": int(i), "why": f"a repeat of row {int(o)} at the same angles disagrees by {d:.3f} mm"}
-              for (a, b), d in zip(flagged.pairs, flagged.distance_mm) for i, o in ((a, b), (b, a))],
+           "holdout": "five contiguous blocks of postures" + (" of each recording" if len(recs) > 1 else ""),
+           "scene_model": f"MuJoCo's nominal {arm.name} (drawing values, rigid), the base frame"
+                          + ("s" if len(recs) > 1 else "") + " and tool registered",
+           "dropped": [{"name": k, "why": v} for k, v in basis.dropped.items()
+                       if not k.startswith(("base_", "tool_"))],
+           "left_out_rows": left_out,
            "not_accepted": {**found.rejected, **not_applicable}, "confounded": confounded,
            "summary": _arm_summary(arm.name, found, effects, names)}
     return out, {"signals": [sig], "fitted": fitted}
@@ -420,8 +442,12 @@ def paper_belt_recording(data_dir: Path):
 
 
 # --- the command -----------------------------------------------------------------------------------
-def run_discover(scenario: str, csv_path: Path, out_dir: Path, seed: int = 0, holdout: str | None = None,
+def run_discover(scenario: str, csv_path, out_dir: Path, seed: int = 0, holdout: str | None = None,
                  arm: str | Path | None = None) -> dict:
+    """``csv_path``: a recording, or for arm-cmm several (each its own base frame)."""
+    paths = list(csv_path) if isinstance(csv_path, (list, tuple)) else [csv_path]
+    if scenario != "arm-cmm" and len(paths) != 1:
+        raise BadInput(f"discover {scenario}: one recording, not {len(paths)}")
     from calibench.recordings import load_arm_csv, load_stage_csv
 
     if scenario not in SUPPORTED:
@@ -430,9 +456,12 @@ def run_discover(scenario: str, csv_path: Path, out_dir: Path, seed: int = 0, ho
         from calibench.scenes.arm_cmm import load_arm
 
         description = load_arm(arm or "arm-cmm")
-        out, fig = discover_arm(load_arm_csv(csv_path, description.n_joints), seed, arm=description)
+        recs = [load_arm_csv(p, description.n_joints) for p in paths]
+        out, fig = discover_arm(recs if len(recs) > 1 else recs[0], seed, arm=description)
+        if len(paths) > 1:
+            out["recordings"] = [str(p) for p in paths]
     else:
-        out, fig = discover_stage(scenario, load_stage_csv(csv_path), seed, holdout)
+        out, fig = discover_stage(scenario, load_stage_csv(paths[0]), seed, holdout)
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "discovery.json").write_text(json.dumps(out, indent=2, default=_json_default) + "\n")
     _figure(out_dir / "discovery.png", out, fig)

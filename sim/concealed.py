@@ -24,7 +24,7 @@ from calibench.recordings import ArmRecording, StageRecording
 from calibench.sim.replay import replay_stage
 
 STAGE_KINDS = ("null", "backlash", "periodic", "thermal", "combined", "bump")
-ARM_KINDS = ("null", "eccentricity", "thermal", "compliance")
+ARM_KINDS = ("null", "eccentricity", "thermal", "compliance", "transmission")
 REFERENCE_NOISE_UM = 1.0  # the reference instrument (interferometer / microscope), 1-sigma
 PASS_OFFSET_UM = 0.3  # each pass's own offset: correlated noise that must not become a term
 
@@ -125,6 +125,8 @@ def arm_recording(kind: str, seed: int, n: int = 300, noise_um: float = 10.0,
     reports in its own frame (a tracker's), with the concealed effect of ``kind``:
 
     - ``eccentricity``: one joint's encoder disc off-centre (the reading is off once per turn);
+    - ``transmission``: one joint's gear train off periodically, 8-40 cycles per turn (not a
+      whole number: a reduction's ratio);
     - ``thermal``: the links and tool grow with the logged temperature;
     - ``compliance``: the two most loaded joints given way under gravity (stiffness drawn so the
       largest sag is 100-300 urad), the links settled where MuJoCo's physics puts them.
@@ -152,6 +154,12 @@ def arm_recording(kind: str, seed: int, n: int = 300, noise_um: float = 10.0,
         q_read[:, j - 1] += A * np.sin(q[:, j - 1] + ph)
         effects.append({"name": "encoder_eccentricity", "axis": "xyz",
                         "params": {"joint": j, "amplitude_urad": A * 1e6, "phase_rad": ph}})
+    if kind == "transmission":
+        j = joint or int(rng.integers(1, N + 1))
+        h, A, ph = rng.uniform(8, 40), rng.uniform(150, 300) * 1e-6, rng.uniform(0, 2 * np.pi)
+        q_read[:, j - 1] += A * np.sin(h * q[:, j - 1] + ph)
+        effects.append({"name": "transmission", "axis": "xyz",
+                        "params": {"joint": j, "harmonics": [h], "amplitude_urad": [A * 1e6]}})
     if kind == "thermal":
         rise, k = rng.uniform(2, 5), rng.uniform(10, 25)
         T = T + rise * (1 - np.exp(-t / (t[-1] / 2)))
