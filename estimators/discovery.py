@@ -27,7 +27,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-from scipy import optimize
+from scipy import linalg, optimize
 
 from calibench.estimators.effects import Periodic, best_period
 
@@ -122,11 +122,13 @@ def repeatability(r: np.ndarray, station: np.ndarray, order: np.ndarray) -> Nois
 
 # --- fitting and cross-validation ----------------------------------------------------------------
 def _lstsq(X, r):
+    """Least squares on scaled columns: QR with column pivoting (LAPACK's gelsy), which handles a
+    rank-deficient X as the SVD does at a fraction of its cost on tall matrices."""
     if X.shape[1] == 0:
         return np.zeros(0)
     scale = np.linalg.norm(X, axis=0)
     scale[scale == 0] = 1.0
-    return np.linalg.lstsq(X / scale, r, rcond=None)[0] / scale
+    return linalg.lstsq(X / scale, r, cond=1e-12, lapack_driver="gelsy", check_finite=False)[0] / scale
 
 
 def _term_columns(term, drivers, sig: Signal, others: np.ndarray, train: np.ndarray, cache: dict):

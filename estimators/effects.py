@@ -414,6 +414,7 @@ class JointTable(Effect):
     axis: str = "xyz"
     joint: int = 1
     edges: tuple = ()
+    span: tuple = (-np.pi, np.pi)  # the angles the data cover, for the words
 
     def __post_init__(self):
         object.__setattr__(self, "needs", ("Jq", "q"))
@@ -435,7 +436,7 @@ class JointTable(Effect):
     def describe(self, coef, cov):
         coef = coef - coef.mean()  # a common part is a zero offset, which the geometry has
         k = int(np.argmax(np.abs(coef)))
-        lo, hi = np.degrees(self.edges[k]), np.degrees(self.edges[k + 1])
+        lo, hi = np.degrees(np.clip(self.edges[k:k + 2], *self.span))
         where = f"as a function of q{self.joint}, largest at {lo:.0f} to {hi:.0f} deg"
         edges = [float(e) for e in np.degrees(self.edges[1:-1])]
         return ({"joint": self.joint, "where": where, "peak_urad": float(coef[k]) * 1e6, "edges_deg": edges},
@@ -452,8 +453,9 @@ def joint_table(q_joint: np.ndarray, joint: int, min_rows: int = 30, max_bands: 
     edges = np.unique(np.quantile(q_joint, np.linspace(0, 1, k + 1)))
     if len(edges) < 4:
         return None
+    span = (float(edges[0]), float(edges[-1]))
     edges[0], edges[-1] = -np.inf, np.inf
-    return JointTable(joint=joint, edges=tuple(edges))
+    return JointTable(joint=joint, edges=tuple(edges), span=span)
 
 
 @dataclasses.dataclass(frozen=True)
