@@ -386,6 +386,38 @@ def select(signals: list[Signal], candidates: list, drivers: dict, fold: np.ndar
     return Discovery(steps, rejected, cv_nominal, _total_rms(cv_sq, counts), rms_nominal, cv_by), terms
 
 
+def prune(sig: Signal, found: Discovery, terms: dict, drivers: dict, fold: np.ndarray,
+          floor: float = FLOOR) -> None:
+    """Backward check after forward selection (one signal): an accepted effect that a later one
+    made redundant (leaving it out now costs less than ``floor`` of the held-out RMS) goes, with
+    the reason; the steps' held-out figures are then recomputed in order. In place."""
+    a = sig.axis
+    cache: dict = {}
+    changed = True
+    while changed and len(terms[a]) > 1:
+        changed = False
+        full = float(np.sum(cv_residuals(sig, terms[a], drivers, fold, cache) ** 2))
+        for t in list(terms[a][1:]):  # the first is what everything else was found beside
+            rest = [u for u in terms[a] if u is not t]
+            without = float(np.sum(cv_residuals(sig, rest, drivers, fold, cache) ** 2))
+            if 1 - np.sqrt(full / max(without, 1e-300)) < floor:
+                later = ", ".join(u.key for u in terms[a][terms[a].index(t) + 1:])
+                found.rejected[t.key] = f"accepted first, then made redundant by {later}"
+                terms[a] = rest
+                changed = True
+                break
+    kept = {id(t) for t in terms[a]}
+    steps = [st for st in found.steps if id(st.term) in kept]
+    n = len(sig.r)
+    prev = float(np.sqrt(np.sum(cv_residuals(sig, [], drivers, fold, cache) ** 2) / n))
+    for i, st in enumerate(steps):
+        now = float(np.sqrt(np.sum(cv_residuals(sig, terms[a][:i + 1], drivers, fold, cache) ** 2) / n))
+        st.cv_before, st.cv_after, st.gain = prev, now, 1 - now / prev
+        prev = now
+    found.steps[:] = steps
+    found.cv_final = prev
+
+
 def find_nonsmooth(sig: Signal, terms: list, drivers: dict, station: np.ndarray, positions: np.ndarray,
                    noise: Noise, fold: np.ndarray, floor: float = FLOOR) -> StationTable | None:
     """Stations whose mean residual (over passes) stands out of the repeatability, grown to their

@@ -337,6 +337,7 @@ def _discover_arm(rec, seed: int, floor: float, arm) -> tuple[dict, dict]:
     fold = np.concatenate([np.minimum(np.arange(len(k)) * 5 // len(k), 4) for k in parts])
     noise = {"xyz": dsc.Noise(None, 0.0, 0)}
     found, terms = dsc.select([sig], candidates, drivers, fold, noise, floor=floor)
+    dsc.prune(sig, found, terms, drivers, fold, floor)
     # what no candidate explains: a table over one joint's angle, kept if it helps held out
     cache = {}
     cv_now = dsc._rms(dsc.cv_residuals(sig, terms["xyz"], drivers, fold, cache))

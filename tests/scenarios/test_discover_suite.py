@@ -1,4 +1,4 @@
-"""The concealed-effect suite (issues 8 and 13): 43 blinded recordings through discover (stages, the
+"""The concealed-effect suite (issues 8 and 13): 41 blinded recordings through discover (stages, the
 seed's arm and a UR10 with compliance made by MuJoCo's physics),
 scored against their sealed manifests only afterwards (see scenarios/discover_suite.py)."""
 
