@@ -231,19 +231,25 @@ def _joint_column(d: dict, joint: int) -> np.ndarray:
 
 
 @dataclasses.dataclass(frozen=True)
-class EncoderEccentricity(Effect):
-    """A once-per-turn angle error of joint j: dq = A sin(q + phase) (the reading is off)."""
+class JointEffect(Effect):
+    """Base of the arm's effects that act on one joint's angle: keyed by the joint."""
 
-    name: str = "encoder_eccentricity"
     axis: str = "xyz"
     joint: int = 1
-
-    def __post_init__(self):
-        object.__setattr__(self, "needs", ("Jq", "q"))
 
     @property
     def key(self) -> str:
         return f"{self.name}:joint{self.joint}"
+
+
+@dataclasses.dataclass(frozen=True)
+class EncoderEccentricity(JointEffect):
+    """A once-per-turn angle error of joint j: dq = A sin(q + phase) (the reading is off)."""
+
+    name: str = "encoder_eccentricity"
+
+    def __post_init__(self):
+        object.__setattr__(self, "needs", ("Jq", "q"))
 
     def columns(self, d):
         q = np.asarray(d["q"], float)[:, self.joint - 1]
@@ -260,20 +266,14 @@ class EncoderEccentricity(Effect):
 
 
 @dataclasses.dataclass(frozen=True)
-class JointCompliance(Effect):
+class JointCompliance(JointEffect):
     """Joint j's link turns by c tau_j from its encoder's angle, tau_j the gravity torque on the
     joint (``tau`` (n, N) N m, from the twin's physics)."""
 
     name: str = "joint_compliance"
-    axis: str = "xyz"
-    joint: int = 1
 
     def __post_init__(self):
         object.__setattr__(self, "needs", ("Jq", "tau"))
-
-    @property
-    def key(self) -> str:
-        return f"{self.name}:joint{self.joint}"
 
     def applies(self, drivers):
         tau = drivers.get("tau")
@@ -291,23 +291,17 @@ class JointCompliance(Effect):
 
 
 @dataclasses.dataclass(frozen=True)
-class Transmission(Effect):
+class Transmission(JointEffect):
     """Joint j's angle error periodic in its own angle beyond once per turn: dq = a sin(h q) +
     b cos(h q), ``harmonic`` h in cycles per turn of the joint (gear and encoder harmonics need
     not be whole numbers of the joint's turn)."""
 
     name: str = "transmission"
-    axis: str = "xyz"
-    joint: int = 1
     harmonic: float = 2.0
     harmonic_std: float = 0.0
 
     def __post_init__(self):
         object.__setattr__(self, "needs", ("Jq", "q"))
-
-    @property
-    def key(self) -> str:
-        return f"{self.name}:joint{self.joint}"
 
     def columns(self, d):
         q = np.asarray(d["q"], float)[:, self.joint - 1]
@@ -406,22 +400,16 @@ def harmonic_grid(q_joint: np.ndarray, top: float = 60.0) -> np.ndarray:
 
 
 @dataclasses.dataclass(frozen=True)
-class JointTable(Effect):
+class JointTable(JointEffect):
     """``nonsmooth`` on an arm: joint j's angle error as a free value in each band of its angle
     (``edges`` (k + 1,) rad), for structure no candidate explains: a lookup table, not a law."""
 
     name: str = "nonsmooth"
-    axis: str = "xyz"
-    joint: int = 1
     edges: tuple = ()
     span: tuple = (-np.pi, np.pi)  # the angles the data cover, for the words
 
     def __post_init__(self):
         object.__setattr__(self, "needs", ("Jq", "q"))
-
-    @property
-    def key(self) -> str:
-        return f"{self.name}:joint{self.joint}"
 
     def bands(self, q_joint: np.ndarray) -> np.ndarray:
         return np.clip(np.searchsorted(self.edges, q_joint, side="right") - 1, 0, len(self.edges) - 2)
