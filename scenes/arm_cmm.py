@@ -66,6 +66,10 @@ class ArmDescription:
     def has_masses(self) -> bool:
         return self.mass_kg is not None
 
+    def nominal(self) -> np.ndarray:
+        """(N, 5) the drawing's a, d (mm), alpha, theta, beta (rad) per joint (beta = 0)."""
+        return np.stack([self.a_mm, self.d_mm, self.alpha_rad, self.theta_rad, np.zeros(self.n_joints)], axis=1)
+
     @property
     def reach_mm(self) -> float:
         """An upper bound of the tool point's distance from the first joint's axis."""
@@ -209,7 +213,7 @@ def build_mjcf(arm: ArmDescription, values: np.ndarray | None = None, tool_mm=No
     ``stiffness_nm_per_rad`` (N,) (none when None or inf), the tracker's pose and the cones."""
     N = arm.n_joints
     if values is None:
-        values = np.stack([arm.a_mm, arm.d_mm, arm.alpha_rad, arm.theta_rad, np.zeros(N)], axis=1)
+        values = arm.nominal()
     values = np.asarray(values, float)
     tool = np.asarray(arm.tool_mm if tool_mm is None else tool_mm, float) / 1000
     k = np.full(N, np.inf) if stiffness_nm_per_rad is None else np.asarray(stiffness_nm_per_rad, float)

@@ -99,7 +99,6 @@ class ArmSim:
         if len(delta) != 5 * N + 3:
             raise ValueError(f"truth.delta has {len(delta)} values; the arm {self.arm.name} needs 5 x {N} + 3")
         self.delta = delta
-        nominal = np.stack([self.arm.a_mm, self.arm.d_mm, self.arm.alpha_rad, self.arm.theta_rad, np.zeros(N)], axis=1)
         k = np.asarray(truth.stiffness_nm_per_rad, float) if len(truth.stiffness_nm_per_rad) else np.full(N, np.inf)
         if len(k) != N or np.any(k <= 0):
             raise ValueError(f"truth.stiffness_nm_per_rad: {N} positive values (inf for a rigid joint)")
@@ -107,7 +106,7 @@ class ArmSim:
         R, p = truth.tracker2base()
         q = np.empty(4)
         mujoco.mju_mat2Quat(q, R.ravel())
-        xml = build_mjcf(self.arm, nominal + delta[:5 * N].reshape(N, 5), np.asarray(self.arm.tool_mm) + delta[5 * N:],
+        xml = build_mjcf(self.arm, self.arm.nominal() + delta[:5 * N].reshape(N, 5), np.asarray(self.arm.tool_mm) + delta[5 * N:],
                          k, p / 1000, q, (np.asarray(truth.cone_a_mm) / 1000, np.asarray(truth.cone_b_mm) / 1000))
         self.model = mujoco.MjModel.from_xml_string(xml)
         self.data = mujoco.MjData(self.model)
