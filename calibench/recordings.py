@@ -216,3 +216,63 @@ def load_arm_csv(path: str | Path, n_joints: int | None = None) -> ArmRecording:
         if np.any(std < 0):
             raise RecordingError(f"{path} line {int(np.argmax(np.any(std < 0, axis=1))) + 2}: a negative std")
     return ArmRecording(np.deg2rad(q_deg), xyz, cols.get("t_s"), cols.get("temp_c"), std)
+
+
+@dataclasses.dataclass
+class AxisRun:
+    """A bidirectional positioning test of one axis (ISO 230-2), one row per reading.
+
+    target_mm : (k,) the target position P_i of each reading, mm.
+    run : (k,) which run (1, 2, ...) the reading belongs to.
+    direction : (k,) +1 approaching in the positive direction, -1 in the negative one.
+    deviation_um : (k,) actual minus target, um.
+    """
+
+    target_mm: np.ndarray
+    run: np.ndarray
+    direction: np.ndarray
+    deviation_um: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.target_mm)
+
+    def tables(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """targets (m,) ascending, and the deviations up and down, (m, n) each: row i for target
+        i, column j for the j-th run of that direction (in the order of ``run``). Raises
+        RecordingError when a target lacks a direction or the runs per target differ."""
+        targets = np.unique(self.target_mm)
+        cols = {}
+        for d, word in ((+1, "positive"), (-1, "negative")):
+            m = self.direction == d
+            counts = [int(np.sum(m & (self.target_mm == t))) for t in targets]
+            if min(counts) == 0:
+                t = targets[counts.index(0)]
+                raise RecordingError(f"target {t:g} mm has no reading approached in the {word} direction: a "
+                                     "bidirectional run needs both at every target")
+            if len(set(counts)) > 1:
+                raise RecordingError(f"the {word} direction has {min(counts)} to {max(counts)} readings per target: "
+                                     "every target needs the same number of runs")
+            order = np.lexsort((self.run[m], self.target_mm[m]))
+            cols[d] = self.deviation_um[m][order].reshape(len(targets), counts[0])
+        return targets, cols[+1], cols[-1]
+
+
+def load_axis_run(path: str | Path) -> AxisRun:
+    """Read a bidirectional run (CONTRACT, "iso230"): target_mm, run, direction and either
+    deviation_um or actual_mm."""
+    path = Path(path)
+    cols = _read_columns(path, ("target_mm", "run", "direction"), ("deviation_um", "actual_mm"))
+    if "deviation_um" in cols:
+        dev = cols["deviation_um"]
+    elif "actual_mm" in cols:
+        dev = (cols["actual_mm"] - cols["target_mm"]) * 1000.0
+    else:
+        raise RecordingError(f"{path}: missing column deviation_um (or actual_mm)")
+    d = cols["direction"]
+    if not np.all(np.isin(d, (-1.0, 1.0))):
+        bad = int(np.argmax(~np.isin(d, (-1.0, 1.0))))
+        raise RecordingError(f"{path} line {bad + 2}: direction is {d[bad]:g}; +1 (approached from below) or -1")
+    if np.abs(dev).max() > 1e6:
+        raise RecordingError(f"{path}: a deviation of {np.abs(dev).max():.3g} um (over a metre): wrong unit or a "
+                             "corrupt value")
+    return AxisRun(cols["target_mm"], cols["run"], d.astype(int), dev)

@@ -111,7 +111,14 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("--radial", type=int, choices=(2, 3), default=3, help="radial terms k1..k3 (default 3)")
     c.add_argument("--no-tangential", action="store_true", help="no tangential terms p1, p2")
     c.add_argument("--out", type=Path, default=Path("calibench-out/camera"), help="output folder")
-    p.epilog = f"Scenarios planned but not built yet: {', '.join(PLANNED)}."
+    i = sub.add_parser("iso230", help="ISO 230-2 evaluation of a real bidirectional run of one axis",
+                       description="Evaluate a bidirectional positioning run (target_mm, run, direction, and "
+                                   "deviation_um or actual_mm) as ISO 230-2:2014; writes DIR/iso230.json and "
+                                   "DIR/iso230.png.")
+    i.add_argument("run", type=Path, metavar="RUN.csv", help="the run, one row per reading")
+    i.add_argument("--out", type=Path, default=Path("calibench-out/iso230"), help="output folder")
+    if PLANNED:
+        p.epilog = f"Scenarios planned but not built yet: {', '.join(PLANNED)}."
     return p
 
 
@@ -122,7 +129,7 @@ def main(argv: list[str] | None = None) -> int:
         return e.code if isinstance(e.code, int) else EXIT_BAD_INPUT
     try:
         return {"run": _run, "fit": _fit, "camera": _camera, "montecarlo": _montecarlo,
-                "discover": _discover}[args.command](args)
+                "discover": _discover, "iso230": _iso230}[args.command](args)
     except BrokenPipeError:  # the reader went away (| head): nothing to say
         sys.stderr.close()
         return EXIT_OK
@@ -296,6 +303,17 @@ def _discover(args) -> int:
     if d.get("summary"):
         print(d["summary"])
     print(f"-> {out / 'discovery.json'}")
+    return EXIT_OK
+
+
+def _iso230(args) -> int:
+    from calibench.scenarios.iso230 import run_iso230
+
+    r = run_iso230(args.run, args.out)
+    a = r["axis"]
+    print(f"ISO 230-2, {r['targets']} targets, {r['runs']} runs each way (um): A {a['A']:.3f}  E {a['E']:.3f}  "
+          f"M {a['M']:.3f}  R {a['R']:.3f}  B {a['B']:.3f}  (A up {a['A_up']:.3f}, down {a['A_down']:.3f})")
+    print(f"-> {args.out / 'iso230.json'}")
     return EXIT_OK
 
 

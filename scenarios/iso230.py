@@ -1,0 +1,84 @@
+"""``calibench iso230 RUN.csv``: the ISO 230-2:2014 evaluation of a user's own bidirectional run
+of one axis (an interferometer's readings at m targets, n runs each way), the same evaluation the
+vision stage's verification uses.
+
+Writes DIR/iso230.json (CONTRACT, "iso230") and DIR/iso230.png, the standard's plot: the mean
+deviation at each target in each direction with its +-2s band, and the axis figures.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from calibench.estimators import iso230_2
+from calibench.recordings import RecordingError, load_axis_run
+from calibench.scenarios.report import BadInput
+
+PER_TARGET = ("mean_up", "mean_down", "mean_bi", "reversal_i", "s_up", "s_down", "R_up_i", "R_down_i", "R_i")
+
+
+def evaluate_run(path: Path) -> dict:
+    """iso230.json's content for the run in ``path``."""
+    run = load_axis_run(path)
+    targets, up, down = run.tables()
+    try:
+        res = iso230_2.evaluate(targets, up, down)
+    except ValueError as e:
+        raise BadInput(f"{path}: {e}") from None
+    if not (np.any(res.s_up > 0) or np.any(res.s_down > 0)):
+        # identical runs carry no repeatability: say so rather than report R = 0
+        raise BadInput(f"{path}: every run repeats the first one exactly: the repeatability (R, s) cannot be "
+                       "evaluated from copies")
+    return {
+        "standard": "ISO 230-2:2014",
+        "file": str(path),
+        "unit": "um",
+        "targets": int(len(targets)),
+        "runs": int(up.shape[1]),
+        "axis": res.as_dict(),
+        "per_target": [{"target_mm": float(t), **{k: float(getattr(res, k)[i]) for k in PER_TARGET}}
+                       for i, t in enumerate(targets)],
+    }
+
+
+def run_iso230(path: Path, out_dir: Path) -> dict:
+    """The ``iso230`` command: evaluate, write DIR/iso230.json and DIR/iso230.png."""
+    try:
+        result = evaluate_run(path)
+    except RecordingError as e:
+        msg = str(e)
+        raise BadInput(msg if str(path) in msg else f"{path}: {msg}") from None
+    out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / "iso230.json").write_text(json.dumps(result, indent=2) + "\n")
+    figure(out_dir / "iso230.png", result)
+    return result
+
+
+def figure(path: Path, result: dict) -> None:
+    """The standard's plot: mean deviations each way with their +-2s bands, and the figures."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = result["per_target"]
+    t = np.array([r["target_mm"] for r in rows])
+    fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
+    for key, s_key, label, color, marker in (("mean_up", "s_up", "approach +", "tab:blue", "^"),
+                                             ("mean_down", "s_down", "approach -", "tab:red", "v")):
+        m = np.array([r[key] for r in rows])
+        s = np.array([r[s_key] for r in rows])
+        ax.plot(t, m, marker=marker, color=color, label=f"mean deviation, {label}")
+        ax.fill_between(t, m - 2 * s, m + 2 * s, color=color, alpha=0.15, label=f"+-2s, {label}")
+    ax.axhline(0, color="k", lw=0.6)
+    a = result["axis"]
+    ax.set(xlabel="target position (mm)", ylabel="deviation, actual - target (um)",
+           title=f"ISO 230-2: A {a['A']:.2f}  E {a['E']:.2f}  M {a['M']:.2f}  R {a['R']:.2f}  B {a['B']:.2f} um "
+                 f"({result['targets']} targets, {result['runs']} runs each way)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.savefig(path, dpi=90)
+    plt.close(fig)

@@ -1,0 +1,79 @@
+"""``calibench iso230``: a user's bidirectional run in, the ISO 230-2 figures out.
+
+The run is built from a known axis: a systematic deviation, a reversal error, and a scatter whose
+sample std is exact (offsets -2..2 times k: s = k sqrt(10 / 4)). Every figure then has a closed
+form, and the command must find it from the shuffled rows of the CSV.
+"""
+
+import json
+
+import numpy as np
+import pytest
+
+from calibench.scenarios.cli import main
+
+TARGETS = np.linspace(0.0, 200.0, 9)
+K_UP, K_DOWN = 0.4, 0.6  # um
+
+
+def _axis():
+    mean_bi = 3.0 + 0.02 * TARGETS - 1.5e-4 * TARGETS**2  # um
+    reversal = 1.0 + 0.5 * np.sin(TARGETS / 40)  # up minus down, um
+    return mean_bi + reversal / 2, mean_bi - reversal / 2, reversal
+
+
+def _write(path, column="deviation_um", seed=0):
+    up, down, _ = _axis()
+    offsets = np.array([-2.0, -1.0, 0.0, 1.0, 2.0])
+    rows = []
+    for i, t in enumerate(TARGETS):
+        for j, o in enumerate(offsets):
+            for d, m, k in ((+1, up[i], K_UP), (-1, down[i], K_DOWN)):
+                dev = m + k * o
+                value = dev if column == "deviation_um" else t + dev / 1000
+                rows.append(f"{t:g},{j + 1},{d},{value:.9f}")
+    rows = list(np.random.default_rng(seed).permutation(rows))
+    path.write_text(f"target_mm,run,direction,{column}\n" + "\n".join(rows) + "\n")
+    return path
+
+
+@pytest.mark.parametrize("column", ["deviation_um", "actual_mm"])
+def test_iso230_finds_the_known_axis(tmp_path, column):
+    up, down, reversal = _axis()
+    s_up, s_down = K_UP * np.sqrt(2.5), K_DOWN * np.sqrt(2.5)
+    assert main(["iso230", str(_write(tmp_path / "run.csv", column)), "--out", str(tmp_path / "out")]) == 0
+    r = json.loads((tmp_path / "out" / "iso230.json").read_text())
+    a = r["axis"]
+    tol = 1e-6 if column == "deviation_um" else 1e-3  # actual_mm is written to 1 nm
+    assert (r["targets"], r["runs"], r["unit"]) == (9, 5, "um")
+    assert a["B"] == pytest.approx(np.abs(reversal).max(), abs=tol)
+    assert a["E_up"] == pytest.approx(np.ptp(up), abs=tol)
+    assert a["E"] == pytest.approx(max(up.max(), down.max()) - min(up.min(), down.min()), abs=tol)
+    assert a["M"] == pytest.approx(np.ptp((up + down) / 2), abs=tol)
+    assert a["R_up"] == pytest.approx(4 * s_up, abs=tol)
+    assert a["R"] == pytest.approx(np.max(2 * s_up + 2 * s_down + np.abs(reversal)), abs=tol)
+    assert a["A"] == pytest.approx(max((up + 2 * s_up).max(), (down + 2 * s_down).max())
+                                   - min((up - 2 * s_up).min(), (down - 2 * s_down).min()), abs=tol)
+    assert [row["target_mm"] for row in r["per_target"]] == pytest.approx(TARGETS)
+    assert (tmp_path / "out" / "iso230.png").stat().st_size > 10_000
+
+
+def _bad(capsys, tmp_path, text, fragment):
+    (tmp_path / "bad.csv").write_text(text)
+    assert main(["iso230", str(tmp_path / "bad.csv"), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "Traceback" not in err and fragment in err
+    assert not (tmp_path / "o" / "iso230.json").exists()
+
+
+def test_iso230_bad_runs(capsys, tmp_path):
+    head = "target_mm,run,direction,deviation_um\n"
+    _bad(capsys, tmp_path, "target_mm,run,direction\n0,1,1\n", "deviation_um (or actual_mm)")
+    _bad(capsys, tmp_path, head + "0,1,1,2\n0,2,1,3\n10,1,1,2\n10,2,1,2\n", "negative direction")
+    _bad(capsys, tmp_path, head + "0,1,2,2\n", "direction is 2")
+    one_run = "".join(f"{t},1,{d},1\n" for t in (0, 10) for d in (1, -1))
+    _bad(capsys, tmp_path, head + one_run, "needs at least 2")
+    copies = "".join(f"{t},{r},{d},1\n" for t in (0, 10) for r in (1, 2) for d in (1, -1))
+    _bad(capsys, tmp_path, head + copies, "copies")
+    uneven = copies + "0,3,1,1\n"
+    _bad(capsys, tmp_path, head + uneven, "same number of runs")
