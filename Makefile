@@ -4,7 +4,7 @@ VENV   ?= .venv
 BIN     = $(VENV)/bin
 export MUJOCO_GL = egl
 
-.PHONY: demo test clean
+.PHONY: demo test quick clean
 
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -17,6 +17,9 @@ demo: $(VENV)/.installed
 
 test: $(VENV)/.installed
 	$(BIN)/python -m pytest -q
+
+quick: $(VENV)/.installed
+	$(BIN)/python -m pytest -q tests/estimators tests/test_recordings.py tests/test_bad_input.py tests/scenarios/test_iso230.py
 
 clean:
 	rm -rf $(VENV) calibench-out .pytest_cache

@@ -9,8 +9,9 @@ import time
 from pathlib import Path
 from tempfile import TemporaryDirectory
 
-import calibench.sim  # noqa: F401  (MUJOCO_GL before mujoco)
-import numpy as np
+os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco is imported: renders without a display
+
+import numpy as np  # noqa: E402
 
 from calibench.estimators.chessboard import find_chessboard_corners
 from calibench.scenarios import belt_stage

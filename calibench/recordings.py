@@ -13,8 +13,10 @@ from pathlib import Path
 
 import numpy as np
 
+from calibench.errors import BadInput
 
-class RecordingError(ValueError):
+
+class RecordingError(BadInput):
     """A recording that cannot be used as it is (missing column, NaN, unreadable file)."""
 
 
@@ -74,37 +76,51 @@ class StageRecording:
             w.writerows([[f"{v:.9g}" for v in row] for row in data])
 
 
-def _read_columns(path: str | Path, required: tuple, optional: tuple) -> dict[str, np.ndarray]:
+def _read_columns(path: str | Path, required: tuple, optional: tuple,
+                  max_rows: int | None = None) -> dict[str, np.ndarray]:
     """Numeric columns of a CSV by name; one clear RecordingError for any defect."""
     path = Path(path)
     try:
         with open(path, newline="", encoding="utf-8-sig") as f:
             rows = list(csv.reader(f))
+    except IsADirectoryError:
+        raise RecordingError(f"{path} is a folder, not a CSV file") from None
     except OSError as e:
         raise RecordingError(f"cannot read {path}: {e.strerror}") from None
     except UnicodeDecodeError:
-        raise RecordingError(f"{path} is not a text CSV file") from None
+        raise RecordingError(f"{path} is not UTF-8 text (Latin-1, or not a CSV at all?): save it as UTF-8 CSV") from None
+    except csv.Error as e:
+        raise RecordingError(f"{path} is not a CSV file ({e})") from None
     if not rows or not rows[0]:
         raise RecordingError(f"{path} is empty")
     header = [h.strip() for h in rows[0]]
+    if len(header) == 1 and ";" in header[0]:
+        raise RecordingError(f"{path} is separated by semicolons (a spreadsheet's export with decimal commas?): "
+                             "the format wants commas between values and points in numbers")
     missing = [c for c in required if c not in header]
     if missing:
         raise RecordingError(f"{path}: missing column(s) {', '.join(missing)}")
     body = [r for r in rows[1:] if any(cell.strip() for cell in r)]
     if not body:
         raise RecordingError(f"{path}: no data rows")
+    if max_rows is not None and len(body) > max_rows:
+        raise RecordingError(f"{path}: {len(body)} rows; this command takes at most {max_rows}: decimate the "
+                             "recording or split it")
     fields = {}
     for name in required + optional:
         if name not in header:
             continue
         j = header.index(name)
-        values = np.empty(len(body))
-        for i, r in enumerate(body):
-            try:
-                values[i] = float(r[j])
-            except (IndexError, ValueError):
+        try:  # the whole column at once; the loop below only finds the bad cell
+            values = np.array([r[j] for r in body], dtype=float)
+        except (IndexError, ValueError):
+            for i, r in enumerate(body):
                 cell = r[j] if j < len(r) else ""
-                raise RecordingError(f"{path} line {i + 2}: column {name} is {cell!r}, not a number") from None
+                try:
+                    float(cell)
+                except ValueError:
+                    raise RecordingError(f"{path} line {i + 2}: column {name} is {cell!r}, not a number") from None
+            raise
         bad = ~np.isfinite(values)
         if bad.any():
             raise RecordingError(f"{path} line {int(np.argmax(bad)) + 2}: column {name} is not finite")
@@ -112,9 +128,24 @@ def _read_columns(path: str | Path, required: tuple, optional: tuple) -> dict[st
     return fields
 
 
-def load_stage_csv(path: str | Path) -> StageRecording:
-    """Read a stage recording; one clear RecordingError for any defect."""
-    return StageRecording(**_read_columns(path, StageRecording.REQUIRED, StageRecording.OPTIONAL))
+MAX_STAGE_MM = 1e7  # 10 km: beyond it a coordinate is a wrong unit or a corrupt value
+
+
+def load_stage_csv(path: str | Path, max_rows: int | None = None) -> StageRecording:
+    """Read a stage recording; one clear RecordingError for any defect (a missing column, a
+    value that is not a number or not finite, a coordinate beyond 10 km, a direction other than
+    -1, 0, +1). ``max_rows``: refuse longer recordings before converting them."""
+    cols = _read_columns(path, StageRecording.REQUIRED, StageRecording.OPTIONAL, max_rows)
+    for name in StageRecording.REQUIRED:
+        big = np.abs(cols[name]) > MAX_STAGE_MM
+        if big.any():
+            raise RecordingError(f"{path} line {int(np.argmax(big)) + 2}: {name} is {cols[name][big][0]:.3g} mm "
+                                 "(over 10 km): a wrong unit or a corrupt value")
+    for name in ("dir_x", "dir_y"):
+        if name in cols and not np.isin(cols[name], (-1.0, 0.0, 1.0)).all():
+            i = int(np.argmax(~np.isin(cols[name], (-1.0, 0.0, 1.0))))
+            raise RecordingError(f"{path} line {i + 2}: {name} is {cols[name][i]:g}; a direction is -1, 0 or +1")
+    return StageRecording(**cols)
 
 
 @dataclasses.dataclass
@@ -176,7 +207,7 @@ def _joint_columns(path: Path) -> int:
     return n
 
 
-def load_arm_csv(path: str | Path, n_joints: int | None = None) -> ArmRecording:
+def load_arm_csv(path: str | Path, n_joints: int | None = None, max_rows: int | None = None) -> ArmRecording:
     """Read an arm recording (CONTRACT, "Arms"): q1_deg..qN_deg, x_mm, y_mm, z_mm; optional
     x_std_mm, y_std_mm, z_std_mm, t_s, temp_c.
 
@@ -191,7 +222,7 @@ def load_arm_csv(path: str | Path, n_joints: int | None = None) -> ArmRecording:
         raise RecordingError(f"{path}: {found} joint column(s) (q1_deg..q{found}_deg) but the arm has "
                              f"{n_joints} joints")
     q_cols = tuple(f"q{j}_deg" for j in range(1, n + 1))
-    cols = _read_columns(path, q_cols + ("x_mm", "y_mm", "z_mm"), ARM_OPTIONAL)
+    cols = _read_columns(path, q_cols + ("x_mm", "y_mm", "z_mm"), ARM_OPTIONAL, max_rows)
     q_deg = np.stack([cols[c] for c in q_cols], axis=1)
     xyz = np.stack([cols["x_mm"], cols["y_mm"], cols["z_mm"]], axis=1)
     if len(q_deg) >= 10 and np.ptp(q_deg, axis=0).max() > 0.5 and np.abs(q_deg).max() <= 2 * np.pi:

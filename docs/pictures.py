@@ -1,9 +1,11 @@
 """Regenerate the README's pictures: ``python docs/pictures.py`` (writes docs/*.png)."""
 
+import os
 from pathlib import Path
 
-import calibench.sim  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
-import cv2
+os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco is imported: renders without a display
+
+import cv2  # noqa: E402
 import mujoco
 import numpy as np
 

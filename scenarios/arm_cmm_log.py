@@ -21,6 +21,12 @@ def log_run(path: Path, report, a: dict) -> None:
     try:
         sim = a["sim"]
         paths = rrlog.log_mujoco_bodies(rec, sim.model)
+        V = rrlog.View
+        rrlog.send_layout(rec, [
+            [V("3d", "world", "the arm and its tracker", eye=rrlog.eye_on(sim.model)),
+             V("3d", "probe", "probe points: measured, modelled before and after")],
+            [V("plot", "residual_mm", "residual (mm) by posture: before, after")],
+            [V("text", "report", "truth against estimate"), V("2d", "figures", "figures")]], "posture")
         problem, st = a["problem"], a["ident"].state
         r, az, el = problem.meas.T
         y = np.stack([r * np.cos(el) * np.cos(az), r * np.cos(el) * np.sin(az), r * np.sin(el)], axis=1)

@@ -207,9 +207,7 @@ def coverage_warnings(chain, q_train: np.ndarray, tests: dict[str, np.ndarray], 
 
 
 def _load(path: Path, n_joints: int) -> ArmRecording:
-    rec = load_arm_csv(path, n_joints)
-    if len(rec) > MAX_ROWS:
-        raise BadInput(f"{path}: {len(rec)} rows; fit handles up to {MAX_ROWS}: decimate the recording")
+    rec = load_arm_csv(path, n_joints, MAX_ROWS)
     return rec
 
 
@@ -280,7 +278,7 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
     sig = None
     if all(r.xyz_std_mm is not None for r in train):
         sig = np.vstack([r.xyz_std_mm[k] for r, k in zip(train, used)])
-    _check_postures(q, len(paths))
+    check_postures(q, len(paths))
     discovery = None
     if run_discovery:
         from calibench.scenarios.discover import discover_arm
@@ -386,7 +384,7 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
     return result
 
 
-def _check_postures(q: np.ndarray, n_recordings: int) -> None:
+def check_postures(q: np.ndarray, n_recordings: int) -> None:
     """Degenerate posture sets are bad input: too few distinct postures, or one repeated."""
     distinct = len(np.unique(np.round(np.degrees(q), 2), axis=0))
     if distinct < 0.1 * len(q) and distinct < 50:

@@ -34,6 +34,7 @@ from calibench.scenarios.report import Check, Parameter, Report
 from calibench.scenes.belt_stage import BeltStageGeometry
 from calibench.sim.belt_stage import PULSES_PER_MM, BeltStageSim, BeltStageTruth, intrinsic_view_poses
 from calibench.recordings import CameraViews
+from calibench.errors import BadInput
 
 NAME = "belt-stage"
 
@@ -98,7 +99,7 @@ def run(config: BeltStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: b
         y_pulses = np.rint(ys.ravel() * PULSES_PER_MM).astype(np.int64)
         home = np.flatnonzero((x_pulses == 0) & (y_pulses == 0))
         if len(home) != 1:
-            raise ValueError("the station grid must contain the home station (0, 0) once")
+            raise BadInput("the station grid must contain the home station (0, 0) once")
         ref = int(home[0])
         station_views, station_true = _record(sim, fidelity, config, rng, size,
                                               [("station", xp, yp) for xp, yp in zip(x_pulses, y_pulses)])

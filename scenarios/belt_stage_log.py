@@ -24,6 +24,14 @@ def log_run(path: Path, report, a: dict) -> None:
         model = sim.model
         texture = g.board.texture(16)
         paths = rrlog.log_mujoco_bodies(rec, model, textures={"board": texture, "calib_board": texture})
+        V = rrlog.View
+        rrlog.send_layout(rec, [
+            [V("3d", "world", "the stage", eye=rrlog.eye_on(model)),
+             V("3d", "error_map", f"error map (arrows x{ARROW_GAIN:g}): true red, measured green, fitted blue")],
+            [V("2d", "world/overhead", "overhead camera: detected green, true red"),
+             V("2d", "calibration", "calibration views")],
+            [V("plot", "error_map/station_error_mm", "station error (mm) by station"),
+             V("text", "report", "truth against estimate"), V("2d", "figures", "error maps")]], "station")
         R_c2w, p_c2w = sim.cam2world()
         cam = g.camera
         rrlog.log_camera(rec, "world/overhead", cam.K, (cam.width, cam.height), R_c2w, p_c2w)

@@ -21,34 +21,49 @@ def calibrate_photos(paths: list[Path], cols: int, rows: int, square_mm: float, 
         raise BadInput("camera: --cols and --rows must be >= 2 and --square-mm > 0")
     if radial not in (2, 3):
         raise BadInput("camera: --radial must be 2 or 3")
-    used, points, rejected = [], [], {}
-    size = None
     for p in paths:
         if not p.is_file():
             raise BadInput(f"camera: no such image {p}")
+    images, rejected = {}, {}
+    for p in paths:
         img = cv2.imread(str(p), cv2.IMREAD_GRAYSCALE)
         if img is None:
             rejected[p.name] = "not a readable image"
-            continue
-        if size is None:
-            size = img.shape[::-1]
-        elif img.shape[::-1] != size:
-            rejected[p.name] = f"size {img.shape[1]}x{img.shape[0]} differs from {size[0]}x{size[1]}"
+        else:
+            images[p] = img
+    # the size most photos share is the camera's: one odd photo, first or not, is the one rejected
+    sizes = [img.shape[::-1] for img in images.values()]
+    size = max(set(sizes), key=sizes.count) if sizes else None
+    used, points = [], []
+    for p, img in images.items():
+        if img.shape[::-1] != size:
+            rejected[p.name] = f"size {img.shape[1]}x{img.shape[0]} differs from the others' {size[0]}x{size[1]}"
             continue
         corners = find_chessboard_corners(img, cols, rows)
         if corners is None:
             rejected[p.name] = f"no {cols}x{rows} chessboard found"
             continue
+        # the same view twice adds no information but would count as a constraint: left out
+        same = next((u for u, c in zip(used, points) if np.max(np.abs(c - corners)) < 0.5), None)
+        if same is not None:
+            rejected[p.name] = f"the same view as {same} (corners within 0.5 px)"
+            continue
         used.append(p.name)
         points.append(corners)
     if len(used) < 3:
-        raise BadInput(f"camera: the board was found in {len(used)} image(s); a calibration needs at least 3")
+        why = "; ".join(f"{k}: {v}" for k, v in list(rejected.items())[:3])
+        more = f" and {len(rejected) - 3} more" if len(rejected) > 3 else ""
+        raise BadInput(f"camera: {len(used)} usable view(s) of the {cols}x{rows} board among {len(paths)} image(s), "
+                       f"a calibration needs at least 3 distinct ones ({why}{more})")
     board = Chessboard(cols=cols, rows=rows, square_mm=square_mm)
     try:
         calib = calibrate_camera(board.corners_mm(), points, size, fix_aspect=fix_aspect,
                                  fix_k3=radial < 3, tangential=tangential)
     except CalibrationError as e:
         raise BadInput(f"camera: {e}") from None
+    except cv2.error as e:  # OpenCV's own assertions on degenerate view sets
+        raise BadInput(f"camera: the views are degenerate for calibration (OpenCV: "
+                       f"{str(e).strip().splitlines()[-1][:120]}): tilt the board differently in each photo") from None
     return {
         "image_size": list(size),
         "K": calib.K.tolist(),

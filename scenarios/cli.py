@@ -8,6 +8,7 @@ import time
 from pathlib import Path
 
 EXIT_OK, EXIT_CHECK_FAILED, EXIT_BAD_INPUT, EXIT_INTERNAL = 0, 1, 2, 3
+MAX_TRIALS = 1_000_000
 
 
 class _Parser(argparse.ArgumentParser):
@@ -27,10 +28,54 @@ def _positive_int(text: str) -> int:
     return v
 
 
-def _parser() -> argparse.ArgumentParser:
-    from calibench.scenarios.registry import PLANNED, SCENARIOS
+def _seed(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if not 0 <= v < 2**63:
+        raise argparse.ArgumentTypeError(f"{v}: a seed is a whole number from 0 to 2^63 - 1")
+    return v
 
-    names = ", ".join(SCENARIOS)
+
+def _trials(text: str) -> int:
+    v = _positive_int(text)
+    if v > MAX_TRIALS:
+        raise argparse.ArgumentTypeError(f"{v}: at most {MAX_TRIALS} trials a study (run several studies)")
+    return v
+
+
+def _positive_float(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (v > 0 and v < float("inf")):
+        raise argparse.ArgumentTypeError(f"{text}: a positive finite number")
+    return v
+
+
+def _fraction(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not 0.0 < v < 0.9:
+        raise argparse.ArgumentTypeError(f"{text}: a fraction between 0 and 0.9")
+    return v
+
+
+def _board_count(text: str) -> int:
+    v = _positive_int(text)
+    if v < 2:
+        raise argparse.ArgumentTypeError(f"{v}: a board has at least 2 inner corners each way")
+    return v
+
+
+def _parser() -> argparse.ArgumentParser:
+    from calibench.scenarios.registry import FIT_MODELS, NAMES, PLANNED
+
+    names = ", ".join(NAMES)
     p = _Parser(prog="calibench", description="Simulation-first test bench for calibrating measuring machines.")
     from calibench import __version__
 
@@ -40,7 +85,7 @@ def _parser() -> argparse.ArgumentParser:
     r = sub.add_parser("run", help="simulate a scenario, calibrate, compare with the truth",
                        description=f"Run a scenario ({names}) or all of them; writes DIR/report.json and DIR/run.rrd.")
     r.add_argument("scenario", help=f"one of: {names}; or 'all'")
-    r.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    r.add_argument("--seed", type=_seed, default=0, help="random seed (default 0)")
     r.add_argument("--out", type=Path, help="output folder (default ./calibench-out/<scenario>)")
     r.add_argument("--fidelity", choices=("render", "analytic"), default="render",
                    help="render: pixels through MuJoCo's renderer and the real detector; "
@@ -49,7 +94,7 @@ def _parser() -> argparse.ArgumentParser:
     r.add_argument("--no-rrd", action="store_true", help="do not write the rerun recording")
     r.add_argument("--arm", help="arm-cmm: ARM.toml or a built-in arm (arm-cmm, ur10) instead of the seed's arm")
 
-    fit_names = ", ".join([n for n, s in SCENARIOS.items() if s.fit_model] + ["arm-cmm"])
+    fit_names = ", ".join(list(FIT_MODELS) + ["arm-cmm"])
     f = sub.add_parser("fit", help="fit the scenario's error model to real recordings (CSV)",
                        description="Fit the scenario's calibration model to recordings; writes DIR/fit.json. "
                                    "Stages: one recording (x_cmd_mm, y_cmd_mm, x_meas_mm, y_meas_mm). arm-cmm: "
@@ -64,7 +109,7 @@ def _parser() -> argparse.ArgumentParser:
     f.add_argument("--test-new-frame", type=Path, action="append", default=[], metavar="CSV",
                    help="arm-cmm: a recording from another setup: registered on 20 %% of its rows, tested on "
                         "the rest (repeatable)")
-    f.add_argument("--holdout", type=float, metavar="F",
+    f.add_argument("--holdout", type=_fraction, metavar="F",
                    help="arm-cmm: keep a fraction F of every training recording out of the fit (fixed seed)")
     f.add_argument("--model", choices=("geometry", "physics"),
                    help="arm-cmm: geometry (kinematics, base, tool) or physics (and the joints' compliance "
@@ -78,10 +123,10 @@ def _parser() -> argparse.ArgumentParser:
                                     "writes DIR/trials.parquet, DIR/summary.json, DIR/study.png. "
                                     "Rerunning the same command resumes: finished trials are kept.")
     mc.add_argument("scenario", help=f"one of: {names}")
-    mc.add_argument("--trials", type=int, required=True, help="number of trials")
+    mc.add_argument("--trials", type=_trials, required=True, help="number of trials")
     mc.add_argument("--workers", type=_positive_int, help="local worker processes (default: all cores)")
     mc.add_argument("--scheduler", help="address of a Dask scheduler (tcp://host:8786) instead of local workers")
-    mc.add_argument("--seed", type=int, default=0, help="study seed (default 0)")
+    mc.add_argument("--seed", type=_seed, default=0, help="study seed (default 0)")
     mc.add_argument("--out", type=Path, help="output folder (default ./calibench-out/<scenario>-montecarlo)")
     mc.add_argument("--fidelity", choices=("render", "analytic"), default="analytic",
                     help="sensor fidelity of each trial (default analytic)")
@@ -95,7 +140,7 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("recording", type=Path, nargs="+", help="CSV in the CONTRACT's stage or arm format (arm-cmm: "
                                                            "one or more, each with its own base frame)")
     d.add_argument("--out", type=Path, help="output folder (default ./calibench-out/<scenario>-discover)")
-    d.add_argument("--seed", type=int, default=0, help="seed of the permutation tests (default 0)")
+    d.add_argument("--seed", type=_seed, default=0, help="seed of the permutation tests (default 0)")
     d.add_argument("--arm", help="arm-cmm: ARM.toml or a built-in arm (arm-cmm, ur10); default the seed's arm")
     d.add_argument("--holdout", choices=("pass", "rows", "columns", "blocks"),
                    help="what cross-validation holds out (default: passes if the recording has several, "
@@ -104,9 +149,9 @@ def _parser() -> argparse.ArgumentParser:
     c = sub.add_parser("camera", help="calibrate a camera from chessboard photos",
                        description="Calibrate a camera from real chessboard photos; writes DIR/intrinsics.json.")
     c.add_argument("images", nargs="+", type=Path, help="photos of the chessboard")
-    c.add_argument("--cols", type=int, required=True, help="inner corners per row")
-    c.add_argument("--rows", type=int, required=True, help="inner corners per column")
-    c.add_argument("--square-mm", type=float, required=True, help="side of a square, mm")
+    c.add_argument("--cols", type=_board_count, required=True, help="inner corners per row")
+    c.add_argument("--rows", type=_board_count, required=True, help="inner corners per column")
+    c.add_argument("--square-mm", type=_positive_float, required=True, help="side of a square, mm")
     c.add_argument("--fix-aspect", action="store_true", help="keep fx = fy")
     c.add_argument("--radial", type=int, choices=(2, 3), default=3, help="radial terms k1..k3 (default 3)")
     c.add_argument("--no-tangential", action="store_true", help="no tangential terms p1, p2")
@@ -123,28 +168,59 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    import os
+
+    os.environ.setdefault("MUJOCO_GL", "egl")  # before MuJoCo's first import: renders without a display
     try:
         args = _parser().parse_args(argv)
     except SystemExit as e:  # usage errors (status 2) and --help (0), as a return value
         return e.code if isinstance(e.code, int) else EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("calibench: interrupted", file=sys.stderr)
+        return 130
+    created = None
     try:
+        created = _check_out(getattr(args, "out", None))
         return {"run": _run, "fit": _fit, "camera": _camera, "montecarlo": _montecarlo,
                 "discover": _discover, "iso230": _iso230}[args.command](args)
     except BrokenPipeError:  # the reader went away (| head): nothing to say
         sys.stderr.close()
         return EXIT_OK
     except KeyboardInterrupt:
-        print("calibench: interrupted; finished trials are kept, rerun the same command to resume", file=sys.stderr)
+        kept = "; finished trials are kept, rerun the same command to resume" if args.command == "montecarlo" else ""
+        print(f"calibench: interrupted{kept}", file=sys.stderr)
         return 130
     except Exception as e:  # noqa: BLE001 - bad input is reported in one line
-        from calibench.recordings import RecordingError
-        from calibench.scenarios.report import BadInput
-        from calibench.scenes.arm_cmm import ArmFileError
+        from calibench.errors import BadInput
 
-        if isinstance(e, (BadInput, RecordingError, ArmFileError)):
+        if isinstance(e, BadInput):
             print(f"calibench: {e}", file=sys.stderr)
+            if created is not None and created.is_dir() and not any(created.iterdir()):
+                created.rmdir()
             return EXIT_BAD_INPUT
         return _internal_error(e, getattr(args, "out", None))
+
+
+def _check_out(out: Path | None) -> Path | None:
+    """--out must be a folder calibench can write: said before any work. Returns the folder if
+    this call created it (removed again if the command ends in bad input, empty)."""
+    if out is None:
+        return None
+    from calibench.scenarios.report import BadInput
+
+    out = Path(out)
+    for parent in [out, *out.parents]:
+        if parent.exists() and not parent.is_dir():
+            raise BadInput(f"--out {out}: {parent} is a file, not a folder")
+    created = None if out.exists() else out
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        probe = out / ".calibench-write-test"
+        probe.touch()
+        probe.unlink()
+    except OSError as e:
+        raise BadInput(f"--out {out}: cannot write there ({e.strerror})") from None
+    return created
 
 
 def _internal_error(e: Exception, out: Path | None) -> int:
@@ -191,6 +267,10 @@ def _run(args) -> int:
         if "arm-cmm" not in configs:
             raise BadInput(f"--arm applies to arm-cmm, not {args.scenario}")
         configs["arm-cmm"] = override(configs["arm-cmm"], {"arm": args.arm}, "arm-cmm")
+    if "arm-cmm" in configs:
+        from calibench.scenes.arm_cmm import load_arm
+
+        load_arm(configs["arm-cmm"].arm)  # a bad arm is said before anything runs
     status = EXIT_OK
     for s in scenarios:
         if args.out is None:
@@ -198,10 +278,11 @@ def _run(args) -> int:
         else:
             out = args.out / s.name if args.scenario == "all" else args.out
         t0 = time.perf_counter()
-        print(f"calibench: {s.name} (seed {args.seed}, {args.fidelity})", file=sys.stderr, flush=True)
+        how = f"seed {args.seed}, {args.fidelity}" if s.renders else f"seed {args.seed}"
+        print(f"calibench: {s.name} ({how})", file=sys.stderr, flush=True)
         try:
-            report = s.run(configs[s.name], args.seed, args.fidelity, out, not args.no_rrd)
-        except ValueError as e:
+            report = s.execute(configs[s.name], args.seed, args.fidelity, out, not args.no_rrd)
+        except BadInput as e:
             raise BadInput(f"{s.name}: {e}") from None
         report.elapsed_s = time.perf_counter() - t0
         path = report.write(out)

@@ -13,11 +13,31 @@ A config file holds one table per scenario, nested as the dataclasses are::
 from __future__ import annotations
 
 import dataclasses
+import math
 import tomllib
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from calibench.scenarios.report import BadInput
+
+# Ranges by what a key names, so that every scenario's config is checked the same way.
+# Counts (int): at least 1, at most MAX_COUNT (a typo of 1e9 postures is refused before any work).
+MAX_COUNT = 100_000
+MIN_COUNT = {"cols": 2, "rows": 2, "n": 3, "runs": 2, "targets_per_line": 2, "samples_per_turn": 8,
+             "width": 16, "height": 16, "align_max_turns": 0}
+MAX_PIXELS = 8192  # a camera side
+# Lists that are a point, a pair or a model's coefficients (other lists: as long as you like)
+FIXED_LENGTH = {"travel_mm", "error_x", "error_y", "centre_mm", "plate_centre_mm", "tracker_pos_mm",
+                "tracker_tilt_rad", "cone_a_mm", "cone_b_mm", "range_noise_um", "reversal_um", "length_noise_um",
+                "plate_origin_reading_mm", "x_guide_ref_mm", "y_guide_ref_mm", "grid", "m_sweep"}
+# Floats that are scatters, limits or sizes: a negative one is a typo, not a physics.
+NONNEGATIVE = ("noise", "sigma", "jitter", "limit", "tolerance", "repeatability", "quantum", "psf", "seat",
+               "error_um", "aim_um", "reversal_um", "contour_quanta", "requirement")
+POSITIVE = ("square_mm", "pitch_mm", "diameter_mm", "fx", "fy", "working_distance_mm", "camera_height_mm",
+            "period", "half_side_mm", "rail_length_mm", "A_mm", "B_mm", "travel_mm", "home_height_mm",
+            "translation_mm", "rotation_deg", "p")
 
 
 def load_toml(path: str | Path) -> dict:
@@ -26,6 +46,8 @@ def load_toml(path: str | Path) -> dict:
             return tomllib.load(f)
     except OSError as e:
         raise BadInput(f"cannot read config {path}: {e.strerror}") from None
+    except UnicodeDecodeError:
+        raise BadInput(f"config {path} is not valid TOML: not UTF-8 text") from None
     except tomllib.TOMLDecodeError as e:
         raise BadInput(f"config {path} is not valid TOML: {e}") from None
 
@@ -50,17 +72,62 @@ def override(obj: Any, table: dict, where: str) -> Any:
         raise BadInput(f"config: {where}: {e}") from None
 
 
+def _number(value: Any, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise BadInput(f"config: {where} must be a number, not {value!r}")
+    if math.isnan(value) or (math.isinf(value) and "stiffness" not in where):  # inf: a rigid joint
+        raise BadInput(f"config: {where} is {value}: a finite number please")
+    return value
+
+
+def _check_range(key: str, value: float, where: str) -> None:
+    if any(w in key for w in NONNEGATIVE) and value < 0:
+        raise BadInput(f"config: {where} = {value}: must be zero or positive")
+    if (key in POSITIVE or key.endswith(tuple("_" + w for w in POSITIVE))) and value <= 0:
+        raise BadInput(f"config: {where} = {value}: must be positive")
+
+
 def _coerce(current: Any, value: Any, where: str) -> Any:
+    key = where.rsplit(".", 1)[-1]
     if isinstance(current, bool):
         if not isinstance(value, bool):
             raise BadInput(f"config: {where} must be true or false")
         return value
-    if isinstance(current, (int, float)) and not isinstance(current, bool):
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise BadInput(f"config: {where} must be a number")
-        return type(current)(value) if isinstance(current, float) or float(value).is_integer() else value
-    if isinstance(current, tuple):
+    if isinstance(current, int):
+        v = _number(value, where)
+        if not float(v).is_integer():
+            raise BadInput(f"config: {where} = {v}: must be a whole number")
+        v = int(v)
+        lo = MIN_COUNT.get(key, 1)
+        hi = MAX_PIXELS if key in ("width", "height") else MAX_COUNT
+        if not lo <= v <= hi:
+            raise BadInput(f"config: {where} = {v}: must be between {lo} and {hi}")
+        return v
+    if isinstance(current, float):
+        v = float(_number(value, where))
+        _check_range(key, v, where)
+        return v
+    if isinstance(current, (tuple, np.ndarray)):
         if not isinstance(value, list):
             raise BadInput(f"config: {where} must be a list")
+        flat = np.asarray(value, dtype=object).ravel() if value else []
+        for x in flat:
+            if isinstance(x, list):
+                raise BadInput(f"config: {where}: rows of different lengths")
+            _number(x, where)
+            _check_range(key, float(x), where)
+        if isinstance(current, tuple) and current and all(isinstance(c, int) and not isinstance(c, bool) for c in current):
+            if not all(float(x).is_integer() for x in flat):
+                raise BadInput(f"config: {where} takes whole numbers")
+            value = [int(x) for x in value]
+        if isinstance(current, np.ndarray):
+            arr = np.asarray(value, float)
+            if arr.shape != current.shape:
+                raise BadInput(f"config: {where} has shape {arr.shape}, expected {current.shape}")
+            return arr
+        if key in FIXED_LENGTH and len(value) != len(current):
+            raise BadInput(f"config: {where} has {len(value)} values, expected {len(current)}")
         return tuple(value)
+    if isinstance(current, str) and not isinstance(value, str):
+        raise BadInput(f"config: {where} must be a string")
     return value

@@ -20,6 +20,7 @@ import json
 import math
 import multiprocessing
 import os
+import re
 import sys
 import time
 import traceback
@@ -40,8 +41,7 @@ def trial_seed(study_seed: int, index: int) -> int:
 
 def run_trial(scenario: str, study_seed: int, index: int, fidelity: str, arm: str | None = None) -> dict:
     """One trial, in a worker process; never raises (a failure is a row with its error)."""
-    import calibench.scenarios  # noqa: F401  (OpenCV single-threaded, MUJOCO_GL via sim)
-    import calibench.sim  # noqa: F401
+    os.environ.setdefault("MUJOCO_GL", "egl")  # a worker renders without a display
 
     seed = trial_seed(study_seed, index)
     row = {"trial": index, "seed": seed, "ok": True, "error": None}
@@ -57,7 +57,7 @@ def run_trial(scenario: str, study_seed: int, index: int, fidelity: str, arm: st
         if hasattr(module, "trial_parameters"):
             params = module.trial_parameters(config, seed)
         else:
-            params = s.run(config, seed, fidelity, None, False).parameters
+            params = s.execute(config, seed, fidelity, None, False).parameters
         for p in params:
             row[f"{p.name}.truth"] = float(p.truth)
             row[f"{p.name}.estimate"] = float(p.estimate)
@@ -86,34 +86,66 @@ def chunk_size(n_todo: int, fidelity: str) -> int:
 
 
 def load_journal(out_dir: Path) -> dict[int, dict]:
-    """Finished trials by index (a torn last line from an interruption is ignored)."""
+    """Finished trials by index. A row an interruption tore is ignored; anything else that is not
+    a trial of calibench's is bad input, said with the line."""
     path = out_dir / JOURNAL
     done = {}
-    if path.exists():
-        for line in path.read_text().splitlines():
-            try:
-                row = json.loads(line)
-            except json.JSONDecodeError:
-                continue
-            done[int(row["trial"])] = row
+    if not path.exists():
+        return done
+    try:
+        text = path.read_text()
+    except (OSError, UnicodeDecodeError):
+        raise BadInput(f"{path} cannot be read as a journal of trials: remove it or use another --out") from None
+    lines = text.splitlines()
+    for k, line in enumerate(lines):
+        if not line.strip():
+            continue
+        try:
+            row = json.loads(line)
+        except json.JSONDecodeError:
+            if line.startswith('{"trial": '):
+                continue  # a row torn by an interruption (a resume starts a fresh line after it)
+            row = None
+        if not (isinstance(row, dict) and isinstance(row.get("trial"), int) and row["trial"] >= 0
+                and isinstance(row.get("ok"), bool) and "seed" in row):
+            raise BadInput(f"{path} line {k + 1} is not a finished trial of calibench's: the journal is corrupt or "
+                           "another program's; remove it or use another --out")
+        done[row["trial"]] = row
     return done
+
+
+def _ignore_interrupts() -> None:
+    """In a worker: Ctrl-C is the parent's to handle (one line), not a traceback per worker."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def make_executor(workers: int | None, scheduler: str | None):
     """(executor, closer): a spawn process pool, or a Dask cluster's executor."""
     if scheduler:
+        if not re.fullmatch(r"(tcp|tls|ucx|inproc|ws|wss)://[^\s/:]+(:\d+)?|[^\s/:]+:\d+", scheduler):
+            raise BadInput(f"--scheduler {scheduler}: not a scheduler's address (tcp://host:8786)")
         try:
             from distributed import Client
         except ImportError:
-            raise BadInput("--scheduler needs Dask distributed (pip install distributed)") from None
+            raise BadInput("--scheduler needs Dask distributed: pip install 'calibench[cluster]'") from None
         try:
             client = Client(scheduler, timeout="10s")
-        except OSError as e:
-            raise BadInput(f"cannot reach the Dask scheduler at {scheduler}: {e}") from None
-        return client.get_executor(), client.close
+        except (OSError, ValueError, TimeoutError) as e:
+            raise BadInput(f"--scheduler {scheduler}: cannot reach the Dask scheduler ({e})") from None
+        return client.get_executor(), lambda interrupted=False: client.close()
     n = workers or os.cpu_count() or 1
-    ex = cf.ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context("spawn"))
-    return ex, lambda: ex.shutdown(wait=False, cancel_futures=True)
+    ex = cf.ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context("spawn"),
+                                initializer=_ignore_interrupts)
+
+    def close(interrupted: bool = False) -> None:
+        if interrupted:  # a worker mid-chunk would hold the exit for its whole chunk: its trials are not kept anyway
+            for proc in list(getattr(ex, "_processes", {}).values()):
+                proc.terminate()
+        ex.shutdown(wait=False, cancel_futures=True)
+
+    return ex, close
 
 
 def run_study(scenario: str, trials: int, seed: int, fidelity: str, out_dir: Path, workers: int | None = None,
@@ -131,7 +163,14 @@ def run_study(scenario: str, trials: int, seed: int, fidelity: str, out_dir: Pat
     if arm is not None:
         meta["arm"] = arm
     meta_path = out_dir / "study.json"
-    if meta_path.exists() and json.loads(meta_path.read_text()) != meta:
+    old = None
+    if meta_path.exists():
+        try:
+            old = json.loads(meta_path.read_text())
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+            raise BadInput(f"{meta_path} is not a study's description (corrupt?): remove it or use another "
+                           "--out") from None
+    if old is not None and old != meta:
         raise BadInput(f"{out_dir} holds a different study ({meta_path.read_text().strip()}); use another --out")
     meta_path.write_text(json.dumps(meta) + "\n")
     done = load_journal(out_dir)
@@ -142,6 +181,7 @@ def run_study(scenario: str, trials: int, seed: int, fidelity: str, out_dir: Pat
         if own:
             executor, close = make_executor(workers, scheduler)
         bar = _progress(len(todo), trials - len(todo), progress)
+        interrupted = False
         try:
             path = out_dir / JOURNAL
             torn = path.exists() and path.stat().st_size and not path.read_bytes().endswith(b"\n")
@@ -157,10 +197,13 @@ def run_study(scenario: str, trials: int, seed: int, fidelity: str, out_dir: Pat
                         done[row["trial"]] = row
                     journal.flush()
                     bar.update(len(fut.result()))
+        except KeyboardInterrupt:
+            interrupted = True
+            raise
         finally:
             bar.close()
             if own:
-                close()
+                close(interrupted)
     rows = [done[i] for i in sorted(done) if i < trials]
     summary = summarise(scenario, rows, time.perf_counter() - t0)
     summary["resumed"] = len(rows) - sum(1 for i in todo if i in done)

@@ -19,6 +19,12 @@ def log_run(path: Path, report, a: dict) -> None:
     try:
         sim = a["sim"]
         paths = rrlog.log_mujoco_bodies(rec, sim.model)
+        V = rrlog.View
+        rrlog.send_layout(rec, [
+            [V("3d", "world", "the scanner", eye=rrlog.eye_on(sim.model, (0.6, -0.9, 0.8))),
+             V("3d", "contours", "contours: true and traced (before, after, paper's)")],
+            [V("plot", "rho", "probe reading rho (mm) by sample"), V("2d", "rho_plot", "rho over the turn, minima fits")],
+            [V("text", "report", "truth against estimate"), V("2d", "figures", "figures")]], "sample")
         plate = a["plate"]
         z = 0.004
         for i in range(0, len(plate.theta_rad), 8):

@@ -9,9 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-
-class BadInput(ValueError):
-    """Input the command cannot use: the CLI prints one line and exits with status 2."""
+from calibench.errors import BadInput  # noqa: F401 - re-exported: the rooms raise it from here
 
 
 @dataclasses.dataclass

@@ -13,6 +13,7 @@ World units are metres (MuJoCo's); a scenario converts before logging.
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import cv2
@@ -24,6 +25,62 @@ RED = (230, 60, 50)
 GREEN = (40, 200, 90)
 BLUE = (50, 120, 230)
 ORANGE = (245, 160, 40)
+
+
+# --- layouts ---------------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class View:
+    """One view of a scenario's layout (plain data; :func:`blueprint` makes rerun's).
+
+    kind : "3d", "2d" (an image with its points, or a figure), "plot" (scalars over the
+        layout's timeline) or "text".
+    origin : the entity the view is rooted at; contents : rerun's path expressions ("+ a/**",
+        "- a/b/**"), default the origin's subtree.
+    eye : "3d" only: (position (3,), look_target (3,)) in metres, to open framed on the machine.
+    """
+
+    kind: str
+    origin: str
+    name: str
+    contents: tuple[str, ...] = ()
+    eye: tuple | None = None
+
+
+def eye_on(model, direction=(1.1, -1.5, 0.9)) -> tuple:
+    """A camera position looking at a MuJoCo model's centre from ``direction`` (in units of the
+    model's extent): the 3-D view opens framed on the machine, not on the whole world."""
+    centre = np.asarray(model.stat.center, float)
+    return tuple(centre + float(model.stat.extent) * np.asarray(direction, float)), tuple(centre)
+
+
+def blueprint(columns: list[list[View]], timeline: str) -> "rr.blueprint.Blueprint":
+    """Columns of views side by side (each column's views stacked), on ``timeline``."""
+    import rerun.blueprint as rrb
+
+    def make(v: View):
+        kw = {"origin": v.origin, "name": v.name}
+        if v.contents:
+            kw["contents"] = list(v.contents)
+        if v.kind == "3d":
+            if v.eye is not None:
+                kw["eye_controls"] = rrb.EyeControls3D(position=v.eye[0], look_target=v.eye[1], eye_up=(0, 0, 1))
+            return rrb.Spatial3DView(**kw)
+        if v.kind == "2d":
+            return rrb.Spatial2DView(**kw)
+        if v.kind == "plot":
+            return rrb.TimeSeriesView(**kw)
+        if v.kind == "text":
+            return rrb.TextDocumentView(**kw)
+        raise ValueError(f"unknown view kind {v.kind!r}")
+
+    cols = [rrb.Vertical(*[make(v) for v in col]) if len(col) > 1 else make(col[0]) for col in columns]
+    return rrb.Blueprint(rrb.Horizontal(*cols), rrb.TimePanel(timeline=timeline), rrb.BlueprintPanel(expanded=False),
+                         rrb.SelectionPanel(expanded=False))
+
+
+def send_layout(rec: rr.RecordingStream, columns: list[list[View]], timeline: str) -> None:
+    """Send the scenario's layout with the recording: the viewer opens on it."""
+    rec.send_blueprint(blueprint(columns, timeline), make_active=True, make_default=True)
 
 
 def open_recording(path: Path, application_id: str) -> rr.RecordingStream:
@@ -40,6 +97,10 @@ def close(rec: rr.RecordingStream) -> None:
 
 
 def set_step(rec: rr.RecordingStream, timeline: str, step: int) -> None:
+    """Log what follows at ``step`` of ``timeline`` only: an earlier phase's timeline (the
+    calibration's views before the stations) would otherwise stamp every later point with its
+    last value, and plots on it would show all points at one instant."""
+    rec.reset_time()
     rec.set_time(timeline, sequence=int(step))
 
 
@@ -78,6 +139,8 @@ def log_mujoco_bodies(rec: rr.RecordingStream, model, root: str = "world",
     """
     paths = nested_paths(model, root)
     textures = textures or {}
+    per_body = np.bincount(model.geom_bodyid, minlength=model.nbody)
+    merged: dict[tuple, list] = {}  # (parent, rgba) -> meshes of a body with many geoms
     for g in range(model.ngeom):
         b = model.geom_bodyid[g]
         gname = model.geom(g).name or f"geom{g}"
@@ -91,12 +154,23 @@ def log_mujoco_bodies(rec: rr.RecordingStream, model, root: str = "world",
         if mesh is None:
             continue
         mat = model.geom_matid[g]
-        rgba = model.mat_rgba[mat] if mat >= 0 else model.geom_rgba[g]
-        rec.log(f"{parent}/{gname}", rr.Mesh3D(
-            vertex_positions=mesh.vertices, triangle_indices=mesh.faces,
-            vertex_normals=mesh.vertex_normals,
-            albedo_factor=(np.asarray(rgba) * 255).astype(np.uint8)), static=True)
+        rgba = tuple((np.asarray(model.mat_rgba[mat] if mat >= 0 else model.geom_rgba[g]) * 255).astype(np.uint8))
+        if per_body[b] > MERGE_ABOVE:  # e.g. the probe scanner's walls: one entity, not thousands
+            merged.setdefault((parent, rgba), []).append(mesh)
+            continue
+        _log_mesh(rec, f"{parent}/{gname}", mesh, rgba)
+    for k, ((parent, rgba), meshes) in enumerate(merged.items()):
+        _log_mesh(rec, f"{parent}/merged_{k}", trimesh.util.concatenate(meshes), rgba)
     return paths
+
+
+MERGE_ABOVE = 20  # a body with more geoms than this is logged as one mesh per colour
+
+
+def _log_mesh(rec, path: str, mesh: trimesh.Trimesh, rgba) -> None:
+    rec.log(path, rr.Mesh3D(vertex_positions=mesh.vertices, triangle_indices=mesh.faces,
+                            vertex_normals=mesh.vertex_normals, albedo_factor=np.asarray(rgba, np.uint8)),
+            static=True)
 
 
 def _log_textured_top(rec, path, model, g, image):
@@ -195,7 +269,39 @@ def log_figure(rec: rr.RecordingStream, path: str, png: Path) -> None:
 
 # --- reading back (tests, tools) ------------------------------------------------------------
 def entity_paths(rrd: Path) -> set[str]:
-    """Entity paths stored in an .rrd file."""
+    """Entity paths stored in an .rrd file (its data, not its layout)."""
     from rerun.chunk import RrdReader
 
-    return {str(c.entity_path) for c in RrdReader(str(rrd)).stream()}
+    reader = RrdReader(str(rrd))
+    return {str(c.entity_path) for c in reader.stream(store=reader.recordings()[0])}
+
+
+def timelines(rrd: Path) -> dict[str, set[str]]:
+    """Entity path -> the timelines its data are logged on (empty: static), of an .rrd file."""
+    from rerun.chunk import RrdReader
+
+    reader = RrdReader(str(rrd))
+    out: dict[str, set[str]] = {}
+    for c in reader.stream(store=reader.recordings()[0]):
+        out.setdefault(str(c.entity_path), set()).update(c.timeline_names)
+    return out
+
+
+def layout_views(rrd: Path) -> list[dict]:
+    """The views of the layout an .rrd file carries: kind (rerun's class: 3D, 2D, TimeSeries,
+    TextDocument), name and origin, in no particular order."""
+    from rerun.chunk import RrdReader
+
+    reader = RrdReader(str(rrd))
+    views = []
+    for store in reader.blueprints():
+        for c in reader.stream(store=store):
+            rb = c.to_record_batch()
+            names = rb.schema.names
+            if "ViewBlueprint:class_identifier" not in names:
+                continue
+            col = {k: rb.column(f"ViewBlueprint:{k}").to_pylist()[-1] for k in
+                   ("class_identifier", "display_name", "space_origin") if f"ViewBlueprint:{k}" in names}
+            views.append({"kind": col["class_identifier"][0], "name": (col.get("display_name") or [""])[0],
+                          "origin": (col.get("space_origin") or [""])[0]})
+    return views

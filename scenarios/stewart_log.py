@@ -19,6 +19,11 @@ def log_run(path: Path, report, a: dict) -> None:
     try:
         sim = a["sim"]
         paths = rrlog.log_mujoco_bodies(rec, sim.model)
+        V = rrlog.View
+        rrlog.send_layout(rec, [
+            [V("3d", "/", "the platform and the tracker's beams", contents=("+ world/**", "+ tracker/**"),
+               eye=rrlog.eye_on(sim.model))],
+            [V("3d", "two_step", "two-step hinge spheres"), V("text", "report", "truth against estimate")]], "pose")
         rrlog.log_points3d(rec, "tracker/stations", a["stations"] / 1000, rrlog.BLUE, radius=0.02, static=True)
         for i, (R, t) in enumerate(a["poses"]):
             rrlog.set_step(rec, "pose", i)

@@ -22,6 +22,13 @@ def log_run(path: Path, report, a: dict) -> None:
     try:
         sim, g = a["sim"], a["geometry"]
         paths = rrlog.log_mujoco_bodies(rec, sim.model, skip=lambda name: name.startswith("tile"))
+        V = rrlog.View
+        rrlog.send_layout(rec, [
+            [V("3d", "world", "the table under the microscope", eye=rrlog.eye_on(sim.model)),
+             V("3d", "error_field", "error field: true, measured, after the cubic")],
+            [V("2d", "world/microscope", "microscope: detected green, true red"),
+             V("plot", "interferometer", "interferometer deviations (um) by target")],
+            [V("text", "report", "truth against estimate"), V("2d", "figures", "figures")]], "target_mm")
         # the plate as one textured quad (441 tile meshes would weigh tens of MB)
         tile = g.plate.tile_texture(32)
         n, pitch = g.plate.n, g.plate.pitch_mm / 1000

@@ -25,12 +25,14 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from calibench.errors import BadInput
+
 ARMS_DIR = Path(__file__).resolve().parent / "arms"
 BUILTIN = {"arm-cmm": ARMS_DIR / "arm_cmm.toml", "ur10": ARMS_DIR / "ur10.toml"}
 MAX_JOINTS = 12
 
 
-class ArmFileError(ValueError):
+class ArmFileError(BadInput):
     """An arm description that cannot be used (one line naming the file and the field)."""
 
 

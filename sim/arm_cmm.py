@@ -25,6 +25,7 @@ import mujoco
 import numpy as np
 
 from calibench.scenes.arm_cmm import ArmDescription, build_mjcf, load_arm
+from calibench.errors import BadInput
 
 # The seed's Table 1 errors: (da, dd, dalpha, dtheta) of links 1-6 (mm, mm, rad, rad), then dd7,
 # the stylus length (mm): the tool point's z in the flange frame.
@@ -97,11 +98,11 @@ class ArmSim:
         N = self.arm.n_joints
         delta = np.asarray(truth.delta if truth.delta else default_errors(self.arm), float)
         if len(delta) != 5 * N + 3:
-            raise ValueError(f"truth.delta has {len(delta)} values; the arm {self.arm.name} needs 5 x {N} + 3")
+            raise BadInput(f"truth.delta has {len(delta)} values; the arm {self.arm.name} needs 5 x {N} + 3")
         self.delta = delta
         k = np.asarray(truth.stiffness_nm_per_rad, float) if len(truth.stiffness_nm_per_rad) else np.full(N, np.inf)
         if len(k) != N or np.any(k <= 0):
-            raise ValueError(f"truth.stiffness_nm_per_rad: {N} positive values (inf for a rigid joint)")
+            raise BadInput(f"truth.stiffness_nm_per_rad: {N} positive values (inf for a rigid joint)")
         self.stiffness = k
         R, p = truth.tracker2base()
         q = np.empty(4)
@@ -210,7 +211,7 @@ class ArmSim:
             out.extend(q[z > floor])
             if len(out) >= n:
                 return np.array(out[:n])
-        raise ValueError(f"the arm {self.arm.name} rarely keeps its tool above z = {floor:.0f} mm")
+        raise BadInput(f"the arm {self.arm.name} rarely keeps its tool above z = {floor:.0f} mm")
 
     def postures_in_cone(self, cone_mm: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:
         """n different motor postures with the probe seated in the cone at ``cone_mm``: each
@@ -223,7 +224,7 @@ class ArmSim:
         while len(out) < n:
             tries += 1
             if tries > 50 * n:
-                raise ValueError(f"the cone at {cone_mm} mm is out of the arm's reach")
+                raise BadInput(f"the cone at {cone_mm} mm is out of the arm's reach")
             q = rng.uniform(lim[:, 0], lim[:, 1])
             target = cone + rng.normal(0, self.truth.cone_seat_um * 1e-6, 3)
             for _ in range(100):

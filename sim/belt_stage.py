@@ -19,6 +19,7 @@ from calibench.scenes.belt_stage import (CALIB_BOARD_GROUP, CALIB_BOARD_PARK, ST
                                BeltStageGeometry, board_to_body, build_mjcf)
 from calibench.scenes.camera import MJ_TO_CV, world_to_cv_camera
 from calibench.sim.renderer import LensRenderer
+from calibench.errors import BadInput
 
 PULSES_PER_MM = 250.0  # 25,000 pulses = 100 mm
 
@@ -48,9 +49,9 @@ class BeltStageTruth:
 
     def __post_init__(self):
         if len(self.error_x) != 6 or len(self.error_y) != 6:
-            raise ValueError("error maps take six coefficients c0..c5")
+            raise BadInput("error maps take six coefficients c0..c5")
         if self.error_x[0] != 0 or self.error_y[0] != 0:
-            raise ValueError("c0 must be 0: the stage is homed at pulse (0, 0)")
+            raise BadInput("c0 must be 0: the stage is homed at pulse (0, 0)")
 
     def error_mm(self, x_cmd_mm: np.ndarray, y_cmd_mm: np.ndarray) -> np.ndarray:
         """True positioning error (ex, ey) at commanded positions, shape (n, 2) mm."""

@@ -22,6 +22,7 @@ import numpy as np
 
 from calibench.recordings import ArmRecording, StageRecording
 from calibench.sim.replay import replay_stage
+from calibench.errors import BadInput
 
 STAGE_KINDS = ("null", "backlash", "periodic", "thermal", "combined", "bump")
 ARM_KINDS = ("null", "eccentricity", "thermal", "compliance", "transmission")
@@ -176,7 +177,7 @@ def arm_recording(kind: str, seed: int, n: int = 300, noise_um: float = 10.0,
             xyz[i] = ArmSim(description, dataclasses.replace(truth, delta=tuple(delta))).probe_mm(q[i:i + 1])[0]
     elif kind == "compliance":
         if not description.has_masses:
-            raise ValueError(f"the arm {description.name} has no masses: no compliance under gravity")
+            raise BadInput(f"the arm {description.name} has no masses: no compliance under gravity")
         tau = np.abs(sim.gravity_torques(q)).max(axis=0)
         joints = np.sort(np.argsort(-tau)[:2]) + 1
         k = np.full(N, np.inf)

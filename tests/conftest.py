@@ -5,6 +5,11 @@ import pytest
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
+import cv2  # noqa: E402
+
+# the tests call scenarios' run() directly: the same single-threaded OpenCV as Scenario.execute
+cv2.setNumThreads(1)
+
 REPO = Path(__file__).resolve().parents[1]
 SHARED_DATA = REPO.parent / "shared" / "data"
 
