@@ -46,11 +46,22 @@ class View:
     eye: tuple | None = None
 
 
-def eye_on(model, direction=(1.1, -1.5, 0.9)) -> tuple:
-    """A camera position looking at a MuJoCo model's centre from ``direction`` (in units of the
-    model's extent): the 3-D view opens framed on the machine, not on the whole world."""
-    centre = np.asarray(model.stat.center, float)
-    return tuple(centre + float(model.stat.extent) * np.asarray(direction, float)), tuple(centre)
+def eye_on(model, direction=(1.0, -1.4, 0.8)) -> tuple:
+    """A camera position looking at a MuJoCo model's machine from ``direction`` (in units of its
+    size): the bounding sphere of every geom but the planes (a floor would frame the horizon),
+    so the 3-D view opens on the machine, not on the whole world."""
+    import mujoco
+
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    solid = model.geom_type != mujoco.mjtGeom.mjGEOM_PLANE
+    if not solid.any():
+        solid[:] = True
+    lo = (data.geom_xpos[solid] - model.geom_rbound[solid, None]).min(axis=0)
+    hi = (data.geom_xpos[solid] + model.geom_rbound[solid, None]).max(axis=0)
+    centre, size = (lo + hi) / 2, float(np.linalg.norm(hi - lo)) / 2
+    d = np.asarray(direction, float) / np.linalg.norm(direction)
+    return tuple(centre + 1.8 * size * d), tuple(centre)
 
 
 def blueprint(columns: list[list[View]], timeline: str) -> "rr.blueprint.Blueprint":
