@@ -194,8 +194,11 @@ class PointProblem:
         return out
 
     def weights(self) -> np.ndarray:
-        """1 / sigma per value, (n, 3): the stated sigma and the model-error variance."""
-        var = (self.sigma**2 if self.sigma is not None else np.zeros_like(self.y)) + self.extra_var
+        """1 / sigma per value, (n, 3): the stated sigma and the model-error variance (one per
+        recording: each setup its own)."""
+        extra = np.asarray(self.extra_var, float)
+        extra = extra[self.rec][:, None] if extra.ndim else extra
+        var = (self.sigma**2 if self.sigma is not None else np.zeros_like(self.y)) + extra
         if not np.any(var > 0):
             return np.ones_like(self.y)  # nothing stated yet: unit weights until reweight()
         return 1.0 / np.sqrt(np.maximum(var, 1e-12))
@@ -314,26 +317,36 @@ class PointProblem:
         return np.r_[s.delta, s.comp, frames]
 
     def reweight(self, s: PointState, dof: int) -> float:
-        """Set the model-error variance so that the whitened residuals have unit variance (a
-        variance component: what the stated sigma does not cover); returns its sigma (mm)."""
+        """Set the model-error variances, one per recording, so that each recording's whitened
+        residuals have unit variance (variance components: what the stated sigma does not cover,
+        and a setup that the model fits worse weighs less instead of having its tail called
+        outliers). ``dof``: the fit's degrees of freedom, shared out by the recordings' sizes.
+        Returns the model-error sigma (mm) over all rows."""
         e2 = (self.y - self.model(s)) ** 2
         base = self.sigma**2 if self.sigma is not None else np.zeros_like(e2)
-        target = max(dof, 1)
+        n_values = e2.size
+        extra = np.zeros(self.n_rec)
+        for r in range(self.n_rec):
+            m = self.rec == r
+            extra[r] = _variance_component(e2[m], base[m], max(dof * e2[m].size / n_values, 1.0))
+        self.extra_var = extra
+        return float(np.sqrt(np.sum(extra * np.bincount(self.rec, minlength=self.n_rec)) / len(self.rec)))
 
-        def chi2(v):
-            return float(np.sum(e2 / np.maximum(base + v, 1e-12)))
 
-        if chi2(0.0) <= target:
-            self.extra_var = 0.0
-            return 0.0
-        lo, hi = 0.0, float(np.mean(e2)) + 1e-12
-        while chi2(hi) > target:
-            hi *= 4
-        for _ in range(60):
-            mid = 0.5 * (lo + hi)
-            lo, hi = (mid, hi) if chi2(mid) > target else (lo, mid)
-        self.extra_var = hi
-        return float(np.sqrt(hi))
+def _variance_component(e2: np.ndarray, base: np.ndarray, target: float) -> float:
+    """v >= 0 with sum(e2 / (base + v)) = target (0 if the stated sigma already covers it)."""
+    def chi2(v):
+        return float(np.sum(e2 / np.maximum(base + v, 1e-12)))
+
+    if chi2(0.0) <= target:
+        return 0.0
+    lo, hi = 0.0, float(np.mean(e2)) + 1e-12
+    while chi2(hi) > target:
+        hi *= 4
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if chi2(mid) > target else (lo, mid)
+    return hi
 
 
 # --- a tracker's spherical measurements ------------------------------------------------------------

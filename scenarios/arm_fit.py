@@ -9,9 +9,11 @@ work, each step on what the previous left:
 2. register each base and the tool point on the nominal arm (the laser-tracker seed's base and
    Tool0 calibration), then find the identifiable parameters at that state and solve for them,
    each kinematic error with a prior of its typical size (``PRIOR``);
-3. weight: the instrument's stated sigma plus a model-error variance estimated from the
-   residuals (so the reported std mean what they say), and refit;
-4. leave out training rows whose residual no Gaussian scatter of that size explains (p < 1e-6);
+3. weight: the instrument's stated sigma plus a model-error variance per recording estimated
+   from its residuals (so the reported std mean what they say, and a setup the model fits worse
+   weighs less), and refit;
+4. leave out training rows whose residual no Gaussian scatter of their recording's size
+   explains (p < 1e-6);
 5. test: ``--test`` recordings in the first training recording's frame, ``--test-new-frame``
    recordings registered on 20 % of their rows (a fixed seed) and judged on the rest,
    ``--holdout`` rows of the training recordings; and warn where the training postures leave
@@ -96,8 +98,9 @@ def calibrate(chain, q_rad: np.ndarray, xyz_mm: np.ndarray, recording: np.ndarra
         # rows no Gaussian scatter of the fitted size explains: |e|^2 / s^2 beyond chi2(3)'s 1 - 1e-6
         e = (problem.y - problem.model(ident.state)) * problem.weights()
         d2 = np.sum(e * e, axis=1)
-        s2 = np.median(d2) / 2.366  # chi2(3)'s median
-        bad = d2 > 30.66 * s2
+        # each recording against its own scatter (chi2(3)'s median is 2.366)
+        s2 = np.array([np.median(d2[problem.rec == r]) for r in range(problem.n_rec)]) / 2.366
+        bad = d2 > 30.66 * s2[problem.rec]
         if not bad.any():
             break
         rows = np.flatnonzero(keep)
@@ -333,6 +336,8 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
     fit_fig = _errors(e_fit)
     result["fit"] = {k: fit_fig[k] for k in ("mean_mm", "rms_mm", "max_mm")}
     result["sigma_model_mm"] = cal.sigma_model_mm
+    extra = np.broadcast_to(np.asarray(prob.extra_var, float), (len(paths),))
+    result["sigma_model_mm_by_recording"] = {p.name: float(np.sqrt(v)) for p, v in zip(paths, extra)}
     figures = {"training": np.linalg.norm(e_fit, axis=1)}
     if holdout:
         result["holdout"] = {}
