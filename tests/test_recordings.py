@@ -30,3 +30,17 @@ def test_defects_are_named(tmp_path, text, message):
     (tmp_path / "r.csv").write_text(text)
     with pytest.raises(RecordingError, match=message):
         load_stage_csv(tmp_path / "r.csv")
+
+
+def test_the_shipped_sample_is_the_papers_two_tables_joined(shared_data):
+    """examples/belt_stage_paper.csv = the seed paper's X and Y error tables as one recording."""
+    from pathlib import Path
+
+    from calibench.recordings import load_stage_csv
+
+    d = shared_data / "seed_belt_stage"
+    ex = np.loadtxt(d / "x_axis_error_mm.csv", delimiter=",", skiprows=1)
+    ey = np.loadtxt(d / "y_axis_error_mm.csv", delimiter=",", skiprows=1)
+    rec = load_stage_csv(Path(__file__).resolve().parents[1] / "examples" / "belt_stage_paper.csv")
+    assert np.array_equal(rec.x_cmd_mm, ex[:, 0]) and np.array_equal(rec.y_cmd_mm, ex[:, 1])
+    assert np.allclose(rec.x_err_mm, ex[:, 2], atol=5e-5) and np.allclose(rec.y_err_mm, ey[:, 2], atol=5e-5)
