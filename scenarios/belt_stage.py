@@ -30,7 +30,7 @@ from calibench.estimators.pose import (Plane, board2cam_from_homography, board2c
                              mean_rotation, undistort_pixels)
 from calibench.estimators.travel import board_yaw, travel_from_camera_centres, travel_in_plane
 from calibench.estimators.zhang import calibrate_camera, intrinsic_covariance
-from calibench.scenarios.report import Check, Parameter, Report
+from calibench.scenarios.report import Check, Parameter, Report, progress
 from calibench.scenes.belt_stage import BeltStageGeometry
 from calibench.sim.belt_stage import PULSES_PER_MM, BeltStageSim, BeltStageTruth, intrinsic_view_poses
 from calibench.recordings import CameraViews
@@ -305,7 +305,8 @@ def _record(sim: BeltStageSim, fidelity: str, config: BeltStageConfig, rng: np.r
     """
     board = config.geometry.board
     names, images, corners, true = [], [], [], []
-    for kind, a, b in steps:
+    steps = list(steps)
+    for kind, a, b in progress(steps, "rendering" if fidelity == "render" else "views", len(steps)):
         if kind == "calib":
             sim.place_calib_board(a, b)
             names.append(f"view{len(names):02d}")

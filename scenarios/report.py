@@ -12,6 +12,19 @@ import numpy as np
 from calibench.errors import BadInput  # noqa: F401 - re-exported: the rooms raise it from here
 
 
+def progress(items, what: str, total: int | None = None):
+    """``items``, with a progress bar on stderr when it is an interactive terminal (a render run
+    takes minutes); silent in pipes, tests and CI."""
+    import os
+    import sys
+
+    if not sys.stderr.isatty() or os.environ.get("CI"):
+        return items
+    from tqdm import tqdm
+
+    return tqdm(items, desc=what, total=total, unit="view", leave=False, file=sys.stderr)
+
+
 @dataclasses.dataclass
 class Parameter:
     """An estimated quantity that has a truth. ok = |estimate - truth| <= tolerance."""

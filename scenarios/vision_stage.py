@@ -27,7 +27,7 @@ import numpy as np
 from calibench.estimators import iso230_2
 from calibench.estimators.circles import find_dark_circle
 from calibench.estimators.compensation import LineRuler, compensated_command, fit_polynomial, select_model
-from calibench.scenarios.report import Check, Parameter, Report
+from calibench.scenarios.report import Check, Parameter, Report, progress
 from calibench.scenes.vision_stage import VisionStageGeometry
 from calibench.sim.vision_stage import LineRuler as RulerArtefact
 from calibench.sim.vision_stage import VisionStageSim, VisionStageTruth
@@ -176,7 +176,7 @@ def run(config: VisionStageConfig, seed: int, fidelity: str, out_dir: Path, rrd:
         nominal_machine = nominal @ np.array([[c, s], [-s, c]])  # turned by phi
         readings = np.empty_like(nominal_machine)
         images = []
-        for k, p in enumerate(nominal_machine):
+        for k, p in progress(enumerate(nominal_machine), "circles", len(nominal_machine)):
             readings[k], _ = servo(sim, scope, s00 + p, config.servo_tolerance_px)
             if scope.last_image is not None and k % nx in (0, nx - 1) and k // nx in (0, ny - 1):
                 images.append((k, scope.last_image, scope.last_found, scope.last_true))
