@@ -12,8 +12,11 @@ from __future__ import annotations
 
 import asyncio
 import base64
+import contextlib
 import json
+import os
 import shutil
+import signal
 import socket
 import subprocess
 import sys
@@ -70,22 +73,24 @@ async def _capture(devtools_port: int, url: str, png: Path) -> None:
 def screenshot(rrd: Path, png: Path) -> None:
     web, grpc, devtools = _free_port(), _free_port(), _free_port()
     rerun = Path(sys.executable).with_name("rerun")
+    # own process groups: `rerun` and `chromium` start children that a plain terminate() would orphan
     server = subprocess.Popen([str(rerun), "--serve-web", "--web-viewer-port", str(web), "--port", str(grpc), str(rrd)],
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     browser = subprocess.Popen([shutil.which("chromium") or "chromium", "--headless=new", "--no-sandbox",
                                 "--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--ignore-gpu-blocklist",
                                 f"--window-size={SIZE[0]},{SIZE[1]}", f"--remote-debugging-port={devtools}",
-                                "about:blank"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                                "about:blank"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                               start_new_session=True)
     try:
         _wait_http(f"http://127.0.0.1:{web}")
         _wait_http(f"http://127.0.0.1:{devtools}/json/version")
         proxy = f"rerun%2Bhttp%3A%2F%2F127.0.0.1%3A{grpc}%2Fproxy"
         asyncio.run(_capture(devtools, f"http://127.0.0.1:{web}/?url={proxy}&renderer=webgl", png))
     finally:
-        browser.terminate()
-        server.terminate()
-        browser.wait(10)
-        server.wait(10)
+        for proc in (browser, server):
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(proc.pid, signal.SIGTERM)
+            proc.wait(10)
 
 
 def main() -> None:

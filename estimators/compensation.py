@@ -165,10 +165,14 @@ class LineRuler:
 def compensated_command(target_mm: np.ndarray, error_um) -> np.ndarray:
     """Readings s (n, 2) with s + e(s) = target (n, 2); ``error_um(s) -> (n, 2)`` um.
 
-    Fixed-point iteration: it contracts because the error's slope is far below one.
+    Fixed-point iteration: it contracts because the error's slope is far below one. It stops
+    when an iterate repeats the last one to the bit (every later one would too), at most 20.
     """
     t = np.atleast_2d(np.asarray(target_mm, float))
     s = t.copy()
     for _ in range(20):
-        s = t - error_um(s) / 1000
+        s_next = t - error_um(s) / 1000
+        if np.array_equal(s_next, s):
+            break
+        s = s_next
     return s

@@ -90,11 +90,19 @@ def calibrate_camera(object_points: np.ndarray, image_points: list[np.ndarray],
     if not fix_k3:
         estimated.add("k3")
     std = {name: float(std_all[i]) for i, name in enumerate(INTRINSIC_NAMES) if name in estimated}
-    return CameraCalibration(K=np.asarray(K, float), dist=dist, std=std, rms_px=float(rms),
+    calib = CameraCalibration(K=np.asarray(K, float), dist=dist, std=std, rms_px=float(rms),
                              per_view_rms_px=np.asarray(per_view, float).ravel(),
                              rvecs=np.asarray(rvecs, float).reshape(-1, 3),
                              tvecs=np.asarray(tvecs, float).reshape(-1, 3),
                              image_size=tuple(image_size))
+    if fix_aspect:
+        # OpenCV reports std(fx) = 0 under a fixed aspect ratio: fx and fy are one parameter
+        # (fy = a fx), whose std comes from the information with both columns combined
+        names = tuple(n for n in INTRINSIC_NAMES if n in estimated and n != "fy")
+        cov = intrinsic_covariance(calib, obj, imgs, names, fix_aspect=True)
+        std["fx"] = float(np.sqrt(cov[0, 0]))
+        std["fy"] = std["fx"] * float(calib.K[1, 1] / calib.K[0, 0])
+    return calib
 
 
 def _check_not_degenerate(obj: np.ndarray, imgs: list[np.ndarray], image_size) -> None:

@@ -75,8 +75,12 @@ def run_trial(scenario: str, study_seed: int, index: int, fidelity: str, arm: st
 
 def run_trials(scenario: str, study_seed: int, indices: list[int], fidelity: str, arm: str | None = None) -> list[dict]:
     """Several trials in one task: millisecond trials would otherwise spend more time in
-    inter-process traffic than in the estimator."""
-    return [run_trial(scenario, study_seed, i, fidelity, arm) for i in indices]
+    inter-process traffic than in the estimator. One BLAS thread: a worker already has its core,
+    and threaded BLAS on small matrices (the arm's QR at 200 postures) runs several times slower."""
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(1):
+        return [run_trial(scenario, study_seed, i, fidelity, arm) for i in indices]
 
 
 def chunk_size(n_todo: int, fidelity: str) -> int:

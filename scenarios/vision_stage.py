@@ -276,15 +276,18 @@ def interferometer_test(sim, config, lines, model) -> list[dict]:
         m, n = len(targets), config.runs
         dev = {+1: np.empty((m, n)), -1: np.empty((m, n))}
         zero = None
+        commands = {}  # target -> compensated command: the same for every run, computed once
         for run in range(n):
             for direction in (+1, -1):
                 order = range(m) if direction > 0 else range(m - 1, -1, -1)
                 overrun = targets[0] - 2.0 if direction > 0 else targets[-1] + 2.0
                 for idx in [None, *order]:
                     t = overrun if idx is None else targets[idx]
-                    target = np.zeros(2)
-                    target[axis], target[1 - axis] = t, other
-                    cmd = compensated_command(target, model)[0]
+                    if t not in commands:
+                        target = np.zeros(2)
+                        target[axis], target[1 - axis] = t, other
+                        commands[t] = compensated_command(target, model)[0]
+                    cmd = commands[t]
                     sim.move(*cmd)
                     if idx is None:
                         continue

@@ -66,3 +66,22 @@ def test_fronto_parallel_views_are_refused():
 def test_too_few_views_are_refused():
     with pytest.raises(CalibrationError, match="at least 3"):
         calibrate_camera(BOARD.corners_mm(), [np.zeros((54, 2))] * 2, (640, 480))
+
+
+def test_fixed_aspect_reports_the_real_std_of_fx():
+    """OpenCV reports std(fx) = 0 with CALIB_FIX_ASPECT_RATIO; ours is the std of the one focal
+    parameter, and over 40 noise draws of a square-pixel camera it matches the spread of fx."""
+    K_sq = np.array([[610.0, 0, 318.0], [0, 610.0, 243.0], [0, 0, 1]])
+    obj = BOARD.corners_mm()
+    est, std = [], []
+    for seed in range(40):
+        rng = np.random.default_rng(200 + seed)
+        _, pix = random_views(rng, obj, K_sq, 15, dist=DIST)
+        calib = calibrate_camera(obj, [p + rng.normal(0, SIGMA_PX, p.shape) for p in pix], (640, 480),
+                                 fix_aspect=True)
+        assert calib.K[0, 0] == calib.K[1, 1] and calib.std["fy"] == pytest.approx(calib.std["fx"])
+        est.append(calib.K[0, 0])
+        std.append(calib.std["fx"])
+    assert min(std) > 0
+    ratio = np.std(est, ddof=1) / np.mean(std)
+    assert 0.7 < ratio < 1.5, ratio
