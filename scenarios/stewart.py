@@ -175,6 +175,8 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
                                                         - np.array(truth_vals))**2))),
     }
     artifacts = dict(sim=sim, poses=poses, stations=stations, spheres=spheres, config=config)
+    if out_dir is not None:  # a Monte-Carlo trial keeps only the numbers
+        _write_figure(out_dir, report, err)
     if rrd and out_dir is not None:
         from calibench.scenarios import stewart_log
 
@@ -231,3 +233,29 @@ def prior(config: StewartConfig, rng: np.random.Generator) -> StewartConfig:
     """The hinges' and lengths' errors are drawn by the simulator from the run's seed (hinges
     N(0, 0.4 mm), initial lengths N(0, 0.5 mm)): nothing more to draw here."""
     return config
+
+
+def _write_figure(out_dir: Path, report: Report, err: dict) -> None:
+    """Held-out pose error per pose before and after calibration, and every leg parameter's
+    error in units of its reported std (a calibration whose std are honest keeps them in +-3)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    fig, (a, b) = plt.subplots(1, 2, figsize=(12, 4.2), constrained_layout=True)
+    k = np.arange(1, len(err["before"]) + 1)
+    for key, color, label in (("before", "tab:red", "nominal"), ("after", "tab:green", "one-step calibration"),
+                              ("two_step", "tab:blue", "two-step calibration")):
+        rms_um = np.sqrt(np.mean(np.square(err[key]), axis=1)) * 1000
+        a.semilogy(k, rms_um, "o", color=color, label=f"{label}: rms {np.sqrt(np.mean(rms_um**2)):.3g} um")
+    a.set(xlabel="held-out pose", ylabel="hinge-point error, rms over the six (um)", title="stewart: held-out poses")
+    a.legend(fontsize=8)
+    z = np.array([(p.estimate - p.truth) / p.std for p in report.parameters])
+    b.bar(np.arange(len(z)), z, color=np.where(np.abs(z) <= 3, "tab:green", "tab:red"))
+    b.axhspan(-3, 3, color="0.9", zorder=0)
+    b.set(xlabel="leg parameter (7 per leg: r, B, l)", ylabel="(estimate - truth) / std",
+          title="one-step calibration: error in units of its std")
+    fig.savefig(out_dir / "stewart.png", dpi=90)
+    plt.close(fig)

@@ -23,7 +23,8 @@ def log_run(path: Path, report, a: dict) -> None:
         rrlog.send_layout(rec, [
             [V("3d", "/", "the platform and the tracker's beams", contents=("+ world/**", "+ tracker/**"),
                eye=rrlog.eye_on(sim.model))],
-            [V("3d", "two_step", "two-step hinge spheres"), V("text", "report", "truth against estimate")]], "pose")
+            [V("3d", "two_step", "two-step hinge spheres"), V("text", "report", "truth against estimate"),
+             V("2d", "figures", "figures")]], "pose")
         rrlog.log_points3d(rec, "tracker/stations", a["stations"] / 1000, rrlog.BLUE, radius=0.02, static=True)
         for i, (R, t) in enumerate(a["poses"]):
             rrlog.set_step(rec, "pose", i)
@@ -41,5 +42,8 @@ def log_run(path: Path, report, a: dict) -> None:
                 rrlog.log_points3d(rec, f"two_step/leg{leg + 1}/origins{k}", pts / 1000, rrlog.RED,
                                    radius=0.004, static=True)
         rrlog.log_text(rec, "report", f"# stewart, seed {report.seed}\n\n" + report.table())
+        png = path.parent / "stewart.png"
+        if png.exists():
+            rrlog.log_figure(rec, "figures/stewart", png)
     finally:
         rrlog.close(rec)

@@ -23,5 +23,6 @@ def test_run_meets_the_acceptance(tmp_path):
     assert cmp["one_step"] < cmp["two_step"]
     paths = entity_paths(tmp_path / "run.rrd")
     expected = {"/world/platform", "/world/leg0/leg0_rod", "/tracker/stations", "/tracker/beams",
-                "/two_step/leg1/sphere0", "/report"}
+                "/two_step/leg1/sphere0", "/report", "/figures/stewart"}
+    assert (tmp_path / "stewart.png").stat().st_size > 20_000
     assert expected <= paths, expected - paths

@@ -17,7 +17,7 @@ LAYOUTS = {
                                  ("TextDocument", "report"), ("2D", "figures")}),
     "arm-cmm": ("posture", {("3D", "world"), ("3D", "probe"), ("TimeSeries", "residual_mm"), ("TextDocument", "report"),
                             ("2D", "figures")}),
-    "stewart": ("pose", {("3D", "/"), ("3D", "two_step"), ("TextDocument", "report")}),
+    "stewart": ("pose", {("3D", "/"), ("3D", "two_step"), ("TextDocument", "report"), ("2D", "figures")}),
 }
 MAX_ENTITIES = 100
 
