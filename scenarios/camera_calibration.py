@@ -79,6 +79,13 @@ def calibrate_photos(paths: list[Path], cols: int, rows: int, square_mm: float, 
 
 def run_camera(paths: list[Path], cols: int, rows: int, square_mm: float, fix_aspect: bool, radial: int,
                tangential: bool, out_dir: Path) -> dict:
+    """The ``camera`` command: calibrate from photos of a chessboard and write ``intrinsics.json``.
+
+    paths : the photos; cols, rows : inner corners per row and per column; square_mm : a
+    square's side (mm). Returns intrinsics.json's content: K (3, 3) px, dist (k1, k2, p1, p2,
+    k3), each parameter's std, the RMS reprojection error (px), the photos used and rejected
+    (with why). Raises BadInput when fewer than 3 distinct views of the board remain.
+    """
     result = calibrate_photos(paths, cols, rows, square_mm, fix_aspect, radial, tangential)
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "intrinsics.json").write_text(json.dumps(result, indent=2) + "\n")

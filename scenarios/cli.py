@@ -168,6 +168,9 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """The ``calibench`` command; returns its exit status (CONTRACT: 0 ok, 1 a check failed,
+    2 bad input in one line, 3 an internal error with the traceback in OUT/error.log, 130
+    interrupted). ``argv``: the arguments (default ``sys.argv[1:]``)."""
     import os
 
     os.environ.setdefault("MUJOCO_GL", "egl")  # before MuJoCo's first import: renders without a display

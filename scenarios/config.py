@@ -41,6 +41,7 @@ POSITIVE = ("square_mm", "pitch_mm", "diameter_mm", "fx", "fy", "working_distanc
 
 
 def load_toml(path: str | Path) -> dict:
+    """A TOML file as nested dicts; BadInput naming the file when it cannot be read or parsed."""
     try:
         with open(path, "rb") as f:
             return tomllib.load(f)

@@ -9,6 +9,9 @@ from typing import Callable
 
 @dataclasses.dataclass(frozen=True)
 class Scenario:
+    """A scenario by name: its config class (defaults, overridden by ``--config``), its ``run``
+    (config, seed, fidelity, out_dir, rrd) -> Report, and the model ``calibench fit`` applies."""
+
     name: str
     config: type
     run: Callable  # (config, seed, fidelity, out_dir, rrd) -> Report

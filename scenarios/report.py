@@ -81,6 +81,10 @@ class Check:
 
 @dataclasses.dataclass
 class Report:
+    """What a run found: every parameter's truth against its estimate, the named checks, extra
+    figures (``info``), and where its recording went. ``ok`` when every parameter is within its
+    tolerance and every check within its limit; ``write`` makes ``report.json`` (CONTRACT)."""
+
     scenario: str
     seed: int
     fidelity: str

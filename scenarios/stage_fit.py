@@ -50,6 +50,9 @@ def _cubic(x, y, err) -> dict:
 
 
 def run_fit(scenario: str, model: str, csv_path: Path, out_dir: Path) -> dict:
+    """The ``fit`` command on a stage recording (CONTRACT's stage format): fit the scenario's
+    error model (``quadratic`` or ``cubic`` in x and y, per axis) and write ``fit.json``; returns
+    its content (per axis: coefficients in mm, SSE mm^2, R^2, RMSE mm, n)."""
     result = fit_recording(scenario, model, load_stage_csv(csv_path))
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "fit.json").write_text(json.dumps(result, indent=2) + "\n")
