@@ -68,7 +68,8 @@ def _is_angle(name: str) -> bool:
 
 
 def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool) -> Report:
-    """Simulate the arm CMM (any serial arm of an ARM.toml) measured by a laser tracker, cones and a length bar, calibrate it from what its sensors recorded, compare with the truth.
+    """Simulate the arm CMM (any serial arm of an ARM.toml) measured by a laser tracker, cones and a
+    length bar; calibrate it from what its sensors recorded; compare with the truth.
 
     Parameters
     ----------

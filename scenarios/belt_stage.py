@@ -80,7 +80,8 @@ class StationPoses:
 
 
 def run(config: BeltStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool) -> Report:
-    """Simulate the belt-driven XY stage watched by its overhead camera, calibrate it from what its sensors recorded, compare with the truth.
+    """Simulate the belt-driven XY stage watched by its overhead camera; calibrate it from what its
+    sensors recorded; compare with the truth.
 
     Parameters
     ----------

@@ -39,7 +39,8 @@ class ProbeScannerConfig:
 
 
 def run(config: ProbeScannerConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool) -> Report:
-    """Simulate the rotary probe scanner tracing its calibration opening and a spectacle rim, calibrate it from what its sensors recorded, compare with the truth.
+    """Simulate the rotary probe scanner tracing its calibration opening and a spectacle rim; calibrate
+    it from what its sensors recorded; compare with the truth.
 
     Parameters
     ----------

@@ -82,7 +82,8 @@ def pose_from_lengths(sim: StewartSim, stations: np.ndarray, d: np.ndarray, R_gu
 
 
 def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool) -> Report:
-    """Simulate the Stewart platform measured by a laser tracker's lengths, calibrate it from what its sensors recorded, compare with the truth.
+    """Simulate the Stewart platform measured by a laser tracker's lengths; calibrate it from what its
+    sensors recorded; compare with the truth.
 
     Parameters
     ----------

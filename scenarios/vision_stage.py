@@ -157,7 +157,8 @@ def true_phi(sim: VisionStageSim, s_a: np.ndarray, s_b: np.ndarray) -> float:
 
 
 def run(config: VisionStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool) -> Report:
-    """Simulate the vision measuring machine's table under its microscope, with a circle plate and an interferometer, calibrate it from what its sensors recorded, compare with the truth.
+    """Simulate the vision measuring machine's table under its microscope, with a circle plate and an
+    interferometer; calibrate it from what its sensors recorded; compare with the truth.
 
     Parameters
     ----------
