@@ -316,3 +316,25 @@ def layout_views(rrd: Path) -> list[dict]:
             views.append({"kind": col["class_identifier"][0], "name": (col.get("display_name") or [""])[0],
                           "origin": (col.get("space_origin") or [""])[0]})
     return views
+
+
+def transforms(rrd: Path, timeline: str) -> dict[str, dict[int, tuple[np.ndarray, np.ndarray]]]:
+    """Entity path -> step of ``timeline`` -> the logged (translation (3,), rotation (3, 3)) of
+    every Transform3D an .rrd file holds on that timeline."""
+    from rerun.chunk import RrdReader
+
+    reader = RrdReader(str(rrd))
+    out: dict[str, dict] = {}
+    for c in reader.stream(store=reader.recordings()[0]):
+        if timeline not in c.timeline_names:
+            continue
+        rb = c.to_record_batch()
+        if "Transform3D:translation" not in rb.schema.names:
+            continue
+        steps = rb.column(timeline).to_pylist()
+        ts = rb.column("Transform3D:translation").to_pylist()
+        ms = rb.column("Transform3D:mat3x3").to_pylist()
+        d = out.setdefault(str(c.entity_path), {})
+        for k, t, m in zip(steps, ts, ms):
+            d[int(k)] = (np.asarray(t[0], float), np.asarray(m[0], float).reshape(3, 3))
+    return out
