@@ -109,10 +109,11 @@ class LegCalibration:
     l: float
     std: np.ndarray
     rms: float
+    converged: bool = True  # False: Gauss-Newton ran out of iterations, this is its last iterate
 
 
 def calibrate_leg(R: np.ndarray, t: np.ndarray, readings: np.ndarray, r0: np.ndarray, B0: np.ndarray,
-                  l0: float, sigma: np.ndarray) -> LegCalibration:
+                  l0: float, sigma: np.ndarray, iterations: int = 50) -> LegCalibration:
     """The one-step method for one leg: poses (n, 3, 3), (n, 3), readings (n,), sigma (n,) of
     each equation (length units); Gauss-Newton on |R r + t - B| - (l + reading) = 0."""
     x = np.r_[r0, B0, l0].astype(float)
@@ -125,17 +126,20 @@ def calibrate_leg(R: np.ndarray, t: np.ndarray, readings: np.ndarray, r0: np.nda
         res = (L - (x[6] + readings)) * w
         return res, np.c_[np.einsum("ni,nij->nj", u, R), -u, -np.ones(len(u))] * w[:, None]
 
-    for _ in range(50):
+    converged = False
+    for _ in range(iterations):
         res, J = linearise(x)
         step = np.linalg.lstsq(J, -res, rcond=None)[0]
         x = x + step
         if np.max(np.abs(step)) < 1e-12:
+            converged = True
             break
     res, J = linearise(x)
     dof = max(len(res) - 7, 1)
     s2 = res @ res / dof
     cov = np.linalg.inv(J.T @ J) * s2
-    return LegCalibration(r=x[:3], B=x[3:6], l=float(x[6]), std=np.sqrt(np.diag(cov)), rms=float(np.sqrt(s2)))
+    return LegCalibration(r=x[:3], B=x[3:6], l=float(x[6]), std=np.sqrt(np.diag(cov)), rms=float(np.sqrt(s2)),
+                          converged=converged)
 
 
 def leg_lengths(R: np.ndarray, t: np.ndarray, r: np.ndarray, B: np.ndarray) -> np.ndarray:
@@ -200,6 +204,7 @@ class JointCalibration:
     l: np.ndarray
     cov: np.ndarray
     rms: float
+    converged: bool = True  # False: ran out of iterations, this is the last iterate
 
     @property
     def std(self) -> np.ndarray:
@@ -279,6 +284,7 @@ def adjust_jointly(obs: TrackerObservations, stations, R, t, r, B, l, iterations
     S, Rc, tc = np.array(stations, float), np.array(R, float), np.array(t, float)
     rc, Bc, lc = np.array(r, float), np.array(B, float), np.array(l, float)
     n = len(Rc)
+    converged = False
     for _ in range(iterations):
         res, J = _joint_residuals(obs, S, Rc, tc, rc, Bc, lc)
         # normal equations, column-scaled (mm and rad mix): ~20x faster than an SVD here
@@ -292,11 +298,12 @@ def adjust_jointly(obs: TrackerObservations, stations, R, t, r, B, l, iterations
         legs = step[9 + 6 * n:].reshape(6, 7)
         rc, Bc, lc = rc + legs[:, :3], Bc + legs[:, 3:6], lc + legs[:, 6]
         if np.max(np.abs(step)) < 1e-11:
+            converged = True
             break
     res, J = _joint_residuals(obs, S, Rc, tc, rc, Bc, lc)
     dof = max(len(res) - J.shape[1], 1)
     # the noise model is known (the instruments' specifications), so no s2 rescaling: the
     # whitened RMS is reported as a check of that model instead
     cov = np.linalg.inv(J.T @ J)[-42:, -42:]
-    return JointCalibration(S, Rc, tc, rc, Bc, lc, cov, float(np.sqrt(res @ res / dof)))
+    return JointCalibration(S, Rc, tc, rc, Bc, lc, cov, float(np.sqrt(res @ res / dof)), converged)
 

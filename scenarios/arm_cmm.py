@@ -166,6 +166,10 @@ def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool
         Check("dropped_parameters", float(len(ident.basis.dropped)), None,
               note="; ".join(f"{k}: {v}" for k, v in ident.basis.dropped.items())),
         Check("identification_s", ident_s, 1.0, note="one identification, 50 postures"),
+        # a solve that ran out of iterations would report its last iterate as if it were the answer
+        Check("solves_not_converged", float(sum(not r[1].converged for r in results.values())
+                                            + (not cone_ident.converged) + (not effective.converged)), 0.0,
+              note="tracker (chosen and random postures), cones, and the effective truth"),
     ]
     report.info = {
         "dropped_tracker": ident.basis.dropped,

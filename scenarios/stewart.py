@@ -182,6 +182,9 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
         Check("pose_rms_before_um", rms["before"], None, note=f"{config.n_holdout} held-out poses, nominal parameters"),
         Check("pose_rms_after_um", rms["after"], config.after_limit_um, note="held-out poses, one-step calibration"),
         Check("pose_rms_after_two_step_um", rms["two_step"], None, note="held-out poses, two-step calibration"),
+        # a solve that ran out of iterations would report its last iterate as if it were the answer
+        Check("solves_not_converged", float(sum(not c.converged for c in pipeline) + (not joint.converged)), 0.0,
+              note="the six legs' one-step Gauss-Newton and the joint adjustment"),
     ]
     two_err = np.array([np.r_[c[0], c[1], c[2]] for c in two_step]) - np.array(truth_vals)
     one_err = np.array([np.r_[c.r, c.B, c.l] for c in legs]) - np.array(truth_vals)

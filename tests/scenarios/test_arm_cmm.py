@@ -48,3 +48,18 @@ def test_montecarlo_takes_an_arm(tmp_path):
     assert summary["failed"] == 0 and any(p.startswith("dbeta2") for p in json.dumps(summary).split('"'))
     assert main(["montecarlo", "arm-cmm", "--arm", str(tmp_path / "none.toml"), "--trials", "2",
                  "--out", str(tmp_path / "x")]) == 2
+
+
+def test_a_solve_that_runs_out_of_iterations_fails_the_run(tmp_path, monkeypatch):
+    """Levenberg-Marquardt cut to one iteration: the run reports the solves that did not
+    converge as a failed check (exit 1) instead of their last iterate as an answer."""
+    from calibench.estimators import arm_identification as ai
+
+    real = ai.identify
+    monkeypatch.setattr(ai, "identify", lambda *a, **k: real(*a, **{**k, "max_iter": 1}))
+    import calibench.scenarios.arm_cmm as scenario
+
+    monkeypatch.setattr(scenario, "identify", ai.identify)
+    assert main(["run", "arm-cmm", "--no-rrd", "--out", str(tmp_path)]) == 1
+    checks = {c["name"]: c for c in json.loads((tmp_path / "report.json").read_text())["checks"]}
+    assert checks["solves_not_converged"]["value"] >= 1 and not checks["solves_not_converged"]["ok"]

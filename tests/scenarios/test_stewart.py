@@ -26,3 +26,16 @@ def test_run_meets_the_acceptance(tmp_path):
                 "/two_step/leg1/sphere0", "/report", "/figures/stewart"}
     assert (tmp_path / "stewart.png").stat().st_size > 20_000
     assert expected <= paths, expected - paths
+
+
+def test_a_solve_that_runs_out_of_iterations_fails_the_run(tmp_path, monkeypatch):
+    """Two Gauss-Newton iterations cannot converge from the drawing's hinges: the run must say
+    so (a failed check, exit 1), not report the last iterate as an answer."""
+    import calibench.scenarios.stewart as scenario
+    from calibench.estimators import stewart as est
+
+    real = est.adjust_jointly
+    monkeypatch.setattr(scenario, "adjust_jointly", lambda *a, **k: real(*a, **{**k, "iterations": 2}))
+    assert main(["run", "stewart", "--no-rrd", "--out", str(tmp_path)]) == 1
+    checks = {c["name"]: c for c in json.loads((tmp_path / "report.json").read_text())["checks"]}
+    assert checks["solves_not_converged"]["value"] >= 1 and not checks["solves_not_converged"]["ok"]
