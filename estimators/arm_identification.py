@@ -86,6 +86,7 @@ class AngleTerm:
 
     @property
     def names(self) -> tuple[str, ...]:
+        """Parameter names of the term's coefficients (``angle_<label><joint>_...``)."""
         stem = f"angle_{self.label or self.kind}{self.joint}"
         if self.kind == "harmonic":
             return (f"{stem}_sin", f"{stem}_cos")
@@ -170,6 +171,7 @@ class PointProblem:
 
     @property
     def names(self) -> tuple[str, ...]:
+        """Parameter names, in the column order of :meth:`jacobian` and :meth:`values`."""
         return (param_names(self.N) + tuple(f"compliance{j}" for j in self.cj)
                 + tuple(f"tilt_compliance{j}" for j in self.tj) + tuple(n for t in self.terms for n in t.names)
                 + self.frame_names)
@@ -182,6 +184,8 @@ class PointProblem:
 
     @property
     def groups(self) -> list[np.ndarray]:
+        """Column groups the identifiable basis is found in, in order: kinematics, Hayati's beta, compliance, angle
+        terms."""
         N, nk = self.N, self.nk
         kin = np.array([5 * i + k for i in range(N) for k in range(4)])
         beta = np.array([5 * i + 4 for i in range(N)])
@@ -264,6 +268,7 @@ class PointProblem:
         return idx, parameter_scales([self.names[i] for i in idx]) * self.prior
 
     def residuals(self, s: PointState) -> np.ndarray:
+        """Whitened residuals (3 n,) of measured minus modelled points (and the prior's rows when there is one)."""
         r = ((self.y - self.model(s)) * self.weights()).ravel()
         if self.prior is None:
             return r
@@ -305,6 +310,7 @@ class PointProblem:
         return np.r_[J, Jp]
 
     def update(self, s: PointState, step: np.ndarray) -> PointState:
+        """The state moved by ``step`` (len(names),): additive for the errors, a left rotation for each base frame."""
         nk, nc = self.nk, self.nc
         f = step[nk + nc:].reshape(self.n_rec, 6)
         R = np.stack([rotvec_to_matrix(f[r, :3]) @ s.R[r] for r in range(self.n_rec)])
@@ -312,6 +318,8 @@ class PointProblem:
         return PointState(s.delta + step[:nk], comp, R, s.t + f[:, 3:])
 
     def values(self, s: PointState) -> np.ndarray:
+        """The state as one vector (len(names),): errors, compliances and terms, then each base frame's rotation
+        (rotvec from the reference, rad) and translation (mm)."""
         w = np.stack([matrix_to_rotvec(s.R[r] @ self.R_ref[r].T) for r in range(self.n_rec)])
         frames = np.c_[w, s.t].ravel()
         return np.r_[s.delta, s.comp, frames]
@@ -360,6 +368,8 @@ class TrackerState:
 
 
 class TrackerProblem:
+    """A laser tracker's spherical readings (range, azimuth, elevation) of the tool point, with its own base frame; the
+    seed's identification."""
     NUISANCE = ("tracker_rx", "tracker_ry", "tracker_rz", "tracker_x", "tracker_y", "tracker_z")
 
     def __init__(self, chain: Chain, q_rad: np.ndarray, measured: np.ndarray, sigma: np.ndarray,
@@ -382,6 +392,7 @@ class TrackerProblem:
 
     @property
     def names(self) -> tuple[str, ...]:
+        """Parameter names, in the column order of :meth:`jacobian`: the chain's errors, then the tracker frame."""
         return param_names(self.N) + self.NUISANCE
 
     @property
@@ -391,9 +402,11 @@ class TrackerProblem:
 
     @property
     def groups(self) -> list[np.ndarray]:
+        """Column groups the identifiable basis is found in: kinematics, then Hayati's beta."""
         return [np.array([5 * i + k for i in range(self.N) for k in range(4)]), np.arange(4, 5 * self.N, 5)]
 
     def cartesian(self) -> np.ndarray:
+        """The measurements as points in the tracker's frame, (n, 3) mm."""
         r, az, el = self.meas.T
         return np.stack([r * np.cos(el) * np.cos(az), r * np.cos(el) * np.sin(az), r * np.sin(el)], axis=1)
 
@@ -424,6 +437,8 @@ class TrackerProblem:
         return pose(self.chain, self.q, s.delta).point @ s.R.T + s.t
 
     def residuals(self, s: TrackerState) -> np.ndarray:
+        """Residuals (3 n,) in spherical coordinates, whitened by each posture's covariance (instrument and encoders).
+"""
         if self._W is None:
             self.start()
         d = spherical(self.points(s)) - self.meas
@@ -444,10 +459,12 @@ class TrackerProblem:
         return np.einsum("nij,njk->nik", Js, Jy).reshape(len(y) * 3, -1)
 
     def update(self, s: TrackerState, step: np.ndarray) -> TrackerState:
+        """The state moved by ``step``: additive for the errors, a left rotation for the tracker frame."""
         nk = self.nk
         return TrackerState(s.delta + step[:nk], rotvec_to_matrix(step[nk:nk + 3]) @ s.R, s.t + step[nk + 3:nk + 6])
 
     def values(self, s: TrackerState) -> np.ndarray:
+        """The state as one vector (len(names),)."""
         return np.r_[s.delta, matrix_to_rotvec(s.R @ self.R_ref.T), s.t]
 
 
@@ -459,6 +476,8 @@ class ConeState:
 
 
 class ConeProblem:
+    """Tool points held in two kinematic cones and a length bar between them: the arm CMM's own artefacts, no external
+    instrument."""
     NUISANCE = ("cone_a_x", "cone_a_y", "cone_a_z", "cone_b_x", "cone_b_y", "cone_b_z")
 
     def __init__(self, chain: Chain, q_rad: np.ndarray, cone: np.ndarray, sigma_mm: float,
@@ -474,28 +493,34 @@ class ConeProblem:
 
     @property
     def names(self) -> tuple[str, ...]:
+        """Parameter names: the chain's errors, then the two cone centres (mm)."""
         return param_names(self.N) + self.NUISANCE
 
     @property
     def always(self) -> np.ndarray:
+        """Columns always estimated: the tool and the cone centres."""
         return np.arange(self.nk, self.nk + 6)
 
     @property
     def groups(self) -> list[np.ndarray]:
+        """Column groups the identifiable basis is found in: kinematics, then Hayati's beta."""
         kin = np.array([5 * i + k for i in range(self.N) for k in range(4)])
         return [kin, np.arange(self.nk - 3, self.nk), np.arange(4, 5 * self.N, 5)]
 
     def start(self) -> ConeState:
+        """The nominal chain and each cone's centre from the nominal points."""
         p = pose(self.chain, self.q).point
         return ConeState(np.zeros(self.nk), np.stack([p[self.cone == k].mean(axis=0) for k in (0, 1)]))
 
     def residuals(self, s: ConeState) -> np.ndarray:
+        """Whitened residuals: each point from its cone's centre, then the bar's length."""
         p = pose(self.chain, self.q, s.delta).point
         r = (p - s.cones[self.cone]) / self.sigma
         bar = (np.linalg.norm(s.cones[0] - s.cones[1]) - self.L) / self.sigma_L
         return np.r_[r.ravel(), bar]
 
     def jacobian(self, s: ConeState) -> np.ndarray:
+        """d(residuals) / d(parameters), (3 n + 1, len(names))."""
         n, nk = len(self.q), self.nk
         J = np.zeros((3 * n + 1, nk + 6))
         J[:3 * n, :nk] = jacobian(self.chain, self.q, s.delta).reshape(-1, nk) / self.sigma
@@ -507,9 +532,11 @@ class ConeProblem:
         return J
 
     def update(self, s: ConeState, step: np.ndarray) -> ConeState:
+        """The state moved by ``step`` (additive)."""
         return ConeState(s.delta + step[:self.nk], s.cones + step[self.nk:].reshape(2, 3))
 
     def values(self, s: ConeState) -> np.ndarray:
+        """The state as one vector (len(names),)."""
         return np.r_[s.delta, s.cones.ravel()]
 
 

@@ -66,10 +66,12 @@ class Chain:
 
     @property
     def n_joints(self) -> int:
+        """The number of joints N."""
         return len(self.a_mm)
 
     @property
     def has_masses(self) -> bool:
+        """Whether every link has a mass and a centre of mass (gravity torques need them)."""
         return self.mass_kg is not None
 
     def nominal(self) -> np.ndarray:
@@ -83,10 +85,12 @@ def param_names(n_joints: int) -> tuple[str, ...]:
 
 
 def param_is_angle(names) -> np.ndarray:
+    """For each parameter name, whether it is an angle (rad) rather than a length (mm), (k,) bool."""
     return np.array([n.startswith(("dalpha", "dtheta", "dbeta")) for n in names])
 
 
 def n_params(n_joints: int) -> int:
+    """The error parameters of an N-joint chain: 5 per joint (da, dd, dalpha, dtheta, dbeta) and the tool's 3."""
     return 5 * n_joints + N_TOOL
 
 

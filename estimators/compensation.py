@@ -55,6 +55,7 @@ class Polynomial:
 
     @property
     def name(self) -> str:
+        """The model's name (``linear``, ``quadratic``, ``cubic``, ...)."""
         if self.period_mm is None:
             return f"polynomial of degree {self.degree}"
         return f"degree-{self.degree} polynomial + period {self.period_mm:.1f} mm along {'XY'[self.along]}"
@@ -129,6 +130,7 @@ def _n_terms(c: dict) -> int:
 
 
 def fit_name(c: dict) -> str:
+    """A selected model's name in words, from its description ``c`` (degree, and period if it has one)."""
     if c.get("period_mm") is None:
         return f"degree {c['degree']}"
     return f"degree {c['degree']} + period {c['period_mm']:.1f} mm"

@@ -60,6 +60,7 @@ class PeriodSearch:
 
     @property
     def key(self) -> str:
+        """The search's name and axis: one search per axis."""
         return f"periodic:{self.axis}"
 
 
@@ -75,15 +76,18 @@ class StationTable:
 
     @property
     def key(self) -> str:
+        """The table's name and axis."""
         return f"nonsmooth:{self.axis}"
 
     def columns(self, drivers=None) -> np.ndarray:
+        """One indicator column per station (the residual no law explains), (n, n_stations)."""
         X = np.zeros((len(self.station), self.n))
         ok = self.station >= 0
         X[np.flatnonzero(ok), self.station[ok]] = 1.0
         return X
 
     def describe(self, coef, cov):
+        """Where the table's largest values sit, in words."""
         k = int(np.argmax(np.abs(coef)))
         return ({"where": self.where, "peak_mm": float(coef[k])}, {"peak_mm": float(np.sqrt(max(cov[k, k], 0)))},
                 f"a local error of the {self.axis.upper()} reading {self.where} that no candidate effect has "
@@ -281,6 +285,7 @@ def change_point(r_time_ordered: np.ndarray) -> tuple[int, float]:
 
 
 def where_text(v: np.ndarray, label: str) -> str:
+    """The span of values ``v`` in words: "``label`` lo-hi mm" (or "= value" when they are all one)."""
     lo, hi = float(np.min(v)), float(np.max(v))
     return f"{label} {lo:.0f}-{hi:.0f} mm" if hi > lo else f"{label} = {lo:.0f} mm"
 

@@ -34,15 +34,20 @@ class Effect:
 
     @property
     def key(self) -> str:
+        """A name that tells this candidate apart from the others of its kind (for de-duplication)."""
         return f"{self.name}:{self.axis}"
 
     def applies(self, drivers: dict) -> bool:
+        """Whether the recording carries what this effect needs (its drivers: directions, temperatures, ...)."""
         return all(drivers.get(k) is not None and np.ptp(np.asarray(drivers[k], float)) > 0 for k in self.needs)
 
     def columns(self, drivers: dict) -> np.ndarray:
+        """The effect's design matrix on the recording's rows, (n, k): one column per parameter, in the signal's unit
+        per parameter unit."""
         raise NotImplementedError
 
     def describe(self, coef: np.ndarray, cov: np.ndarray) -> tuple[dict, dict, str]:
+        """The effect in words and physical units, from its fitted coefficients (k,): what discover prints."""
         raise NotImplementedError
 
 
@@ -138,6 +143,7 @@ class ThermalDrift(Effect):
 
     @property
     def unit(self) -> str:
+        """The unit of the drift's coefficient: mm per hour (driven by time) or mm per kelvin."""
         return "mm_per_h" if self.driver == "t_s" else "mm_per_k"
 
     def describe(self, coef, cov):
@@ -239,6 +245,7 @@ class JointEffect(Effect):
 
     @property
     def key(self) -> str:
+        """The effect's name, axis and joint: one candidate per joint."""
         return f"{self.name}:joint{self.joint}"
 
 
@@ -330,6 +337,7 @@ class TransmissionSearch:
 
     @property
     def key(self) -> str:
+        """The search's name and joint: one search per joint."""
         return f"{self.name}:joint{self.joint}"
 
     def fix(self, r: np.ndarray, others: np.ndarray, rows: np.ndarray, drivers: dict) -> Transmission:
@@ -412,6 +420,7 @@ class JointTable(JointEffect):
         object.__setattr__(self, "needs", ("Jq", "q"))
 
     def bands(self, q_joint: np.ndarray) -> np.ndarray:
+        """Which band of the table each angle falls in, (n,) int, for the joint's angles ``q_joint`` (n,) rad."""
         return np.clip(np.searchsorted(self.edges, q_joint, side="right") - 1, 0, len(self.edges) - 2)
 
     def columns(self, d):

@@ -39,6 +39,7 @@ class QuadraticFit:
         return _monomials(x_mm, y_mm) @ (self.coef / _SCALE)
 
     def as_dict(self) -> dict:
+        """The coefficients and fit figures as plain floats."""
         return {"coef": dict(zip(COEF_NAMES, map(float, self.coef))),
                 "std": dict(zip(COEF_NAMES, map(float, self.std))),
                 "sse": self.sse, "r2": self.r2, "rmse": self.rmse, "n": self.n}

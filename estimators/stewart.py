@@ -186,6 +186,7 @@ class TrackerObservations:
     reading_sigma: float
 
     def sigma(self) -> np.ndarray:
+        """The 1-sigma of every measured length, in the order of the residuals (mm)."""
         L = np.r_[self.nest_lengths.ravel(), self.reflector_lengths.ravel()]
         return np.r_[self.length_sigma[0] + self.length_sigma[1] * L,
                      np.full(self.readings.size, self.reading_sigma)]
@@ -208,6 +209,7 @@ class JointCalibration:
 
     @property
     def std(self) -> np.ndarray:
+        """1-sigma of the 42 leg parameters, (42,), from the covariance's diagonal."""
         return np.sqrt(np.diag(self.cov))
 
 

@@ -40,6 +40,7 @@ class CameraCalibration:
     image_size: tuple[int, int]
 
     def params(self) -> dict[str, float]:
+        """The intrinsics by name (fx, fy, cx, cy px; k1, k2, p1, p2, k3)."""
         K, d = self.K, self.dist
         return dict(zip(INTRINSIC_NAMES, [K[0, 0], K[1, 1], K[0, 2], K[1, 2], *d[:5]]))
 

@@ -16,6 +16,7 @@ from calibench.scenarios.arm_cmm import posture_residuals
 
 
 def log_run(path: Path, report, a: dict) -> None:
+    """Write the run's rerun recording to ``path`` with its layout."""
     path.parent.mkdir(parents=True, exist_ok=True)
     rec = rrlog.open_recording(path, "calibench-arm-cmm")
     try:

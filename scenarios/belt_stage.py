@@ -236,6 +236,7 @@ class StageMaps:
     paper_fit_y: object
 
     def vector(self) -> np.ndarray:
+        """The 13 reported figures as one vector: ex c0..c5, ey c0..c5, yaw."""
         return np.r_[self.fit_x.coef, self.fit_y.coef, self.yaw_rad]
 
 

@@ -17,6 +17,7 @@ ARROW_GAIN = 20.0  # error arrows are drawn 20 x their size
 
 
 def log_run(path: Path, report, a: dict) -> None:
+    """Write the run's rerun recording to ``path`` with its layout."""
     path.parent.mkdir(parents=True, exist_ok=True)
     rec = rrlog.open_recording(path, "calibench-belt-stage")
     try:

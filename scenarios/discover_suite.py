@@ -54,6 +54,7 @@ def _match(t, f) -> bool:
 
 
 def run_case(scenario: str, kind: str, seed: int) -> CaseResult:
+    """Discover on one concealed recording and score it against what was concealed."""
     kinds = ("null", "backlash", "periodic", "thermal", "combined", "bump", "eccentricity", "compliance")
     case_seed = 1000 * seed + 17 + kinds.index(kind)  # distinct recordings per kind and seed
     if scenario.startswith("arm-cmm"):
@@ -119,6 +120,7 @@ def score(results: list[CaseResult]) -> dict:
 
 
 def table(results: list[CaseResult]) -> str:
+    """The suite's results as a Markdown table."""
     lines = ["| scenario | kind | seed | concealed | found | params (rel. error) | cv after/before |",
              "|---|---|---|---|---|---|---|"]
     for r in results:

@@ -274,6 +274,7 @@ def summary_table(summary: dict) -> str:
 
 
 def write_outputs(out_dir: Path, rows: list[dict], summary: dict) -> None:
+    """Write trials.parquet, summary.json, study.png (and study.rrd) for the finished trials."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 

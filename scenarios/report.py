@@ -39,9 +39,11 @@ class Parameter:
 
     @property
     def ok(self) -> bool:
+        """Whether |estimate - truth| is within the tolerance."""
         return bool(abs(self.estimate - self.truth) <= self.tolerance)
 
     def as_dict(self) -> dict:
+        """The parameter as report.json writes it."""
         out = {"name": self.name, "unit": self.unit, "truth": _num(self.truth),
                "estimate": _num(self.estimate), "std": _num(self.std),
                "tolerance": _num(self.tolerance), "ok": self.ok}
@@ -65,6 +67,7 @@ class Check:
 
     @property
     def ok(self) -> bool:
+        """Within its limit (on the side ``op`` says); a check without a limit always passes."""
         if self.limit is None:
             return True
         if not math.isfinite(self.value):
@@ -72,6 +75,7 @@ class Check:
         return bool(self.value <= self.limit if self.op == "<=" else self.value >= self.limit)
 
     def as_dict(self) -> dict:
+        """The check as report.json writes it."""
         d = {"name": self.name, "value": _num(self.value), "limit": _num(self.limit),
              "op": self.op, "ok": self.ok}
         if self.note:
@@ -96,9 +100,11 @@ class Report:
 
     @property
     def ok(self) -> bool:
+        """Every parameter within its tolerance and every check within its limit."""
         return all(p.ok for p in self.parameters) and all(c.ok for c in self.checks)
 
     def as_dict(self) -> dict:
+        """report.json's content (CONTRACT)."""
         d = {"scenario": self.scenario, "seed": self.seed, "fidelity": self.fidelity,
              "parameters": [p.as_dict() for p in self.parameters],
              "checks": [c.as_dict() for c in self.checks],
@@ -111,6 +117,7 @@ class Report:
         return d
 
     def write(self, out_dir: Path) -> Path:
+        """Write ``out_dir/report.json``; returns its path."""
         out_dir.mkdir(parents=True, exist_ok=True)
         path = out_dir / "report.json"
         path.write_text(json.dumps(self.as_dict(), indent=2) + "\n")

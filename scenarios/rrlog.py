@@ -103,6 +103,7 @@ def open_recording(path: Path, application_id: str) -> rr.RecordingStream:
 
 
 def close(rec: rr.RecordingStream) -> None:
+    """Flush and close the recording."""
     rec.flush()
     rec.disconnect()
 
@@ -242,6 +243,7 @@ def log_image(rec: rr.RecordingStream, path: str, image: np.ndarray) -> None:
 
 
 def log_points2d(rec: rr.RecordingStream, path: str, pts: np.ndarray, color, radius: float = 1.5) -> None:
+    """2-D points (n, 2) px under an image."""
     pts = np.asarray(pts, float).reshape(-1, 2)
     pts = pts[np.isfinite(pts).all(axis=1)]
     rec.log(path, rr.Points2D(pts, colors=color, radii=radius))
@@ -249,32 +251,39 @@ def log_points2d(rec: rr.RecordingStream, path: str, pts: np.ndarray, color, rad
 
 def log_points3d(rec: rr.RecordingStream, path: str, pts: np.ndarray, color, radius: float = 0.004,
                  static: bool = False) -> None:
+    """3-D points (n, 3) m."""
     rec.log(path, rr.Points3D(np.asarray(pts, float).reshape(-1, 3), colors=color, radii=radius), static=static)
 
 
 def log_arrows3d(rec: rr.RecordingStream, path: str, origins: np.ndarray, vectors: np.ndarray,
                  color, static: bool = True, radius: float = 0.002) -> None:
+    """Arrows from ``origins`` (n, 3) along ``vectors`` (n, 3), m."""
     rec.log(path, rr.Arrows3D(origins=origins, vectors=vectors, colors=color, radii=radius), static=static)
 
 
 def log_line_strips2d(rec: rr.RecordingStream, path: str, strips: list[np.ndarray], color) -> None:
+    """2-D polylines, each (k, 2)."""
     rec.log(path, rr.LineStrips2D([np.asarray(s, float) for s in strips], colors=color), static=True)
 
 
 def log_line_strips3d(rec: rr.RecordingStream, path: str, strips: list[np.ndarray], color,
                       static: bool = True) -> None:
+    """3-D polylines, each (k, 3) m."""
     rec.log(path, rr.LineStrips3D([np.asarray(s, float) for s in strips], colors=color), static=static)
 
 
 def log_scalar(rec: rr.RecordingStream, path: str, value: float) -> None:
+    """One value of a plot at the current step."""
     rec.log(path, rr.Scalars([float(value)]))
 
 
 def log_text(rec: rr.RecordingStream, path: str, markdown: str) -> None:
+    """A Markdown document (the report's table)."""
     rec.log(path, rr.TextDocument(markdown, media_type=rr.MediaType.MARKDOWN), static=True)
 
 
 def log_figure(rec: rr.RecordingStream, path: str, png: Path) -> None:
+    """A PNG figure as an image."""
     rec.log(path, rr.EncodedImage(path=str(png)), static=True)
 
 

@@ -48,6 +48,7 @@ class StewartConfig:
 
 
 def random_poses(n, rng, config):
+    """``n`` random poses (R (3, 3), t (3,) mm) within the config's translation and rotation ranges."""
     home = np.array([0, 0, config.geometry.home_height_mm])
     rot = np.deg2rad(config.rotation_deg)
     return [(rotvec_to_matrix(rng.uniform(-rot, rot, 3)), home + rng.uniform(-1, 1, 3) * config.translation_mm) for _ in range(n)]
@@ -75,6 +76,8 @@ def measure_pose(sim: StewartSim, stations: np.ndarray, R_guess, t_guess):
 
 
 def pose_from_lengths(sim: StewartSim, stations: np.ndarray, d: np.ndarray, R_guess, t_guess):
+    """The platform's pose (R, t mm) from the tracker's distances ``d`` to its reflectors: each reflector
+    multilaterated from the stations, then a rigid fit, from the guess (R_guess, t_guess)."""
     g = sim.geometry
     pts = [multilaterate(stations, d[k], sim.length_sigma_mm(d[k]), R_guess @ g.reflectors_mm[k] + t_guess)[0]
            for k in range(3)]

@@ -14,6 +14,7 @@ from calibench.scenarios import rrlog
 
 
 def log_run(path: Path, report, a: dict) -> None:
+    """Write the run's rerun recording to ``path`` with its layout."""
     path.parent.mkdir(parents=True, exist_ok=True)
     rec = rrlog.open_recording(path, "calibench-stewart")
     try:

@@ -324,6 +324,7 @@ def interferometer_test(sim, config, lines, model) -> list[dict]:
 
 def build_report(config, seed, fidelity, scope, phi_est, phi_true, phi_residual, sigma_phi, cubic, cubic_true,
                  u, v, sigma_um, verification, selected) -> Report:
+    """The vision stage's Report: phi, the cubic's coefficients against the truth, the ISO 230-2 checks."""
     report = Report(scenario=NAME, seed=seed, fidelity=fidelity)
     report.parameters.append(Parameter("phi_urad", "urad", phi_true[0] * 1e6, phi_est[0] * 1e6, sigma_phi * 1e6,
                                        tolerance=TOL_SIGMA * sigma_phi * 1e6))

@@ -17,6 +17,7 @@ ARROW_GAIN = 1000.0  # um-sized errors drawn 1000 x (1 um -> 1 mm)
 
 
 def log_run(path: Path, report, a: dict) -> None:
+    """Write the run's rerun recording to ``path`` with its layout."""
     path.parent.mkdir(parents=True, exist_ok=True)
     rec = rrlog.open_recording(path, "calibench-vision-stage")
     try:

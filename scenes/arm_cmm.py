@@ -62,10 +62,12 @@ class ArmDescription:
 
     @property
     def n_joints(self) -> int:
+        """The number of joints."""
         return len(self.a_mm)
 
     @property
     def has_masses(self) -> bool:
+        """Whether every joint's link has a mass and a centre of mass."""
         return self.mass_kg is not None
 
     def nominal(self) -> np.ndarray:

@@ -36,6 +36,7 @@ class BeltStageGeometry:
 
     @property
     def camera_pos_mm(self) -> np.ndarray:
+        """The overhead camera's position in the world frame, (3,) mm."""
         return np.array([self.travel_mm[0] / 2, self.travel_mm[1] / 2, self.camera_height_mm])
 
 

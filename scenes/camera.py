@@ -39,6 +39,7 @@ class PinholeCamera:
 
     @property
     def K(self) -> np.ndarray:
+        """The intrinsic matrix, (3, 3) px (OpenCV's convention)."""
         return np.array([[self.fx, 0, self.cx], [0, self.fy, self.cy], [0, 0, 1.0]])
 
     @property

@@ -36,6 +36,7 @@ class Chessboard:
 
     @property
     def n_corners(self) -> int:
+        """The number of inner corners, cols x rows."""
         return self.cols * self.rows
 
     @property
@@ -82,6 +83,7 @@ class Chessboard:
         return np.repeat(img[:, :, None], 3, axis=2)
 
     def texture_png(self, px_per_square: int = 64) -> bytes:
+        """The board's texture as PNG bytes, ``px_per_square`` pixels a square."""
         ok, buf = cv2.imencode(".png", self.texture(px_per_square))
         assert ok
         return buf.tobytes()

@@ -53,6 +53,7 @@ class Superellipse:
     centre_mm: tuple[float, float] = (0.8, -0.4)
 
     def outline(self, n: int = 20000) -> np.ndarray:
+        """``n`` points of the outline at equal parameter steps around it, (n, 2) mm."""
         t = np.linspace(0, 2 * np.pi, n, endpoint=False)
         c, s = np.cos(t), np.sin(t)
         x = self.A_mm * np.sign(c) * np.abs(c) ** (2 / self.p)

@@ -48,6 +48,7 @@ class StewartGeometry:
 
 def build_mjcf(g: StewartGeometry, B_mm: np.ndarray, r_mm: np.ndarray, reflectors_mm: np.ndarray,
                stations_mm: np.ndarray) -> str:
+    """The platform's MJCF: base, platform and six legs (a slide between two universal joints)."""
     B, r = np.asarray(B_mm) / 1000, np.asarray(r_mm) / 1000
     legs, sites, eqs = "", "", ""
     for i in range(6):

@@ -77,6 +77,7 @@ class ArmTruth:
 
     @property
     def bar_length_mm(self) -> float:
+        """The length bar's true length (mm): the distance between the two cones' centres."""
         return float(np.linalg.norm(np.subtract(self.cone_a_mm, self.cone_b_mm)))
 
     def tracker2base(self) -> tuple[np.ndarray, np.ndarray]:
@@ -116,10 +117,12 @@ class ArmSim:
 
     @property
     def n_joints(self) -> int:
+        """The arm's number of joints."""
         return self.arm.n_joints
 
     @property
     def compliant(self) -> bool:
+        """Whether any joint has a finite stiffness (the postures then sag under gravity)."""
         return bool(np.any(np.isfinite(self.stiffness)))
 
     # --- physics ------------------------------------------------------------------------------------
@@ -182,6 +185,7 @@ class ArmSim:
 
     # --- truth ----------------------------------------------------------------------------------
     def set_posture(self, q_rad: np.ndarray) -> None:
+        """Put the twin at joint angles ``q_rad`` (N,) and update its kinematics."""
         self.data.qpos[:] = q_rad
         mujoco.mj_kinematics(self.model, self.data)
 
@@ -266,5 +270,6 @@ class ArmSim:
         return np.stack([(a + b * measured[:, 0] / 1000) / 1000, ang, ang], axis=1)
 
     def base2tracker(self) -> tuple[np.ndarray, np.ndarray]:
+        """The base-to-tracker transform, (R (3, 3), t (3,) mm)."""
         R, p = self.truth.tracker2base()
         return R.T, -R.T @ p

@@ -91,6 +91,7 @@ class BeltStageSim:
         return true_mm
 
     def carriage_mm(self) -> np.ndarray:
+        """The carriage's true position (x, y) mm."""
         return self.data.xpos[self.model.body("y_carriage").id][:2] * 1000
 
     # --- truth in camera terms --------------------------------------------------------------
@@ -135,6 +136,7 @@ class BeltStageSim:
         mujoco.mj_kinematics(self.model, self.data)
 
     def park_calib_board(self) -> None:
+        """Move the calibration board out of the camera's view."""
         mocap = self.model.body_mocapid[self._calib]
         self.data.mocap_pos[mocap] = CALIB_BOARD_PARK
         self.data.mocap_quat[mocap] = [1, 0, 0, 0]
@@ -155,6 +157,7 @@ class BeltStageSim:
         return self.renderer.render(self.data, rng, noise_dn, psf_px)
 
     def close(self) -> None:
+        """Free the renderer's GL context."""
         if self.renderer is not None:
             self.renderer.close()
 

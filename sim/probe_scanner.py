@@ -36,6 +36,7 @@ class Scan:
 
 
 class ProbeScannerSim:
+    """The scanner's twin: a rotary table, a rail and a spring-loaded stylus whose contact is MuJoCo's ray cast."""
     def __init__(self, geometry: ProbeScannerGeometry, truth: ProbeScannerTruth):
         self.geometry, self.truth = geometry, truth
         xml = build_mjcf(geometry, truth.d_mm, truth.dL_mm, truth.alpha0_rad, truth.plate_centre_mm)
@@ -47,6 +48,7 @@ class ProbeScannerSim:
         self._geomid = np.zeros(1, np.int32)
 
     def turn_to(self, theta_rad: float) -> None:
+        """Turn the table to ``theta_rad`` and update the kinematics."""
         self.data.qpos[self._theta] = theta_rad
         mujoco.mj_kinematics(self.model, self.data)
 

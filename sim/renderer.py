@@ -40,6 +40,7 @@ class LensRenderer:
         self.option = mujoco.MjvOption()
 
     def show_groups(self, groups: dict[int, bool]) -> None:
+        """Show or hide MuJoCo geom groups in the renders, {group: visible}."""
         for g, on in groups.items():
             self.option.geomgroup[g] = int(on)
 
@@ -78,6 +79,7 @@ class LensRenderer:
         return np.clip(np.rint(img), 0, 255).astype(np.uint8)
 
     def close(self) -> None:
+        """Free the GL context."""
         self._renderer.close()
 
 

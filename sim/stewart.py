@@ -26,6 +26,8 @@ class StewartTruth:
 
 
 class StewartSim:
+    """The platform's twin: six legs between ball joints, the truth's hinge errors, a tracker's reflectors on the
+    platform."""
     def __init__(self, geometry: StewartGeometry, truth: StewartTruth, rng: np.random.Generator):
         g = geometry
         self.geometry, self.truth, self.rng = g, truth, rng
@@ -74,9 +76,12 @@ class StewartSim:
         return self.leg_lengths_mm() - self.l0 + self.rng.normal(0, self.truth.reading_noise_um / 1000, 6)
 
     def reflectors_mm(self) -> np.ndarray:
+        """The reflectors' positions in the world, (k, 3) mm, at the current pose."""
         return np.array([self.data.site_xpos[s] for s in self._refl]) * 1000
 
     def length_sigma_mm(self, L_mm) -> np.ndarray:
+        """The tracker's 1-sigma (mm) for distances ``L_mm``: a + b L, a in um and b in um per m
+        (truth.length_noise_um)."""
         a, b = self.truth.length_noise_um
         return (a + b * np.asarray(L_mm) / 1000) / 1000
 
@@ -86,4 +91,5 @@ class StewartSim:
         return L + self.rng.normal(0, self.length_sigma_mm(L))
 
     def platform_hinges_world_mm(self) -> np.ndarray:
+        """The true platform hinges in the world, (6, 3) mm, at the current pose."""
         return np.array([self.data.site_xpos[s] for s in self._plat]) * 1000

@@ -96,11 +96,13 @@ class LineRuler:
     graduation_errors_mm: np.ndarray
 
     def graduation_mm(self, k: int) -> np.ndarray:
+        """The position of graduation ``k`` along the ruler, (2,) mm, in the table's frame."""
         u = np.array([np.cos(self.angle_rad), np.sin(self.angle_rad)])
         return self.origin_mm + u * (k * self.pitch_mm + self.graduation_errors_mm[k])
 
     @property
     def direction(self) -> np.ndarray:
+        """The ruler's unit direction, (2,)."""
         return np.array([np.cos(self.angle_rad), np.sin(self.angle_rad)])
 
 
@@ -158,6 +160,7 @@ class VisionStageSim:
 
     @property
     def reading_mm(self) -> np.ndarray:
+        """The linear scales' readings (x, y) mm."""
         return self._reading.copy()
 
     def set_plate_yaw(self, phi_rad: float) -> None:
@@ -213,6 +216,7 @@ class VisionStageSim:
 
     # --- instruments ------------------------------------------------------------------------------
     def render(self, noise_dn: float = 0.0, psf_px: float = 0.0) -> np.ndarray:
+        """The microscope's image, (h, w, 3) uint8, with sensor noise and blur."""
         if self.renderer is None:
             raise RuntimeError("this simulator was built without a renderer")
         return self.renderer.render(self.data, self.rng, noise_dn, psf_px)
@@ -248,5 +252,6 @@ class VisionStageSim:
         return r1 + self.rng.normal(0, aim_um / 1000)
 
     def close(self) -> None:
+        """Free the renderer's GL context."""
         if self.renderer is not None:
             self.renderer.close()
