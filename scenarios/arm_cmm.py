@@ -71,23 +71,7 @@ def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool
     """Simulate the arm CMM (any serial arm of an ARM.toml) measured by a laser tracker, cones and a
     length bar; calibrate it from what its sensors recorded; compare with the truth.
 
-    Parameters
-    ----------
-    config : ArmCmmConfig
-        Geometry, injected truth, sensor noise and check limits (``calibench run --config``).
-    seed : int
-        Every random draw of the run comes from it: the same seed, the same report to the bit.
-    fidelity : str
-        Ignored: the arm's instruments are geometric (MuJoCo's kinematics plus sensor noise).
-    out_dir : Path or None
-        Where the figure (and ``run.rrd``) go; None writes nothing (a Monte-Carlo trial).
-    rrd : bool
-        Write the rerun recording ``out_dir/run.rrd`` with the scenario's layout.
-
-    Returns
-    -------
-    Report
-        Truth against estimate (with std and tolerance) for every parameter, and the named checks.
+    The arguments and the Report: :class:`calibench.scenarios.registry.Scenario`.
     """
     # the arm's instruments are geometric: one fidelity (MuJoCo's kinematics plus sensor noise)
     rng = np.random.default_rng(seed)

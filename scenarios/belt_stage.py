@@ -83,23 +83,7 @@ def run(config: BeltStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: b
     """Simulate the belt-driven XY stage watched by its overhead camera; calibrate it from what its
     sensors recorded; compare with the truth.
 
-    Parameters
-    ----------
-    config : BeltStageConfig
-        Geometry, injected truth, sensor noise and check limits (``calibench run --config``).
-    seed : int
-        Every random draw of the run comes from it: the same seed, the same report to the bit.
-    fidelity : str
-        "render" (pixels through MuJoCo and the detector) or "analytic" (exact projection plus detector noise).
-    out_dir : Path or None
-        Where the figure (and ``run.rrd``) go; None writes nothing (a Monte-Carlo trial).
-    rrd : bool
-        Write the rerun recording ``out_dir/run.rrd`` with the scenario's layout.
-
-    Returns
-    -------
-    Report
-        Truth against estimate (with std and tolerance) for every parameter, and the named checks.
+    The arguments and the Report: :class:`calibench.scenarios.registry.Scenario`.
     """
     rng = np.random.default_rng(seed)
     g, truth = config.geometry, config.truth

@@ -18,58 +18,29 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_BAD_INPUT, f"{self.prog}: {message} (see {self.prog} --help)\n")
 
 
-def _positive_int(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"{v}: at least 1")
-    return v
+def _ranged(kind: type, ok, rule: str):
+    """An argparse type: the text as ``kind`` (int or float), refused in one line unless
+    ``ok(value)``; ``rule`` says the range in words."""
+    noun = "a whole number" if kind is int else "a number"
+
+    def parse(text: str):
+        try:
+            v = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not {noun}") from None
+        if not ok(v):
+            raise argparse.ArgumentTypeError(f"{text}: {rule}")
+        return v
+
+    return parse
 
 
-def _seed(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
-    if not 0 <= v < 2**63:
-        raise argparse.ArgumentTypeError(f"{v}: a seed is a whole number from 0 to 2^63 - 1")
-    return v
-
-
-def _trials(text: str) -> int:
-    v = _positive_int(text)
-    if v > MAX_TRIALS:
-        raise argparse.ArgumentTypeError(f"{v}: at most {MAX_TRIALS} trials a study (run several studies)")
-    return v
-
-
-def _positive_float(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not (v > 0 and v < float("inf")):
-        raise argparse.ArgumentTypeError(f"{text}: a positive finite number")
-    return v
-
-
-def _fraction(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not 0.0 < v < 0.9:
-        raise argparse.ArgumentTypeError(f"{text}: a fraction between 0 and 0.9")
-    return v
-
-
-def _board_count(text: str) -> int:
-    v = _positive_int(text)
-    if v < 2:
-        raise argparse.ArgumentTypeError(f"{v}: a board has at least 2 inner corners each way")
-    return v
+_positive_int = _ranged(int, lambda v: v >= 1, "at least 1")
+_seed = _ranged(int, lambda v: 0 <= v < 2**63, "a seed is a whole number from 0 to 2^63 - 1")
+_trials = _ranged(int, lambda v: 1 <= v <= MAX_TRIALS, f"from 1 to {MAX_TRIALS} trials a study (run several studies)")
+_positive_float = _ranged(float, lambda v: 0 < v < float("inf"), "a positive finite number")
+_fraction = _ranged(float, lambda v: 0 < v < 0.9, "a fraction between 0 and 0.9")
+_board_count = _ranged(int, lambda v: v >= 2, "a board has at least 2 inner corners each way")
 
 
 def _parser() -> argparse.ArgumentParser:

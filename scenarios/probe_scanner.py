@@ -42,23 +42,7 @@ def run(config: ProbeScannerConfig, seed: int, fidelity: str, out_dir: Path, rrd
     """Simulate the rotary probe scanner tracing its calibration opening and a spectacle rim; calibrate
     it from what its sensors recorded; compare with the truth.
 
-    Parameters
-    ----------
-    config : ProbeScannerConfig
-        Geometry, injected truth, sensor noise and check limits (``calibench run --config``).
-    seed : int
-        Every random draw of the run comes from it: the same seed, the same report to the bit.
-    fidelity : str
-        Ignored: one fidelity (MuJoCo's ray plus the sensor model).
-    out_dir : Path or None
-        Where the figure (and ``run.rrd``) go; None writes nothing (a Monte-Carlo trial).
-    rrd : bool
-        Write the rerun recording ``out_dir/run.rrd`` with the scenario's layout.
-
-    Returns
-    -------
-    Report
-        Truth against estimate (with std and tolerance) for every parameter, and the named checks.
+    The arguments and the Report: :class:`calibench.scenarios.registry.Scenario`.
     """
     # the probe's physics has one fidelity: MuJoCo's ray plus the sensor model
     rng = np.random.default_rng(seed)

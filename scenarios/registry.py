@@ -9,8 +9,26 @@ from typing import Callable
 
 @dataclasses.dataclass(frozen=True)
 class Scenario:
-    """A scenario by name: its config class (defaults, overridden by ``--config``), its ``run``
-    (config, seed, fidelity, out_dir, rrd) -> Report, and the model ``calibench fit`` applies."""
+    """A scenario by name: its config class, its ``run``, and the model ``calibench fit`` applies.
+
+    ``run(config, seed, fidelity, out_dir, rrd) -> Report``, the same for every scenario:
+
+    config : the scenario's config dataclass
+        Geometry, injected truth, sensor noise and check limits (``calibench run --config``).
+    seed : int
+        Every random draw of the run comes from it: the same seed, the same report to the bit.
+    fidelity : str
+        "render" (pixels through MuJoCo's renderer and the real detector) or "analytic" (exact
+        projection plus the detector's noise); scenarios without a camera (``renders`` False)
+        have one fidelity and ignore it.
+    out_dir : Path or None
+        Where the figure (and ``run.rrd``) go; None writes nothing (a Monte-Carlo trial).
+    rrd : bool
+        Write the rerun recording ``out_dir/run.rrd`` with the scenario's layout.
+
+    The Report holds truth against estimate (with std and tolerance) for every parameter, and
+    the named checks.
+    """
 
     name: str
     config: type

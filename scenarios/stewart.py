@@ -88,23 +88,7 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
     """Simulate the Stewart platform measured by a laser tracker's lengths; calibrate it from what its
     sensors recorded; compare with the truth.
 
-    Parameters
-    ----------
-    config : StewartConfig
-        Geometry, injected truth, sensor noise and check limits (``calibench run --config``).
-    seed : int
-        Every random draw of the run comes from it: the same seed, the same report to the bit.
-    fidelity : str
-        Ignored: one fidelity (MuJoCo's kinematics plus the tracker's noise).
-    out_dir : Path or None
-        Where the figure (and ``run.rrd``) go; None writes nothing (a Monte-Carlo trial).
-    rrd : bool
-        Write the rerun recording ``out_dir/run.rrd`` with the scenario's layout.
-
-    Returns
-    -------
-    Report
-        Truth against estimate (with std and tolerance) for every parameter, and the named checks.
+    The arguments and the Report: :class:`calibench.scenarios.registry.Scenario`.
     """
     rng = np.random.default_rng(seed)
     g = config.geometry

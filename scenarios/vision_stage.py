@@ -160,23 +160,7 @@ def run(config: VisionStageConfig, seed: int, fidelity: str, out_dir: Path, rrd:
     """Simulate the vision measuring machine's table under its microscope, with a circle plate and an
     interferometer; calibrate it from what its sensors recorded; compare with the truth.
 
-    Parameters
-    ----------
-    config : VisionStageConfig
-        Geometry, injected truth, sensor noise and check limits (``calibench run --config``).
-    seed : int
-        Every random draw of the run comes from it: the same seed, the same report to the bit.
-    fidelity : str
-        "render" (microscope images through MuJoCo and the circle detector) or "analytic".
-    out_dir : Path or None
-        Where the figure (and ``run.rrd``) go; None writes nothing (a Monte-Carlo trial).
-    rrd : bool
-        Write the rerun recording ``out_dir/run.rrd`` with the scenario's layout.
-
-    Returns
-    -------
-    Report
-        Truth against estimate (with std and tolerance) for every parameter, and the named checks.
+    The arguments and the Report: :class:`calibench.scenarios.registry.Scenario`.
     """
     rng = np.random.default_rng(seed)
     g = config.geometry
