@@ -65,13 +65,17 @@ class AngleTerm:
     """A joint's angle error as a combination of known functions of its own angle: the reading
     is off by F(q_j) @ c (rad), the link at q_j - F(q_j) @ c. ``kind``: ``harmonic`` (sin and
     cos of ``harmonic`` q_j: an encoder's eccentricity at 1, a gear's harmonics beyond) or
-    ``table`` (one value per band of q_j between ``edges_rad``: what no law explains)."""
+    ``table`` (one value per band of q_j between ``edges_rad``: what no law explains).
+    ``recording``: None for an error every recording shares; an index for one that holds only in
+    that recording's rows (a periodic error whose phase is set anew at each power-up: its own
+    coefficients per session, none for a session the fit has not seen)."""
 
     joint: int
     kind: str
     harmonic: float = 1.0
     edges_rad: tuple = ()
     label: str = ""
+    recording: int | None = None
 
     def functions(self, q_joint: np.ndarray) -> np.ndarray:
         """F (n, k) at the joint's angles (n,)."""
@@ -88,6 +92,8 @@ class AngleTerm:
     def names(self) -> tuple[str, ...]:
         """Parameter names of the term's coefficients (``angle_<label><joint>_...``)."""
         stem = f"angle_{self.label or self.kind}{self.joint}"
+        if self.recording is not None:
+            stem += f"_rec{self.recording + 1}"
         if self.kind == "harmonic":
             return (f"{stem}_sin", f"{stem}_cos")
         return tuple(f"{stem}_band{k + 1}" for k in range(len(self.edges_rad) - 1))
@@ -160,7 +166,7 @@ class PointProblem:
         self.N = N
         self.nk = n_params(N)
         self.terms = tuple(angle_terms)
-        self.F = [t.functions(self.q[:, t.joint - 1]) for t in self.terms]
+        self.F = self._term_functions(self.q, self.rec)
         self.na = sum(F.shape[1] for F in self.F)
         self.nc = len(self.cj) + len(self.tj) + self.na
         frame = ("rx", "ry", "rz", "x", "y", "z")
@@ -168,6 +174,17 @@ class PointProblem:
         self.frame_names = tuple(f"base_{f}{s}" for s in suffix for f in frame)
         self.R_ref: np.ndarray | None = None
         self.prior = prior
+
+    def _term_functions(self, q_rad: np.ndarray, rec: np.ndarray | None) -> list[np.ndarray]:
+        """Each angle term's functions (n, k) at postures ``q_rad`` (n, N) of recordings ``rec``
+        (n,) (None: a recording the fit has not seen, where per-recording terms are zero)."""
+        out = []
+        for t in self.terms:
+            F = t.functions(q_rad[:, t.joint - 1])
+            if t.recording is not None:
+                F = F * (rec == t.recording)[:, None] if rec is not None else np.zeros_like(F)
+            out.append(F)
+        return out
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -238,9 +255,11 @@ class PointProblem:
         cols = _cross3(m_perp, P.point[:, None] - o[:, self.tj - 1]).transpose(0, 2, 1)
         return cols @ s.comp[len(self.cj):len(self.cj) + len(self.tj)], cols
 
-    def base_points(self, s: PointState, q_rad: np.ndarray | None = None) -> np.ndarray:
+    def base_points(self, s: PointState, q_rad: np.ndarray | None = None, session: int | None = None) -> np.ndarray:
         """Modelled tool points in the arm's base frame, (n, 3) mm: this problem's postures, or
-        others ``q_rad`` (m, N) (their gravity loads computed here)."""
+        others ``q_rad`` (m, N) (their gravity loads computed here) taken in recording
+        ``session``'s session (None: one the fit has not seen, where per-recording angle terms
+        are unknown and left out)."""
         if q_rad is None:
             q_eff, m_perp = self._q_eff(s), self.m_perp
         else:
@@ -250,15 +269,18 @@ class PointProblem:
                 other = PointProblem(self.chain, q_rad, np.zeros((len(q_rad), 3)), compliance_joints=self.cj,
                                      tilt_joints=self.tj)
                 tau, m_perp = other.tau, other.m_perp
-            F = [t.functions(q_rad[:, t.joint - 1]) for t in self.terms]
+            F = self._term_functions(q_rad, None if session is None else np.full(len(q_rad), session))
             q_eff = self._q_eff(s, q_rad, tau, F)
         P = pose(self.chain, q_eff, s.delta)
         return P.point + (self._tilt(s, P, m_perp)[0] if len(self.tj) else 0.0)
 
-    def model(self, s: PointState, q_rad: np.ndarray | None = None, frame: int = 0) -> np.ndarray:
+    def model(self, s: PointState, q_rad: np.ndarray | None = None, frame: int = 0,
+              session: int | None = None) -> np.ndarray:
         """Modelled points (n, 3) in the instrument frame: this problem's rows (each in its own
-        recording's frame), or postures ``q_rad`` (m, N) in recording ``frame``'s."""
-        p = self.base_points(s, q_rad)
+        recording's frame), or postures ``q_rad`` (m, N) in recording ``frame``'s frame, with
+        recording ``session``'s per-recording angle terms (None: another session's rows, e.g. a
+        test recording in the same frame)."""
+        p = self.base_points(s, q_rad, session)
         rec = self.rec if q_rad is None else np.full(len(p), frame)
         return np.einsum("nij,nj->ni", s.R[rec], p) + s.t[rec]
 
@@ -389,6 +411,17 @@ class TrackerProblem:
         self.R_ref: np.ndarray | None = None
         if not (np.isfinite(self.q).all() and np.isfinite(measured).all()):
             raise ValueError("tracker data must be finite")
+
+    def _term_functions(self, q_rad: np.ndarray, rec: np.ndarray | None) -> list[np.ndarray]:
+        """Each angle term's functions (n, k) at postures ``q_rad`` (n, N) of recordings ``rec``
+        (n,) (None: a recording the fit has not seen, where per-recording terms are zero)."""
+        out = []
+        for t in self.terms:
+            F = t.functions(q_rad[:, t.joint - 1])
+            if t.recording is not None:
+                F = F * (rec == t.recording)[:, None] if rec is not None else np.zeros_like(F)
+            out.append(F)
+        return out
 
     @property
     def names(self) -> tuple[str, ...]:

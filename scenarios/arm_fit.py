@@ -110,10 +110,12 @@ def calibrate(chain, q_rad: np.ndarray, xyz_mm: np.ndarray, recording: np.ndarra
     return ArmCalibration(problem, ident, model, why, np.sort(outliers), sigma, problem.names)
 
 
-def angle_terms_from_discovery(path, n_joints: int) -> list[AngleTerm]:
+def angle_terms_from_discovery(path, n_joints: int, n_recordings: int = 1) -> list[AngleTerm]:
     """The joint-angle effects of a ``discover arm-cmm`` result (a discovery.json's path, or its
     content) as terms of the fit: transmission harmonics, encoder eccentricity, a nonsmooth table
-    over a joint's angle."""
+    over a joint's angle. A transmission with ``"per_recording": true`` gets its own phase and
+    amplitude in each of the ``n_recordings`` training recordings (a motor-side error whose phase
+    to the joint's angle is set at each power-up)."""
     if isinstance(path, dict):
         d, path = path, "the discovery"
     else:
@@ -134,7 +136,12 @@ def angle_terms_from_discovery(path, n_joints: int) -> list[AngleTerm]:
         if not isinstance(j, int) or not 1 <= j <= n_joints:
             raise BadInput(f"{path}: effect {e.get('name')} names joint {j!r}; the arm has {n_joints} joints")
         if e["name"] == "transmission":
-            terms += [AngleTerm(j, "harmonic", harmonic=float(h), label="transmission") for h in p.get("harmonics", [])]
+            if not isinstance(p.get("per_recording", False), bool):
+                raise BadInput(f"{path}: per_recording of joint {j}'s transmission is true or false, "
+                               f"not {p['per_recording']!r}")
+            recs = range(n_recordings) if p.get("per_recording") else [None]
+            terms += [AngleTerm(j, "harmonic", harmonic=float(h), label="transmission", recording=r)
+                      for h in p.get("harmonics", []) for r in recs]
         elif e["name"] == "encoder_eccentricity":
             terms.append(AngleTerm(j, "harmonic", harmonic=1.0, label="eccentricity"))
         elif "edges_deg" in p:
@@ -248,7 +255,8 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
     discovery here, on the training rows only (held-out rows never shape the model)."""
     arm = load_arm(arm_spec or "arm-cmm")
     run_discovery = str(effects) == "discover"
-    terms = angle_terms_from_discovery(effects, arm.n_joints) if effects is not None and not run_discovery else []
+    terms = (angle_terms_from_discovery(effects, arm.n_joints, len(paths))
+             if effects is not None and not run_discovery else [])
     if model is None:
         model = "physics" if arm.has_masses else "geometry"
     if model == "physics" and not arm.has_masses:
@@ -289,7 +297,7 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
 
         parts = [r.subset(k) for r, k in zip(train, used)]
         discovery, _ = discover_arm(parts if len(parts) > 1 else parts[0], arm=arm)
-        terms = angle_terms_from_discovery(discovery, arm.n_joints)
+        terms = angle_terms_from_discovery(discovery, arm.n_joints, len(paths))
     cal = calibrate(chain, q, y, rec_id, sig, model, arm.parallel_pairs(), angle_terms=terms)
     # settle the training recordings' disagreeing pairs with the fitted model, refit if any
     rows_of = np.concatenate([np.flatnonzero(k) for k in used])
@@ -297,7 +305,7 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
         for i, (p, rec) in enumerate(zip(paths, train)):
             pairs, rep = pending[p.name]
             if pairs:
-                _settle_pairs(used[i], flagged[p.name], pairs, cal.problem.model(cal.state, rec.q_rad, frame=i),
+                _settle_pairs(used[i], flagged[p.name], pairs, cal.problem.model(cal.state, rec.q_rad, frame=i, session=i),
                               rec.xyz_mm, rep)
         q = np.vstack([r.q_rad[k] for r, k in zip(train, used)])
         y = np.vstack([r.xyz_mm[k] for r, k in zip(train, used)])
@@ -346,7 +354,7 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
             m = held[p.name]
             if m.sum() == 0:
                 continue
-            e = prob.model(s, rec.q_rad[m], frame=i) - rec.xyz_mm[m]
+            e = prob.model(s, rec.q_rad[m], frame=i, session=i) - rec.xyz_mm[m]
             result["holdout"][p.name] = {**_errors(e), "fraction": holdout}
             figures[f"{p.name} (held out)"] = np.linalg.norm(e, axis=1)
     tested = {}

@@ -250,6 +250,11 @@ CASES = [
                                "e.json": json.dumps({"scenario": "arm-cmm", "effects": [
                                    {"name": "transmission", "params": {"joint": 9, "harmonics": [3]}}]})},
      ["fit", "arm-cmm", "{d}/r.csv", "--arm", "ur10", "--effects", "{d}/e.json"], 2, "names joint 9"),
+    ("arm-effects-per-recording-not-bool", {"r.csv": lambda p: p.write_text(arm_csv(*arm_rows())),
+                                            "e.json": json.dumps({"scenario": "arm-cmm", "effects": [
+                                                {"name": "transmission",
+                                                 "params": {"joint": 2, "harmonics": [17], "per_recording": "yes"}}]})},
+     ["fit", "arm-cmm", "{d}/r.csv", "--arm", "ur10", "--effects", "{d}/e.json"], 2, "true or false"),
     ("arm-test-missing", {"r.csv": lambda p: p.write_text(arm_csv(*arm_rows()))},
      ["fit", "arm-cmm", "{d}/r.csv", "--arm", "ur10", "--test", "{d}/none.csv"], 2, "none.csv"),
     ("arm-test-joint-count", {"r.csv": lambda p: p.write_text(arm_csv(*arm_rows())),
