@@ -412,17 +412,6 @@ class TrackerProblem:
         if not (np.isfinite(self.q).all() and np.isfinite(measured).all()):
             raise ValueError("tracker data must be finite")
 
-    def _term_functions(self, q_rad: np.ndarray, rec: np.ndarray | None) -> list[np.ndarray]:
-        """Each angle term's functions (n, k) at postures ``q_rad`` (n, N) of recordings ``rec``
-        (n,) (None: a recording the fit has not seen, where per-recording terms are zero)."""
-        out = []
-        for t in self.terms:
-            F = t.functions(q_rad[:, t.joint - 1])
-            if t.recording is not None:
-                F = F * (rec == t.recording)[:, None] if rec is not None else np.zeros_like(F)
-            out.append(F)
-        return out
-
     @property
     def names(self) -> tuple[str, ...]:
         """Parameter names, in the column order of :meth:`jacobian`: the chain's errors, then the tracker frame."""
