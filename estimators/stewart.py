@@ -304,8 +304,9 @@ def adjust_jointly(obs: TrackerObservations, stations, R, t, r, B, l, iterations
             break
     res, J = _joint_residuals(obs, S, Rc, tc, rc, Bc, lc)
     dof = max(len(res) - J.shape[1], 1)
-    # the noise model is known (the instruments' specifications), so no s2 rescaling: the
-    # whitened RMS is reported as a check of that model instead
-    cov = np.linalg.inv(J.T @ J)[-42:, -42:]
-    return JointCalibration(S, Rc, tc, rc, Bc, lc, cov, float(np.sqrt(res @ res / dof)), converged)
+    # the stated sigma are a datasheet's, not the truth: the variance factor of the whitened
+    # residuals (1 when the datasheet is right) rescales the covariance, and is reported as rms
+    s2 = res @ res / dof
+    cov = np.linalg.inv(J.T @ J)[-42:, -42:] * s2
+    return JointCalibration(S, Rc, tc, rc, Bc, lc, cov, float(np.sqrt(s2)), converged)
 

@@ -52,15 +52,39 @@ class ArmCmmConfig:
     cone_point_sigma_mm: float = 0.01  # encoders through the arm plus seating, as the user states it
     bar_sigma_mm: float = 0.001
     after_limit_mm: float = 0.02  # the tracker's own noise is about 0.01 mm at 2.5 m
+    # The instruments' 1-sigma as their datasheets state it, which is all the estimator is told
+    # (the truth's *_noise_* is what the simulation draws): range a + b * L(m), angles, encoders.
+    # The identification scales its covariance by the variance factor it finds in the residuals,
+    # so a datasheet off by a common factor leaves the reported std honest.
+    stated_range_sigma_um: tuple = (5.0, 1.0)
+    stated_angle_sigma_urad: float = 4.0
+    stated_encoder_sigma_urad: float = 5.0
+
+    def __post_init__(self):
+        if self.stated_range_sigma_um[0] <= 0:
+            raise ValueError("stated_range_sigma_um: the range's constant term must be positive")
+
+    @property
+    def stated(self) -> tuple:
+        """(range (a um, b um/m), angle urad, encoder urad): the datasheet's 1-sigma."""
+        return tuple(self.stated_range_sigma_um), self.stated_angle_sigma_urad, self.stated_encoder_sigma_urad
 
 
-def tracker_problem(sim: ArmSim, chain: Chain, q_true, q_read, rng) -> TrackerProblem:
+def tracker_problem(sim: ArmSim, chain: Chain, q_true, q_read, rng, stated: tuple | None = None) -> TrackerProblem:
     """The tracker's measurements at motor angles ``q_true`` (n, N) with encoder readings
-    ``q_read``; exact (no noise, no encoder noise in the model) without ``rng``."""
+    ``q_read``; exact (no noise, no encoder noise in the model) without ``rng``. ``stated``: the
+    1-sigma the estimator is told (:attr:`ArmCmmConfig.stated`); None: the simulation's own noise
+    (for bounds computed from the truth)."""
     meas = sim.tracker(q_true, rng)
-    sigma = sim.tracker_sigma(meas)
-    enc = sim.truth.encoder_noise_urad * 1e-6 if rng is not None else 0.0
-    return TrackerProblem(chain, q_read, meas, sigma, enc)
+    if stated is None:
+        sigma = sim.tracker_sigma(meas)
+        enc = sim.truth.encoder_noise_urad * 1e-6
+    else:
+        (a, b), ang, enc = stated
+        sigma = np.stack([(a + b * meas[:, 0] / 1000) / 1000, np.full(len(meas), ang * 1e-6),
+                          np.full(len(meas), ang * 1e-6)], axis=1)
+        enc = enc * 1e-6
+    return TrackerProblem(chain, q_read, meas, sigma, enc if rng is not None else 0.0)
 
 
 def _is_angle(name: str) -> bool:
@@ -97,7 +121,7 @@ def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool
     results = {}
     for label, idx in (("chosen", chosen_idx), ("random", random_idx)):
         q_true = candidates[idx]
-        problem = tracker_problem(sim, chain, q_true, sim.encoders(q_true, rng), rng)
+        problem = tracker_problem(sim, chain, q_true, sim.encoders(q_true, rng), rng, config.stated)
         t0 = time.perf_counter()
         ident = identify_identifiable(problem)
         elapsed = time.perf_counter() - t0
@@ -214,14 +238,18 @@ def trial_parameters(config: ArmCmmConfig, seed: int) -> list[Parameter]:
     sim = ArmSim(config.arm, config.truth)
     chain = chain_of(sim.arm)
     q = sim.random_postures(config.n_postures, rng)
-    noisy = tracker_problem(sim, chain, q, sim.encoders(q, rng), rng)
+    q_read = sim.encoders(q, rng)
+    noisy = tracker_problem(sim, chain, q, q_read, rng, config.stated)
     ident = identify_identifiable(noisy)
     exact = tracker_problem(sim, chain, q, q, None)
     exact.R_ref = noisy.R_ref  # the tracker's turn, from the same reference
     effective = identify(exact, ident.basis)
-    # the Cramer-Rao bound: the Jacobian at the truth whitened by the full noise model (tracker
-    # and encoders), unscaled by any residual
-    J = noisy.jacobian(effective.state)[:, ident.basis.kept]
+    # the Cramer-Rao bound: the Jacobian at the truth whitened by the simulation's own noise
+    # (tracker and encoders), not the datasheet's, unscaled by any residual
+    true_noise = TrackerProblem(chain, q_read, noisy.meas, sim.tracker_sigma(noisy.meas),
+                                sim.truth.encoder_noise_urad * 1e-6)
+    true_noise.R_ref = noisy.R_ref
+    J = true_noise.jacobian(effective.state)[:, ident.basis.kept]
     crlb = np.sqrt(np.diag(np.linalg.inv(J.T @ J)))
     names = exact.names
     bound = {names[j]: crlb[i] for i, j in enumerate(ident.basis.kept)}

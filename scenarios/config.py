@@ -31,13 +31,14 @@ MAX_PIXELS = 8192  # a camera side
 # Lists that are a point, a pair or a model's coefficients (other lists: as long as you like)
 FIXED_LENGTH = {"travel_mm", "error_x", "error_y", "centre_mm", "plate_centre_mm", "tracker_pos_mm",
                 "tracker_tilt_rad", "cone_a_mm", "cone_b_mm", "range_noise_um", "reversal_um", "length_noise_um",
-                "plate_origin_reading_mm", "x_guide_ref_mm", "y_guide_ref_mm", "grid", "m_sweep"}
+                "plate_origin_reading_mm", "x_guide_ref_mm", "y_guide_ref_mm", "grid", "m_sweep",
+                "stated_range_sigma_um", "stated_length_sigma_um"}
 # Floats that are scatters, limits or sizes: a negative one is a typo, not a physics.
 NONNEGATIVE = ("noise", "sigma", "jitter", "limit", "tolerance", "repeatability", "quantum", "psf", "seat",
                "error_um", "aim_um", "reversal_um", "contour_quanta", "requirement")
 POSITIVE = ("square_mm", "pitch_mm", "diameter_mm", "fx", "fy", "working_distance_mm", "camera_height_mm",
             "period", "half_side_mm", "rail_length_mm", "A_mm", "B_mm", "travel_mm", "home_height_mm",
-            "translation_mm", "rotation_deg", "p")
+            "translation_mm", "rotation_deg", "p", "reading_sigma_um", "angle_sigma_urad")
 
 
 def load_toml(path: str | Path) -> dict:

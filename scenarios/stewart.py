@@ -45,6 +45,21 @@ class StewartConfig:
     rotation_deg: float = 10.0
     closure_limit_um: float = 0.1
     after_limit_um: float = 20.0
+    # The instruments' 1-sigma as their datasheets state it, all the estimators are told (the
+    # truth's *_noise_um is what the simulation draws): the tracker's lengths a + b * L(m) and the
+    # legs' readings. The joint adjustment scales its covariance by the variance factor of its
+    # residuals, so a datasheet off by a common factor leaves the reported std honest.
+    stated_length_sigma_um: tuple = (0.3, 0.3)
+    stated_reading_sigma_um: float = 1.0
+
+    def __post_init__(self):
+        if max(self.stated_length_sigma_um) <= 0:
+            raise ValueError("stated_length_sigma_um: the tracker's stated sigma a + b L needs a or b positive")
+
+    def length_sigma_mm(self, L_mm) -> np.ndarray:
+        """The stated 1-sigma (mm) of the tracker's distances ``L_mm`` (mm)."""
+        a, b = self.stated_length_sigma_um
+        return (a + b * np.asarray(L_mm) / 1000) / 1000
 
 
 def random_poses(n, rng, config):
@@ -54,32 +69,33 @@ def random_poses(n, rng, config):
     return [(rotvec_to_matrix(rng.uniform(-rot, rot, 3)), home + rng.uniform(-1, 1, 3) * config.translation_mm) for _ in range(n)]
 
 
-def locate_stations(sim: StewartSim):
-    """Each station from its lengths to the three nests (Eq. 1), with covariance (Eq. 4-5), and
-    the lengths (3 stations, 3 nests)."""
+def locate_stations(sim: StewartSim, sigma_mm):
+    """Each station from its lengths to the three nests (Eq. 1), with covariance (Eq. 4-5) from
+    the stated 1-sigma ``sigma_mm(L)``, and the lengths (3 stations, 3 nests)."""
     g = sim.geometry
     out, lengths = [], []
     for s in range(3):
         d = sim.distances_mm(s, g.reference_nests_mm)
         lengths.append(d)
-        out.append(trilaterate(g.reference_nests_mm, d, sim.length_sigma_mm(d), above=np.array([0, 0, 1.0])))
+        out.append(trilaterate(g.reference_nests_mm, d, sigma_mm(d), above=np.array([0, 0, 1.0])))
     return np.array([p for p, _ in out]), [c for _, c in out], np.array(lengths)
 
 
-def measure_pose(sim: StewartSim, stations: np.ndarray, R_guess, t_guess):
+def measure_pose(sim: StewartSim, stations: np.ndarray, R_guess, t_guess, sigma_mm):
     """The platform's pose from the tracker: reflectors multilaterated, then a rigid fit.
     Returns R, t and the raw lengths (3 reflectors x 3 stations) they came from."""
     refl_true = sim.reflectors_mm()
     d = np.array([[sim.distances_mm(s, refl_true[k:k + 1])[0] for s in range(3)] for k in range(3)])
-    R, t = pose_from_lengths(sim, stations, d, R_guess, t_guess)
+    R, t = pose_from_lengths(sim, stations, d, R_guess, t_guess, sigma_mm)
     return R, t, d
 
 
-def pose_from_lengths(sim: StewartSim, stations: np.ndarray, d: np.ndarray, R_guess, t_guess):
+def pose_from_lengths(sim: StewartSim, stations: np.ndarray, d: np.ndarray, R_guess, t_guess, sigma_mm):
     """The platform's pose (R, t mm) from the tracker's distances ``d`` to its reflectors: each reflector
-    multilaterated from the stations, then a rigid fit, from the guess (R_guess, t_guess)."""
+    multilaterated from the stations (weighted by the stated ``sigma_mm(L)``), then a rigid fit,
+    from the guess (R_guess, t_guess)."""
     g = sim.geometry
-    pts = [multilaterate(stations, d[k], sim.length_sigma_mm(d[k]), R_guess @ g.reflectors_mm[k] + t_guess)[0]
+    pts = [multilaterate(stations, d[k], sigma_mm(d[k]), R_guess @ g.reflectors_mm[k] + t_guess)[0]
            for k in range(3)]
     return rigid_transform(g.reflectors_mm, np.array(pts))
 
@@ -93,7 +109,7 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
     rng = np.random.default_rng(seed)
     g = config.geometry
     sim = StewartSim(g, config.truth, np.random.default_rng(rng.integers(2**63)))
-    stations, station_cov, nest_lengths = locate_stations(sim)
+    stations, station_cov, nest_lengths = locate_stations(sim, config.length_sigma_mm)
     station_err = np.linalg.norm(stations - sim.stations, axis=1)
 
     # one-step data
@@ -102,13 +118,13 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
     for R, t in poses:
         sim.set_pose(R, t)
         readings.append(sim.readings_mm())
-        Rm, tm, d = measure_pose(sim, stations, R, t)
+        Rm, tm, d = measure_pose(sim, stations, R, t, config.length_sigma_mm)
         meas_R.append(Rm)
         meas_t.append(tm)
         lengths.append(d)
     meas_R, meas_t, readings = np.array(meas_R), np.array(meas_t), np.array(readings)
     # each equation's sigma: the reading plus what the pose's error does at the hinge (~1 um)
-    sigma = np.full(len(poses), np.hypot(config.truth.reading_noise_um, 1.0) / 1000)
+    sigma = np.full(len(poses), np.hypot(config.stated_reading_sigma_um, 1.0) / 1000)
 
     def solve_legs(R_all, t_all):
         return [calibrate_leg(R_all, t_all, readings[:, i], g.platform_hinges_mm[i], g.base_hinges_mm[i],
@@ -118,13 +134,17 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
     # The sequential pipeline leaves information unused (the legs' readings say where the
     # platform is too, and every pose says where the stations are): finish with the joint
     # maximum likelihood over stations, poses and legs, whose covariance reaches the CRLB.
-    a_um, b_um_per_m = config.truth.length_noise_um
+    a_um, b_um_per_m = config.stated_length_sigma_um
     obs = TrackerObservations(g.reference_nests_mm, nest_lengths, g.reflectors_mm, np.array(lengths), readings,
                               (a_um / 1000, b_um_per_m / 1e6),
-                              config.truth.reading_noise_um / 1000)
+                              config.stated_reading_sigma_um / 1000)
     joint = adjust_jointly(obs, stations, meas_R, meas_t, np.array([c.r for c in pipeline]),
                            np.array([c.B for c in pipeline]), np.array([c.l for c in pipeline]))
-    bound = np.sqrt(np.diag(joint_information(obs, sim.stations, np.array([R for R, _ in poses]),
+    # the Cramer-Rao bound at the truth, from the simulation's own noise (not the datasheet's)
+    a_um, b_um_per_m = config.truth.length_noise_um
+    true_noise = dataclasses.replace(obs, length_sigma=(a_um / 1000, b_um_per_m / 1e6),
+                                     reading_sigma=config.truth.reading_noise_um / 1000)
+    bound = np.sqrt(np.diag(joint_information(true_noise, sim.stations, np.array([R for R, _ in poses]),
                                               np.array([t for _, t in poses]), sim.r, sim.B, sim.l0)))
     legs = [LegCalibration(joint.r[i], joint.B[i], float(joint.l[i]), joint.std[7 * i:7 * i + 7], joint.rms)
             for i in range(6)]
@@ -132,7 +152,7 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
     # two-step
     two_step, spheres = [], []
     for i in range(6):
-        cal, sph = two_step_leg(sim, stations, i, rng)
+        cal, sph = two_step_leg(sim, stations, i, rng, config.length_sigma_mm)
         two_step.append(cal)
         spheres.append(sph)
 
@@ -196,7 +216,7 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
     return report
 
 
-def two_step_leg(sim: StewartSim, stations: np.ndarray, i: int, rng):
+def two_step_leg(sim: StewartSim, stations: np.ndarray, i: int, rng, sigma_mm):
     """Lock leg i at its home length; translate the platform at three fixed orientations so the
     leg keeps its length; fit a sphere to each set of platform origins (Eq. 2)."""
     g = sim.geometry
@@ -218,7 +238,7 @@ def two_step_leg(sim: StewartSim, stations: np.ndarray, i: int, rng):
         for dvec in dirs:
             t = c_true + L * dvec
             sim.set_pose(R0, t)
-            Rm, tm, _ = measure_pose(sim, stations, R0, t)
+            Rm, tm, _ = measure_pose(sim, stations, R0, t, sigma_mm)
             ts.append(tm)
             Rs.append(Rm)
         c, rad = fit_sphere(np.array(ts))

@@ -1,6 +1,9 @@
 """stewart end to end through the CLI: 42 leg parameters, checks, both methods, the rrd."""
 
+import dataclasses
 import json
+
+import pytest
 
 from calibench.scenarios.cli import main
 from calibench.scenarios.rrlog import entity_paths
@@ -39,3 +42,24 @@ def test_a_solve_that_runs_out_of_iterations_fails_the_run(tmp_path, monkeypatch
     assert main(["run", "stewart", "--no-rrd", "--out", str(tmp_path)]) == 1
     checks = {c["name"]: c for c in json.loads((tmp_path / "report.json").read_text())["checks"]}
     assert checks["solves_not_converged"]["value"] >= 1 and not checks["solves_not_converged"]["ok"]
+
+
+def test_a_datasheet_off_by_a_common_factor_leaves_estimates_and_std_unchanged(tmp_path):
+    """The estimators are told the datasheet's sigma, not the simulation's. Told 1.5x too much
+    for both instruments (the tracker's lengths and the legs' readings), the joint adjustment
+    weighs everything as before, finds a variance factor of 1 / 1.5^2 in its residuals and
+    rescales its covariance by it: the same estimates and the same std as with the right
+    datasheet (whose coverage the Monte-Carlo studies check), to the solver's convergence."""
+    from calibench.scenarios.stewart import StewartConfig, run
+
+    right = StewartConfig()
+    off = dataclasses.replace(right, stated_length_sigma_um=tuple(1.5 * x for x in right.stated_length_sigma_um),
+                              stated_reading_sigma_um=1.5 * right.stated_reading_sigma_um)
+    a = run(right, 3, "analytic", tmp_path / "a", False)
+    b = run(off, 3, "analytic", tmp_path / "b", False)
+    pa, pb = {p.name: p for p in a.parameters}, {p.name: p for p in b.parameters}
+    assert pa.keys() == pb.keys() and len(pa) == 42
+    for k in pa:
+        assert abs(pa[k].estimate - pb[k].estimate) < 1e-3 * pa[k].std, k
+        assert pb[k].std == pytest.approx(pa[k].std, rel=1e-3), k
+    assert b.info["whitened_rms"] == pytest.approx(a.info["whitened_rms"] / 1.5, rel=1e-3)
