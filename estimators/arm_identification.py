@@ -570,6 +570,9 @@ class Basis:
 
     kept: np.ndarray
     dropped: dict[str, str]
+    # how each dropped parameter moves the data as kept ones: {dropped: {kept: coefficient}},
+    # in units of their typical sizes (parameter_scales), first order at the basis's state
+    partners: dict[str, dict[str, float]] = dataclasses.field(default_factory=dict)
 
 
 def _parallel_note(name: str, partners: list[str], parallel: list[tuple[int, int]]) -> str:
@@ -619,13 +622,15 @@ def identifiable_basis(problem, state=None, rel_tol: float = 1e-4, parallel: lis
     reasons = {names[j]: "does not move the data at all" for j in np.flatnonzero(zero)
                if j not in kept and any(j in g for g in problem.groups)}
     coefs = np.linalg.lstsq(Js[:, kept], Js[:, dropped], rcond=None)[0] if dropped else None
+    partners = {}
     for m, j in enumerate(dropped):
         coef = coefs[:, m]
         order = np.argsort(-np.abs(coef))
         big = [(names[kept[k]], coef[k]) for k in order[:3] if abs(coef[k]) > 0.05 * abs(coef[order[0]])]
         text = "moves the data as " + " + ".join(f"{n} ({c:+.2f})" for n, c in big)
         reasons[names[j]] = text + _parallel_note(names[j], [n for n, _ in big], parallel or [])
-    return Basis(kept=kept, dropped=reasons)
+        partners[names[j]] = {names[kept[k]]: float(coef[k]) for k in range(len(kept))}
+    return Basis(kept=kept, dropped=reasons, partners=partners)
 
 
 @dataclasses.dataclass(frozen=True)
