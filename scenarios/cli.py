@@ -102,6 +102,8 @@ def _parser() -> argparse.ArgumentParser:
     mc.add_argument("--fidelity", choices=("render", "analytic"), default="analytic",
                     help="sensor fidelity of each trial (default analytic)")
     mc.add_argument("--arm", help="arm-cmm: ARM.toml or a built-in arm (arm-cmm, ur10)")
+    mc.add_argument("--config", type=Path, help="TOML overriding the scenario's defaults, as for run (its "
+                                                "[scenario] table); the prior then draws around them")
 
     d = sub.add_parser("discover", help="where a recording disagrees with the twin, and which physics is missing",
                        description="Compare a recording with the twin replaying its commands; locate the "
@@ -328,7 +330,19 @@ def _montecarlo(args) -> int:
             raise BadInput(f"--arm applies to arm-cmm, not {args.scenario}")
         load_arm(args.arm)  # a bad file is said here, not in every trial
         arm = args.arm if args.arm in BUILTIN else str(Path(args.arm).resolve())
-    s = run_study(args.scenario, args.trials, args.seed, args.fidelity, out, args.workers, args.scheduler, arm=arm)
+    table = None
+    if args.config is not None:
+        from calibench.scenarios.config import load_toml
+        from calibench.scenarios.report import BadInput
+
+        doc = load_toml(args.config)
+        other = [k for k in doc if k != args.scenario]
+        if other:
+            raise BadInput(f"config {args.config}: a study of {args.scenario} takes only its [{args.scenario}] table "
+                           f"(found {', '.join(other)})")
+        table = doc.get(args.scenario, {})
+    s = run_study(args.scenario, args.trials, args.seed, args.fidelity, out, args.workers, args.scheduler, arm=arm,
+                  table=table)
     print(f"{s['scenario']}: {s['trials']} trials ({s['resumed']} kept from an earlier run, {s['failed']} failed); "
           f"this run took {s['elapsed_s']:.1f} s")
     print(summary_table(s))

@@ -39,8 +39,20 @@ def trial_seed(study_seed: int, index: int) -> int:
     return int(np.random.SeedSequence([int(study_seed), int(index)]).generate_state(1)[0])
 
 
-def run_trial(scenario: str, study_seed: int, index: int, fidelity: str, arm: str | None = None) -> dict:
-    """One trial, in a worker process; never raises (a failure is a row with its error)."""
+def study_config(scenario: str, table: dict | None = None, arm: str | None = None):
+    """The scenario's config for a study: its defaults, overridden by ``table`` (the scenario's
+    table of a ``--config`` TOML, checked as ``run`` checks it), then ``arm``."""
+    from calibench.scenarios.config import override
+    from calibench.scenarios.registry import SCENARIOS
+
+    config = override(SCENARIOS[scenario].config(), table or {}, scenario)
+    return config if arm is None else dataclasses.replace(config, arm=arm)
+
+
+def run_trial(scenario: str, study_seed: int, index: int, fidelity: str, arm: str | None = None,
+              table: dict | None = None) -> dict:
+    """One trial, in a worker process; never raises (a failure is a row with its error).
+    ``table``: the study's config overrides (:func:`study_config`)."""
     os.environ.setdefault("MUJOCO_GL", "egl")  # a worker renders without a display
 
     seed = trial_seed(study_seed, index)
@@ -52,8 +64,7 @@ def run_trial(scenario: str, study_seed: int, index: int, fidelity: str, arm: st
         s = SCENARIOS[scenario]
         module = sys.modules[s.run.__module__]
         rng = np.random.default_rng(seed)
-        base = s.config() if arm is None else dataclasses.replace(s.config(), arm=arm)
-        config = module.prior(base, rng)
+        config = module.prior(study_config(scenario, table, arm), rng)
         if hasattr(module, "trial_parameters"):
             params = module.trial_parameters(config, seed)
         else:
@@ -73,14 +84,15 @@ def run_trial(scenario: str, study_seed: int, index: int, fidelity: str, arm: st
     return row
 
 
-def run_trials(scenario: str, study_seed: int, indices: list[int], fidelity: str, arm: str | None = None) -> list[dict]:
+def run_trials(scenario: str, study_seed: int, indices: list[int], fidelity: str, arm: str | None = None,
+               table: dict | None = None) -> list[dict]:
     """Several trials in one task: millisecond trials would otherwise spend more time in
     inter-process traffic than in the estimator. One BLAS thread: a worker already has its core,
     and threaded BLAS on small matrices (the arm's QR at 200 postures) runs several times slower."""
     from threadpoolctl import threadpool_limits
 
     with threadpool_limits(1):
-        return [run_trial(scenario, study_seed, i, fidelity, arm) for i in indices]
+        return [run_trial(scenario, study_seed, i, fidelity, arm, table) for i in indices]
 
 
 def chunk_size(n_todo: int, fidelity: str) -> int:
@@ -154,18 +166,23 @@ def make_executor(workers: int | None, scheduler: str | None):
 
 def run_study(scenario: str, trials: int, seed: int, fidelity: str, out_dir: Path, workers: int | None = None,
               scheduler: str | None = None, executor: cf.Executor | None = None, progress: bool | None = None,
-              arm: str | None = None) -> dict:
-    """Run the missing trials of a study, journal them as they finish, write the outputs."""
+              arm: str | None = None, table: dict | None = None) -> dict:
+    """Run the missing trials of a study, journal them as they finish, write the outputs.
+    ``table``: config overrides of the scenario (a ``--config`` file's table), the same for every
+    trial and recorded in study.json, so a resumed study cannot mix two configs."""
     from calibench.scenarios.registry import SCENARIOS
 
     if scenario not in SCENARIOS:
         raise BadInput(f"unknown scenario {scenario!r} (available: {', '.join(SCENARIOS)})")
     if trials < 1:
         raise BadInput("--trials must be at least 1")
+    study_config(scenario, table, arm)  # a bad config is said once, before any trial
     out_dir.mkdir(parents=True, exist_ok=True)
     meta = {"scenario": scenario, "seed": seed, "fidelity": fidelity}
     if arm is not None:
         meta["arm"] = arm
+    if table:
+        meta["config"] = table
     meta_path = out_dir / "study.json"
     old = None
     if meta_path.exists():
@@ -193,7 +210,7 @@ def run_study(scenario: str, trials: int, seed: int, fidelity: str, out_dir: Pat
                 if torn:  # an interruption cut the last line: start a fresh one
                     journal.write("\n")
                 k = chunk_size(len(todo), fidelity)
-                futures = [executor.submit(run_trials, scenario, seed, todo[j:j + k], fidelity, arm)
+                futures = [executor.submit(run_trials, scenario, seed, todo[j:j + k], fidelity, arm, table)
                            for j in range(0, len(todo), k)]
                 for fut in cf.as_completed(futures):
                     for row in fut.result():
