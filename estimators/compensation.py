@@ -73,6 +73,26 @@ class Polynomial:
         return sigma_um * np.sqrt(np.diag(np.linalg.inv(A.T @ A))) / self._scales()
 
 
+def least_squares(A: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """The one linear least-squares fitter of the error maps: coefficients c (p,) of
+    A (n, p) @ c ~ e (n,) by QR, their 1-sigma (p,) from the residuals, the dof-adjusted RMSE
+    sqrt(SSE / (n - p)) and the SSE. ValueError when n <= p or the columns are dependent."""
+    n, p = A.shape
+    if n <= p:
+        raise ValueError(f"{n} points cannot fit {p} coefficients")
+    Q, R = np.linalg.qr(A)
+    d = np.abs(np.diag(R))
+    if d.min() < 1e-9 * d.max():
+        raise ValueError("degenerate points: they do not span the model")
+    e = np.asarray(e, float)
+    c = np.linalg.solve(R, Q.T @ e)
+    r = e - A @ c
+    sse = float(r @ r)
+    rmse = float(np.sqrt(sse / (n - p)))
+    std = rmse * np.sqrt(np.sum(np.linalg.inv(R) ** 2, axis=1))
+    return c, std, rmse, sse
+
+
 def fit_polynomial(u: np.ndarray, v: np.ndarray, err_um: np.ndarray, degree: int = 3,
                    period_mm: float | None = None, along: int = 0) -> Polynomial:
     """Least-squares fit; (n,), (n,), (n,) -> Polynomial. Degree 3 alone is the seed's Eq. 5-9."""
@@ -80,12 +100,11 @@ def fit_polynomial(u: np.ndarray, v: np.ndarray, err_um: np.ndarray, degree: int
     n, p = A.shape
     if n <= p:
         raise ValueError(f"{n} points cannot fit {p} coefficients of a degree-{degree} polynomial")
-    if np.linalg.matrix_rank(A) < p:
-        raise ValueError("degenerate points: they do not span the polynomial")
-    e = np.asarray(err_um, float)
-    c, *_ = np.linalg.lstsq(A, e, rcond=None)
-    r = e - A @ c
-    model = Polynomial(degree=degree, coef=c, rmse=float(np.sqrt(r @ r / (n - p))), period_mm=period_mm, along=along)
+    try:
+        c, _, rmse, _ = least_squares(A, err_um)
+    except ValueError:
+        raise ValueError("degenerate points: they do not span the polynomial") from None
+    model = Polynomial(degree=degree, coef=c, rmse=rmse, period_mm=period_mm, along=along)
     return dataclasses.replace(model, coef=c / model._scales())
 
 

@@ -11,14 +11,13 @@ import dataclasses
 
 import numpy as np
 
+from calibench.estimators.compensation import _SCALE as _SCALE_MM
+from calibench.estimators.compensation import design, least_squares, monomial_powers
+
 COEF_NAMES = ("c0", "c1", "c2", "c3", "c4", "c5")
-# Monomials are built on x / 1000 to keep the normal equations well conditioned.
-_SCALE = np.array([1.0, 1e-3, 1e-3, 1e-6, 1e-6, 1e-6])
-
-
-def _monomials(x_mm, y_mm) -> np.ndarray:
-    x, y = np.asarray(x_mm, float) / 1000, np.asarray(y_mm, float) / 1000
-    return np.stack([np.ones_like(x), x, y, x * x, x * y, y * y], axis=-1)
+# c0..c5 are the coefficients of the degree-2 polynomial map of the vision stage's module, in the
+# same monomial order (1, x, y, x^2, xy, y^2), fitted by the same least squares: one fitter
+_POWERS = np.array([i + j for i, j in monomial_powers(2)])
 
 
 @dataclasses.dataclass(frozen=True)
@@ -36,7 +35,7 @@ class QuadraticFit:
     n: int
 
     def __call__(self, x_mm, y_mm) -> np.ndarray:
-        return _monomials(x_mm, y_mm) @ (self.coef / _SCALE)
+        return design(x_mm, y_mm, 2) @ (self.coef * _SCALE_MM**_POWERS)
 
     def as_dict(self) -> dict:
         """The coefficients and fit figures as plain floats."""
@@ -47,23 +46,18 @@ class QuadraticFit:
 
 def fit_quadratic(x_mm: np.ndarray, y_mm: np.ndarray, err_mm: np.ndarray) -> QuadraticFit:
     """Fit one axis's error map, (n,), (n,), (n,) -> QuadraticFit. Needs n > 6 spread stations."""
-    A = _monomials(x_mm, y_mm)
     e = np.asarray(err_mm, float)
     n = len(e)
     if n <= 6:
         raise ValueError(f"{n} stations: the quadratic map needs more than 6")
-    Q, Rm = np.linalg.qr(A)
-    if np.min(np.abs(np.diag(Rm))) < 1e-9 * np.max(np.abs(np.diag(Rm))):
-        raise ValueError("degenerate stations: they do not span a quadratic in x and y")
-    b = np.linalg.solve(Rm, Q.T @ e)
-    r = e - A @ b
-    sse = float(r @ r)
+    try:
+        c, std, rmse, sse = least_squares(design(x_mm, y_mm, 2), e)
+    except ValueError:
+        raise ValueError("degenerate stations: they do not span a quadratic in x and y") from None
     sst = float(np.sum((e - e.mean()) ** 2))
-    rmse = float(np.sqrt(sse / (n - 6)))
-    Rinv = np.linalg.inv(Rm)
-    std = rmse * np.sqrt(np.sum(Rinv**2, axis=1))
-    return QuadraticFit(coef=b * _SCALE, std=std * _SCALE, sse=sse,
-                        r2=1 - sse / sst if sst > 0 else float("nan"), rmse=rmse, n=n)
+    unit = _SCALE_MM**-_POWERS  # from the design's (x / 100 mm)^k to mm^-k
+    return QuadraticFit(coef=c * unit, std=std * unit, sse=sse, r2=1 - sse / sst if sst > 0 else float("nan"),
+                        rmse=rmse, n=n)
 
 
 def compensated_command(x_target_mm, y_target_mm, fit_x: QuadraticFit, fit_y: QuadraticFit,
