@@ -79,17 +79,25 @@ def test_analytic_run_recovers_the_truth(seed, tmp_path):
     assert checks["map_rms_mm"] <= 0.05
 
 
-def test_reported_std_is_honest_over_seeds(tmp_path):
-    """Normalised errors (estimate - truth) / std over 8 seeds: their RMS is about 1 when the
-    std tells the truth (bounds allow for 8 x 21 correlated samples)."""
+def test_reported_std_is_honest_over_seeds():
+    """Normalised errors (estimate - truth) / std over 12 seeds: their RMS is about 1 when the
+    std tells the truth (bounds allow for 12 x 21 correlated samples). The 12 map coefficients
+    on their own too: pooled with the rest, a map std 1.6 x too large still gives an RMS near
+    0.8. Their values are correlated within a seed (the intrinsics and the plane move the whole
+    map): about 4-5 independent ones a seed (from their correlation over 16 seeds), some 50 in
+    all, whose RMS is 1 +- 0.1. So 0.75-1.3 is 2.5-3 sigma either side of 1, while a 1.6 x std
+    gives 0.63 +- 0.06."""
     z = {}
-    for seed in range(10, 18):
-        rep = belt_stage.run(belt_stage.BeltStageConfig(), seed, "analytic", tmp_path, rrd=False)
+    for seed in range(10, 22):
+        # no out_dir: a trial without its figure, as the Monte-Carlo runs it (half the time)
+        rep = belt_stage.run(belt_stage.BeltStageConfig(), seed, "analytic", None, rrd=False)
         for p in rep.parameters:
             z.setdefault(p.name, []).append((p.estimate - p.truth) / p.std)
     allz = np.concatenate(list(z.values()))
     assert 0.6 < np.sqrt(np.mean(allz**2)) < 1.5
     assert np.mean(np.abs(allz) < 1.96) > 0.85
+    mapz = np.concatenate([z[name] for name in MAP])
+    assert 0.75 < np.sqrt(np.mean(mapz**2)) < 1.3
 
 
 def test_paper_method_is_worse_and_board_yaw_matters(tmp_path):
