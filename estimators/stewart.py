@@ -55,12 +55,19 @@ def trilaterate(known: np.ndarray, dist: np.ndarray, sigma: np.ndarray, above: n
     return p, Jinv @ np.diag(np.asarray(sigma, float) ** 2) @ Jinv.T
 
 
+# A Newton or Gauss-Newton loop has converged when its last step is below this (mm and rad):
+# a thousand times the rounding of metre-sized coordinates, far below any instrument's noise
+CONVERGED_STEP = 1e-9
+
+
 def multilaterate(stations: np.ndarray, dist: np.ndarray, sigma: np.ndarray, start: np.ndarray,
-                  iterations: int = 20) -> tuple[np.ndarray, np.ndarray]:
+                  iterations: int = 20) -> tuple[np.ndarray, np.ndarray, bool]:
     """A point from distances (k,) to stations (k, 3), Gauss-Newton from ``start``; covariance
-    (J^T W J)^-1 with W = diag(1 / sigma^2)."""
+    (J^T W J)^-1 with W = diag(1 / sigma^2); and whether the iteration converged (False: the
+    point is the last iterate, not an answer)."""
     p = np.array(start, float)
     w = 1 / np.asarray(sigma, float) ** 2
+    step = np.full(3, np.inf)
     for _ in range(iterations):
         v = p - stations
         r = np.linalg.norm(v, axis=1)
@@ -71,11 +78,12 @@ def multilaterate(stations: np.ndarray, dist: np.ndarray, sigma: np.ndarray, sta
             break
     v = p - stations
     J = v / np.linalg.norm(v, axis=1)[:, None]
-    return p, np.linalg.inv(J.T @ (w[:, None] * J))
+    return p, np.linalg.inv(J.T @ (w[:, None] * J)), bool(np.max(np.abs(step)) < CONVERGED_STEP)
 
 
-def fit_sphere(points: np.ndarray) -> tuple[np.ndarray, float]:
-    """Centre (3,) and radius of the least-squares sphere through points (n >= 4, not coplanar).
+def fit_sphere(points: np.ndarray) -> tuple[np.ndarray, float, bool]:
+    """Centre (3,) and radius of the least-squares sphere through points (n >= 4, not coplanar),
+    and whether the geometric refinement converged.
 
     Linear in (c, k) from |p|^2 = 2 p.c + k (k = r^2 - |c|^2), then refined geometrically.
     """
@@ -88,6 +96,7 @@ def fit_sphere(points: np.ndarray) -> tuple[np.ndarray, float]:
     sol, *_ = np.linalg.lstsq(A, np.sum(P * P, axis=1), rcond=None)
     c = sol[:3]
     r = np.sqrt(sol[3] + c @ c)
+    step = np.full(4, np.inf)
     for _ in range(20):  # geometric refinement: residual |p - c| - r
         v = P - c
         d = np.linalg.norm(v, axis=1)
@@ -96,7 +105,7 @@ def fit_sphere(points: np.ndarray) -> tuple[np.ndarray, float]:
         c, r = c + step[:3], r + step[3]
         if np.max(np.abs(step)) < 1e-12:
             break
-    return c, float(r)
+    return c, float(r), bool(np.max(np.abs(step)) < CONVERGED_STEP)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -148,9 +157,11 @@ def leg_lengths(R: np.ndarray, t: np.ndarray, r: np.ndarray, B: np.ndarray) -> n
 
 
 def forward_kinematics(lengths: np.ndarray, r: np.ndarray, B: np.ndarray, R0: np.ndarray, t0: np.ndarray,
-                       iterations: int = 30) -> tuple[np.ndarray, np.ndarray]:
-    """The pose whose legs have ``lengths`` (6,), Newton from (R0, t0) (left rotation updates)."""
+                       iterations: int = 30) -> tuple[np.ndarray, np.ndarray, bool]:
+    """The pose whose legs have ``lengths`` (6,), Newton from (R0, t0) (left rotation updates),
+    and whether Newton converged."""
     R, t = np.array(R0, float), np.array(t0, float)
+    step = np.full(6, np.inf)
     for _ in range(iterations):
         p = r @ R.T + t
         v = p - B
@@ -163,7 +174,7 @@ def forward_kinematics(lengths: np.ndarray, r: np.ndarray, B: np.ndarray, R0: np
         t = t + step[3:]
         if np.max(np.abs(step)) < 1e-13:
             break
-    return R, t
+    return R, t, bool(np.max(np.abs(step)) < CONVERGED_STEP)
 
 
 @dataclasses.dataclass(frozen=True)

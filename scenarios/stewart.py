@@ -83,21 +83,22 @@ def locate_stations(sim: StewartSim, sigma_mm):
 
 def measure_pose(sim: StewartSim, stations: np.ndarray, R_guess, t_guess, sigma_mm):
     """The platform's pose from the tracker: reflectors multilaterated, then a rigid fit.
-    Returns R, t and the raw lengths (3 reflectors x 3 stations) they came from."""
+    Returns R, t, the raw lengths (3 reflectors x 3 stations) they came from, and whether every
+    multilateration converged."""
     refl_true = sim.reflectors_mm()
     d = np.array([[sim.distances_mm(s, refl_true[k:k + 1])[0] for s in range(3)] for k in range(3)])
-    R, t = pose_from_lengths(sim, stations, d, R_guess, t_guess, sigma_mm)
-    return R, t, d
+    R, t, ok = pose_from_lengths(sim, stations, d, R_guess, t_guess, sigma_mm)
+    return R, t, d, ok
 
 
 def pose_from_lengths(sim: StewartSim, stations: np.ndarray, d: np.ndarray, R_guess, t_guess, sigma_mm):
     """The platform's pose (R, t mm) from the tracker's distances ``d`` to its reflectors: each reflector
     multilaterated from the stations (weighted by the stated ``sigma_mm(L)``), then a rigid fit,
-    from the guess (R_guess, t_guess)."""
+    from the guess (R_guess, t_guess); and whether the three multilaterations converged."""
     g = sim.geometry
-    pts = [multilaterate(stations, d[k], sigma_mm(d[k]), R_guess @ g.reflectors_mm[k] + t_guess)[0]
-           for k in range(3)]
-    return rigid_transform(g.reflectors_mm, np.array(pts))
+    sols = [multilaterate(stations, d[k], sigma_mm(d[k]), R_guess @ g.reflectors_mm[k] + t_guess) for k in range(3)]
+    R, t = rigid_transform(g.reflectors_mm, np.array([p for p, _, _ in sols]))
+    return R, t, all(ok for _, _, ok in sols)
 
 
 def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool) -> Report:
@@ -115,10 +116,12 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
     # one-step data
     poses = random_poses(config.n_poses, rng, config)
     meas_R, meas_t, readings, lengths = [], [], [], []
+    unconverged = 0  # multilaterations, spheres and forward kinematics that ran out of iterations
     for R, t in poses:
         sim.set_pose(R, t)
         readings.append(sim.readings_mm())
-        Rm, tm, d = measure_pose(sim, stations, R, t, config.length_sigma_mm)
+        Rm, tm, d, ok = measure_pose(sim, stations, R, t, config.length_sigma_mm)
+        unconverged += not ok
         meas_R.append(Rm)
         meas_t.append(tm)
         lengths.append(d)
@@ -152,7 +155,8 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
     # two-step
     two_step, spheres = [], []
     for i in range(6):
-        cal, sph = two_step_leg(sim, stations, i, rng, config.length_sigma_mm)
+        cal, sph, bad = two_step_leg(sim, stations, i, rng, config.length_sigma_mm)
+        unconverged += bad
         two_step.append(cal)
         spheres.append(sph)
 
@@ -167,7 +171,8 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
         sim.set_pose(R, t)
         read = sim.readings_mm()
         for key, (r, B, l) in (("before", nominal), ("after", one), ("two_step", two)):
-            Rf, tf = forward_kinematics(l + read, r, B, *home)
+            Rf, tf, ok = forward_kinematics(l + read, r, B, *home)
+            unconverged += not ok
             # the pose's error seen at the nominal hinge points (position and turn together)
             err[key].append(np.linalg.norm((g.platform_hinges_mm @ Rf.T + tf) - (g.platform_hinges_mm @ R.T + t), axis=1))
     rms = {k: float(np.sqrt(np.mean(np.square(v)))) * 1000 for k, v in err.items()}
@@ -190,8 +195,10 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
         Check("pose_rms_after_um", rms["after"], config.after_limit_um, note="held-out poses, one-step calibration"),
         Check("pose_rms_after_two_step_um", rms["two_step"], None, note="held-out poses, two-step calibration"),
         # a solve that ran out of iterations would report its last iterate as if it were the answer
-        Check("solves_not_converged", float(sum(not c.converged for c in pipeline) + (not joint.converged)), 0.0,
-              note="the six legs' one-step Gauss-Newton and the joint adjustment"),
+        Check("solves_not_converged", float(sum(not c.converged for c in pipeline) + (not joint.converged)
+                                            + unconverged), 0.0,
+              note="the six legs' one-step Gauss-Newton, the joint adjustment, the multilaterations, the "
+                   "two-step spheres and the held-out poses' forward kinematics"),
     ]
     two_err = np.array([np.r_[c[0], c[1], c[2]] for c in two_step]) - np.array(truth_vals)
     one_err = np.array([np.r_[c.r, c.B, c.l] for c in legs]) - np.array(truth_vals)
@@ -218,7 +225,8 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
 
 def two_step_leg(sim: StewartSim, stations: np.ndarray, i: int, rng, sigma_mm):
     """Lock leg i at its home length; translate the platform at three fixed orientations so the
-    leg keeps its length; fit a sphere to each set of platform origins (Eq. 2)."""
+    leg keeps its length; fit a sphere to each set of platform origins (Eq. 2). Returns (r, B, l),
+    the spheres, and how many of its solves did not converge."""
     g = sim.geometry
     home_t = np.array([0, 0, g.home_height_mm])
     # the sphere's centre lies along the leg: a wide cap pins it, and wide turns between the
@@ -228,6 +236,7 @@ def two_step_leg(sim: StewartSim, stations: np.ndarray, i: int, rng, sigma_mm):
     locked = sim.readings_mm()[i]
     L = sim.leg_lengths_mm()[i]
     centres, radii, Rs, pts_all = [], [], [], []
+    bad = 0
     for R0 in orientations:
         c_true = sim.B[i] - R0 @ sim.r[i]  # the platform origin's sphere (truth drives the motion)
         u0 = (home_t - c_true) / np.linalg.norm(home_t - c_true)
@@ -238,10 +247,12 @@ def two_step_leg(sim: StewartSim, stations: np.ndarray, i: int, rng, sigma_mm):
         for dvec in dirs:
             t = c_true + L * dvec
             sim.set_pose(R0, t)
-            Rm, tm, _ = measure_pose(sim, stations, R0, t, sigma_mm)
+            Rm, tm, _, ok = measure_pose(sim, stations, R0, t, sigma_mm)
+            bad += not ok
             ts.append(tm)
             Rs.append(Rm)
-        c, rad = fit_sphere(np.array(ts))
+        c, rad, ok = fit_sphere(np.array(ts))
+        bad += not ok
         centres.append(c)
         radii.append(rad)
         pts_all.append(np.array(ts))
@@ -257,7 +268,7 @@ def two_step_leg(sim: StewartSim, stations: np.ndarray, i: int, rng, sigma_mm):
     r = np.linalg.lstsq(A, y, rcond=None)[0]
     B = np.mean([centres[k] + orientations[k] @ r for k in range(3)], axis=0)
     l = float(np.mean(radii) - locked)
-    return (r, B, l), [(c, rad, p) for c, rad, p in zip(centres, radii, pts_all)]
+    return (r, B, l), [(c, rad, p) for c, rad, p in zip(centres, radii, pts_all)], bad
 
 
 def prior(config: StewartConfig, rng: np.random.Generator) -> StewartConfig:

@@ -46,8 +46,9 @@ def test_multilateration_and_rigid_transform_recover_a_pose():
     refl = np.array([[173.2, 100.0, 40.0], [-173.2, 100.0, 40.0], [0.0, -200.0, 40.0]])
     R, t = _rot(np.array([0.05, -0.08, 0.3])), np.array([20.0, -35.0, 760.0])
     world = refl @ R.T + t
-    found = np.array([multilaterate(stations, np.linalg.norm(stations - w, axis=1), np.full(3, 1e-3),
-                                    w + 5.0)[0] for w in world])
+    sols = [multilaterate(stations, np.linalg.norm(stations - w, axis=1), np.full(3, 1e-3), w + 5.0) for w in world]
+    assert all(ok for _, _, ok in sols)
+    found = np.array([p for p, _, _ in sols])
     Rf, tf = rigid_transform(refl, found)
     np.testing.assert_allclose(Rf, R, atol=1e-9)
     np.testing.assert_allclose(tf, t, atol=1e-7)
@@ -58,7 +59,8 @@ def test_sphere_through_points():
     c, r = np.array([10.0, -20.0, 700.0]), 650.0
     u = rng.normal(size=(9, 3))
     u /= np.linalg.norm(u, axis=1, keepdims=True)
-    fc, fr = fit_sphere(c + r * u)
+    fc, fr, ok = fit_sphere(c + r * u)
+    assert ok
     np.testing.assert_allclose(fc, c, atol=1e-8)
     assert fr == pytest.approx(r, abs=1e-8)
     with pytest.raises(ValueError, match="coplanar"):
@@ -110,7 +112,8 @@ def test_forward_kinematics_inverts_the_leg_lengths():
     b = np.deg2rad([-45, 45, 75, 165, 195, 285])
     r = np.c_[300 * np.cos(b), 300 * np.sin(b), np.zeros(6)]
     R, t = _rot(np.array([0.1, -0.05, 0.12])), np.array([40.0, -60.0, 820.0])
-    Rf, tf = forward_kinematics(leg_lengths(R, t, r, B), r, B, np.eye(3), np.array([0, 0, 750.0]))
+    Rf, tf, ok = forward_kinematics(leg_lengths(R, t, r, B), r, B, np.eye(3), np.array([0, 0, 750.0]))
+    assert ok
     np.testing.assert_allclose(Rf, R, atol=1e-10)
     np.testing.assert_allclose(tf, t, atol=1e-8)
 
@@ -184,3 +187,17 @@ def test_joint_adjustment_recovers_the_legs_and_its_std_is_the_bound():
     z = np.array(z)
     assert np.all(np.abs(z) < 5)
     assert 0.85 < np.sqrt(np.mean(z**2)) < 1.15
+
+
+def test_newton_loops_cut_short_say_they_did_not_converge():
+    """One iteration from a start 50 mm (or 0.1 rad) off cannot converge: each solver says so
+    instead of handing back its last iterate as an answer."""
+    stations = np.array([[1500.0, -500.0, 300.0], [1600.0, 500.0, 900.0], [1400.0, -100.0, 1500.0]])
+    w = np.array([20.0, -35.0, 760.0])
+    assert not multilaterate(stations, np.linalg.norm(stations - w, axis=1), np.full(3, 1e-3), w + 50.0,
+                             iterations=1)[2]
+    a, b = np.deg2rad([-15, 15, 105, 135, 225, 255]), np.deg2rad([-45, 45, 75, 165, 195, 285])
+    B = np.c_[500 * np.cos(a), 500 * np.sin(a), np.zeros(6)]
+    r = np.c_[300 * np.cos(b), 300 * np.sin(b), np.zeros(6)]
+    R, t = _rot(np.array([0.1, -0.05, 0.12])), np.array([40.0, -60.0, 820.0])
+    assert not forward_kinematics(leg_lengths(R, t, r, B), r, B, np.eye(3), np.array([0, 0, 750.0]), iterations=1)[2]
