@@ -62,11 +62,13 @@ def test_rrd_holds_stage_camera_images_corners_and_error_map(render_run):
 
 @pytest.mark.render
 def test_analytic_noise_model_agrees_with_the_renders(render_run):
-    """The analytic fidelity's detector noise is calibrated on renders: keep them in agreement."""
+    """The analytic fidelity's detector noise is calibrated on renders: keep them in agreement
+    within 10 % (thousands of corners: the RMS itself scatters by about 1 %; seed 0 gives
+    0.0120 px rendered against 0.0120 modelled)."""
     _, _, rep = render_run
     rendered = {c["name"]: c["value"] for c in rep["checks"]}["corner_rms_px"]
     modelled = belt_stage.BeltStageConfig().corner_noise_px * np.sqrt(2)
-    assert rendered == pytest.approx(modelled, rel=0.35)
+    assert rendered == pytest.approx(modelled, rel=0.10)
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
