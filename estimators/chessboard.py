@@ -111,3 +111,63 @@ def canonical_order(gray: np.ndarray, corners: np.ndarray, cols: int, rows: int)
 def _sample(gray: np.ndarray, uv: np.ndarray) -> float:
     u, v = np.clip(np.rint(uv).astype(int), 0, [gray.shape[1] - 1, gray.shape[0] - 1])
     return float(gray[max(v - 1, 0):v + 2, max(u - 1, 0):u + 2].mean())
+
+
+def grid_residuals(corners: np.ndarray, cols: int, rows: int, left_out: np.ndarray | None = None,
+                   half: int = 2) -> np.ndarray:
+    """Each corner against where its grid neighbours put it, (cols * rows,) px.
+
+    A quadratic in grid steps (the board's perspective and the lens's distortion to second
+    order) is fitted by least squares to each corner's neighbours within ``half`` steps (not the
+    corner itself, nor the ``left_out`` mask's (n,) corners) and evaluated at the corner (at a
+    board's corner that is an extrapolation from its 8 neighbours). NaN where fewer than 8 are
+    left.
+    """
+    g = np.asarray(corners, float).reshape(rows, cols, 2)
+    n = rows * cols
+    out = np.zeros(n, bool) if left_out is None else np.asarray(left_out, bool)
+    ii, jj = (a.ravel() for a in np.meshgrid(np.arange(rows), np.arange(cols), indexing="ij"))
+    offs = np.array([(a, b) for a in range(-half, half + 1) for b in range(-half, half + 1) if (a, b) != (0, 0)])
+    powers = [(p - q, q) for p in range(3) for q in range(p + 1)]
+    M = np.stack([offs[:, 1] ** i * offs[:, 0] ** j for i, j in powers], axis=1).astype(float)  # (m, 6)
+    ni, nj = ii[:, None] + offs[None, :, 0], jj[:, None] + offs[None, :, 1]
+    inside = (ni >= 0) & (ni < rows) & (nj >= 0) & (nj < cols)
+    ni, nj = np.clip(ni, 0, rows - 1), np.clip(nj, 0, cols - 1)
+    w = (inside & ~out[ni * cols + nj]).astype(float)  # (n, m)
+    P = g[ni, nj] - g.reshape(n, 1, 2)  # neighbours relative to the corner, (n, m, 2)
+    A = np.einsum("nm,mk,ml->nkl", w, M, M) + 1e-9 * np.eye(len(powers))
+    b = np.einsum("nm,mk,nmc->nkc", w, M, P)
+    offset = np.linalg.solve(A, b)[:, 0]  # the constant term: the predicted corner, relative
+    return np.where(w.sum(axis=1) >= 8, np.linalg.norm(offset, axis=1), np.nan)
+
+
+def gross_corners(corners: np.ndarray, cols: int, rows: int, limit_px: float = 1.5) -> list[tuple[int, float]]:
+    """Corners that disagree with the board's grid: (index, residual px), in the order found.
+
+    While some :func:`grid_residuals` exceed ``limit_px`` and 5 times the photo's median, the
+    corner whose leaving out makes the others agree best (of the six worst; a gross corner pulls
+    its neighbours' predictions, on a narrow board more than its own) is left out, and the rest
+    looked at again. Correct corners of real photos sit under 0.7 px (the quadratic's own error
+    on a strongly distorted lens); the detectors' gross errors are pixels.
+    """
+    n = rows * cols
+    left = np.zeros(n, bool)
+    found = []
+    while len(found) < n // 4:
+        r = grid_residuals(corners, cols, rows, left)
+        r[left] = np.nan
+        if np.all(np.isnan(r)) or np.nanmax(r) <= max(limit_px, 5 * np.nanmedian(r)):
+            break
+        worst = np.argsort(np.where(np.isnan(r), -np.inf, r))[::-1][:6]
+
+        def others_after(k):
+            trial = left.copy()
+            trial[k] = True
+            rest = grid_residuals(corners, cols, rows, trial)
+            rest[trial] = np.nan
+            return np.nanmax(rest) if np.any(~np.isnan(rest)) else 0.0
+
+        k = int(min(worst, key=others_after))
+        found.append((k, float(r[k])))
+        left[k] = True
+    return found

@@ -53,7 +53,8 @@ def calibrate_camera(object_points: np.ndarray, image_points: list[np.ndarray],
     Parameters
     ----------
     object_points : (n_corners, 3) target points (z = 0) in the target's unit.
-    image_points : list of (n_corners, 2) detected corners, one per view.
+    image_points : list of (n_corners, 2) detected corners, one per view; a NaN row is a corner
+        left out of that view (e.g. a gross detection error).
     image_size : (width, height) in pixels.
     fix_aspect : keep fx / fy at the initial guess's ratio (1).
     fix_k3, tangential : which distortion terms are estimated.
@@ -66,9 +67,15 @@ def calibrate_camera(object_points: np.ndarray, image_points: list[np.ndarray],
         raise CalibrationError("object points must be (n, 3) on the plane z = 0")
     imgs = [np.asarray(p, np.float32).reshape(-1, 1, 2) for p in image_points]
     for p in imgs:
-        if p.shape[0] != obj.shape[0] or not np.isfinite(p).all():
-            raise CalibrationError("every view needs one finite image point per target point")
-    _check_not_degenerate(obj, imgs, image_size)
+        if p.shape[0] != obj.shape[0] or np.isinf(p).any():
+            raise CalibrationError("every view needs one image point (or NaN: left out) per target point")
+    # each view with the corners it kept
+    keep = [np.isfinite(p).all(axis=(1, 2)) for p in imgs]
+    if min(k.sum() for k in keep) < 6:
+        raise CalibrationError("a view keeps fewer than 6 corners")
+    objs = [obj[k] for k in keep]
+    imgs = [p[k] for p, k in zip(imgs, keep)]
+    _check_not_degenerate(objs, imgs, image_size)
     flags = 0
     if fix_aspect:
         flags |= cv2.CALIB_FIX_ASPECT_RATIO
@@ -78,11 +85,11 @@ def calibrate_camera(object_points: np.ndarray, image_points: list[np.ndarray],
         flags |= cv2.CALIB_ZERO_TANGENT_DIST
     K0 = None
     if fix_aspect:
-        K0 = cv2.initCameraMatrix2D([obj] * n_views, imgs, image_size, 1.0)
+        K0 = cv2.initCameraMatrix2D(objs, imgs, image_size, 1.0)
         K0[1, 1] = K0[0, 0]
     crit = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 200, 1e-12)
     rms, K, dist, rvecs, tvecs, std_int, _, per_view = cv2.calibrateCameraExtended(
-        [obj] * n_views, imgs, image_size, K0, None, flags=flags, criteria=crit)
+        objs, imgs, image_size, K0, None, flags=flags, criteria=crit)
     dist = np.zeros(5) if dist is None else np.asarray(dist, float).ravel()[:5]
     std_all = np.asarray(std_int, float).ravel()
     estimated = {"fx", "fy", "cx", "cy", "k1", "k2"}
@@ -100,20 +107,21 @@ def calibrate_camera(object_points: np.ndarray, image_points: list[np.ndarray],
         # OpenCV reports std(fx) = 0 under a fixed aspect ratio: fx and fy are one parameter
         # (fy = a fx), whose std comes from the information with both columns combined
         names = tuple(n for n in INTRINSIC_NAMES if n in estimated and n != "fy")
-        cov = intrinsic_covariance(calib, obj, imgs, names, fix_aspect=True)
+        cov = intrinsic_covariance(calib, obj, [np.asarray(p, float).reshape(-1, 2) for p in image_points], names,
+                                   fix_aspect=True)
         std["fx"] = float(np.sqrt(cov[0, 0]))
         std["fy"] = std["fx"] * float(calib.K[1, 1] / calib.K[0, 0])
     return calib
 
 
-def _check_not_degenerate(obj: np.ndarray, imgs: list[np.ndarray], image_size) -> None:
+def _check_not_degenerate(objs: list[np.ndarray], imgs: list[np.ndarray], image_size) -> None:
     """Zhang's constraints vanish when every view is parallel to the image plane.
 
     With H = K [r1 r2 t] / t_z, the tilt of a view is about |H[2, :2]| * f / sqrt(det H[:2, :2]);
     f is taken as the image width (a rough focal length is enough to tell 0 from 0.1 rad).
     """
     tilts = []
-    for p in imgs:
+    for obj, p in zip(objs, imgs):
         H, _ = cv2.findHomography(obj[:, :2], p.reshape(-1, 2), 0)
         if H is None:
             raise CalibrationError("a view's corners are collinear: no homography")
@@ -140,8 +148,10 @@ def intrinsic_covariance(calib: CameraCalibration, object_points: np.ndarray,
     info = np.zeros((len(names), len(names)))
     sse, n_res = 0.0, 0
     for rvec, tvec, pts in zip(calib.rvecs, calib.tvecs, image_points):
-        proj, jac = cv2.projectPoints(obj, rvec, tvec, calib.K, calib.dist)
-        r = (np.asarray(pts, float).reshape(-1, 2) - proj.reshape(-1, 2)).ravel()
+        pts = np.asarray(pts, float).reshape(-1, 2)
+        kept = np.isfinite(pts).all(axis=1)  # NaN rows: corners left out of the view
+        proj, jac = cv2.projectPoints(obj[kept], rvec, tvec, calib.K, calib.dist)
+        r = (pts[kept] - proj.reshape(-1, 2)).ravel()
         sse += r @ r
         n_res += r.size
         Je = jac[:, :6]

@@ -8,7 +8,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from calibench.estimators.chessboard import find_chessboard_corners
+from calibench.estimators.chessboard import find_chessboard_corners, gross_corners
 from calibench.estimators.zhang import CalibrationError, calibrate_camera
 from calibench.scenarios.report import BadInput
 from calibench.scenes.checkerboard import Chessboard
@@ -34,7 +34,7 @@ def calibrate_photos(paths: list[Path], cols: int, rows: int, square_mm: float, 
     # the size most photos share is the camera's: one odd photo, first or not, is the one rejected
     sizes = [img.shape[::-1] for img in images.values()]
     size = max(set(sizes), key=sizes.count) if sizes else None
-    used, points = [], []
+    used, points, left_out = [], [], {}
     for p, img in images.items():
         if img.shape[::-1] != size:
             rejected[p.name] = f"size {img.shape[1]}x{img.shape[0]} differs from the others' {size[0]}x{size[1]}"
@@ -44,10 +44,17 @@ def calibrate_photos(paths: list[Path], cols: int, rows: int, square_mm: float, 
             rejected[p.name] = f"no {cols}x{rows} chessboard found"
             continue
         # the same view twice adds no information but would count as a constraint: left out
-        same = next((u for u, c in zip(used, points) if np.max(np.abs(c - corners)) < 0.5), None)
+        same = next((u for u, c in zip(used, points) if np.nanmax(np.abs(c - corners)) < 0.5), None)
         if same is not None:
             rejected[p.name] = f"the same view as {same} (corners within 0.5 px)"
             continue
+        # a detector's gross error (pixels off the board's grid) would pull the whole calibration:
+        # the corner is left out of its view and named
+        gross = gross_corners(corners, cols, rows)
+        if gross:
+            corners = corners.copy()
+            corners[[k for k, _ in gross]] = np.nan
+            left_out[p.name] = [{"corner": k, "off_grid_px": round(r, 2)} for k, r in gross]
         used.append(p.name)
         points.append(corners)
     if len(used) < 3:
@@ -73,6 +80,7 @@ def calibrate_photos(paths: list[Path], cols: int, rows: int, square_mm: float, 
         "per_view_rms_px": dict(zip(used, map(float, calib.per_view_rms_px))),
         "used": used,
         "rejected": rejected,
+        "corners_left_out": left_out,
         "model": {"fix_aspect": fix_aspect, "radial": radial, "tangential": tangential},
     }
 

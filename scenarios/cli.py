@@ -394,6 +394,9 @@ def _camera(args) -> int:
     K = r["K"]
     print(f"fx {K[0][0]:.3f}  fy {K[1][1]:.3f}  cx {K[0][2]:.3f}  cy {K[1][2]:.3f}  "
           f"rms {r['rms_px']:.3f} px  ({len(r['used'])} used, {len(r['rejected'])} rejected)")
+    for photo, corners in r["corners_left_out"].items():
+        print(f"  {photo}: left out corner(s) " + ", ".join(f"{c['corner']} ({c['off_grid_px']} px off the grid)"
+                                                           for c in corners))
     print(f"-> {args.out / 'intrinsics.json'}")
     return EXIT_OK
 

@@ -71,3 +71,19 @@ def test_saddle_refinement_beats_cornersubpix_on_the_same_images():
         ours.append(np.linalg.norm(find_chessboard_corners(img, BOARD.cols, BOARD.rows) - truth, axis=1))
     rms_ours, rms_theirs = (float(np.sqrt(np.mean(np.concatenate(e) ** 2))) for e in (ours, theirs))
     assert rms_ours < 0.02 and rms_ours < 0.5 * rms_theirs, (rms_ours, rms_theirs)
+
+
+def test_a_gross_corner_is_found_and_only_it():
+    """Each corner of an exact raster's detection, in turn, moved 3 px off (the size of the
+    gross errors the sector detector made on a steep real photo): the grid check names that
+    corner and no other; the clean detection has none."""
+    from calibench.estimators.chessboard import gross_corners
+
+    R = cv2.Rodrigues(np.array([0.5, -0.3, 0.2]))[0]
+    t = np.array([0.0, 0.0, 600.0]) - R @ BOARD.corners_mm().mean(axis=0)
+    found = find_chessboard_corners(raster_chessboard(BOARD, K, R, t), BOARD.cols, BOARD.rows)
+    assert gross_corners(found, BOARD.cols, BOARD.rows) == []
+    for k in range(len(found)):
+        bad = found.copy()
+        bad[k] += 3.0 * np.array([np.cos(k), np.sin(k)])
+        assert [i for i, _ in gross_corners(bad, BOARD.cols, BOARD.rows)] == [k]

@@ -89,6 +89,37 @@ def test_camera_on_opencv_left_meets_the_reference(shared_data, tmp_path):
     assert len(r["used"]) == 13 and "circles.jpg" in r["rejected"]
     assert set(r["per_view_rms_px"]) == set(r["used"])
     assert {"fx", "fy", "cx", "cy"} <= set(r["std"])
+    assert r["corners_left_out"] == {}  # no gross corner in OpenCV's sample
+
+
+def test_camera_leaves_out_a_gross_corner_and_says_which(shared_data, tmp_path, monkeypatch):
+    """A detector's 9.2 px error on one corner of one photo (the size the sector detector made
+    on a steep real view): the corner is named and left out, the other 53 of that photo kept,
+    and the calibration stays at OpenCV's reference; kept in, it raises the RMS by over 0.05 px."""
+    import calibench.scenarios.camera_calibration as cam
+
+    real = cam.find_chessboard_corners
+
+    def one_gross(img, cols, rows):
+        c = real(img, cols, rows)
+        if img.shape == (480, 640) and abs(float(c[0, 0]) - first[0]) < 1e-9:
+            c = c.copy()
+            c[20] += [9.2, 0.0]
+        return c
+
+    images = sorted((shared_data / "opencv_left").glob("*.jpg"))
+    first = real(__import__("cv2").imread(str(images[0]), 0), 9, 6)[0]
+    monkeypatch.setattr(cam, "find_chessboard_corners", one_gross)
+    args = ["camera", *map(str, images), "--cols", "9", "--rows", "6", "--square-mm", "25", "--fix-aspect"]
+    assert main(args + ["--out", str(tmp_path)]) == 0
+    r = json.loads((tmp_path / "intrinsics.json").read_text())
+    assert [c["corner"] for c in r["corners_left_out"][images[0].name]] == [20]
+    assert len(r["corners_left_out"]) == 1
+    assert abs(r["K"][0][0] / 535.916 - 1) < 0.01 and r["rms_px"] < 0.5
+    monkeypatch.setattr(cam, "gross_corners", lambda *a, **k: [])
+    assert main(args + ["--out", str(tmp_path / "kept")]) == 0
+    kept = json.loads((tmp_path / "kept" / "intrinsics.json").read_text())
+    assert kept["rms_px"] > r["rms_px"] + 0.05
 
 
 def test_camera_on_boofcv_chess_meets_the_reference(shared_data, tmp_path):
