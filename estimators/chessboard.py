@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
-from scipy import ndimage
 
 # Histogram normalisation doubles the sector detector's error on renders: not used.
 _SB_FLAGS = cv2.CALIB_CB_ACCURACY | cv2.CALIB_CB_EXHAUSTIVE
@@ -68,19 +67,26 @@ def refine_saddle(gray: np.ndarray, corners: np.ndarray, half_window: int,
     fit is not a saddle keeps its last position.
     """
     r = int(half_window)
-    img = cv2.GaussianBlur(gray.astype(np.float32), (0, 0), max(0.8, r / 3))
+    sigma = max(0.8, r / 3)
+    c = np.array(corners, float)
+    # blur only the board's box: with a margin of the window, the step bound and the kernel's
+    # 4 sigma, every sample sees the same values as in the whole image blurred
+    h, w_img = gray.shape[:2]
+    m = r + 1 + iterations + int(np.ceil(4 * sigma)) + 2
+    x0, y0 = max(int(np.floor(c[:, 0].min())) - m, 0), max(int(np.floor(c[:, 1].min())) - m, 0)
+    x1, y1 = min(int(np.ceil(c[:, 0].max())) + m + 1, w_img), min(int(np.ceil(c[:, 1].max())) + m + 1, h)
+    img = cv2.GaussianBlur(gray[y0:y1, x0:x1].astype(np.float32), (0, 0), sigma).astype(np.float64)
+    c -= (x0, y0)
     o = np.arange(-r, r + 1, dtype=float)
     dy, dx = (a.ravel() for a in np.meshgrid(o, o, indexing="ij"))
     w = np.exp(-(dx**2 + dy**2) / (2 * (r / 1.5) ** 2))
     A = np.stack([dx * dx, dx * dy, dy * dy, dx, dy, np.ones_like(dx)], axis=1)
     P = np.linalg.pinv(A * w[:, None]) * w[None, :]  # (6, m): coefficients = P @ samples
-    c = np.array(corners, float)
     active = np.arange(len(c))
     for _ in range(iterations):
         xs = c[active, 0][:, None] + dx
         ys = c[active, 1][:, None] + dy
-        vals = ndimage.map_coordinates(img, [ys.ravel(), xs.ravel()], order=1, mode="nearest")
-        a, b, cc, d, e, _ = P @ vals.reshape(xs.shape).T
+        a, b, cc, d, e, _ = P @ _bilinear(img, xs, ys).T
         det = 4 * a * cc - b * b
         saddle = det < 0
         step = np.zeros((len(active), 2))
@@ -92,7 +98,19 @@ def refine_saddle(gray: np.ndarray, corners: np.ndarray, half_window: int,
         active = active[np.abs(step).max(axis=1) >= tol_px]
         if len(active) == 0:
             break
-    return c
+    return c + (x0, y0)
+
+
+def _bilinear(img: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """``img`` at (xs, ys) (any equal shapes), bilinear, edges repeated (scipy's order 1,
+    mode "nearest", without its per-call overhead)."""
+    h, w = img.shape
+    xs, ys = np.clip(xs, 0, w - 1), np.clip(ys, 0, h - 1)
+    x0, y0 = np.minimum(xs.astype(np.intp), w - 2), np.minimum(ys.astype(np.intp), h - 2)
+    fx, fy = xs - x0, ys - y0
+    top = img[y0, x0] * (1 - fx) + img[y0, x0 + 1] * fx
+    bottom = img[y0 + 1, x0] * (1 - fx) + img[y0 + 1, x0 + 1] * fx
+    return top * (1 - fy) + bottom * fy
 
 
 def canonical_order(gray: np.ndarray, corners: np.ndarray, cols: int, rows: int) -> np.ndarray:
