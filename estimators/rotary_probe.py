@@ -116,11 +116,24 @@ def fit_minima(theta_rad: np.ndarray, rho_mm: np.ndarray, m: int, n_minima: int 
         i0 = idx[np.argmin(smooth[idx])]
         win = (i0 + np.arange(m) - (m - 1) // 2) % N
         x = (th[win] - th[i0] + np.pi) % period - np.pi  # the window may wrap past 2 pi
-        c2, c1, c0 = np.polyfit(x, rho[win], 2)
-        xv = -c1 / (2 * c2)
-        fits.append(MinimumFit(theta_rad=float(th[i0] + xv), rho_mm=float(c0 - c1 * c1 / (4 * c2)),
-                               curvature_mm=float(2 * c2)))
+        c2, c1, c0 = _quadratic(x, rho[win])
+        if c2 > 0:
+            xv, rv = -c1 / (2 * c2), c0 - c1 * c1 / (4 * c2)
+        else:  # a window too short to see the curve through the quantisation: no vertex to move to
+            xv, rv = 0.0, c0
+        fits.append(MinimumFit(theta_rad=float(th[i0] + xv), rho_mm=float(rv), curvature_mm=float(2 * c2)))
     return sorted(fits, key=lambda f: f.theta_rad % (2 * np.pi))
+
+
+def _quadratic(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Least-squares (c2, c1, c0) of y = c2 x^2 + c1 x + c0, (m,) (m,) -> (3,): what np.polyfit
+    gives, without its overhead (thousands of small fits in a sweep over window sizes); x is
+    scaled to [-1, 1] so the 3 x 3 normal equations stay well conditioned."""
+    s = max(float(np.abs(x).max()), 1e-300)
+    t = x / s
+    V = np.stack([t * t, t, np.ones_like(t)], axis=1)
+    c = np.linalg.solve(V.T @ V, V.T @ y)
+    return c / np.array([s * s, s, 1.0])
 
 
 def calibrate_paper(theta_rad: np.ndarray, rho_mm: np.ndarray, m: int, half_side_mm: float,

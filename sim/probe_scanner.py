@@ -65,12 +65,29 @@ class ProbeScannerSim:
         return dist * 1000
 
     def exact_rho(self, part: str, theta_rad: np.ndarray) -> np.ndarray:
-        """Noise-free readings at true table angles (n,) -> (n,) mm."""
-        out = np.empty(len(theta_rad))
-        for i, th in enumerate(theta_rad):
-            self.turn_to(th)
-            out[i] = self.ray_mm(part)
-        return out
+        """Noise-free readings at true table angles (n,) -> (n,) mm.
+
+        The rail rides the table, the parts stand still: the stylus's start Q and direction at
+        each angle are MuJoCo's at angle 0 turned about the joint's axis, so only the ray casts
+        run per sample (the same rays as :meth:`turn_to` then :meth:`ray_mm`, to 1e-12 mm)."""
+        from scipy.spatial.transform import Rotation
+
+        self.turn_to(0.0)
+        j = self.model.joint("theta").id
+        c, axis = self.data.xanchor[j].copy(), self.data.xaxis[j].copy()
+        q0 = self.data.site_xpos[self._q] - c
+        u0 = self.data.site_xpos[self._dir] - self.data.site_xpos[self._q]
+        R = Rotation.from_rotvec(np.outer(np.asarray(theta_rad, float), axis)).as_matrix()
+        q = c + R @ q0
+        u = R @ (u0 / np.linalg.norm(u0))
+        group = np.zeros(6, np.uint8)
+        group[PLATE_GROUP if part == "plate" else LENS_GROUP] = 1
+        out = np.array([mujoco.mj_ray(self.model, self.data, qi, ui, group, 1, -1, self._geomid)
+                        for qi, ui in zip(q, u)])
+        if np.any(out < 0):
+            th = float(np.asarray(theta_rad)[np.argmax(out < 0)])
+            raise RuntimeError(f"the stylus found no wall of the {part} at angle {th:.4f}")
+        return out * 1000
 
     def scan(self, part: str, rng: np.random.Generator) -> tuple[Scan, np.ndarray]:
         """One turn: the recording and, kept apart, the true table angles (n,)."""
