@@ -367,8 +367,10 @@ def _discover(args) -> int:
               f"{e['cv_rms_after'] * 1000:.2f} um")
     for c in d["confounded"]:
         print(f"- cannot separate {c['effect']} ({c['axis']}): {c['why']}; to separate: {c['experiment']}")
-    if not d["effects"]:
-        print("- nothing missing: the scene model explains the recording to its repeatability")
+    if d.get("verdict"):
+        print(d["verdict"])
+    elif not d["effects"]:
+        print("- nothing missing: the scene model explains the recording")
     if d.get("summary"):
         print(d["summary"])
     print(f"-> {out / 'discovery.json'}")

@@ -107,6 +107,9 @@ def discover_stage(scenario: str, rec, seed: int = 0, holdout: str | None = None
             found.cv_final = float(after)
 
     effects, fitted = _describe(signals, terms, found, drivers, noise)
+    # the repeatability again, after the accepted effects: an effect that drifts between passes
+    # (temperature, a creeping offset) inflates the first estimate
+    after = {a: dsc.repeatability(fitted[a], key, order) for a in fitted}
     located = _locate_stage(signals, drivers, seed)
     confounds = _confounds(signals, terms, found, candidates, drivers, rec)
     out = {"scenario": scenario, "samples": n, "unit": "mm", "located": located, "effects": effects,
@@ -114,9 +117,31 @@ def discover_stage(scenario: str, rec, seed: int = 0, holdout: str | None = None
                    "cv_rms_final": found.cv_final},
            "noise": {a: {"repeatability_mm": nz.sigma_mm, "lag1_correlation": nz.lag1, "dof": nz.dof}
                      for a, nz in noise.items()},
+           "noise_after_effects": {a: {"repeatability_mm": nz.sigma_mm, "dof": nz.dof} for a, nz in after.items()},
            "holdout": scheme, "scene_model": f"the twin plus its degree-{deg} error map in (x, y), calibrated",
-           "not_accepted": found.rejected, "confounded": confounds}
+           "not_accepted": found.rejected, "confounded": confounds,
+           "verdict": verdict(found.cv_final, after, bool(effects))}
     return out, {"signals": signals, "fitted": fitted, "x": x, "y": y}
+
+
+UNEXPLAINED_RATIO = 1.5  # held-out RMS over repeatability beyond which something is left
+
+
+def verdict(cv_final_mm: float, noise: dict, found_any: bool) -> str:
+    """What is left after the accepted effects, in words: the final held-out RMS (per
+    coordinate) against the repeatability from repeats (``noise``: axis -> Noise, after the
+    effects). Never a silent stop: unexplained structure, or no repeats to judge by, is said."""
+    sig = [nz.sigma_mm for nz in noise.values() if nz.sigma_mm]
+    left = cv_final_mm * 1000
+    if not sig:
+        return (f"what is left: {left:.2f} um held out; no station was visited twice, so the repeatability is "
+                "unknown and it cannot be said whether that is noise")
+    floor = float(np.sqrt(np.mean(np.square(sig)))) * 1000
+    if cv_final_mm * 1000 > UNEXPLAINED_RATIO * floor:
+        return (f"unexplained: {left:.2f} um held out against {floor:.2f} um of repeatability; the recording holds "
+                "structure no candidate explains")
+    what = "the accepted effects explain" if found_any else "nothing missing: the scene model explains"
+    return f"{what} the recording to its repeatability ({left:.2f} um held out, {floor:.2f} um from repeats)"
 
 
 def _describe(signals, terms, found, drivers, noise):

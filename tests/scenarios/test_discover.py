@@ -119,3 +119,22 @@ def test_paper_belt_stage_residual_is_table_3_and_lives_in_y(shared_data):
     assert abs(d["fit"]["rms_nominal"] - (31.96 + 24.08) ** 0.5 / 242**0.5) < 2e-4
     top = d["located"][0]
     assert (top["signal"], top["driver"]) == ("y_meas - y_sim", "y")
+
+
+def test_what_is_left_is_judged_against_the_repeatability(monkeypatch):
+    """A null recording ends at its repeatability and says so; the same machine with lost motion
+    and no candidate allowed to find it (the candidate list emptied) must not stop silently: it
+    reports the held-out RMS against the repeatability from repeats, after the effects."""
+    import calibench.scenarios.discover as disc
+
+    null, _ = stage_recording("vision-stage", "null", 5)
+    d, _ = disc.discover_stage("vision-stage", null)
+    assert d["verdict"].startswith("nothing missing") and "um from repeats" in d["verdict"]
+    rec, _ = stage_recording("vision-stage", "backlash", 7)
+    monkeypatch.setattr(disc, "stage_candidates", lambda drivers: [])
+    monkeypatch.setattr(disc, "polynomial_candidates", lambda axis, deg: [])
+    monkeypatch.setattr(disc.dsc, "find_nonsmooth", lambda *a, **k: None)
+    d, _ = disc.discover_stage("vision-stage", rec)
+    assert d["verdict"].startswith("unexplained:") and "um of repeatability" in d["verdict"]
+    rep = max(v["repeatability_mm"] for v in d["noise_after_effects"].values())
+    assert d["fit"]["cv_rms_final"] > 1.5 * rep
