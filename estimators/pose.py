@@ -63,6 +63,27 @@ def board2cam_pnp(board_points: np.ndarray, pixels: np.ndarray, K: np.ndarray, d
     return cv2.Rodrigues(rvec)[0], tvec.ravel()
 
 
+# projectPoints' Jacobian columns after (rvec, tvec): fx, fy, cx, cy, then k1, k2, p1, p2, k3
+_INTRINSIC_COLUMN = {"fx": 6, "fy": 7, "cx": 8, "cy": 9, "k1": 10, "k2": 11, "p1": 12, "p2": 13, "k3": 14}
+
+
+def pose_sensitivity(board_points: np.ndarray, R: np.ndarray, t: np.ndarray, K: np.ndarray, dist: np.ndarray,
+                     names: tuple[str, ...]) -> np.ndarray:
+    """How the PnP pose moves with the intrinsics ``names``, d(rvec, t) / d(intrinsics), (6, k).
+
+    The implicit-function theorem at the reprojection minimum, J_pose^T r = 0: d pose / d theta
+    = -(J_pose^T J_pose)^-1 J_pose^T J_theta (Gauss-Newton: the residuals' own second-order
+    term is left out, the residuals being hundredths of a pixel). rvec is Rodrigues' vector of
+    ``R`` (3, 3); t (3,) in the board's unit; board_points (m, 3).
+    """
+    rvec = cv2.Rodrigues(np.asarray(R, float))[0]
+    _, jac = cv2.projectPoints(np.asarray(board_points, np.float64), rvec, np.asarray(t, float).reshape(3, 1), K,
+                               dist)
+    Jp = jac[:, :6]
+    Jt = jac[:, [_INTRINSIC_COLUMN[n] for n in names]]
+    return -np.linalg.solve(Jp.T @ Jp, Jp.T @ Jt)
+
+
 def mean_rotation(R: np.ndarray) -> np.ndarray:
     """Chordal L2 mean of rotations, (n, 3, 3) -> (3, 3)."""
     U, _, Vt = np.linalg.svd(np.sum(R, axis=0))

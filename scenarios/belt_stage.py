@@ -23,11 +23,12 @@ import dataclasses
 from pathlib import Path
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from calibench.estimators.chessboard import find_chessboard_corners
 from calibench.estimators.error_map import COEF_NAMES, compensated_command, fit_quadratic
 from calibench.estimators.pose import (Plane, board2cam_from_homography, board2cam_pnp, fit_plane, homography,
-                             mean_rotation, undistort_pixels)
+                                      mean_rotation, pose_sensitivity, undistort_pixels)
 from calibench.estimators.travel import board_yaw, travel_from_camera_centres, travel_in_plane
 from calibench.estimators.zhang import calibrate_camera, intrinsic_covariance
 from calibench.scenarios.report import Check, Parameter, Report, progress
@@ -123,7 +124,7 @@ def run(config: BeltStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: b
         m = measure_maps(board_pts, station_views.corners_px, calib.K, calib.dist, cmd, ref)
         intr_names = ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2")
         cov_intr = intrinsic_covariance(calib, board_pts, calib_points, intr_names)
-        std_map = propagated_std(m, board_pts, station_views.corners_px, calib, cmd, ref, intr_names, cov_intr)
+        std_map = propagated_std(m, board_pts, calib, cmd, ref, intr_names, cov_intr)
         fit_x, fit_y, yaw, err = m.fit_x, m.fit_y, m.yaw_rad, m.err
         gx, gy = np.meshgrid(*(np.linspace(0, t, 41) for t in g.travel_mm))
         gx, gy = gx.ravel(), gy.ravel()
@@ -234,7 +235,12 @@ def measure_maps(board_pts: np.ndarray, corners_px: np.ndarray, K: np.ndarray, d
     along its viewing ray onto the plane fitted through all of them. ``slopes`` (2,) tilts that
     plane, for propagating its uncertainty.
     """
-    st = station_poses(board_pts, corners_px, K, dist)
+    return maps_from_poses(station_poses(board_pts, corners_px, K, dist), board_pts, cmd, ref, slopes)
+
+
+def maps_from_poses(st: StationPoses, board_pts: np.ndarray, cmd: np.ndarray, ref: int,
+                    slopes: np.ndarray | None = None) -> StageMaps:
+    """:func:`measure_maps` from the stations' poses on: plane, travel, errors, maps."""
     centroid = board_pts.mean(axis=0)
     p = np.einsum("nij,j->ni", st.R_pnp, centroid) + st.t_pnp
     plane = fit_plane(p)
@@ -255,32 +261,38 @@ def measure_maps(board_pts: np.ndarray, corners_px: np.ndarray, K: np.ndarray, d
         paper_fit_x=fit_quadratic(x, y, err_paper[:, 0]), paper_fit_y=fit_quadratic(x, y, err_paper[:, 1]))
 
 
-def propagated_std(m: StageMaps, board_pts, corners_px, calib, cmd, ref, names, cov_intr) -> np.ndarray:
+def propagated_std(m: StageMaps, board_pts, calib, cmd, ref, names, cov_intr) -> np.ndarray:
     """1-sigma of (ex c0..c5, ey c0..c5, yaw): station noise plus two common-mode errors.
 
     The intrinsics and the plane of motion are shared by every station, so their errors move
     the whole map coherently. Their effect is the Jacobian of the map coefficients with
-    respect to them (central differences at one sigma) sandwiched around their covariance.
+    respect to them sandwiched around their covariance: each station's PnP pose moves with the
+    intrinsics by the implicit-function Jacobian at its minimum (:func:`pose_sensitivity`, no PnP
+    rerun), and the closed-form rest of the pipeline (plane, travel, maps) is differenced
+    centrally at one sigma.
     """
-    base = dict(zip(names, [calib.K[0, 0], calib.K[1, 1], calib.K[0, 2], calib.K[1, 2], *calib.dist[:4]]))
+    st = m.poses
+    S = np.stack([pose_sensitivity(board_pts, R, t, calib.K, calib.dist, names) for R, t in zip(st.R_pnp, st.t_pnp)])
+    rvecs = Rotation.from_matrix(st.R_pnp).as_rotvec()
 
-    def at(p, slopes=None):
-        K = np.array([[p["fx"], 0, p["cx"]], [0, p["fy"], p["cy"]], [0, 0, 1]])
-        dist = np.array([p["k1"], p["k2"], p["p1"], p["p2"], calib.dist[4]])
-        return measure_maps(board_pts, corners_px, K, dist, cmd, ref, slopes).vector()
+    def at(d_intr=None, slopes=None):
+        poses = st
+        if d_intr is not None:
+            d = S @ d_intr  # (n, 6): each station's (rvec, t) moved
+            poses = dataclasses.replace(st, R_pnp=Rotation.from_rotvec(rvecs + d[:, :3]).as_matrix(),
+                                        t_pnp=st.t_pnp + d[:, 3:])
+        return maps_from_poses(poses, board_pts, cmd, ref, slopes).vector()
 
     J = np.empty((13, len(names)))
-    for j, name in enumerate(names):
-        h = np.sqrt(cov_intr[j, j])
-        hi, lo = dict(base), dict(base)
-        hi[name] += h
-        lo[name] -= h
-        J[:, j] = (at(hi) - at(lo)) / (2 * h)
+    for j in range(len(names)):
+        h = np.zeros(len(names))
+        h[j] = np.sqrt(cov_intr[j, j])
+        J[:, j] = (at(h) - at(-h)) / (2 * h[j])
     Js = np.empty((13, 2))
     for j in range(2):
         h = np.zeros(2)
         h[j] = np.sqrt(m.plane.slope_cov[j, j])
-        Js[:, j] = (at(base, h) - at(base, -h)) / (2 * h[j])
+        Js[:, j] = (at(slopes=h) - at(slopes=-h)) / (2 * h[j])
     own = np.r_[m.fit_x.std, m.fit_y.std, m.yaw_std_rad]
     # errors are measured from the home station, whose own scatter (the per-station RMSE) moves
     # every error alike: a common offset the residuals cannot show, so it joins c0's variance
