@@ -32,11 +32,12 @@ def design(u: np.ndarray, v: np.ndarray, degree: int, period_mm: float | None = 
     """Monomials of (u, v) / 100 mm up to ``degree``, then (with ``period_mm``) sin and cos of
     2 pi w / period with w = u (``along`` 0) or v (1); shape (n, n_terms)."""
     a, b = np.asarray(u, float) / _SCALE, np.asarray(v, float) / _SCALE
-    cols = [a**i * b**j for i, j in monomial_powers(degree)]
-    if period_mm is not None:
-        w = 2 * np.pi * (np.asarray(u, float) if along == 0 else np.asarray(v, float)) / period_mm
-        cols += [np.sin(w), np.cos(w)]
-    return np.stack(cols, axis=-1)
+    p = np.array(monomial_powers(degree))
+    A = a[..., None] ** p[:, 0] * b[..., None] ** p[:, 1]
+    if period_mm is None:
+        return A
+    w = 2 * np.pi * (np.asarray(u, float) if along == 0 else np.asarray(v, float)) / period_mm
+    return np.concatenate([A, np.sin(w)[..., None], np.cos(w)[..., None]], axis=-1)
 
 
 @dataclasses.dataclass(frozen=True)

@@ -18,6 +18,7 @@ tile geom per circle (so a per-circle manufacturing error is a tile offset).
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import cv2
 import numpy as np
@@ -155,5 +156,12 @@ def build_mjcf(g: VisionStageGeometry, tile_offsets_mm: np.ndarray | None = None
   </worldbody>
 </mujoco>
 """
-    ok, png = cv2.imencode(".png", g.plate.tile_texture())
-    return xml, {"circle.png": png.tobytes()}
+    return xml, {"circle.png": _tile_png(g.plate)}
+
+
+@functools.lru_cache(maxsize=8)
+def _tile_png(plate: CirclePlate) -> bytes:
+    """The tile's texture as PNG bytes, made once per plate (a Monte-Carlo worker builds the
+    scene every trial; the texture depends on the plate alone)."""
+    ok, png = cv2.imencode(".png", plate.tile_texture())
+    return png.tobytes()
