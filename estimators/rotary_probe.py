@@ -105,35 +105,60 @@ def fit_minima(theta_rad: np.ndarray, rho_mm: np.ndarray, m: int, n_minima: int 
     N = len(rho)
     if m < 3 or m > N // n_minima:
         raise ValueError(f"m = {m}: the quadratic needs 3 to {N // n_minima} samples")
-    # one minimum per quarter turn: the lowest sample of each quarter, after light smoothing
+    return _fits_at(th, rho, minima_indices(rho, n_minima), m)
+
+
+def minima_indices(rho_mm: np.ndarray, n_minima: int = 4) -> np.ndarray:
+    """The sample index of each of a turn's ``n_minima`` minima, (n_minima,): the lowest sample
+    of each part of the turn between maxima, after light smoothing."""
+    rho = np.asarray(rho_mm, float)
+    N = len(rho)
     k = max(3, N // 200)
     smooth = np.convolve(np.r_[rho[-k:], rho, rho[:k]], np.ones(k) / k, mode="same")[k:-k]
-    period = 2 * np.pi
-    fits = []
     start = int(np.argmax(smooth))  # a maximum: quarters between maxima hold one minimum each
+    out = []
     for q in range(n_minima):
         idx = (start + np.arange(q * N // n_minima, (q + 1) * N // n_minima)) % N
-        i0 = idx[np.argmin(smooth[idx])]
-        win = (i0 + np.arange(m) - (m - 1) // 2) % N
-        x = (th[win] - th[i0] + np.pi) % period - np.pi  # the window may wrap past 2 pi
-        c2, c1, c0 = _quadratic(x, rho[win])
-        if c2 > 0:
-            xv, rv = -c1 / (2 * c2), c0 - c1 * c1 / (4 * c2)
-        else:  # a window too short to see the curve through the quantisation: no vertex to move to
-            xv, rv = 0.0, c0
-        fits.append(MinimumFit(theta_rad=float(th[i0] + xv), rho_mm=float(rv), curvature_mm=float(2 * c2)))
+        out.append(idx[np.argmin(smooth[idx])])
+    return np.array(out)
+
+
+def _fits_at(th: np.ndarray, rho: np.ndarray, i0: np.ndarray, m: int) -> list[MinimumFit]:
+    """The quadratic fits of ``m`` samples centred on the minima ``i0`` (k,), all at once."""
+    N = len(rho)
+    win = (i0[:, None] + np.arange(m) - (m - 1) // 2) % N  # (k, m)
+    x = (th[win] - th[i0][:, None] + np.pi) % (2 * np.pi) - np.pi  # a window may wrap past 2 pi
+    c2, c1, c0 = _quadratic(x, rho[win]).T
+    vertex = c2 > 0  # else a window too short to see the curve through the quantisation
+    with np.errstate(divide="ignore", invalid="ignore"):
+        xv = np.where(vertex, -c1 / (2 * c2), 0.0)
+        rv = np.where(vertex, c0 - c1 * c1 / (4 * c2), c0)
+    fits = [MinimumFit(theta_rad=float(th[i] + v), rho_mm=float(r), curvature_mm=float(2 * c))
+            for i, v, r, c in zip(i0, xv, rv, c2)]
     return sorted(fits, key=lambda f: f.theta_rad % (2 * np.pi))
 
 
 def _quadratic(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Least-squares (c2, c1, c0) of y = c2 x^2 + c1 x + c0, (m,) (m,) -> (3,): what np.polyfit
-    gives, without its overhead (thousands of small fits in a sweep over window sizes); x is
-    scaled to [-1, 1] so the 3 x 3 normal equations stay well conditioned."""
-    s = max(float(np.abs(x).max()), 1e-300)
+    """Least-squares (c2, c1, c0) of y = c2 x^2 + c1 x + c0 for each row of x, y (k, m) ->
+    (k, 3): what np.polyfit gives row by row, without its overhead (thousands of small fits in a
+    sweep over window sizes); x is scaled to [-1, 1] so the normal equations stay well
+    conditioned."""
+    s = np.maximum(np.abs(x).max(axis=1), 1e-300)[:, None]
     t = x / s
-    V = np.stack([t * t, t, np.ones_like(t)], axis=1)
-    c = np.linalg.solve(V.T @ V, V.T @ y)
-    return c / np.array([s * s, s, 1.0])
+    V = np.stack([t * t, t, np.ones_like(t)], axis=2)  # (k, m, 3)
+    c = np.linalg.solve(np.einsum("kmi,kmj->kij", V, V), np.einsum("kmi,km->ki", V, y)[..., None])[..., 0]
+    return c / np.c_[s * s, s, np.ones_like(s)]
+
+
+def calibrate_paper_sweep(theta_rad: np.ndarray, rho_mm: np.ndarray, ms, half_side_mm: float,
+                          alpha0_nominal_rad: float) -> list[ScannerCalibration]:
+    """:func:`calibrate_paper` for every window size in ``ms`` on one turn: the minima found once."""
+    th, rho = np.asarray(theta_rad, float), np.asarray(rho_mm, float)
+    i0 = minima_indices(rho)
+    for m in ms:
+        if m < 3 or m > len(rho) // 4:
+            raise ValueError(f"m = {m}: the quadratic needs 3 to {len(rho) // 4} samples")
+    return [solve_four_minima(_fits_at(th, rho, i0, int(m)), half_side_mm, alpha0_nominal_rad) for m in ms]
 
 
 def calibrate_paper(theta_rad: np.ndarray, rho_mm: np.ndarray, m: int, half_side_mm: float,
