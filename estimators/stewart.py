@@ -81,6 +81,29 @@ def multilaterate(stations: np.ndarray, dist: np.ndarray, sigma: np.ndarray, sta
     return p, np.linalg.inv(J.T @ (w[:, None] * J)), bool(np.max(np.abs(step)) < CONVERGED_STEP)
 
 
+def multilaterate_many(stations: np.ndarray, dist: np.ndarray, sigma: np.ndarray, start: np.ndarray,
+                       iterations: int = 20) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`multilaterate` for several points at once: distances (n, k) to the same stations
+    (k, 3), their sigma (n, k), starts (n, 3) -> points (n, 3), covariances (n, 3, 3) and
+    whether each converged (n,)."""
+    p = np.array(start, float)
+    w = 1 / np.asarray(sigma, float) ** 2
+    step = np.full(p.shape, np.inf)
+    for _ in range(iterations):
+        v = p[:, None, :] - stations[None]
+        r = np.linalg.norm(v, axis=2)
+        J = v / r[..., None]  # (n, k, 3)
+        A = np.einsum("nki,nk,nkj->nij", J, w, J)
+        step = np.linalg.solve(A, np.einsum("nki,nk->ni", J, w * (dist - r))[..., None])[..., 0]
+        p = p + step
+        if np.max(np.abs(step)) < 1e-12:
+            break
+    v = p[:, None, :] - stations[None]
+    J = v / np.linalg.norm(v, axis=2)[..., None]
+    cov = np.linalg.inv(np.einsum("nki,nk,nkj->nij", J, w, J))
+    return p, cov, np.max(np.abs(step), axis=1) < CONVERGED_STEP
+
+
 def fit_sphere(points: np.ndarray) -> tuple[np.ndarray, float, bool]:
     """Centre (3,) and radius of the least-squares sphere through points (n >= 4, not coplanar),
     and whether the geometric refinement converged.

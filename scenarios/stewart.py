@@ -25,7 +25,8 @@ import numpy as np
 from calibench.estimators.pose import mean_rotation
 from calibench.estimators.rotations import rotvec_to_matrix
 from calibench.estimators.stewart import (LegCalibration, TrackerObservations, adjust_jointly, calibrate_leg, fit_sphere,
-                                forward_kinematics, joint_information, multilaterate, rigid_transform, trilaterate)
+                                          forward_kinematics, joint_information, multilaterate_many, rigid_transform,
+                                          trilaterate)
 from calibench.scenarios.report import Check, Parameter, Report
 from calibench.scenes.stewart import StewartGeometry
 from calibench.sim.stewart import StewartSim, StewartTruth
@@ -96,9 +97,10 @@ def pose_from_lengths(sim: StewartSim, stations: np.ndarray, d: np.ndarray, R_gu
     multilaterated from the stations (weighted by the stated ``sigma_mm(L)``), then a rigid fit,
     from the guess (R_guess, t_guess); and whether the three multilaterations converged."""
     g = sim.geometry
-    sols = [multilaterate(stations, d[k], sigma_mm(d[k]), R_guess @ g.reflectors_mm[k] + t_guess) for k in range(3)]
-    R, t = rigid_transform(g.reflectors_mm, np.array([p for p, _, _ in sols]))
-    return R, t, all(ok for _, _, ok in sols)
+    d = np.asarray(d, float)
+    pts, _, ok = multilaterate_many(stations, d, sigma_mm(d), g.reflectors_mm @ np.asarray(R_guess).T + t_guess)
+    R, t = rigid_transform(g.reflectors_mm, pts)
+    return R, t, bool(ok.all())
 
 
 def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool) -> Report:

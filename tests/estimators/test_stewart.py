@@ -6,8 +6,8 @@ from scipy.spatial.transform import Rotation
 
 from calibench.estimators.rotations import rotvec_to_matrix
 from calibench.estimators.stewart import (TrackerObservations, _joint_residuals, adjust_jointly, calibrate_leg, fit_sphere,
-                                forward_kinematics, joint_information, leg_lengths, multilaterate, rigid_transform,
-                                trilaterate)
+                                          forward_kinematics, joint_information, leg_lengths, multilaterate,
+                                          multilaterate_many, rigid_transform, trilaterate)
 
 NESTS = np.array([[700.0, -500.0, 0.0], [800.0, 500.0, 700.0], [-700.0, 700.0, 1300.0]])
 STATION = np.array([1500.0, -500.0, 300.0])
@@ -201,3 +201,19 @@ def test_newton_loops_cut_short_say_they_did_not_converge():
     r = np.c_[300 * np.cos(b), 300 * np.sin(b), np.zeros(6)]
     R, t = _rot(np.array([0.1, -0.05, 0.12])), np.array([40.0, -60.0, 820.0])
     assert not forward_kinematics(leg_lengths(R, t, r, B), r, B, np.eye(3), np.array([0, 0, 750.0]), iterations=1)[2]
+
+
+def test_many_points_multilaterated_at_once_are_each_one_alone():
+    """The batched multilateration against the single-point one, point by point: the same
+    points (1e-9 mm), covariances and convergence flags."""
+    rng = np.random.default_rng(8)
+    stations = np.array([[1500.0, -500.0, 300.0], [1600.0, 500.0, 900.0], [1400.0, -100.0, 1500.0]])
+    pts = rng.normal(0, 200, (5, 3)) + [0, 0, 760]
+    d = np.linalg.norm(pts[:, None] - stations[None], axis=2) + rng.normal(0, 1e-3, (5, 3))
+    sig = np.full((5, 3), 1e-3)
+    p, cov, ok = multilaterate_many(stations, d, sig, pts + 5.0)
+    for i in range(5):
+        q, c, one_ok = multilaterate(stations, d[i], sig[i], pts[i] + 5.0)
+        np.testing.assert_allclose(p[i], q, atol=1e-9)
+        np.testing.assert_allclose(cov[i], c, rtol=1e-6)
+        assert ok[i] == one_ok
