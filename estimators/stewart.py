@@ -200,6 +200,28 @@ def forward_kinematics(lengths: np.ndarray, r: np.ndarray, B: np.ndarray, R0: np
     return R, t, bool(np.max(np.abs(step)) < CONVERGED_STEP)
 
 
+def forward_kinematics_many(lengths: np.ndarray, r: np.ndarray, B: np.ndarray, R0: np.ndarray, t0: np.ndarray,
+                            iterations: int = 30) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`forward_kinematics` for many leg-length sets (n, 6) at once, each from (R0, t0):
+    poses R (n, 3, 3), t (n, 3) and whether each converged (n,)."""
+    lengths = np.asarray(lengths, float)
+    n = len(lengths)
+    R, t = np.repeat(np.asarray(R0, float)[None], n, axis=0), np.repeat(np.asarray(t0, float)[None], n, axis=0)
+    step = np.full((n, 6), np.inf)
+    for _ in range(iterations):
+        Rr = np.einsum("nij,kj->nki", R, r)  # (n, 6, 3)
+        v = Rr + t[:, None] - B
+        L = np.linalg.norm(v, axis=2)
+        u = v / L[..., None]
+        J = np.concatenate([np.cross(Rr, u), u], axis=2)  # (n, 6, 6)
+        step = np.linalg.solve(J, (lengths - L)[..., None])[..., 0]
+        R = np.einsum("nij,njk->nik", rotvec_to_matrix(step[:, :3]), R)
+        t = t + step[:, 3:]
+        if np.max(np.abs(step)) < 1e-13:
+            break
+    return R, t, np.max(np.abs(step), axis=1) < CONVERGED_STEP
+
+
 @dataclasses.dataclass(frozen=True)
 class TrackerObservations:
     """Everything one calibration measured, for the joint adjustment.

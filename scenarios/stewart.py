@@ -25,7 +25,7 @@ import numpy as np
 from calibench.estimators.pose import mean_rotation
 from calibench.estimators.rotations import rotvec_to_matrix
 from calibench.estimators.stewart import (LegCalibration, TrackerObservations, adjust_jointly, calibrate_leg, fit_sphere,
-                                          forward_kinematics, joint_information, multilaterate_many, rigid_transform,
+                                          forward_kinematics_many, joint_information, multilaterate_many, rigid_transform,
                                           trilaterate)
 from calibench.scenarios.report import Check, Parameter, Report
 from calibench.scenes.stewart import StewartGeometry
@@ -169,14 +169,18 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
     one = (np.array([c.r for c in legs]), np.array([c.B for c in legs]), np.array([c.l for c in legs]))
     two = (np.array([c[0] for c in two_step]), np.array([c[1] for c in two_step]), np.array([c[2] for c in two_step]))
     home = (np.eye(3), np.array([0, 0, g.home_height_mm]))
+    reads = []
     for R, t in hold:
         sim.set_pose(R, t)
-        read = sim.readings_mm()
-        for key, (r, B, l) in (("before", nominal), ("after", one), ("two_step", two)):
-            Rf, tf, ok = forward_kinematics(l + read, r, B, *home)
-            unconverged += not ok
-            # the pose's error seen at the nominal hinge points (position and turn together)
-            err[key].append(np.linalg.norm((g.platform_hinges_mm @ Rf.T + tf) - (g.platform_hinges_mm @ R.T + t), axis=1))
+        reads.append(sim.readings_mm())
+    R_hold, t_hold = np.array([R for R, _ in hold]), np.array([t for _, t in hold])
+    true_hinges = np.einsum("nij,kj->nki", R_hold, g.platform_hinges_mm) + t_hold[:, None]
+    for key, (r, B, l) in (("before", nominal), ("after", one), ("two_step", two)):
+        Rf, tf, ok = forward_kinematics_many(l + np.array(reads), r, B, *home)
+        unconverged += int(np.sum(~ok))
+        # the pose's error seen at the nominal hinge points (position and turn together)
+        hinges = np.einsum("nij,kj->nki", Rf, g.platform_hinges_mm) + tf[:, None]
+        err[key] = list(np.linalg.norm(hinges - true_hinges, axis=2))
     rms = {k: float(np.sqrt(np.mean(np.square(v)))) * 1000 for k, v in err.items()}
 
     report = Report(scenario=NAME, seed=seed, fidelity="analytic")

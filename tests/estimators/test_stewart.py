@@ -6,8 +6,8 @@ from scipy.spatial.transform import Rotation
 
 from calibench.estimators.rotations import rotvec_to_matrix
 from calibench.estimators.stewart import (TrackerObservations, _joint_residuals, adjust_jointly, calibrate_leg, fit_sphere,
-                                          forward_kinematics, joint_information, leg_lengths, multilaterate,
-                                          multilaterate_many, rigid_transform, trilaterate)
+                                          forward_kinematics, forward_kinematics_many, joint_information, leg_lengths,
+                                          multilaterate, multilaterate_many, rigid_transform, trilaterate)
 
 NESTS = np.array([[700.0, -500.0, 0.0], [800.0, 500.0, 700.0], [-700.0, 700.0, 1300.0]])
 STATION = np.array([1500.0, -500.0, 300.0])
@@ -217,3 +217,19 @@ def test_many_points_multilaterated_at_once_are_each_one_alone():
         np.testing.assert_allclose(p[i], q, atol=1e-9)
         np.testing.assert_allclose(cov[i], c, rtol=1e-6)
         assert ok[i] == one_ok
+
+
+def test_many_poses_from_leg_lengths_at_once_are_each_one_alone():
+    """Batched forward kinematics against the single-pose Newton, pose by pose (1e-9)."""
+    rng = np.random.default_rng(9)
+    a, b = np.deg2rad([-15, 15, 105, 135, 225, 255]), np.deg2rad([-45, 45, 75, 165, 195, 285])
+    B = np.c_[500 * np.cos(a), 500 * np.sin(a), np.zeros(6)]
+    r = np.c_[300 * np.cos(b), 300 * np.sin(b), np.zeros(6)]
+    poses = [(_rot(rng.normal(0, 0.08, 3)), np.array([0, 0, 800.0]) + rng.normal(0, 50, 3)) for _ in range(6)]
+    L = np.array([leg_lengths(R, t, r, B) for R, t in poses])
+    Rm, tm, ok = forward_kinematics_many(L, r, B, np.eye(3), np.array([0, 0, 750.0]))
+    assert ok.all()
+    for i in range(len(poses)):
+        R1, t1, _ = forward_kinematics(L[i], r, B, np.eye(3), np.array([0, 0, 750.0]))
+        np.testing.assert_allclose(Rm[i], R1, atol=1e-9)
+        np.testing.assert_allclose(tm[i], t1, atol=1e-9)
