@@ -24,9 +24,9 @@ import numpy as np
 
 from calibench.estimators.pose import mean_rotation
 from calibench.estimators.rotations import rotvec_to_matrix
-from calibench.estimators.stewart import (LegCalibration, TrackerObservations, adjust_jointly, calibrate_leg, fit_sphere,
-                                          forward_kinematics_many, joint_information, multilaterate_many, rigid_transform,
-                                          trilaterate)
+from calibench.estimators.stewart import (LegCalibration, TrackerObservations, adjust_jointly, calibrate_leg,
+                                          fit_sphere, forward_kinematics_many, joint_information, multilaterate_many,
+                                          rigid_transform, trilaterate)
 from calibench.scenarios.report import Check, Parameter, Report
 from calibench.scenes.stewart import StewartGeometry
 from calibench.sim.stewart import StewartSim, StewartTruth
