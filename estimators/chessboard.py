@@ -108,8 +108,9 @@ def _bilinear(img: np.ndarray, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
     xs, ys = np.clip(xs, 0, w - 1), np.clip(ys, 0, h - 1)
     x0, y0 = np.minimum(xs.astype(np.intp), w - 2), np.minimum(ys.astype(np.intp), h - 2)
     fx, fy = xs - x0, ys - y0
-    top = img[y0, x0] * (1 - fx) + img[y0, x0 + 1] * fx
-    bottom = img[y0 + 1, x0] * (1 - fx) + img[y0 + 1, x0 + 1] * fx
+    flat, i = img.ravel(), y0 * w + x0  # 1-D takes: several times faster than 2-D fancy indexing
+    top = np.take(flat, i) * (1 - fx) + np.take(flat, i + 1) * fx
+    bottom = np.take(flat, i + w) * (1 - fx) + np.take(flat, i + w + 1) * fx
     return top * (1 - fy) + bottom * fy
 
 
