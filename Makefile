@@ -4,7 +4,7 @@ VENV   ?= .venv
 BIN     = $(VENV)/bin
 export MUJOCO_GL = egl
 
-.PHONY: demo test quick clean
+.PHONY: demo test quick figures figures-check clean
 
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -20,6 +20,14 @@ test: $(VENV)/.installed
 
 quick: $(VENV)/.installed
 	$(BIN)/python -m pytest -q tests/estimators tests/test_recordings.py tests/test_bad_input.py tests/scenarios/test_iso230.py
+
+# The README's tables and numbers, rerun and rewritten (FIGURES="NAME ..." for some of them;
+# `$(BIN)/python docs/figures.py --list` names them); figures-check compares instead of rewriting.
+figures: $(VENV)/.installed
+	$(BIN)/python docs/figures.py $(FIGURES)
+
+figures-check: $(VENV)/.installed
+	$(BIN)/python docs/figures.py --check $(FIGURES)
 
 clean:
 	rm -rf $(VENV) calibench-out .pytest_cache
