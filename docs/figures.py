@@ -1043,13 +1043,13 @@ def main(argv: list[str] | None = None) -> int:
         bad = check(names, readme)
         print(f"{len(names)} blocks checked: {'all agree' if not bad else f'{bad} numbers differ'}")
         return 1 if bad else 0
-    generated = {}
     for name in names:
         t = time.perf_counter()
-        generated[name] = BLOCKS[name].make()
-        print(f"{name}: {time.perf_counter() - t:.0f} s", flush=True)
-    README.write_text(replace(README.read_text(), generated))  # read again: the README may have moved on
-    print(f"README.md: {len(generated)} blocks rewritten")
+        text = BLOCKS[name].make()
+        # written at once (an interrupted run keeps what it made), into the README as it is now
+        README.write_text(replace(README.read_text(), {name: text}))
+        print(f"{name}: rewritten ({time.perf_counter() - t:.0f} s)", flush=True)
+    print(f"README.md: {len(names)} blocks rewritten")
     return 0
 
 
