@@ -225,7 +225,7 @@ def bold_least(cells: list[float], fmt: str) -> list[str]:
 
 
 # --- belt-stage ----------------------------------------------------------------------------------------
-@block(seconds=17, ci=True, last_digit=1)
+@block(seconds=15, ci=True, last_digit=1)
 def belt_stage():
     """calibench run belt-stage --seed 0 (render): the figures against their limits."""
     c, p, info = checks("belt-stage"), params("belt-stage"), report("belt-stage")["info"]
@@ -249,7 +249,7 @@ def belt_stage():
 
 
 # --- vision-stage ----------------------------------------------------------------------------------------
-@block(seconds=42, ci=False, last_digit=1)
+@block(seconds=40, ci=False, last_digit=1)
 def vision_stage():
     """calibench run vision-stage --seed 0 (render): the interferometer's largest deviations."""
     from calibench.sim.vision_stage import VisionStageTruth
@@ -266,7 +266,7 @@ def vision_stage():
     ])
 
 
-@block(seconds=42, ci=False, last_digit=1)
+@block(seconds=40, ci=False, last_digit=1)
 def vision_stage_alignment():
     """calibench run vision-stage --seed 0 (render): circle centres and the plate's alignment."""
     c, info = checks("vision-stage"), report("vision-stage")["info"]
@@ -409,7 +409,7 @@ def _rows(rows: list[int]) -> str:
     return ("row " if len(rows) == 1 else "rows ") + words([str(r) for r in sorted(rows)])
 
 
-@block(seconds=21, ci=True)
+@block(seconds=10, ci=True)
 def ur10_left_out():
     """calibench fit arm-cmm ur10_C.csv --test ur10_B.csv ... --model physics: the rows left out."""
     parts = []
@@ -423,7 +423,7 @@ def ur10_left_out():
     return f"Left out by the physics fit on C below: {'; '.join(parts)}."
 
 
-@block(seconds=37, ci=True)
+@block(seconds=15, ci=True)
 def ur10_trained_on_c():
     """calibench fit arm-cmm ur10_C.csv --test B --test-new-frame A --test-new-frame D, --model
     geometry and physics."""
@@ -441,7 +441,7 @@ def ur10_trained_on_c():
     ])
 
 
-@block(seconds=37, ci=True)
+@block(seconds=15, ci=True)
 def ur10_coverage():
     """calibench fit arm-cmm ur10_C.csv ..., --model geometry and physics: the fits on C itself, and the
     coverage check's words."""
@@ -476,7 +476,7 @@ def _effects_words(d: dict) -> str:
     return ", ".join(out + [f"a table over q{j}" for j in tables])
 
 
-@block(seconds=400, ci=False)
+@block(seconds=300, ci=False)
 def ur10_all_four():
     """calibench fit arm-cmm on all four series, --holdout 0.3: physics, with the discovery on C's
     effects (calibench discover arm-cmm ur10_C.csv) and with per-session gear harmonics."""
@@ -497,7 +497,7 @@ def ur10_all_four():
     ])
 
 
-@block(seconds=300, ci=False)
+@block(seconds=90, ci=False)
 def ur10_one_phase():
     """calibench fit arm-cmm on all four, --holdout 0.3, without and with --effects
     docs/ur10_harmonic17.json (one phase for all series)."""
@@ -514,7 +514,7 @@ def ur10_one_phase():
     return text + "."
 
 
-@block(seconds=300, ci=False)
+@block(seconds=120, ci=False)
 def ur10_per_session():
     """calibench fit arm-cmm on all four, --holdout 0.3 --effects docs/ur10_gear_harmonics.json."""
     spec = json.loads((ROOT / GEAR).read_text())
@@ -529,7 +529,7 @@ def ur10_per_session():
             f"less; {worst[5]}'s is {held[worst]['max_mm']:.2f} mm.")
 
 
-@block(seconds=300, ci=False)
+@block(seconds=150, ci=False)
 def ur10_targets():
     """The issue's targets (0.40 mm mean, 1.3 mm max on C; 0.25 mm the aim) against the physics fit
     on all four and the fit with per-session gear harmonics."""
@@ -655,7 +655,7 @@ def coverages(summary: dict) -> list[dict]:
     return [p for p in summary["parameters"] if p["coverage_95"] is not None]
 
 
-@block(seconds=300, ci=False, rel=0.01)
+@block(seconds=230, ci=False, rel=0.01)
 def datasheet_coverage():
     """benchmarks/datasheet_coverage.py's studies: 1000 arm and 200 Stewart trials with the
     datasheet right, 1.5x too large and 1.5x too small."""
@@ -679,7 +679,7 @@ def datasheet_coverage():
             f"their binomial band.")
 
 
-@block(seconds=650, ci=False, rel=0.01)
+@block(seconds=250, ci=False, rel=0.01)
 def montecarlo_studies():
     """calibench montecarlo arm-cmm --trials 1000, stewart --trials 1000, belt-stage --trials 200
     (seed 0, analytic)."""
@@ -717,7 +717,7 @@ def coverage_bands():
 
 
 # --- discover ------------------------------------------------------------------------------------------------------
-@block(seconds=150, ci=False)
+@block(seconds=250, ci=False)
 def discover_suite():
     """The concealed-effect suite (scenarios/discover_suite.py, as benchmarks/discover.py runs it)."""
     from calibench.scenarios.discover_suite import SUITE, run_case, score
@@ -760,7 +760,7 @@ def null_claims() -> dict:
     return out
 
 
-@block(seconds=1800, ci=False)
+@block(seconds=760, ci=False)
 def discover_nulls():
     """discover on 30 fresh null recordings per scenario at several floors: the false-claim rate."""
     from calibench.estimators.discovery import FLOOR
