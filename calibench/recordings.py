@@ -2,7 +2,8 @@
 
 Simulated and real recordings load into the same small dataclasses of numpy arrays, with units
 in the field names. Truth never goes in here. This module sits outside the four rooms and needs
-only numpy: a user with real data loads a recording without importing the simulation.
+only numpy (and scipy's rotations for a Stewart pose's Euler angles): a user with real data loads
+a recording without importing the simulation.
 """
 
 from __future__ import annotations
@@ -307,3 +308,124 @@ def load_axis_run(path: str | Path) -> AxisRun:
         raise RecordingError(f"{path}: a deviation of {np.abs(dev).max():.3g} um (over a metre): wrong unit or a "
                              "corrupt value")
     return AxisRun(cols["target_mm"], cols["run"], d.astype(int), dev)
+
+
+def _write_csv(path, cols: list[str], data: list[np.ndarray]) -> None:
+    np.savetxt(path, np.column_stack(data), delimiter=",", header=",".join(cols), comments="", fmt="%.10g")
+
+
+@dataclasses.dataclass
+class ScannerRecording:
+    """Turns of a rotary probe scanner over its calibration artefact (CONTRACT, "Recordings of
+    the other instruments").
+
+    turn : (n,) integer turn id of each sample.
+    theta_rad : (n,) the table encoder's angle, rad.
+    rho_mm : (n,) the probe's reading, mm.
+    t_s, temp_c : (n,) or None.
+    """
+
+    turn: np.ndarray
+    theta_rad: np.ndarray
+    rho_mm: np.ndarray
+    t_s: np.ndarray | None = None
+    temp_c: np.ndarray | None = None
+
+    def __len__(self) -> int:
+        return len(self.rho_mm)
+
+    def to_csv(self, path) -> None:
+        cols, data = ["turn", "theta_deg", "rho_mm"], [self.turn, np.rad2deg(self.theta_rad), self.rho_mm]
+        for name in ("t_s", "temp_c"):
+            if getattr(self, name) is not None:
+                cols.append(name)
+                data.append(getattr(self, name))
+        _write_csv(path, cols, data)
+
+
+def load_scanner_csv(path: str | Path, max_rows: int | None = None) -> ScannerRecording:
+    """Read a probe-scanner recording: turn, theta_deg, rho_mm; optional t_s, temp_c. Refused:
+    a turn that is not an integer, a reading that is not positive."""
+    cols = _read_columns(path, ("turn", "theta_deg", "rho_mm"), ("t_s", "temp_c"), max_rows)
+    turn = cols["turn"]
+    if np.any(turn != np.round(turn)):
+        i = int(np.argmax(turn != np.round(turn)))
+        raise RecordingError(f"{path} line {i + 2}: turn is {turn[i]:g}; a turn is an integer")
+    if np.any(cols["rho_mm"] <= 0):
+        i = int(np.argmax(cols["rho_mm"] <= 0))
+        raise RecordingError(f"{path} line {i + 2}: rho_mm is {cols['rho_mm'][i]:g}; a probe reading is positive")
+    if np.abs(cols["theta_deg"]).max() > 36000:
+        raise RecordingError(f"{path}: a table angle of {np.abs(cols['theta_deg']).max():.3g} deg: not an angle "
+                             "in degrees")
+    return ScannerRecording(turn.astype(int), np.deg2rad(cols["theta_deg"]), cols["rho_mm"], cols.get("t_s"),
+                            cols.get("temp_c"))
+
+
+STEWART_POSE = ("x_mm", "y_mm", "z_mm", "rx_deg", "ry_deg", "rz_deg")
+
+
+@dataclasses.dataclass
+class StewartRecording:
+    """Poses of a Stewart platform: the legs' readings and the pose a tracker measured
+    (CONTRACT, "Recordings of the other instruments").
+
+    readings_mm : (n, 6) the legs' length readings, mm.
+    R : (n, 3, 3) the platform frame's orientation in the tracker frame.
+    t_mm : (n, 3) the platform frame's origin in the tracker frame, mm.
+    direction : (n, 6) +1 / -1 / 0: the way each leg last moved, or None.
+    t_s, temp_c, load_n : (n,) or None.
+    """
+
+    readings_mm: np.ndarray
+    R: np.ndarray
+    t_mm: np.ndarray
+    t_s: np.ndarray | None = None
+    temp_c: np.ndarray | None = None
+    direction: np.ndarray | None = None
+    load_n: np.ndarray | None = None
+
+    def __len__(self) -> int:
+        return len(self.readings_mm)
+
+    def to_csv(self, path) -> None:
+        from scipy.spatial.transform import Rotation
+
+        cols = [f"l{i}_mm" for i in range(1, 7)] + list(STEWART_POSE)
+        data = [self.readings_mm, self.t_mm, Rotation.from_matrix(self.R).as_euler("XYZ", degrees=True)]
+        for name in ("t_s", "temp_c"):
+            if getattr(self, name) is not None:
+                cols.append(name)
+                data.append(getattr(self, name))
+        if self.direction is not None:
+            cols += [f"dir_{i}" for i in range(1, 7)]
+            data.append(self.direction)
+        if self.load_n is not None:
+            cols.append("load_n")
+            data.append(self.load_n)
+        _write_csv(path, cols, data)
+
+
+def load_stewart_csv(path: str | Path, max_rows: int | None = None) -> StewartRecording:
+    """Read a Stewart recording: l1_mm..l6_mm and the tracker's pose x_mm, y_mm, z_mm, rx_deg,
+    ry_deg, rz_deg (XYZ intrinsic Euler angles); optional t_s, temp_c, dir_1..dir_6 (all six or
+    none), load_n."""
+    from scipy.spatial.transform import Rotation
+
+    legs = tuple(f"l{i}_mm" for i in range(1, 7))
+    dirs = tuple(f"dir_{i}" for i in range(1, 7))
+    cols = _read_columns(path, legs + STEWART_POSE, ("t_s", "temp_c", "load_n") + dirs, max_rows)
+    present = [c for c in dirs if c in cols]
+    if present and len(present) < 6:
+        raise RecordingError(f"{path}: {', '.join(present)} without the others: give all of dir_1..dir_6 or none")
+    direction = np.stack([cols[c] for c in dirs], axis=1) if present else None
+    if direction is not None and not np.isin(direction, (-1.0, 0.0, 1.0)).all():
+        i = int(np.argmax(~np.isin(direction, (-1.0, 0.0, 1.0)).all(axis=1)))
+        raise RecordingError(f"{path} line {i + 2}: a dir_ column is not -1, 0 or +1")
+    ang = np.stack([cols[c] for c in ("rx_deg", "ry_deg", "rz_deg")], axis=1)
+    if np.abs(ang).max() > 360:
+        raise RecordingError(f"{path}: an angle of {np.abs(ang).max():.3g} deg in rx/ry/rz: not degrees")
+    t = np.stack([cols[c] for c in ("x_mm", "y_mm", "z_mm")], axis=1)
+    if np.abs(t).max() > 1e6:
+        raise RecordingError(f"{path}: a coordinate of {np.abs(t).max():.3g} mm (over a kilometre): wrong unit")
+    return StewartRecording(np.stack([cols[c] for c in legs], axis=1), Rotation.from_euler("XYZ", ang, degrees=True)
+                            .as_matrix(), t, cols.get("t_s"), cols.get("temp_c"), direction, cols.get("load_n"))

@@ -109,8 +109,8 @@ def _parser() -> argparse.ArgumentParser:
                        description="Compare a recording with the twin replaying its commands; locate the "
                                    "mismatch, name and fit the missing effects, show the held-out fit improve. "
                                    "Writes DIR/discovery.json and DIR/discovery.png.")
-    d.add_argument("scenario", help="one of: belt-stage, vision-stage, arm-cmm")
-    d.add_argument("recording", type=Path, nargs="+", help="CSV in the CONTRACT's stage or arm format (arm-cmm: "
+    d.add_argument("scenario", help="one of: belt-stage, vision-stage, probe-scanner, arm-cmm, stewart")
+    d.add_argument("recording", type=Path, nargs="+", help="CSV in the CONTRACT's format for the scenario (arm-cmm: "
                                                            "one or more, each with its own base frame)")
     d.add_argument("--out", type=Path, help="output folder (default ./calibench-out/<scenario>-discover)")
     d.add_argument("--seed", type=_seed, default=0, help="seed of the permutation tests (default 0)")

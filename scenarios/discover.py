@@ -20,7 +20,7 @@ from calibench.estimators.effects import polynomial_candidates, stage_candidates
 from calibench.scenarios.report import BadInput
 
 STAGE_DEGREE = {"belt-stage": 2, "vision-stage": 3}
-SUPPORTED = ("belt-stage", "vision-stage", "arm-cmm")
+SUPPORTED = ("belt-stage", "vision-stage", "arm-cmm", "probe-scanner", "stewart")
 # Rows per recording: the candidates' design matrices grow with it (a 1e6-row stage recording
 # would need tens of GB); refused before any work, with the advice to decimate.
 MAX_ROWS = 100_000
@@ -153,13 +153,12 @@ def _describe(signals, terms, found, drivers, noise):
         sigma = nz.sigma_mm * nz.inflation if nz is not None and nz.sigma_mm else None
         fixed, coef, cov, res = dsc.fit_terms(sig, terms[a], drivers, {}, sigma)
         fitted[a] = res
-        for t, start, k in fixed:
+        for term, (t, start, k) in zip(terms[a], fixed):  # keyed by the term as selected (a search, fixed here)
             p, e, text = t.describe(coef[start:start + k], cov[start:start + k, start:start + k])
-            described[t.key] = (t, p, e, text)
+            described[id(term)] = (t, p, e, text)
     effects = []
     for st in found.steps:
-        key = st.term.key
-        t, p, e, text = described[key]
+        t, p, e, text = described[id(st.term)]
         effects.append({"name": t.name, "axis": st.axis, "params": _plain(p), "stderr": _plain(e), "physics": text,
                         "cv_rms_before": st.cv_before, "cv_rms_after": st.cv_after})
     return effects, fitted
@@ -491,7 +490,17 @@ def run_discover(scenario: str, csv_path, out_dir: Path, seed: int = 0, holdout:
 
     if scenario not in SUPPORTED:
         raise BadInput(f"discover supports {', '.join(SUPPORTED)}, not {scenario!r}")
-    if scenario == "arm-cmm":
+    if scenario == "probe-scanner":
+        from calibench.recordings import load_scanner_csv
+        from calibench.scenarios.discover_scanner import discover_scanner
+
+        out, fig = discover_scanner(load_scanner_csv(paths[0], MAX_ROWS), seed)
+    elif scenario == "stewart":
+        from calibench.recordings import load_stewart_csv
+        from calibench.scenarios.discover_stewart import discover_stewart
+
+        out, fig = discover_stewart(load_stewart_csv(paths[0], MAX_ROWS), seed)
+    elif scenario == "arm-cmm":
         from calibench.scenes.arm_cmm import load_arm
 
         description = load_arm(arm or "arm-cmm")
@@ -533,10 +542,11 @@ def _figure(path: Path, out: dict, fig: dict) -> None:
                        xlabel="x (mm)", ylabel="y (mm)")
                 f.colorbar(sc, ax=ax, label="um")
         else:
-            for ax, v, title in ((row[0], before, "nominal chain"), (row[1], after, "with the accepted effects")):
-                ax.plot(v * 1000, ".", ms=2)
-                ax.set(title=f"{s.name}: {title}, rms {np.sqrt(np.mean(v**2)) * 1000:.1f} um",
-                       xlabel="row (posture x 3 + coordinate)", ylabel="um")
+            u, label = fig.get("abscissa") or (np.arange(len(before)), "row (posture x 3 + coordinate)")
+            for ax, v, title in ((row[0], before, "scene model only"), (row[1], after, "with the accepted effects")):
+                ax.plot(u, v * 1000, ".", ms=2)
+                ax.set(title=f"{s.name}: {title}, rms {np.sqrt(np.mean(v**2)) * 1000:.2f} um", xlabel=label,
+                       ylabel="um")
     f.suptitle(f"{out['scenario']}: " + (", ".join(f"{e['name']} ({e['axis']})" for e in out["effects"]) or "nothing missing"))
     f.savefig(path, dpi=80)
     plt.close(f)

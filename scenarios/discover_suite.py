@@ -3,11 +3,12 @@ sealed manifests afterwards. Used by the test (tests/scenarios/test_discover_sui
 benchmark (benchmarks/discover.py), which print the same figures.
 
 Scoring:
-- detection: each concealed effect (by name and axis; the arm's joint too) found;
-- false claims: any effect claimed on a null recording (the arm's ``geometry`` is the twin's own
-  model being calibrated, not a concealed effect, and is not counted);
-- parameters: within 25 % of the truth (a period within 5 %, a bump's place within 3 widths, a
-  joint's compliance within 3 of its standard errors);
+- detection: each concealed effect (by name and axis; the arm's joint and the platform's leg too)
+  found;
+- false claims: any effect claimed on a null recording (the arm's and the platform's ``geometry``
+  is the twin's own model being calibrated, not a concealed effect, and is not counted);
+- parameters: within 25 % of the truth (a period within 5 %, a runout's harmonic exactly, a
+  bump's or nick's place within 3 widths, a joint's compliance within 3 of its standard errors);
 - held-out improvement: where the concealed effects dominate the residual (held-out RMS of the
   scene model at least 2.5 x the reference noise), cv_rms after / before <= 0.5.
 """
@@ -19,7 +20,9 @@ import dataclasses
 import numpy as np
 
 from calibench.scenarios.discover import discover_arm, discover_stage
-from calibench.sim.concealed import arm_recording, stage_recording
+from calibench.scenarios.discover_scanner import discover_scanner
+from calibench.scenarios.discover_stewart import discover_stewart
+from calibench.sim.concealed import arm_recording, scanner_recording, stage_recording, stewart_recording
 
 SUITE = (
     [("belt-stage", k, s) for k, seeds in (("null", 4), ("backlash", 2), ("periodic", 2), ("thermal", 2),
@@ -29,6 +32,10 @@ SUITE = (
     + [("arm-cmm", k, s) for k, seeds in (("null", 3), ("eccentricity", 3), ("thermal", 2), ("compliance", 2))
        for s in range(seeds)]
     + [("arm-cmm:ur10", k, s) for k, seeds in (("null", 2), ("eccentricity", 1), ("compliance", 2)) for s in range(seeds)]
+    + [("probe-scanner", k, s) for k, seeds in (("null", 3), ("runout", 2), ("eccentricity", 1), ("scale", 1),
+                                                ("bump", 2), ("combined", 1)) for s in range(seeds)]
+    + [("stewart", k, s) for k, seeds in (("null", 3), ("thermal", 1), ("backlash", 2), ("pitch", 2),
+                                          ("compliance", 2)) for s in range(seeds)]
 )
 NOT_CONCEALED = ("geometry",)
 
@@ -50,14 +57,21 @@ class CaseResult:
 def _match(t, f) -> bool:
     if t["name"] != f["name"] or t["axis"] != f["axis"]:
         return False
-    return "joint" not in t["params"] or t["params"]["joint"] == f["params"].get("joint")
+    return all(k not in t["params"] or t["params"][k] == f["params"].get(k) for k in ("joint", "leg"))
 
 
 def run_case(scenario: str, kind: str, seed: int) -> CaseResult:
     """Discover on one concealed recording and score it against what was concealed."""
-    kinds = ("null", "backlash", "periodic", "thermal", "combined", "bump", "eccentricity", "compliance")
+    kinds = ("null", "backlash", "periodic", "thermal", "combined", "bump", "eccentricity", "compliance", "runout",
+             "scale", "pitch")
     case_seed = 1000 * seed + 17 + kinds.index(kind)  # distinct recordings per kind and seed
-    if scenario.startswith("arm-cmm"):
+    if scenario == "probe-scanner":
+        rec, manifest = scanner_recording(kind, case_seed)
+        out, _ = discover_scanner(rec, seed)
+    elif scenario == "stewart":
+        rec, manifest = stewart_recording(kind, case_seed)
+        out, _ = discover_stewart(rec, seed)
+    elif scenario.startswith("arm-cmm"):
         arm = scenario.partition(":")[2] or "arm-cmm"  # arm-cmm:ur10 is the arm-cmm scenario with the UR10
         rec, manifest = arm_recording(kind, case_seed, arm=arm)
         out, _ = discover_arm(rec, seed, arm=arm)
@@ -78,6 +92,13 @@ def run_case(scenario: str, kind: str, seed: int) -> CaseResult:
         elif t["name"] == "periodic":
             errors.append(("period", abs(q["period_mm"] / p["period_mm"] - 1), 0.05))
             errors.append(("amplitude", abs(q["amplitude_mm"] / p["amplitude_mm"] - 1), 0.25))
+        elif t["name"] == "runout":
+            errors.append(("harmonic", abs(q["harmonic"] - p["harmonic"]), 0.5))  # the very harmonic
+            errors.append(("amplitude", abs(q["amplitude_mm"] / p["amplitude_mm"] - 1), 0.25))
+        elif t["name"] == "scale":
+            errors.append(("ppm", abs(q["ppm"] / p["ppm"] - 1), 0.25))
+        elif t["name"] == "leg_compliance":
+            errors.append(("um_per_n", abs(q["um_per_n"] / p["um_per_n"] - 1), 0.25))
         elif t["name"] == "thermal_expansion":
             errors.append(("ppm_per_k", abs(q["ppm_per_k"] / p["ppm_per_k"] - 1), 0.25))
         elif t["name"] == "encoder_eccentricity":
@@ -85,6 +106,9 @@ def run_case(scenario: str, kind: str, seed: int) -> CaseResult:
         elif t["name"] == "joint_compliance":  # in standard errors, not relative: the acceptance's 3 std
             z = abs(q["urad_per_nm"] - p["urad_per_nm"]) / max(hit["stderr"]["urad_per_nm"], 1e-300)
             errors.append((f"compliance{p['joint']} (std)", z, 3.0))
+        elif t["name"] == "nonsmooth" and "theta_deg" in p:  # a nick in the scanner's plate
+            off = (q["theta_deg"] - p["theta_deg"] + 180) % 360 - 180
+            errors.append(("nick place (widths)", abs(off) / max(p["width_deg"], 1.0), 3.0))
         elif t["name"] == "nonsmooth":
             where = hit["params"]["where"]
             x_found = float(where.split("largest at x = ")[1].split(" mm")[0])

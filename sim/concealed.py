@@ -9,7 +9,11 @@ Kinds: stages (belt-stage, vision-stage): ``null``, ``backlash``, ``periodic``, 
 ``combined`` (backlash + periodic + thermal), ``bump`` (a local defect no candidate has); the
 arm (any description; the seed's arm CMM and the UR10 in the suite): ``null``, ``eccentricity``
 (one joint's encoder), ``thermal`` (the links' growth), ``compliance`` (joints giving way under
-gravity, by MuJoCo's physics).
+gravity, by MuJoCo's physics); the probe scanner: ``null``, ``runout`` (the table's radial error
+motion), ``eccentricity`` (the table encoder's), ``scale`` (the probe's), ``bump`` (a nick in the
+plate's wall), ``combined`` (runout, eccentricity and scale); the Stewart platform: ``null``,
+``thermal`` (a leg's growth), ``backlash`` (a leg's lost motion), ``pitch`` (a leg's screw),
+``compliance`` (the legs shortened by their axial loads, by MuJoCo's statics).
 """
 
 from __future__ import annotations
@@ -20,10 +24,12 @@ from pathlib import Path
 
 import numpy as np
 
-from calibench.recordings import ArmRecording, StageRecording
+from calibench.recordings import ArmRecording, ScannerRecording, StageRecording, StewartRecording
 from calibench.sim.replay import replay_stage
 from calibench.errors import BadInput
 
+SCANNER_KINDS = ("null", "runout", "eccentricity", "scale", "bump", "combined")
+STEWART_KINDS = ("null", "thermal", "backlash", "pitch", "compliance")
 STAGE_KINDS = ("null", "backlash", "periodic", "thermal", "combined", "bump")
 ARM_KINDS = ("null", "eccentricity", "thermal", "compliance", "transmission")
 REFERENCE_NOISE_UM = 1.0  # the reference instrument (interferometer / microscope), 1-sigma
@@ -195,6 +201,137 @@ def arm_recording(kind: str, seed: int, n: int = 300, noise_um: float = 10.0,
     return (ArmRecording(q_read, xyz, t, np.round(T, 3)),
             {"scenario": "arm-cmm", "arm": description.name, "kind": kind, "seed": seed, "effects": effects,
              "noise_um": noise_um})
+
+
+def scanner_recording(kind: str, seed: int, turns: int = 4) -> tuple[ScannerRecording, dict]:
+    """A blinded probe-scanner recording: ``turns`` turns over the calibration plate, the rail
+    as built (its d, dL, alpha0 and the plate's clamping drawn about the design), each reading
+    MuJoCo's ray at the table's true angle, with the concealed effect of ``kind``:
+
+    - ``runout``: the table's bearing moves radially along the rail, a whole number of times
+      per turn (2-9, not 4 or 8), 3-8 um: the stylus starts that much further out;
+    - ``eccentricity``: the encoder's disc off-centre, 150-400 urad: the table stands short of
+      what the encoder reads;
+    - ``scale``: the probe's linear encoder reads 0.1-0.3 % long;
+    - ``bump``: a nick in the plate's wall 10-25 um deep, 0.5-1.5 deg wide;
+    - ``combined``: runout, eccentricity and scale together.
+    """
+    from calibench.scenes.probe_scanner import ProbeScannerGeometry
+    from calibench.sim.probe_scanner import ProbeScannerSim, ProbeScannerTruth
+
+    if kind not in SCANNER_KINDS:
+        raise ValueError(f"unknown kind {kind!r} (known: {', '.join(SCANNER_KINDS)})")
+    rng = np.random.default_rng(seed)
+    g = ProbeScannerGeometry()
+    truth = ProbeScannerTruth(d_mm=rng.uniform(7.6, 8.4), dL_mm=rng.uniform(2.7, 3.3),
+                              alpha0_rad=rng.uniform(0.30, 0.40),
+                              plate_centre_mm=tuple(float(v) for v in rng.normal(0, 0.1, 2)))
+    sim = ProbeScannerSim(g, truth)
+    m = g.samples_per_turn
+    nominal = np.tile(np.arange(m) * 2 * np.pi / m, turns)
+    turn = np.repeat(np.arange(turns), m)
+    wanted = {"combined": ("runout", "eccentricity", "scale")}.get(kind, (kind,))
+    effects = []
+    true_theta = nominal + rng.normal(0, np.deg2rad(truth.angle_jitter_deg), len(nominal))
+    if "eccentricity" in wanted:
+        A, ph = rng.uniform(150, 400) * 1e-6, rng.uniform(0, 2 * np.pi)
+        true_theta -= A * np.sin(nominal + ph)  # the encoder reads A sin ahead of the table
+        effects.append({"name": "encoder_eccentricity", "axis": "rho", "params": {"amplitude_urad": A * 1e6}})
+    rho = sim.exact_rho("plate", true_theta)
+    if "runout" in wanted:
+        # not 4 or 8: a square artefact cannot show a fourfold runout (discover says so)
+        k, A, ph = int(rng.choice([2, 3, 5, 6, 7, 9])), rng.uniform(3, 8) / 1000, rng.uniform(0, 2 * np.pi)
+        rho -= A * np.sin(k * true_theta + ph)
+        effects.append({"name": "runout", "axis": "rho", "params": {"harmonic": k, "amplitude_mm": A}})
+    if kind == "bump":
+        th0, w, h = rng.uniform(0, 360), rng.uniform(0.5, 1.5), rng.uniform(10, 25) / 1000
+        dist = (np.degrees(nominal) - th0 + 180) % 360 - 180
+        rho += h * np.exp(-0.5 * (dist / w) ** 2)  # the stylus drops into the nick
+        effects.append({"name": "nonsmooth", "axis": "rho", "params": {"theta_deg": th0, "width_deg": w,
+                                                                       "depth_mm": h}})
+    if "scale" in wanted:
+        s = rng.uniform(1000, 3000)
+        rho *= 1 + s * 1e-6
+        effects.append({"name": "scale", "axis": "rho", "params": {"ppm": s}})
+    q = truth.quantum_um / 1000
+    rho = np.round((rho + rng.normal(0, truth.probe_noise_um / 1000, len(rho))) / q) * q
+    t = np.arange(len(rho)) * 10.0 / m  # ten seconds a turn
+    rec = ScannerRecording(turn, nominal, rho, t, np.round(20.0 + np.cumsum(rng.normal(0, 1e-3, len(rho))), 3))
+    noise = float(np.hypot(truth.probe_noise_um, truth.quantum_um / np.sqrt(12)))
+    return rec, {"scenario": "probe-scanner", "kind": kind, "seed": seed, "effects": effects, "noise_um": noise}
+
+
+def stewart_recording(kind: str, seed: int, n_poses: int = 100) -> tuple[StewartRecording, dict]:
+    """A blinded Stewart recording: ``n_poses`` poses visited, then visited again in reverse
+    order (so every leg approaches each pose both ways), a payload of 0, 500 or 1000 N on the
+    platform in turn, the platform as built (hinge errors of the scenario's size), the tracker
+    in a frame of its own measuring three reflectors (2 um per coordinate), the legs' readings
+    1 um, with the concealed effect of ``kind``:
+
+    - ``thermal``: one leg grows 10-25 ppm/K, the temperature rising 2-5 K;
+    - ``backlash``: one leg's drive loses 5-15 um on reversal;
+    - ``pitch``: one leg's screw is off periodically, lead 4-12 mm, 3-8 um;
+    - ``compliance``: every leg gives 0.02-0.05 um per N (each within 5 % of the others) of the
+      axial force MuJoCo's statics put on it.
+    """
+    from calibench.estimators.rotations import rigid_transform, rotvec_to_matrix
+    from calibench.scenarios.stewart import StewartConfig, random_poses
+    from calibench.sim.stewart import StewartSim, StewartTruth
+
+    if kind not in STEWART_KINDS:
+        raise ValueError(f"unknown kind {kind!r} (known: {', '.join(STEWART_KINDS)})")
+    rng = np.random.default_rng(seed)
+    config = StewartConfig()
+    g = config.geometry
+    sim = StewartSim(g, StewartTruth(), rng)
+    poses = random_poses(n_poses, rng, config)
+    poses = poses + poses[::-1]
+    n = len(poses)
+    load = 500.0 * (np.arange(n) % 3)
+    L = np.empty((n, 6))
+    force = np.zeros((n, 6))
+    for k, (R, t) in enumerate(poses):
+        sim.set_pose(R, t)
+        L[k] = sim.leg_lengths_mm()
+        if kind == "compliance":
+            force[k] = sim.leg_forces_n(R, t, load[k])
+    step = np.diff(np.vstack([L[:1] - 1.0, L]), axis=0)  # homed from below
+    direction = np.sign(step)
+    t_s = np.arange(n) * 30.0
+    T = 20.0 + np.cumsum(rng.normal(0, 0.002, n))
+    readings = L - sim.l0
+    leg = int(rng.integers(1, 7))
+    effects = []
+    if kind == "thermal":
+        rise, k = rng.uniform(2, 5), rng.uniform(10, 25)
+        T = T + rise * (1 - np.exp(-t_s / (t_s[-1] / 2)))
+        readings[:, leg - 1] -= k * 1e-6 * (T - T[0]) * L[:, leg - 1]
+        effects.append({"name": "thermal_expansion", "axis": "legs", "params": {"leg": leg, "ppm_per_k": k}})
+    if kind == "backlash":
+        B = rng.uniform(5, 15) / 1000
+        readings[:, leg - 1] += B / 2 * direction[:, leg - 1]
+        effects.append({"name": "backlash", "axis": "legs", "params": {"leg": leg, "reversal_mm": B}})
+    if kind == "pitch":
+        P, A, ph = rng.uniform(4, 12), rng.uniform(3, 8) / 1000, rng.uniform(0, 2 * np.pi)
+        readings[:, leg - 1] += A * np.sin(2 * np.pi * L[:, leg - 1] / P + ph)
+        effects.append({"name": "periodic", "axis": "legs", "params": {"leg": leg, "period_mm": P, "amplitude_mm": A}})
+    if kind == "compliance":
+        c = rng.uniform(0.02, 0.05)
+        readings += c * (1 + 0.05 * rng.standard_normal(6)) * 1e-3 * force  # the screw reads what the leg gave
+        effects.append({"name": "leg_compliance", "axis": "legs", "params": {"um_per_n": c}})
+    readings += rng.normal(0, 1e-3, readings.shape)
+    # the tracker's frame: turned about the vertical and set beside the machine
+    R_tr = rotvec_to_matrix(np.r_[rng.normal(0, 0.01, 2), rng.uniform(-np.pi, np.pi)])
+    t_tr = np.r_[rng.uniform(1500, 3000), rng.uniform(-1000, 1000), rng.uniform(-800, 0)]
+    R_meas, t_meas = np.empty((n, 3, 3)), np.empty((n, 3))
+    for k, (R, t) in enumerate(poses):
+        world = g.reflectors_mm @ R.T + t
+        seen = (world @ R_tr.T + t_tr) + rng.normal(0, 2e-3, world.shape)
+        R_meas[k], t_meas[k] = rigid_transform(g.reflectors_mm, seen)
+    rec = StewartRecording(np.round(readings, 6), R_meas, t_meas, t_s, np.round(T, 3), direction, load)
+    # per leg: the reading's 1 um and the tracker's pose (its reflectors' 2 um, levered out to the
+    # hinges) together, as the repeats show it
+    return rec, {"scenario": "stewart", "kind": kind, "seed": seed, "effects": effects, "noise_um": 2.3}
 
 
 def write_blinded(out_dir: Path, name: str, recording, manifest: dict) -> Path:

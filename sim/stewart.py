@@ -41,6 +41,7 @@ class StewartSim:
         self._ux = [m.jnt_qposadr[m.joint(f"leg{i}_ux").id] for i in range(6)]
         self._uy = [m.jnt_qposadr[m.joint(f"leg{i}_uy").id] for i in range(6)]
         self._slide = [m.jnt_qposadr[m.joint(f"leg{i}_slide").id] for i in range(6)]
+        self._slide_dof = [m.jnt_dofadr[m.joint(f"leg{i}_slide").id] for i in range(6)]
         self._free = m.jnt_qposadr[m.joint("platform").id]
         self._ends = [m.site(f"leg{i}_end").id for i in range(6)]
         self._plat = [m.site(f"plat{i}").id for i in range(6)]
@@ -89,6 +90,37 @@ class StewartSim:
         """The tracker's interferometric lengths from its centre in hole ``station``."""
         L = np.linalg.norm(np.asarray(points_mm) - self.stations[station], axis=1)
         return L + self.rng.normal(0, self.length_sigma_mm(L))
+
+    def leg_forces_n(self, R: np.ndarray, t_mm: np.ndarray, load_n: float = 0.0) -> np.ndarray:
+        """The legs' axial forces (6,) N (positive: the leg pushes, it is in compression) that hold
+        the platform still at pose (R, t) under gravity and a load of ``load_n`` N hanging at the
+        platform's centre: MuJoCo's statics.
+
+        With the velocities zero, inverse dynamics at zero acceleration gives the generalised
+        forces gravity asks for (``qfrc_bias``); the legs' slide forces f and the spherical joints'
+        constraint forces lam (the ``connect`` equalities' Jacobian, from MuJoCo) must supply them:
+        S^T f + J_c^T lam = qfrc_bias - qfrc_load, 24 equations in 24 unknowns."""
+        m, d = self.model, self.data
+        self.set_pose(R, t_mm)
+        d.qvel[:] = 0.0
+        d.qacc[:] = 0.0
+        mujoco.mj_forward(m, d)
+        mujoco.mj_inverse(m, d)  # qfrc_bias: gravity's generalised forces at rest
+        need = d.qfrc_bias.copy()
+        if load_n:
+            ext = np.zeros(m.nv)
+            body = m.body("platform").id
+            mujoco.mj_applyFT(m, d, np.array([0.0, 0.0, -float(load_n)]), np.zeros(3), d.xpos[body], body, ext)
+            need -= ext
+        eq = d.efc_type == mujoco.mjtConstraint.mjCNSTR_EQUALITY
+        Jc = d.efc_J.reshape(d.nefc, m.nv)[eq] if not mujoco.mj_isSparse(m) else None
+        if Jc is None:
+            raise RuntimeError("the platform's model uses a sparse constraint Jacobian")
+        S = np.zeros((6, m.nv))
+        S[np.arange(6), self._slide_dof] = 1.0
+        A = np.vstack([S, Jc]).T  # (nv, 6 + 18)
+        sol = np.linalg.solve(A, need)
+        return sol[:6]
 
     def platform_hinges_world_mm(self) -> np.ndarray:
         """The true platform hinges in the world, (6, 3) mm, at the current pose."""

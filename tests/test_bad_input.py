@@ -288,7 +288,22 @@ CASES = [
      ["fit", "arm-cmm", "{d}/r.csv", "--arm", "{d}/a.toml"], 2, "mass"),
     # discover
     ("discover-missing", {}, ["discover", "belt-stage", "{d}/none.csv"], 2, "cannot read"),
-    ("discover-unsupported", {"r.csv": stage_csv()}, ["discover", "stewart", "{d}/r.csv"], 2, "discover supports"),
+    ("discover-unsupported", {"r.csv": stage_csv()}, ["discover", "lathe", "{d}/r.csv"], 2, "discover supports"),
+    ("discover-stewart-stage-file", {"r.csv": stage_csv()}, ["discover", "stewart", "{d}/r.csv"], 2,
+     "missing column(s) l1_mm"),
+    ("discover-stewart-some-dirs", {"r.csv": "l1_mm,l2_mm,l3_mm,l4_mm,l5_mm,l6_mm,x_mm,y_mm,z_mm,rx_deg,ry_deg,"
+                                             "rz_deg,dir_1\n" + "0,0,0,0,0,0,0,0,750,0,0,0,1\n" * 30},
+     ["discover", "stewart", "{d}/r.csv"], 2, "dir_1 without the others"),
+    ("discover-scanner-stage-file", {"r.csv": stage_csv()}, ["discover", "probe-scanner", "{d}/r.csv"], 2,
+     "missing column(s) turn"),
+    ("discover-scanner-half-turn", {"r.csv": "turn,theta_deg,rho_mm\n" + "".join(
+        f"0,{0.5 * i},{20 + 0.001 * i}\n" for i in range(300))}, ["discover", "probe-scanner", "{d}/r.csv"], 2,
+     "whole turns"),
+    ("discover-scanner-fractional-turn", {"r.csv": "turn,theta_deg,rho_mm\n0.5,0,20\n"},
+     ["discover", "probe-scanner", "{d}/r.csv"], 2, "integer"),
+    ("discover-scanner-other-artefact", {"r.csv": "turn,theta_deg,rho_mm\n" + "".join(
+        f"0,{0.25 * i},{5 + 0.001 * i}\n" for i in range(1440))}, ["discover", "probe-scanner", "{d}/r.csv"], 2,
+     "does not fit the calibration plate"),
     ("discover-arm-on-stage", {"r.csv": stage_csv()}, ["discover", "belt-stage", "{d}/r.csv", "--arm", "ur10"], 2,
      "--arm applies to arm-cmm"),
     ("discover-too-few", {"r.csv": stage_csv(n=3)}, ["discover", "belt-stage", "{d}/r.csv"], 2, "at least 20"),

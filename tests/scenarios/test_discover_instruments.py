@@ -1,0 +1,100 @@
+"""discover probe-scanner and discover stewart through the CLI: blinded recordings written as the
+CONTRACT's CSV, read back, the concealed effect named with its parameters within a tolerance
+derived from the standard error discover reports; nothing named on a null."""
+
+import json
+
+import numpy as np
+
+from calibench.recordings import load_scanner_csv, load_stewart_csv
+from calibench.scenarios.cli import main
+from calibench.sim.concealed import scanner_recording, stewart_recording, write_blinded
+
+
+def _discover(tmp_path, scenario, rec, manifest):
+    path = write_blinded(tmp_path, "rec", rec, manifest)
+    assert main(["discover", scenario, str(path), "--out", str(tmp_path / "out")]) == 0
+    assert (tmp_path / "out" / "discovery.png").stat().st_size > 10_000
+    return json.loads((tmp_path / "out" / "discovery.json").read_text())
+
+
+def test_scanner_csv_round_trip(tmp_path):
+    rec, manifest = scanner_recording("null", 3, turns=2)
+    back = load_scanner_csv(write_blinded(tmp_path, "s", rec, manifest))
+    assert np.array_equal(back.turn, rec.turn)
+    assert np.allclose(back.theta_rad, rec.theta_rad, atol=1e-12) and np.allclose(back.rho_mm, rec.rho_mm, atol=1e-9)
+
+
+def test_stewart_csv_round_trip(tmp_path):
+    rec, manifest = stewart_recording("null", 3, n_poses=30)
+    back = load_stewart_csv(write_blinded(tmp_path, "p", rec, manifest))
+    assert np.allclose(back.R, rec.R, atol=1e-9) and np.allclose(back.t_mm, rec.t_mm, atol=1e-6)
+    assert np.array_equal(back.direction, rec.direction) and np.allclose(back.load_n, rec.load_n)
+
+
+def test_scanner_eccentricity_and_runout_named_with_their_sizes(tmp_path):
+    rec, manifest = scanner_recording("combined", 1017)
+    d = _discover(tmp_path, "probe-scanner", rec, manifest)
+    found = {e["name"]: e for e in d["effects"]}
+    truth = {t["name"]: t["params"] for t in manifest["effects"]}
+    assert set(found) == set(truth)
+    ecc, run, sc = found["encoder_eccentricity"], found["runout"], found["scale"]
+    # each within 5 of its standard errors, plus the quantised probe's 2 % of model error
+    assert abs(ecc["params"]["amplitude_urad"] - truth["encoder_eccentricity"]["amplitude_urad"]) < (
+        5 * ecc["stderr"]["amplitude_urad"] + 0.02 * truth["encoder_eccentricity"]["amplitude_urad"])
+    assert run["params"]["harmonic"] == truth["runout"]["harmonic"]
+    assert abs(run["params"]["amplitude_mm"] - truth["runout"]["amplitude_mm"]) < 5 * run["stderr"]["amplitude_mm"]
+    assert abs(sc["params"]["ppm"] - truth["scale"]["ppm"]) < 5 * sc["stderr"]["ppm"] + 0.02 * truth["scale"]["ppm"]
+    assert d["fit"]["cv_rms_final"] < 0.5 * d["fit"]["cv_rms_nominal"]
+    assert d["verdict"].startswith("the accepted effects explain")
+    # a fourfold runout cannot be seen on a square: discover says so rather than search it
+    assert any(c["effect"] == "runout" and "square" in c["with"] for c in d["confounded"])
+
+
+def test_scanner_nick_is_nonsmooth_where_it_is(tmp_path):
+    rec, manifest = scanner_recording("bump", 1021)
+    d = _discover(tmp_path, "probe-scanner", rec, manifest)
+    (e,) = d["effects"]
+    t = manifest["effects"][0]["params"]
+    assert e["name"] == "nonsmooth"
+    assert abs((e["params"]["theta_deg"] - t["theta_deg"] + 180) % 360 - 180) < 3 * max(t["width_deg"], 1.0)
+
+
+def test_scanner_null_names_nothing(tmp_path):
+    rec, manifest = scanner_recording("null", 29)
+    d = _discover(tmp_path, "probe-scanner", rec, manifest)
+    assert d["effects"] == [] and d["verdict"].startswith("nothing missing")
+
+
+def test_stewart_backlash_on_its_leg(tmp_path):
+    rec, manifest = stewart_recording("backlash", 1019)
+    d = _discover(tmp_path, "stewart", rec, manifest)
+    names = [(e["name"], e["params"].get("leg")) for e in d["effects"]]
+    t = manifest["effects"][0]["params"]
+    assert names == [("geometry", None), ("backlash", t["leg"])]
+    b = d["effects"][1]
+    assert abs(b["params"]["reversal_mm"] - t["reversal_mm"]) < 5 * b["stderr"]["reversal_mm"]
+
+
+def test_stewart_compliance_under_mujocos_statics(tmp_path):
+    """Legs shortened by the axial forces MuJoCo's statics put on them (weights and payloads):
+    one compliance for the six, within 5 standard errors and the legs' 5 % spread."""
+    rec, manifest = stewart_recording("compliance", 1024)
+    d = _discover(tmp_path, "stewart", rec, manifest)
+    c = [e for e in d["effects"] if e["name"] == "leg_compliance"]
+    assert [e["name"] for e in d["effects"]] == ["geometry", "leg_compliance"]
+    truth = manifest["effects"][0]["params"]["um_per_n"]
+    assert abs(c[0]["params"]["um_per_n"] - truth) < 5 * c[0]["stderr"]["um_per_n"] + 0.05 * truth
+
+
+def test_stewart_thermal_growth_raises_the_repeatability_until_found(tmp_path):
+    """A leg warming over the recording makes its repeats disagree; once thermal growth is
+    accepted the repeatability falls back to the instruments' noise."""
+    rec, manifest = stewart_recording("thermal", 1020)
+    d = _discover(tmp_path, "stewart", rec, manifest)
+    t = manifest["effects"][0]["params"]
+    e = d["effects"][1]
+    assert (e["name"], e["params"]["leg"]) == ("thermal_expansion", t["leg"])
+    assert abs(e["params"]["ppm_per_k"] - t["ppm_per_k"]) < 5 * e["stderr"]["ppm_per_k"]
+    before, after = d["noise"]["legs"]["repeatability_mm"], d["noise_after_effects"]["legs"]["repeatability_mm"]
+    assert before > 1.5 * after and after < 0.003
