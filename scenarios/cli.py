@@ -115,6 +115,10 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--out", type=Path, help="output folder (default ./calibench-out/<scenario>-discover)")
     d.add_argument("--seed", type=_seed, default=0, help="seed of the permutation tests (default 0)")
     d.add_argument("--arm", help="arm-cmm: ARM.toml or a built-in arm (arm-cmm, ur10); default the seed's arm")
+    d.add_argument("--config", type=Path, help="probe-scanner: a run --config file whose twin replays the "
+                                                "recording (e.g. one --twin wrote)")
+    d.add_argument("--twin", type=Path, help="probe-scanner: write the twin updated with what was found, as a "
+                                              "run --config file")
     d.add_argument("--holdout", choices=("pass", "rows", "columns", "blocks"),
                    help="what cross-validation holds out (default: passes if the recording has several, "
                         "else whole rows of a grid, else contiguous blocks)")
@@ -358,7 +362,7 @@ def _discover(args) -> int:
         from calibench.scenarios.report import BadInput
 
         raise BadInput(f"--arm applies to arm-cmm, not {args.scenario}")
-    d = run_discover(args.scenario, args.recording, out, args.seed, args.holdout, args.arm)
+    d = run_discover(args.scenario, args.recording, out, args.seed, args.holdout, args.arm, args.config, args.twin)
     f = d["fit"]
     print(f"{d['scenario']}: {d['samples']} samples; held-out RMS {f['cv_rms_nominal'] * 1000:.2f} um with the "
           f"scene model, {f['cv_rms_final'] * 1000:.2f} um with what was found ({d['holdout']})")
@@ -373,6 +377,9 @@ def _discover(args) -> int:
         print("- nothing missing: the scene model explains the recording")
     if d.get("summary"):
         print(d["summary"])
+    if args.twin is not None:
+        print(f"-> {args.twin} (the twin with what was found: calibench discover {args.scenario} ... --config "
+              f"{args.twin} replays it)")
     print(f"-> {out / 'discovery.json'}")
     return EXIT_OK
 

@@ -480,9 +480,16 @@ def paper_belt_recording(data_dir: Path):
 
 
 # --- the command -----------------------------------------------------------------------------------
+TWIN_SCENARIOS = ("probe-scanner",)  # discover --twin / --config so far
+
+
 def run_discover(scenario: str, csv_path, out_dir: Path, seed: int = 0, holdout: str | None = None,
-                 arm: str | Path | None = None) -> dict:
-    """``csv_path``: a recording, or for arm-cmm several (each its own base frame)."""
+                 arm: str | Path | None = None, config: Path | None = None, twin: Path | None = None) -> dict:
+    """``csv_path``: a recording, or for arm-cmm several (each its own base frame). ``config``:
+    a ``run --config`` file whose twin replays the recording; ``twin``: where to write the twin
+    updated with what was found (same format)."""
+    if (config or twin) and scenario not in TWIN_SCENARIOS:
+        raise BadInput(f"discover --config/--twin: written for {', '.join(TWIN_SCENARIOS)} so far, not {scenario}")
     paths = list(csv_path) if isinstance(csv_path, (list, tuple)) else [csv_path]
     if scenario != "arm-cmm" and len(paths) != 1:
         raise BadInput(f"discover {scenario}: one recording, not {len(paths)}")
@@ -494,7 +501,15 @@ def run_discover(scenario: str, csv_path, out_dir: Path, seed: int = 0, holdout:
         from calibench.recordings import load_scanner_csv
         from calibench.scenarios.discover_scanner import discover_scanner
 
-        out, fig = discover_scanner(load_scanner_csv(paths[0], MAX_ROWS), seed)
+        from calibench.scenarios.config import load_toml, override
+        from calibench.scenarios.probe_scanner import ProbeScannerConfig
+
+        cfg = ProbeScannerConfig()
+        if config is not None:
+            cfg = override(cfg, load_toml(config).get("probe-scanner", {}), "probe-scanner")
+        out, fig = discover_scanner(load_scanner_csv(paths[0], MAX_ROWS), seed, config=cfg)
+        if config is not None:
+            out["replayed_config"] = str(config)
     elif scenario == "stewart":
         from calibench.recordings import load_stewart_csv
         from calibench.scenarios.discover_stewart import discover_stewart
@@ -510,10 +525,40 @@ def run_discover(scenario: str, csv_path, out_dir: Path, seed: int = 0, holdout:
             out["recordings"] = [str(p) for p in paths]
     else:
         out, fig = discover_stage(scenario, load_stage_csv(paths[0], MAX_ROWS), seed, holdout)
+    if twin is not None:
+        from calibench.scenarios.discover_scanner import twin_table
+
+        write_toml(twin, twin_table(out), f"the twin of {paths[0]} updated by calibench discover")
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "discovery.json").write_text(json.dumps(out, indent=2, default=_json_default) + "\n")
     _figure(out_dir / "discovery.png", out, fig)
     return out
+
+
+def write_toml(path: Path, tables: dict, comment: str) -> None:
+    """A config file (nested tables of numbers and lists of numbers) for ``run --config``."""
+    def value(v):
+        if isinstance(v, (list, tuple)):
+            return "[" + ", ".join(value(x) for x in v) + "]"
+        return repr(int(v)) if isinstance(v, (int, np.integer)) else repr(float(v))
+
+    lines = [f"# {comment}"]
+
+    def table(prefix, d):
+        plain = {k: v for k, v in d.items() if not isinstance(v, dict)}
+        if plain:
+            lines.append(f"\n[{prefix}]")
+            lines.extend(f"{k} = {value(v)}" for k, v in plain.items())
+        for k, v in d.items():
+            if isinstance(v, dict):
+                table(f"{prefix}.{k}", v)
+
+    for name, d in tables.items():
+        table(name, d)
+    try:
+        Path(path).write_text("\n".join(lines) + "\n")
+    except OSError as e:
+        raise BadInput(f"cannot write the twin {path}: {e.strerror}") from None
 
 
 def _json_default(o):

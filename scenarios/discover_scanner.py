@@ -2,7 +2,9 @@
 
 The scene model: the tracer's rail (d, dL, alpha0) and the plate's centre calibrated on the
 recording by least squares, as any user would (``estimators.rotary_probe.calibrate_lsq``); the
-twin (MuJoCo's ray against the plate's walls) then replays every encoder angle. What is left is
+twin (MuJoCo's ray against the plate's walls, and whatever effects the config's twin carries:
+``discover --twin`` writes them, ``discover --config`` replays them) then replays every encoder
+angle. What is left is
 searched: the table's runout (harmonics per turn), the encoder's eccentricity, the probe's
 scale and offset; then a table over the angle for what none of them explains.
 
@@ -29,11 +31,32 @@ EXPERIMENTS = {
 
 
 def _twin(config, cal):
-    from calibench.sim.probe_scanner import ProbeScannerSim, ProbeScannerTruth
+    """The config's twin (with whatever effects it carries) on the rail and plate ``cal``."""
+    import dataclasses
 
-    truth = ProbeScannerTruth(d_mm=cal.d_mm, dL_mm=cal.dL_mm, alpha0_rad=cal.alpha0_rad,
-                              plate_centre_mm=tuple(float(c) for c in cal.centre_mm))
+    from calibench.sim.probe_scanner import ProbeScannerSim
+
+    truth = dataclasses.replace(config.truth, d_mm=cal.d_mm, dL_mm=cal.dL_mm, alpha0_rad=cal.alpha0_rad,
+                                plate_centre_mm=tuple(float(c) for c in cal.centre_mm))
     return ProbeScannerSim(config.geometry, truth)
+
+
+def twin_table(out: dict) -> dict:
+    """``discover --twin``: the accepted effects as parameters of the scanner's simulation (the
+    ``[probe-scanner.truth]`` table of a ``run --config`` file), with the calibrated rail."""
+    truth = dict(out["twin_rail"])
+    runout = [e["params"] for e in out["effects"] if e["name"] == "runout"]
+    if runout:
+        truth["runout_harmonics"] = [int(p["harmonic"]) for p in runout]
+        truth["runout_mm"] = [p["amplitude_mm"] for p in runout]
+        truth["runout_phase_rad"] = [p["phase_rad"] for p in runout]
+    for e in out["effects"]:
+        if e["name"] == "encoder_eccentricity":
+            truth["encoder_eccentricity_urad"] = e["params"]["amplitude_urad"]
+            truth["encoder_eccentricity_phase_rad"] = e["params"]["phase_rad"]
+        elif e["name"] == "scale":
+            truth["probe_scale_ppm"] = e["params"]["ppm"]
+    return {"probe-scanner": {"truth": truth}}
 
 
 def scene_model(rec, config) -> tuple[object, np.ndarray, np.ndarray, np.ndarray]:
@@ -58,7 +81,7 @@ def scene_model(rec, config) -> tuple[object, np.ndarray, np.ndarray, np.ndarray
     if not np.all(np.isfinite(cols)) or cal.rms_mm > 1.0:
         raise BadInput(f"the recording does not fit the calibration plate ({2 * a:g} mm square, r = {rc:g} mm) with "
                        f"any rail (rms {cal.rms_mm:.3g} mm): another artefact, or not a probe-scanner recording?")
-    rho_twin = _twin(config, cal).exact_rho("plate", th)
+    rho_twin = _twin(config, cal).reading_mm("plate", th)
     return cal, rho_twin, cols, cols[:, 2]
 
 
@@ -171,6 +194,8 @@ def discover_scanner(rec, seed: int = 0, floor: float = dsc.FLOOR, config=None) 
                            f"its rail calibrated: d {cal.d_mm:.4f} mm, dL {cal.dL_mm:.4f} mm, alpha0 "
                            f"{np.degrees(cal.alpha0_rad):.4f} deg, plate centre ({cal.centre_mm[0]:.4f}, "
                            f"{cal.centre_mm[1]:.4f}) mm"),
+           "twin_rail": {"d_mm": cal.d_mm, "dL_mm": cal.dL_mm, "alpha0_rad": cal.alpha0_rad,
+                         "plate_centre_mm": [float(c) for c in cal.centre_mm]},
            "not_accepted": found.rejected, "confounded": confounded,
            "verdict": verdict(found.cv_final, after_noise, bool(effects))}
     return out, {"signals": [sig], "fitted": fitted, "abscissa": (np.degrees(np.mod(th, 2 * np.pi)),

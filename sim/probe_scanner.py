@@ -25,6 +25,20 @@ class ProbeScannerTruth:
     probe_noise_um: float = 2.0  # 1-sigma, before quantisation
     quantum_um: float = 5.0  # the linear encoder's step
     angle_jitter_deg: float = 0.003  # 1-sigma
+    # What discover found and ``discover --twin`` writes (none by default): the table's radial
+    # error motion along the rail as whole harmonics per turn, the reading longer by
+    # sum A_k sin(k theta + phase_k); the encoder's disc off-centre, reading A sin(theta + phase)
+    # ahead of the table; the probe's scale.
+    runout_harmonics: tuple = ()
+    runout_mm: tuple = ()
+    runout_phase_rad: tuple = ()
+    encoder_eccentricity_urad: float = 0.0
+    encoder_eccentricity_phase_rad: float = 0.0
+    probe_scale_ppm: float = 0.0
+
+    def __post_init__(self):
+        if not len(self.runout_harmonics) == len(self.runout_mm) == len(self.runout_phase_rad):
+            raise ValueError("runout_harmonics, runout_mm and runout_phase_rad need one value each per harmonic")
 
 
 @dataclasses.dataclass
@@ -89,12 +103,29 @@ class ProbeScannerSim:
             raise RuntimeError(f"the stylus found no wall of the {part} at angle {th:.4f}")
         return out * 1000
 
+    def table_angle(self, encoder_rad: np.ndarray) -> np.ndarray:
+        """The table's true angle (n,) where the encoder reads ``encoder_rad`` (n,): short by its
+        eccentricity."""
+        t = self.truth
+        e = t.encoder_eccentricity_urad * 1e-6
+        return np.asarray(encoder_rad, float) - e * np.sin(np.asarray(encoder_rad, float) + t.encoder_eccentricity_phase_rad)
+
+    def reading_mm(self, part: str, encoder_rad: np.ndarray, jitter_rad: np.ndarray | float = 0.0) -> np.ndarray:
+        """Noise-free readings (n,) at encoder angles (n,): MuJoCo's ray at the table's true
+        angle, the table's runout, the probe's scale."""
+        t = self.truth
+        theta = self.table_angle(encoder_rad) + jitter_rad
+        rho = self.exact_rho(part, theta)
+        for k, a, ph in zip(t.runout_harmonics, t.runout_mm, t.runout_phase_rad):
+            rho = rho + a * np.sin(round(k) * theta + ph)
+        return rho * (1 + t.probe_scale_ppm * 1e-6) if t.probe_scale_ppm else rho
+
     def scan(self, part: str, rng: np.random.Generator) -> tuple[Scan, np.ndarray]:
         """One turn: the recording and, kept apart, the true table angles (n,)."""
         n = self.geometry.samples_per_turn
         nominal = np.arange(n) * 2 * np.pi / n
-        true_theta = nominal + rng.normal(0, np.deg2rad(self.truth.angle_jitter_deg), n)
-        return self.record(self.exact_rho(part, true_theta), rng), true_theta
+        jitter = rng.normal(0, np.deg2rad(self.truth.angle_jitter_deg), n)
+        return self.record(self.reading_mm(part, nominal, jitter), rng), self.table_angle(nominal) + jitter
 
     def record(self, exact_rho_mm: np.ndarray, rng: np.random.Generator) -> Scan:
         """The probe's noise and the encoder's quantisation on exact readings."""
