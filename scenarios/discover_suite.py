@@ -60,23 +60,31 @@ def _match(t, f) -> bool:
     return all(k not in t["params"] or t["params"][k] == f["params"].get(k) for k in ("joint", "leg"))
 
 
+KINDS = ("null", "backlash", "periodic", "thermal", "combined", "bump", "eccentricity", "compliance", "runout",
+         "scale", "pitch")
+
+
+def case_seed(kind: str, seed: int) -> int:
+    """The recording's seed for the suite's case (kind, seed): distinct per kind and seed."""
+    return 1000 * seed + 17 + KINDS.index(kind)
+
+
+
 def run_case(scenario: str, kind: str, seed: int) -> CaseResult:
     """Discover on one concealed recording and score it against what was concealed."""
-    kinds = ("null", "backlash", "periodic", "thermal", "combined", "bump", "eccentricity", "compliance", "runout",
-             "scale", "pitch")
-    case_seed = 1000 * seed + 17 + kinds.index(kind)  # distinct recordings per kind and seed
+    rec_seed = case_seed(kind, seed)
     if scenario == "probe-scanner":
-        rec, manifest = scanner_recording(kind, case_seed)
+        rec, manifest = scanner_recording(kind, rec_seed)
         out, _ = discover_scanner(rec, seed)
     elif scenario == "stewart":
-        rec, manifest = stewart_recording(kind, case_seed)
+        rec, manifest = stewart_recording(kind, rec_seed)
         out, _ = discover_stewart(rec, seed)
     elif scenario.startswith("arm-cmm"):
         arm = scenario.partition(":")[2] or "arm-cmm"  # arm-cmm:ur10 is the arm-cmm scenario with the UR10
-        rec, manifest = arm_recording(kind, case_seed, arm=arm)
+        rec, manifest = arm_recording(kind, rec_seed, arm=arm)
         out, _ = discover_arm(rec, seed, arm=arm)
     else:
-        rec, manifest = stage_recording(scenario, kind, case_seed)
+        rec, manifest = stage_recording(scenario, kind, rec_seed)
         out, _ = discover_stage(scenario, rec, seed)
     truth = manifest["effects"]
     found = [e for e in out["effects"] if e["name"] not in NOT_CONCEALED]
