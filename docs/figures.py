@@ -745,27 +745,11 @@ def discover_instruments():
     import numpy as np
 
     from calibench.scenarios.discover import _figure
-    from calibench.scenarios.discover_scanner import discover_scanner
-    from calibench.scenarios.discover_stewart import discover_stewart
-    from calibench.scenarios.discover import discover_arm, discover_stage
-    from calibench.scenarios.discover_suite import case_seed
-    from calibench.sim.concealed import arm_recording, scanner_recording, stage_recording, stewart_recording
+    from calibench.scenarios.discover_suite import concealed_discovery
 
     rows = []
     for scenario, kind, seed in SHOWCASE:
-        cs = case_seed(kind, seed)
-        if scenario == "probe-scanner":
-            rec, man = scanner_recording(kind, cs)
-            out, fig = discover_scanner(rec, seed)
-        elif scenario == "stewart":
-            rec, man = stewart_recording(kind, cs)
-            out, fig = discover_stewart(rec, seed)
-        elif scenario.startswith("arm-cmm"):
-            rec, man = arm_recording(kind, cs, arm="ur10")
-            out, fig = discover_arm(rec, seed, arm="ur10")
-        else:
-            rec, man = stage_recording(scenario, kind, cs)
-            out, fig = discover_stage(scenario, rec, seed)
+        man, out, fig = concealed_discovery(scenario, kind, seed)
         name = scenario.replace(":", "_")
         _figure(ROOT / "docs" / f"discover_{name}.png", out, fig)
 

@@ -70,22 +70,29 @@ def case_seed(kind: str, seed: int) -> int:
 
 
 
-def run_case(scenario: str, kind: str, seed: int) -> CaseResult:
-    """Discover on one concealed recording and score it against what was concealed."""
+def concealed_discovery(scenario: str, kind: str, seed: int) -> tuple[dict, dict, dict]:
+    """The suite's case (scenario, kind, seed) through discover: the sealed manifest, discovery.json's
+    content and what the figure needs."""
     rec_seed = case_seed(kind, seed)
     if scenario == "probe-scanner":
         rec, manifest = scanner_recording(kind, rec_seed)
-        out, _ = discover_scanner(rec, seed)
+        out, fig = discover_scanner(rec, seed)
     elif scenario == "stewart":
         rec, manifest = stewart_recording(kind, rec_seed)
-        out, _ = discover_stewart(rec, seed)
+        out, fig = discover_stewart(rec, seed)
     elif scenario.startswith("arm-cmm"):
         arm = scenario.partition(":")[2] or "arm-cmm"  # arm-cmm:ur10 is the arm-cmm scenario with the UR10
         rec, manifest = arm_recording(kind, rec_seed, arm=arm)
-        out, _ = discover_arm(rec, seed, arm=arm)
+        out, fig = discover_arm(rec, seed, arm=arm)
     else:
         rec, manifest = stage_recording(scenario, kind, rec_seed)
-        out, _ = discover_stage(scenario, rec, seed)
+        out, fig = discover_stage(scenario, rec, seed)
+    return manifest, out, fig
+
+
+def run_case(scenario: str, kind: str, seed: int) -> CaseResult:
+    """Discover on one concealed recording and score it against what was concealed."""
+    manifest, out, _ = concealed_discovery(scenario, kind, seed)
     truth = manifest["effects"]
     found = [e for e in out["effects"] if e["name"] not in NOT_CONCEALED]
     detected, errors = 0, []

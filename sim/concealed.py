@@ -274,7 +274,8 @@ def stewart_recording(kind: str, seed: int, n_poses: int = 100) -> tuple[Stewart
     - ``compliance``: every leg gives 0.02-0.05 um per N (each within 5 % of the others) of the
       axial force MuJoCo's statics put on it.
     """
-    from calibench.estimators.rotations import rigid_transform, rotvec_to_matrix
+    from scipy.spatial.transform import Rotation
+
     from calibench.scenarios.stewart import StewartConfig, random_poses
     from calibench.sim.stewart import StewartSim, StewartTruth
 
@@ -321,13 +322,16 @@ def stewart_recording(kind: str, seed: int, n_poses: int = 100) -> tuple[Stewart
         effects.append({"name": "leg_compliance", "axis": "legs", "params": {"um_per_n": c}})
     readings += rng.normal(0, 1e-3, readings.shape)
     # the tracker's frame: turned about the vertical and set beside the machine
-    R_tr = rotvec_to_matrix(np.r_[rng.normal(0, 0.01, 2), rng.uniform(-np.pi, np.pi)])
+    R_tr = Rotation.from_rotvec(np.r_[rng.normal(0, 0.01, 2), rng.uniform(-np.pi, np.pi)]).as_matrix()
     t_tr = np.r_[rng.uniform(1500, 3000), rng.uniform(-1000, 1000), rng.uniform(-800, 0)]
     R_meas, t_meas = np.empty((n, 3, 3)), np.empty((n, 3))
     for k, (R, t) in enumerate(poses):
         world = g.reflectors_mm @ R.T + t
         seen = (world @ R_tr.T + t_tr) + rng.normal(0, 2e-3, world.shape)
-        R_meas[k], t_meas[k] = rigid_transform(g.reflectors_mm, seen)
+        # the tracker's own pose solution (scipy's Kabsch, not the estimators')
+        c_seen, c_refl = seen.mean(axis=0), g.reflectors_mm.mean(axis=0)
+        R_meas[k] = Rotation.align_vectors(seen - c_seen, g.reflectors_mm - c_refl)[0].as_matrix()
+        t_meas[k] = c_seen - R_meas[k] @ c_refl
     rec = StewartRecording(np.round(readings, 6), R_meas, t_meas, t_s, np.round(T, 3), direction, load)
     # per leg: the reading's 1 um and the tracker's pose (its reflectors' 2 um, levered out to the
     # hinges) together, as the repeats show it
