@@ -15,13 +15,16 @@ summary.json are written from the journal.
 from __future__ import annotations
 
 import concurrent.futures as cf
+import contextlib
 import dataclasses
 import json
 import math
 import multiprocessing
 import os
 import re
+import signal
 import sys
+import threading
 import time
 import traceback
 from pathlib import Path
@@ -137,6 +140,23 @@ def _ignore_interrupts() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
+@contextlib.contextmanager
+def _interrupt_flag():
+    """An Event set by Ctrl-C while the study waits. A KeyboardInterrupt raised at an arbitrary
+    bytecode can land while a future's lock is held (inside ``as_completed``), and the pool's
+    manager thread then blocks the interpreter's exit forever; a flag is checked only where the
+    loop can stop cleanly."""
+    stop = threading.Event()
+    if threading.current_thread() is not threading.main_thread():
+        yield stop
+        return
+    old = signal.signal(signal.SIGINT, lambda signum, frame: stop.set())
+    try:
+        yield stop
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
 def make_executor(workers: int | None, scheduler: str | None):
     """(executor, closer): a spawn process pool, or a Dask cluster's executor."""
     if scheduler:
@@ -157,8 +177,13 @@ def make_executor(workers: int | None, scheduler: str | None):
 
     def close(interrupted: bool = False) -> None:
         if interrupted:  # a worker mid-chunk would hold the exit for its whole chunk: its trials are not kept anyway
-            for proc in list(getattr(ex, "_processes", {}).values()):
+            procs = list((getattr(ex, "_processes", None) or {}).values())
+            for proc in procs:
                 proc.terminate()
+            for proc in procs:  # a worker that ignores SIGTERM (stuck in C) must not hold the exit
+                proc.join(5)
+                if proc.is_alive():
+                    proc.kill()
         ex.shutdown(wait=False, cancel_futures=True)
 
     return ex, close
@@ -212,12 +237,18 @@ def run_study(scenario: str, trials: int, seed: int, fidelity: str, out_dir: Pat
                 k = chunk_size(len(todo), fidelity)
                 futures = [executor.submit(run_trials, scenario, seed, todo[j:j + k], fidelity, arm, table)
                            for j in range(0, len(todo), k)]
-                for fut in cf.as_completed(futures):
-                    for row in fut.result():
-                        journal.write(json.dumps(row) + "\n")
-                        done[row["trial"]] = row
-                    journal.flush()
-                    bar.update(len(fut.result()))
+                with _interrupt_flag() as stop:
+                    pending = set(futures)
+                    while pending:
+                        if stop.is_set():
+                            raise KeyboardInterrupt
+                        finished, pending = cf.wait(pending, timeout=0.2, return_when=cf.FIRST_COMPLETED)
+                        for fut in sorted(finished, key=futures.index):
+                            for row in fut.result():
+                                journal.write(json.dumps(row) + "\n")
+                                done[row["trial"]] = row
+                            journal.flush()
+                            bar.update(len(fut.result()))
         except KeyboardInterrupt:
             interrupted = True
             raise
