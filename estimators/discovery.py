@@ -391,6 +391,27 @@ def select(signals: list[Signal], candidates: list, drivers: dict, fold: np.ndar
     return Discovery(steps, rejected, cv_nominal, _total_rms(cv_sq, counts), rms_nominal, cv_by), terms
 
 
+def refine(sig: Signal, terms: list, index: int, richer, drivers: dict, fold: np.ndarray, noise,
+           floor: float = FLOOR, z_min: float = Z_MIN) -> tuple[bool, float, float]:
+    """Whether the accepted ``terms[index]`` should become ``richer`` (the same effect with more
+    columns, its own first, e.g. lost motion that grows along the travel): the held-out RMS of
+    the signal must fall by ``floor`` and the added coefficients stand ``z_min`` standard errors
+    from zero. Returns (accepted, held-out RMS before, after)."""
+    trial = terms[:index] + [richer] + terms[index + 1:]
+    before = float(np.sqrt(np.mean(cv_residuals(sig, terms, drivers, fold, {}) ** 2)))
+    after = float(np.sqrt(np.mean(cv_residuals(sig, trial, drivers, fold, {}) ** 2)))
+    sigma = noise.sigma_mm * noise.inflation if noise.sigma_mm else None
+    fixed, coef, cov, _ = fit_terms(sig, trial, drivers, {}, sigma)
+    _, start, k = fixed[index]
+    k0 = terms[index].columns(drivers).shape[1]
+    c, C = coef[start + k0:start + k], cov[start + k0:start + k, start + k0:start + k]
+    try:
+        z = float(np.sqrt(c @ np.linalg.solve(C, c) / len(c)))
+    except np.linalg.LinAlgError:
+        z = 0.0
+    return bool(after <= (1 - floor) * before and z >= z_min), before, after
+
+
 def prune(sig: Signal, found: Discovery, terms: dict, drivers: dict, fold: np.ndarray,
           floor: float = FLOOR) -> None:
     """Backward check after forward selection (one signal): an accepted effect that a later one

@@ -64,21 +64,46 @@ def _amplitude(s: float, c: float, cov: np.ndarray) -> tuple[float, float, float
 
 @dataclasses.dataclass(frozen=True)
 class Backlash(Effect):
-    """Lost motion on reversal: +B/2 approaching forward, -B/2 backward."""
+    """Lost motion on reversal: +B/2 approaching forward, -B/2 backward. With ``span_mm`` (the
+    axis's measured range, lo and hi) B grows along the travel, ``B(u) = B0 + g u``, as an
+    elastic drive's does (a belt whose free span lengthens with the position)."""
 
     name: str = "backlash"
+    span_mm: tuple[float, float] | None = None
 
     def __post_init__(self):
-        object.__setattr__(self, "needs", (f"dir_{self.axis}",))
+        object.__setattr__(self, "needs", (f"dir_{self.axis}",) + ((self.axis,) if self.span_mm else ()))
+
+    @property
+    def key(self) -> str:
+        return f"backlash:{self.axis}" + (":grows" if self.span_mm else "")
 
     def columns(self, d):
-        return (np.asarray(d[f"dir_{self.axis}"], float) / 2)[:, None]
+        half = np.asarray(d[f"dir_{self.axis}"], float) / 2
+        if self.span_mm is None:
+            return half[:, None]
+        return np.stack([half, half * np.asarray(d[self.axis], float) / 1000], axis=1)
 
     def describe(self, coef, cov):
-        B = float(coef[0])
-        return ({"reversal_mm": B}, {"reversal_mm": _std(cov, 0)},
-                f"lost motion on reversal of the {self.axis.upper()} drive: {B * 1000:+.1f} um between the two "
-                f"directions of approach (+B/2 approaching forward, -B/2 backward)")
+        a = self.axis.upper()
+        if self.span_mm is None:
+            B = float(coef[0])
+            return ({"reversal_mm": B}, {"reversal_mm": _std(cov, 0)},
+                    f"lost motion on reversal of the {a} drive: {B * 1000:+.1f} um between the two "
+                    f"directions of approach (+B/2 approaching forward, -B/2 backward)")
+        lo, hi = self.span_mm
+        mid = np.array([1.0, (lo + hi) / 2000])  # B at the middle of the measured travel
+        B0, g = float(coef[0]), float(coef[1])
+        params = {"reversal_mm": float(mid @ coef[:2]), "reversal_at_home_mm": B0, "growth_mm_per_m": g,
+                  "reversal_at_start_mm": B0 + g * lo / 1000, "reversal_at_end_mm": B0 + g * hi / 1000}
+        stderr = {"reversal_mm": float(np.sqrt(max(mid @ cov[:2, :2] @ mid, 0.0))),
+                  "reversal_at_home_mm": _std(cov, 0), "growth_mm_per_m": _std(cov, 1)}
+        return (params, stderr,
+                f"lost motion on reversal of the {a} drive that grows along the travel: "
+                f"{params['reversal_at_start_mm'] * 1000:.1f} um at {self.axis} = {lo:.0f} mm to "
+                f"{params['reversal_at_end_mm'] * 1000:.1f} um at {self.axis} = {hi:.0f} mm "
+                f"({g * 100:+.1f} um per 100 mm): an elastic drive (a belt whose free span lengthens along the "
+                f"travel) against the carriage's friction")
 
 
 @dataclasses.dataclass(frozen=True)

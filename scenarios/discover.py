@@ -56,15 +56,16 @@ def folds_for(rec_run, x, y, holdout: str | None) -> tuple[np.ndarray, str]:
 
 # --- stages --------------------------------------------------------------------------------------
 def discover_stage(scenario: str, rec, seed: int = 0, holdout: str | None = None,
-                   floor: float = dsc.FLOOR) -> tuple[dict, dict]:
-    """discovery.json's content for a stage recording, and what the figure needs."""
+                   floor: float = dsc.FLOOR, truth=None) -> tuple[dict, dict]:
+    """discovery.json's content for a stage recording, and what the figure needs. ``truth``:
+    the twin's as-built parameters (a ``--config`` file's; default: the scenario's own)."""
     from calibench.sim.replay import replay_stage
 
     n = len(rec)
     x, y = rec.x_cmd_mm, rec.y_cmd_mm
     if n < 20:
         raise BadInput(f"{n} stations: discover needs at least 20")
-    sim = replay_stage(scenario, x, y)
+    sim = replay_stage(scenario, x, y, rec.temp_c, truth)
     drivers = {"x": x, "y": y, "dir_x": rec.dir_x, "dir_y": rec.dir_y, "t_s": rec.t_s, "temp_c": rec.temp_c,
                "run": rec.run}
     span = (max(np.ptp(x), 1.0), max(np.ptp(y), 1.0))
@@ -90,6 +91,7 @@ def discover_stage(scenario: str, rec, seed: int = 0, holdout: str | None = None
             candidates.append(dsc.PeriodSearch(a, 1 / f))
         candidates += polynomial_candidates(a, deg)
     found, terms = dsc.select(signals, candidates, drivers, fold, noise, floor=floor)
+    growing = _grow_backlash(signals, terms, found, drivers, fold, noise, floor)
 
     # nonsmooth: what stands out of the repeatability after the accepted effects
     pos_key, pos_inv = np.unique(np.stack([x, y], axis=1).round(6), axis=0, return_inverse=True)
@@ -107,6 +109,12 @@ def discover_stage(scenario: str, rec, seed: int = 0, holdout: str | None = None
             found.cv_final = float(after)
 
     effects, fitted = _describe(signals, terms, found, drivers, noise)
+    for e in effects:
+        if e["name"] == "backlash" and e["axis"] in growing:
+            e["grows_along_travel"] = True
+            e["cv_rms_constant_reversal"], e["cv_rms_growing_reversal"] = growing[e["axis"]]
+            e["physics"] += (f" (held out on {e['axis']}: {growing[e['axis']][0] * 1000:.2f} um with a constant "
+                             f"reversal, {growing[e['axis']][1] * 1000:.2f} um with one that grows)")
     # the repeatability again, after the accepted effects: an effect that drifts between passes
     # (temperature, a creeping offset) inflates the first estimate
     after = {a: dsc.repeatability(fitted[a], key, order) for a in fitted}
@@ -119,9 +127,36 @@ def discover_stage(scenario: str, rec, seed: int = 0, holdout: str | None = None
                      for a, nz in noise.items()},
            "noise_after_effects": {a: {"repeatability_mm": nz.sigma_mm, "dof": nz.dof} for a, nz in after.items()},
            "holdout": scheme, "scene_model": f"the twin plus its degree-{deg} error map in (x, y), calibrated",
+           "temp_mean_c": None if rec.temp_c is None else float(np.mean(rec.temp_c)),
            "not_accepted": found.rejected, "confounded": confounds,
            "verdict": verdict(found.cv_final, after, bool(effects))}
     return out, {"signals": signals, "fitted": fitted, "x": x, "y": y}
+
+
+def _grow_backlash(signals, terms, found, drivers, fold, noise, floor) -> dict:
+    """Does an accepted lost motion grow along its axis's travel (an elastic drive)? Where it
+    does, the term becomes the growing one in place. Returns axis -> (held-out RMS of that axis
+    with a constant reversal, with the growing one)."""
+    from calibench.estimators.effects import Backlash
+
+    out = {}
+    for s in signals:
+        for i, t in enumerate(terms[s.axis]):
+            if not (isinstance(t, Backlash) and t.span_mm is None):
+                continue
+            u = np.asarray(drivers[s.axis], float)
+            richer = Backlash(axis=s.axis, span_mm=(float(u.min()), float(u.max())))
+            ok, before, after = dsc.refine(s, terms[s.axis], i, richer, drivers, fold, noise[s.axis], floor)
+            if ok:
+                terms[s.axis][i] = richer
+                for st in found.steps:
+                    if st.term is t:
+                        st.term = richer
+                out[s.axis] = (before, after)
+    if out:
+        cv_sq = sum(float(np.sum(dsc.cv_residuals(s, terms[s.axis], drivers, fold, {}) ** 2)) for s in signals)
+        found.cv_final = float(np.sqrt(cv_sq / sum(len(s.r) for s in signals)))
+    return out
 
 
 UNEXPLAINED_RATIO = 1.5  # held-out RMS over repeatability beyond which something is left
@@ -217,7 +252,7 @@ def _confounds(signals, terms, found, candidates, drivers, rec):
     experiment that would (smooth polynomial terms are left out: they are meant to overlap)."""
     out = []
     by_axis = {s.axis: s for s in signals}
-    accepted = {st.term.key for st in found.steps}
+    accepted = {st.term.key for st in found.steps} | {f"{st.term.name}:{st.axis}" for st in found.steps}
     for c in candidates:
         if c.key in accepted or isinstance(c, dsc.PeriodSearch) or c.name in ("positioning", "straightness",
                                                                               "cross_coupling"):
@@ -480,7 +515,7 @@ def paper_belt_recording(data_dir: Path):
 
 
 # --- the command -----------------------------------------------------------------------------------
-TWIN_SCENARIOS = ("probe-scanner",)  # discover --twin / --config so far
+TWIN_SCENARIOS = ("belt-stage", "vision-stage", "probe-scanner")  # discover --twin / --config so far
 
 
 def run_discover(scenario: str, csv_path, out_dir: Path, seed: int = 0, holdout: str | None = None,
@@ -524,11 +559,21 @@ def run_discover(scenario: str, csv_path, out_dir: Path, seed: int = 0, holdout:
         if len(paths) > 1:
             out["recordings"] = [str(p) for p in paths]
     else:
-        out, fig = discover_stage(scenario, load_stage_csv(paths[0], MAX_ROWS), seed, holdout)
-    if twin is not None:
-        from calibench.scenarios.discover_scanner import twin_table
+        from calibench.scenarios.twin import stage_truth
 
-        write_toml(twin, twin_table(out), f"the twin of {paths[0]} updated by calibench discover")
+        out, fig = discover_stage(scenario, load_stage_csv(paths[0], MAX_ROWS), seed, holdout,
+                                  truth=stage_truth(scenario, config))
+        if config is not None:
+            out["replayed_config"] = str(config)
+    if twin is not None:
+        from calibench.scenarios.twin import twin_tables
+
+        tables, left = twin_tables(scenario, out, config)
+        note = f"the twin of {paths[0]} updated by calibench discover"
+        if left:
+            note += "; not carried by the simulation: " + ", ".join(left)
+        write_toml(twin, tables, note)
+        out["twin"] = {"path": str(twin), "not_carried": left}
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "discovery.json").write_text(json.dumps(out, indent=2, default=_json_default) + "\n")
     _figure(out_dir / "discovery.png", out, fig)

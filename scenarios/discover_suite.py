@@ -26,9 +26,10 @@ from calibench.sim.concealed import arm_recording, scanner_recording, stage_reco
 
 SUITE = (
     [("belt-stage", k, s) for k, seeds in (("null", 4), ("backlash", 2), ("periodic", 2), ("thermal", 2),
-                                           ("combined", 2), ("bump", 2)) for s in range(seeds)]
+                                           ("combined", 2), ("bump", 2), ("mixed", 1), ("elastic", 2))
+     for s in range(seeds)]
     + [("vision-stage", k, s) for k, seeds in (("null", 4), ("backlash", 2), ("periodic", 2), ("thermal", 1),
-                                               ("combined", 1), ("bump", 2)) for s in range(seeds)]
+                                               ("combined", 1), ("bump", 2), ("mixed", 1)) for s in range(seeds)]
     + [("arm-cmm", k, s) for k, seeds in (("null", 3), ("eccentricity", 3), ("thermal", 2), ("compliance", 2))
        for s in range(seeds)]
     + [("arm-cmm:ur10", k, s) for k, seeds in (("null", 2), ("eccentricity", 1), ("compliance", 2)) for s in range(seeds)]
@@ -61,7 +62,7 @@ def _match(t, f) -> bool:
 
 
 KINDS = ("null", "backlash", "periodic", "thermal", "combined", "bump", "eccentricity", "compliance", "runout",
-         "scale", "pitch")
+         "scale", "pitch", "mixed", "elastic")
 
 
 def case_seed(kind: str, seed: int) -> int:
@@ -104,6 +105,11 @@ def run_case(scenario: str, kind: str, seed: int) -> CaseResult:
         p, q = t["params"], hit["params"]
         if t["name"] == "backlash":
             errors.append(("reversal", abs(q["reversal_mm"] / p["reversal_mm"] - 1), 0.25))
+            if "growth_mm_per_m" in p:  # an elastic belt's: found growing, at the right rate
+                g = q.get("growth_mm_per_m", 0.0)
+                errors.append(("reversal growth", abs(g / p["growth_mm_per_m"] - 1), 0.25))
+            elif "growth_mm_per_m" in q:  # a constant reversal claimed to grow
+                errors.append(("reversal growth claimed", 1.0, 0.0))
         elif t["name"] == "periodic":
             errors.append(("period", abs(q["period_mm"] / p["period_mm"] - 1), 0.05))
             errors.append(("amplitude", abs(q["amplitude_mm"] / p["amplitude_mm"] - 1), 0.25))

@@ -19,6 +19,7 @@ from calibench.scenes.belt_stage import (CALIB_BOARD_GROUP, CALIB_BOARD_PARK, ST
                                BeltStageGeometry, board_to_body, build_mjcf)
 from calibench.scenes.camera import MJ_TO_CV, world_to_cv_camera
 from calibench.sim.renderer import LensRenderer
+from calibench.sim.stage_drive import BeltDrive, DriveErrors, ElasticBelt
 from calibench.errors import BadInput
 
 PULSES_PER_MM = 250.0  # 25,000 pulses = 100 mm
@@ -41,11 +42,18 @@ class BeltStageTruth:
 
     error_x, error_y : (6,) coefficients c0..c5 of each axis's error map (mm).
     board_yaw_rad : rotation of the board about world +z relative to the stage axes.
+    drive_x, drive_y : each drive's errors beyond the map (lost motion, run-out, thermal).
+    belt_x, belt_y : each axis's belt and carriage friction; ``ea_n`` > 0 makes the belt elastic
+        (MuJoCo's tendons): the carriage then lags its command by friction over stiffness.
     """
 
     error_x: tuple[float, ...] = PAPER_ERROR_X
     error_y: tuple[float, ...] = PAPER_ERROR_Y
     board_yaw_rad: float = 4e-3
+    drive_x: DriveErrors = DriveErrors()
+    drive_y: DriveErrors = DriveErrors()
+    belt_x: BeltDrive = BeltDrive()
+    belt_y: BeltDrive = BeltDrive()
 
     def __post_init__(self):
         if len(self.error_x) != 6 or len(self.error_y) != 6:
@@ -78,13 +86,29 @@ class BeltStageSim:
         self._b2body_R, self._b2body_t = board_to_body(geometry)
         self.renderer = (LensRenderer(self.model, "overhead", geometry.camera, supersample)
                          if render else None)
+        self._belts = [ElasticBelt(travel, belt) if belt.ea_n > 0 else None
+                       for travel, belt in zip(geometry.travel_mm, (truth.belt_x, truth.belt_y))]
+        self._dir = np.array([1.0, 1.0])  # homed from below
+        self._cmd = np.zeros(2)
+        for belt in self._belts:
+            if belt is not None:
+                belt.move(-1.0)
         self.move(0, 0)
 
     # --- motion ---------------------------------------------------------------------------
-    def move(self, x_pulses: int, y_pulses: int) -> np.ndarray:
-        """Command the stage; returns the true carriage position (x, y) in mm."""
+    def move(self, x_pulses: int, y_pulses: int, temp_c: float | None = None) -> np.ndarray:
+        """Command the stage, the room at ``temp_c`` (None: the drives' reference temperature);
+        returns the true carriage position (x, y) in mm."""
         cmd = np.array([x_pulses, y_pulses], float) / PULSES_PER_MM
+        step = cmd - self._cmd
+        self._dir = np.where(step > 0, 1.0, np.where(step < 0, -1.0, self._dir))
+        self._cmd = cmd
         true_mm = cmd + self.truth.error_mm(cmd[:1], cmd[1:])[0]
+        T = None if temp_c is None else np.array([temp_c])
+        for k, (drive, belt) in enumerate(zip((self.truth.drive_x, self.truth.drive_y), self._belts)):
+            true_mm[k] += drive.error_mm(cmd[k:k + 1], self._dir[k:k + 1], T)[0]
+            if belt is not None:
+                true_mm[k] += belt.move(cmd[k]) - cmd[k]
         self.data.qpos[:2] = true_mm / 1000
         mujoco.mj_kinematics(self.model, self.data)
         mujoco.mj_camlight(self.model, self.data)

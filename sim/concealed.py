@@ -6,8 +6,10 @@ warms, a rail with a bump), realised on top of the MuJoCo twin's own motion. The
 sealed manifest that ``discover`` never reads; only the suite opens it afterwards.
 
 Kinds: stages (belt-stage, vision-stage): ``null``, ``backlash``, ``periodic``, ``thermal``,
-``combined`` (backlash + periodic + thermal), ``bump`` (a local defect no candidate has); the
-arm (any description; the seed's arm CMM and the UR10 in the suite): ``null``, ``eccentricity``
+``combined`` (backlash + periodic + thermal), ``bump`` (a local defect no candidate has),
+``mixed`` (lost motion, a periodic error and thermal expansion all on one axis, the temperature
+rising over the passes), ``elastic`` (belt stage: one axis's belt elastic against the carriage's
+friction, by MuJoCo's tendons: lost motion that grows along the travel); the arm (any description; the seed's arm CMM and the UR10 in the suite): ``null``, ``eccentricity``
 (one joint's encoder), ``thermal`` (the links' growth), ``compliance`` (joints giving way under
 gravity, by MuJoCo's physics); the probe scanner: ``null``, ``runout`` (the table's radial error
 motion), ``eccentricity`` (the table encoder's), ``scale`` (the probe's), ``bump`` (a nick in the
@@ -30,7 +32,7 @@ from calibench.errors import BadInput
 
 SCANNER_KINDS = ("null", "runout", "eccentricity", "scale", "bump", "combined")
 STEWART_KINDS = ("null", "thermal", "backlash", "pitch", "compliance")
-STAGE_KINDS = ("null", "backlash", "periodic", "thermal", "combined", "bump")
+STAGE_KINDS = ("null", "backlash", "periodic", "thermal", "combined", "bump", "mixed", "elastic")
 ARM_KINDS = ("null", "eccentricity", "thermal", "compliance", "transmission")
 REFERENCE_NOISE_UM = 1.0  # the reference instrument (interferometer / microscope), 1-sigma
 PASS_OFFSET_UM = 0.3  # each pass's own offset: correlated noise that must not become a term
@@ -81,15 +83,23 @@ def stage_recording(scenario: str, kind: str, seed: int) -> tuple[StageRecording
     plan = PLANS[scenario]
     c = stage_commands(plan)
     x, y, n = c["x"], c["y"], len(c["x"])
-    pos = replay_stage(scenario, x, y)
+    effects = []
+    if kind == "elastic":
+        if scenario != "belt-stage":
+            raise ValueError("an elastic belt is the belt stage's")
+        a = str(rng.choice(["x", "y"]))
+        pos, effect = _elastic_belt(a, rng, x, y)
+        effects.append(effect)
+    else:
+        pos = replay_stage(scenario, x, y)
     err = np.zeros((n, 2))
     # the as-built machine differs smoothly from the twin (the scene's model absorbs this)
     u, v = x / plan.travel_mm[0], y / plan.travel_mm[1]
     for k in range(2):
         err[:, k] += rng.normal(0, 0.02, 6) @ np.stack([np.ones(n), u, v, u * u, u * v, v * v])
     T = 20.0 + np.cumsum(rng.normal(0, 0.002, n))  # a quiet room: the logged temperature wanders
-    effects = []
-    wanted = {"combined": ("backlash", "periodic", "thermal")}.get(kind, (kind,))
+    wanted = {"combined": ("backlash", "periodic", "thermal"), "mixed": ("backlash", "periodic", "thermal")
+              }.get(kind, (kind,))
     axis_of = {"x": 0, "y": 1}
     pick = [str(a) for a in rng.permutation(["x", "y"])]
     if "backlash" in wanted:
@@ -108,6 +118,8 @@ def stage_recording(scenario: str, kind: str, seed: int) -> tuple[StageRecording
         T = T + rise * (1 - np.exp(-c["t_s"] / tau))
         k = rng.uniform(10, 25)  # ppm/K: the scale's mismatch with the part (aluminium vs glass)
         for a, u_a in (("x", x), ("y", y)):
+            if kind == "mixed" and a != pick[0]:  # all three on one axis
+                continue
             err[:, axis_of[a]] += k * 1e-6 * (T - T[0]) * u_a
             effects.append({"name": "thermal_expansion", "axis": a, "params": {"ppm_per_k": k},
                             "temperature_rise_k": rise})
@@ -123,6 +135,37 @@ def stage_recording(scenario: str, kind: str, seed: int) -> tuple[StageRecording
                          dir_x=c["dir_x"], dir_y=c["dir_y"], temp_c=np.round(T, 3), run=run.astype(float))
     return rec, {"scenario": scenario, "kind": kind, "seed": seed, "effects": effects,
                  "noise_um": REFERENCE_NOISE_UM}
+
+
+def _elastic_belt(axis: str, rng: np.random.Generator, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, dict]:
+    """The belt stage's twin with ``axis``'s belt elastic (EA 25-50 kN against 2-5 N of carriage
+    friction) at the commands, (n, 2) mm, and the effect's truth: the reversal measured on the
+    elastic belt itself (MuJoCo), approached from either side at the ends and middle of the travel."""
+    import dataclasses as dc
+
+    from calibench.sim.belt_stage import BeltStageTruth
+    from calibench.sim.stage_drive import BeltDrive, ElasticBelt
+    from calibench.scenes.belt_stage import BeltStageGeometry
+
+    belt = BeltDrive(ea_n=rng.uniform(25e3, 50e3), friction_n=rng.uniform(2.0, 5.0))
+    truth = dc.replace(BeltStageTruth(), **{f"belt_{axis}": belt})
+    pos = replay_stage("belt-stage", x, y, truth=truth)
+    u = x if axis == "x" else y
+    travel = BeltStageGeometry().travel_mm["xy".index(axis)]
+
+    def reversal(at: float) -> float:
+        b = ElasticBelt(travel, belt)
+        b.move(at - 5.0)
+        up = b.move(at)
+        b.move(at + 5.0)
+        return up - b.move(at)
+
+    lo, hi = float(u.min()), float(u.max())
+    start, mid, end = reversal(lo), reversal((lo + hi) / 2), reversal(hi)
+    return pos, {"name": "backlash", "axis": axis,
+                 "params": {"reversal_mm": mid, "reversal_at_start_mm": start, "reversal_at_end_mm": end,
+                            "growth_mm_per_m": (end - start) / (hi - lo) * 1000},
+                 "physics": {"belt_ea_n": belt.ea_n, "carriage_friction_n": belt.friction_n}}
 
 
 def arm_recording(kind: str, seed: int, n: int = 300, noise_um: float = 10.0,

@@ -10,29 +10,34 @@ import dataclasses
 import numpy as np
 
 
-def replay_stage(scenario: str, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Where the twin's carriage / table really is for each command in turn, (n, 2) mm."""
+def replay_stage(scenario: str, x: np.ndarray, y: np.ndarray, temp_c: np.ndarray | None = None,
+                 truth=None) -> np.ndarray:
+    """Where the twin's carriage / table really is for each command in turn, (n, 2) mm from
+    where it was homed. ``truth``: the twin's as-built parameters (default: the scenario's
+    defaults, without random positioning); ``temp_c`` (n,): the room's temperature at each
+    station, for a twin whose drives expand."""
+    temps = [None] * len(x) if temp_c is None else np.asarray(temp_c, float)
     if scenario == "belt-stage":
         from calibench.scenes.belt_stage import BeltStageGeometry
         from calibench.sim.belt_stage import PULSES_PER_MM, BeltStageSim, BeltStageTruth
 
-        sim = BeltStageSim(BeltStageGeometry(), BeltStageTruth(), render=False)
+        sim = BeltStageSim(BeltStageGeometry(), truth or BeltStageTruth(), render=False)
         home = sim.carriage_mm()
         out = np.empty((len(x), 2))
-        for i, (a, b) in enumerate(zip(x, y)):
-            sim.move(int(round(a * PULSES_PER_MM)), int(round(b * PULSES_PER_MM)))
+        for i, (a, b, T) in enumerate(zip(x, y, temps)):
+            sim.move(int(round(a * PULSES_PER_MM)), int(round(b * PULSES_PER_MM)), T)
             out[i] = sim.carriage_mm() - home
         return out
     if scenario == "vision-stage":
         from calibench.scenes.vision_stage import VisionStageGeometry
         from calibench.sim.vision_stage import VisionStageSim, VisionStageTruth
 
-        truth = dataclasses.replace(VisionStageTruth(), repeatability_um=0.0)
+        truth = dataclasses.replace(truth or VisionStageTruth(), repeatability_um=0.0)
         sim = VisionStageSim(VisionStageGeometry(), truth, np.random.default_rng(0), render=False)
         home = sim.true_point_mm(0.0, 0.0)
         out = np.empty((len(x), 2))
-        for i, (a, b) in enumerate(zip(x, y)):
-            sim.move(a, b)
+        for i, (a, b, T) in enumerate(zip(x, y, temps)):
+            sim.move(a, b, T)
             out[i] = sim.point_in_body_mm("table") - home
         return out
     raise ValueError(f"no stage twin for {scenario!r}")

@@ -22,6 +22,7 @@ import numpy as np
 from calibench.scenes.vision_stage import VisionStageGeometry, build_mjcf
 from calibench.scenes.camera import MJ_TO_CV, world_to_cv_camera
 from calibench.sim.renderer import LensRenderer
+from calibench.sim.stage_drive import DriveErrors
 
 
 @dataclasses.dataclass(frozen=True)
@@ -82,6 +83,8 @@ class VisionStageTruth:
     repeatability_um: float = 0.12  # 1-sigma random positioning, each axis
     plate_phi_rad: float = 1.5e-3  # the plate as first laid down, about +Z
     plate_error_um: float = 0.5  # 1-sigma manufacturing error of each circle, each direction
+    drive_x: DriveErrors = DriveErrors()  # beyond the error map: what discover --twin writes
+    drive_y: DriveErrors = DriveErrors()
 
 
 @dataclasses.dataclass(frozen=True)
@@ -134,14 +137,18 @@ class VisionStageSim:
         self.move(0.0, 0.0)
 
     # --- the machine -------------------------------------------------------------------------
-    def move(self, x_mm: float, y_mm: float) -> None:
-        """Servo both axes to the scale readings (x_mm, y_mm)."""
+    def move(self, x_mm: float, y_mm: float, temp_c: float | None = None) -> None:
+        """Servo both axes to the scale readings (x_mm, y_mm), the room at ``temp_c`` (None: the
+        drives' reference temperature)."""
         target = np.array([x_mm, y_mm], float)
         step = target - self._reading
         self._dir = np.where(step > 0, 1.0, np.where(step < 0, -1.0, self._dir))
         self._reading = target
         t, g = self.truth, self.geometry
         lost = 0.5 * np.array(t.reversal_um) / 1000 * self._dir
+        T = None if temp_c is None else np.array([temp_c])
+        lost = lost + [float(d.error_mm(np.array([u]), self._dir[k:k + 1], T)[0])
+                       for k, (d, u) in enumerate(((t.drive_x, x_mm), (t.drive_y, y_mm)))]
         noise = self.rng.normal(0, t.repeatability_um / 1000, 2)
         q = self.data.qpos
         for axis, u, travel, err, extra in (("x", x_mm, g.travel_mm[0], t.x, lost[0] + noise[0]),
