@@ -515,7 +515,7 @@ def paper_belt_recording(data_dir: Path):
 
 
 # --- the command -----------------------------------------------------------------------------------
-TWIN_SCENARIOS = ("belt-stage", "vision-stage", "probe-scanner")  # discover --twin / --config so far
+TWIN_SCENARIOS = ("belt-stage", "vision-stage", "probe-scanner", "stewart")  # discover --twin / --config so far
 
 
 def run_discover(scenario: str, csv_path, out_dir: Path, seed: int = 0, holdout: str | None = None,
@@ -549,7 +549,15 @@ def run_discover(scenario: str, csv_path, out_dir: Path, seed: int = 0, holdout:
         from calibench.recordings import load_stewart_csv
         from calibench.scenarios.discover_stewart import discover_stewart
 
-        out, fig = discover_stewart(load_stewart_csv(paths[0], MAX_ROWS), seed)
+        from calibench.scenarios.config import load_toml, override
+        from calibench.scenarios.stewart import StewartConfig
+
+        cfg = StewartConfig()
+        if config is not None:
+            cfg = override(cfg, load_toml(config).get("stewart", {}), "stewart")
+        out, fig = discover_stewart(load_stewart_csv(paths[0], MAX_ROWS), seed, config=cfg)
+        if config is not None:
+            out["replayed_config"] = str(config)
     elif scenario == "arm-cmm":
         from calibench.scenes.arm_cmm import load_arm
 

@@ -73,10 +73,12 @@ def _frame_model(rec, g, Rf, tf):
     return res, cols, (R, t)
 
 
-def twin_drivers(rec, geometry, Rf, tf, load=None) -> tuple[dict, np.ndarray, np.ndarray]:
+def twin_drivers(rec, geometry, Rf, tf, load=None, truth=None) -> tuple[dict, np.ndarray, np.ndarray]:
     """The candidates' drivers at the registered poses, the residual (6 n,) and the frame's
-    columns (6 n, 6); the legs' axial forces from MuJoCo's statics of the nominal twin."""
-    from calibench.sim.stewart import StewartSim, StewartTruth
+    columns (6 n, 6); the legs' axial forces from MuJoCo's statics of the twin (``geometry``,
+    rigid legs). With ``truth`` (a twin updated by ``discover --twin``) its leg physics is part
+    of the twin's readings: the residual is what is left beyond it."""
+    from calibench.sim.stewart import StewartSim, StewartTruth, leg_effects_mm
 
     g = geometry
     res, frame, (R, t) = _frame_model(rec, g, Rf, tf)
@@ -94,6 +96,8 @@ def twin_drivers(rec, geometry, Rf, tf, load=None) -> tuple[dict, np.ndarray, np
                       np.random.default_rng(0))
     loads = np.zeros(n) if load is None else load
     force = np.array([twin.leg_forces_n(R[k], t[k], loads[k]) for k in range(n)])
+    if truth is not None and truth.has_leg_physics:
+        res = res - leg_effects_mm(truth, L, force, rec.direction, rec.temp_c).ravel()
     drivers = {"L": L, "J_geo": J, "dir": rec.direction, "temp_c": rec.temp_c, "t_s": rec.t_s, "force": force}
     return drivers, res, frame
 
@@ -119,6 +123,7 @@ def discover_stewart(rec, seed: int = 0, floor: float = STEWART_FLOOR, config=No
     """discovery.json's content for a Stewart recording, and what the figure needs."""
     from calibench.scenarios.discover import _describe, verdict
     from calibench.scenarios.stewart import StewartConfig
+    from calibench.sim.stewart import leg_effects_mm
 
     config = config or StewartConfig()
     g = config.geometry
@@ -126,7 +131,14 @@ def discover_stewart(rec, seed: int = 0, floor: float = STEWART_FLOOR, config=No
     if n < 60:
         raise BadInput(f"{n} poses: discover stewart needs at least 60 (42 hinge parameters and the tracker's frame)")
     Rf, tf = register(rec, g)
-    drivers, r, frame = twin_drivers(rec, g, Rf, tf, rec.load_n)
+    truth = config.truth if config.truth.has_leg_physics else None
+    drivers, r, frame = twin_drivers(rec, g, Rf, tf, rec.load_n, truth)
+    if truth is not None:  # register again with the twin's leg physics taken out of the readings
+        import dataclasses
+
+        own = leg_effects_mm(truth, drivers["L"], drivers["force"], rec.direction, rec.temp_c)
+        Rf, tf = register(dataclasses.replace(rec, readings_mm=rec.readings_mm - own), g)
+        drivers, r, frame = twin_drivers(rec, g, Rf, tf, rec.load_n, truth)
     sig = dsc.Signal("reading - twin", AXIS, r, frame, np.repeat(np.arange(n), 6))
     fold = np.minimum(np.arange(n) * 5 // n, 4)
     station = np.repeat(stations(rec), 6) * 6 + np.tile(np.arange(6), n)
@@ -161,6 +173,7 @@ def discover_stewart(rec, seed: int = 0, floor: float = STEWART_FLOOR, config=No
            "scene_model": "the nominal platform (drawing hinges, rigid legs) at the tracker's poses, the tracker's "
                           "frame registered",
            "tracker_frame": {"R": Rf.tolist(), "t_mm": tf.tolist()},
+           "temp_mean_c": None if rec.temp_c is None else float(np.mean(rec.temp_c)),
            "not_accepted": found.rejected, "confounded": confounded,
            "verdict": verdict(found.cv_final, after_noise, bool(names))}
     return out, {"signals": [sig], "fitted": fitted, "abscissa": (np.arange(len(r)) / 6, "pose (legs 1-6 each)")}

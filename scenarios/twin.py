@@ -7,7 +7,9 @@ machine with what was found. Each instrument's effects map onto fields of its ``
 - stages: ``drive_x`` / ``drive_y`` (``sim.stage_drive.DriveErrors``): lost motion (constant or
   growing along the travel), the periodic error, thermal expansion about the recording's mean
   temperature;
-- the probe scanner: see ``discover_scanner.twin_table``.
+- the probe scanner: see ``discover_scanner.twin_table``;
+- the Stewart platform: the calibrated hinges and initial lengths (``[stewart.geometry]``) and
+  each leg's compliance, thermal growth, lost motion and screw pitch (``StewartTruth.leg_*``).
 
 Effects the simulation has no parameter for (a drift with time, a nonsmooth table) are listed in
 the file's header as not carried.
@@ -66,6 +68,48 @@ def _stage_drives(out: dict, truth) -> tuple[dict, list[str]]:
     return drives, left
 
 
+def _stewart(out: dict, config: Path | None) -> tuple[dict, list[str]]:
+    """The platform's twin: the hinges and lengths with the found geometry, the legs' physics."""
+    import numpy as np
+
+    from calibench.scenarios.config import load_toml, override
+    from calibench.scenarios.stewart import StewartConfig
+
+    cfg = StewartConfig()
+    if config is not None:
+        cfg = override(cfg, load_toml(config).get("stewart", {}), "stewart")
+    g, t = cfg.geometry, cfg.truth
+    r, B, l0 = (np.array(a, float) for a in (g.platform_hinges_mm, g.base_hinges_mm, g.initial_lengths_mm))
+    leg = {k: list(getattr(t, k)) for k in ("leg_compliance_um_per_n", "leg_thermal_ppm_per_k", "leg_reversal_um",
+                                            "leg_pitch_um", "leg_pitch_lead_mm", "leg_pitch_phase_rad")}
+    ref, left = t.reference_temp_c, []
+    for e in out["effects"]:
+        p = e["params"]
+        i = p.get("leg", 0) - 1
+        if e["name"] == "geometry":
+            for k in range(6):
+                r[k] += [p[f"r{c}{k + 1}"] for c in "xyz"]
+                B[k] += [p[f"B{c}{k + 1}"] for c in "xyz"]
+                l0[k] += p[f"l{k + 1}"]
+        elif e["name"] == "leg_compliance":
+            for k in range(6) if i < 0 else (i,):
+                leg["leg_compliance_um_per_n"][k] += p["um_per_n"]
+        elif e["name"] == "thermal_expansion" and out.get("temp_mean_c") is not None:
+            leg["leg_thermal_ppm_per_k"][i] += p["ppm_per_k"]
+            ref = out["temp_mean_c"]
+        elif e["name"] == "backlash":
+            leg["leg_reversal_um"][i] += p["reversal_mm"] * 1000
+        elif e["name"] == "periodic":
+            leg["leg_pitch_um"][i] = p["amplitude_mm"] * 1000
+            leg["leg_pitch_lead_mm"][i] = p["period_mm"]
+            leg["leg_pitch_phase_rad"][i] = p["phase_rad"]
+        else:
+            left.append(e["name"])
+    truth = {**leg, "reference_temp_c": ref}
+    geometry = {"platform_hinges_mm": r.tolist(), "base_hinges_mm": B.tolist(), "initial_lengths_mm": l0.tolist()}
+    return {"stewart": {"geometry": geometry, "truth": truth}}, left
+
+
 def twin_tables(scenario: str, out: dict, config: Path | None) -> tuple[dict, list[str]]:
     """The twin file's tables for ``scenario`` from discovery.json's content ``out``, and the
     accepted effects the simulation cannot carry."""
@@ -78,4 +122,6 @@ def twin_tables(scenario: str, out: dict, config: Path | None) -> tuple[dict, li
 
         left = [e["name"] for e in out["effects"] if e["name"] not in ("runout", "encoder_eccentricity", "scale")]
         return twin_table(out), left
+    if scenario == "stewart":
+        return _stewart(out, config)
     raise BadInput(f"discover --twin: no twin parameters for {scenario}")

@@ -23,6 +23,47 @@ class StewartTruth:
     station_offset_mm: float = 0.5  # 1-sigma: where the tracker's centre sits in a hole
     length_noise_um: tuple = (0.3, 0.3)  # interferometer: a + b * L(m), 1-sigma
     reading_noise_um: float = 1.0  # the legs' length readings
+    # The legs' physics beyond rigid kinematics (all zero: the geometry-only twin), per leg:
+    # compliance (the leg gives c um per N of the axial force MuJoCo's statics put on it, so its
+    # screw reads that much more), thermal growth about reference_temp_c, lost motion on
+    # reversal, and the screw's periodic pitch error A sin(2 pi L / lead + phase).
+    leg_compliance_um_per_n: tuple = (0.0,) * 6
+    payload_n: float = 0.0  # hanging at the platform's centre
+    leg_thermal_ppm_per_k: tuple = (0.0,) * 6
+    reference_temp_c: float = 20.0
+    leg_reversal_um: tuple = (0.0,) * 6
+    leg_pitch_um: tuple = (0.0,) * 6
+    leg_pitch_lead_mm: tuple = (0.0,) * 6
+    leg_pitch_phase_rad: tuple = (0.0,) * 6
+
+    @property
+    def has_leg_physics(self) -> bool:
+        """Whether any leg effect is switched on."""
+        return any(np.any(np.asarray(v) != 0) for v in (self.leg_compliance_um_per_n, self.leg_thermal_ppm_per_k,
+                                                        self.leg_reversal_um, self.leg_pitch_um))
+
+
+def leg_effects_mm(truth: StewartTruth, L_mm: np.ndarray, force_n: np.ndarray | None,
+                   direction: np.ndarray | None, temp_c: np.ndarray | None) -> np.ndarray:
+    """What the legs' readings carry beyond ``L - l0``, (n, 6) mm, at true lengths ``L_mm``
+    (n, 6), axial forces ``force_n`` (n, 6) N (positive: compression), the drives' last motion
+    ``direction`` (n, 6) of +1 / -1 and the room's ``temp_c`` (n,); a None driver leaves its
+    effect out."""
+    L = np.atleast_2d(np.asarray(L_mm, float))
+    out = np.zeros_like(L)
+    if force_n is not None:
+        out += np.asarray(truth.leg_compliance_um_per_n) * 1e-3 * np.atleast_2d(force_n)
+    if temp_c is not None:  # the leg grows: the screw reads less for the same hinge distance
+        dT = np.asarray(temp_c, float).reshape(-1, 1) - truth.reference_temp_c
+        out -= np.asarray(truth.leg_thermal_ppm_per_k) * 1e-6 * dT * L
+    if direction is not None:
+        out += np.asarray(truth.leg_reversal_um) / 2000 * np.atleast_2d(direction)
+    lead = np.asarray(truth.leg_pitch_lead_mm, float)
+    on = (np.asarray(truth.leg_pitch_um) != 0) & (lead > 0)
+    if on.any():
+        ph = 2 * np.pi * L[:, on] / lead[on] + np.asarray(truth.leg_pitch_phase_rad)[on]
+        out[:, on] += np.asarray(truth.leg_pitch_um)[on] / 1000 * np.sin(ph)
+    return out
 
 
 class StewartSim:
@@ -47,10 +88,13 @@ class StewartSim:
         self._plat = [m.site(f"plat{i}").id for i in range(6)]
         self._refl = [m.site(f"reflector{k}").id for k in range(3)]
         self.max_closure_um = 0.0
+        self._pose = (np.eye(3), np.array([0.0, 0.0, g.home_height_mm]))
+        self._last_L, self._dir = None, np.ones(6)
 
     def set_pose(self, R: np.ndarray, t_mm: np.ndarray) -> None:
         """Put the platform at pose (R, t) and every leg where it must be; record loop closure."""
         q = self.data.qpos
+        self._pose = (np.array(R, float), np.array(t_mm, float))
         q[self._free:self._free + 3] = np.asarray(t_mm) / 1000
         quat = np.empty(4)
         mujoco.mju_mat2Quat(quat, np.asarray(R, float).ravel())
@@ -72,9 +116,20 @@ class StewartSim:
         """True hinge-to-hinge lengths from MuJoCo's state (the slides)."""
         return np.array([self.data.qpos[s] for s in self._slide]) * 1000
 
-    def readings_mm(self) -> np.ndarray:
-        """What the legs' length sensors read: length - initial length, noisy."""
-        return self.leg_lengths_mm() - self.l0 + self.rng.normal(0, self.truth.reading_noise_um / 1000, 6)
+    def readings_mm(self, temp_c: float | None = None) -> np.ndarray:
+        """What the legs' length sensors read: length - initial length, noisy, with the truth's
+        leg physics (compliance under MuJoCo's statics at the current pose and payload, lost
+        motion by each drive's last direction, thermal growth at the room's ``temp_c``)."""
+        L = self.leg_lengths_mm()
+        out = L - self.l0 + self.rng.normal(0, self.truth.reading_noise_um / 1000, 6)
+        if self.truth.has_leg_physics:
+            step = L - (self._last_L if self._last_L is not None else L - 1.0)  # homed from below
+            self._dir = np.where(step > 0, 1.0, np.where(step < 0, -1.0, self._dir))
+            self._last_L = L
+            force = (self.leg_forces_n(*self._pose, self.truth.payload_n)
+                     if np.any(np.asarray(self.truth.leg_compliance_um_per_n) != 0) else None)
+            out += leg_effects_mm(self.truth, L, force, self._dir, None if temp_c is None else [temp_c])[0]
+        return out
 
     def reflectors_mm(self) -> np.ndarray:
         """The reflectors' positions in the world, (k, 3) mm, at the current pose."""

@@ -122,5 +122,5 @@ def test_scanner_twin_updated_and_replayed(tmp_path):
 def test_twin_for_other_instruments_is_refused_in_one_line(tmp_path, capsys):
     rec, manifest = stewart_recording("null", 3, n_poses=30)
     path = write_blinded(tmp_path, "p", rec, manifest)
-    assert main(["discover", "stewart", str(path), "--twin", str(tmp_path / "t.toml")]) == 2
+    assert main(["discover", "arm-cmm", str(path), "--twin", str(tmp_path / "t.toml")]) == 2
     assert "written for" in capsys.readouterr().err
