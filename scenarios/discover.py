@@ -280,17 +280,18 @@ ARM_EXPERIMENTS = {
 }
 
 
-def arm_drivers(arm, q_rad: np.ndarray, temp_c=None, t_s=None) -> tuple[dict, np.ndarray]:
+def arm_drivers(arm, q_rad: np.ndarray, temp_c=None, t_s=None, truth=None) -> tuple[dict, np.ndarray]:
     """What the arm's candidates need, and the twin's tool points: MuJoCo's nominal (rigid) arm
     at the readings (n, 3) mm, its gravity torques (MuJoCo's inverse dynamics) when the arm has
-    masses, the chain's Jacobians."""
+    masses, the chain's Jacobians. ``truth``: a twin updated by ``discover --twin`` (its
+    geometry, and its joints' stiffness: the links then settle under gravity in MuJoCo)."""
     from calibench.estimators.arm_kinematics import jacobian, pose, theta_index
     from calibench.scenarios.arms import chain_of
     from calibench.sim.arm_cmm import ArmSim, ArmTruth
 
     N = arm.n_joints
-    twin = ArmSim(arm, ArmTruth(delta=(0.0,) * (5 * N + 3)))
-    sim = twin.point_mm(q_rad)
+    twin = ArmSim(arm, truth if truth is not None else ArmTruth(delta=(0.0,) * (5 * N + 3)))
+    sim = twin.probe_mm(q_rad)
     chain = chain_of(arm)
     P = pose(chain, q_rad)
     J = jacobian(chain, P=P)
@@ -308,7 +309,7 @@ def arm_drivers(arm, q_rad: np.ndarray, temp_c=None, t_s=None) -> tuple[dict, np
 ARM_FLOOR = 0.03
 
 
-def discover_arm(rec, seed: int = 0, floor: float = ARM_FLOOR, arm="arm-cmm") -> tuple[dict, dict]:
+def discover_arm(rec, seed: int = 0, floor: float = ARM_FLOOR, arm="arm-cmm", truth=None) -> tuple[dict, dict]:
     """discovery.json's content for an arm recording (in any instrument frame), and the figure's.
 
     The scene model: MuJoCo's nominal arm replays the encoder readings; the base-to-instrument
@@ -321,10 +322,10 @@ def discover_arm(rec, seed: int = 0, floor: float = ARM_FLOOR, arm="arm-cmm") ->
 
     # thousands of small least-squares solves: one BLAS thread each is faster than several
     with threadpool_limits(1):
-        return _discover_arm(rec, seed, floor, arm)
+        return _discover_arm(rec, seed, floor, arm, truth)
 
 
-def _discover_arm(rec, seed: int, floor: float, arm) -> tuple[dict, dict]:
+def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, dict]:
     from calibench.estimators.arm_identification import PointProblem, identifiable_basis
     from calibench.estimators.arm_screening import screen
     from calibench.estimators.effects import (ArmThermalExpansion, EncoderEccentricity, Geometry, JointCompliance,
@@ -366,7 +367,9 @@ def _discover_arm(rec, seed: int, floor: float, arm) -> tuple[dict, dict]:
         return None if any(c is None for c in cols) else np.concatenate([c[k] for c, k in zip(cols, parts)])
 
     temp, t_s = joined("temp_c"), joined("t_s")
-    drivers, sim = arm_drivers(arm, q, temp, t_s)
+    if truth is not None and truth.delta and len(truth.delta) != 5 * N + 3:
+        raise BadInput(f"the twin's truth.delta has {len(truth.delta)} values; the arm {arm.name} needs 5 x {N} + 3")
+    drivers, sim = arm_drivers(arm, q, temp, t_s, truth)
     # each recording's base frame, registered: its points taken into the arm's base frame
     meas_base = np.empty_like(xyz)
     for i in range(len(recs)):
@@ -515,7 +518,7 @@ def paper_belt_recording(data_dir: Path):
 
 
 # --- the command -----------------------------------------------------------------------------------
-TWIN_SCENARIOS = ("belt-stage", "vision-stage", "probe-scanner", "stewart")  # discover --twin / --config so far
+TWIN_SCENARIOS = SUPPORTED  # discover --twin / --config so far
 
 
 def run_discover(scenario: str, csv_path, out_dir: Path, seed: int = 0, holdout: str | None = None,
@@ -563,7 +566,12 @@ def run_discover(scenario: str, csv_path, out_dir: Path, seed: int = 0, holdout:
 
         description = load_arm(arm or "arm-cmm")
         recs = [load_arm_csv(p, description.n_joints, MAX_ROWS) for p in paths]
-        out, fig = discover_arm(recs if len(recs) > 1 else recs[0], seed, arm=description)
+        from calibench.scenarios.twin import arm_truth
+
+        out, fig = discover_arm(recs if len(recs) > 1 else recs[0], seed, arm=description,
+                                truth=arm_truth(description, config))
+        if config is not None:
+            out["replayed_config"] = str(config)
         if len(paths) > 1:
             out["recordings"] = [str(p) for p in paths]
     else:
@@ -576,7 +584,7 @@ def run_discover(scenario: str, csv_path, out_dir: Path, seed: int = 0, holdout:
     if twin is not None:
         from calibench.scenarios.twin import twin_tables
 
-        tables, left = twin_tables(scenario, out, config)
+        tables, left = twin_tables(scenario, out, config, arm)
         note = f"the twin of {paths[0]} updated by calibench discover"
         if left:
             note += "; not carried by the simulation: " + ", ".join(left)

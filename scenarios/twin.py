@@ -8,6 +8,8 @@ machine with what was found. Each instrument's effects map onto fields of its ``
   growing along the travel), the periodic error, thermal expansion about the recording's mean
   temperature;
 - the probe scanner: see ``discover_scanner.twin_table``;
+- the arm: the chain's errors (``ArmTruth.delta``) and each joint's stiffness from the
+  compliance found under gravity (``stiffness_nm_per_rad``, inf: rigid);
 - the Stewart platform: the calibrated hinges and initial lengths (``[stewart.geometry]``) and
   each leg's compliance, thermal growth, lost motion and screw pitch (``StewartTruth.leg_*``).
 
@@ -110,7 +112,50 @@ def _stewart(out: dict, config: Path | None) -> tuple[dict, list[str]]:
     return {"stewart": {"geometry": geometry, "truth": truth}}, left
 
 
-def twin_tables(scenario: str, out: dict, config: Path | None) -> tuple[dict, list[str]]:
+def arm_truth(description, path: Path | None):
+    """The arm twin's truth from a ``--config`` file's ``[arm-cmm.truth]`` (None: the nominal,
+    rigid arm)."""
+    if path is None:
+        return None
+    from calibench.scenarios.config import load_toml, override
+    from calibench.sim.arm_cmm import ArmTruth
+
+    t = override(ArmTruth(delta=(0.0,) * (5 * description.n_joints + 3)),
+                 load_toml(path).get("arm-cmm", {}).get("truth", {}), "arm-cmm.truth")
+    return t
+
+
+def _arm(out: dict, config: Path | None, arm) -> tuple[dict, list[str]]:
+    """The arm's twin: the chain's errors (``delta``, the identifiable ones found, the dropped
+    ones zero) and each joint's stiffness from its compliance under gravity."""
+    import math
+
+    from calibench.estimators.arm_kinematics import param_names
+    from calibench.scenes.arm_cmm import load_arm
+
+    description = load_arm(arm or "arm-cmm")
+    N = description.n_joints
+    base = arm_truth(description, config)
+    delta = list(base.delta) if base is not None and base.delta else [0.0] * (5 * N + 3)
+    stiffness = (list(base.stiffness_nm_per_rad) if base is not None and base.stiffness_nm_per_rad
+                 else [math.inf] * N)
+    names, left = param_names(N), []
+    for e in out["effects"]:
+        p = e["params"]
+        if e["name"] == "geometry":
+            for k, v in p.items():
+                if k in names:
+                    delta[names.index(k)] += v
+        elif e["name"] == "joint_compliance" and p["urad_per_nm"] > 0:
+            j = p["joint"] - 1
+            c = p["urad_per_nm"] * 1e-6 + (1 / stiffness[j] if math.isfinite(stiffness[j]) else 0.0)
+            stiffness[j] = 1 / c
+        else:
+            left.append(e["name"] + (f" (joint {p['joint']})" if "joint" in p else ""))
+    return {"arm-cmm": {"truth": {"delta": delta, "stiffness_nm_per_rad": stiffness}}}, left
+
+
+def twin_tables(scenario: str, out: dict, config: Path | None, arm=None) -> tuple[dict, list[str]]:
     """The twin file's tables for ``scenario`` from discovery.json's content ``out``, and the
     accepted effects the simulation cannot carry."""
     if scenario in STAGE_CONFIGS:
@@ -124,4 +169,6 @@ def twin_tables(scenario: str, out: dict, config: Path | None) -> tuple[dict, li
         return twin_table(out), left
     if scenario == "stewart":
         return _stewart(out, config)
+    if scenario == "arm-cmm":
+        return _arm(out, config, arm)
     raise BadInput(f"discover --twin: no twin parameters for {scenario}")

@@ -119,8 +119,9 @@ def test_scanner_twin_updated_and_replayed(tmp_path):
     assert main(["run", "probe-scanner", "--config", str(twin), "--no-rrd", "--out", str(tmp_path / "r")]) in (0, 1)
 
 
-def test_twin_for_other_instruments_is_refused_in_one_line(tmp_path, capsys):
+def test_a_twin_that_cannot_be_written_is_one_line(tmp_path, capsys):
     rec, manifest = stewart_recording("null", 3, n_poses=30)
     path = write_blinded(tmp_path, "p", rec, manifest)
-    assert main(["discover", "arm-cmm", str(path), "--twin", str(tmp_path / "t.toml")]) == 2
-    assert "written for" in capsys.readouterr().err
+    assert main(["discover", "stewart", str(path), "--twin", str(tmp_path / "no" / "such" / "t.toml")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "cannot write the twin" in err[0]

@@ -91,3 +91,27 @@ def test_stewart_twin_carries_leg_compliance(tmp_path):
                  "--out", str(tmp_path / "c")]) == 0
     rigid = json.loads((tmp_path / "c" / "discovery.json").read_text())
     assert rigid["fit"]["cv_rms_nominal"] > 1.5 * replayed["fit"]["cv_rms_nominal"]
+
+
+def test_arm_twin_carries_joint_compliance(tmp_path):
+    """The arm's joints giving way under gravity (MuJoCo's physics): found, written as the
+    twin's chain errors and joint stiffness, replayed (the links settling in MuJoCo) to the
+    held-out level found; the recording's joints and the twin's stiffness agree."""
+    from calibench.sim.concealed import arm_recording
+
+    rec, manifest = arm_recording("compliance", 1017)
+    path = write_blinded(tmp_path, "rec", rec, manifest)
+    twin = tmp_path / "twin.toml"
+    assert main(["discover", "arm-cmm", str(path), "--twin", str(twin), "--out", str(tmp_path / "a")]) == 0
+    assert main(["discover", "arm-cmm", str(path), "--config", str(twin), "--out", str(tmp_path / "b")]) == 0
+    found = json.loads((tmp_path / "a" / "discovery.json").read_text())
+    replayed = json.loads((tmp_path / "b" / "discovery.json").read_text())
+    import tomllib
+
+    k = tomllib.loads(twin.read_text())["arm-cmm"]["truth"]["stiffness_nm_per_rad"]
+    soft = {t["params"]["joint"] for t in manifest["effects"]}
+    assert {j + 1 for j, v in enumerate(k) if v != float("inf")} == soft
+    for t in manifest["effects"]:  # the stiffness written is 1 / the compliance concealed, within 25 %
+        assert abs(1e6 / k[t["params"]["joint"] - 1] / t["params"]["urad_per_nm"] - 1) < 0.25
+    assert replayed["effects"] == []
+    assert abs(replayed["fit"]["cv_rms_nominal"] / found["fit"]["cv_rms_final"] - 1) < 0.2
