@@ -535,52 +535,52 @@ def run_discover(scenario: str, csv_path, out_dir: Path, seed: int = 0, holdout:
 
     if scenario not in SUPPORTED:
         raise BadInput(f"discover supports {', '.join(SUPPORTED)}, not {scenario!r}")
-    if scenario == "probe-scanner":
-        from calibench.recordings import load_scanner_csv
-        from calibench.scenarios.discover_scanner import discover_scanner
 
-        from calibench.scenarios.config import load_toml, override
-        from calibench.scenarios.probe_scanner import ProbeScannerConfig
+    def once(config):
+        """discovery.json's content and the figure's data, the recording replayed by the twin of
+        ``config`` (None: the scenario's nominal twin)."""
+        if scenario == "probe-scanner":
+            from calibench.recordings import load_scanner_csv
+            from calibench.scenarios.config import load_toml, override
+            from calibench.scenarios.discover_scanner import discover_scanner
+            from calibench.scenarios.probe_scanner import ProbeScannerConfig
 
-        cfg = ProbeScannerConfig()
-        if config is not None:
-            cfg = override(cfg, load_toml(config).get("probe-scanner", {}), "probe-scanner")
-        out, fig = discover_scanner(load_scanner_csv(paths[0], MAX_ROWS), seed, config=cfg)
-        if config is not None:
-            out["replayed_config"] = str(config)
-    elif scenario == "stewart":
-        from calibench.recordings import load_stewart_csv
-        from calibench.scenarios.discover_stewart import discover_stewart
+            cfg = ProbeScannerConfig()
+            if config is not None:
+                cfg = override(cfg, load_toml(config).get("probe-scanner", {}), "probe-scanner")
+            return discover_scanner(load_scanner_csv(paths[0], MAX_ROWS), seed, config=cfg)
+        if scenario == "stewart":
+            from calibench.recordings import load_stewart_csv
+            from calibench.scenarios.config import load_toml, override
+            from calibench.scenarios.discover_stewart import discover_stewart
+            from calibench.scenarios.stewart import StewartConfig
 
-        from calibench.scenarios.config import load_toml, override
-        from calibench.scenarios.stewart import StewartConfig
+            cfg = StewartConfig()
+            if config is not None:
+                cfg = override(cfg, load_toml(config).get("stewart", {}), "stewart")
+            return discover_stewart(load_stewart_csv(paths[0], MAX_ROWS), seed, config=cfg)
+        if scenario == "arm-cmm":
+            from calibench.scenarios.twin import arm_truth
+            from calibench.scenes.arm_cmm import load_arm
 
-        cfg = StewartConfig()
-        if config is not None:
-            cfg = override(cfg, load_toml(config).get("stewart", {}), "stewart")
-        out, fig = discover_stewart(load_stewart_csv(paths[0], MAX_ROWS), seed, config=cfg)
-        if config is not None:
-            out["replayed_config"] = str(config)
-    elif scenario == "arm-cmm":
-        from calibench.scenes.arm_cmm import load_arm
-
-        description = load_arm(arm or "arm-cmm")
-        recs = [load_arm_csv(p, description.n_joints, MAX_ROWS) for p in paths]
-        from calibench.scenarios.twin import arm_truth
-
-        out, fig = discover_arm(recs if len(recs) > 1 else recs[0], seed, arm=description,
-                                truth=arm_truth(description, config))
-        if config is not None:
-            out["replayed_config"] = str(config)
-        if len(paths) > 1:
-            out["recordings"] = [str(p) for p in paths]
-    else:
+            description = load_arm(arm or "arm-cmm")
+            recs = [load_arm_csv(p, description.n_joints, MAX_ROWS) for p in paths]
+            out, fig = discover_arm(recs if len(recs) > 1 else recs[0], seed, arm=description,
+                                    truth=arm_truth(description, config))
+            if len(paths) > 1:
+                out["recordings"] = [str(p) for p in paths]
+            return out, fig
         from calibench.scenarios.twin import stage_truth
 
-        out, fig = discover_stage(scenario, load_stage_csv(paths[0], MAX_ROWS), seed, holdout,
-                                  truth=stage_truth(scenario, config))
-        if config is not None:
-            out["replayed_config"] = str(config)
+        return discover_stage(scenario, load_stage_csv(paths[0], MAX_ROWS), seed, holdout,
+                              truth=stage_truth(scenario, config))
+
+    out, fig = once(config)
+    before = None
+    if config is not None:  # the nominal twin's residual beside the updated one's, both replayed
+        out["replayed_config"] = str(config)
+        nominal, before = once(None)
+        out["nominal_twin_fit"] = nominal["fit"]
     if twin is not None:
         from calibench.scenarios.twin import twin_tables
 
@@ -592,7 +592,7 @@ def run_discover(scenario: str, csv_path, out_dir: Path, seed: int = 0, holdout:
         out["twin"] = {"path": str(twin), "not_carried": left}
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "discovery.json").write_text(json.dumps(out, indent=2, default=_json_default) + "\n")
-    _figure(out_dir / "discovery.png", out, fig)
+    _figure(out_dir / "discovery.png", out, fig, before)
     return out
 
 
@@ -628,8 +628,10 @@ def _json_default(o):
     raise TypeError(type(o))
 
 
-def _figure(path: Path, out: dict, fig: dict) -> None:
-    """Residuals before (the scene model alone) and after (with the accepted effects)."""
+def _figure(path: Path, out: dict, fig: dict, before_fig: dict | None = None) -> None:
+    """Residuals before (the scene model alone) and after (with the accepted effects); with
+    ``before_fig`` (a replay by an updated twin), the nominal twin's residual and the updated
+    twin's, both simulated (the scene model alone)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -637,11 +639,18 @@ def _figure(path: Path, out: dict, fig: dict) -> None:
 
     sigs = fig["signals"]
     f, axes = plt.subplots(len(sigs), 2, figsize=(13, 3.6 * len(sigs)), squeeze=False, constrained_layout=True)
-    for row, s in zip(axes, sigs):
-        before = s.r - s.base @ dsc._lstsq(s.base, s.r) if s.base.shape[1] else s.r
+    def alone(sig):
+        return sig.r - sig.base @ dsc._lstsq(sig.base, sig.r) if sig.base.shape[1] else sig.r
+
+    titles = ("scene model only", "with the accepted effects")
+    for k, (row, s) in enumerate(zip(axes, sigs)):
+        before = alone(s)
         after = fig["fitted"][s.axis]
+        if before_fig is not None:
+            before, after = alone(before_fig["signals"][k]), before
+            titles = ("the nominal twin, replayed", "the updated twin, replayed")
         if "x" in fig and s.u is not None:
-            for ax, v, title in ((row[0], before, "scene model only"), (row[1], after, "with the accepted effects")):
+            for ax, v, title in ((row[0], before, titles[0]), (row[1], after, titles[1])):
                 lim = np.max(np.abs(before)) * 1000
                 sc = ax.scatter(fig["x"], fig["y"], c=v * 1000, s=6, cmap="coolwarm", vmin=-lim, vmax=lim)
                 ax.set(title=f"{s.name}: {title}, rms {np.sqrt(np.mean(v**2)) * 1000:.2f} um",
@@ -649,10 +658,10 @@ def _figure(path: Path, out: dict, fig: dict) -> None:
                 f.colorbar(sc, ax=ax, label="um")
         else:
             u, label = fig.get("abscissa") or (np.arange(len(before)), "row (posture x 3 + coordinate)")
-            for ax, v, title in ((row[0], before, "scene model only"), (row[1], after, "with the accepted effects")):
+            for ax, v, title in ((row[0], before, titles[0]), (row[1], after, titles[1])):
                 ax.plot(u, v * 1000, ".", ms=2)
                 ax.set(title=f"{s.name}: {title}, rms {np.sqrt(np.mean(v**2)) * 1000:.2f} um", xlabel=label,
                        ylabel="um")
-    f.suptitle(f"{out['scenario']}: " + (", ".join(f"{e['name']} ({e['axis']})" for e in out["effects"]) or "nothing missing"))
+    f.suptitle(f"{out['scenario']}: " + ("replayed with the updated twin; " if before_fig is not None else "") + (", ".join(f"{e['name']} ({e['axis']})" for e in out["effects"]) or "nothing missing"))
     f.savefig(path, dpi=80)
     plt.close(f)
