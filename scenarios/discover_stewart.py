@@ -82,16 +82,8 @@ def twin_drivers(rec, geometry, Rf, tf, load=None, truth=None) -> tuple[dict, np
 
     g = geometry
     res, frame, (R, t) = _frame_model(rec, g, Rf, tf)
-    P = _hinge_points(R, t, g.platform_hinges_mm)
-    v = P - g.base_hinges_mm
-    L = np.linalg.norm(v, axis=2)
-    u = v / L[..., None]
+    J, L, _ = _geometry_columns(rec, g, R, t)
     n = len(rec)
-    J = np.zeros((n, 6, 42))
-    for i in range(6):  # reading_i = |R r_i + t - B_i| - l_i
-        J[:, i, 7 * i:7 * i + 3] = np.einsum("nj,njk->nk", u[:, i], R)
-        J[:, i, 7 * i + 3:7 * i + 6] = -u[:, i]
-        J[:, i, 7 * i + 6] = -1.0
     twin = StewartSim(g, StewartTruth(hinge_error_mm=0.0, length_error_mm=0.0, station_offset_mm=0.0),
                       np.random.default_rng(0))
     loads = np.zeros(n) if load is None else load
@@ -117,6 +109,111 @@ def stations(rec, tol_mm: float = 0.02, tol_rad: float = 2e-5) -> np.ndarray:
     for i, j in sorted(tree.query_pairs(1.0)):
         ids[j] = min(ids[j], ids[i])
     return np.unique(ids, return_inverse=True)[1].ravel()
+
+
+def geometry_residual(rec, geometry, Rf, tf, iterations: int = 5) -> np.ndarray:
+    """The legs' residual readings (n_poses, 6) mm after the hinges, initial lengths and tracker
+    frame are calibrated by Gauss-Newton. One linear step leaves about a micrometre of the
+    hinges' 0.4 mm (second order in the frame's turn), which would look like structure."""
+    import dataclasses
+
+    from calibench.estimators.rotations import rotvec_to_matrix
+
+    g = geometry
+    for _ in range(iterations):
+        res, frame, (R, t) = _frame_model(rec, g, Rf, tf)
+        J, _, _ = _geometry_columns(rec, g, R, t)
+        step = np.linalg.lstsq(np.c_[frame, J.reshape(-1, 42)], res, rcond=None)[0]
+        turn = rotvec_to_matrix(step[:3])
+        Rf, tf = turn @ Rf, turn @ tf + step[3:6]
+        p = step[6:].reshape(6, 7)
+        g = dataclasses.replace(g, platform_hinges_mm=np.asarray(g.platform_hinges_mm) + p[:, :3],
+                                base_hinges_mm=np.asarray(g.base_hinges_mm) + p[:, 3:6],
+                                initial_lengths_mm=np.asarray(g.initial_lengths_mm) + p[:, 6])
+        if np.max(np.abs(step)) < 1e-9:
+            break
+    return _frame_model(rec, g, Rf, tf)[0].reshape(-1, 6)
+
+
+def _geometry_columns(rec, g, R, t):
+    """d(reading model) / d(hinges, initial lengths) (n, 6, 42) at the base-frame poses (R, t),
+    and the legs' lengths (n, 6) and directions (n, 6, 3)."""
+    P = _hinge_points(R, t, g.platform_hinges_mm)
+    v = P - g.base_hinges_mm
+    L = np.linalg.norm(v, axis=2)
+    u = v / L[..., None]
+    J = np.zeros((len(R), 6, 42))
+    for i in range(6):  # reading_i = |R r_i + t - B_i| - l_i
+        J[:, i, 7 * i:7 * i + 3] = np.einsum("nj,njk->nk", u[:, i], R)
+        J[:, i, 7 * i + 3:7 * i + 6] = -u[:, i]
+        J[:, i, 7 * i + 6] = -1.0
+    return J, L, u
+
+
+def _along(r: np.ndarray, v: np.ndarray) -> float:
+    """How much r is a function of v at any scale: the correlation of r's neighbours in v's
+    order (a screw's pitch error of a few mm shows here where binned means would average it out)."""
+    a = r[np.argsort(v, kind="stable")]
+    a = a - a.mean()
+    den = np.sqrt(np.sum(a[:-1] ** 2) * np.sum(a[1:] ** 2))
+    return float(np.sum(a[:-1] * a[1:]) / den) if den > 0 else 0.0
+
+
+def _p_along(r, v, rng, n_perm):
+    """_along's score and its p-value, the poses' residuals shifted cyclically in time as the null."""
+    score = _along(r, v)
+    hits = sum(_along(np.roll(r, rng.integers(1, len(r))), v) >= score for _ in range(n_perm))
+    return score, (hits + 1) / (n_perm + 1)
+
+
+def locate(res: np.ndarray, drivers: dict, seed: int, n_perm: int = 499, alpha: float = 0.002) -> list[dict]:
+    """Which leg disagrees with the twin, and where: each leg's residual after the hinge geometry
+    (res (n_poses, 6) mm) against its own length, direction of approach and axial force, and
+    against time and temperature (the poses' order permuted as the null; for the others, the
+    residuals shifted cyclically in time, which keeps a drift's structure). Thirty tests at once, so a finding needs no permuted score
+    above its own in ``n_perm`` (p <= 0.002: about 6 % for a null recording's thirty)."""
+    rng = np.random.default_rng(seed)
+    n = len(res)
+    zero = np.zeros(n)
+    out = []
+    for i in range(6):
+        r = res[:, i]
+        tests = [("length", drivers["L"][:, i]), ("direction", None if drivers["dir"] is None else drivers["dir"][:, i]),
+                 ("axial_force", drivers["force"][:, i]), ("temp_c", drivers["temp_c"]), ("t_s", drivers["t_s"])]
+        for name, v in tests:
+            if v is None or np.ptp(v) == 0:
+                continue
+            v = np.asarray(v, float)
+            if name == "length":
+                score, p = _p_along(r, v, rng, n_perm)
+            elif name in ("temp_c", "t_s"):  # the poses come in random order: time itself is what is tested
+                score = dsc.binned_r2(r, v)
+                p = (sum(dsc.binned_r2(r, rng.permutation(v)) >= score for _ in range(n_perm)) + 1) / (n_perm + 1)
+            else:
+                score, p = dsc.permutation_p(r, v, zero, False, rng, n_perm)
+            if p <= alpha and score >= 0.05:
+                out.append({"signal": f"leg {i + 1} reading - twin (after geometry)", "driver": name, "leg": i + 1,
+                            "score": score, "p_value": p, "where": _where(r, v, name, i + 1)})
+    return sorted(out, key=lambda d: -d["score"])
+
+
+def _where(r, v, name, leg) -> str:
+    if name == "direction":
+        return (f"leg {leg}: extending minus retracting {1000 * (r[v > 0].mean() - r[v < 0].mean()):+.1f} um "
+                f"at the same poses")
+    if name in ("temp_c", "t_s"):
+        slope = np.polyfit(v, r, 1)[0]
+        unit = "K" if name == "temp_c" else "h"
+        return f"leg {leg} follows {name}: {1000 * slope * (1 if name == 'temp_c' else 3600):+.2f} um per {unit}"
+    if name == "axial_force":
+        return (f"leg {leg} reads more the more it carries: {1000 * np.polyfit(v, r, 1)[0]:+.4f} um per N of axial "
+                "load, beyond what the hinge geometry absorbed")
+    edges = np.quantile(v, np.linspace(0, 1, 9))
+    idx = np.clip(np.searchsorted(edges, v, side="right") - 1, 0, 7)
+    amp = np.array([np.ptp(r[idx == k]) if np.sum(idx == k) > 1 else 0.0 for k in range(8)])
+    k = int(np.argmax(amp))
+    return (f"leg {leg} along its length {v.min():.0f}-{v.max():.0f} mm, widest at {edges[k]:.0f}-"
+            f"{edges[k + 1]:.0f} mm ({1000 * amp[k]:.1f} um peak to peak)")
 
 
 def discover_stewart(rec, seed: int = 0, floor: float = STEWART_FLOOR, config=None) -> tuple[dict, dict]:
@@ -162,7 +259,8 @@ def discover_stewart(rec, seed: int = 0, floor: float = STEWART_FLOOR, config=No
                                "why": f"{100 * frac:.0f} % of {c.key}'s effect on the readings is what the model "
                                       "already has", "experiment": EXPERIMENTS.get(c.name, "vary its driver")})
     names = [e["name"] for e in effects if e["name"] != "geometry"]
-    out = {"scenario": "stewart", "samples": n, "unit": "mm", "located": [], "effects": effects,
+    located = locate(geometry_residual(rec, g, Rf, tf), drivers, seed)
+    out = {"scenario": "stewart", "samples": n, "unit": "mm", "located": located, "effects": effects,
            "fit": {"rms_nominal": float(np.sqrt(np.mean(r ** 2))), "cv_rms_nominal": found.cv_nominal,
                    "cv_rms_final": found.cv_final},
            "noise": {AXIS: {"repeatability_mm": noise[AXIS].sigma_mm, "lag1_correlation": noise[AXIS].lag1,

@@ -74,6 +74,8 @@ def test_stewart_backlash_on_its_leg(tmp_path):
     assert names == [("geometry", None), ("backlash", t["leg"])]
     b = d["effects"][1]
     assert abs(b["params"]["reversal_mm"] - t["reversal_mm"]) < 5 * b["stderr"]["reversal_mm"]
+    # located before it is named: the leg, by its direction of approach, and nothing on the others
+    assert {(x["leg"], x["driver"]) for x in d["located"]} == {(t["leg"], "direction")}
 
 
 def test_stewart_compliance_under_mujocos_statics(tmp_path):
@@ -98,6 +100,22 @@ def test_stewart_thermal_growth_raises_the_repeatability_until_found(tmp_path):
     assert abs(e["params"]["ppm_per_k"] - t["ppm_per_k"]) < 5 * e["stderr"]["ppm_per_k"]
     before, after = d["noise"]["legs"]["repeatability_mm"], d["noise_after_effects"]["legs"]["repeatability_mm"]
     assert before > 1.5 * after and after < 0.003
+    assert {(x["leg"], x["driver"]) for x in d["located"]} == {(t["leg"], "temp_c"), (t["leg"], "t_s")}
+
+
+def test_stewart_pitch_located_along_its_leg(tmp_path):
+    """A screw's pitch error of a few mm shows as structure along that leg's length only."""
+    rec, manifest = stewart_recording("pitch", 2)
+    d = _discover(tmp_path, "stewart", rec, manifest)
+    t = manifest["effects"][0]["params"]
+    assert {(x["leg"], x["driver"]) for x in d["located"]} == {(t["leg"], "length")}
+    assert [(e["name"], e["params"].get("leg")) for e in d["effects"]] == [("geometry", None), ("periodic", t["leg"])]
+
+
+def test_stewart_null_names_and_locates_nothing(tmp_path):
+    rec, manifest = stewart_recording("null", 4)
+    d = _discover(tmp_path, "stewart", rec, manifest)
+    assert [e["name"] for e in d["effects"]] == ["geometry"] and d["located"] == []
 
 
 def test_scanner_twin_updated_and_replayed(tmp_path):
