@@ -321,7 +321,7 @@ def _fit_arm(args, out: Path) -> int:
 
 
 def _montecarlo(args) -> int:
-    from calibench.scenarios.montecarlo import run_study, summary_table
+    from calibench.scenarios.montecarlo import checks_table, run_study, summary_table
 
     _scenario(args.scenario)
     out = args.out or Path("calibench-out") / f"{args.scenario}-montecarlo"
@@ -350,6 +350,8 @@ def _montecarlo(args) -> int:
     print(f"{s['scenario']}: {s['trials']} trials ({s['resumed']} kept from an earlier run, {s['failed']} failed); "
           f"this run took {s['elapsed_s']:.1f} s")
     print(summary_table(s))
+    if checks_table(s):
+        print("\n" + checks_table(s))
     print(f"-> {out / 'summary.json'}")
     return EXIT_OK if s["failed"] == 0 else EXIT_CHECK_FAILED
 

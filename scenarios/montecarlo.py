@@ -71,7 +71,11 @@ def run_trial(scenario: str, study_seed: int, index: int, fidelity: str, arm: st
         if hasattr(module, "trial_parameters"):
             params = module.trial_parameters(config, seed)
         else:
-            params = s.execute(config, seed, fidelity, None, False).parameters
+            rep = s.execute(config, seed, fidelity, None, False)
+            params = rep.parameters
+            for c in rep.checks:  # what the calibration achieved (a compensation, a pose error)
+                row[f"check.{c.name}"] = float(c.value)
+                row[f"check.{c.name}.ok"] = c.ok
         for p in params:
             row[f"{p.name}.truth"] = float(p.truth)
             row[f"{p.name}.estimate"] = float(p.estimate)
@@ -303,8 +307,33 @@ def summarise(scenario: str, rows: list[dict], elapsed_s: float) -> dict:
             **extra,
         })
     return {"scenario": scenario, "trials": len(rows), "failed": len(rows) - len(good),
-            "elapsed_s": round(elapsed_s, 3), "parameters": params,
+            "elapsed_s": round(elapsed_s, 3), "parameters": params, "checks": _check_summary(good),
             "errors": sorted({r["error"] for r in rows if not r["ok"]})[:10]}
+
+
+def _check_summary(good: list[dict]) -> list[dict]:
+    """Each check's median, 95th percentile and worst value over the good trials, and the
+    fraction of trials that failed it."""
+    names = sorted({k[len("check."):] for r in good for k in r if k.startswith("check.") and not k.endswith(".ok")})
+    out = []
+    for n in names:
+        v = np.array([r[f"check.{n}"] for r in good if f"check.{n}" in r], float)
+        ok = np.array([r[f"check.{n}.ok"] for r in good if f"check.{n}.ok" in r], bool)
+        out.append({"name": n, "n": int(len(v)), "median": float(np.median(v)),
+                    "p95": float(np.percentile(v, 95)), "max": float(np.max(v)),
+                    "failed_fraction": float(1 - ok.mean())})
+    return out
+
+
+def checks_table(summary: dict) -> str:
+    """The checks' spread over the trials as markdown (empty when the trials report none)."""
+    if not summary.get("checks"):
+        return ""
+    lines = ["| check | median | 95 % | worst | trials failing it |", "|---|---|---|---|---|"]
+    for c in summary["checks"]:
+        lines.append(f"| {c['name']} | {c['median']:.4g} | {c['p95']:.4g} | {c['max']:.4g} | "
+                     f"{c['failed_fraction']:.1%} |")
+    return "\n".join(lines)
 
 
 def summary_table(summary: dict) -> str:
@@ -342,7 +371,8 @@ def _log(out_dir: Path, summary: dict) -> None:
 
     rec = rrlog.open_recording(out_dir / "study.rrd", f"calibench-{summary['scenario']}-study")
     try:
-        rrlog.log_text(rec, "study/summary", f"# {summary['scenario']}: {summary['trials']} trials\n\n" + summary_table(summary))
+        text = f"# {summary['scenario']}: {summary['trials']} trials\n\n{summary_table(summary)}\n\n{checks_table(summary)}"
+        rrlog.log_text(rec, "study/summary", text)
         rrlog.log_figure(rec, "study/figure", out_dir / "study.png")
     finally:
         rrlog.close(rec)

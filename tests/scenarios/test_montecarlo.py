@@ -63,6 +63,15 @@ def test_summary_statistics():
     assert p["mean_std"] == 1.0 and p["coverage_95"] == pytest.approx(0.75)
 
 
+def test_check_summary():
+    values = [0.01, 0.02, 0.03, 0.2]
+    rows = [{"trial": i, "ok": True, "check.c_mm": v, "check.c_mm.ok": v <= 0.1} for i, v in enumerate(values)]
+    (c,) = summarise("x", rows + [{"trial": 4, "ok": False, "error": "boom"}], 1.0)["checks"]
+    assert c["name"] == "c_mm" and c["n"] == 4 and c["failed_fraction"] == 0.25
+    assert c["median"] == pytest.approx(0.025) and c["max"] == 0.2
+    assert c["p95"] == pytest.approx(np.percentile(values, 95))
+
+
 def test_bad_input(tmp_path, capsys):
     assert main(["montecarlo", "nope", "--trials", "3"]) == 2
     assert main(["montecarlo", "arm-cmm", "--trials", "0", "--out", str(tmp_path)]) == 2
@@ -77,6 +86,7 @@ def test_cli_study_writes_the_contract_files(tmp_path):
     s = json.loads((tmp_path / "summary.json").read_text())
     assert s["scenario"] == "probe-scanner" and s["trials"] == 2
     assert {"name", "unit", "bias", "rmse", "mean_std", "coverage_95"} <= set(s["parameters"][0])
+    assert s["checks"] and all(c["n"] == 2 for c in s["checks"])  # each trial's checks, summarised
     t = pq.read_table(tmp_path / "trials.parquet").to_pydict()
     assert {"trial", "seed", "ok", "error", "elapsed_s", "d_lsq.truth", "d_lsq.estimate", "d_lsq.std"} <= set(t)
     assert (tmp_path / "study.png").is_file()
