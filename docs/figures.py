@@ -699,6 +699,53 @@ def montecarlo_studies():
     return table(["study", "trials", "coverage_95", "efficiency (CRLB var / MC var)"], rows)
 
 
+# The physics each twin can carry, as a run's config switches it on (README, "Physics in the twins"):
+# (scenario, arm, trials, what, config table, the check to show, its scale to um).
+PHYSICS = (
+    ("belt-stage", None, 20, "both belts elastic (EA 35 kN) against 4 N of carriage friction",
+     {"truth": {"belt_x": {"ea_n": 35e3, "friction_n": 4.0}, "belt_y": {"ea_n": 35e3, "friction_n": 4.0}}},
+     "check_rms_after_mm", 1000),
+    ("stewart", None, 100, "every leg 0.03 um/N under MuJoCo's statics, 1000 N payload",
+     {"truth": {"leg_compliance_um_per_n": [0.03] * 6, "payload_n": 1000.0}}, "pose_rms_after_um", 1),
+    ("arm-cmm", "ur10", 200, "a UR10, joints 1-6 of 3e5, 2e5, 3e5, 6e4, 6e4, 6e4 N m/rad under MuJoCo's gravity",
+     {"truth": {"stiffness_nm_per_rad": [3e5, 2e5, 3e5, 6e4, 6e4, 6e4]}}, None, 1),
+)
+
+
+@functools.cache
+def physics_study(scenario: str, trials: int, physics: bool) -> dict:
+    """A Monte-Carlo study (seed 0, analytic) of the rigid twin or of the one with PHYSICS on."""
+    from calibench.scenarios.montecarlo import run_study
+
+    arm, table_ = next((a, t) for s, a, n, _, t, *_ in PHYSICS if s == scenario)
+    out = scratch() / "physics" / f"{scenario}-{trials}-{physics}"
+    return run_study(scenario, trials, 0, "analytic", out, progress=False, table=table_ if physics else None, arm=arm)
+
+
+@block(seconds=200, ci=False)
+def physics_studies():
+    """calibench montecarlo with each twin's physics off and on (PHYSICS): what a geometry-only
+    calibration does on a machine that has it."""
+    rows = []
+    for scenario, _, n, what, _, check, scale in PHYSICS:
+        cells = []
+        for physics in (False, True):
+            s = physics_study(scenario, n, physics)
+            ps = coverages(s)
+            cov = sum(p["coverage_95"] for p in ps) / len(ps)
+            out = sum(not lo <= p["coverage_95"] <= hi for p in ps for lo, hi in [p["coverage_95_expected"]])
+            worst = max(ps, key=lambda p: abs(p["bias"]) / p["mean_std"])
+            c = next((c for c in s.get("checks", []) if c["name"] == check), None)
+            cells.append((cov, out, len(ps), worst, c, {p["name"]: p["mean_std"] for p in ps}))
+        (c0, o0, k, _, k0, s0), (c1, o1, _, w, k1, s1) = cells
+        grow = sorted(s1[n_] / s0[n_] for n_ in s0)[len(s0) // 2]
+        checked = "-" if k0 is None else f"{scale * k0['median']:.1f} -> {scale * k1['median']:.1f} um ({check})"
+        rows.append([f"{scenario}: {what}", f"{n}", f"{c0:.3f} -> {c1:.3f}", f"{o0} -> {o1} of {k}",
+                     f"{w['name']}: {abs(w['bias']) / w['mean_std']:.1f} std", f"x {grow:.1f}", checked])
+    return table(["study (rigid twin -> with physics)", "trials", "pooled coverage_95",
+                  "parameters outside their band", "worst bias", "reported std (median)", "median check"], rows)
+
+
 @block(seconds=1, ci=True)
 def coverage_bands():
     """scenarios.montecarlo.summarise's band for an honest 95 % coverage at 1000 and 200 trials."""
