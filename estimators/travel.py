@@ -54,13 +54,16 @@ def travel_in_plane(points_cam: np.ndarray, ref: int, normal: np.ndarray, x_axis
 
 
 def board_yaw(R_board2cam: np.ndarray, normal: np.ndarray, x_axis_cam: np.ndarray, y_axis_cam: np.ndarray,
-              board_xy_to_axes: np.ndarray) -> float:
+              board_xy_to_axes: np.ndarray) -> float | np.ndarray:
     """Angle (rad) of the board's nominal X direction from the machine X axis, about +Z.
 
     +Z = X cross Y of the machine. Zero when the board sits as ``board_xy_to_axes`` says.
+    ``R_board2cam`` (3, 3) gives a float; (n, 3, 3), one angle per pose (n,).
     """
     axes = machine_axes_on_plane(normal, x_axis_cam, y_axis_cam)
     # direction of the board's nominal X in the camera frame
-    bx = R_board2cam[:, :2] @ np.linalg.solve(board_xy_to_axes, [1.0, 0.0])
-    c, s = axes @ bx
-    return float(np.arctan2(s, c))
+    R = np.asarray(R_board2cam, float)
+    bx = R[..., :, :2] @ np.linalg.solve(board_xy_to_axes, [1.0, 0.0])
+    c, s = np.moveaxis(bx @ axes.T, -1, 0)
+    yaw = np.arctan2(s, c)
+    return float(yaw) if R.ndim == 2 else yaw

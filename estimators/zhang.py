@@ -121,17 +121,16 @@ def _check_not_degenerate(objs: list[np.ndarray], imgs: list[np.ndarray], image_
     With H = K [r1 r2 t] / t_z, the tilt of a view is about |H[2, :2]| * f / sqrt(det H[:2, :2]);
     f is taken as the image width (a rough focal length is enough to tell 0 from 0.1 rad).
     """
-    tilts = []
     for obj, p in zip(objs, imgs):
         H, _ = cv2.findHomography(obj[:, :2], p.reshape(-1, 2), 0)
         if H is None:
             raise CalibrationError("a view's corners are collinear: no homography")
         H = H / H[2, 2]
         scale = np.sqrt(abs(np.linalg.det(H[:2, :2])))
-        tilts.append(np.linalg.norm(H[2, :2]) * max(image_size) / scale)
-    if max(tilts) < 0.02:
-        raise CalibrationError("degenerate pose set: all views are parallel to the image plane, "
-                               "tilt the target between views")
+        if np.linalg.norm(H[2, :2]) * max(image_size) / scale >= 0.02:
+            return  # one tilted view is enough
+    raise CalibrationError("degenerate pose set: all views are parallel to the image plane, "
+                           "tilt the target between views")
 
 
 def intrinsic_covariance(calib: CameraCalibration, object_points: np.ndarray,

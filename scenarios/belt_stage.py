@@ -136,11 +136,11 @@ def run(config: BeltStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: b
 
         # 5. compensation at unseen check points ----------------------------------------------
         targets = rng.uniform([0, 0], g.travel_mm, size=(config.n_check, 2))
+        comp = np.stack(compensated_command(targets[:, 0], targets[:, 1], fit_x, fit_y), axis=1)
         before, after = [], []
-        for tx, ty in targets:
+        for (tx, ty), c in zip(targets, comp):
             before.append(sim.move(*np.rint(np.array([tx, ty]) * PULSES_PER_MM)) - (tx, ty))
-            cx, cy = compensated_command(tx, ty, fit_x, fit_y)
-            after.append(sim.move(*np.rint(np.array([cx, cy]) * PULSES_PER_MM)) - (tx, ty))
+            after.append(sim.move(*np.rint(c * PULSES_PER_MM)) - (tx, ty))
         before, after = np.array(before), np.array(after)
 
         # corner fidelity: detected against the exact projection of the true corners
@@ -249,7 +249,7 @@ def maps_from_poses(st: StationPoses, board_pts: np.ndarray, cmd: np.ndarray, re
     on_plane = plane.intersect_rays(p)
     travel = travel_in_plane(on_plane, ref, plane.normal, X_AXIS_CAM, Y_AXIS_CAM)
     travel_paper = travel_from_camera_centres(st.R_closed, st.t_closed, ref, BOARD_XY_TO_AXES)
-    yaws = np.array([board_yaw(R, plane.normal, X_AXIS_CAM, Y_AXIS_CAM, BOARD_XY_TO_AXES) for R in st.R_pnp])
+    yaws = board_yaw(st.R_pnp, plane.normal, X_AXIS_CAM, Y_AXIS_CAM, BOARD_XY_TO_AXES)
     rel = cmd - cmd[ref]
     err, err_paper = travel - rel, travel_paper - rel
     x, y = cmd[:, 0], cmd[:, 1]

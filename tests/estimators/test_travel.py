@@ -27,6 +27,7 @@ def test_travel_in_plane_and_yaw_are_exact():
     R, t, d = _stations(yaw=4e-3)
     np.testing.assert_allclose(travel_in_plane(t, 0, R[0][:, 2], X_CAM, Y_CAM), d, atol=1e-9)
     assert abs(board_yaw(R[0], R[0][:, 2], X_CAM, Y_CAM, BOARD_TO_AXES) - 4e-3) < 1e-12
+    np.testing.assert_allclose(board_yaw(R, R[0][:, 2], X_CAM, Y_CAM, BOARD_TO_AXES), 4e-3, atol=1e-12)  # per pose
 
 
 def test_paper_travel_exact_when_board_is_square_and_wrong_by_the_yaw_otherwise():
