@@ -33,9 +33,15 @@ def matrix_to_rotvec(R: np.ndarray) -> np.ndarray:
 
 
 def rigid_transform(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Kabsch: R, t minimising sum |R src + t - dst|^2, (n, 3) each, n >= 3 not collinear."""
-    cs, cd = src.mean(axis=0), dst.mean(axis=0)
-    U, _, Vt = np.linalg.svd((src - cs).T @ (dst - cd))
-    D = np.diag([1, 1, np.sign(np.linalg.det(Vt.T @ U.T))])
-    R = Vt.T @ D @ U.T
-    return R, cd - R @ cs
+    """Kabsch: R, t minimising sum |R src + t - dst|^2, src (n, 3) not collinear, n >= 3.
+
+    ``dst`` (n, 3) gives R (3, 3), t (3,); a stack (m, n, 3), one fit per set: R (m, 3, 3), t (m, 3).
+    """
+    src, dst = np.asarray(src, float), np.asarray(dst, float)
+    cs, cd = src.mean(axis=0), dst.mean(axis=-2)
+    U, _, Vt = np.linalg.svd((src - cs).T @ (dst - cd[..., None, :]))
+    V, Ut = np.swapaxes(Vt, -1, -2), np.swapaxes(U, -1, -2)
+    d = np.ones(V.shape[:-2] + (3,))
+    d[..., 2] = np.sign(np.linalg.det(V @ Ut))
+    R = (V * d[..., None, :]) @ Ut
+    return R, cd - np.einsum("...ij,j->...i", R, cs)

@@ -82,25 +82,19 @@ def locate_stations(sim: StewartSim, sigma_mm):
     return np.array([p for p, _ in out]), [c for _, c in out], np.array(lengths)
 
 
-def measure_pose(sim: StewartSim, stations: np.ndarray, R_guess, t_guess, sigma_mm):
-    """The platform's pose from the tracker: reflectors multilaterated, then a rigid fit.
-    Returns R, t, the raw lengths (3 reflectors x 3 stations) they came from, and whether every
-    multilateration converged."""
-    refl_true = sim.reflectors_mm()
-    d = np.array([[sim.distances_mm(s, refl_true[k:k + 1])[0] for s in range(3)] for k in range(3)])
-    R, t, ok = pose_from_lengths(sim, stations, d, R_guess, t_guess, sigma_mm)
-    return R, t, d, ok
-
-
-def pose_from_lengths(sim: StewartSim, stations: np.ndarray, d: np.ndarray, R_guess, t_guess, sigma_mm):
-    """The platform's pose (R, t mm) from the tracker's distances ``d`` to its reflectors: each reflector
-    multilaterated from the stations (weighted by the stated ``sigma_mm(L)``), then a rigid fit,
-    from the guess (R_guess, t_guess); and whether the three multilaterations converged."""
+def poses_from_lengths(sim: StewartSim, stations: np.ndarray, d: np.ndarray, R_guess: np.ndarray,
+                       t_guess: np.ndarray, sigma_mm):
+    """The platform's poses (R (n, 3, 3), t (n, 3) mm) from the tracker's distances ``d`` (n, 3
+    reflectors, 3 stations): each reflector multilaterated from the stations (weighted by the
+    stated ``sigma_mm(L)``), then a rigid fit, from the guesses (R_guess (n, 3, 3), t_guess (n, 3));
+    and whether each pose's three multilaterations converged (n,)."""
     g = sim.geometry
     d = np.asarray(d, float)
-    pts, _, ok = multilaterate_many(stations, d, sigma_mm(d), g.reflectors_mm @ np.asarray(R_guess).T + t_guess)
-    R, t = rigid_transform(g.reflectors_mm, pts)
-    return R, t, bool(ok.all())
+    n = len(d)
+    start = np.einsum("kj,nij->nki", g.reflectors_mm[:3], np.asarray(R_guess)) + np.asarray(t_guess)[:, None]
+    pts, _, ok = multilaterate_many(stations, d.reshape(-1, 3), sigma_mm(d.reshape(-1, 3)), start.reshape(-1, 3))
+    R, t = rigid_transform(g.reflectors_mm[:3], pts.reshape(n, 3, 3))
+    return R, t, ok.reshape(n, 3).all(axis=1)
 
 
 def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool) -> Report:
@@ -119,15 +113,14 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
     poses = random_poses(config.n_poses, rng, config)
     meas_R, meas_t, readings, lengths = [], [], [], []
     unconverged = 0  # multilaterations, spheres and forward kinematics that ran out of iterations
-    for R, t in poses:
+    for R, t in poses:  # the draws in the machine's order: legs, then the tracker, pose by pose
         sim.set_pose(R, t)
         readings.append(sim.readings_mm())
-        Rm, tm, d, ok = measure_pose(sim, stations, R, t, config.length_sigma_mm)
-        unconverged += not ok
-        meas_R.append(Rm)
-        meas_t.append(tm)
-        lengths.append(d)
-    meas_R, meas_t, readings = np.array(meas_R), np.array(meas_t), np.array(readings)
+        lengths.append(sim.distances_many_mm(sim.reflectors_mm()[:3]))
+    meas_R, meas_t, ok = poses_from_lengths(sim, stations, np.array(lengths), np.array([R for R, _ in poses]),
+                                            np.array([t for _, t in poses]), config.length_sigma_mm)
+    unconverged += int(np.sum(~ok))
+    readings = np.array(readings)
     # each equation's sigma: the reading plus what the pose's error does at the hinge (~1 um)
     sigma = np.full(len(poses), np.hypot(config.stated_reading_sigma_um, 1.0) / 1000)
 
@@ -249,15 +242,15 @@ def two_step_leg(sim: StewartSim, stations: np.ndarray, i: int, rng, sigma_mm):
         a, b = np.linalg.svd(np.c_[u0, u0, u0].T)[2][1:]  # two directions across u0
         dirs = [u0] + [np.cos(cap) * u0 + np.sin(cap) * (np.cos(k) * a + np.sin(k) * b)
                        for cap in (0.12, 0.24) for k in np.deg2rad([0, 90, 180, 270])]
-        ts = []
-        for dvec in dirs:
-            t = c_true + L * dvec
+        targets, d = [c_true + L * dvec for dvec in dirs], []
+        for t in targets:
             sim.set_pose(R0, t)
-            Rm, tm, _, ok = measure_pose(sim, stations, R0, t, sigma_mm)
-            bad += not ok
-            ts.append(tm)
-            Rs.append(Rm)
-        c, rad, ok = fit_sphere(np.array(ts))
+            d.append(sim.distances_many_mm(sim.reflectors_mm()[:3]))
+        Rm, ts, ok = poses_from_lengths(sim, stations, np.array(d), np.repeat(R0[None], len(targets), axis=0),
+                                        np.array(targets), sigma_mm)
+        bad += int(np.sum(~ok))
+        Rs.extend(Rm)
+        c, rad, ok = fit_sphere(ts)
         bad += not ok
         centres.append(c)
         radii.append(rad)

@@ -99,22 +99,21 @@ class StewartSim:
         quat = np.empty(4)
         mujoco.mju_mat2Quat(quat, np.asarray(R, float).ravel())
         q[self._free + 3:self._free + 7] = quat
-        P = self.r @ R.T + t_mm
-        for i in range(6):
-            v = P[i] - self.B[i]
-            L = np.linalg.norm(v)
-            u = v / L
-            # Rx(a) Ry(b) e_z = (sin b, -sin a cos b, cos a cos b) = u
-            q[self._uy[i]] = np.arcsin(u[0])
-            q[self._ux[i]] = np.arctan2(-u[1], u[2])
-            q[self._slide[i]] = L / 1000
+        v = self.r @ R.T + t_mm - self.B
+        L = np.linalg.norm(v, axis=1)
+        u = v / L[:, None]
+        # Rx(a) Ry(b) e_z = (sin b, -sin a cos b, cos a cos b) = u
+        q[self._uy] = np.arcsin(u[:, 0])
+        q[self._ux] = np.arctan2(-u[:, 1], u[:, 2])
+        q[self._slide] = L / 1000
         mujoco.mj_kinematics(self.model, self.data)
-        gap = max(np.linalg.norm(self.data.site_xpos[e] - self.data.site_xpos[p]) for e, p in zip(self._ends, self._plat))
-        self.max_closure_um = max(self.max_closure_um, gap * 1e6)
+        xpos = self.data.site_xpos
+        gap = np.max(np.linalg.norm(xpos[self._ends] - xpos[self._plat], axis=1))
+        self.max_closure_um = max(self.max_closure_um, float(gap) * 1e6)
 
     def leg_lengths_mm(self) -> np.ndarray:
         """True hinge-to-hinge lengths from MuJoCo's state (the slides)."""
-        return np.array([self.data.qpos[s] for s in self._slide]) * 1000
+        return self.data.qpos[self._slide] * 1000
 
     def readings_mm(self, temp_c: float | None = None) -> np.ndarray:
         """What the legs' length sensors read: length - initial length, noisy, with the truth's
@@ -133,7 +132,7 @@ class StewartSim:
 
     def reflectors_mm(self) -> np.ndarray:
         """The reflectors' positions in the world, (k, 3) mm, at the current pose."""
-        return np.array([self.data.site_xpos[s] for s in self._refl]) * 1000
+        return self.data.site_xpos[self._refl] * 1000
 
     def length_sigma_mm(self, L_mm) -> np.ndarray:
         """The tracker's 1-sigma (mm) for distances ``L_mm``: a + b L, a in um and b in um per m
@@ -144,6 +143,12 @@ class StewartSim:
     def distances_mm(self, station: int, points_mm: np.ndarray) -> np.ndarray:
         """The tracker's interferometric lengths from its centre in hole ``station``."""
         L = np.linalg.norm(np.asarray(points_mm) - self.stations[station], axis=1)
+        return L + self.rng.normal(0, self.length_sigma_mm(L))
+
+    def distances_many_mm(self, points_mm: np.ndarray) -> np.ndarray:
+        """The tracker's lengths (k, 3) from each of the three stations to each of k points, the
+        noise drawn in the order k, then station (as k x 3 calls of :meth:`distances_mm` would)."""
+        L = np.linalg.norm(np.asarray(points_mm)[:, None, :] - self.stations[None, :3], axis=2)
         return L + self.rng.normal(0, self.length_sigma_mm(L))
 
     def leg_forces_n(self, R: np.ndarray, t_mm: np.ndarray, load_n: float = 0.0) -> np.ndarray:

@@ -44,3 +44,9 @@ def test_rigid_transform_recovers_a_known_pose():
     R_est, t_est = rigid_transform(src, src @ R.T + t)
     np.testing.assert_allclose(R_est, R, atol=1e-12)
     np.testing.assert_allclose(t_est, t, atol=1e-9)
+    # a stack of sets, one fit each; a mirror image still gives a rotation, not a reflection
+    R2 = rotvec_to_matrix([-2.0, 0.4, 0.1])
+    Rs, ts = rigid_transform(src, np.stack([src @ R.T + t, src @ R2.T]))
+    np.testing.assert_allclose(Rs, [R, R2], atol=1e-12)
+    np.testing.assert_allclose(ts, [t, np.zeros(3)], atol=1e-9)
+    assert np.linalg.det(rigid_transform(src, src * [-1.0, 1.0, 1.0])[0]) == pytest.approx(1.0)
