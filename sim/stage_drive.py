@@ -41,6 +41,12 @@ class DriveErrors:
     thermal_ppm_per_k: float = 0.0
     reference_temp_c: float = 20.0
 
+    @property
+    def perfect(self) -> bool:
+        """No error at all (every move can skip it)."""
+        return not (self.reversal_at_home_um or self.reversal_growth_um_per_m or self.periodic_um
+                    or self.thermal_ppm_per_k)
+
     def error_mm(self, u_mm: np.ndarray, direction: np.ndarray, temp_c: np.ndarray | None = None) -> np.ndarray:
         """The drive's error at commanded positions ``u_mm`` (n,), approached in ``direction``
         (n,) of +1 / -1, at room temperatures ``temp_c`` (n,) (None: the reference): (n,) mm."""

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from calibench.estimators.compensation import (LineRuler, compensated_command, fit_polynomial, monomial_powers,
-                                     select_model)
+from calibench.estimators.compensation import (LineRuler, compensated_command, cv_rms, cv_rms_periodic,
+                                               fit_polynomial, monomial_powers, select_model)
 
 TRUE = np.array([0.3, 0.19, 0.08, 1.5e-4, -2e-5, -1.1e-4, -3.9e-7, 2e-8, 6e-8, -8e-7])  # um / mm^k
 
@@ -43,6 +43,19 @@ def test_cross_validation_finds_a_periodic_scale_error():
     # and stays with a polynomial when there is nothing periodic
     model, _ = select_model(u, v, _cubic(u, v) + rng.normal(0, 0.3, u.size), along=0)
     assert model.period_mm is None
+
+
+def test_periodic_cross_validation_at_once_equals_one_fit_per_period():
+    """The factored search (the cubic once per fold, each period's two columns on what it leaves)
+    gives the joint least squares' cross-validated error of every period, to rounding."""
+    u, v = _grid()
+    rng = np.random.default_rng(3)
+    err = _cubic(u, v) + 0.8 * np.sin(2 * np.pi * v / 61.0) + rng.normal(0, 0.3, u.size)
+    periods = np.array([20.0, 47.5, 61.0, 140.0])
+    rms, se = cv_rms_periodic(u, v, err, periods, along=1)
+    for p, r, s in zip(periods, rms, se):
+        r1, s1 = cv_rms(u, v, err, degree=3, period_mm=p, along=1)
+        assert r == pytest.approx(r1, rel=1e-9) and s == pytest.approx(s1, rel=1e-6)
 
 
 def test_line_ruler_equations_3_and_4():
