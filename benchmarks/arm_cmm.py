@@ -34,7 +34,7 @@ def seed_arm_trials(n: int = 200) -> None:
     print(f"arm-cmm identification, 50 postures: {n / dt:.1f} trials/s on one core ({dt / n * 1000:.1f} ms each)")
 
 
-def ur10_physics(n: int = 2773) -> None:
+def ur10_physics(n: int = 2773, quiet: bool = False) -> dict:
     description = ArmSim("ur10").arm
     sim = ArmSim(description, ArmTruth(stiffness_nm_per_rad=(3e5, 2e5, 3e5, 6e4, 6e4, 6e4)))
     rng = np.random.default_rng(1)
@@ -68,10 +68,12 @@ def ur10_physics(n: int = 2773) -> None:
     ref = optimize.least_squares(residuals, np.zeros(len(k)), jac="2-point", method="lm", x_scale="jac")
     t_fd = time.perf_counter() - t
     cost_ours = float(np.sum(p.residuals(ours.state) ** 2))
-    print(f"UR10, {n} poses, physics ({len(k)} parameters, compliance of joints {joints}): basis {t_basis:.2f} s; "
-          f"identification {t_ours:.2f} s with the analytic Jacobian ({ours.iterations} iterations), "
-          f"{t_fd:.2f} s with finite differences ({ref.nfev} evaluations); {t_fd / t_ours:.0f}x; "
-          f"cost {cost_ours:.1f} vs {2 * ref.cost:.1f}")
+    if not quiet:
+        print(f"UR10, {n} poses, physics ({len(k)} parameters, compliance of joints {joints}): basis {t_basis:.2f} s; "
+              f"identification {t_ours:.2f} s with the analytic Jacobian ({ours.iterations} iterations), "
+              f"{t_fd:.2f} s with finite differences ({ref.nfev} evaluations); {t_fd / t_ours:.0f}x; "
+              f"cost {cost_ours:.1f} vs {2 * ref.cost:.1f}")
+    return {"n": n, "k": len(k), "ours_s": t_ours, "peer_s": t_fd, "cost_ours": cost_ours, "cost_peer": 2 * ref.cost}
 
 
 def main():

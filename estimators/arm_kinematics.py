@@ -119,7 +119,8 @@ class Pose:
 def _turn(R: np.ndarray, axis: int, angle) -> np.ndarray:
     """R @ Rot(axis, angle) for R (n, 3, 3), angle scalar or (n,): two columns mix."""
     c, s = np.cos(angle), np.sin(angle)
-    c, s = np.broadcast_to(c, R.shape[:1])[:, None], np.broadcast_to(s, R.shape[:1])[:, None]
+    if np.ndim(c):
+        c, s = c[:, None], s[:, None]
     i, j = {0: (1, 2), 1: (2, 0), 2: (0, 1)}[axis]
     out = R.copy()
     out[:, :, i] = c * R[:, :, i] + s * R[:, :, j]

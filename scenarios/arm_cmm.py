@@ -318,5 +318,11 @@ def trial_parameters(config: ArmCmmConfig, seed: int) -> list[Parameter]:
 def prior(config: ArmCmmConfig, rng: np.random.Generator) -> ArmCmmConfig:
     """Each error drawn as N(0, |the default truth's value|) (Table 1 for the seed's arm): mm and
     rad."""
-    scale = np.abs(ArmSim(config.arm, config.truth).delta)
-    return dataclasses.replace(config, truth=dataclasses.replace(config.truth, delta=tuple(rng.normal(0, scale))))
+    from calibench.scenes.arm_cmm import load_arm
+    from calibench.sim.arm_cmm import default_errors
+
+    # the description read once, here, for the whole trial (not again by each simulator)
+    arm = load_arm(config.arm) if isinstance(config.arm, str) else config.arm
+    scale = np.abs(np.asarray(config.truth.delta or default_errors(arm), float))
+    return dataclasses.replace(config, arm=arm,
+                               truth=dataclasses.replace(config.truth, delta=tuple(rng.normal(0, scale))))

@@ -7,8 +7,9 @@ left to ``make figures-check`` (together about an hour) are: vision-stage and
 vision-stage-alignment (a render run of 40 s), ur10-all-four, ur10-one-phase, ur10-per-session
 and ur10-targets (fits on all four UR10 series, minutes each, and the discovery on ur10_C),
 ur10-discovery (2.4 min), datasheet-coverage, montecarlo-studies and physics-studies
-(Monte-Carlo studies of hundreds of trials), discover-suite (65 recordings) and discover-nulls
-(120 null recordings, each at three or four floors).
+(Monte-Carlo studies of hundreds of trials), discover-suite (65 recordings), discover-nulls
+(120 null recordings, each at three or four floors) and performance (machine timings, which
+``make figures`` rewrites and nothing compares).
 """
 
 import importlib.util
