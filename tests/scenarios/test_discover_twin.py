@@ -1,6 +1,7 @@
-"""discover --twin / --config on the stages (issue 14): the belt's elasticity made by MuJoCo is
-named as lost motion growing along the travel; what was found, written as the twin's drive
-parameters and replayed in MuJoCo, leaves the held-out level the discovery reported (within 20 %)."""
+"""discover --twin / --config (issue 14) on the stages, the Stewart platform and the arm: the
+belt's elasticity made by MuJoCo is named as lost motion growing along the travel; what was found,
+written as the twin's parameters and replayed in MuJoCo, leaves the held-out level the discovery
+reported (within 20 %). The scanner's twin is tested in test_discover_instruments.py."""
 
 import json
 
@@ -10,14 +11,20 @@ from calibench.scenarios.cli import main
 from calibench.sim.concealed import stage_recording, write_blinded
 
 
-def _twice(tmp_path, scenario, kind, seed):
-    rec, manifest = stage_recording(scenario, kind, seed)
+def _found_and_replayed(tmp_path, scenario, rec, manifest):
+    """discover --twin, then discover --config with that twin: (found, replayed, twin path, recording path)."""
     path = write_blinded(tmp_path, "rec", rec, manifest)
     twin = tmp_path / "twin.toml"
     assert main(["discover", scenario, str(path), "--twin", str(twin), "--out", str(tmp_path / "a")]) == 0
     assert main(["discover", scenario, str(path), "--config", str(twin), "--out", str(tmp_path / "b")]) == 0
     found = json.loads((tmp_path / "a" / "discovery.json").read_text())
     replayed = json.loads((tmp_path / "b" / "discovery.json").read_text())
+    return found, replayed, twin, path
+
+
+def _twice(tmp_path, scenario, kind, seed):
+    rec, manifest = stage_recording(scenario, kind, seed)
+    found, replayed, twin, _ = _found_and_replayed(tmp_path, scenario, rec, manifest)
     return manifest, found, replayed, twin
 
 
@@ -72,12 +79,7 @@ def test_stewart_twin_carries_leg_compliance(tmp_path):
     from calibench.sim.concealed import stewart_recording
 
     rec, manifest = stewart_recording("compliance", 5)
-    path = write_blinded(tmp_path, "rec", rec, manifest)
-    twin = tmp_path / "twin.toml"
-    assert main(["discover", "stewart", str(path), "--twin", str(twin), "--out", str(tmp_path / "a")]) == 0
-    assert main(["discover", "stewart", str(path), "--config", str(twin), "--out", str(tmp_path / "b")]) == 0
-    found = json.loads((tmp_path / "a" / "discovery.json").read_text())
-    replayed = json.loads((tmp_path / "b" / "discovery.json").read_text())
+    found, replayed, twin, path = _found_and_replayed(tmp_path, "stewart", rec, manifest)
     (c,) = [e for e in found["effects"] if e["name"] == "leg_compliance"]
     assert abs(c["params"]["um_per_n"] - manifest["effects"][0]["params"]["um_per_n"]) < 0.25 * c["params"]["um_per_n"]
     assert "leg_compliance_um_per_n" in twin.read_text() and "base_hinges_mm" in twin.read_text()
@@ -100,12 +102,7 @@ def test_arm_twin_carries_joint_compliance(tmp_path):
     from calibench.sim.concealed import arm_recording
 
     rec, manifest = arm_recording("compliance", 1017)
-    path = write_blinded(tmp_path, "rec", rec, manifest)
-    twin = tmp_path / "twin.toml"
-    assert main(["discover", "arm-cmm", str(path), "--twin", str(twin), "--out", str(tmp_path / "a")]) == 0
-    assert main(["discover", "arm-cmm", str(path), "--config", str(twin), "--out", str(tmp_path / "b")]) == 0
-    found = json.loads((tmp_path / "a" / "discovery.json").read_text())
-    replayed = json.loads((tmp_path / "b" / "discovery.json").read_text())
+    found, replayed, twin, _ = _found_and_replayed(tmp_path, "arm-cmm", rec, manifest)
     import tomllib
 
     k = tomllib.loads(twin.read_text())["arm-cmm"]["truth"]["stiffness_nm_per_rad"]
