@@ -61,14 +61,19 @@ class AxisErrors:
 
     @functools.cached_property
     def _table(self) -> np.ndarray:
+        """The six components' (linear, bow, amp, period, phase), (5, 6)."""
         return np.stack([getattr(self, f.name).coefficients() for f in dataclasses.fields(self)], axis=1)
 
-    def at(self, u: float, travel: float) -> np.ndarray:
-        """The six errors at the axis's position ``u`` mm, (6,) in the fields' order: one
-        evaluation for all (a move's hot path), the same values as each Smooth's own."""
-        linear, bow, amp, period, phase = self._table
-        s = u / travel
-        return linear * u + bow * 4 * s * (1 - s) + amp * np.sin(2 * np.pi * u / period + phase)
+
+
+def axes_errors(x: AxisErrors, y: AxisErrors, u_mm: np.ndarray, travel_mm: np.ndarray) -> np.ndarray:
+    """Both axes' six errors at their positions ``u_mm`` (2,) over their ``travel_mm`` (2,),
+    (2, 6): rows X then Y, columns in AxisErrors' field order; one evaluation for the twelve,
+    bit-equal to each Smooth's own."""
+    linear, bow, amp, period, phase = np.concatenate([x._table, y._table], axis=1)
+    u, travel = np.repeat(u_mm, 6), np.repeat(travel_mm, 6)
+    s = u / travel
+    return (linear * u + bow * 4 * s * (1 - s) + amp * np.sin(2 * np.pi * u / period + phase)).reshape(2, 6)
 
 
 # Sized after the seed paper: about 60 um uncompensated positioning error, of which the scales'
@@ -141,6 +146,8 @@ class VisionStageSim:
         m = self.model
         self._q = {name: m.jnt_qposadr[m.joint(name).id] for name in
                    ["x", "y"] + [f"{p}{c}" for p in ("ex", "ey") for c in "xyzabc"]}
+        self._move_q = [self._q[n] for n in ("x", "exx", "exy", "exz", "exa", "exb", "exc",
+                                             "y", "eyx", "eyy", "eyz", "eya", "eyb", "eyc")]
         s = truth.squareness_rad
         m.jnt_axis[m.joint("y").id] = [-np.sin(s), -np.cos(s), 0.0]  # Y_m leaning towards X_m
         self._plate = m.body("plate").id
@@ -166,19 +173,13 @@ class VisionStageSim:
         lost = lost + [0.0 if d.perfect else float(d.error_mm(np.array([u]), self._dir[k:k + 1], T)[0])
                        for k, (d, u) in enumerate(((t.drive_x, x_mm), (t.drive_y, y_mm)))]
         noise = self.rng.normal(0, t.repeatability_um / 1000, 2)
-        q = self.data.qpos
-        for axis, u, travel, err, extra in (("x", x_mm, g.travel_mm[0], t.x, lost[0] + noise[0]),
-                                            ("y", y_mm, g.travel_mm[1], t.y, lost[1] + noise[1])):
-            p = "ex" if axis == "x" else "ey"
-            q[self._q[axis]] = u / 1000
-            pos, across1, across2, roll, pitch, yaw = err.at(float(u), travel)
-            along = pos + extra
-            # straight_1 of X is along Y_m, of Y along X_m
-            dx, dy = (along, across1) if axis == "x" else (across1, along)
-            q[self._q[p + "x"]], q[self._q[p + "y"]], q[self._q[p + "z"]] = dx / 1000, dy / 1000, across2 / 1000
-            q[self._q[p + "a"]] = roll if axis == "x" else pitch
-            q[self._q[p + "b"]] = pitch if axis == "x" else roll
-            q[self._q[p + "c"]] = yaw
+        ex, ey = axes_errors(t.x, t.y, target, np.asarray(g.travel_mm, float))  # pos, s1, s2, roll, pitch, yaw
+        along_x, along_y = ex[0] + (lost[0] + noise[0]), ey[0] + (lost[1] + noise[1])
+        # straight_1 of X is along Y_m, of Y along X_m; the joints a, b turn about X_m, Y_m: the X
+        # carriage's roll and pitch, the Y carriage's pitch and roll
+        self.data.qpos[self._move_q] = (target[0] / 1000, along_x / 1000, ex[1] / 1000, ex[2] / 1000, ex[3], ex[4],
+                                        ex[5], target[1] / 1000, ey[1] / 1000, along_y / 1000, ey[2] / 1000, ey[4],
+                                        ey[3], ey[5])
         mujoco.mj_kinematics(self.model, self.data)
         mujoco.mj_camlight(self.model, self.data)
 
