@@ -112,9 +112,11 @@ def table(data: Path) -> str:
     st = studies()
     rows = [
         ("render 640x480 through the lens (2x supersampled, distortion, blur, noise)",
-         f"{r['ours_ms']:.0f} ms", f"MuJoCo's bare 640x480 frame {r['peer_ms']:.0f} ms", f"{r['ours_ms'] / r['peer_ms']:.1f}x"),
+         f"{r['ours_ms']:.0f} ms", f"MuJoCo's bare 640x480 frame {r['peer_ms']:.0f} ms",
+         f"{r['ours_ms'] / r['peer_ms']:.1f}x"),
         (f"`calibench camera` on OpenCV's {c['photos']} sample photos (0.01 px corners, gross-corner check, std)",
-         f"{c['ours_ms']:.0f} ms", f"OpenCV's classic pipeline {c['peer_ms']:.0f} ms", f"{c['ours_ms'] / c['peer_ms']:.2f}x"),
+         f"{c['ours_ms']:.0f} ms", f"OpenCV's classic pipeline {c['peer_ms']:.0f} ms",
+         f"{c['ours_ms'] / c['peer_ms']:.2f}x"),
         (f"UR10 identification with physics, {arm['n']} poses, {arm['k']} parameters, one thread",
          f"{arm['ours_s']:.2f} s (analytic Jacobian)",
          f"pybotics' approach (scipy's LM, finite differences) {arm['peer_s']:.1f} s, the same cost to "

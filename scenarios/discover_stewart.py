@@ -169,17 +169,19 @@ def _p_along(r, v, rng, n_perm):
 def locate(res: np.ndarray, drivers: dict, seed: int, n_perm: int = 499, alpha: float = 0.002) -> list[dict]:
     """Which leg disagrees with the twin, and where: each leg's residual after the hinge geometry
     (res (n_poses, 6) mm) against its own length, direction of approach and axial force, and
-    against time and temperature (the poses' order permuted as the null; for the others, the
-    residuals shifted cyclically in time, which keeps a drift's structure). Thirty tests at once, so a finding needs no permuted score
-    above its own in ``n_perm`` (p <= 0.002: about 6 % for a null recording's thirty)."""
+    against time and temperature. The null: for time and temperature the poses' order permuted;
+    for the others the residuals shifted cyclically in time, which keeps a drift's structure.
+    Thirty tests at once, so a finding needs no permuted score above its own in ``n_perm``
+    (p <= 0.002: about 6 % for a null recording's thirty)."""
     rng = np.random.default_rng(seed)
     n = len(res)
     zero = np.zeros(n)
     out = []
     for i in range(6):
         r = res[:, i]
-        tests = [("length", drivers["L"][:, i]), ("direction", None if drivers["dir"] is None else drivers["dir"][:, i]),
-                 ("axial_force", drivers["force"][:, i]), ("temp_c", drivers["temp_c"]), ("t_s", drivers["t_s"])]
+        direction = None if drivers["dir"] is None else drivers["dir"][:, i]
+        tests = [("length", drivers["L"][:, i]), ("direction", direction), ("axial_force", drivers["force"][:, i]),
+                 ("temp_c", drivers["temp_c"]), ("t_s", drivers["t_s"])]
         for name, v in tests:
             if v is None or np.ptp(v) == 0:
                 continue

@@ -319,8 +319,9 @@ def _check_summary(good: list[dict]) -> list[dict]:
     for n in names:
         v = np.array([r[f"check.{n}"] for r in good if f"check.{n}" in r], float)
         ok = np.array([r[f"check.{n}.ok"] for r in good if f"check.{n}.ok" in r], bool)
-        out.append({"name": n, "n": int(len(v)), "median": float(np.median(v)),
-                    "p95": float(np.percentile(v, 95)), "max": float(np.max(v)),
+        f = v[np.isfinite(v)]  # a value that is not a number failed its check, and is counted there
+        stats = [float(g(f)) if len(f) else None for g in (np.median, lambda a: np.percentile(a, 95), np.max)]
+        out.append({"name": n, "n": int(len(v)), "median": stats[0], "p95": stats[1], "max": stats[2],
                     "failed_fraction": float(1 - ok.mean())})
     return out
 
@@ -330,9 +331,9 @@ def checks_table(summary: dict) -> str:
     if not summary.get("checks"):
         return ""
     lines = ["| check | median | 95 % | worst | trials failing it |", "|---|---|---|---|---|"]
+    f = lambda v: "-" if v is None else f"{v:.4g}"  # noqa: E731
     for c in summary["checks"]:
-        lines.append(f"| {c['name']} | {c['median']:.4g} | {c['p95']:.4g} | {c['max']:.4g} | "
-                     f"{c['failed_fraction']:.1%} |")
+        lines.append(f"| {c['name']} | {f(c['median'])} | {f(c['p95'])} | {f(c['max'])} | {c['failed_fraction']:.1%} |")
     return "\n".join(lines)
 
 
@@ -371,7 +372,8 @@ def _log(out_dir: Path, summary: dict) -> None:
 
     rec = rrlog.open_recording(out_dir / "study.rrd", f"calibench-{summary['scenario']}-study")
     try:
-        text = f"# {summary['scenario']}: {summary['trials']} trials\n\n{summary_table(summary)}\n\n{checks_table(summary)}"
+        text = (f"# {summary['scenario']}: {summary['trials']} trials\n\n{summary_table(summary)}\n\n"
+                f"{checks_table(summary)}")
         rrlog.log_text(rec, "study/summary", text)
         rrlog.log_figure(rec, "study/figure", out_dir / "study.png")
     finally:

@@ -70,6 +70,10 @@ def test_check_summary():
     assert c["name"] == "c_mm" and c["n"] == 4 and c["failed_fraction"] == 0.25
     assert c["median"] == pytest.approx(0.025) and c["max"] == 0.2
     assert c["p95"] == pytest.approx(np.percentile(values, 95))
+    # a value that is not a number is a failed check, not a statistic
+    rows[0]["check.c_mm"], rows[0]["check.c_mm.ok"] = float("nan"), False
+    (c,) = summarise("x", rows, 1.0)["checks"]
+    assert c["failed_fraction"] == 0.5 and c["max"] == 0.2 and c["median"] == pytest.approx(0.03)
 
 
 def test_bad_input(tmp_path, capsys):
