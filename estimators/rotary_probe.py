@@ -150,15 +150,30 @@ def _quadratic(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return c / np.c_[s * s, s, np.ones_like(s)]
 
 
-def calibrate_paper_sweep(theta_rad: np.ndarray, rho_mm: np.ndarray, ms, half_side_mm: float,
-                          alpha0_nominal_rad: float) -> list[ScannerCalibration]:
-    """:func:`calibrate_paper` for every window size in ``ms`` on one turn: the minima found once."""
+def paper_sweep_d_mm(theta_rad: np.ndarray, rho_mm: np.ndarray, ms, half_side_mm: float) -> np.ndarray:
+    """The four-minima method's d (mm) for every window size in ``ms`` (M,) on one turn, (M,):
+    :func:`calibrate_paper`'s d for each window size, all at once (the minima found once, each
+    window padded to the largest, the padding weighted out of the quadratic's normal
+    equations). d needs only the minima's mean curvature."""
     th, rho = np.asarray(theta_rad, float), np.asarray(rho_mm, float)
+    N = len(rho)
+    ms = np.asarray(ms, int)
+    if ms.min() < 3 or ms.max() > N // 4:
+        raise ValueError(f"m from {ms.min()} to {ms.max()}: the quadratic needs 3 to {N // 4} samples")
     i0 = minima_indices(rho)
-    for m in ms:
-        if m < 3 or m > len(rho) // 4:
-            raise ValueError(f"m = {m}: the quadratic needs 3 to {len(rho) // 4} samples")
-    return [solve_four_minima(_fits_at(th, rho, i0, int(m)), half_side_mm, alpha0_nominal_rad) for m in ms]
+    k = np.arange(ms.max())
+    inside = (k[None, :] < ms[:, None])[:, None, :].astype(float)  # (M, 1, m_max)
+    win = (i0[None, :, None] + (k[None, :] - (ms[:, None] - 1) // 2)[:, None, :]) % N  # (M, 4, m_max)
+    x = (th[win] - th[i0][None, :, None] + np.pi) % (2 * np.pi) - np.pi
+    scale = np.maximum(np.max(np.abs(x) * inside, axis=2), 1e-300)[..., None]  # as _quadratic: t in [-1, 1]
+    t = x / scale
+    V = np.stack([t * t, t, np.ones_like(t)], axis=3) * inside[..., None]  # (M, 4, m_max, 3)
+    c = np.linalg.solve(np.einsum("qkmi,qkmj->qkij", V, V), np.einsum("qkmi,qkm->qki", V, rho[win])[..., None])
+    curvature = np.mean(2 * c[..., 0, 0] / scale[..., 0] ** 2, axis=1)  # (M,)
+    a = half_side_mm
+    with np.errstate(divide="ignore", invalid="ignore"):
+        d = np.sqrt(np.maximum(a * a - (a * a / curvature) ** 2, 0.0))
+    return np.where(curvature > a, d, 0.0)
 
 
 def calibrate_paper(theta_rad: np.ndarray, rho_mm: np.ndarray, m: int, half_side_mm: float,

@@ -17,8 +17,8 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial import cKDTree
 
-from calibench.estimators.rotary_probe import (calibrate_lsq, calibrate_paper, calibrate_paper_sweep, contour_points,
-                                              fit_minima)
+from calibench.estimators.rotary_probe import (calibrate_lsq, calibrate_paper, contour_points, fit_minima,
+                                              paper_sweep_d_mm)
 from calibench.scenarios.report import Check, Parameter, Report
 from calibench.scenes.probe_scanner import ProbeScannerGeometry, ProbeScannerNominal
 from calibench.sim.probe_scanner import ProbeScannerSim, ProbeScannerTruth
@@ -53,10 +53,9 @@ def run(config: ProbeScannerConfig, seed: int, fidelity: str, out_dir: Path, rrd
 
     plate, _ = sim.scan("plate", rng)
     ms = np.arange(*config.m_sweep)
-    sweep = np.array([c.d_mm for c in calibrate_paper_sweep(plate.theta_rad, plate.rho_mm, ms, a, nom.alpha0_rad)])
+    sweep = paper_sweep_d_mm(plate.theta_rad, plate.rho_mm, ms, a)
     turns = [sim.scan("plate", rng)[0] for _ in range(config.sweep_turns)]
-    sweep_turns = np.array([[c.d_mm for c in calibrate_paper_sweep(t.theta_rad, t.rho_mm, ms, a, nom.alpha0_rad)]
-                            for t in turns])
+    sweep_turns = np.array([paper_sweep_d_mm(t.theta_rad, t.rho_mm, ms, a) for t in turns])
     rms_m = np.sqrt(np.mean((sweep_turns - truth.d_mm) ** 2, axis=0))
     stable = ms[rms_m <= config.d_requirement_mm]
 

@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from calibench.estimators.rotary_probe import (MinimumFit, ScannerCalibration, calibrate_lsq, calibrate_paper,
-                                     contour_points, fit_minima, rounded_square_rho, solve_four_minima)
+                                               contour_points, fit_minima, paper_sweep_d_mm, rounded_square_rho,
+                                               solve_four_minima)
 
 A, R = 22.5, 5.0
 TRUE = dict(d=8.0, dL=3.0, alpha0=0.35, c=np.array([0.12, -0.08]))
@@ -104,6 +105,15 @@ def test_paper_method_without_noise_meets_the_requirement_but_not_better():
     errs = [calibrate_paper(TH, rho, m, A, 0.3).d_mm - 8.0 for m in (7, 15, 31, 51)]
     assert max(abs(e) for e in errs) < 0.5
     assert max(abs(e) for e in errs) > 0.02
+
+
+def test_sweep_of_every_window_at_once_equals_one_fit_per_window():
+    """paper_sweep_d_mm (all window sizes padded into one solve) gives each window's own d."""
+    rng = np.random.default_rng(5)
+    rho = _ray_rho(TH, TRUE["d"], TRUE["dL"], TRUE["alpha0"], [0, 0]) + rng.normal(0, 2e-4, TH.size)
+    ms = np.arange(5, 60, 3)
+    own = [calibrate_paper(TH, rho, int(m), A, 0.3).d_mm for m in ms]
+    np.testing.assert_allclose(paper_sweep_d_mm(TH, rho, ms, A), own, rtol=1e-9, atol=1e-9)
 
 
 def test_lsq_recovers_the_truth_and_its_std_is_honest():
