@@ -162,6 +162,18 @@ def _grow_backlash(signals, terms, found, drivers, fold, noise, floor) -> dict:
 UNEXPLAINED_RATIO = 1.5  # held-out RMS over repeatability beyond which something is left
 
 
+def one_axis_fit(axis: str, rms_nominal: float, found, noise: dict, after_noise: dict) -> dict:
+    """discovery.json's ``fit``, ``noise`` and ``noise_after_effects`` of a one-signal instrument
+    (the probe scanner, the Stewart platform): ``found`` the selection, ``noise`` and
+    ``after_noise`` the repeatability before and after the accepted effects, by axis."""
+    return {"fit": {"rms_nominal": float(rms_nominal), "cv_rms_nominal": found.cv_nominal,
+                    "cv_rms_final": found.cv_final},
+            "noise": {axis: {"repeatability_mm": noise[axis].sigma_mm, "lag1_correlation": noise[axis].lag1,
+                             "dof": noise[axis].dof}},
+            "noise_after_effects": {axis: {"repeatability_mm": after_noise[axis].sigma_mm,
+                                           "dof": after_noise[axis].dof}}}
+
+
 def verdict(cv_final_mm: float, noise: dict, found_any: bool) -> str:
     """What is left after the accepted effects, in words: the final held-out RMS (per
     coordinate) against the repeatability from repeats (``noise``: axis -> Noise, after the

@@ -134,7 +134,7 @@ def _runs(bands: np.ndarray) -> list[str]:
 
 def discover_scanner(rec, seed: int = 0, floor: float = dsc.FLOOR, config=None) -> tuple[dict, dict]:
     """discovery.json's content for a probe-scanner recording, and what the figure needs."""
-    from calibench.scenarios.discover import _describe, verdict
+    from calibench.scenarios.discover import _describe, one_axis_fit, verdict
     from calibench.scenarios.probe_scanner import ProbeScannerConfig
 
     config = config or ProbeScannerConfig()
@@ -183,12 +183,7 @@ def discover_scanner(rec, seed: int = 0, floor: float = dsc.FLOOR, config=None) 
                                   "artefact the two are one number", "experiment": EXPERIMENTS["offset"]})
     located = _locate(sig, drivers, rec, seed)
     out = {"scenario": "probe-scanner", "samples": n, "unit": "mm", "located": located, "effects": effects,
-           "fit": {"rms_nominal": float(np.sqrt(np.mean(first ** 2))), "cv_rms_nominal": found.cv_nominal,
-                   "cv_rms_final": found.cv_final},
-           "noise": {AXIS: {"repeatability_mm": noise[AXIS].sigma_mm, "lag1_correlation": noise[AXIS].lag1,
-                            "dof": noise[AXIS].dof}},
-           "noise_after_effects": {AXIS: {"repeatability_mm": after_noise[AXIS].sigma_mm,
-                                          "dof": after_noise[AXIS].dof}},
+           **one_axis_fit(AXIS, np.sqrt(np.mean(first ** 2)), found, noise, after_noise),
            "holdout": scheme,
            "scene_model": (f"the twin (MuJoCo's ray on the {2 * config.geometry.plate.half_side_mm:g} mm plate) with "
                            f"its rail calibrated: d {cal.d_mm:.4f} mm, dL {cal.dL_mm:.4f} mm, alpha0 "

@@ -220,7 +220,7 @@ def _where(r, v, name, leg) -> str:
 
 def discover_stewart(rec, seed: int = 0, floor: float = STEWART_FLOOR, config=None) -> tuple[dict, dict]:
     """discovery.json's content for a Stewart recording, and what the figure needs."""
-    from calibench.scenarios.discover import _describe, verdict
+    from calibench.scenarios.discover import _describe, one_axis_fit, verdict
     from calibench.scenarios.stewart import StewartConfig
     from calibench.sim.stewart import leg_effects_mm
 
@@ -263,12 +263,7 @@ def discover_stewart(rec, seed: int = 0, floor: float = STEWART_FLOOR, config=No
     names = [e["name"] for e in effects if e["name"] != "geometry"]
     located = locate(geometry_residual(rec, g, Rf, tf), drivers, seed)
     out = {"scenario": "stewart", "samples": n, "unit": "mm", "located": located, "effects": effects,
-           "fit": {"rms_nominal": float(np.sqrt(np.mean(r ** 2))), "cv_rms_nominal": found.cv_nominal,
-                   "cv_rms_final": found.cv_final},
-           "noise": {AXIS: {"repeatability_mm": noise[AXIS].sigma_mm, "lag1_correlation": noise[AXIS].lag1,
-                            "dof": noise[AXIS].dof}},
-           "noise_after_effects": {AXIS: {"repeatability_mm": after_noise[AXIS].sigma_mm,
-                                          "dof": after_noise[AXIS].dof}},
+           **one_axis_fit(AXIS, np.sqrt(np.mean(r ** 2)), found, noise, after_noise),
            "holdout": "five contiguous blocks of poses",
            "scene_model": "the nominal platform (drawing hinges, rigid legs) at the tracker's poses, the tracker's "
                           "frame registered",
