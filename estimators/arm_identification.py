@@ -29,7 +29,7 @@ import dataclasses
 import numpy as np
 from scipy import linalg
 
-from calibench.estimators.arm_kinematics import (Chain, gravity_moments, jacobian, joint_axes, n_params, param_names,
+from calibench.estimators.arm_kinematics import (Chain, Pose, gravity_moments, jacobian, joint_axes, n_params, param_names,
                                                  pose, theta_index)
 from calibench.estimators.rotations import matrix_to_rotvec, rigid_transform, rotvec_to_matrix, skew
 
@@ -405,6 +405,7 @@ class TrackerProblem:
         self.nk = n_params(self.N)
         self.encoder_sigma = float(encoder_sigma_rad)
         self._W = None  # per-posture whitening (n, 3, 3), made at the first start
+        self._last = None  # (delta, Pose) of the last evaluation
         # the tracker's rotation is reported as the small turn from this reference (the first
         # start's): the same coordinates its std is computed in. Share it between problems whose
         # estimates are compared.
@@ -434,7 +435,7 @@ class TrackerProblem:
 
     def start(self) -> TrackerState:
         """Nominal arm; the frame from a rigid fit of the measured points to the nominal ones."""
-        R, t = rigid_transform(pose(self.chain, self.q).point, self.cartesian())
+        R, t = rigid_transform(self._pose(np.zeros(self.nk)).point, self.cartesian())
         if self.R_ref is None:
             self.R_ref = R
         state = TrackerState(np.zeros(self.nk), R, t)
@@ -446,7 +447,7 @@ class TrackerProblem:
         """L^-1 of each posture's covariance diag(sigma^2) + G Sigma_q G^T, G = d(sph)/d(q)."""
         cov = np.einsum("ni,ij->nij", self.sigma**2, np.eye(3))
         if self.encoder_sigma > 0:
-            P = pose(self.chain, self.q, s.delta)
+            P = self._pose(s.delta)
             y = P.point @ s.R.T + s.t
             # a joint's turn moves the point as that joint's zero offset does
             Jq = jacobian(self.chain, P=P)[:, :, [theta_index(j) for j in range(1, self.N + 1)]]
@@ -456,7 +457,14 @@ class TrackerProblem:
 
     def points(self, s: TrackerState) -> np.ndarray:
         """Tool points in the tracker frame, (n, 3)."""
-        return pose(self.chain, self.q, s.delta).point @ s.R.T + s.t
+        return self._pose(s.delta).point @ s.R.T + s.t
+
+    def _pose(self, delta: np.ndarray) -> Pose:
+        """The chain at the recording's postures, the last one kept: the solver asks for the
+        Jacobian where it has just evaluated the residuals."""
+        if self._last is None or not np.array_equal(self._last[0], delta):
+            self._last = (delta.copy(), pose(self.chain, self.q, delta))
+        return self._last[1]
 
     def residuals(self, s: TrackerState) -> np.ndarray:
         """Residuals (3 n,) in spherical coordinates, whitened by each posture's covariance (instrument and encoders).
@@ -469,7 +477,7 @@ class TrackerProblem:
 
     def jacobian(self, s: TrackerState) -> np.ndarray:
         """Whitened d(residuals) / d(delta, frame rotation, frame translation), (3n, 5 N + 9)."""
-        P = pose(self.chain, self.q, s.delta)
+        P = self._pose(s.delta)
         y = P.point @ s.R.T + s.t
         if self._W is None:
             self.start()

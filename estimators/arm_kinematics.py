@@ -116,44 +116,72 @@ class Pose:
     point: np.ndarray
 
 
-def _turn(R: np.ndarray, axis: int, angle) -> np.ndarray:
-    """R @ Rot(axis, angle) for R (n, 3, 3), angle scalar or (n,): two columns mix."""
-    c, s = np.cos(angle), np.sin(angle)
-    if np.ndim(c):
-        c, s = c[:, None], s[:, None]
+def _rot(axis: int, c: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """Rotations about coordinate axis ``axis`` by angles of cosine c and sine s, (..., 3, 3)."""
+    R = np.zeros(np.shape(c) + (3, 3))
     i, j = {0: (1, 2), 1: (2, 0), 2: (0, 1)}[axis]
-    out = R.copy()
-    out[:, :, i] = c * R[:, :, i] + s * R[:, :, j]
-    out[:, :, j] = -s * R[:, :, i] + c * R[:, :, j]
-    return out
+    R[..., axis, axis] = 1.0
+    R[..., i, i], R[..., j, j] = c, c
+    R[..., i, j], R[..., j, i] = -s, s
+    return R
 
 
 def pose(chain: Chain, q_rad: np.ndarray, delta: np.ndarray | None = None) -> Pose:
-    """The chain at postures ``q_rad`` (n, N) with errors ``delta`` (5 N + 3,) (zero if None)."""
+    """The chain at postures ``q_rad`` (n, N) with errors ``delta`` (5 N + 3,) (zero if None).
+
+    Every joint's turn and shift are made at once for all joints and postures; the loop over
+    joints only chains them (one product of (n, 3, 3) stacks per joint). The elementary motions'
+    axes and origins follow from the link frames afterwards, in closed form per convention."""
     q = np.atleast_2d(np.asarray(q_rad, float))
     N = chain.n_joints
     if q.shape[1] != N:
         raise ValueError(f"postures have {q.shape[1]} joints, the chain {N}")
     delta = np.zeros(n_params(N)) if delta is None else np.asarray(delta, float)
-    values = chain.nominal() + delta[:5 * N].reshape(N, 5)
+    a, d, alpha, theta, beta = (chain.nominal() + delta[:5 * N].reshape(N, 5)).T
     n = len(q)
-    R = np.broadcast_to(np.eye(3), (n, 3, 3)).copy()
-    o = np.zeros((n, 3))
-    axis, origin = np.empty((n, 5 * N, 3)), np.empty((n, 5 * N, 3))
+    phi = q + theta  # (n, N)
+    c, s = np.cos(phi), np.sin(phi)
+    M = _rot(0, np.cos(alpha), np.sin(alpha)) @ _rot(1, np.cos(beta), np.sin(beta))  # (N, 3, 3)
+    dh = chain.convention == "dh"
+    # each joint's turn, frame i-1 to frame i: RotZ(phi) M (DH) or M RotZ(phi) (MDH), written out
+    # (a stacked product of 3 x 3 matrices costs more than these few broadcasts)
+    A = np.empty((n, N, 3, 3))
+    c_, s_ = c[..., None], s[..., None]
+    if dh:
+        A[..., 0, :], A[..., 1, :], A[..., 2, :] = c_ * M[:, 0] - s_ * M[:, 1], s_ * M[:, 0] + c_ * M[:, 1], M[:, 2]
+    else:
+        A[..., 0], A[..., 1], A[..., 2] = c_ * M[..., 0] + s_ * M[..., 1], c_ * M[..., 1] - s_ * M[..., 0], M[..., 2]
+    # each joint's shift in frame i-1: DH (a c, a s, d); MDH a along M's x, then d along A's z
+    p = (np.stack([a * c, a * s, np.broadcast_to(d, c.shape)], axis=-1) if dh
+         else a[:, None] * M[:, :, 0] + d[:, None] * A[..., 2])
     link_R, link_o = np.empty((n, N + 1, 3, 3)), np.empty((n, N + 1, 3))
-    link_R[:, 0], link_o[:, 0] = R, o
-    ops = OPS[chain.convention]
+    link_R[:, 0], link_o[:, 0] = np.eye(3), 0.0
     for i in range(N):
-        for k, (kind, ax, which) in enumerate(ops):
-            axis[:, 5 * i + which], origin[:, 5 * i + which] = R[:, :, ax], o
-            v = values[i, which] + (q[:, i] if which == _THETA else 0.0)
-            if kind == "rot":
-                R = _turn(R, ax, v)
-            else:
-                o = o + R[:, :, ax] * v
-        link_R[:, i + 1], link_o[:, i + 1] = R, o
+        R = link_R[:, i]
+        link_o[:, i + 1] = link_o[:, i] + (R @ p[:, i, :, None])[..., 0]
+        link_R[:, i + 1] = R @ A[:, i]
+    R0, o0, R1, o1 = link_R[:, :-1], link_o[:, :-1], link_R[:, 1:], link_o[:, 1:]
+    axis, origin = np.empty((n, N, 5, 3)), np.empty((n, N, 5, 3))
+    if dh:  # RotZ(theta + q), TransZ(d) about frame i-1's z; TransX(a), RotX(alpha) along the turned x
+        x1 = c[..., None] * R0[..., 0] + s[..., None] * R0[..., 1]
+        axis[:, :, _THETA] = axis[:, :, _D] = R0[..., 2]
+        origin[:, :, _THETA] = origin[:, :, _D] = o0
+        axis[:, :, _A] = axis[:, :, _ALPHA] = x1
+        origin[:, :, _A] = o0 + d[:, None] * R0[..., 2]
+        origin[:, :, _ALPHA] = origin[:, :, _BETA] = o1
+        axis[:, :, _BETA] = R1[..., 1]  # RotY keeps y: the turned frame's y is frame i's
+    else:  # RotX(alpha), RotY(beta), TransX(a) at frame i-1's origin; RotZ(theta + q), TransZ(d) on frame i's z
+        ca, sa = np.cos(alpha)[:, None], np.sin(alpha)[:, None]
+        xm = c[..., None] * R1[..., 0] - s[..., None] * R1[..., 1]  # frame i-1 turned by M: its x
+        axis[:, :, _ALPHA] = R0[..., 0]
+        axis[:, :, _BETA] = ca * R0[..., 1] + sa * R0[..., 2]
+        axis[:, :, _A] = xm
+        origin[:, :, _ALPHA] = origin[:, :, _BETA] = origin[:, :, _A] = o0
+        axis[:, :, _THETA] = axis[:, :, _D] = R1[..., 2]
+        origin[:, :, _THETA] = origin[:, :, _D] = o0 + a[:, None] * xm
     tool = chain.tool_mm + delta[5 * N:]
-    return Pose(axis, origin, link_R, link_o, o + R @ tool)
+    return Pose(axis.reshape(n, 5 * N, 3), origin.reshape(n, 5 * N, 3), link_R, link_o,
+                link_o[:, N] + link_R[:, N] @ tool)
 
 
 def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
