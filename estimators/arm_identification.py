@@ -676,6 +676,8 @@ def identify(problem, basis: Basis, state=None, max_iter: int = 50, xtol: float 
             if r_new @ r_new < cost:
                 s, r, cost, lam = s_new, r_new, r_new @ r_new, max(lam / 10, 1e-12)
                 break
+            if np.max(np.abs(step_k) * np.sqrt(np.diag(A))) < xtol:
+                break  # a step already below the tolerance: shorter ones change nothing either
             lam *= 10
             if lam > 1e12:
                 break

@@ -91,10 +91,17 @@ class ArmDescription:
         return pairs
 
 
+_LOADED: dict[tuple, ArmDescription] = {}  # by (path, mtime, size): a study's trials read it once
+
+
 def load_arm(spec: str | Path) -> ArmDescription:
     """An ARM.toml by path, or a built-in arm by name (``arm-cmm``, ``ur10``)."""
     path = BUILTIN.get(str(spec), Path(spec))
     try:
+        st = path.stat()
+        key = (str(path.resolve()), st.st_mtime_ns, st.st_size)
+        if key in _LOADED:
+            return _LOADED[key]
         with open(path, "rb") as f:
             table = tomllib.load(f)
     except FileNotFoundError:
@@ -104,7 +111,8 @@ def load_arm(spec: str | Path) -> ArmDescription:
         raise ArmFileError(f"cannot read arm {path}: {e.strerror}") from None
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
         raise ArmFileError(f"arm {path} is not valid TOML: {e}") from None
-    return arm_from_table(table, str(path))
+    _LOADED[key] = arm = arm_from_table(table, str(path))
+    return arm
 
 
 def _number(table: dict, key: str, where: str, default=None, lo=-math.inf, hi=math.inf) -> float:
@@ -191,23 +199,26 @@ def arm_from_table(t: dict, where: str = "arm") -> ArmDescription:
 
 
 # --- MJCF ---------------------------------------------------------------------------------------
-def _quat(R: np.ndarray) -> str:
-    x, y, z, w = Rotation.from_matrix(R).as_quat()
-    return f"{w:.17g} {x:.17g} {y:.17g} {z:.17g}"
+def _quats(R: np.ndarray) -> list[str]:
+    """MJCF quaternions (w x y z) of rotations R (k, 3, 3)."""
+    return [f"{w:.17g} {x:.17g} {y:.17g} {z:.17g}" for x, y, z, w in Rotation.from_matrix(R).as_quat()]
 
 
-def _rot(axis: str, angle: float) -> np.ndarray:
-    return Rotation.from_euler(axis, angle).as_matrix()
+def _rot(axis: str, angle: np.ndarray) -> np.ndarray:
+    return Rotation.from_euler(axis, np.asarray(angle, float)[:, None]).as_matrix()
 
 
 def joint_frames(convention: str, a, d, alpha, theta, beta) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """One joint's two rigid pieces around its hinge: (pre_R, pre_t) the hinge frame in the
-    previous link frame, (post_R, post_t) the link frame in the hinge frame; metres as given."""
+    """Each joint's two rigid pieces around its hinge, for (N,) values (metres as given):
+    (pre_R (N, 3, 3), pre_t (N, 3)) the hinge frame in the previous link frame, (post_R, post_t)
+    the link frame in the hinge frame."""
+    a, d, alpha, theta, beta = (np.atleast_1d(np.asarray(v, float)) for v in (a, d, alpha, theta, beta))
+    zero, eye = np.zeros(len(a)), np.broadcast_to(np.eye(3), (len(a), 3, 3))
+    M = _rot("x", alpha) @ _rot("y", beta)
     if convention == "dh":  # RotZ(theta + q) | TransZ(d) TransX(a) RotX(alpha) RotY(beta)
-        return _rot("z", theta), np.zeros(3), _rot("x", alpha) @ _rot("y", beta), np.array([a, 0.0, d])
+        return _rot("z", theta), np.zeros((len(a), 3)), M, np.stack([a, zero, d], axis=1)
     # mdh: RotX(alpha) RotY(beta) TransX(a) RotZ(theta + q) | TransZ(d)
-    R = _rot("x", alpha) @ _rot("y", beta)
-    return R @ _rot("z", theta), R @ np.array([a, 0.0, 0.0]), np.eye(3), np.array([0.0, 0.0, d])
+    return M @ _rot("z", theta), a[:, None] * M[:, :, 0], eye, np.stack([zero, zero, d], axis=1)
 
 
 def build_mjcf(arm: ArmDescription, values: np.ndarray | None = None, tool_mm=None, stiffness_nm_per_rad=None,
@@ -223,9 +234,11 @@ def build_mjcf(arm: ArmDescription, values: np.ndarray | None = None, tool_mm=No
     k = np.full(N, np.inf) if stiffness_nm_per_rad is None else np.asarray(stiffness_nm_per_rad, float)
     g = arm.gravity_m_s2
     body, close = "", ""
+    a, d, al, th, be = values.T
+    frames = joint_frames(arm.convention, a / 1000, d / 1000, al, th, be)
+    quats = _quats(np.concatenate([frames[0], frames[2]]))
     for i in range(N):
-        a, d, al, th, be = values[i]
-        pre_R, pre_t, post_R, post_t = joint_frames(arm.convention, a / 1000, d / 1000, al, th, be)
+        pre_R, pre_t, post_R, post_t = (f[i] for f in frames)
         spring = f' stiffness="{k[i]:.17g}"' if np.isfinite(k[i]) else ""
         if arm.has_masses:
             m = max(arm.mass_kg[i], 1e-6)
@@ -241,11 +254,11 @@ def build_mjcf(arm: ArmDescription, values: np.ndarray | None = None, tool_mm=No
                 f'rgba="0.75 0.75 0.78 1"/>' if length > 1e-6 else
                 '<geom type="sphere" size="0.035" rgba="0.75 0.75 0.78 1"/>')
         body += f"""
-      <body name="joint{i + 1}" pos="{pre_t[0]:.17g} {pre_t[1]:.17g} {pre_t[2]:.17g}" quat="{_quat(pre_R)}">
+      <body name="joint{i + 1}" pos="{pre_t[0]:.17g} {pre_t[1]:.17g} {pre_t[2]:.17g}" quat="{quats[i]}">
         <joint name="q{i + 1}" type="hinge" axis="0 0 1" damping="2" armature="0.1"{spring}/>
         <inertial pos="{c[0]:.17g} {c[1]:.17g} {c[2]:.17g}" mass="{m:.17g}" diaginertia="{inertia:.9g} {inertia:.9g} {inertia:.9g}"/>
         {geom}
-        <body name="link{i + 1}" pos="{post_t[0]:.17g} {post_t[1]:.17g} {post_t[2]:.17g}" quat="{_quat(post_R)}">"""
+        <body name="link{i + 1}" pos="{post_t[0]:.17g} {post_t[1]:.17g} {post_t[2]:.17g}" quat="{quats[N + i]}">"""
         close = "\n        </body>\n      </body>" + close
     tool_mass = max(arm.tool_mass_kg, 1e-6)
     body += f"""
