@@ -281,19 +281,18 @@ def interferometer_test(sim, config, lines, model) -> list[dict]:
         m, n = len(targets), config.runs
         dev = {+1: np.empty((m, n)), -1: np.empty((m, n))}
         zero = None
-        commands = {}  # target -> compensated command: the same for every run, computed once
+        # every position's compensated command, the same in every run: solved once, all at once
+        along = np.r_[targets, targets[0] - 2.0, targets[-1] + 2.0]  # the targets, then both overruns
+        points = np.empty((m + 2, 2))
+        points[:, axis], points[:, 1 - axis] = along, other
+        commands = dict(zip(along.tolist(), compensated_command(points, model).tolist()))
         for run in range(n):
             for direction in (+1, -1):
                 order = range(m) if direction > 0 else range(m - 1, -1, -1)
                 overrun = targets[0] - 2.0 if direction > 0 else targets[-1] + 2.0
                 for idx in [None, *order]:
                     t = overrun if idx is None else targets[idx]
-                    if t not in commands:
-                        target = np.zeros(2)
-                        target[axis], target[1 - axis] = t, other
-                        commands[t] = compensated_command(target, model)[0]
-                    cmd = commands[t]
-                    sim.move(*cmd)
+                    sim.move(*commands[float(t)])
                     if idx is None:
                         continue
                     reading = sim.interferometer_mm(axis, config.interferometer_noise_um)

@@ -70,7 +70,12 @@ def axes_errors(x: AxisErrors, y: AxisErrors, u_mm: np.ndarray, travel_mm: np.nd
     """Both axes' six errors at their positions ``u_mm`` (2,) over their ``travel_mm`` (2,),
     (2, 6): rows X then Y, columns in AxisErrors' field order; one evaluation for the twelve,
     bit-equal to each Smooth's own."""
-    linear, bow, amp, period, phase = np.concatenate([x._table, y._table], axis=1)
+    return _axes_errors(np.concatenate([x._table, y._table], axis=1), u_mm, travel_mm)
+
+
+def _axes_errors(table: np.ndarray, u_mm: np.ndarray, travel_mm: np.ndarray) -> np.ndarray:
+    """:func:`axes_errors` from both axes' tables side by side, (5, 12)."""
+    linear, bow, amp, period, phase = table
     u, travel = np.repeat(u_mm, 6), np.repeat(travel_mm, 6)
     s = u / travel
     return (linear * u + bow * 4 * s * (1 - s) + amp * np.sin(2 * np.pi * u / period + phase)).reshape(2, 6)
@@ -156,6 +161,8 @@ class VisionStageSim:
         self.set_plate_yaw(truth.plate_phi_rad)
         self._dir = np.array([1.0, 1.0])
         self._reading = np.zeros(2)
+        self._tables = (None, None, None)
+        self._body = {name: m.body(name).id for name in ("table", "plate")}
         self.renderer = LensRenderer(m, "microscope", geometry.camera) if render else None
         self.move(0.0, 0.0)
 
@@ -164,16 +171,20 @@ class VisionStageSim:
         """Servo both axes to the scale readings (x_mm, y_mm), the room at ``temp_c`` (None: the
         drives' reference temperature)."""
         target = np.array([x_mm, y_mm], float)
-        step = target - self._reading
-        self._dir = np.where(step > 0, 1.0, np.where(step < 0, -1.0, self._dir))
+        # each axis keeps its direction of travel when it does not move
+        self._dir = np.array([1.0 if b > a else -1.0 if b < a else d
+                              for a, b, d in zip(self._reading.tolist(), target.tolist(), self._dir.tolist())])
         self._reading = target
         t, g = self.truth, self.geometry
         lost = 0.5 * np.array(t.reversal_um) / 1000 * self._dir
-        T = None if temp_c is None else np.array([temp_c])
-        lost = lost + [0.0 if d.perfect else float(d.error_mm(np.array([u]), self._dir[k:k + 1], T)[0])
-                       for k, (d, u) in enumerate(((t.drive_x, x_mm), (t.drive_y, y_mm)))]
+        if not (t.drive_x.perfect and t.drive_y.perfect):
+            T = None if temp_c is None else np.array([temp_c])
+            lost = lost + [0.0 if d.perfect else float(d.error_mm(np.array([u]), self._dir[k:k + 1], T)[0])
+                           for k, (d, u) in enumerate(((t.drive_x, x_mm), (t.drive_y, y_mm)))]
         noise = self.rng.normal(0, t.repeatability_um / 1000, 2)
-        ex, ey = axes_errors(t.x, t.y, target, np.asarray(g.travel_mm, float))  # pos, s1, s2, roll, pitch, yaw
+        if self._tables[0] is not t.x or self._tables[1] is not t.y:  # the truth's axes: tabled once
+            self._tables = (t.x, t.y, np.concatenate([t.x._table, t.y._table], axis=1))
+        ex, ey = _axes_errors(self._tables[2], target, np.asarray(g.travel_mm, float))  # pos, s1, s2, roll, pitch, yaw
         along_x, along_y = ex[0] + (lost[0] + noise[0]), ey[0] + (lost[1] + noise[1])
         # straight_1 of X is along Y_m, of Y along X_m; the joints a, b turn about X_m, Y_m: the X
         # carriage's roll and pitch, the Y carriage's pitch and roll
@@ -219,7 +230,7 @@ class VisionStageSim:
 
     def point_in_body_mm(self, body: str) -> np.ndarray:
         """The point under the microscope in a body's frame (``table`` or ``plate``), (2,) mm."""
-        b = self.model.body(body).id
+        b = self._body[body] if body in self._body else self.model.body(body).id
         p = self._under_microscope_world()
         R = self.data.xmat[b].reshape(3, 3)
         return (R.T @ (p - self.data.xpos[b]))[:2] * 1000
