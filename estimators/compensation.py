@@ -77,7 +77,8 @@ class Polynomial:
 def least_squares(A: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, float]:
     """The one linear least-squares fitter of the error maps: coefficients c (p,) of
     A (n, p) @ c ~ e (n,) by QR, their 1-sigma (p,) from the residuals, the dof-adjusted RMSE
-    sqrt(SSE / (n - p)) and the SSE. ValueError when n <= p or the columns are dependent."""
+    sqrt(SSE / (n - p)) and the SSE. ValueError when n <= p or the columns are dependent.
+    Several maps on the same points at once: e (n, k) gives c and std (p, k), RMSE and SSE (k,)."""
     n, p = A.shape
     if n <= p:
         raise ValueError(f"{n} points cannot fit {p} coefficients")
@@ -88,9 +89,13 @@ def least_squares(A: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, np.ndarray,
     e = np.asarray(e, float)
     c = np.linalg.solve(R, Q.T @ e)
     r = e - A @ c
-    sse = float(r @ r)
-    rmse = float(np.sqrt(sse / (n - p)))
-    std = rmse * np.sqrt(np.sum(np.linalg.inv(R) ** 2, axis=1))
+    if e.ndim == 1:
+        sse = float(r @ r)
+        rmse = float(np.sqrt(sse / (n - p)))
+    else:
+        sse = np.sum(r * r, axis=0)
+        rmse = np.sqrt(sse / (n - p))
+    std = np.multiply.outer(np.sqrt(np.sum(np.linalg.inv(R) ** 2, axis=1)), rmse)
     return c, std, rmse, sse
 
 

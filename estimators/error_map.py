@@ -60,6 +60,13 @@ def fit_quadratic(x_mm: np.ndarray, y_mm: np.ndarray, err_mm: np.ndarray) -> Qua
                         rmse=rmse, n=n)
 
 
+def quadratic_coefs(x_mm: np.ndarray, y_mm: np.ndarray, err_mm: np.ndarray) -> np.ndarray:
+    """The coefficients c0..c5 of k maps on the same stations at once, (n,), (n,), (n, k) -> (6, k)
+    (each column as :func:`fit_quadratic` fits it)."""
+    c = least_squares(design(x_mm, y_mm, 2), np.asarray(err_mm, float))[0]
+    return c * (_SCALE_MM**-_POWERS)[:, None]
+
+
 def compensated_command(x_target_mm, y_target_mm, fit_x: QuadraticFit, fit_y: QuadraticFit,
                         iterations: int = 30) -> tuple[np.ndarray, np.ndarray]:
     """Commands that land on the targets under the fitted maps: cmd + err(cmd) = target.

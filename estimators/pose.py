@@ -35,16 +35,19 @@ def board2cam_from_homography(H: np.ndarray, K: np.ndarray) -> tuple[np.ndarray,
 
     lambda = 1 / |K^-1 h1|, r1 = lambda K^-1 h1, r2 = lambda K^-1 h2, r3 = r1 x r2,
     t = lambda K^-1 h3; the sign makes the target lie in front of the camera, and the
-    nearest rotation (SVD) replaces the noisy [r1 r2 r3].
+    nearest rotation (SVD) replaces the noisy [r1 r2 r3]. H (3, 3) gives R (3, 3), t (3,);
+    a stack H (n, 3, 3) gives R (n, 3, 3), t (n, 3).
     """
-    A = np.linalg.solve(K, H)
-    lam = 1.0 / np.linalg.norm(A[:, 0])
-    if A[2, 2] * lam < 0:
-        lam = -lam
-    r1, r2, t = lam * A[:, 0], lam * A[:, 1], lam * A[:, 2]
-    U, _, Vt = np.linalg.svd(np.column_stack([r1, r2, np.cross(r1, r2)]))
-    R = U @ np.diag([1, 1, np.linalg.det(U @ Vt)]) @ Vt
-    return R, t
+    Hs = np.asarray(H, float)
+    A = np.linalg.solve(K, Hs.reshape(-1, 3, 3).transpose(1, 0, 2).reshape(3, -1)).reshape(3, -1, 3).transpose(1, 0, 2)
+    lam = 1.0 / np.linalg.norm(A[:, :, 0], axis=1)
+    lam = np.where(A[:, 2, 2] * lam < 0, -lam, lam)[:, None]
+    r1, r2, t = lam * A[:, :, 0], lam * A[:, :, 1], lam * A[:, :, 2]
+    U, _, Vt = np.linalg.svd(np.stack([r1, r2, np.cross(r1, r2)], axis=2))
+    D = np.ones((len(A), 3))
+    D[:, 2] = np.linalg.det(U @ Vt)
+    R = (U * D[:, None, :]) @ Vt
+    return (R[0], t[0]) if Hs.ndim == 2 else (R, t)
 
 
 def board2cam_pnp(board_points: np.ndarray, pixels: np.ndarray, K: np.ndarray, dist: np.ndarray,

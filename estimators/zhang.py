@@ -28,6 +28,8 @@ class CameraCalibration:
     rms_px : RMS reprojection error over all corners.  per_view_rms_px : (n_views,).
     rvecs, tvecs : (n_views, 3) board-to-camera poses (Rodrigues, and translation in the
     target's unit).
+    cov, cov_names : the covariance of the estimated intrinsics (:func:`intrinsic_covariance`)
+    and their names, in its order (under a fixed aspect ratio "fy" is not among them).
     """
 
     K: np.ndarray
@@ -38,6 +40,8 @@ class CameraCalibration:
     rvecs: np.ndarray
     tvecs: np.ndarray
     image_size: tuple[int, int]
+    cov: np.ndarray | None = None  # of the estimated intrinsics cov_names (k, k), the views' poses eliminated
+    cov_names: tuple[str, ...] = ()
 
     def params(self) -> dict[str, float]:
         """The intrinsics by name (fx, fy, cx, cy px; k1, k2, p1, p2, k3)."""
@@ -111,7 +115,7 @@ def calibrate_camera(object_points: np.ndarray, image_points: list[np.ndarray],
     std = {n: float(np.sqrt(cov[i, i])) for i, n in enumerate(names)}
     if fix_aspect:
         std["fy"] = std["fx"] * float(K[1, 1] / K[0, 0])
-    calib = dataclasses.replace(calib, std={n: std[n] for n in INTRINSIC_NAMES if n in std})
+    calib = dataclasses.replace(calib, std={n: std[n] for n in INTRINSIC_NAMES if n in std}, cov=cov, cov_names=names)
     return calib
 
 
@@ -145,21 +149,25 @@ def intrinsic_covariance(calib: CameraCalibration, object_points: np.ndarray,
     cols = {n: i for i, n in enumerate(("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3"))}
     obj = np.asarray(object_points, np.float64)
     aspect = calib.K[1, 1] / calib.K[0, 0]
-    info = np.zeros((len(names), len(names)))
+    # every view's Jacobian, zero-padded to the longest (zero rows add nothing to the sums)
+    n_views = len(calib.rvecs)
+    J = np.zeros((n_views, 2 * len(obj), 15))
     sse, n_res = 0.0, 0
-    for rvec, tvec, pts in zip(calib.rvecs, calib.tvecs, image_points):
+    for v, (rvec, tvec, pts) in enumerate(zip(calib.rvecs, calib.tvecs, image_points)):
         pts = np.asarray(pts, float).reshape(-1, 2)
         kept = np.isfinite(pts).all(axis=1)  # NaN rows: corners left out of the view
         proj, jac = cv2.projectPoints(obj[kept], rvec, tvec, calib.K, calib.dist)
         r = (pts[kept] - proj.reshape(-1, 2)).ravel()
         sse += r @ r
         n_res += r.size
-        Je = jac[:, :6]
-        Ji = np.column_stack([jac[:, 6 + cols[n]] for n in names])
-        if fix_aspect:
-            Ji[:, names.index("fx")] += aspect * jac[:, 6 + cols["fy"]]
-        A, B, C = Ji.T @ Ji, Ji.T @ Je, Je.T @ Je
-        info += A - B @ np.linalg.solve(C, B.T)
-    n_params = len(names) + 6 * len(calib.rvecs)
+        J[v, :len(jac)] = jac[:, :15]
+    Je = J[:, :, :6]
+    Ji = J[:, :, [6 + cols[n] for n in names]]
+    if fix_aspect:
+        Ji[:, :, names.index("fx")] += aspect * J[:, :, 6 + cols["fy"]]
+    A, B, C = (np.einsum("vri,vrj->vij", P, Q) for P, Q in ((Ji, Ji), (Ji, Je), (Je, Je)))
+    # each view's pose eliminated: A - B C^-1 B^T, summed over the views
+    info = np.sum(A - B @ np.linalg.solve(C, B.transpose(0, 2, 1)), axis=0)
+    n_params = len(names) + 6 * n_views
     sigma2 = sse / max(n_res - n_params, 1)
     return np.linalg.inv(info) * sigma2

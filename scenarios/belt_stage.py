@@ -26,7 +26,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from calibench.estimators.chessboard import find_chessboard_corners
-from calibench.estimators.error_map import COEF_NAMES, compensated_command, fit_quadratic
+from calibench.estimators.error_map import COEF_NAMES, compensated_command, fit_quadratic, quadratic_coefs
 from calibench.estimators.pose import (Plane, board2cam_from_homography, board2cam_pnp, fit_plane, homography,
                                       mean_rotation, pose_sensitivity, undistort_pixels)
 from calibench.estimators.travel import board_yaw, travel_from_camera_centres, travel_in_plane
@@ -123,7 +123,8 @@ def run(config: BeltStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: b
         cmd = np.stack([x_pulses, y_pulses], axis=1) / PULSES_PER_MM
         m = measure_maps(board_pts, station_views.corners_px, calib.K, calib.dist, cmd, ref)
         intr_names = ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2")
-        cov_intr = intrinsic_covariance(calib, board_pts, calib_points, intr_names)
+        cov_intr = (calib.cov if calib.cov_names == intr_names else
+                    intrinsic_covariance(calib, board_pts, calib_points, intr_names))
         std_map = propagated_std(m, board_pts, calib, cmd, ref, intr_names, cov_intr)
         fit_x, fit_y, yaw, err = m.fit_x, m.fit_y, m.yaw_rad, m.err
         gx, gy = np.meshgrid(*(np.linspace(0, t, 41) for t in g.travel_mm))
@@ -217,7 +218,7 @@ class StageMaps:
     yaw_std_rad: float  # from the spread of the per-station yaws
     fit_x: object
     fit_y: object
-    paper_fit_x: object
+    paper_fit_x: object  # None when not asked for
     paper_fit_y: object
 
     def vector(self) -> np.ndarray:
@@ -239,26 +240,35 @@ def measure_maps(board_pts: np.ndarray, corners_px: np.ndarray, K: np.ndarray, d
 
 
 def maps_from_poses(st: StationPoses, board_pts: np.ndarray, cmd: np.ndarray, ref: int,
-                    slopes: np.ndarray | None = None) -> StageMaps:
-    """:func:`measure_maps` from the stations' poses on: plane, travel, errors, maps."""
+                    slopes: np.ndarray | None = None, paper: bool = True) -> StageMaps:
+    """:func:`measure_maps` from the stations' poses on: plane, travel, errors, maps (``paper``:
+    the seed paper's maps too, else None)."""
+    plane, travel, err, yaw = _travel_errors(st, board_pts, cmd, ref, slopes)
+    yaws = board_yaw(st.R_pnp, plane.normal, X_AXIS_CAM, Y_AXIS_CAM, BOARD_XY_TO_AXES)
+    rel = cmd - cmd[ref]
+    x, y = cmd[:, 0], cmd[:, 1]
+    paper_x = paper_y = None
+    if paper:
+        err_paper = travel_from_camera_centres(st.R_closed, st.t_closed, ref, BOARD_XY_TO_AXES) - rel
+        paper_x, paper_y = fit_quadratic(x, y, err_paper[:, 0]), fit_quadratic(x, y, err_paper[:, 1])
+    return StageMaps(
+        poses=st, plane=plane, travel=travel, err=err, yaw_rad=yaw,
+        yaw_std_rad=float(np.std(yaws, ddof=1) / np.sqrt(len(yaws))),
+        fit_x=fit_quadratic(x, y, err[:, 0]), fit_y=fit_quadratic(x, y, err[:, 1]),
+        paper_fit_x=paper_x, paper_fit_y=paper_y)
+
+
+def _travel_errors(st: StationPoses, board_pts: np.ndarray, cmd: np.ndarray, ref: int,
+                   slopes: np.ndarray | None = None) -> tuple[Plane, np.ndarray, np.ndarray, float]:
+    """The plane of motion, each station's travel and error (n, 2) mm, and the board's yaw."""
     centroid = board_pts.mean(axis=0)
     p = np.einsum("nij,j->ni", st.R_pnp, centroid) + st.t_pnp
     plane = fit_plane(p)
     if slopes is not None:
         plane = plane.tilted(slopes)
-    on_plane = plane.intersect_rays(p)
-    travel = travel_in_plane(on_plane, ref, plane.normal, X_AXIS_CAM, Y_AXIS_CAM)
-    travel_paper = travel_from_camera_centres(st.R_closed, st.t_closed, ref, BOARD_XY_TO_AXES)
-    yaws = board_yaw(st.R_pnp, plane.normal, X_AXIS_CAM, Y_AXIS_CAM, BOARD_XY_TO_AXES)
-    rel = cmd - cmd[ref]
-    err, err_paper = travel - rel, travel_paper - rel
-    x, y = cmd[:, 0], cmd[:, 1]
-    return StageMaps(
-        poses=st, plane=plane, travel=travel, err=err,
-        yaw_rad=board_yaw(mean_rotation(st.R_pnp), plane.normal, X_AXIS_CAM, Y_AXIS_CAM, BOARD_XY_TO_AXES),
-        yaw_std_rad=float(np.std(yaws, ddof=1) / np.sqrt(len(yaws))),
-        fit_x=fit_quadratic(x, y, err[:, 0]), fit_y=fit_quadratic(x, y, err[:, 1]),
-        paper_fit_x=fit_quadratic(x, y, err_paper[:, 0]), paper_fit_y=fit_quadratic(x, y, err_paper[:, 1]))
+    travel = travel_in_plane(plane.intersect_rays(p), ref, plane.normal, X_AXIS_CAM, Y_AXIS_CAM)
+    yaw = board_yaw(mean_rotation(st.R_pnp), plane.normal, X_AXIS_CAM, Y_AXIS_CAM, BOARD_XY_TO_AXES)
+    return plane, travel, travel - (cmd - cmd[ref]), yaw
 
 
 def propagated_std(m: StageMaps, board_pts, calib, cmd, ref, names, cov_intr) -> np.ndarray:
@@ -275,24 +285,33 @@ def propagated_std(m: StageMaps, board_pts, calib, cmd, ref, names, cov_intr) ->
     S = np.stack([pose_sensitivity(board_pts, R, t, calib.K, calib.dist, names) for R, t in zip(st.R_pnp, st.t_pnp)])
     rvecs = Rotation.from_matrix(st.R_pnp).as_rotvec()
 
-    def at(d_intr=None, slopes=None):
+    def at(d_intr=None, slopes=None) -> np.ndarray:
+        """The stations' errors and the yaw, (2 n + 1,), with the intrinsics or the plane moved."""
         poses = st
         if d_intr is not None:
             d = S @ d_intr  # (n, 6): each station's (rvec, t) moved
             poses = dataclasses.replace(st, R_pnp=Rotation.from_rotvec(rvecs + d[:, :3]).as_matrix(),
                                         t_pnp=st.t_pnp + d[:, 3:])
-        return maps_from_poses(poses, board_pts, cmd, ref, slopes).vector()
+        _, _, err, yaw = _travel_errors(poses, board_pts, cmd, ref, slopes)
+        return np.r_[err[:, 0], err[:, 1], yaw]
 
-    J = np.empty((13, len(names)))
+    # central differences of the errors; the maps are linear in them: all fitted in one solve
+    D = []
     for j in range(len(names)):
         h = np.zeros(len(names))
         h[j] = np.sqrt(cov_intr[j, j])
-        J[:, j] = (at(h) - at(-h)) / (2 * h[j])
-    Js = np.empty((13, 2))
+        D.append((at(h) - at(-h)) / (2 * h[j]))
     for j in range(2):
         h = np.zeros(2)
         h[j] = np.sqrt(m.plane.slope_cov[j, j])
-        Js[:, j] = (at(slopes=h) - at(slopes=-h)) / (2 * h[j])
+        D.append((at(slopes=h) - at(slopes=-h)) / (2 * h[j]))
+    D = np.stack(D, axis=1)  # (2 n + 1, k)
+    n = len(cmd)
+    x, y = cmd[:, 0], cmd[:, 1]
+    coef = quadratic_coefs(x, y, np.concatenate([D[:n], D[n:2 * n]], axis=1))  # (6, 2 k)
+    k = D.shape[1]
+    JJ = np.concatenate([coef[:, :k], coef[:, k:], D[2 * n:]], axis=0)  # (13, k)
+    J, Js = JJ[:, :len(names)], JJ[:, len(names):]
     own = np.r_[m.fit_x.std, m.fit_y.std, m.yaw_std_rad]
     # errors are measured from the home station, whose own scatter (the per-station RMSE) moves
     # every error alike: a common offset the residuals cannot show, so it joins c0's variance
@@ -304,14 +323,10 @@ def propagated_std(m: StageMaps, board_pts, calib, cmd, ref, names, cov_intr) ->
 
 def station_poses(board_pts: np.ndarray, corners_px: np.ndarray, K: np.ndarray, dist: np.ndarray) -> StationPoses:
     """Closed-form and PnP board2cam poses of every station, (n_stations, n_corners, 2) in."""
-    out = {k: [] for k in ("R_closed", "t_closed", "R_pnp", "t_pnp")}
-    for c in corners_px:
-        H = homography(board_pts[:, :2], undistort_pixels(c, K, dist))
-        R0, t0 = board2cam_from_homography(H, K)
-        R1, t1 = board2cam_pnp(board_pts, c, K, dist, guess=(R0, t0))
-        for k, v in zip(out, (R0, t0, R1, t1)):
-            out[k].append(v)
-    return StationPoses(**{k: np.array(v) for k, v in out.items()})
+    ideal = undistort_pixels(np.asarray(corners_px, float).reshape(-1, 2), K, dist).reshape(np.shape(corners_px))
+    R0, t0 = board2cam_from_homography(np.array([homography(board_pts[:, :2], c) for c in ideal]), K)
+    pnp = [board2cam_pnp(board_pts, c, K, dist, guess=(R, t)) for c, R, t in zip(corners_px, R0, t0)]
+    return StationPoses(R0, t0, np.array([R for R, _ in pnp]), np.array([t for _, t in pnp]))
 
 
 def _record(sim: BeltStageSim, fidelity: str, config: BeltStageConfig, rng: np.random.Generator,

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from calibench.estimators.error_map import compensated_command, fit_quadratic
+from calibench.estimators.error_map import compensated_command, fit_quadratic, quadratic_coefs
 from calibench.scenarios.stage_fit import fit_recording
 from calibench.recordings import StageRecording
 
@@ -34,6 +34,19 @@ def test_recovers_coefficients_within_their_std_and_the_std_is_honest():
     assert np.all(np.abs(est.mean(axis=0) - TRUE) <= 4 * std.mean(axis=0) / np.sqrt(300))
     np.testing.assert_allclose(est.std(axis=0, ddof=1) / std.mean(axis=0), 1, atol=0.15)
     assert np.mean(rmse) == pytest.approx(sigma, rel=0.05)
+
+
+def test_many_maps_at_once_are_each_maps_own_fit():
+    """quadratic_coefs (the belt stage's uncertainty propagation fits 20 maps in one solve) gives
+    each column's fit_quadratic coefficients."""
+    x, y = _grid()
+    rng = np.random.default_rng(3)
+    E = _truth(x, y)[:, None] + rng.normal(0, 0.01, (len(x), 4)) * np.array([1.0, 0.1, 10.0, 1e-3])
+    C = quadratic_coefs(x, y, E)
+    assert C.shape == (6, 4)
+    for k in range(4):
+        own = fit_quadratic(x, y, E[:, k]).coef
+        np.testing.assert_allclose(C[:, k], own, rtol=1e-10, atol=1e-12 * np.abs(own).max())
 
 
 def test_goodness_of_fit_definitions():
