@@ -337,7 +337,7 @@ def _record(sim: BeltStageSim, fidelity: str, config: BeltStageConfig, rng: np.r
     corner projections (n_views, n_corners, 2), which stay in the scenario.
     """
     board = config.geometry.board
-    names, images, corners, true = [], [], [], []
+    names, images, corners, frames = [], [], [], []
     steps = list(steps)
     for kind, a, b in progress(steps, "rendering" if fidelity == "render" else "views", len(steps)):
         if kind == "calib":
@@ -346,17 +346,18 @@ def _record(sim: BeltStageSim, fidelity: str, config: BeltStageConfig, rng: np.r
         else:
             sim.move(a, b)
             names.append(f"x{a / PULSES_PER_MM:g}_y{b / PULSES_PER_MM:g}")
-        true.append(sim.true_corners_px(calib=kind == "calib"))
+        frames.append(sim.view_frame(calib=kind == "calib"))
         if fidelity == "render":
             img = sim.render(calib=kind == "calib", rng=rng, noise_dn=config.pixel_noise_dn,
                              psf_px=config.psf_px)
             images.append(img)
             c = find_chessboard_corners(img, board.cols, board.rows)
             corners.append(np.full((board.n_corners, 2), np.nan) if c is None else c)
-        else:
-            corners.append(true[-1] + rng.normal(0, config.corner_noise_px, true[-1].shape))
+    true = sim.corners_px(frames)
+    if fidelity != "render":  # every view's noise at once: the same draws as view by view
+        corners = true + rng.normal(0, config.corner_noise_px, true.shape)
     views = CameraViews(image_size=size, names=names, images=images or None, corners_px=np.array(corners))
-    return views, np.array(true)
+    return views, true
 
 
 def _vector_rms(d: np.ndarray) -> float:

@@ -135,5 +135,6 @@ def world_to_cv_camera(points_world: np.ndarray, cam_pos: np.ndarray, cam_xmat: 
     """World points to the OpenCV camera frame of a MuJoCo camera, shape (n, 3) -> (n, 3).
 
     ``cam_xmat`` is MuJoCo's camera orientation (columns = camera axes in world), (3, 3).
+    Several cameras at once: points (k, n, 3), cam_pos (k, 1, 3), cam_xmat (k, 3, 3).
     """
     return (points_world - cam_pos) @ cam_xmat @ MJ_TO_CV

@@ -138,11 +138,22 @@ class BeltStageSim:
 
     def true_corners_px(self, calib: bool = False) -> np.ndarray:
         """Exact (distorted) projection of the board's inner corners, shape (n, 2) px."""
+        return self.corners_px([self.view_frame(calib)])[0]
+
+    def view_frame(self, calib: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """What a view's exact corners depend on, now: the board's (stage's, or with ``calib``
+        the free one's) rotation (3, 3) and position (3,) m in the world, and MuJoCo's camera
+        orientation (3, 3) and position (3,) m."""
         Rb, pb = self.board2world(self._calib if calib else None)
-        world = pb + (self.geometry.board.corners_mm() / 1000) @ Rb.T
-        Rc, pc = self.cam2world()
-        cam = world_to_cv_camera(world, pc, self.data.cam_xmat[self._cam].reshape(3, 3))
-        return self.geometry.camera.project(cam)
+        return Rb, pb, self.data.cam_xmat[self._cam].reshape(3, 3).copy(), self.data.cam_xpos[self._cam].copy()
+
+    def corners_px(self, frames: list) -> np.ndarray:
+        """Exact (distorted) projections of the board's inner corners in several views, each
+        given by its :meth:`view_frame`, (n_views, n, 2) px: all views in one projection."""
+        Rb, pb, cam_xmat, cam_pos = (np.array(f) for f in zip(*frames))
+        world = pb[:, None] + (self.geometry.board.corners_mm() / 1000) @ Rb.transpose(0, 2, 1)
+        cam = world_to_cv_camera(world, cam_pos[:, None], cam_xmat)
+        return self.geometry.camera.project(cam.reshape(-1, 3)).reshape(cam.shape[0], cam.shape[1], 2)
 
     # --- the calibration board, held in front of the camera -----------------------------------
     def place_calib_board(self, R_board2cam: np.ndarray, t_board2cam_mm: np.ndarray) -> None:
@@ -186,6 +197,29 @@ class BeltStageSim:
             self.renderer.close()
 
 
+BLOCK = 16  # attempts at placing a calibration view, judged together
+
+
+def _view_attempts(draw, fu, fv, cam, corners, centre, half, outer, edge_px):
+    """Each attempt's pose (R (k, 3, 3), t (k, 3) mm) from its draws (k, 6), and whether it
+    fits: the printed face towards the camera, every corner ``edge_px`` inside, the plate in."""
+    R = Rotation.from_rotvec(draw[:, :3]).as_matrix()
+    z = draw[:, 3]
+    hw, hh = half[0] * cam.fx / z, half[1] * cam.fy / z  # plate half size, px
+    fu_j, fv_j = np.clip(fu + draw[:, 4], 0, 1), np.clip(fv + draw[:, 5], 0, 1)
+    u = hw + fu_j * (cam.width - 2 * hw)
+    v = hh + fv_j * (cam.height - 2 * hh)
+    c_cam = np.stack([(u - cam.cx) / cam.fx * z, (v - cam.cy) / cam.fy * z, z], axis=1)
+    t = c_cam - R @ centre
+    k = len(draw)
+    uv = cam.project((corners @ R.transpose(0, 2, 1) + t[:, None]).reshape(-1, 3)).reshape(k, -1, 2)
+    uv_plate = cam.project(((outer + centre) @ R.transpose(0, 2, 1) + t[:, None]).reshape(-1, 3)).reshape(k, -1, 2)
+    inside = ((uv > edge_px) & (uv < [cam.width - edge_px, cam.height - edge_px])).all(axis=(1, 2))
+    plate_in = ((uv_plate > 0) & (uv_plate < [cam.width, cam.height])).all(axis=(1, 2))
+    # the printed face must face the camera (board z, into the plate, points away)
+    return (R[:, 2, 2] > 0.3) & inside & plate_in, R, t
+
+
 def intrinsic_view_poses(geometry: BeltStageGeometry, n_views: int, rng: np.random.Generator,
                          depth_mm: tuple[float, float] = (750.0, 1150.0),
                          max_tilt_rad: float = 0.6, edge_px: float = 12.0):
@@ -204,32 +238,26 @@ def intrinsic_view_poses(geometry: BeltStageGeometry, n_views: int, rng: np.rand
     ny = int(np.ceil(n_views / nx))
     # grid fractions 0..1 of the feasible range of the board centre: 0 and 1 touch the edges
     targets = [(i / max(nx - 1, 1), j / max(ny - 1, 1)) for j in range(ny) for i in range(nx)][:n_views]
+    outer = np.array([[sx * half[0], sy * half[1], 0] for sx in (-1, 1) for sy in (-1, 1)])
+    # one attempt's six draws: two tilts, the spin, the depth, the aim's jitter in u and v
+    lo = np.array([-max_tilt_rad, -max_tilt_rad, -0.4, depth_mm[0], -0.1, -0.1])
+    hi = np.array([max_tilt_rad, max_tilt_rad, 0.4, depth_mm[1], 0.1, 0.1])
     poses = []
     for fu, fv in targets:
-        for _ in range(2000):
-            tilt = rng.uniform(-max_tilt_rad, max_tilt_rad, 2)
-            spin = rng.uniform(-0.4, 0.4)
-            R = Rotation.from_rotvec([tilt[0], tilt[1], spin]).as_matrix()
-            z = rng.uniform(*depth_mm)
-            hw, hh = half[0] * cam.fx / z, half[1] * cam.fy / z  # plate half size, px
-            fu_j, fv_j = np.clip([fu + rng.uniform(-0.1, 0.1), fv + rng.uniform(-0.1, 0.1)], 0, 1)
-            u = hw + fu_j * (cam.width - 2 * hw)
-            v = hh + fv_j * (cam.height - 2 * hh)
-            c_cam = np.array([(u - cam.cx) / cam.fx * z, (v - cam.cy) / cam.fy * z, z])
-            t = c_cam - R @ centre
-            pts = corners @ R.T + t
-            outer = np.array([[sx * half[0], sy * half[1], 0] for sx in (-1, 1) for sy in (-1, 1)])
-            plate = (outer + centre) @ R.T + t
-            # the printed face must face the camera (board z, into the plate, points away)
-            if R[2, 2] <= 0.3:
-                continue
-            uv = cam.project(pts)
-            uv_plate = cam.project(plate)
-            inside = ((uv > edge_px) & (uv < [cam.width - edge_px, cam.height - edge_px])).all()
-            plate_in = ((uv_plate > 0) & (uv_plate < [cam.width, cam.height])).all()
-            if inside and plate_in:
-                poses.append((R, t))
+        found = None
+        for _ in range(2000 // BLOCK):
+            # a block of attempts judged at once; the generator is then moved past exactly the
+            # attempts a one-at-a-time search would have drawn, up to the first that fits
+            state = rng.bit_generator.state
+            draw = rng.uniform(lo, hi, (BLOCK, 6))
+            ok, R, t = _view_attempts(draw, fu, fv, cam, corners, centre, half, outer, edge_px)
+            if ok.any():
+                j = int(np.argmax(ok))
+                rng.bit_generator.state = state
+                rng.uniform(lo, hi, (j + 1, 6))
+                found = (R[j], t[j])
                 break
-        else:
+        if found is None:
             raise RuntimeError("could not place a calibration view inside the image")
+        poses.append(found)
     return poses
