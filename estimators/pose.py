@@ -77,14 +77,18 @@ def pose_sensitivity(board_points: np.ndarray, R: np.ndarray, t: np.ndarray, K: 
     The implicit-function theorem at the reprojection minimum, J_pose^T r = 0: d pose / d theta
     = -(J_pose^T J_pose)^-1 J_pose^T J_theta (Gauss-Newton: the residuals' own second-order
     term is left out, the residuals being hundredths of a pixel). rvec is Rodrigues' vector of
-    ``R`` (3, 3); t (3,) in the board's unit; board_points (m, 3).
+    ``R`` (3, 3); t (3,) in the board's unit; board_points (m, 3). Several poses at once: R
+    (n, 3, 3), t (n, 3) give (n, 6, k).
     """
-    rvec = cv2.Rodrigues(np.asarray(R, float))[0]
-    _, jac = cv2.projectPoints(np.asarray(board_points, np.float64), rvec, np.asarray(t, float).reshape(3, 1), K,
-                               dist)
-    Jp = jac[:, :6]
-    Jt = jac[:, [_INTRINSIC_COLUMN[n] for n in names]]
-    return -np.linalg.solve(Jp.T @ Jp, Jp.T @ Jt)
+    R, t = np.asarray(R, float), np.asarray(t, float)
+    if R.ndim == 2:
+        return pose_sensitivity(board_points, R[None], t[None], K, dist, names)[0]
+    obj = np.asarray(board_points, np.float64)
+    jac = np.stack([cv2.projectPoints(obj, cv2.Rodrigues(Ri)[0], ti.reshape(3, 1), K, dist)[1] for Ri, ti in zip(R, t)])
+    Jp = jac[:, :, :6]
+    Jt = jac[:, :, [_INTRINSIC_COLUMN[n] for n in names]]
+    JpT = Jp.transpose(0, 2, 1)
+    return -np.linalg.solve(JpT @ Jp, JpT @ Jt)
 
 
 def mean_rotation(R: np.ndarray) -> np.ndarray:

@@ -98,25 +98,24 @@ def calibrate_camera(object_points: np.ndarray, image_points: list[np.ndarray],
     dist = np.zeros(5) if dist is None else np.asarray(dist, float).ravel()[:5]
     K = np.asarray(K, float)
     rvecs, tvecs = np.asarray(rvecs, float).reshape(-1, 3), np.asarray(tvecs, float).reshape(-1, 3)
-    per_view = [np.sqrt(np.mean(np.sum((p.reshape(-1, 2) - cv2.projectPoints(o, rv, tv, K, dist)[0].reshape(-1, 2))
-                                       ** 2, axis=1))) for o, p, rv, tv in zip(objs, imgs, rvecs, tvecs)]
     estimated = {"fx", "fy", "cx", "cy", "k1", "k2"}
     if tangential:
         estimated |= {"p1", "p2"}
     if not fix_k3:
         estimated.add("k3")
-    calib = CameraCalibration(K=K, dist=dist, std={}, rms_px=float(rms), per_view_rms_px=np.asarray(per_view, float),
+    calib = CameraCalibration(K=K, dist=dist, std={}, rms_px=float(rms), per_view_rms_px=np.zeros(len(rvecs)),
                               rvecs=rvecs, tvecs=tvecs, image_size=tuple(image_size))
     # under a fixed aspect ratio fx and fy are one parameter (fy = a fx): its std from the
     # information with both columns combined (OpenCV would report std(fx) = 0)
     names = tuple(n for n in INTRINSIC_NAMES if n in estimated and not (fix_aspect and n == "fy"))
-    cov = intrinsic_covariance(calib, obj, [np.asarray(p, float).reshape(-1, 2) for p in image_points], names,
-                               fix_aspect=fix_aspect)
+    views = _reprojections(calib, obj, [np.asarray(p, float).reshape(-1, 2) for p in image_points])
+    cov = intrinsic_covariance(calib, obj, None, names, fix_aspect=fix_aspect, _views=views)
     std = {n: float(np.sqrt(cov[i, i])) for i, n in enumerate(names)}
     if fix_aspect:
         std["fy"] = std["fx"] * float(K[1, 1] / K[0, 0])
-    calib = dataclasses.replace(calib, std={n: std[n] for n in INTRINSIC_NAMES if n in std}, cov=cov, cov_names=names)
-    return calib
+    per_view = np.sqrt(np.nanmean(np.sum(views[0] ** 2, axis=2), axis=1))  # over the corners each view kept
+    return dataclasses.replace(calib, std={n: std[n] for n in INTRINSIC_NAMES if n in std}, cov=cov, cov_names=names,
+                               per_view_rms_px=per_view)
 
 
 def _check_not_degenerate(objs: list[np.ndarray], imgs: list[np.ndarray], image_size) -> None:
@@ -137,30 +136,39 @@ def _check_not_degenerate(objs: list[np.ndarray], imgs: list[np.ndarray], image_
                            "tilt the target between views")
 
 
+def _reprojections(calib: CameraCalibration, object_points: np.ndarray,
+                   image_points: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Each view's residuals, detected minus projected, (n_views, n_corners, 2) px (NaN where a
+    corner was left out), and OpenCV's Jacobian of its kept corners' projections, zero-padded,
+    (n_views, 2 n_corners, 15): rvec, tvec, fx, fy, cx, cy, k1, k2, p1, p2, k3."""
+    obj = np.asarray(object_points, np.float64)
+    n_views = len(calib.rvecs)
+    J = np.zeros((n_views, 2 * len(obj), 15))
+    res = np.full((n_views, len(obj), 2), np.nan)
+    for v, (rvec, tvec, pts) in enumerate(zip(calib.rvecs, calib.tvecs, image_points)):
+        pts = np.asarray(pts, float).reshape(-1, 2)
+        kept = np.isfinite(pts).all(axis=1)  # NaN rows: corners left out of the view
+        proj, jac = cv2.projectPoints(obj[kept], rvec, tvec, calib.K, calib.dist)
+        res[v, kept] = pts[kept] - proj.reshape(-1, 2)
+        J[v, :len(jac)] = jac[:, :15]
+    return res, J
+
+
 def intrinsic_covariance(calib: CameraCalibration, object_points: np.ndarray,
-                         image_points: list[np.ndarray], names: tuple[str, ...],
-                         fix_aspect: bool = False) -> np.ndarray:
+                         image_points: list[np.ndarray] | None, names: tuple[str, ...],
+                         fix_aspect: bool = False, _views=None) -> np.ndarray:
     """Full covariance of the estimated intrinsics ``names``, shape (k, k).
 
     Gauss-Newton information of all views, with each view's pose eliminated (Schur complement),
     scaled by the residual variance as OpenCV does for its standard deviations. With
     ``fix_aspect`` fx and fy are one parameter (fy = a fx): name it "fx" and omit "fy".
+    ``_views``: the views' :func:`_reprojections`, when the caller has them.
     """
     cols = {n: i for i, n in enumerate(("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3"))}
-    obj = np.asarray(object_points, np.float64)
+    res, J = _reprojections(calib, object_points, image_points) if _views is None else _views
     aspect = calib.K[1, 1] / calib.K[0, 0]
-    # every view's Jacobian, zero-padded to the longest (zero rows add nothing to the sums)
-    n_views = len(calib.rvecs)
-    J = np.zeros((n_views, 2 * len(obj), 15))
-    sse, n_res = 0.0, 0
-    for v, (rvec, tvec, pts) in enumerate(zip(calib.rvecs, calib.tvecs, image_points)):
-        pts = np.asarray(pts, float).reshape(-1, 2)
-        kept = np.isfinite(pts).all(axis=1)  # NaN rows: corners left out of the view
-        proj, jac = cv2.projectPoints(obj[kept], rvec, tvec, calib.K, calib.dist)
-        r = (pts[kept] - proj.reshape(-1, 2)).ravel()
-        sse += r @ r
-        n_res += r.size
-        J[v, :len(jac)] = jac[:, :15]
+    r = res[np.isfinite(res)]
+    sse, n_res = float(r @ r), r.size
     Je = J[:, :, :6]
     Ji = J[:, :, [6 + cols[n] for n in names]]
     if fix_aspect:
@@ -168,6 +176,6 @@ def intrinsic_covariance(calib: CameraCalibration, object_points: np.ndarray,
     A, B, C = (np.einsum("vri,vrj->vij", P, Q) for P, Q in ((Ji, Ji), (Ji, Je), (Je, Je)))
     # each view's pose eliminated: A - B C^-1 B^T, summed over the views
     info = np.sum(A - B @ np.linalg.solve(C, B.transpose(0, 2, 1)), axis=0)
-    n_params = len(names) + 6 * n_views
+    n_params = len(names) + 6 * len(calib.rvecs)
     sigma2 = sse / max(n_res - n_params, 1)
     return np.linalg.inv(info) * sigma2

@@ -282,7 +282,7 @@ def propagated_std(m: StageMaps, board_pts, calib, cmd, ref, names, cov_intr) ->
     centrally at one sigma.
     """
     st = m.poses
-    S = np.stack([pose_sensitivity(board_pts, R, t, calib.K, calib.dist, names) for R, t in zip(st.R_pnp, st.t_pnp)])
+    S = pose_sensitivity(board_pts, st.R_pnp, st.t_pnp, calib.K, calib.dist, names)
     rvecs = Rotation.from_matrix(st.R_pnp).as_rotvec()
 
     def at(d_intr=None, slopes=None) -> np.ndarray:

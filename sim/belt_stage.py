@@ -100,13 +100,15 @@ class BeltStageSim:
         """Command the stage, the room at ``temp_c`` (None: the drives' reference temperature);
         returns the true carriage position (x, y) in mm."""
         cmd = np.array([x_pulses, y_pulses], float) / PULSES_PER_MM
-        step = cmd - self._cmd
-        self._dir = np.where(step > 0, 1.0, np.where(step < 0, -1.0, self._dir))
+        # each axis keeps its direction of travel when it does not move
+        self._dir = np.array([1.0 if b > a else -1.0 if b < a else d
+                              for a, b, d in zip(self._cmd.tolist(), cmd.tolist(), self._dir.tolist())])
         self._cmd = cmd
         true_mm = cmd + self.truth.error_mm(cmd[:1], cmd[1:])[0]
         T = None if temp_c is None else np.array([temp_c])
         for k, (drive, belt) in enumerate(zip((self.truth.drive_x, self.truth.drive_y), self._belts)):
-            true_mm[k] += drive.error_mm(cmd[k:k + 1], self._dir[k:k + 1], T)[0]
+            if not drive.perfect:
+                true_mm[k] += drive.error_mm(cmd[k:k + 1], self._dir[k:k + 1], T)[0]
             if belt is not None:
                 true_mm[k] += belt.move(cmd[k]) - cmd[k]
         self.data.qpos[:2] = true_mm / 1000
