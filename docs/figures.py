@@ -487,7 +487,8 @@ def _terms_words(terms: list[str]) -> str:
     """fit.json's effect terms (``angle_transmission2``, ``angle_table2``...) in words, as
     :func:`_effects_words` says a discovery's."""
     kinds = {"transmission": "transmission", "table": "nonsmooth", "eccentricity": "encoder_eccentricity"}
-    found = sorted({(m.group(1), int(m.group(2))) for m in (re.fullmatch(r"angle_([a-z]+)(\d+)", t) for t in terms) if m})
+    matches = (re.fullmatch(r"angle_([a-z]+)(\d+)", t) for t in terms)
+    found = sorted({(m.group(1), int(m.group(2))) for m in matches if m})
     return _effects_words({"effects": [{"name": kinds[k], "params": {"joint": j}} for k, j in found if k in kinds]})
 
 

@@ -29,8 +29,8 @@ import dataclasses
 import numpy as np
 from scipy import linalg
 
-from calibench.estimators.arm_kinematics import (Chain, Pose, gravity_moments, jacobian, joint_axes, n_params, param_names,
-                                                 pose, theta_index)
+from calibench.estimators.arm_kinematics import (Chain, Pose, gravity_moments, jacobian, joint_axes, n_params,
+                                                 param_names, pose, theta_index)
 from calibench.estimators.rotations import matrix_to_rotvec, rigid_transform, rotvec_to_matrix, skew
 
 
