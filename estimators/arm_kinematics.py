@@ -16,8 +16,8 @@ Parameter errors (``delta``, ``(5 N + 3,)``): per joint (da, dd, dalpha, dtheta,
 the nominal values (dtheta is the joint's zero offset), then the tool point's (dx, dy, dz) in the
 flange frame. Names: ``da1 .. dbetaN, tool_x, tool_y, tool_z`` (:func:`param_names`).
 
-Everything is vectorised over postures: q is ``(n, N)``; the loop runs over the 5 N elementary
-motions of the chain, never over postures.
+Everything is vectorised over postures: q is ``(n, N)``; the only loop runs over the N joints,
+chaining their transforms, never over postures.
 """
 
 from __future__ import annotations
