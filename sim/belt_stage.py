@@ -19,7 +19,7 @@ from calibench.scenes.belt_stage import (CALIB_BOARD_GROUP, CALIB_BOARD_PARK, ST
                                BeltStageGeometry, board_to_body, build_mjcf)
 from calibench.scenes.camera import MJ_TO_CV, world_to_cv_camera
 from calibench.sim.renderer import LensRenderer
-from calibench.sim.stage_drive import BeltDrive, DriveErrors, ElasticBelt
+from calibench.sim.stage_drive import BeltDrive, DriveErrors, ElasticBelt, travel_direction
 from calibench.errors import BadInput
 
 PULSES_PER_MM = 250.0  # 25,000 pulses = 100 mm
@@ -100,9 +100,7 @@ class BeltStageSim:
         """Command the stage, the room at ``temp_c`` (None: the drives' reference temperature);
         returns the true carriage position (x, y) in mm."""
         cmd = np.array([x_pulses, y_pulses], float) / PULSES_PER_MM
-        # each axis keeps its direction of travel when it does not move
-        self._dir = np.array([1.0 if b > a else -1.0 if b < a else d
-                              for a, b, d in zip(self._cmd.tolist(), cmd.tolist(), self._dir.tolist())])
+        self._dir = travel_direction(self._cmd, cmd, self._dir)
         self._cmd = cmd
         true_mm = cmd + self.truth.error_mm(cmd[:1], cmd[1:])[0]
         T = None if temp_c is None else np.array([temp_c])

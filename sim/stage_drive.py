@@ -22,6 +22,14 @@ import mujoco
 import numpy as np
 
 
+def travel_direction(before: np.ndarray, after: np.ndarray, last: np.ndarray) -> np.ndarray:
+    """Each axis's direction of travel (+1 or -1) for a move from ``before`` to ``after`` (k,);
+    an axis that does not move keeps its ``last`` direction. Plain floats: a move's few axes
+    cost less in Python than in numpy calls."""
+    return np.array([1.0 if b > a else -1.0 if b < a else d
+                     for a, b, d in zip(before.tolist(), after.tolist(), last.tolist())])
+
+
 @dataclasses.dataclass(frozen=True)
 class DriveErrors:
     """One axis's drive errors (all zero: a perfect drive).

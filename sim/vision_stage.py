@@ -23,7 +23,7 @@ import numpy as np
 from calibench.scenes.vision_stage import VisionStageGeometry, build_mjcf
 from calibench.scenes.camera import MJ_TO_CV, world_to_cv_camera
 from calibench.sim.renderer import LensRenderer
-from calibench.sim.stage_drive import DriveErrors
+from calibench.sim.stage_drive import DriveErrors, travel_direction
 
 
 @dataclasses.dataclass(frozen=True)
@@ -171,9 +171,7 @@ class VisionStageSim:
         """Servo both axes to the scale readings (x_mm, y_mm), the room at ``temp_c`` (None: the
         drives' reference temperature)."""
         target = np.array([x_mm, y_mm], float)
-        # each axis keeps its direction of travel when it does not move
-        self._dir = np.array([1.0 if b > a else -1.0 if b < a else d
-                              for a, b, d in zip(self._reading.tolist(), target.tolist(), self._dir.tolist())])
+        self._dir = travel_direction(self._reading, target, self._dir)
         self._reading = target
         t, g = self.truth, self.geometry
         lost = 0.5 * np.array(t.reversal_um) / 1000 * self._dir
