@@ -28,6 +28,7 @@ import numpy as np
 
 from calibench.recordings import ArmRecording, ScannerRecording, StageRecording, StewartRecording
 from calibench.sim.replay import replay_stage
+from calibench.sim.stage_drive import travel_direction
 from calibench.errors import BadInput
 
 SCANNER_KINDS = ("null", "runout", "eccentricity", "scale", "bump", "combined")
@@ -68,8 +69,7 @@ def stage_commands(plan: StagePlan) -> dict:
     last = np.array([1.0, 1.0])
     prev = np.array([-1.0, -1.0])  # homed from below
     for i, pos in enumerate(c[:, :2]):
-        step = pos - prev
-        last = np.where(step > 0, 1.0, np.where(step < 0, -1.0, last))
+        last = travel_direction(prev, pos, last)
         dirs[i], prev = last, pos
     return {"x": x, "y": y, "run": c[:, 2], "dir_x": dirs[:, 0], "dir_y": dirs[:, 1],
             "t_s": np.arange(len(c)) * plan.seconds_per_station}

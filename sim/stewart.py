@@ -14,6 +14,7 @@ import mujoco
 import numpy as np
 
 from calibench.scenes.stewart import StewartGeometry, build_mjcf
+from calibench.sim.stage_drive import travel_direction
 
 
 @dataclasses.dataclass(frozen=True)
@@ -122,8 +123,8 @@ class StewartSim:
         L = self.leg_lengths_mm()
         out = L - self.l0 + self.rng.normal(0, self.truth.reading_noise_um / 1000, 6)
         if self.truth.has_leg_physics:
-            step = L - (self._last_L if self._last_L is not None else L - 1.0)  # homed from below
-            self._dir = np.where(step > 0, 1.0, np.where(step < 0, -1.0, self._dir))
+            before = self._last_L if self._last_L is not None else L - 1.0  # homed from below
+            self._dir = travel_direction(before, L, self._dir)
             self._last_L = L
             force = (self.leg_forces_n(*self._pose, self.truth.payload_n)
                      if np.any(np.asarray(self.truth.leg_compliance_um_per_n) != 0) else None)
