@@ -24,10 +24,45 @@ def undistort_pixels(pixels: np.ndarray, K: np.ndarray, dist: np.ndarray) -> np.
 
 def homography(board_xy: np.ndarray, pixels: np.ndarray) -> np.ndarray:
     """Least-squares homography (normalised DLT) from board xy to pixels, (n, 2) -> (3, 3)."""
-    H, _ = cv2.findHomography(np.asarray(board_xy, np.float64), np.asarray(pixels, np.float64), 0)
-    if H is None:
-        raise ValueError("degenerate points: no homography")
-    return H
+    return homographies(np.asarray(board_xy, float), np.asarray(pixels, float)[None])[0]
+
+
+def homographies(board_xy: np.ndarray, pixels: np.ndarray) -> np.ndarray:
+    """Each view's least-squares homography from board xy to pixels (normalised DLT), all views
+    at once: board_xy (n, 2), pixels (n_views, n, 2) with NaN rows left out, H (n_views, 3, 3)
+    scaled to H[2, 2] = 1."""
+    kept = np.isfinite(pixels).all(axis=2)
+    w = kept.astype(float)
+    cnt = w.sum(axis=1)
+    # Hartley's normalisation: the board's points once, each view's pixels on their own
+    mb = board_xy.mean(axis=0)
+    sb = np.sqrt(2) / np.mean(np.linalg.norm(board_xy - mb, axis=1))
+    X = (board_xy - mb) * sb  # (n, 2)
+    p = np.where(kept[..., None], pixels, 0.0)
+    mp = p.sum(axis=1) / cnt[:, None]
+    sp = np.sqrt(2) * cnt / np.sum(np.linalg.norm(p - mp[:, None], axis=2) * w, axis=1)
+    u = (p - mp[:, None]) * sp[:, None, None]  # (v, n, 2)
+    n_views, n = u.shape[:2]
+    A = np.zeros((n_views, n, 2, 9))
+    Xh = np.c_[X, np.ones(n)]
+    A[:, :, 0, 0:3] = Xh
+    A[:, :, 0, 6:9] = -u[..., 0:1] * Xh
+    A[:, :, 1, 3:6] = Xh
+    A[:, :, 1, 6:9] = -u[..., 1:2] * Xh
+    A = (A * w[..., None, None]).reshape(n_views, 2 * n, 9)
+    # the null vector from A^T A (9 x 9): normalised, its squared conditioning costs no digit a
+    # starting pose needs, and it is a fraction of the SVD of A's 2 n rows
+    ev, V = np.linalg.eigh(A.transpose(0, 2, 1) @ A)
+    if np.any(ev[:, 1] < 1e-18 * ev[:, -1]):
+        raise ValueError("a view's corners are collinear: no homography")
+    Hn = V[:, :, 0].reshape(n_views, 3, 3)
+    Tb = np.array([[sb, 0, -sb * mb[0]], [0, sb, -sb * mb[1]], [0, 0, 1]])
+    Tp_inv = np.zeros((n_views, 3, 3))
+    Tp_inv[:, 0, 0] = Tp_inv[:, 1, 1] = 1 / sp
+    Tp_inv[:, :2, 2] = mp
+    Tp_inv[:, 2, 2] = 1
+    H = Tp_inv @ Hn @ Tb
+    return H / H[:, 2:, 2:]
 
 
 def board2cam_from_homography(H: np.ndarray, K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -52,18 +87,85 @@ def board2cam_from_homography(H: np.ndarray, K: np.ndarray) -> tuple[np.ndarray,
 
 def board2cam_pnp(board_points: np.ndarray, pixels: np.ndarray, K: np.ndarray, dist: np.ndarray,
                   guess: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Maximum-likelihood pose (Levenberg-Marquardt on reprojection error), R (3, 3), t (3,)."""
+    """Maximum-likelihood pose (Levenberg-Marquardt on reprojection error), R (3, 3), t (3,);
+    without a ``guess``, from OpenCV's iterative PnP's."""
     obj = np.asarray(board_points, np.float64)
     img = np.asarray(pixels, np.float64)
     if guess is None:
         ok, rvec, tvec = cv2.solvePnP(obj, img, K, dist, flags=cv2.SOLVEPNP_ITERATIVE)
-    else:
-        rvec0 = cv2.Rodrigues(guess[0])[0]
-        ok, rvec, tvec = cv2.solvePnP(obj, img, K, dist, rvec0, guess[1].reshape(3, 1).copy(),
-                                      useExtrinsicGuess=True, flags=cv2.SOLVEPNP_ITERATIVE)
-    if not ok:
-        raise ValueError("PnP failed")
-    return cv2.Rodrigues(rvec)[0], tvec.ravel()
+        if not ok:
+            raise ValueError("PnP failed")
+        guess = cv2.Rodrigues(rvec)[0], tvec.ravel()
+    R, t = board2cam_refine(obj, img[None], K, dist, np.asarray(guess[0], float)[None], np.asarray(guess[1], float)[None])
+    return R[0], t[0]
+
+
+XTOL = 1e-8  # a refinement's last step, in units of each pose parameter's std
+
+
+def board2cam_refine(board_points: np.ndarray, pixels: np.ndarray, K: np.ndarray, dist: np.ndarray,
+                     R: np.ndarray, t: np.ndarray, max_iter: int = 50) -> tuple[np.ndarray, np.ndarray]:
+    """Maximum-likelihood poses of several views at once, refined from R (n, 3, 3), t (n, 3).
+
+    Levenberg-Marquardt on each view's reprojection error (pixels (n, m, 2) of board_points
+    (m, 3); a NaN row is a corner left out), each view with its own damping. A view is done
+    when its step moves no pose parameter by more than ``XTOL`` of its std. OpenCV's
+    ``solvePnP`` stops at a relative change of 1.2e-7 instead, which leaves a pose's last digits
+    to its start (a belt-stage map coefficient moved by 1e-3 std with a 1e-14 change of the
+    intrinsics).
+    Raises ValueError when a view does not converge.
+    """
+    from scipy.spatial.transform import Rotation
+
+    from calibench.estimators.projection import project
+
+    obj = np.asarray(board_points, float)
+    pix = np.asarray(pixels, float)
+    kept = np.repeat(np.isfinite(pix).all(axis=2), 2, axis=1)  # (n, 2 m)
+    pix = np.where(np.isfinite(pix), pix, 0.0).reshape(len(pix), -1)
+    intrinsics = np.r_[K[0, 0], K[1, 1], K[0, 2], K[1, 2], np.r_[np.ravel(dist), np.zeros(5)][:5]]
+    R, t = np.array(R, float), np.array(t, float)
+
+    def residuals(R, t, jacobians):
+        P = project(intrinsics, R, t, obj, jacobians=jacobians)
+        r = np.where(kept, pix - P.uv.reshape(len(R), -1), 0.0)
+        return r, (P.d_pose.reshape(len(R), -1, 6) * kept[..., None] if jacobians else None)
+
+    dof = np.maximum(kept.sum(axis=1) - 6, 1)
+    r, J = residuals(R, t, True)
+    cost = np.sum(r * r, axis=1)
+    lam = np.full(len(R), 1e-3)
+    done = np.zeros(len(R), bool)
+    converged = np.zeros(len(R), bool)
+    for _ in range(max_iter):
+        A = J.transpose(0, 2, 1) @ J
+        g = (J.transpose(0, 2, 1) @ r[..., None])[..., 0]
+        diag = np.diagonal(A, axis1=1, axis2=2)
+        step = np.linalg.solve(A + lam[:, None, None] * diag[:, :, None] * np.eye(6), g[..., None])[..., 0]
+        step[done] = 0.0
+        R_new = Rotation.from_rotvec(step[:, :3]).as_matrix() @ R
+        t_new = t + step[:, 3:]
+        r_new, _ = residuals(R_new, t_new, False)
+        cost_new = np.sum(r_new * r_new, axis=1)
+        sigma = np.maximum(np.sqrt(cost / dof), 1e-9)
+        size = np.max(np.abs(step) * np.sqrt(diag), axis=1) / sigma  # in units of each parameter's std
+        # a step under 1e-3 std is taken whatever the cost says: the cost's own rounding (1e-12 of
+        # it, the residuals being differences of pixel coordinates) hides a change that small
+        better = ((cost_new < cost) | (size < 1e-3)) & ~done
+        R[better], t[better], cost[better] = R_new[better], t_new[better], cost_new[better]
+        lam = np.where(better, np.maximum(lam / 10, 1e-12), lam * 10)
+        # at a minimum: a step below the tolerance, or no damping lowers the cost and the gradient vanishes
+        small = size < XTOL
+        stuck = ~better & (lam > 1e10)
+        flat = np.max(np.abs(g) / np.sqrt(np.maximum(diag, 1e-300)), axis=1) < XTOL * np.maximum(np.sqrt(cost), 1e-9)
+        converged |= ~done & (small | (stuck & flat))
+        done |= small | stuck
+        if done.all():
+            break
+        r, J = residuals(R, t, True)
+    if not converged.all():
+        raise ValueError(f"PnP did not converge for view(s) {np.flatnonzero(~converged)[:5].tolist()}")
+    return R, t
 
 
 # projectPoints' Jacobian columns after (rvec, tvec): fx, fy, cx, cy, then k1, k2, p1, p2, k3

@@ -27,7 +27,7 @@ from scipy.spatial.transform import Rotation
 
 from calibench.estimators.chessboard import find_chessboard_corners
 from calibench.estimators.error_map import COEF_NAMES, compensated_command, fit_quadratic, quadratic_coefs
-from calibench.estimators.pose import (Plane, board2cam_from_homography, board2cam_pnp, fit_plane, homography,
+from calibench.estimators.pose import (Plane, board2cam_from_homography, board2cam_refine, fit_plane, homographies,
                                       mean_rotation, pose_sensitivity, undistort_pixels)
 from calibench.estimators.travel import board_yaw, travel_from_camera_centres, travel_in_plane
 from calibench.estimators.zhang import calibrate_camera, intrinsic_covariance
@@ -324,9 +324,9 @@ def propagated_std(m: StageMaps, board_pts, calib, cmd, ref, names, cov_intr) ->
 def station_poses(board_pts: np.ndarray, corners_px: np.ndarray, K: np.ndarray, dist: np.ndarray) -> StationPoses:
     """Closed-form and PnP board2cam poses of every station, (n_stations, n_corners, 2) in."""
     ideal = undistort_pixels(np.asarray(corners_px, float).reshape(-1, 2), K, dist).reshape(np.shape(corners_px))
-    R0, t0 = board2cam_from_homography(np.array([homography(board_pts[:, :2], c) for c in ideal]), K)
-    pnp = [board2cam_pnp(board_pts, c, K, dist, guess=(R, t)) for c, R, t in zip(corners_px, R0, t0)]
-    return StationPoses(R0, t0, np.array([R for R, _ in pnp]), np.array([t for _, t in pnp]))
+    R0, t0 = board2cam_from_homography(homographies(board_pts[:, :2], ideal), K)
+    R, t = board2cam_refine(board_pts, corners_px, K, dist, R0, t0)
+    return StationPoses(R0, t0, R, t)
 
 
 def _record(sim: BeltStageSim, fidelity: str, config: BeltStageConfig, rng: np.random.Generator,

@@ -1,6 +1,7 @@
 """Zhang calibration on synthetic views: truth recovered within the reported std, and the
 reported std honest (Monte-Carlo spread), full covariance equal to OpenCV's diagonal."""
 
+import cv2
 import numpy as np
 import pytest
 
@@ -33,10 +34,43 @@ def test_truth_within_five_reported_sigma():
     assert calib.rms_px == pytest.approx(SIGMA_PX * np.sqrt(2), rel=0.1)
 
 
-def test_full_covariance_diagonal_is_opencvs_std():
+def _opencv(obj, views, flags, K0=None):
+    """OpenCV's calibrateCamera(Extended) on the same corners, each view's NaN rows left out."""
+    keep = [np.isfinite(p).all(axis=1) for p in views]
+    objs = [obj[k].astype(np.float32) for k in keep]
+    imgs = [p[k].astype(np.float32).reshape(-1, 1, 2) for p, k in zip(views, keep)]
+    crit = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 200, 1e-12)
+    out = cv2.calibrateCameraExtended(objs, imgs, (640, 480), K0, None, flags=flags, criteria=crit)
+    return out[1], out[2].ravel(), out[5].ravel()  # K, dist, std of fx, fy, cx, cy, k1, k2, p1, p2, k3, ...
+
+
+@pytest.mark.parametrize("fix_aspect", [False, True])
+def test_the_fit_is_opencvs_calibrate_camera(fix_aspect):
+    """Our bundle adjustment reaches OpenCV's estimate (same model, same corners, a few left out
+    as NaN) to 1e-9 px, and our std are OpenCV's own (calibrateCameraExtended) where it gives
+    them (it reports 0 for fx under a fixed aspect ratio)."""
+    calib, obj, pts = _calibrate(1)
+    pts = [p.copy() for p in pts]
+    pts[2][[3, 17]] = np.nan
+    calib = calibrate_camera(obj, pts, (640, 480), fix_aspect=fix_aspect)
+    flags = cv2.CALIB_FIX_K3 | (cv2.CALIB_FIX_ASPECT_RATIO if fix_aspect else 0)
+    K0 = None
+    if fix_aspect:
+        keep = [np.isfinite(p).all(axis=1) for p in pts]
+        K0 = cv2.initCameraMatrix2D([obj[k].astype(np.float32) for k in keep],
+                                    [p[k].astype(np.float32) for p, k in zip(pts, keep)], (640, 480), 1.0)
+        K0[1, 1] = K0[0, 0]
+    K_cv, dist_cv, std_cv = _opencv(obj, pts, flags, K0)
+    np.testing.assert_allclose(calib.K, K_cv, atol=1e-7)
+    np.testing.assert_allclose(calib.dist, dist_cv[:5], atol=1e-10)
+    names = NAMES[1:] if fix_aspect else NAMES
+    np.testing.assert_allclose([calib.std[n] for n in names], [std_cv[NAMES.index(n)] for n in names], rtol=1e-4)
+
+
+def test_full_covariance_diagonal_is_the_reported_std():
     calib, obj, pts = _calibrate(1)
     cov = intrinsic_covariance(calib, obj, pts, NAMES)
-    np.testing.assert_allclose(np.sqrt(np.diag(cov)), [calib.std[n] for n in NAMES], rtol=1e-4)
+    np.testing.assert_allclose(np.sqrt(np.diag(cov)), [calib.std[n] for n in NAMES], rtol=1e-9)
     assert np.all(np.linalg.eigvalsh(cov) > 0)
 
 
