@@ -269,66 +269,119 @@ class JointCalibration:
         return np.sqrt(np.diag(self.cov))
 
 
-def _joint_residuals(obs: TrackerObservations, stations, R, t, r, B, l):
-    """Whitened residuals (m,) and Jacobian (m, 9 + 6 n + 42) of every measurement.
+@dataclasses.dataclass(frozen=True)
+class _JointBlocks:
+    """The joint problem's whitened residuals and Jacobian, by blocks. The unknowns: the globals
+    (the stations (9), then per leg r, B, l (42)) and each pose's left rotation and shift (6).
 
-    Unknowns: stations, then (omega, t) per pose (left rotation increments), then per leg
-    (r, B, l). Rows: nest lengths, reflector lengths, leg readings.
+    res_nest (9,), J_nest (9, 51): the nests' lengths (stations only).
+    res_pose (n, 3 k + 6): each pose's reflector lengths [reflector, station], then its 6 readings.
+    J_pose (n, 3 k + 6, 6) on the pose's own (omega, t); J_glob (n, 3 k + 6, 51) on the globals.
     """
+
+    res_nest: np.ndarray
+    J_nest: np.ndarray
+    res_pose: np.ndarray
+    J_pose: np.ndarray
+    J_glob: np.ndarray
+
+
+def _joint_blocks(obs: TrackerObservations, stations, R, t, r, B, l) -> _JointBlocks:
+    """The residuals and Jacobian of every measurement, pose by pose (:class:`_JointBlocks`)."""
     n, k = len(R), len(obs.reflectors)
-    n_par = 9 + 6 * n + 42
     w = 1 / obs.sigma()
+    w_nest, w_refl, w_leg = w[:9], w[9:9 + 3 * n * k].reshape(n, 3 * k), w[9 + 3 * n * k:].reshape(n, 6)
     # nests: |N_j - S_s|
     v = obs.nests[None, :, :] - stations[:, None, :]  # (3 s, 3 j, 3)
     Ln = np.linalg.norm(v, axis=2)
-    Jn = np.zeros((3, 3, n_par))
+    J_nest = np.zeros((3, 3, 51))
     un = v / Ln[..., None]
     for s in range(3):
-        Jn[s, :, 3 * s:3 * s + 3] = -un[s]
+        J_nest[s, :, 3 * s:3 * s + 3] = -un[s]
     # reflectors: |R f + t - S_s|
     Rf = np.einsum("nij,kj->nki", R, obs.reflectors)  # (n, k, 3)
-    P = Rf + t[:, None, :]
-    v = P[:, :, None, :] - stations[None, None, :, :]  # (n, k, s, 3)
+    v = (Rf + t[:, None, :])[:, :, None, :] - stations[None, None, :, :]  # (n, k, s, 3)
     Lr = np.linalg.norm(v, axis=3)
     ur = v / Lr[..., None]
-    Jr = np.zeros((n, k, 3, n_par))
+    J_pose = np.zeros((n, 3 * k + 6, 6))
+    J_glob = np.zeros((n, 3 * k + 6, 51))
+    Jg = J_glob[:, :3 * k].reshape(n, k, 3, 51)
     for s in range(3):
-        Jr[:, :, s, 3 * s:3 * s + 3] = -ur[:, :, s]
-    pose_cols = 9 + 6 * np.arange(n)
-    rows = np.arange(n)
-    omega_part = np.cross(Rf[:, :, None, :], ur)  # u . (omega x Rf) = omega . (Rf x u)
-    for c in range(3):
-        Jr[rows, :, :, pose_cols + c] = omega_part[..., c]
-        Jr[rows, :, :, pose_cols + 3 + c] = ur[..., c]
+        Jg[:, :, s, 3 * s:3 * s + 3] = -ur[:, :, s]
+    # u . (omega x Rf) = omega . (Rf x u)
+    J_pose[:, :3 * k, :3] = np.cross(Rf[:, :, None, :], ur).reshape(n, 3 * k, 3)
+    J_pose[:, :3 * k, 3:] = ur.reshape(n, 3 * k, 3)
     # legs: |R r_i + t - B_i| - l_i = reading
     Rr = np.einsum("nij,lj->nli", R, r)  # (n, 6, 3)
     v = Rr + t[:, None, :] - B[None]
     Ll = np.linalg.norm(v, axis=2)
     ul = v / Ll[..., None]
-    Jl = np.zeros((n, 6, n_par))
-    omega_part = np.cross(Rr, ul)
-    for c in range(3):
-        Jl[rows, :, pose_cols + c] = omega_part[..., c]
-        Jl[rows, :, pose_cols + 3 + c] = ul[..., c]
-    leg_cols = 9 + 6 * n + 7 * np.arange(6)
+    J_pose[:, 3 * k:, :3] = np.cross(Rr, ul)
+    J_pose[:, 3 * k:, 3:] = ul
+    legs = np.arange(6)
     uR = np.einsum("nli,nij->nlj", ul, R)  # d L / d r_i = u^T R
+    Jl = J_glob[:, 3 * k:]  # (n, 6, 51)
     for c in range(3):
-        Jl[:, np.arange(6), leg_cols + c] = uR[..., c]
-        Jl[:, np.arange(6), leg_cols + 3 + c] = -ul[..., c]
-    Jl[:, np.arange(6), leg_cols + 6] = -1.0
-    res = np.r_[(Ln - obs.nest_lengths).ravel(), (Lr - obs.reflector_lengths).ravel(),
-                (Ll - l[None] - obs.readings).ravel()]
-    J = np.vstack([Jn.reshape(-1, n_par), Jr.reshape(-1, n_par), Jl.reshape(-1, n_par)])
-    return res * w, J * w[:, None]
+        Jl[:, legs, 9 + 7 * legs + c] = uR[..., c]
+        Jl[:, legs, 9 + 7 * legs + 3 + c] = -ul[..., c]
+    Jl[:, legs, 9 + 7 * legs + 6] = -1.0
+    res_pose = np.concatenate([(Lr - obs.reflector_lengths).reshape(n, 3 * k) * w_refl,
+                               (Ll - l[None] - obs.readings) * w_leg], axis=1)
+    w_pose = np.concatenate([w_refl, w_leg], axis=1)[..., None]
+    return _JointBlocks((Ln - obs.nest_lengths).ravel() * w_nest, J_nest.reshape(9, 51) * w_nest[:, None],
+                        res_pose, J_pose * w_pose, J_glob * w_pose)
+
+
+def _joint_residuals(obs: TrackerObservations, stations, R, t, r, B, l):
+    """Whitened residuals (m,) and the dense Jacobian (m, 9 + 6 n + 42) of every measurement
+    (the blocks of :func:`_joint_blocks` put together).
+
+    Unknowns: stations, then (omega, t) per pose (left rotation increments), then per leg
+    (r, B, l). Rows: nest lengths, reflector lengths, leg readings.
+    """
+    b = _joint_blocks(obs, stations, R, t, r, B, l)
+    n, m = b.res_pose.shape
+    k3 = m - 6
+    n_par = 9 + 6 * n + 42
+    J = np.zeros((n, m, n_par))
+    J[:, :, :9], J[:, :, -42:] = b.J_glob[..., :9], b.J_glob[..., 9:]
+    for i in range(n):
+        J[i, :, 9 + 6 * i:15 + 6 * i] = b.J_pose[i]
+    nest = np.zeros((9, n_par))
+    nest[:, :9] = b.J_nest[:, :9]
+    res = np.r_[b.res_nest, b.res_pose[:, :k3].ravel(), b.res_pose[:, k3:].ravel()]
+    return res, np.vstack([nest, J[:, :k3].reshape(-1, n_par), J[:, k3:].reshape(-1, n_par)])
+
+
+def _reduced_normal(b: _JointBlocks) -> tuple[np.ndarray, ...]:
+    """The normal equations with every pose eliminated (Schur complement), column-scaled (mm
+    and rad mix): S (51, 51) and its right side (51,) on the scaled globals, with what it takes
+    to recover the poses' steps and the scales: U^-1 (n, 6, 6), W (n, 6, 51), g_pose (n, 6),
+    then the globals' and the poses' column scales (51,) and (n, 6)."""
+    sg = 1 / np.sqrt(np.sum(b.J_glob ** 2, axis=(0, 1)) + np.sum(b.J_nest ** 2, axis=0))
+    sp = 1 / np.linalg.norm(b.J_pose, axis=1)  # (n, 6)
+    Jg, Jp, Jn = b.J_glob * sg, b.J_pose * sp[:, None, :], b.J_nest * sg
+    JpT = Jp.transpose(0, 2, 1)
+    U_inv = np.linalg.inv(JpT @ Jp)
+    W = JpT @ Jg
+    g_pose = (JpT @ b.res_pose[..., None])[..., 0]
+    Jg2 = Jg.reshape(-1, Jg.shape[2])
+    V = Jg2.T @ Jg2 + Jn.T @ Jn
+    g_glob = Jg2.T @ b.res_pose.ravel() + Jn.T @ b.res_nest
+    WtUi = W.transpose(0, 2, 1) @ U_inv  # (n, 51, 6)
+    S = V - np.sum(WtUi @ W, axis=0)
+    rhs = -(g_glob - np.einsum("nij,nj->i", WtUi, g_pose))
+    return S, rhs, U_inv, W, g_pose, sg, sp
 
 
 def joint_information(obs: TrackerObservations, stations, R, t, r, B, l) -> np.ndarray:
     """The legs' 42 x 42 covariance from the full Fisher information at the given values, with
     the stations and poses as nuisance parameters (Schur complement). At the truth this is the
     Cramer-Rao bound of any unbiased estimator of the legs from these measurements."""
-    _, J = _joint_residuals(obs, np.asarray(stations, float), np.asarray(R, float), np.asarray(t, float),
-                            np.asarray(r, float), np.asarray(B, float), np.asarray(l, float))
-    return np.linalg.inv(J.T @ J)[-42:, -42:]
+    b = _joint_blocks(obs, np.asarray(stations, float), np.asarray(R, float), np.asarray(t, float),
+                      np.asarray(r, float), np.asarray(B, float), np.asarray(l, float))
+    S, _, _, _, _, sg, _ = _reduced_normal(b)
+    return (np.linalg.inv(S) * np.outer(sg, sg))[9:, 9:]
 
 
 def adjust_jointly(obs: TrackerObservations, stations, R, t, r, B, l, iterations: int = 20) -> JointCalibration:
@@ -337,32 +390,33 @@ def adjust_jointly(obs: TrackerObservations, stations, R, t, r, B, l, iterations
 
     The pipeline fixes the stations from three lengths each and the poses from the tracker alone;
     here the legs' readings also inform the poses and every pose informs the stations, which the
-    sequential estimate leaves on the table.
+    sequential estimate leaves on the table. Each step eliminates the poses (6 x 6 blocks) and
+    solves for the 51 stations' and legs' values only.
     """
     S, Rc, tc = np.array(stations, float), np.array(R, float), np.array(t, float)
     rc, Bc, lc = np.array(r, float), np.array(B, float), np.array(l, float)
-    n = len(Rc)
     converged = False
     for _ in range(iterations):
-        res, J = _joint_residuals(obs, S, Rc, tc, rc, Bc, lc)
-        # normal equations, column-scaled (mm and rad mix): ~20x faster than an SVD here
-        scale = 1 / np.linalg.norm(J, axis=0)
-        Js = J * scale
-        step = np.linalg.solve(Js.T @ Js, -Js.T @ res) * scale
-        S = S + step[:9].reshape(3, 3)
-        dp = step[9:9 + 6 * n].reshape(n, 6)
+        b = _joint_blocks(obs, S, Rc, tc, rc, Bc, lc)
+        Sch, rhs, U_inv, W, g_pose, sg, sp = _reduced_normal(b)
+        dg = np.linalg.solve(Sch, rhs)
+        dp = -(U_inv @ (g_pose + W @ dg)[..., None])[..., 0] * sp  # (n, 6)
+        dg = dg * sg
+        S = S + dg[:9].reshape(3, 3)
         Rc = np.einsum("nij,njk->nik", rotvecs_to_matrices(dp[:, :3]), Rc)
         tc = tc + dp[:, 3:]
-        legs = step[9 + 6 * n:].reshape(6, 7)
+        legs = dg[9:].reshape(6, 7)
         rc, Bc, lc = rc + legs[:, :3], Bc + legs[:, 3:6], lc + legs[:, 6]
-        if np.max(np.abs(step)) < 1e-11:
+        if max(np.max(np.abs(dg)), np.max(np.abs(dp))) < 1e-11:
             converged = True
             break
-    res, J = _joint_residuals(obs, S, Rc, tc, rc, Bc, lc)
-    dof = max(len(res) - J.shape[1], 1)
+    b = _joint_blocks(obs, S, Rc, tc, rc, Bc, lc)
+    res = np.r_[b.res_nest, b.res_pose.ravel()]
+    dof = max(len(res) - (51 + 6 * len(Rc)), 1)
     # the stated sigma are a datasheet's, not the truth: the variance factor of the whitened
     # residuals (1 when the datasheet is right) rescales the covariance, and is reported as rms
     s2 = res @ res / dof
-    cov = np.linalg.inv(J.T @ J)[-42:, -42:] * s2
+    Sch, _, _, _, _, sg, _ = _reduced_normal(b)
+    cov = (np.linalg.inv(Sch) * np.outer(sg, sg))[9:, 9:] * s2
     return JointCalibration(S, Rc, tc, rc, Bc, lc, cov, float(np.sqrt(s2)), converged)
 

@@ -166,6 +166,17 @@ def test_joint_jacobian_matches_finite_differences():
     np.testing.assert_allclose(J, Jn, atol=1e-6 * np.abs(J).max())
 
 
+def test_joint_information_with_the_poses_eliminated_is_the_dense_inverse():
+    """The Schur complement over the poses (6 x 6 blocks) gives the legs' block of the full
+    (J^T J)^-1 of the dense Jacobian (itself checked against finite differences above)."""
+    rng = np.random.default_rng(32)
+    obs, (S, R, t, r, B, l) = _joint_problem(rng, n=12)
+    _, J = _joint_residuals(obs, S, R, t, r, B, l)
+    dense = np.linalg.inv(J.T @ J)[-42:, -42:]
+    np.testing.assert_allclose(joint_information(obs, S, R, t, r, B, l), dense, rtol=1e-7,
+                               atol=1e-9 * np.abs(dense).max())
+
+
 def test_joint_adjustment_recovers_the_legs_and_its_std_is_the_bound():
     """From a start 0.3 mm off everywhere, 15 noisy calibrations: every leg parameter within 5 of
     its std, the normalised errors' RMS within 15 % of 1 (630 samples: 3 sigma is 8 %), and the
