@@ -1,0 +1,59 @@
+"""The probe scanner's ray cast limited to the walls a ray can reach finds what a cast against
+every wall finds, to the last bit."""
+
+import numpy as np
+import pytest
+
+from calibench.scenarios.probe_scanner import ProbeScannerConfig
+from calibench.sim.probe_scanner import N_SECTORS, ProbeScannerSim, ProbeScannerTruth, box_corners_xy, ray_sectors
+
+
+def _slab_hits(origin, direction, pos, mat, size):
+    """Which boxes a ray meets at s >= 0 (the slab test in each box's frame, independent of
+    MuJoCo and of ray_sectors), (n,) bool."""
+    o = np.einsum("nji,nj->ni", mat, origin - pos)  # the ray in each box's frame
+    d = np.einsum("nji,j->ni", mat, direction)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t1, t2 = (-size - o) / d, (size - o) / d
+    lo = np.where(np.abs(d) > 1e-15, np.minimum(t1, t2), np.where(np.abs(o) <= size, -np.inf, np.inf))
+    hi = np.where(np.abs(d) > 1e-15, np.maximum(t1, t2), np.where(np.abs(o) <= size, np.inf, -np.inf))
+    enter, leave = lo.max(axis=1), hi.min(axis=1)
+    return (enter <= leave) & (leave >= 0)
+
+
+def test_every_box_a_ray_meets_is_in_its_sectors_set():
+    """Random boxes around an axis, random rays from a circle of radius |Q| about it, in the
+    plane of the boxes: each box the ray meets is among its sector's candidates."""
+    rng = np.random.default_rng(3)
+    n = 400
+    radius, angle = rng.uniform(12.0, 40.0, n), rng.uniform(-np.pi, np.pi, n)
+    pos = np.c_[radius * np.cos(angle), radius * np.sin(angle), np.zeros(n)]
+    yaw = rng.uniform(-np.pi, np.pi, n)
+    mat = np.zeros((n, 3, 3))
+    mat[:, 0, 0], mat[:, 0, 1], mat[:, 1, 0], mat[:, 1, 1] = np.cos(yaw), -np.sin(yaw), np.sin(yaw), np.cos(yaw)
+    mat[:, 2, 2] = 1.0
+    size = np.c_[rng.uniform(0.2, 12.0, n), rng.uniform(0.2, 2.0, n), np.full(n, 4.0)]
+    q_radius = 5.0
+    masks = ray_sectors(box_corners_xy(pos, mat, size), q_radius)
+    missed = 0
+    for _ in range(3000):
+        a, phi = rng.uniform(-np.pi, np.pi, 2)
+        origin = np.array([q_radius * np.cos(a), q_radius * np.sin(a), 0.0])
+        direction = np.array([np.cos(phi), np.sin(phi), 0.0])
+        k = int(np.floor((phi + np.pi) / (2 * np.pi) * N_SECTORS)) % N_SECTORS
+        missed += int(np.sum(_slab_hits(origin, direction, pos, mat, size) & ~masks[k]))
+    assert missed == 0
+    assert np.mean([m.mean() for m in masks]) < 0.5  # and the sets are a real cut
+
+
+@pytest.mark.parametrize("truth", [ProbeScannerTruth(), ProbeScannerTruth(d_mm=10.5, dL_mm=1.0, alpha0_rad=-0.6,
+                                                                            plate_centre_mm=(0.9, 0.5))])
+def test_limited_cast_equals_the_cast_against_every_wall(truth):
+    sim = ProbeScannerSim(ProbeScannerConfig().geometry, truth)
+    theta = np.random.default_rng(4).uniform(0, 2 * np.pi, 2000)
+    for part in ("plate", "lens"):
+        limited = sim.exact_rho(part, theta)
+        walls, _ = sim._sectors(part)
+        sim._sector_cache[part] = (walls, [walls] * N_SECTORS)  # every wall in every sector
+        every = sim.exact_rho(part, theta)
+        np.testing.assert_array_equal(limited, every)
