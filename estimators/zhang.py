@@ -105,7 +105,7 @@ def calibrate_camera(object_points: np.ndarray, image_points: list[np.ndarray],
     fit = _bundle_adjust(obj, pixels, start, R0, t0, names, fix_aspect)
     if not fit.converged:
         raise CalibrationError(f"the calibration did not converge in {fit.iterations} iterations")
-    views = _reprojections(fit, obj, measured)  # the residuals of the corners as measured
+    views = _reprojections(fit.intrinsics, fit.R, fit.t, obj, measured)  # the corners as measured
     r = views[0][kept]
     calib = CameraCalibration(
         K=_camera_matrix(fit.intrinsics), dist=fit.intrinsics[[4, 5, 6, 7, 8]].copy(), std={},
@@ -257,24 +257,27 @@ def _bundle_adjust(obj, pixels, intrinsics, R, t, names, fix_aspect, max_iter: i
     return _Fit(x, R, t, it, converged)
 
 
-def _reprojections(calib, object_points: np.ndarray, image_points) -> tuple[np.ndarray, np.ndarray]:
+def _state(calib: CameraCalibration) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A calibration's intrinsics (9,) in ``INTRINSIC_NAMES`` order and its views' board2cam
+    R (n_views, 3, 3), t (n_views, 3)."""
+    K = calib.K
+    intrinsics = np.r_[K[0, 0], K[1, 1], K[0, 2], K[1, 2], np.r_[calib.dist, np.zeros(5)][:5]]
+    return intrinsics, Rotation.from_rotvec(calib.rvecs).as_matrix(), np.asarray(calib.tvecs, float)
+
+
+def _reprojections(intrinsics: np.ndarray, R: np.ndarray, t: np.ndarray, object_points: np.ndarray,
+                   image_points) -> tuple[np.ndarray, np.ndarray]:
     """Each view's residuals, detected minus projected, (n_views, n_corners, 2) px (NaN where a
     corner was left out), and the Jacobian of its kept corners' projections (zero rows for the
     others), (n_views, 2 n_corners, 15): the pose's left rotation and shift, then fx, fy, cx, cy,
-    k1, k2, p1, p2, k3. ``calib``: a :class:`CameraCalibration` or the bundle adjustment's fit."""
+    k1, k2, p1, p2, k3; for intrinsics (9,) and views R (n_views, 3, 3), t (n_views, 3)."""
     obj = np.asarray(object_points, float)
     pixels = np.stack([np.asarray(p, float).reshape(-1, 2) for p in image_points])
-    if isinstance(calib, _Fit):
-        intrinsics, R = calib.intrinsics, calib.R
-    else:
-        intrinsics = np.r_[calib.K[0, 0], calib.K[1, 1], calib.K[0, 2], calib.K[1, 2], calib.dist[:5]]
-        R = Rotation.from_rotvec(calib.rvecs).as_matrix()
-    P = project(intrinsics, R, calib.t if isinstance(calib, _Fit) else calib.tvecs, obj)
+    P = project(intrinsics, R, t, obj)
     kept = np.isfinite(pixels).all(axis=2)
     res = np.where(kept[..., None], pixels - P.uv, np.nan)
-    n_views = len(R)
     J = np.concatenate([P.d_pose, P.d_intrinsics], axis=3) * kept[..., None, None]
-    return res, J.reshape(n_views, 2 * len(obj), 15)
+    return res, J.reshape(len(R), 2 * len(obj), 15)
 
 
 def intrinsic_covariance(calib: CameraCalibration, object_points: np.ndarray,
@@ -288,7 +291,7 @@ def intrinsic_covariance(calib: CameraCalibration, object_points: np.ndarray,
     ``_views``: the views' :func:`_reprojections`, when the caller has them.
     """
     cols = {n: i for i, n in enumerate(("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3"))}
-    res, J = _reprojections(calib, object_points, image_points) if _views is None else _views
+    res, J = _reprojections(*_state(calib), object_points, image_points) if _views is None else _views
     aspect = calib.K[1, 1] / calib.K[0, 0]
     r = res[np.isfinite(res)]
     sse, n_res = float(r @ r), r.size
