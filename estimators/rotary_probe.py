@@ -146,7 +146,8 @@ def _quadratic(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     s = np.maximum(np.abs(x).max(axis=1), 1e-300)[:, None]
     t = x / s
     V = np.stack([t * t, t, np.ones_like(t)], axis=2)  # (k, m, 3)
-    c = np.linalg.solve(np.einsum("kmi,kmj->kij", V, V), np.einsum("kmi,km->ki", V, y)[..., None])[..., 0]
+    Vt = V.swapaxes(-1, -2)
+    c = np.linalg.solve(Vt @ V, Vt @ y[..., None])[..., 0]
     return c / np.c_[s * s, s, np.ones_like(s)]
 
 
@@ -168,7 +169,8 @@ def paper_sweep_d_mm(theta_rad: np.ndarray, rho_mm: np.ndarray, ms, half_side_mm
     scale = np.maximum(np.max(np.abs(x) * inside, axis=2), 1e-300)[..., None]  # as _quadratic: t in [-1, 1]
     t = x / scale
     V = np.stack([t * t, t, np.ones_like(t)], axis=3) * inside[..., None]  # (M, 4, m_max, 3)
-    c = np.linalg.solve(np.einsum("qkmi,qkmj->qkij", V, V), np.einsum("qkmi,qkm->qki", V, rho[win])[..., None])
+    Vt = V.swapaxes(-1, -2)
+    c = np.linalg.solve(Vt @ V, Vt @ rho[win][..., None])
     curvature = np.mean(2 * c[..., 0, 0] / scale[..., 0] ** 2, axis=1)  # (M,)
     a = half_side_mm
     with np.errstate(divide="ignore", invalid="ignore"):

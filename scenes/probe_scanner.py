@@ -13,6 +13,7 @@ Curved walls are chords of the exact curve, fine enough that the ray's error sta
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import numpy as np
 
@@ -98,12 +99,18 @@ def wall_geoms(outline_mm: np.ndarray, group: int, prefix: str, material: str) -
     return "\n        ".join(out)
 
 
+@functools.lru_cache(maxsize=8)
+def _walls_xml(g: ProbeScannerGeometry) -> tuple[str, str]:
+    """The plate's and the lens's wall geoms (the same in every as-built twin of a geometry:
+    a Monte-Carlo study builds them once per worker)."""
+    return (wall_geoms(g.plate.outline(n_per_corner=200), PLATE_GROUP, "plate_wall", "plate"),
+            wall_geoms(g.lens.outline(n=1440), LENS_GROUP, "lens_wall", "lens"))
+
+
 def build_mjcf(g: ProbeScannerGeometry, d_mm: float, dL_mm: float, alpha0_rad: float,
                plate_centre_mm=(0.0, 0.0)) -> str:
     """MJCF of the tracer with the rail at (d, dL, alpha0) and the plate centred as given."""
-    rs = g.plate
-    plate_outline = rs.outline(n_per_corner=200)
-    lens_outline = g.lens.outline(n=1440)
+    plate_walls, lens_walls = _walls_xml(g)
     u = np.array([np.cos(alpha0_rad), np.sin(alpha0_rad)])
     n = np.array([-np.sin(alpha0_rad), np.cos(alpha0_rad)])
     q = (d_mm * n + dL_mm * u) / 1000
@@ -124,10 +131,10 @@ def build_mjcf(g: ProbeScannerGeometry, d_mm: float, dL_mm: float, alpha0_rad: f
     <light name="top" pos="0 0 1" dir="0 0 -1" directional="true" castshadow="false"/>
     <body name="holder" pos="0 0 0">
       <body name="plate" pos="{pc[0]} {pc[1]} 0">
-        {wall_geoms(plate_outline, PLATE_GROUP, "plate_wall", "plate")}
+        {plate_walls}
       </body>
       <body name="lens" pos="0 0 0">
-        {wall_geoms(lens_outline, LENS_GROUP, "lens_wall", "lens")}
+        {lens_walls}
       </body>
     </body>
     <body name="turntable" pos="0 0 -0.01">
