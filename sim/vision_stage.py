@@ -73,10 +73,13 @@ def axes_errors(x: AxisErrors, y: AxisErrors, u_mm: np.ndarray, travel_mm: np.nd
     return _axes_errors(np.concatenate([x._table, y._table], axis=1), u_mm, travel_mm)
 
 
+_AXIS_OF = np.repeat([0, 1], 6)  # the axis of each of the twelve errors
+
+
 def _axes_errors(table: np.ndarray, u_mm: np.ndarray, travel_mm: np.ndarray) -> np.ndarray:
     """:func:`axes_errors` from both axes' tables side by side, (5, 12)."""
     linear, bow, amp, period, phase = table
-    u, travel = np.repeat(u_mm, 6), np.repeat(travel_mm, 6)
+    u, travel = np.asarray(u_mm, float)[_AXIS_OF], np.asarray(travel_mm, float)[_AXIS_OF]
     s = u / travel
     return (linear * u + bow * 4 * s * (1 - s) + amp * np.sin(2 * np.pi * u / period + phase)).reshape(2, 6)
 
@@ -182,7 +185,7 @@ class VisionStageSim:
         noise = self.rng.normal(0, t.repeatability_um / 1000, 2)
         if self._tables[0] is not t.x or self._tables[1] is not t.y:  # the truth's axes: tabled once
             self._tables = (t.x, t.y, np.concatenate([t.x._table, t.y._table], axis=1))
-        ex, ey = _axes_errors(self._tables[2], target, np.asarray(g.travel_mm, float))  # pos, s1, s2, roll, pitch, yaw
+        ex, ey = _axes_errors(self._tables[2], target, g.travel_mm)  # pos, s1, s2, roll, pitch, yaw
         along_x, along_y = ex[0] + (lost[0] + noise[0]), ey[0] + (lost[1] + noise[1])
         # straight_1 of X is along Y_m, of Y along X_m; the joints a, b turn about X_m, Y_m: the X
         # carriage's roll and pitch, the Y carriage's pitch and roll
