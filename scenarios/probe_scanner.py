@@ -15,7 +15,6 @@ import dataclasses
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from calibench.estimators.rotary_probe import (calibrate_lsq, calibrate_paper, contour_points, fit_minima,
                                               paper_sweep_d_mm)
@@ -65,13 +64,12 @@ def run(config: ProbeScannerConfig, seed: int, fidelity: str, out_dir: Path, rrd
 
     lens, _ = sim.scan("lens", rng)
     outline = sim.true_outline_mm("lens")
-    tree = cKDTree(outline)
     contours = {
         "before": contour_points(lens.theta_rad, lens.rho_mm, nom.d_mm, nom.dL_mm, nom.alpha0_rad),
         "paper": contour_points(lens.theta_rad, lens.rho_mm, paper.d_mm, paper.dL_mm, paper.alpha0_rad),
         "after": contour_points(lens.theta_rad, lens.rho_mm, lsq.d_mm, lsq.dL_mm, lsq.alpha0_rad),
     }
-    rms = {k: float(np.sqrt(np.mean(tree.query(p)[0] ** 2))) for k, p in contours.items()}
+    rms = {k: float(np.sqrt(np.mean(sim.distance_to_outline_mm("lens", p) ** 2))) for k, p in contours.items()}
 
     # no pixels here: the sensors are MuJoCo's geometry plus noise models, whatever was asked
     report = Report(scenario=NAME, seed=seed, fidelity="analytic")

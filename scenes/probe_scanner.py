@@ -107,6 +107,27 @@ def _walls_xml(g: ProbeScannerGeometry) -> tuple[str, str]:
             wall_geoms(g.lens.outline(n=1440), LENS_GROUP, "lens_wall", "lens"))
 
 
+def walls_mjcf(g: ProbeScannerGeometry, part: str) -> str:
+    """MJCF of one part's walls alone (``part``: "plate" or "lens"), in the holder's bodies as
+    :func:`build_mjcf` has them, the part's body at the origin (the twin puts it where the part
+    is clamped): what the probe's rays are cast against, without the other part's geoms."""
+    plate_walls, lens_walls = _walls_xml(g)
+    walls, rgba = (plate_walls, "0.7 0.72 0.75 1") if part == "plate" else (lens_walls, "0.55 0.25 0.2 1")
+    return f"""
+<mujoco model="probe-scanner-{part}-walls">
+  <compiler angle="radian"/>
+  <asset><material name="{part}" rgba="{rgba}"/></asset>
+  <worldbody>
+    <body name="holder" pos="0 0 0">
+      <body name="{part}" pos="0 0 0">
+        {walls}
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
 def build_mjcf(g: ProbeScannerGeometry, d_mm: float, dL_mm: float, alpha0_rad: float,
                plate_centre_mm=(0.0, 0.0)) -> str:
     """MJCF of the tracer with the rail at (d, dL, alpha0) and the plate centred as given."""

@@ -8,12 +8,14 @@ small jitter (the sampling's timing).
 
 from __future__ import annotations
 
+import copy
 import dataclasses
+import functools
 
 import mujoco
 import numpy as np
 
-from calibench.scenes.probe_scanner import LENS_GROUP, PLATE_GROUP, ProbeScannerGeometry, build_mjcf
+from calibench.scenes.probe_scanner import LENS_GROUP, PLATE_GROUP, ProbeScannerGeometry, build_mjcf, walls_mjcf
 
 N_SECTORS = 24  # ray directions per 15 degrees
 
@@ -62,7 +64,7 @@ class ProbeScannerSim:
         self._q = self.model.site("Q").id
         self._dir = self.model.site("rail_dir").id
         self._geomid = np.zeros(1, np.int32)
-        self._sector_cache: dict[str, tuple[np.ndarray, list[np.ndarray]]] = {}
+        self._ray_cache: dict[str, tuple[mujoco.MjModel, mujoco.MjData, list[np.ndarray]]] = {}
 
     def turn_to(self, theta_rad: float) -> None:
         """Turn the table to ``theta_rad`` and update the kinematics."""
@@ -87,8 +89,9 @@ class ProbeScannerSim:
         The rail rides the table, the parts stand still: the stylus's start Q and direction at
         each angle are MuJoCo's at angle 0 turned about the joint's axis, so only the ray casts
         run per sample (the same rays as :meth:`turn_to` then :meth:`ray_mm`, to 1e-12 mm). Each
-        ray is cast against the walls its direction can reach (:func:`ray_sectors`), the others
-        hidden meanwhile: the same nearest wall, the same distance, in a fraction of the time."""
+        ray is cast in a model of the part's walls alone, against those its direction can reach
+        (:func:`ray_sectors`), the others hidden meanwhile: the same nearest wall and the same
+        distance as a cast in the whole twin, in a fraction of the time."""
         from scipy.spatial.transform import Rotation
 
         self.turn_to(0.0)
@@ -99,48 +102,50 @@ class ProbeScannerSim:
         R = Rotation.from_rotvec(np.outer(np.asarray(theta_rad, float), axis)).as_matrix()
         q = c + R @ q0
         u = R @ (u0 / np.linalg.norm(u0))
-        group_id = PLATE_GROUP if part == "plate" else LENS_GROUP
+        model, data, sectors = self._rays(part)
         group = np.zeros(6, np.uint8)
-        group[group_id] = 1
-        walls, sectors = self._sectors(part)
+        group[PLATE_GROUP if part == "plate" else LENS_GROUP] = 1
         out = np.empty(len(q))
         sector = np.floor((np.arctan2(u[:, 1], u[:, 0]) + np.pi) / (2 * np.pi) * len(sectors)).astype(int) % len(sectors)
-        # mj_ray skips an invisible geom (no material, alpha 0) at its second test, before the
-        # group's: out-of-reach walls, and the other part's, are hidden while a sector is cast
-        every = self._all_walls()
-        matid, alpha = self.model.geom_matid[every].copy(), self.model.geom_rgba[every, 3].copy()
+        # mj_ray skips an invisible geom (no material, alpha 0) at its second test: a sector's
+        # out-of-reach walls are hidden while its rays are cast
+        matid = model.geom_matid.copy()
         try:
             for k in np.unique(sector):
-                self.model.geom_matid[every], self.model.geom_rgba[every, 3] = -1, 0.0
-                self.model.geom_matid[sectors[k]] = matid[np.searchsorted(every, sectors[k])]
+                model.geom_matid[:], model.geom_rgba[:, 3] = -1, 0.0
+                model.geom_matid[sectors[k]] = matid[sectors[k]]
                 rays = np.flatnonzero(sector == k)
-                out[rays] = [mujoco.mj_ray(self.model, self.data, qi, ui, group, 1, -1, self._geomid)
+                out[rays] = [mujoco.mj_ray(model, data, qi, ui, group, 1, -1, self._geomid)
                              for qi, ui in zip(q[rays], u[rays])]
         finally:
-            self.model.geom_matid[every], self.model.geom_rgba[every, 3] = matid, alpha
+            model.geom_matid[:], model.geom_rgba[:, 3] = matid, 1.0
         if np.any(out < 0):
             th = float(np.asarray(theta_rad)[np.argmax(out < 0)])
             raise RuntimeError(f"the stylus found no wall of the {part} at angle {th:.4f}")
         return out * 1000
 
-    def _all_walls(self) -> np.ndarray:
-        """Both parts' wall geoms, sorted ids."""
-        if "all" not in self._sector_cache:
-            self._sector_cache["all"] = (np.sort(np.r_[self._sectors("plate")[0], self._sectors("lens")[0]]), [])
-        return self._sector_cache["all"][0]
-
-    def _sectors(self, part: str) -> tuple[np.ndarray, list[np.ndarray]]:
-        """The part's wall geoms and, per direction sector, those a ray can hit (computed once)."""
-        if part not in self._sector_cache:
+    def _rays(self, part: str) -> tuple[mujoco.MjModel, mujoco.MjData, list[np.ndarray]]:
+        """The part's walls alone (its own model, placed as in the twin: the same geom poses to
+        the bit, checked) and, per direction sector, the walls a ray can reach (computed once)."""
+        if part not in self._ray_cache:
+            model = copy.copy(_walls_model(self.geometry, part))
+            for body in ("holder", part):
+                model.body_pos[model.body(body).id] = self.model.body_pos[self.model.body(body).id]
+                model.body_quat[model.body(body).id] = self.model.body_quat[self.model.body(body).id]
+            data = mujoco.MjData(model)
+            mujoco.mj_kinematics(model, data)
+            walls = np.flatnonzero(self.model.geom_group == (PLATE_GROUP if part == "plate" else LENS_GROUP))
+            if not (np.array_equal(data.geom_xpos, self.data.geom_xpos[walls])
+                    and np.array_equal(data.geom_xmat, self.data.geom_xmat[walls])):
+                raise RuntimeError(f"the {part}'s ray model does not place its walls as the twin does")
             self.turn_to(0.0)
             j = self.model.joint("theta").id
             axis_xy = self.data.xanchor[j][:2]
             q_xy = self.data.site_xpos[self._q][:2] - axis_xy
-            walls = np.flatnonzero(self.model.geom_group == (PLATE_GROUP if part == "plate" else LENS_GROUP))
-            corners = box_corners_xy(self.data.geom_xpos[walls], self.data.geom_xmat[walls].reshape(-1, 3, 3),
-                                     self.model.geom_size[walls]) - axis_xy
-            self._sector_cache[part] = (walls, [walls[m] for m in ray_sectors(corners, float(np.linalg.norm(q_xy)))])
-        return self._sector_cache[part]
+            corners = box_corners_xy(data.geom_xpos, data.geom_xmat.reshape(-1, 3, 3), model.geom_size) - axis_xy
+            sectors = [np.flatnonzero(m) for m in ray_sectors(corners, float(np.linalg.norm(q_xy)))]
+            self._ray_cache[part] = (model, data, sectors)
+        return self._ray_cache[part]
 
     def table_angle(self, encoder_rad: np.ndarray) -> np.ndarray:
         """The table's true angle (n,) where the encoder reads ``encoder_rad`` (n,): short by its
@@ -179,7 +184,16 @@ class ProbeScannerSim:
         g = self.geometry
         if part == "plate":
             return densify(g.plate.outline(n_per_corner=4000), 0.001) + np.asarray(self.truth.plate_centre_mm)
-        return g.lens.outline(n=200000)
+        return _lens_outline_tree(g.lens).data.copy()
+
+    def distance_to_outline_mm(self, part: str, points_mm: np.ndarray) -> np.ndarray:
+        """Each point's distance to the part's exact outline (holder frame), (n,) mm, for points
+        (n, 2): the nearest of its dense points (the lens's k-d tree is built once per shape)."""
+        if part == "plate":
+            from scipy.spatial import cKDTree
+
+            return cKDTree(self.true_outline_mm("plate")).query(points_mm)[0]
+        return _lens_outline_tree(self.geometry.lens).query(points_mm)[0]
 
 
 def densify(outline_mm: np.ndarray, step_mm: float) -> np.ndarray:
@@ -226,4 +240,18 @@ def ray_sectors(corners_xy: np.ndarray, q_radius: float, n_sectors: int = N_SECT
     sector_mid = -np.pi + (np.arange(n_sectors) + 0.5) * width  # the sectors of arctan2's range
     gap = np.abs((centre[None, :] - sector_mid[:, None] + np.pi) % (2 * np.pi) - np.pi)
     return list(near[None, :] | (gap <= reach[None, :] + width / 2) if n else np.zeros((n_sectors, 0), bool))
+
+
+@functools.lru_cache(maxsize=4)
+def _walls_model(geometry: ProbeScannerGeometry, part: str) -> mujoco.MjModel:
+    """A part's walls alone, compiled once per geometry (each twin copies it and places it)."""
+    return mujoco.MjModel.from_xml_string(walls_mjcf(geometry, part))
+
+
+@functools.lru_cache(maxsize=4)
+def _lens_outline_tree(lens):
+    """The rim's exact outline, 200,000 points, as a k-d tree (it depends on the shape alone)."""
+    from scipy.spatial import cKDTree
+
+    return cKDTree(lens.outline(n=200000))
 
