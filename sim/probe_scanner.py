@@ -109,7 +109,7 @@ class ProbeScannerSim:
         sector = np.floor((np.arctan2(u[:, 1], u[:, 0]) + np.pi) / (2 * np.pi) * len(sectors)).astype(int) % len(sectors)
         # mj_ray skips an invisible geom (no material, alpha 0) at its second test: a sector's
         # out-of-reach walls are hidden while its rays are cast
-        matid = model.geom_matid.copy()
+        matid, alpha = model.geom_matid.copy(), model.geom_rgba[:, 3].copy()
         try:
             for k in np.unique(sector):
                 model.geom_matid[:], model.geom_rgba[:, 3] = -1, 0.0
@@ -118,7 +118,7 @@ class ProbeScannerSim:
                 out[rays] = [mujoco.mj_ray(model, data, qi, ui, group, 1, -1, self._geomid)
                              for qi, ui in zip(q[rays], u[rays])]
         finally:
-            model.geom_matid[:], model.geom_rgba[:, 3] = matid, 1.0
+            model.geom_matid[:], model.geom_rgba[:, 3] = matid, alpha
         if np.any(out < 0):
             th = float(np.asarray(theta_rad)[np.argmax(out < 0)])
             raise RuntimeError(f"the stylus found no wall of the {part} at angle {th:.4f}")
