@@ -141,9 +141,13 @@ class ProbeScannerSim:
             self.turn_to(0.0)
             j = self.model.joint("theta").id
             axis_xy = self.data.xanchor[j][:2]
-            q_xy = self.data.site_xpos[self._q][:2] - axis_xy
+            q0 = self.data.site_xpos[self._q] - self.data.xanchor[j]
+            u0 = self.data.site_xpos[self._dir] - self.data.site_xpos[self._q]
             corners = box_corners_xy(data.geom_xpos, data.geom_xmat.reshape(-1, 3, 3), model.geom_size) - axis_xy
-            sectors = [np.flatnonzero(m) for m in ray_sectors(corners, float(np.linalg.norm(q_xy)))]
+            if np.allclose(self.data.xaxis[j], [0, 0, 1], rtol=0, atol=1e-12) and abs(u0[2]) < 1e-12 * np.linalg.norm(u0):
+                sectors = [np.flatnonzero(m) for m in ray_sectors(corners, q0[:2], u0[:2] / np.linalg.norm(u0[:2]))]
+            else:  # rays out of the xy plane: every wall for every ray
+                sectors = [np.arange(model.ngeom)] * N_SECTORS
             self._ray_cache[part] = (model, data, sectors)
         return self._ray_cache[part]
 
@@ -211,35 +215,53 @@ def box_corners_xy(pos: np.ndarray, mat: np.ndarray, size: np.ndarray) -> np.nda
     return (pos[:, None, :] + (signs[None] * size[:, None, :]) @ mat.transpose(0, 2, 1))[..., :2]
 
 
-def ray_sectors(corners_xy: np.ndarray, q_radius: float, n_sectors: int = N_SECTORS) -> list[np.ndarray]:
+def ray_sectors(corners_xy: np.ndarray, q0_xy: np.ndarray, u0_xy: np.ndarray,
+                n_sectors: int = N_SECTORS) -> list[np.ndarray]:
     """Which boxes a ray can hit, by the sector of its direction, [(mask (n,)) per sector].
 
-    The rays start at distance ``q_radius`` from the axis (the origin of ``corners_xy``, the
-    boxes' corners (n, 8, 2)) and run in the xy plane. A ray from Q along u meets a point p of a
-    box at p = Q + s u, s >= 0, so |p x u| = |Q x u| <= |Q|: p's polar angle is within
-    asin(|Q| / |p|) of u's, and ahead of it (cos > 0) once |p| > 2 |Q|. A box whose nearest
-    point is at rho > 2 |Q| from the axis is thus reachable only by directions within
-    asin(|Q| / rho) of its own polar extent; a nearer box, by every direction. ``mj_ray`` over a
-    sector's boxes then finds what it finds over all of them.
+    The rays are one ray turned about the axis (the origin of ``corners_xy``, the boxes'
+    corners (n, 8, 2)): at the table's angle theta it starts at R(theta) Q0 and runs along
+    R(theta) u0 (``q0_xy``, unit ``u0_xy``), in the xy plane. In the table's frame the ray stays
+    put and a box turns by -theta. Beyond |Q0| from the axis the ray passes each radius rho once,
+    at a polar angle phi0 + delta(rho) (phi0 the direction's, delta monotone in rho: a straight
+    line's polar angle always turns the same way). A point p of a box is thus met only by the
+    ray of direction phi = angle(p) - delta(|p|): a box of polar extent [a_lo, a_hi] and radii
+    [rho_lo, rho_hi] only by directions in [a_lo - max delta, a_hi - min delta]. A box reaching
+    within |Q0| of the axis is kept for every direction. ``mj_ray`` over a sector's boxes then
+    finds what it finds over all of them.
     """
     n = len(corners_xy)
+    if n == 0:
+        return [np.zeros(0, bool)] * n_sectors
     # polar extent of each box (the corners' convex hull, which does not surround the axis)
     mid = np.arctan2(corners_xy[..., 1].mean(axis=1), corners_xy[..., 0].mean(axis=1))
     rel = (np.arctan2(corners_xy[..., 1], corners_xy[..., 0]) - mid[:, None] + np.pi) % (2 * np.pi) - np.pi
-    lo, hi = rel.min(axis=1), rel.max(axis=1)
-    centre, half = mid + (lo + hi) / 2, (hi - lo) / 2
-    # nearest point of each box to the axis: over every segment between two corners
-    a, b = np.triu_indices(8, 1)
-    x0, y0 = corners_xy[:, a, 0], corners_xy[:, a, 1]
-    dx, dy = corners_xy[:, b, 0] - x0, corners_xy[:, b, 1] - y0
+    a_lo, a_hi = mid + rel.min(axis=1), mid + rel.max(axis=1)
+    # radial extent: the nearest point over every segment between two corners, the farthest corner
+    i, j = np.triu_indices(8, 1)
+    x0, y0 = corners_xy[:, i, 0], corners_xy[:, i, 1]
+    dx, dy = corners_xy[:, j, 0] - x0, corners_xy[:, j, 1] - y0
     t = np.clip(-(x0 * dx + y0 * dy) / np.maximum(dx * dx + dy * dy, 1e-300), 0.0, 1.0)
-    rho = np.sqrt(np.min((x0 + t * dx) ** 2 + (y0 + t * dy) ** 2, axis=1))
-    near = rho <= 2 * q_radius
-    reach = half + np.arcsin(np.clip(q_radius / np.where(near, 1.0, rho), 0.0, 1.0)) + 1e-9
+    rho_lo = np.sqrt(np.min((x0 + t * dx) ** 2 + (y0 + t * dy) ** 2, axis=1))
+    rho_hi = np.sqrt(np.max(np.sum(corners_xy ** 2, axis=2), axis=1))
+    q0, u0 = np.asarray(q0_xy, float), np.asarray(u0_xy, float)
+    near = rho_lo <= np.linalg.norm(q0) * (1 + 1e-9)
+    phi0 = np.arctan2(u0[1], u0[0])
+
+    def delta(rho):
+        """The ray's polar angle at radius rho less its direction's, (n,)."""
+        b = q0 @ u0
+        s = -b + np.sqrt(np.maximum(b * b + rho * rho - q0 @ q0, 0.0))
+        p = q0[None, :] + s[:, None] * u0[None, :]
+        return (np.arctan2(p[:, 1], p[:, 0]) - phi0 + np.pi) % (2 * np.pi) - np.pi
+
+    d_lo, d_hi = delta(np.where(near, rho_hi, rho_lo)), delta(rho_hi)
+    lo, hi = a_lo - np.maximum(d_lo, d_hi), a_hi - np.minimum(d_lo, d_hi)
+    centre, half = (lo + hi) / 2, (hi - lo) / 2 + 1e-9
     width = 2 * np.pi / n_sectors
     sector_mid = -np.pi + (np.arange(n_sectors) + 0.5) * width  # the sectors of arctan2's range
     gap = np.abs((centre[None, :] - sector_mid[:, None] + np.pi) % (2 * np.pi) - np.pi)
-    return list(near[None, :] | (gap <= reach[None, :] + width / 2) if n else np.zeros((n_sectors, 0), bool))
+    return list(near[None, :] | (gap <= half[None, :] + width / 2))
 
 
 @functools.lru_cache(maxsize=4)
