@@ -406,6 +406,7 @@ class TrackerProblem:
         self.encoder_sigma = float(encoder_sigma_rad)
         self._W = None  # per-posture whitening (n, 3, 3), made at the first start
         self._last = None  # (delta, Pose) of the last evaluation
+        self._last_jacobian = None  # (delta, R, t, J) of the last Jacobian
         # the tracker's rotation is reported as the small turn from this reference (the first
         # start's): the same coordinates its std is computed in. Share it between problems whose
         # estimates are compared.
@@ -476,7 +477,19 @@ class TrackerProblem:
         return np.einsum("nij,nj->ni", self._W, d).ravel()
 
     def jacobian(self, s: TrackerState) -> np.ndarray:
-        """Whitened d(residuals) / d(delta, frame rotation, frame translation), (3n, 5 N + 9)."""
+        """Whitened d(residuals) / d(delta, frame rotation, frame translation), (3n, 5 N + 9).
+
+        The last one is kept: the basis is found where the solver starts and again where it
+        stops, at the very states the solver takes its own Jacobians."""
+        c = self._last_jacobian
+        if c is not None and np.array_equal(c[0], s.delta) and np.array_equal(c[1], s.R) and np.array_equal(c[2], s.t):
+            return c[3].copy()
+        J = self._jacobian(s)
+        self._last_jacobian = (s.delta.copy(), s.R.copy(), s.t.copy(), J.copy())
+        return J
+
+    def _jacobian(self, s: TrackerState) -> np.ndarray:
+        """:meth:`jacobian`, computed."""
         P = self._pose(s.delta)
         y = P.point @ s.R.T + s.t
         if self._W is None:
