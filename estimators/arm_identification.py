@@ -405,6 +405,7 @@ class TrackerProblem:
         self.nk = n_params(self.N)
         self.encoder_sigma = float(encoder_sigma_rad)
         self._W = None  # per-posture whitening (n, 3, 3), made at the first start
+        self._start = None  # the start's frame (R, t), found once
         self._last = None  # (delta, Pose) of the last evaluation
         self._last_jacobian = None  # (delta, R, t, J) of the last Jacobian
         # the tracker's rotation is reported as the small turn from this reference (the first
@@ -436,10 +437,12 @@ class TrackerProblem:
 
     def start(self) -> TrackerState:
         """Nominal arm; the frame from a rigid fit of the measured points to the nominal ones."""
-        R, t = rigid_transform(self._pose(np.zeros(self.nk)).point, self.cartesian())
+        if self._start is None:
+            self._start = rigid_transform(self._pose(np.zeros(self.nk)).point, self.cartesian())
+        R, t = self._start
         if self.R_ref is None:
             self.R_ref = R
-        state = TrackerState(np.zeros(self.nk), R, t)
+        state = TrackerState(np.zeros(self.nk), R.copy(), t.copy())
         if self._W is None:
             self._W = self._whitening(state)
         return state
@@ -613,12 +616,14 @@ def _parallel_note(name: str, partners: list[str], parallel: list[tuple[int, int
     return ""
 
 
-def identifiable_basis(problem, state=None, rel_tol: float = 1e-4, parallel: list | None = None) -> Basis:
+def identifiable_basis(problem, state=None, rel_tol: float = 1e-4, parallel: list | None = None,
+                       explain: bool = True) -> Basis:
     """Practical rank of the scaled, whitened Jacobian, group by group: ``problem.always`` (kept
     whatever the data), then each of ``problem.groups`` pivoted (QR) on what the kept columns
     cannot explain, so a later group's column that repeats an earlier one is the one dropped.
     ``rel_tol`` is relative to the largest column: a dependence that holds only up to the data's
-    own scatter is a dependence. ``parallel``: consecutive parallel joint pairs, for the reasons."""
+    own scatter is a dependence. ``parallel``: consecutive parallel joint pairs, for the reasons.
+    ``explain`` False: the kept columns alone (no reasons, no partners), to compare two bases."""
     s = problem.start() if state is None else state
     names = problem.names
     # each column as the data move under a typical-size error of its parameter
@@ -627,7 +632,7 @@ def identifiable_basis(problem, state=None, rel_tol: float = 1e-4, parallel: lis
     zero = norm < 1e-9 * max(norm.max(), 1e-300)
     kept = [int(k) for k in problem.always]
     dropped = []
-    top = np.linalg.norm(Js, axis=0).max()
+    top = norm.max()
     for cols in problem.groups:
         cols = np.array([c for c in cols if c not in kept and not zero[c]], int)
         if len(cols) == 0:
@@ -640,6 +645,8 @@ def identifiable_basis(problem, state=None, rel_tol: float = 1e-4, parallel: lis
         kept += list(cols[piv[:rank]])
         dropped += list(cols[piv[rank:]])
     kept = np.sort(np.array(kept))
+    if not explain:
+        return Basis(kept=kept, dropped={names[j]: "" for j in dropped})
     reasons = {names[j]: "does not move the data at all" for j in np.flatnonzero(zero)
                if j not in kept and any(j in g for g in problem.groups)}
     coefs = np.linalg.lstsq(Js[:, kept], Js[:, dropped], rcond=None)[0] if dropped else None
@@ -717,9 +724,10 @@ def identify_identifiable(problem, parallel: list | None = None) -> Identificati
     changes, solve again with it."""
     basis = identifiable_basis(problem, parallel=parallel)
     first = identify(problem, basis)
-    again = identifiable_basis(problem, first.state, parallel=parallel)
+    again = identifiable_basis(problem, first.state, parallel=parallel, explain=False)
     if set(again.kept) == set(basis.kept):
         return first
+    again = identifiable_basis(problem, first.state, parallel=parallel)
     # restart from the solution with the newly dropped parameters back at nominal (kept fixed
     # there), so the fit is re-expressed in the new basis rather than carried over
     reset = np.zeros(len(problem.names))

@@ -99,31 +99,72 @@ def theta_index(joint: int) -> int:
     return 5 * (joint - 1) + _THETA
 
 
-@dataclasses.dataclass
 class Pose:
     """The chain at n postures.
 
-    axis : (n, 5 N, 3) base-frame direction of each elementary motion.
-    origin : (n, 5 N, 3) where it acts (mm); rotations turn about axis through origin.
     link_R, link_o : (n, N + 1, 3, 3) and (n, N + 1, 3) frames 0..N.
     point : (n, 3) the tool point (mm).
+    axis : (n, 5 N, 3) base-frame direction of each elementary motion.
+    origin : (n, 5 N, 3) where it acts (mm); rotations turn about axis through origin.
+
+    ``axis`` and ``origin`` are made on first use: a residual needs the point alone, a Jacobian
+    the motions too.
     """
 
-    axis: np.ndarray
-    origin: np.ndarray
-    link_R: np.ndarray
-    link_o: np.ndarray
-    point: np.ndarray
+    def __init__(self, convention: str, link_R: np.ndarray, link_o: np.ndarray, point: np.ndarray,
+                 c: np.ndarray, s: np.ndarray, a: np.ndarray, d: np.ndarray, alpha: np.ndarray):
+        self.link_R, self.link_o, self.point = link_R, link_o, point
+        self._motions_of = (convention, c, s, a, d, alpha)
+        self._motions = None
+
+    @property
+    def axis(self) -> np.ndarray:
+        return self._elementary()[0]
+
+    @property
+    def origin(self) -> np.ndarray:
+        return self._elementary()[1]
+
+    def _elementary(self) -> tuple[np.ndarray, np.ndarray]:
+        """The elementary motions' axes and origins, in closed form per convention from the link
+        frames, (n, 5 N, 3) each."""
+        if self._motions is not None:
+            return self._motions
+        convention, c, s, a, d, alpha = self._motions_of
+        link_R, link_o = self.link_R, self.link_o
+        n, N = c.shape
+        R0, o0, R1, o1 = link_R[:, :-1], link_o[:, :-1], link_R[:, 1:], link_o[:, 1:]
+        axis, origin = np.empty((n, N, 5, 3)), np.empty((n, N, 5, 3))
+        if convention == "dh":  # RotZ(theta + q), TransZ(d) about frame i-1's z; TransX(a), RotX(alpha) along the turned x
+            x1 = c[..., None] * R0[..., 0] + s[..., None] * R0[..., 1]
+            axis[:, :, _THETA] = axis[:, :, _D] = R0[..., 2]
+            origin[:, :, _THETA] = origin[:, :, _D] = o0
+            axis[:, :, _A] = axis[:, :, _ALPHA] = x1
+            origin[:, :, _A] = o0 + d[:, None] * R0[..., 2]
+            origin[:, :, _ALPHA] = origin[:, :, _BETA] = o1
+            axis[:, :, _BETA] = R1[..., 1]  # RotY keeps y: the turned frame's y is frame i's
+        else:  # RotX(alpha), RotY(beta), TransX(a) at frame i-1's origin; RotZ(theta + q), TransZ(d) on frame i's z
+            ca, sa = np.cos(alpha)[:, None], np.sin(alpha)[:, None]
+            xm = c[..., None] * R1[..., 0] - s[..., None] * R1[..., 1]  # frame i-1 turned by M: its x
+            axis[:, :, _ALPHA] = R0[..., 0]
+            axis[:, :, _BETA] = ca * R0[..., 1] + sa * R0[..., 2]
+            axis[:, :, _A] = xm
+            origin[:, :, _ALPHA] = origin[:, :, _BETA] = origin[:, :, _A] = o0
+            axis[:, :, _THETA] = axis[:, :, _D] = R1[..., 2]
+            origin[:, :, _THETA] = origin[:, :, _D] = o0 + a[:, None] * xm
+        self._motions = (axis.reshape(n, 5 * N, 3), origin.reshape(n, 5 * N, 3))
+        return self._motions
 
 
-def _rot(axis: int, c: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """Rotations about coordinate axis ``axis`` by angles of cosine c and sine s, (..., 3, 3)."""
-    R = np.zeros(np.shape(c) + (3, 3))
-    i, j = {0: (1, 2), 1: (2, 0), 2: (0, 1)}[axis]
-    R[..., axis, axis] = 1.0
-    R[..., i, i], R[..., j, j] = c, c
-    R[..., i, j], R[..., j, i] = -s, s
-    return R
+def _xy_turn(alpha: np.ndarray, beta: np.ndarray) -> np.ndarray:
+    """RotX(alpha) RotY(beta), (N, 3, 3), written out (the product's zeros and ones are exact,
+    so this is the product to the bit)."""
+    ca, sa, cb, sb = np.cos(alpha), np.sin(alpha), np.cos(beta), np.sin(beta)
+    M = np.empty((len(alpha), 3, 3))
+    M[:, 0, 0], M[:, 0, 1], M[:, 0, 2] = cb, 0.0, sb
+    M[:, 1, 0], M[:, 1, 1], M[:, 1, 2] = sa * sb, ca, -sa * cb
+    M[:, 2, 0], M[:, 2, 1], M[:, 2, 2] = -ca * sb, sa, ca * cb
+    return M
 
 
 def pose(chain: Chain, q_rad: np.ndarray, delta: np.ndarray | None = None) -> Pose:
@@ -131,7 +172,7 @@ def pose(chain: Chain, q_rad: np.ndarray, delta: np.ndarray | None = None) -> Po
 
     Every joint's turn and shift are made at once for all joints and postures; the loop over
     joints only chains them (one product of (n, 3, 3) stacks per joint). The elementary motions'
-    axes and origins follow from the link frames afterwards, in closed form per convention."""
+    axes and origins follow from the link frames, when asked for (:class:`Pose`)."""
     q = np.atleast_2d(np.asarray(q_rad, float))
     N = chain.n_joints
     if q.shape[1] != N:
@@ -141,7 +182,7 @@ def pose(chain: Chain, q_rad: np.ndarray, delta: np.ndarray | None = None) -> Po
     n = len(q)
     phi = q + theta  # (n, N)
     c, s = np.cos(phi), np.sin(phi)
-    M = _rot(0, np.cos(alpha), np.sin(alpha)) @ _rot(1, np.cos(beta), np.sin(beta))  # (N, 3, 3)
+    M = _xy_turn(alpha, beta)  # (N, 3, 3)
     dh = chain.convention == "dh"
     # each joint's turn, frame i-1 to frame i: RotZ(phi) M (DH) or M RotZ(phi) (MDH), written out
     # (a stacked product of 3 x 3 matrices costs more than these few broadcasts)
@@ -152,36 +193,19 @@ def pose(chain: Chain, q_rad: np.ndarray, delta: np.ndarray | None = None) -> Po
     else:
         A[..., 0], A[..., 1], A[..., 2] = c_ * M[..., 0] + s_ * M[..., 1], c_ * M[..., 1] - s_ * M[..., 0], M[..., 2]
     # each joint's shift in frame i-1: DH (a c, a s, d); MDH a along M's x, then d along A's z
-    p = (np.stack([a * c, a * s, np.broadcast_to(d, c.shape)], axis=-1) if dh
-         else a[:, None] * M[:, :, 0] + d[:, None] * A[..., 2])
+    if dh:
+        p = np.empty((n, N, 3))
+        p[..., 0], p[..., 1], p[..., 2] = a * c, a * s, d
+    else:
+        p = a[:, None] * M[:, :, 0] + d[:, None] * A[..., 2]
     link_R, link_o = np.empty((n, N + 1, 3, 3)), np.empty((n, N + 1, 3))
     link_R[:, 0], link_o[:, 0] = np.eye(3), 0.0
     for i in range(N):
         R = link_R[:, i]
         link_o[:, i + 1] = link_o[:, i] + (R @ p[:, i, :, None])[..., 0]
         link_R[:, i + 1] = R @ A[:, i]
-    R0, o0, R1, o1 = link_R[:, :-1], link_o[:, :-1], link_R[:, 1:], link_o[:, 1:]
-    axis, origin = np.empty((n, N, 5, 3)), np.empty((n, N, 5, 3))
-    if dh:  # RotZ(theta + q), TransZ(d) about frame i-1's z; TransX(a), RotX(alpha) along the turned x
-        x1 = c[..., None] * R0[..., 0] + s[..., None] * R0[..., 1]
-        axis[:, :, _THETA] = axis[:, :, _D] = R0[..., 2]
-        origin[:, :, _THETA] = origin[:, :, _D] = o0
-        axis[:, :, _A] = axis[:, :, _ALPHA] = x1
-        origin[:, :, _A] = o0 + d[:, None] * R0[..., 2]
-        origin[:, :, _ALPHA] = origin[:, :, _BETA] = o1
-        axis[:, :, _BETA] = R1[..., 1]  # RotY keeps y: the turned frame's y is frame i's
-    else:  # RotX(alpha), RotY(beta), TransX(a) at frame i-1's origin; RotZ(theta + q), TransZ(d) on frame i's z
-        ca, sa = np.cos(alpha)[:, None], np.sin(alpha)[:, None]
-        xm = c[..., None] * R1[..., 0] - s[..., None] * R1[..., 1]  # frame i-1 turned by M: its x
-        axis[:, :, _ALPHA] = R0[..., 0]
-        axis[:, :, _BETA] = ca * R0[..., 1] + sa * R0[..., 2]
-        axis[:, :, _A] = xm
-        origin[:, :, _ALPHA] = origin[:, :, _BETA] = origin[:, :, _A] = o0
-        axis[:, :, _THETA] = axis[:, :, _D] = R1[..., 2]
-        origin[:, :, _THETA] = origin[:, :, _D] = o0 + a[:, None] * xm
     tool = chain.tool_mm + delta[5 * N:]
-    return Pose(axis.reshape(n, 5 * N, 3), origin.reshape(n, 5 * N, 3), link_R, link_o,
-                link_o[:, N] + link_R[:, N] @ tool)
+    return Pose(chain.convention, link_R, link_o, link_o[:, N] + link_R[:, N] @ tool, c, s, a, d, alpha)
 
 
 def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:

@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from calibench.estimators.arm_identification import (ConeProblem, TrackerProblem, identifiable_basis, identify,
+from calibench.estimators.arm_identification import (ConeProblem, TrackerProblem, TrackerState, identifiable_basis,
                                            identify_identifiable, observability_index, parameter_scales,
                                            select_postures)
 from calibench.estimators.rotations import rigid_transform
@@ -292,19 +292,15 @@ def trial_parameters(config: ArmCmmConfig, seed: int) -> list[Parameter]:
     q_read = sim.encoders(q, rng)
     noisy = tracker_problem(sim, chain, q, q_read, rng, config.stated)
     ident = identify_identifiable(noisy)
-    exact = tracker_problem(sim, chain, q, q, None)
-    exact.R_ref = noisy.R_ref  # the tracker's turn, from the same reference
-    # where the bound is evaluated, not a truth: the noise-free fit, two Gauss-Newton steps from
-    # the estimate (the bound then agrees with the converged fit's to 1e-10; golden trials)
-    at_truth = identify(exact, ident.basis, state=ident.state, max_iter=2)
-    # the Cramer-Rao bound: the Jacobian at the truth whitened by the simulation's own noise
-    # (tracker and encoders), not the datasheet's, unscaled by any residual
+    # the Cramer-Rao bound: the Jacobian at the truth (the injected errors, the tracker's true
+    # frame) whitened by the simulation's own noise (tracker and encoders), not the datasheet's,
+    # unscaled by any residual; the dropped columns stay at their true values
     true_noise = TrackerProblem(chain, q_read, noisy.meas, sim.tracker_sigma(noisy.meas),
                                 sim.truth.encoder_noise_urad * 1e-6)
-    true_noise.R_ref = noisy.R_ref
-    J = true_noise.jacobian(at_truth.state)[:, ident.basis.kept]
+    R_bt, t_bt = sim.base2tracker()
+    J = true_noise.jacobian(TrackerState(sim.delta, R_bt, t_bt))[:, ident.basis.kept]
     crlb = np.sqrt(np.diag(np.linalg.inv(J.T @ J)))
-    names = exact.names
+    names = noisy.names
     bound = {names[j]: crlb[i] for i, j in enumerate(ident.basis.kept)}
     reference = reference_values(sim.arm, sim.delta, list(ident.estimate), ident.basis.partners)
     out = []

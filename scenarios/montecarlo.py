@@ -45,9 +45,9 @@ def study_config(scenario: str, table: dict | None = None, arm: str | None = Non
     """The scenario's config for a study: its defaults, overridden by ``table`` (the scenario's
     table of a ``--config`` TOML, checked as ``run`` checks it), then ``arm``."""
     from calibench.scenarios.config import override
-    from calibench.scenarios.registry import SCENARIOS
+    from calibench.scenarios.registry import scenario as get
 
-    config = override(SCENARIOS[scenario].config(), table or {}, scenario)
+    config = override(get(scenario).config(), table or {}, scenario)
     return config if arm is None else dataclasses.replace(config, arm=arm)
 
 
@@ -61,9 +61,9 @@ def run_trial(scenario: str, study_seed: int, index: int, fidelity: str, arm: st
     row = {"trial": index, "seed": seed, "ok": True, "error": None}
     t0 = time.perf_counter()
     try:
-        from calibench.scenarios.registry import SCENARIOS
+        from calibench.scenarios.registry import scenario as get
 
-        s = SCENARIOS[scenario]
+        s = get(scenario)
         module = sys.modules[s.run.__module__]
         rng = np.random.default_rng(seed)
         config = module.prior(study_config(scenario, table, arm), rng)
@@ -198,10 +198,10 @@ def run_study(scenario: str, trials: int, seed: int, fidelity: str, out_dir: Pat
     """Run the missing trials of a study, journal them as they finish, write the outputs.
     ``table``: config overrides of the scenario (a ``--config`` file's table), the same for every
     trial and recorded in study.json, so a resumed study cannot mix two configs."""
-    from calibench.scenarios.registry import SCENARIOS
+    from calibench.scenarios.registry import NAMES
 
-    if scenario not in SCENARIOS:
-        raise BadInput(f"unknown scenario {scenario!r} (available: {', '.join(SCENARIOS)})")
+    if scenario not in NAMES:
+        raise BadInput(f"unknown scenario {scenario!r} (available: {', '.join(NAMES)})")
     if trials < 1:
         raise BadInput("--trials must be at least 1")
     study_config(scenario, table, arm)  # a bad config is said once, before any trial
@@ -230,6 +230,7 @@ def run_study(scenario: str, trials: int, seed: int, fidelity: str, out_dir: Pat
         if own:
             executor, close = make_executor(workers, scheduler)
         bar = _progress(len(todo), trials - len(todo), progress)
+        threading.Thread(target=_import_writers, daemon=True).start()
         interrupted = False
         try:
             path = out_dir / JOURNAL
@@ -266,6 +267,19 @@ def run_study(scenario: str, trials: int, seed: int, fidelity: str, out_dir: Pat
     return summary
 
 
+def _import_writers() -> None:
+    """Load what :func:`write_outputs` needs while the workers run: on 2 cores a fast study's
+    outputs would otherwise wait a second or two for these imports after its last trial."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot  # noqa: F401
+    import pyarrow.parquet  # noqa: F401
+    import scipy.special  # noqa: F401
+
+    from calibench.scenarios import rrlog  # noqa: F401
+
+
 def _progress(total: int, initial: int, enabled: bool | None):
     """A progress bar (trials/s, ETA) on an interactive terminal; silent otherwise and in CI."""
     from tqdm import tqdm
@@ -275,9 +289,26 @@ def _progress(total: int, initial: int, enabled: bool | None):
     return tqdm(total=total + initial, initial=initial, unit="trial", disable=not enabled, file=sys.stderr)
 
 
+def chi2_ppf(p: np.ndarray, df: int) -> np.ndarray:
+    """scipy.stats.chi2.ppf by its own formula, without importing scipy.stats (a second of
+    start-up the summary of a fast study would wait for)."""
+    from scipy.special import gammaincinv
+
+    return 2 * gammaincinv(df / 2, p)
+
+
+def binom_ppf(p: np.ndarray, n: int, prob: float) -> np.ndarray:
+    """scipy.stats.binom.ppf: the least k with P(X <= k) >= p, X ~ Binomial(n, prob), (len(p),)
+    floats."""
+    from scipy.special import bdtr
+
+    cdf = bdtr(np.arange(n + 1), n, prob)
+    # the same relative slack scipy's discrete ppf allows for a cdf rounded just below p
+    return np.searchsorted(cdf, np.asarray(p) * (1 - 1e-14)).astype(float)
+
+
 def summarise(scenario: str, rows: list[dict], elapsed_s: float) -> dict:
     """Bias, RMSE, mean reported std and 95 % coverage of every parameter over the good trials."""
-    from scipy.stats import binom, chi2  # here, not at import: a worker would load it for nothing (0.8 s)
 
     good = [r for r in rows if r["ok"]]
     names = sorted({k[:-len(".estimate")] for r in good for k in r if k.endswith(".estimate")})
@@ -294,7 +325,7 @@ def summarise(scenario: str, rows: list[dict], elapsed_s: float) -> dict:
             # efficiency: the bound's variance over the estimates' own (about their mean); the
             # sample variance has (n - 1) s^2 / sigma^2 ~ chi2(n - 1), which gives its interval
             eff = float(np.mean(crlb**2) / np.var(err, ddof=1))
-            lo, hi = chi2.ppf([0.025, 0.975], len(err) - 1) / (len(err) - 1)
+            lo, hi = chi2_ppf(np.array([0.025, 0.975]), len(err) - 1) / (len(err) - 1)
             extra["crlb_std"] = float(np.sqrt(np.mean(crlb**2)))
             extra["efficiency"] = eff
             extra["efficiency_ci95"] = [eff * lo, eff * hi]
@@ -304,7 +335,8 @@ def summarise(scenario: str, rows: list[dict], elapsed_s: float) -> dict:
             "mean_std": float(np.mean(std)) if has_std else None,
             "coverage_95": float(np.mean(np.abs(err) <= 1.96 * std)) if has_std else None,
             # where an honest coverage of 0.95 lands 95 % of the time with this many trials
-            "coverage_95_expected": list(binom.ppf([0.025, 0.975], len(err), 0.95) / len(err)) if has_std else None,
+            "coverage_95_expected": list(binom_ppf(np.array([0.025, 0.975]), len(err), 0.95) / len(err))
+            if has_std else None,
             **extra,
         })
     return {"scenario": scenario, "trials": len(rows), "failed": len(rows) - len(good),

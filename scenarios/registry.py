@@ -70,17 +70,23 @@ FIT_MODELS = {name: row[2] for name, row in _TABLE.items() if row[2]}
 _built: dict[str, Scenario] = {}
 
 
+def scenario(name: str) -> Scenario:
+    """The scenario ``name`` (one of :data:`NAMES`), importing its module alone: a Monte-Carlo
+    worker of one scenario need not load the others (seconds of start-up on 2 cores)."""
+    if name not in _built:
+        import importlib
+
+        module, config, fit_model, renders = _TABLE[name]
+        m = importlib.import_module(f"calibench.scenarios.{module}")
+        assert m.NAME == name
+        _built[name] = Scenario(name, getattr(m, config), m.run, fit_model, renders)
+    return _built[name]
+
+
 def __getattr__(name: str):
     if name != "SCENARIOS":
         raise AttributeError(name)
-    if not _built:
-        import importlib
-
-        for key, (module, config, fit_model, renders) in _TABLE.items():
-            m = importlib.import_module(f"calibench.scenarios.{module}")
-            assert m.NAME == key
-            _built[key] = Scenario(key, getattr(m, config), m.run, fit_model, renders)
-    return _built
+    return {key: scenario(key) for key in _TABLE}
 
 
 # Named in the contract, built by later issues.

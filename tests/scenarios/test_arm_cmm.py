@@ -64,9 +64,6 @@ def test_a_solve_that_runs_out_of_iterations_fails_the_run(tmp_path, monkeypatch
 
     real = ai.identify
     monkeypatch.setattr(ai, "identify", lambda *a, **k: real(*a, **{**k, "max_iter": 1}))
-    import calibench.scenarios.arm_cmm as scenario
-
-    monkeypatch.setattr(scenario, "identify", ai.identify)
     assert main(["run", "arm-cmm", "--no-rrd", "--out", str(tmp_path)]) == 1
     checks = {c["name"]: c for c in json.loads((tmp_path / "report.json").read_text())["checks"]}
     assert checks["solves_not_converged"]["value"] >= 1 and not checks["solves_not_converged"]["ok"]

@@ -9,7 +9,8 @@ import pyarrow.parquet as pq
 import pytest
 
 from calibench.scenarios.cli import main
-from calibench.scenarios.montecarlo import JOURNAL, load_journal, run_study, summarise, trial_seed
+from calibench.scenarios.montecarlo import (JOURNAL, binom_ppf, chi2_ppf, load_journal, run_study, summarise,
+                                           trial_seed)
 
 
 def _estimates(out):
@@ -61,6 +62,17 @@ def test_summary_statistics():
     assert s["trials"] == 5 and s["failed"] == 1
     assert p["bias"] == pytest.approx(0.5) and p["rmse"] == pytest.approx(np.sqrt((0.25 + 1 + 6.25) / 4))
     assert p["mean_std"] == 1.0 and p["coverage_95"] == pytest.approx(0.75)
+
+
+@pytest.mark.parametrize("n", [1, 2, 7, 20, 60, 199, 200, 1000, 4000])
+def test_quantiles_equal_scipy_stats(n):
+    """The summary's chi2 and binomial quantiles, computed without scipy.stats, equal its own."""
+    from scipy.stats import binom, chi2
+
+    q = np.array([0.025, 0.5, 0.975])
+    assert np.array_equal(chi2_ppf(q, n), chi2.ppf(q, n))
+    for prob in (0.05, 0.5, 0.95):
+        assert np.array_equal(binom_ppf(q, n, prob), binom.ppf(q, n, prob))
 
 
 def test_check_summary():
