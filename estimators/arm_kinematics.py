@@ -23,6 +23,7 @@ chaining their transforms, never over postures.
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import numpy as np
 
@@ -76,6 +77,10 @@ class Chain:
 
     def nominal(self) -> np.ndarray:
         """(N, 5) nominal a, d, alpha, theta, beta per joint."""
+        return self._nominal.copy()
+
+    @functools.cached_property
+    def _nominal(self) -> np.ndarray:
         return np.stack([self.a_mm, self.d_mm, self.alpha_rad, self.theta_rad, np.zeros(self.n_joints)], axis=1)
 
 
@@ -178,7 +183,7 @@ def pose(chain: Chain, q_rad: np.ndarray, delta: np.ndarray | None = None) -> Po
     if q.shape[1] != N:
         raise ValueError(f"postures have {q.shape[1]} joints, the chain {N}")
     delta = np.zeros(n_params(N)) if delta is None else np.asarray(delta, float)
-    a, d, alpha, theta, beta = (chain.nominal() + delta[:5 * N].reshape(N, 5)).T
+    a, d, alpha, theta, beta = (chain._nominal + delta[:5 * N].reshape(N, 5)).T
     n = len(q)
     phi = q + theta  # (n, N)
     c, s = np.cos(phi), np.sin(phi)
@@ -238,8 +243,8 @@ def jacobian(chain: Chain, q_rad: np.ndarray | None = None, delta: np.ndarray | 
     rot = np.zeros(5 * N, bool)
     for kind, _, which in ops:
         rot[which::5] = kind == "rot"
-    cols = P.axis.copy()
-    cols[:, rot] = _cross(P.axis[:, rot], P.point[:, None] - P.origin[:, rot])
+    # every motion's turn made, the shifts' then discarded: one pass instead of a masked copy
+    cols = np.where(rot[:, None], _cross(P.axis, P.point[:, None] - P.origin), P.axis)
     J[:, :, :5 * N] = cols.transpose(0, 2, 1)
     J[:, :, 5 * N:] = P.link_R[:, N]
     return J

@@ -18,7 +18,9 @@ Contacts are off: the arm is a measuring instrument.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
+import threading
 import tomllib
 from pathlib import Path
 
@@ -199,11 +201,6 @@ def arm_from_table(t: dict, where: str = "arm") -> ArmDescription:
 
 
 # --- MJCF ---------------------------------------------------------------------------------------
-def _quats(R: np.ndarray) -> list[str]:
-    """MJCF quaternions (w x y z) of rotations R (k, 3, 3)."""
-    return [f"{w:.17g} {x:.17g} {y:.17g} {z:.17g}" for x, y, z, w in Rotation.from_matrix(R).as_quat()]
-
-
 def _rot(axis: str, angle: np.ndarray) -> np.ndarray:
     return Rotation.from_euler(axis, np.asarray(angle, float)[:, None]).as_matrix()
 
@@ -221,50 +218,77 @@ def joint_frames(convention: str, a, d, alpha, theta, beta) -> tuple[np.ndarray,
     return M @ _rot("z", theta), a[:, None] * M[:, :, 0], eye, np.stack([zero, zero, d], axis=1)
 
 
+@dataclasses.dataclass(frozen=True)
+class _Links:
+    """The as-built numbers of the MJCF's bodies, per joint i (metres, unit quaternions w x y z):
+    hinge body ``joint{i}`` at pre_t (N, 3) turned by pre_quat (N, 4); link body ``link{i}`` at
+    post_t, post_quat in it; the link's mass (N,), centre com (N, 3) and rod inertia (N,) in the
+    hinge body; its capsule from the hinge to post_t (a sphere where that is shorter than 1 um);
+    the tool point tool (3,) in the flange."""
+
+    pre_t: np.ndarray
+    pre_quat: np.ndarray
+    post_t: np.ndarray
+    post_quat: np.ndarray
+    mass: np.ndarray
+    com: np.ndarray
+    inertia: np.ndarray
+    capsule: tuple
+    tool: np.ndarray
+
+
+def _links(arm: ArmDescription, values: np.ndarray | None, tool_mm) -> _Links:
+    """:class:`_Links` of ``arm`` with as-built ``values`` (N, 5) and ``tool_mm`` (nominal when None)."""
+    N = arm.n_joints
+    values = np.asarray(arm.nominal() if values is None else values, float)
+    a, d, al, th, be = values.T
+    pre_R, pre_t, post_R, post_t = joint_frames(arm.convention, a / 1000, d / 1000, al, th, be)
+    quats = Rotation.from_matrix(np.concatenate([pre_R, post_R])).as_quat()[:, [3, 0, 1, 2]]
+    if arm.has_masses:
+        mass = np.maximum(np.asarray(arm.mass_kg, float), 1e-6)
+        com = np.einsum("nij,nj->ni", post_R, np.asarray(arm.com_mm, float) / 1000) + post_t
+        # statics need only mass and centre; the inertia is a rod's, for stepping
+        inertia = mass * (0.05**2 + np.sum(post_t * post_t, axis=1) / 12)
+    else:
+        mass, com, inertia = np.full(N, 0.1), post_t / 2, np.full(N, 1e-3)
+    tool = np.asarray(arm.tool_mm if tool_mm is None else tool_mm, float) / 1000
+    return _Links(pre_t, quats[:N], post_t, quats[N:], mass, com, inertia,
+                  tuple(bool(x) for x in np.linalg.norm(post_t, axis=1) > 1e-6), tool)
+
+
+def _g(v) -> str:
+    """Floats as MJCF text that parses back to the same doubles."""
+    return " ".join(f"{x:.17g}" for x in np.atleast_1d(v))
+
+
 def build_mjcf(arm: ArmDescription, values: np.ndarray | None = None, tool_mm=None, stiffness_nm_per_rad=None,
                tracker_pos_m=None, tracker_quat=None, cones_m=None) -> str:
     """MJCF of ``arm`` built with as-built ``values`` (N, 5): a, d (mm), alpha, theta, beta (rad)
     per joint (nominal when None), the tool point ``tool_mm`` (3,), each hinge's spring
     ``stiffness_nm_per_rad`` (N,) (none when None or inf), the tracker's pose and the cones."""
     N = arm.n_joints
-    if values is None:
-        values = arm.nominal()
-    values = np.asarray(values, float)
-    tool = np.asarray(arm.tool_mm if tool_mm is None else tool_mm, float) / 1000
     k = np.full(N, np.inf) if stiffness_nm_per_rad is None else np.asarray(stiffness_nm_per_rad, float)
     g = arm.gravity_m_s2
+    L = _links(arm, values, tool_mm)
     body, close = "", ""
-    a, d, al, th, be = values.T
-    frames = joint_frames(arm.convention, a / 1000, d / 1000, al, th, be)
-    quats = _quats(np.concatenate([frames[0], frames[2]]))
     for i in range(N):
-        pre_R, pre_t, post_R, post_t = (f[i] for f in frames)
         spring = f' stiffness="{k[i]:.17g}"' if np.isfinite(k[i]) else ""
-        if arm.has_masses:
-            m = max(arm.mass_kg[i], 1e-6)
-            c = post_R @ (np.asarray(arm.com_mm[i]) / 1000) + post_t
-            # statics need only mass and centre; the inertia is a rod's, for stepping
-            inertia = m * (0.05**2 + float(post_t @ post_t) / 12)
-        else:
-            m, c, inertia = 0.1, post_t / 2, 1e-3
+        geom = (f'<geom type="capsule" fromto="0 0 0 {_g(L.post_t[i])}" size="0.03" rgba="0.75 0.75 0.78 1"/>'
+                if L.capsule[i] else '<geom type="sphere" size="0.035" rgba="0.75 0.75 0.78 1"/>')
         # armature 0.1 kg m^2: a geared motor's rotor seen through its reduction; with the 0.5 ms
         # step it keeps a stiff joint's spring stable when the model is stepped
-        length = float(np.linalg.norm(post_t))
-        geom = (f'<geom type="capsule" fromto="0 0 0 {post_t[0]:.9g} {post_t[1]:.9g} {post_t[2]:.9g}" size="0.03" '
-                f'rgba="0.75 0.75 0.78 1"/>' if length > 1e-6 else
-                '<geom type="sphere" size="0.035" rgba="0.75 0.75 0.78 1"/>')
         body += f"""
-      <body name="joint{i + 1}" pos="{pre_t[0]:.17g} {pre_t[1]:.17g} {pre_t[2]:.17g}" quat="{quats[i]}">
+      <body name="joint{i + 1}" pos="{_g(L.pre_t[i])}" quat="{_g(L.pre_quat[i])}">
         <joint name="q{i + 1}" type="hinge" axis="0 0 1" damping="2" armature="0.1"{spring}/>
-        <inertial pos="{c[0]:.17g} {c[1]:.17g} {c[2]:.17g}" mass="{m:.17g}" diaginertia="{inertia:.9g} {inertia:.9g} {inertia:.9g}"/>
+        <inertial pos="{_g(L.com[i])}" mass="{L.mass[i]:.17g}" diaginertia="{_g([L.inertia[i]] * 3)}"/>
         {geom}
-        <body name="link{i + 1}" pos="{post_t[0]:.17g} {post_t[1]:.17g} {post_t[2]:.17g}" quat="{quats[N + i]}">"""
+        <body name="link{i + 1}" pos="{_g(L.post_t[i])}" quat="{_g(L.post_quat[i])}">"""
         close = "\n        </body>\n      </body>" + close
     tool_mass = max(arm.tool_mass_kg, 1e-6)
     body += f"""
           <site name="flange" pos="0 0 0" size="0.005" rgba="0.3 0.3 0.9 1"/>
-          <site name="probe" pos="{tool[0]:.17g} {tool[1]:.17g} {tool[2]:.17g}" size="0.006" rgba="0.9 0.2 0.2 1"/>
-          <body name="tool" pos="{tool[0]:.17g} {tool[1]:.17g} {tool[2]:.17g}">
+          <site name="probe" pos="{_g(L.tool)}" size="0.006" rgba="0.9 0.2 0.2 1"/>
+          <body name="tool" pos="{_g(L.tool)}">
             <inertial pos="0 0 0" mass="{tool_mass:.17g}" diaginertia="1e-5 1e-5 1e-5"/>
           </body>"""
     world = ""
@@ -296,3 +320,46 @@ def build_mjcf(arm: ArmDescription, values: np.ndarray | None = None, tool_mm=No
   </worldbody>
 </mujoco>
 """
+
+
+def _key(v) -> tuple | None:
+    return None if v is None else tuple(np.ravel(np.asarray(v, float)).tolist())
+
+
+_SPEC_LOCK = threading.Lock()  # a Dask worker may run trials in threads: one edits the spec at a time
+
+
+@functools.lru_cache(maxsize=8)
+def _spec(arm: ArmDescription, stiffness, tracker_pos, tracker_quat, cones):
+    """The nominal arm's parsed MJCF (an MjSpec) for one setup, and its links' capsule pattern."""
+    import mujoco
+
+    c = None if cones is None else (cones[:3], cones[3:])
+    xml = build_mjcf(arm, None, None, stiffness, tracker_pos, tracker_quat, c)
+    return mujoco.MjSpec.from_string(xml), _links(arm, None, None).capsule
+
+
+def as_built_model(arm: ArmDescription, values: np.ndarray, tool_mm, stiffness_nm_per_rad=None,
+                   tracker_pos_m=None, tracker_quat=None, cones_m=None):
+    """The MjModel of :func:`build_mjcf` with the same arguments, without writing and parsing the
+    MJCF each time: the nominal arm's MJCF is parsed once per arm and setup, and each as-built
+    arm writes its frames, centres of mass and tool into that spec before compiling (a Monte-Carlo
+    trial makes one per trial). A test checks every array of the model against the MJCF's."""
+    import mujoco
+
+    L = _links(arm, values, tool_mm)
+    spec, capsule = _spec(arm, _key(stiffness_nm_per_rad), _key(tracker_pos_m), _key(tracker_quat), _key(cones_m))
+    if L.capsule != capsule:  # a link's capsule became a sphere or back: another MJCF
+        return mujoco.MjModel.from_xml_string(build_mjcf(arm, values, tool_mm, stiffness_nm_per_rad, tracker_pos_m,
+                                                         tracker_quat, cones_m))
+    with _SPEC_LOCK:
+        for i in range(arm.n_joints):
+            hinge, link = spec.body(f"joint{i + 1}"), spec.body(f"link{i + 1}")
+            hinge.pos, hinge.quat, hinge.ipos = L.pre_t[i], L.pre_quat[i], L.com[i]
+            hinge.inertia = [L.inertia[i]] * 3
+            link.pos, link.quat = L.post_t[i], L.post_quat[i]
+            if L.capsule[i]:
+                hinge.geoms[0].fromto = np.r_[0.0, 0.0, 0.0, L.post_t[i]]
+        spec.site("probe").pos = L.tool
+        spec.body("tool").pos = L.tool
+        return spec.compile()

@@ -24,7 +24,7 @@ import dataclasses
 import mujoco
 import numpy as np
 
-from calibench.scenes.arm_cmm import ArmDescription, build_mjcf, load_arm
+from calibench.scenes.arm_cmm import ArmDescription, as_built_model, load_arm
 from calibench.errors import BadInput
 
 # The seed's Table 1 errors: (da, dd, dalpha, dtheta) of links 1-6 (mm, mm, rad, rad), then dd7,
@@ -108,9 +108,9 @@ class ArmSim:
         R, p = truth.tracker2base()
         q = np.empty(4)
         mujoco.mju_mat2Quat(q, R.ravel())
-        xml = build_mjcf(self.arm, self.arm.nominal() + delta[:5 * N].reshape(N, 5), np.asarray(self.arm.tool_mm) + delta[5 * N:],
-                         k, p / 1000, q, (np.asarray(truth.cone_a_mm) / 1000, np.asarray(truth.cone_b_mm) / 1000))
-        self.model = mujoco.MjModel.from_xml_string(xml)
+        self.model = as_built_model(self.arm, self.arm.nominal() + delta[:5 * N].reshape(N, 5),
+                                    np.asarray(self.arm.tool_mm) + delta[5 * N:], k, p / 1000, q,
+                                    (np.asarray(truth.cone_a_mm) / 1000, np.asarray(truth.cone_b_mm) / 1000))
         self.data = mujoco.MjData(self.model)
         self._probe = self.model.site("probe").id
         self._jac = np.zeros((3, self.model.nv))

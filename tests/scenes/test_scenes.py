@@ -39,3 +39,41 @@ def test_chessboard_corners_and_texture_agree():
 def test_texture_margin_must_be_whole_texels():
     with pytest.raises(ValueError):
         Chessboard(square_mm=50.0, margin_mm=10.0).texture(px_per_square=4)
+
+
+def _model_arrays(model) -> dict:
+    out = {}
+    for name in dir(model):
+        if not name.startswith("_"):
+            v = getattr(model, name, None)
+            if isinstance(v, np.ndarray):
+                out[name] = v
+    return out
+
+
+@pytest.mark.parametrize("arm_name", ["arm-cmm", "ur10"])
+def test_as_built_arm_model_is_the_mjcf_s(arm_name):
+    """An as-built arm written into the cached spec compiles to the model its MJCF gives, every
+    array to the bit (hundreds of arrays: frames, inertias, geoms, flags the compiler derives),
+    for nominal and perturbed arms, rigid and sprung, one after another (a spec reused must not
+    keep anything of the previous arm)."""
+    import mujoco
+
+    from calibench.scenes.arm_cmm import as_built_model, build_mjcf, load_arm
+
+    arm = load_arm(arm_name)
+    N = arm.n_joints
+    rng = np.random.default_rng(0)
+    compared = 0
+    for k in range(6):
+        delta = rng.normal(0, np.r_[np.tile([0.1, 0.1, 1e-3, 1e-3, 1e-3], N), 0.1, 0.1, 0.1]) * (k > 0)
+        args = (arm, arm.nominal() + delta[:5 * N].reshape(N, 5), np.asarray(arm.tool_mm) + delta[5 * N:],
+                None if k % 2 else np.full(N, 1e5), np.array([2.2, -0.9, 0.35]), np.array([0.5, 0.5, 0.5, 0.5]),
+                (np.array([0.45, 0.25, -0.15]), np.array([0.45, -0.35, -0.15])))
+        fast = _model_arrays(as_built_model(*args))
+        parsed = _model_arrays(mujoco.MjModel.from_xml_string(build_mjcf(*args)))
+        assert fast.keys() == parsed.keys()
+        for name, v in parsed.items():
+            assert np.array_equal(fast[name], v, equal_nan=True), f"arm {k}: {name}"
+        compared += len(parsed)
+    assert compared > 6 * 100
