@@ -673,22 +673,33 @@ class Identification:
     cov: np.ndarray | None = None  # of the kept parameters, in basis.kept order
 
 
+# a sum of squares of a few hundred whitened residuals is exact to about 1e-14 of itself: a
+# promised decrease below this fraction of the cost is rounding (a step of ~1e-6 std)
+COST_ROUNDING = 1e-13
+
+
 def identify(problem, basis: Basis, state=None, max_iter: int = 50, xtol: float = 1e-8) -> Identification:
     """Levenberg-Marquardt over the kept parameters; std from the whitened normal matrix.
 
-    Converged when the last step moved no parameter by more than ``xtol`` of its std; a solve
-    that ran out of iterations (or of trust) says so in ``converged``."""
+    Converged when the last step moved no parameter by more than ``xtol`` of its std, or when
+    the next step would lower the cost by less than the cost's own rounding (then no comparison
+    of costs can tell a better state from a worse one: the minimum, to the precision the data
+    are summed in); a solve that ran out of iterations (or of trust) says so in ``converged``."""
     s = problem.start() if state is None else state
     k = basis.kept
     lam = 1e-3
     r = problem.residuals(s)
     cost = r @ r
-    it, converged = 0, False
+    it, converged, floor = 0, False, False
     for it in range(1, max_iter + 1):
         J = problem.jacobian(s)[:, k]
         A, g = J.T @ J, J.T @ r
         while True:
             step_k = -np.linalg.solve(A + lam * np.diag(np.diag(A)), g)
+            # the decrease the linearised model promises (positive for any damping)
+            if -(2 * g @ step_k + step_k @ A @ step_k) <= COST_ROUNDING * cost:
+                floor = True
+                break
             step = np.zeros(len(problem.names))
             step[k] = step_k
             s_new = problem.update(s, step)
@@ -701,6 +712,9 @@ def identify(problem, basis: Basis, state=None, max_iter: int = 50, xtol: float 
             lam *= 10
             if lam > 1e12:
                 break
+        if floor:
+            converged = True
+            break
         small = np.max(np.abs(step_k) * np.sqrt(np.diag(A))) < xtol
         if small or lam > 1e12:
             # no step lowers the cost any more: at a minimum if the gradient says so too

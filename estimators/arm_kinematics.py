@@ -183,7 +183,7 @@ def pose(chain: Chain, q_rad: np.ndarray, delta: np.ndarray | None = None) -> Po
     if q.shape[1] != N:
         raise ValueError(f"postures have {q.shape[1]} joints, the chain {N}")
     delta = np.zeros(n_params(N)) if delta is None else np.asarray(delta, float)
-    a, d, alpha, theta, beta = (chain._nominal + delta[:5 * N].reshape(N, 5)).T
+    a, d, alpha, theta, beta = (chain.nominal() + delta[:5 * N].reshape(N, 5)).T
     n = len(q)
     phi = q + theta  # (n, N)
     c, s = np.cos(phi), np.sin(phi)

@@ -204,6 +204,54 @@ def run_study(scenario: str, trials: int, seed: int, fidelity: str, out_dir: Pat
         raise BadInput(f"unknown scenario {scenario!r} (available: {', '.join(NAMES)})")
     if trials < 1:
         raise BadInput("--trials must be at least 1")
+    own = executor is None
+    if own:  # the workers start (and load the scenario) while this process checks the config
+        executor, close = make_executor(workers, scheduler)
+        for _ in range(workers or os.cpu_count() or 1):
+            executor.submit(_load_scenario, scenario)
+    interrupted = False
+    try:
+        done, todo = _prepare(scenario, trials, seed, fidelity, out_dir, arm, table)
+        t0 = time.perf_counter()
+        if todo:
+            _run_todo(executor, scenario, seed, fidelity, out_dir, arm, table, trials, done, todo, progress)
+    except KeyboardInterrupt:
+        interrupted = True
+        raise
+    finally:
+        if own:
+            close(interrupted)
+    rows = [done[i] for i in sorted(done) if i < trials]
+    summary = summarise(scenario, rows, time.perf_counter() - t0)
+    summary["resumed"] = len(rows) - sum(1 for i in todo if i in done)
+    write_outputs(out_dir, rows, summary)
+    return summary
+
+
+def _import_writers() -> None:
+    """Load what :func:`write_outputs` needs while the workers run: on 2 cores a fast study's
+    outputs would otherwise wait a second or two for these imports after its last trial."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot  # noqa: F401
+    import pyarrow.parquet  # noqa: F401
+    import scipy.special  # noqa: F401
+
+    from calibench.scenarios import rrlog  # noqa: F401
+
+
+def _load_scenario(scenario: str) -> None:
+    """In a worker, at its start: the scenario's module, imported before its first trials arrive."""
+    from calibench.scenarios.registry import scenario as get
+
+    get(scenario)
+
+
+def _prepare(scenario: str, trials: int, seed: int, fidelity: str, out_dir: Path, arm,
+             table) -> tuple[dict, list[int]]:
+    """Check the config and the output folder, record the study; the finished trials (the
+    journal's) and the indices still to run."""
     study_config(scenario, table, arm)  # a bad config is said once, before any trial
     out_dir.mkdir(parents=True, exist_ok=True)
     meta = {"scenario": scenario, "seed": seed, "fidelity": fidelity}
@@ -223,61 +271,36 @@ def run_study(scenario: str, trials: int, seed: int, fidelity: str, out_dir: Pat
         raise BadInput(f"{out_dir} holds a different study ({meta_path.read_text().strip()}); use another --out")
     meta_path.write_text(json.dumps(meta) + "\n")
     done = load_journal(out_dir)
-    todo = [i for i in range(trials) if i not in done]
-    t0 = time.perf_counter()
-    if todo:
-        own = executor is None
-        if own:
-            executor, close = make_executor(workers, scheduler)
-        bar = _progress(len(todo), trials - len(todo), progress)
-        threading.Thread(target=_import_writers, daemon=True).start()
-        interrupted = False
-        try:
-            path = out_dir / JOURNAL
-            torn = path.exists() and path.stat().st_size and not path.read_bytes().endswith(b"\n")
-            with open(path, "a") as journal:
-                if torn:  # an interruption cut the last line: start a fresh one
-                    journal.write("\n")
-                k = chunk_size(len(todo), fidelity)
-                futures = [executor.submit(run_trials, scenario, seed, todo[j:j + k], fidelity, arm, table)
-                           for j in range(0, len(todo), k)]
-                with _interrupt_flag() as stop:
-                    pending = set(futures)
-                    while pending:
-                        if stop.is_set():
-                            raise KeyboardInterrupt
-                        finished, pending = cf.wait(pending, timeout=0.2, return_when=cf.FIRST_COMPLETED)
-                        for fut in sorted(finished, key=futures.index):
-                            for row in fut.result():
-                                journal.write(json.dumps(row) + "\n")
-                                done[row["trial"]] = row
-                            journal.flush()
-                            bar.update(len(fut.result()))
-        except KeyboardInterrupt:
-            interrupted = True
-            raise
-        finally:
-            bar.close()
-            if own:
-                close(interrupted)
-    rows = [done[i] for i in sorted(done) if i < trials]
-    summary = summarise(scenario, rows, time.perf_counter() - t0)
-    summary["resumed"] = len(rows) - sum(1 for i in todo if i in done)
-    write_outputs(out_dir, rows, summary)
-    return summary
+    return done, [i for i in range(trials) if i not in done]
 
 
-def _import_writers() -> None:
-    """Load what :func:`write_outputs` needs while the workers run: on 2 cores a fast study's
-    outputs would otherwise wait a second or two for these imports after its last trial."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot  # noqa: F401
-    import pyarrow.parquet  # noqa: F401
-    import scipy.special  # noqa: F401
-
-    from calibench.scenarios import rrlog  # noqa: F401
+def _run_todo(executor, scenario, seed, fidelity, out_dir, arm, table, trials, done, todo, progress) -> None:
+    """Run the trials ``todo`` on ``executor``, appending each finished one to the journal and to ``done``."""
+    bar = _progress(len(todo), trials - len(todo), progress)
+    threading.Thread(target=_import_writers, daemon=True).start()
+    try:
+        path = out_dir / JOURNAL
+        torn = path.exists() and path.stat().st_size and not path.read_bytes().endswith(b"\n")
+        with open(path, "a") as journal:
+            if torn:  # an interruption cut the last line: start a fresh one
+                journal.write("\n")
+            k = chunk_size(len(todo), fidelity)
+            futures = [executor.submit(run_trials, scenario, seed, todo[j:j + k], fidelity, arm, table)
+                       for j in range(0, len(todo), k)]
+            with _interrupt_flag() as stop:
+                pending = set(futures)
+                while pending:
+                    if stop.is_set():
+                        raise KeyboardInterrupt
+                    finished, pending = cf.wait(pending, timeout=0.2, return_when=cf.FIRST_COMPLETED)
+                    for fut in sorted(finished, key=futures.index):
+                        for row in fut.result():
+                            journal.write(json.dumps(row) + "\n")
+                            done[row["trial"]] = row
+                        journal.flush()
+                        bar.update(len(fut.result()))
+    finally:
+        bar.close()
 
 
 def _progress(total: int, initial: int, enabled: bool | None):
