@@ -406,6 +406,7 @@ class TrackerProblem:
         self.encoder_sigma = float(encoder_sigma_rad)
         self._W = None  # per-posture whitening (n, 3, 3), made at the first start
         self._start = None  # the start's frame (R, t), found once
+        self._G = None  # d(spherical)/d(encoders) at the start (n, 3, N), for the whitening
         self._last = None  # (delta, Pose) of the last evaluation
         self._last_jacobian = None  # (delta, R, t, J) of the last Jacobian
         # the tracker's rotation is reported as the small turn from this reference (the first
@@ -451,13 +452,23 @@ class TrackerProblem:
         """L^-1 of each posture's covariance diag(sigma^2) + G Sigma_q G^T, G = d(sph)/d(q)."""
         cov = np.einsum("ni,ij->nij", self.sigma**2, np.eye(3))
         if self.encoder_sigma > 0:
-            P = self._pose(s.delta)
-            y = P.point @ s.R.T + s.t
-            # a joint's turn moves the point as that joint's zero offset does
-            Jq = jacobian(self.chain, P=P)[:, :, [theta_index(j) for j in range(1, self.N + 1)]]
-            G = np.einsum("nij,jk,nkl->nil", spherical_jacobian(y), s.R, Jq)
-            cov = cov + self.encoder_sigma**2 * np.einsum("nij,nkj->nik", G, G)
+            if self._G is None:
+                P = self._pose(s.delta)
+                y = P.point @ s.R.T + s.t
+                # a joint's turn moves the point as that joint's zero offset does
+                Jq = jacobian(self.chain, P=P)[:, :, [theta_index(j) for j in range(1, self.N + 1)]]
+                self._G = np.einsum("nij,jk,nkl->nil", spherical_jacobian(y), s.R, Jq)
+            cov = cov + self.encoder_sigma**2 * np.einsum("nij,nkj->nik", self._G, self._G)
         return np.linalg.inv(np.linalg.cholesky(cov))
+
+    def reweighted(self, sigma: np.ndarray, encoder_sigma_rad: float) -> "TrackerProblem":
+        """The same readings whitened by other 1-sigma (n, 3) and encoder sigma (e.g. the
+        simulation's own, for a bound): the start, its frame reference and the encoders' lever
+        G are the same, so they are shared, not found again."""
+        other = TrackerProblem(self.chain, self.q, self.meas, sigma, encoder_sigma_rad)
+        self.start()
+        other._start, other.R_ref, other._G, other._last = self._start, self.R_ref, self._G, self._last
+        return other
 
     def points(self, s: TrackerState) -> np.ndarray:
         """Tool points in the tracker frame, (n, 3)."""

@@ -295,8 +295,7 @@ def trial_parameters(config: ArmCmmConfig, seed: int) -> list[Parameter]:
     # the Cramer-Rao bound: the Jacobian at the truth (the injected errors, the tracker's true
     # frame) whitened by the simulation's own noise (tracker and encoders), not the datasheet's,
     # unscaled by any residual; the dropped columns stay at their true values
-    true_noise = TrackerProblem(chain, q_read, noisy.meas, sim.tracker_sigma(noisy.meas),
-                                sim.truth.encoder_noise_urad * 1e-6)
+    true_noise = noisy.reweighted(sim.tracker_sigma(noisy.meas), sim.truth.encoder_noise_urad * 1e-6)
     R_bt, t_bt = sim.base2tracker()
     J = true_noise.jacobian(TrackerState(sim.delta, R_bt, t_bt))[:, ident.basis.kept]
     crlb = np.sqrt(np.diag(np.linalg.inv(J.T @ J)))

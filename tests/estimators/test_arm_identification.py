@@ -8,7 +8,8 @@ implementation independent of the estimator's kinematics and gravity model.
 import numpy as np
 import pytest
 
-from calibench.estimators.arm_identification import (AngleTerm, ConeProblem, PointProblem, identifiable_basis, identify,
+from calibench.estimators.arm_identification import (AngleTerm, ConeProblem, PointProblem, TrackerProblem,
+                                                     identifiable_basis, identify,
                                                      identify_identifiable, observability_index, parameter_scales,
                                                      select_postures)
 from calibench.estimators.arm_kinematics import param_is_angle, point
@@ -45,6 +46,23 @@ def test_tracker_jacobian_matches_differences(arm):
         fd = (p.residuals(p.update(s, e)) - p.residuals(p.update(s, -e))) / (2 * h)
         np.testing.assert_allclose(J[:, k], fd, rtol=1e-4, atol=1e-3 * np.abs(J[:, k]).max() + 1e-9,
                                    err_msg=p.names[k])
+
+
+def test_a_reweighted_problem_is_a_fresh_one_with_those_sigma(arm):
+    """Sharing the start and the encoders' lever changes nothing: residuals and Jacobian equal
+    those of a problem built from scratch with the other sigma, to the bit."""
+    sim, chain = arm
+    rng = np.random.default_rng(2)
+    q = sim.random_postures(12, rng)
+    p = tracker_problem(sim, chain, q, sim.encoders(q, rng), rng)
+    identify_identifiable(p)
+    sigma, enc = p.sigma * rng.uniform(0.5, 2.0, p.sigma.shape), 3 * p.encoder_sigma
+    shared, fresh = p.reweighted(sigma, enc), TrackerProblem(chain, p.q, p.meas, sigma, enc)
+    s = fresh.start()
+    s.delta = np.array(table1_errors()) * 0.5
+    assert np.array_equal(shared.residuals(s), fresh.residuals(s))
+    assert np.array_equal(shared.jacobian(s), fresh.jacobian(s))
+    assert not np.array_equal(shared.residuals(s), p.residuals(s))  # the weights did change
 
 
 @pytest.mark.parametrize("tilt", [(), (2,)])
