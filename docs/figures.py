@@ -13,7 +13,8 @@ them is rewritten.
     python docs/figures.py --list             # the blocks, what each runs, its time on 2 cores
 
 ``make figures`` and ``make figures-check`` run the first and the third (FIGURES="NAME ..." for
-some blocks); tests/test_readme_figures.py checks the blocks marked ``ci`` (the fast ones).
+some blocks); tests/test_readme_figures.py checks the blocks marked ``ci`` (all but the UR10 fits on
+all four series, the null-recording sweep and the machine timings).
 
 The check compares numbers, not words: the numbers of both texts are parsed in order and paired;
 a block whose count of numbers differs, or a pair beyond the block's tolerance, is a disagreement.
@@ -256,7 +257,7 @@ def belt_stage():
 
 
 # --- vision-stage ----------------------------------------------------------------------------------------
-@block(seconds=40, ci=False, last_digit=1)
+@block(seconds=35, ci=True, last_digit=1)
 def vision_stage():
     """calibench run vision-stage --seed 0 (render): the interferometer's largest deviations."""
     from calibench.sim.vision_stage import VisionStageTruth
@@ -273,7 +274,7 @@ def vision_stage():
     ])
 
 
-@block(seconds=40, ci=False, last_digit=1)
+@block(seconds=35, ci=True, last_digit=1)
 def vision_stage_alignment():
     """calibench run vision-stage --seed 0 (render): circle centres and the plate's alignment."""
     c, info = checks("vision-stage"), report("vision-stage")["info"]
@@ -674,7 +675,7 @@ def coverages(summary: dict) -> list[dict]:
     return [p for p in summary["parameters"] if p["coverage_95"] is not None]
 
 
-@block(seconds=230, ci=False, rel=0.01)
+@block(seconds=55, ci=True, rel=0.01)
 def datasheet_coverage():
     """benchmarks/datasheet_coverage.py's studies: 1000 arm and 200 Stewart trials with the
     datasheet right, 1.5x too large and 1.5x too small."""
@@ -698,7 +699,7 @@ def datasheet_coverage():
             f"their binomial band.")
 
 
-@block(seconds=250, ci=False, rel=0.01)
+@block(seconds=75, ci=True, rel=0.01)
 def montecarlo_studies():
     """calibench montecarlo arm-cmm --trials 1000, stewart --trials 1000, belt-stage --trials 200
     (seed 0, analytic)."""
@@ -741,7 +742,7 @@ def physics_study(scenario: str, trials: int, physics: bool) -> dict:
     return run_study(scenario, trials, 0, "analytic", out, progress=False, table=table_ if physics else None, arm=arm)
 
 
-@block(seconds=200, ci=False)
+@block(seconds=50, ci=True)
 def physics_studies():
     """calibench montecarlo with each twin's physics off and on (PHYSICS): what a geometry-only
     calibration does on a machine that has it."""
@@ -795,7 +796,7 @@ def performance():
 
 
 # --- discover ------------------------------------------------------------------------------------------------------
-@block(seconds=250, ci=False)
+@block(seconds=215, ci=True)
 def discover_suite():
     """The concealed-effect suite (scenarios/discover_suite.py, as benchmarks/discover.py runs it)."""
     from calibench.scenarios.discover_suite import SUITE, run_case, score
