@@ -385,13 +385,13 @@ def best_harmonic(q: np.ndarray, Jt: np.ndarray, r: np.ndarray, base: np.ndarray
     rows = np.ones(len(r), bool) if rows is None else rows
     Q = np.linalg.qr(base[rows])[0] if base.shape[1] else np.zeros((int(rows.sum()), 0))
     rr = r[rows] - Q @ (Q.T @ r[rows])
-    n = len(q)
+    # each kept row's posture and lever: the sines are taken per posture, then spread to its rows
+    posture = np.repeat(np.arange(len(q)), 3)[rows]
+    lever = Jt.reshape(-1)[rows][:, None]
 
     def columns(hs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         ph = q[:, None] * hs[None, :]  # (n, m)
-        S = (Jt[:, :, None] * np.sin(ph)[:, None, :]).reshape(3 * n, len(hs))[rows]
-        C = (Jt[:, :, None] * np.cos(ph)[:, None, :]).reshape(3 * n, len(hs))[rows]
-        return S, C
+        return lever * np.sin(ph)[posture], lever * np.cos(ph)[posture]
 
     def explained(S: np.ndarray, C: np.ndarray) -> np.ndarray:
         ss, cc, sc = (S * S).sum(0), (C * C).sum(0), (S * C).sum(0)
@@ -412,11 +412,19 @@ def best_harmonic(q: np.ndarray, Jt: np.ndarray, r: np.ndarray, base: np.ndarray
     g = (np.sqrt(5) - 1) / 2
     best = (-np.inf, grid[peaks[0]])
     for k in peaks:
+        # golden section: each step keeps one inner point and its value, and evaluates one new
         lo, hi = grid[k] - step, grid[k] + step
+        a, b = hi - g * (hi - lo), lo + g * (hi - lo)
+        ea, eb = exact(np.array([a, b]))
         for _ in range(25):
-            a, b = hi - g * (hi - lo), lo + g * (hi - lo)
-            ea, eb = exact(np.array([a, b]))
-            lo, hi = (lo, b) if ea > eb else (a, hi)
+            if ea > eb:
+                hi, b, eb = b, a, ea
+                a = hi - g * (hi - lo)
+                ea = float(exact(np.array([a]))[0])
+            else:
+                lo, a, ea = a, b, eb
+                b = lo + g * (hi - lo)
+                eb = float(exact(np.array([b]))[0])
         h = 0.5 * (lo + hi)
         e = float(exact(np.array([h]))[0])
         if e > best[0]:
