@@ -13,8 +13,8 @@ them is rewritten.
     python docs/figures.py --list             # the blocks, what each runs, its time on 2 cores
 
 ``make figures`` and ``make figures-check`` run the first and the third (FIGURES="NAME ..." for
-some blocks); tests/test_readme_figures.py checks the blocks marked ``ci`` (all but the UR10 fits on
-all four series, the null-recording sweep and the machine timings).
+some blocks); tests/test_readme_figures.py checks the blocks marked ``ci`` (all but the UR10 fits with
+discovery on the training rows, the null-recording sweep and the machine timings).
 
 The check compares numbers, not words: the numbers of both texts are parsed in order and paired;
 a block whose count of numbers differs, or a pair beyond the block's tolerance, is a disagreement.
@@ -493,7 +493,7 @@ def _terms_words(terms: list[str]) -> str:
     return _effects_words({"effects": [{"name": kinds[k], "params": {"joint": j}} for k, j in found if k in kinds]})
 
 
-@block(seconds=1500, ci=False)
+@block(seconds=610, ci=False)
 def ur10_all_four():
     """calibench fit arm-cmm on all four series, --holdout 0.3: physics, with the discovery on C's
     effects (calibench discover arm-cmm ur10_C.csv), with fit's own discovery on the training rows
@@ -517,7 +517,7 @@ def ur10_all_four():
     ])
 
 
-@block(seconds=90, ci=False)
+@block(seconds=45, ci=True)
 def ur10_one_phase():
     """calibench fit arm-cmm on all four, --holdout 0.3, without and with --effects
     docs/ur10_harmonic17.json (one phase for all series)."""
@@ -534,7 +534,7 @@ def ur10_one_phase():
     return text + "."
 
 
-@block(seconds=120, ci=False)
+@block(seconds=90, ci=True)
 def ur10_per_session():
     """calibench fit arm-cmm on all four, --holdout 0.3 --effects docs/ur10_gear_harmonics.json."""
     spec = json.loads((ROOT / GEAR).read_text())
@@ -549,7 +549,7 @@ def ur10_per_session():
             f"less; {worst[5]}'s is {held[worst]['max_mm']:.2f} mm.")
 
 
-@block(seconds=150, ci=False)
+@block(seconds=90, ci=True)
 def ur10_targets():
     """The issue's targets (0.40 mm mean, 1.3 mm max on C; 0.25 mm the aim) against the physics fit
     on all four and the fit with per-session gear harmonics."""
@@ -569,7 +569,7 @@ def ur10_targets():
             f"{mean_t:.2f} mm mean and {maxes}, and A is {'under' if a < aim else 'not under'} the {aim} mm aim.")
 
 
-@block(seconds=150, ci=False)
+@block(seconds=75, ci=True)
 def ur10_discovery():
     """calibench discover arm-cmm ur10_C.csv --arm ur10.toml: the held-out RMS, effect by effect."""
     d = ur10_discovery_c()

@@ -1,14 +1,14 @@
 """The README's numbers agree with the code (issue 15): ``docs/figures.py --check`` regenerates
-the README's generated blocks (about nine minutes together on 2 cores: the render runs, the
-Monte-Carlo studies of the coverage, datasheet and physics tables, the concealed-effect suite)
-and compares every number with the README's.
+the README's generated blocks (about thirteen minutes together on 2 cores: the render runs, the
+Monte-Carlo studies of the coverage, datasheet and physics tables, the concealed-effect suite,
+the UR10 fits on all four series and the discovery on ur10_C) and compares every number with the
+README's.
 
 The README is the expectation and the code the truth: nothing here holds a figure. The blocks
-left to ``make figures-check`` (together about forty minutes) are: ur10-all-four, ur10-one-phase,
-ur10-per-session and ur10-targets (fits on all four UR10 series, minutes each, and discovery on
-their training rows), ur10-discovery (2.4 min), discover-nulls (120 null recordings, each at
-three or four floors) and performance (machine timings, which ``make figures`` rewrites and
-nothing compares).
+left to ``make figures-check`` (together about twenty-five minutes) are: ur10-all-four (its
+fits with discovery on the training rows, ten minutes), discover-nulls (120 null recordings,
+each at three or four floors) and performance (machine timings, which ``make figures`` rewrites
+and nothing compares).
 """
 
 import importlib.util
