@@ -124,10 +124,12 @@ class Pose:
 
     @property
     def axis(self) -> np.ndarray:
+        """(n, 5 N, 3) base-frame direction of each elementary motion."""
         return self._elementary()[0]
 
     @property
     def origin(self) -> np.ndarray:
+        """(n, 5 N, 3) where each elementary motion acts (mm)."""
         return self._elementary()[1]
 
     def _elementary(self) -> tuple[np.ndarray, np.ndarray]:
