@@ -692,46 +692,54 @@ COST_ROUNDING = 1e-13
 def identify(problem, basis: Basis, state=None, max_iter: int = 50, xtol: float = 1e-8) -> Identification:
     """Levenberg-Marquardt over the kept parameters; std from the whitened normal matrix.
 
-    Converged when the last step moved no parameter by more than ``xtol`` of its std, or when
-    the next step would lower the cost by less than the cost's own rounding (then no comparison
-    of costs can tell a better state from a worse one: the minimum, to the precision the data
-    are summed in); a solve that ran out of iterations (or of trust) says so in ``converged``."""
+    Converged when the last accepted step moved no parameter by more than ``xtol`` of its std, or
+    when even the undamped step would lower the cost by less than the cost's own rounding (then
+    no comparison of costs can tell a better state from a worse one: the minimum, to the precision
+    the data are summed in). When no step, however damped, lowers the cost, the solve is converged
+    only if the gradient vanishes; one that ran out of iterations says so in ``converged``."""
     s = problem.start() if state is None else state
     k = basis.kept
     lam = 1e-3
     r = problem.residuals(s)
     cost = r @ r
-    it, converged, floor = 0, False, False
+    it, converged = 0, False
     for it in range(1, max_iter + 1):
         J = problem.jacobian(s)[:, k]
         A, g = J.T @ J, J.T @ r
+        # the most the linearised model promises is the undamped step's decrease, g' A^-1 g: a
+        # damped step promises less, so only the undamped one may say the minimum is reached
+        try:
+            floor = bool(g @ np.linalg.solve(A, g) <= COST_ROUNDING * cost)
+        except np.linalg.LinAlgError:
+            floor = False
+        if floor:
+            converged = True
+            break
+        accepted = False
         while True:
             step_k = -np.linalg.solve(A + lam * np.diag(np.diag(A)), g)
-            # the decrease the linearised model promises (positive for any damping)
-            if -(2 * g @ step_k + step_k @ A @ step_k) <= COST_ROUNDING * cost:
-                floor = True
-                break
             step = np.zeros(len(problem.names))
             step[k] = step_k
             s_new = problem.update(s, step)
             r_new = problem.residuals(s_new)
             if r_new @ r_new < cost:
                 s, r, cost, lam = s_new, r_new, r_new @ r_new, max(lam / 10, 1e-12)
+                accepted = True
                 break
             if np.max(np.abs(step_k) * np.sqrt(np.diag(A))) < xtol:
                 break  # a step already below the tolerance: shorter ones change nothing either
             lam *= 10
             if lam > 1e12:
                 break
-        if floor:
-            converged = True
-            break
-        small = np.max(np.abs(step_k) * np.sqrt(np.diag(A))) < xtol
-        if small or lam > 1e12:
-            # no step lowers the cost any more: at a minimum if the gradient says so too
-            converged = bool(small or np.max(np.abs(g) / np.sqrt(np.maximum(np.diag(A), 1e-300))) < 1e-6 * max(
-                np.sqrt(cost), 1.0))
-            break
+        if accepted:
+            if np.max(np.abs(step_k) * np.sqrt(np.diag(A))) < xtol:
+                converged = True
+                break
+            continue
+        # no step lowers the cost any more (the damped ones, however short): a minimum only if the
+        # gradient says so too; a wrong model or Jacobian ends here unconverged
+        converged = bool(np.max(np.abs(g) / np.sqrt(np.maximum(np.diag(A), 1e-300))) < 1e-6 * max(np.sqrt(cost), 1.0))
+        break
     J = problem.jacobian(s)[:, k]
     dof = max(len(r) - len(k), 1)
     s2 = cost / dof

@@ -56,8 +56,8 @@ def opencv_single_threaded():
         cv2.setNumThreads(before)
 
 
-# name: (module, config class, fit model, renders). The modules are imported on first use of
-# SCENARIOS, so that ``calibench --help`` and a user's ``import`` stay quick.
+# name: (module, config class, fit model, renders). A module is imported by scenario(name), one at
+# a time, so that ``calibench --help``, a user's ``import`` and a study's workers stay quick.
 _TABLE = {
     "belt-stage": ("belt_stage", "BeltStageConfig", "quadratic", True),
     "vision-stage": ("vision_stage", "VisionStageConfig", "cubic", True),

@@ -136,6 +136,22 @@ def test_identification_recovers_the_effective_truth_with_honest_std(arm):
     assert 0.6 < np.sqrt(np.mean(z**2)) < 1.5
 
 
+def test_a_solve_that_cannot_descend_is_not_called_converged(arm):
+    """With its Jacobian's sign flipped every step climbs, the damping grows until the steps are
+    tiny and promise almost nothing: that must not read as the cost's rounding floor (only the
+    undamped step may say the minimum is reached)."""
+    sim, chain = arm
+    rng = np.random.default_rng(3)
+    q = sim.random_postures(50, rng)
+    problem = tracker_problem(sim, chain, q, sim.encoders(q, rng), rng)
+    basis = identifiable_basis(problem)
+    assert identify(problem, basis).converged
+    jacobian = problem.jacobian
+    problem.jacobian = lambda s: -jacobian(s)
+    wrong = identify(problem, basis)
+    assert not wrong.converged and wrong.rms > 10
+
+
 @pytest.mark.parametrize("name", ["arm-cmm", "ur10"])
 def test_compliance_under_mujocos_gravity_is_recovered_within_3_std(name):
     """The truth: MuJoCo's arm with springs on joints 2 and 3, the links settled where the

@@ -49,6 +49,23 @@ def test_dask_cluster_gives_the_pool_s_results(tmp_path):
     np.testing.assert_array_equal(a, b)
 
 
+def test_a_finished_study_needs_no_workers(tmp_path, monkeypatch):
+    """Asked again with all its trials journaled, a study rewrites its outputs without starting a
+    pool or reaching a cluster (the cluster of the first run may be gone)."""
+    import calibench.scenarios.montecarlo as mc
+
+    with cf.ThreadPoolExecutor(1) as ex:
+        first = run_study("arm-cmm", 3, 5, "analytic", tmp_path, executor=ex, progress=False)
+
+    def no_executor(*args):
+        raise AssertionError("a finished study started workers")
+
+    monkeypatch.setattr(mc, "make_executor", no_executor)
+    again = run_study("arm-cmm", 3, 5, "analytic", tmp_path, scheduler="tcp://127.0.0.1:9", progress=False)
+    assert again["resumed"] == 3 and again["trials"] == first["trials"] == 3
+    assert again["parameters"] == first["parameters"]
+
+
 def test_trials_are_reproducible_and_independent():
     assert trial_seed(0, 5) == trial_seed(0, 5)
     assert len({trial_seed(0, i) for i in range(100)} | {trial_seed(1, i) for i in range(100)}) == 200
