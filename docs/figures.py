@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import csv
 import dataclasses
 import functools
 import io
@@ -166,7 +167,7 @@ def ur10_fit(setup: str, effects: str | None = None, model: str | None = None) -
     tested on B (C's frame), A and D (new frames); "all": trained on all four, 30 % held out.
     ``effects``: a file for ``--effects`` (``"discovery-C"``: the discovery on C; ``"discover"``:
     fit's own discovery on its training rows)."""
-    out = scratch() / "fit" / f"{setup}-{model}-{Path(effects or 'none').stem}"
+    out = ur10_fit_dir(setup, effects, model)
     args = ["fit", "arm-cmm"]
     if setup == "C":
         c, b, a, d = series("C", "B", "A", "D")
@@ -184,6 +185,25 @@ def ur10_fit(setup: str, effects: str | None = None, model: str | None = None) -
         args += ["--effects", ROOT / effects]
     calibench(*args)
     return json.loads((out / "fit.json").read_text())
+
+
+def ur10_fit_dir(setup: str, effects: str | None = None, model: str | None = None) -> Path:
+    """Where :func:`ur10_fit` writes (fit.json, residuals.csv)."""
+    return scratch() / "fit" / f"{setup}-{model}-{Path(effects or 'none').stem}"
+
+
+def ur10_residuals(setup: str, effects: str | None = None) -> dict:
+    """residuals.csv of :func:`ur10_fit` by file: {file: (rows (n,), roles (n,), measured - modelled (n, 3) mm)}."""
+    import numpy as np
+
+    ur10_fit(setup, effects)
+    out = {}
+    with open(ur10_fit_dir(setup, effects) / "residuals.csv") as f:
+        for r in csv.DictReader(f):
+            out.setdefault(r["file"], []).append((int(r["row"]), r["role"], float(r["ex_mm"]), float(r["ey_mm"]),
+                                                   float(r["ez_mm"])))
+    return {k: (np.array([v[0] for v in rows]), np.array([v[1] for v in rows]),
+                np.array([v[2:] for v in rows])) for k, rows in out.items()}
 
 
 @functools.cache
@@ -254,6 +274,49 @@ def belt_stage():
         ["the paper's own travel method on the same images", f"map error {info['paper_method']['map_rms_mm']:.1f} mm",
          ""],
     ])
+
+
+# --- corners ----------------------------------------------------------------------------------------------
+@block(seconds=8, ci=True)
+def corner_accuracy():
+    """Chessboard corners on MuJoCo renders of the belt stage's calibration board (its blur and
+    sensor noise on), tilted 0 to 0.6 rad: the saddle refinement against OpenCV's classic pipeline
+    (findChessboardCorners, then cornerSubPix in an 11 x 11 window) on the same images, both against
+    the exact projection of the true corners."""
+    import cv2
+    import numpy as np
+
+    from calibench.estimators.chessboard import find_chessboard_corners
+    from calibench.scenes.belt_stage import BeltStageGeometry
+    from calibench.sim.belt_stage import BeltStageSim, BeltStageTruth
+
+    g = BeltStageGeometry()
+    sim = BeltStageSim(g, BeltStageTruth())
+    rng = np.random.default_rng(0)
+    stop = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 100, 1e-4)
+    rms = {"ours": [], "opencv": []}
+    try:
+        for tilt in (0.0, 0.2, 0.4, 0.6):
+            ours, opencv = [], []
+            for azimuth in np.arange(4) * np.pi / 2 + 0.3:
+                R = cv2.Rodrigues(tilt * np.array([np.cos(azimuth), np.sin(azimuth), 0.0]))[0]
+                sim.place_calib_board(R, np.array([0.0, 0.0, 900.0]) - R @ g.board.corners_mm().mean(axis=0))
+                img = sim.render(calib=True, rng=rng)
+                truth = sim.true_corners_px(calib=True)
+                grey = cv2.cvtColor(img, cv2.COLOR_RGB2GRAY)
+                ok, c = cv2.findChessboardCorners(grey, (g.board.cols, g.board.rows))
+                if not ok:
+                    raise RuntimeError(f"OpenCV found no board at tilt {tilt} rad")
+                c = cv2.cornerSubPix(grey, c, (5, 5), (-1, -1), stop).reshape(-1, 2)
+                nearest = np.argmin(np.linalg.norm(c[:, None] - truth[None], axis=2), axis=1)
+                opencv.append(np.linalg.norm(c - truth[nearest], axis=1))
+                ours.append(np.linalg.norm(find_chessboard_corners(img, g.board.cols, g.board.rows) - truth, axis=1))
+            for key, e in (("ours", ours), ("opencv", opencv)):
+                rms[key].append(float(np.sqrt(np.mean(np.concatenate(e) ** 2))))
+    finally:
+        sim.close()
+    return (f"On MuJoCo renders (blur and noise on, the board tilted 0 to 0.6 rad): {span(rms['ours'], '.3f')} px "
+            f"RMS, against {span(rms['opencv'], '.3f')} px for OpenCV's cornerSubPix on the same images.")
 
 
 # --- vision-stage ----------------------------------------------------------------------------------------
@@ -493,7 +556,7 @@ def _terms_words(terms: list[str]) -> str:
     return _effects_words({"effects": [{"name": kinds[k], "params": {"joint": j}} for k, j in found if k in kinds]})
 
 
-@block(seconds=610, ci=False)
+@block(seconds=330, ci=True)
 def ur10_all_four():
     """calibench fit arm-cmm on all four series, --holdout 0.3: physics, with the discovery on C's
     effects (calibench discover arm-cmm ur10_C.csv), with fit's own discovery on the training rows
@@ -515,6 +578,79 @@ def ur10_all_four():
          f"{_terms_words(ur10_fit('all', 'discover')['effects_from']['terms'])})", *cells[2]],
         [f"with gear harmonics whose phase each session sets (`--effects {GEAR}`)", *cells[3]],
     ])
+
+
+@block(seconds=30, ci=True)
+def ur10_periodogram():
+    """The physics fit on all four series (training and held-out rows of residuals.csv) against
+    one joint-angle error at a common frequency on joints 1-3: a sine and a cosine per joint
+    through the arm's joint Jacobian, fitted at every frequency from 5 to 30 cycles per turn in
+    steps of 0.01; where the fit gains most, and the amplitudes there."""
+    import numpy as np
+
+    from calibench.estimators.arm_kinematics import jacobian, theta_index
+    from calibench.estimators.rotations import rotvec_to_matrix
+    from calibench.recordings import load_arm_csv
+    from calibench.scenarios.arms import chain_of, load_arm
+
+    chain = chain_of(load_arm(UR10 / "ur10.toml"))
+    fit, res = ur10_fit("all"), ur10_residuals("all")
+    freqs = np.arange(500, 3001) / 100
+    peak, amp_mrad = {}, {}
+    for name in ALL:
+        rows, roles, e = res[name]
+        use = np.isin(roles, ("train", "holdout"))
+        q = load_arm_csv(UR10 / name, n_joints=6).q_rad[rows[use]]
+        e = e[use]
+        R = rotvec_to_matrix(np.array(fit["bases"][name]["rotvec_rad"]))
+        Jq = np.einsum("ab,nbj->naj", R, jacobian(chain, q)[:, :, [theta_index(j) for j in (1, 2, 3)]])
+        G = np.tile(np.einsum("naj,nak->njk", Jq, Jq), (1, 2, 2))  # (n, 6, 6): sine and cosine columns
+        h = np.tile(np.einsum("naj,na->nj", Jq, e), (1, 2))
+        gain = []
+        for f in freqs:
+            W = np.concatenate([np.sin(f * q[:, :3]), np.cos(f * q[:, :3])], axis=1)
+            b = np.einsum("nj,nj->j", h, W)
+            coef = np.linalg.solve(np.einsum("njk,nj,nk->jk", G, W, W), b)
+            gain.append((b @ coef, coef))
+        k = int(np.argmax([g for g, _ in gain]))
+        peak[name] = freqs[k]
+        amp_mrad[name] = 1e3 * np.hypot(gain[k][1][:3], gain[k][1][3:])
+    abd = ["ur10_A.csv", "ur10_B.csv", "ur10_D.csv"]
+    amps = np.concatenate([amp_mrad[c] for c in abd])
+    return (f"What the physics model leaves out shows in its residuals with nearly one frequency: fitted as one "
+            f"joint-angle error at a common frequency on joints 1, 2 and 3 (a sine and a cosine per joint, through "
+            f"the arm's Jacobian; `residuals.csv` of the physics fit on all four, training and held-out rows), A, B "
+            f"and D gain most at {words([f'{peak[c]:.2f}' for c in abd])} cycles per turn, C at {peak['ur10_C.csv']:.2f}; "
+            f"the amplitudes there are {span(amps, '.2f')} mrad on A, B and D.")
+
+
+@block(seconds=5, ci=True)
+def ur10_after_moves():
+    """The per-session gear-harmonic fit's held-out rows of A and D (residuals.csv): A's largest,
+    the training rows beside it the fit left out, and the error after the robot's largest moves."""
+    import numpy as np
+
+    from calibench.recordings import load_arm_csv
+
+    res = ur10_residuals("all", GEAR)
+    rows, roles, e = res["ur10_A.csv"]
+    err = np.linalg.norm(e, axis=1)
+    k = int(np.argmax(np.where(roles == "holdout", err, -1)))
+    worst = int(rows[k])
+    near = sorted(int(r) for r in rows[(roles == "left_out") & (np.abs(rows - worst) <= 5)])
+    after = {}
+    for name in ("ur10_A.csv", "ur10_D.csv"):
+        rows, roles, e = res[name]
+        q = load_arm_csv(UR10 / name, n_joints=6).q_rad
+        move = np.r_[0.0, np.degrees(np.abs(np.diff(q, axis=0)).max(axis=1))][rows]  # the largest joint's travel
+        held, err_n = roles == "holdout", np.linalg.norm(e, axis=1)
+        after[name] = (err_n[held & (move > 60)].mean(), err_n[held & (move <= 60)].mean())
+    a, d = after["ur10_A.csv"], after["ur10_D.csv"]
+    beside = (f"; the training rows {words(map(str, near))} beside it the fit leaves out as beyond its scatter"
+              if near else "")
+    return (f"A's largest held-out error is row {worst}{beside}. The held-out residuals grow after the "
+            f"robot's largest moves: mean {a[0]:.2f} mm after a move of more than 60 degrees (of any joint, from the "
+            f"row before) against {a[1]:.2f} mm after smaller ones in A, {d[0]:.2f} against {d[1]:.2f} mm in D.")
 
 
 @block(seconds=45, ci=True)
@@ -857,27 +993,27 @@ STAGE_FLOORS = (0.02, 0.05, 0.10)  # benchmarks/discover.py's; 3 % is the arm's 
 @functools.cache
 def null_claims() -> dict:
     """For each scenario and floor, the share of NULLS fresh null recordings (seeds 5000+, as
-    benchmarks/discover.py draws them) on which discover claims any effect."""
-    from calibench.scenarios.discover import discover_arm, discover_stage
-    from calibench.sim.concealed import arm_recording, stage_recording
+    benchmarks/discover.py draws them) on which discover claims any effect; the recordings
+    shared among the cores (a spawn pool: each is independent and seeded)."""
+    import concurrent.futures as cf
+    import multiprocessing
 
-    out = {}
-    for sc in ("belt-stage", "vision-stage", "arm-cmm", "arm-cmm:ur10"):
-        arm = sc.partition(":")[2] or "arm-cmm"
-        floors = FLOORS if sc.startswith("arm") else STAGE_FLOORS
-        claims = {f: 0 for f in floors}
-        for k in range(NULLS):
-            rec = (arm_recording("null", 5000 + k, arm=arm) if sc.startswith("arm") else
-                   stage_recording(sc, "null", 5000 + k))[0]
-            for f in floors:
-                d = (discover_arm(rec, 0, f, arm=arm) if sc.startswith("arm")
-                     else discover_stage(sc, rec, 0, None, f))[0]
-                claims[f] += any(e["name"] != "geometry" for e in d["effects"])
-        out[sc] = {f: claims[f] / NULLS for f in floors}
-    return out
+    from calibench.scenarios.discover_suite import null_claims as claims_on
+
+    jobs = {(sc, k): (FLOORS if sc.startswith("arm") else STAGE_FLOORS)
+            for sc in ("belt-stage", "vision-stage", "arm-cmm", "arm-cmm:ur10") for k in range(NULLS)}
+    with cf.ProcessPoolExecutor(os.cpu_count() or 1, mp_context=multiprocessing.get_context("spawn")) as pool:
+        futures = {job: pool.submit(claims_on, *job, floors) for job, floors in jobs.items()}
+        got = {job: f.result() for job, f in futures.items()}
+    count = {}
+    for (sc, k), floors in jobs.items():
+        claims = count.setdefault(sc, dict.fromkeys(floors, 0))
+        for f, claimed in zip(floors, got[sc, k]):
+            claims[f] += claimed
+    return {sc: {f: c / NULLS for f, c in claims.items()} for sc, claims in count.items()}
 
 
-@block(seconds=760, ci=False)
+@block(seconds=400, ci=True)
 def discover_nulls():
     """discover on 30 fresh null recordings per scenario at several floors: the false-claim rate."""
     from calibench.estimators.discovery import FLOOR
@@ -955,6 +1091,59 @@ def paper_belt_discover():
         f"{axis.upper()} axis's structure at {at} mm, which no smooth or periodic term predicts for an unseen "
         f"position: it needs repeated passes (to tell a local defect from noise) and finer stations there.",
     ])
+
+
+# The discovery's own words, quoted in the README from named concealed recordings.
+@block(seconds=20, ci=True)
+def stewart_located():
+    """What discover stewart's `located` says on the suite's lost-motion and thermal recordings
+    of the platform (seed 0 of each)."""
+    from calibench.scenarios.discover_suite import concealed_discovery
+
+    said = [concealed_discovery("stewart", kind, 0)[1]["located"][0]["where"] for kind in ("backlash", "thermal")]
+    return ", ".join(f'"{s}"' for s in said)
+
+
+@block(seconds=10, ci=True)
+def growing_reversal():
+    """What discover belt-stage says of the belt's growing lost motion (the suite's elastic
+    recording, seed 2, as tests/scenarios/test_discover_twin.py runs it)."""
+    from calibench.scenarios.discover import discover_stage
+    from calibench.sim.concealed import stage_recording
+
+    d, _ = discover_stage("belt-stage", stage_recording("belt-stage", "elastic", 2)[0], 0)
+    (e,) = [e for e in d["effects"] if e.get("grows_along_travel")]
+    return f'"{e["physics"].split(" (a belt")[0]} ..."'
+
+
+# The twin written by discover --twin and replayed by discover --config, one recording per
+# instrument (tests/scenarios/test_discover_twin.py's and test_discover_instruments.py's).
+TWIN_CASES = (("belt stage", "belt-stage", "elastic", 2), ("vision stage", "vision-stage", "mixed", 4),
+              ("Stewart", "stewart", "compliance", 5), ("arm", "arm-cmm", "compliance", 1017),
+              ("scanner", "probe-scanner", "combined", 1017))
+
+
+@block(seconds=60, ci=True)
+def twin_replay():
+    """discover --twin, then discover --config with that twin, on each of TWIN_CASES: the
+    held-out RMS the discovery reached, and the replayed twin's."""
+    from calibench.sim import concealed
+
+    make = {"belt-stage": concealed.stage_recording, "vision-stage": concealed.stage_recording,
+            "stewart": concealed.stewart_recording, "arm-cmm": concealed.arm_recording,
+            "probe-scanner": concealed.scanner_recording}
+    parts = []
+    for label, scenario, kind, seed in TWIN_CASES:
+        rec, manifest = (make[scenario](scenario, kind, seed) if scenario.endswith("stage")
+                         else make[scenario](kind, seed))
+        out = scratch() / "twin" / scenario
+        path = concealed.write_blinded(out, "rec", rec, manifest)
+        calibench("discover", scenario, path, "--twin", out / "twin.toml", "--out", out / "found")
+        calibench("discover", scenario, path, "--config", out / "twin.toml", "--out", out / "replayed")
+        found = json.loads((out / "found" / "discovery.json").read_text())["fit"]["cv_rms_final"]
+        replayed = json.loads((out / "replayed" / "discovery.json").read_text())["fit"]["cv_rms_nominal"]
+        parts.append(f"{label} {1000 * found:.2f} -> {1000 * replayed:.2f} um")
+    return "Measured: " + ", ".join(parts) + "."
 
 
 # --- real data ------------------------------------------------------------------------------------------------------

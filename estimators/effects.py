@@ -385,27 +385,36 @@ def best_harmonic(q: np.ndarray, Jt: np.ndarray, r: np.ndarray, base: np.ndarray
     rows = np.ones(len(r), bool) if rows is None else rows
     Q = np.linalg.qr(base[rows])[0] if base.shape[1] else np.zeros((int(rows.sum()), 0))
     rr = r[rows] - Q @ (Q.T @ r[rows])
-    # each kept row's posture and lever: the sines are taken per posture, then spread to its rows
+    # A column is lever_i sin(h q_p(i)): the kept rows' sums it enters collapse onto the postures
+    # (P sums a posture's rows, weighted by their levers), so a harmonic costs one sine per posture
+    # rather than per row: S'rr = sin(h q)' P rr, S'S = sin^2(h q)' P lever, Q'S = (P Q)' sin(h q).
+    # rr is orthogonal to Q already, so projecting S off Q changes only its Gram matrix, by a'a.
+    from scipy import sparse
+
+    lever = Jt.reshape(-1)[rows]
     posture = np.repeat(np.arange(len(q)), 3)[rows]
-    lever = Jt.reshape(-1)[rows][:, None]
+    P = sparse.csr_matrix((lever, (posture, np.arange(len(lever)))), shape=(len(q), len(lever)))
+    w = P @ rr  # (n,)
+    l2 = P @ lever  # (n,)
+    PQ = np.asarray(P @ Q)  # (n, p)
 
-    def columns(hs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def explained(hs: np.ndarray, project: bool) -> np.ndarray:
         ph = q[:, None] * hs[None, :]  # (n, m)
-        return lever * np.sin(ph)[posture], lever * np.cos(ph)[posture]
-
-    def explained(S: np.ndarray, C: np.ndarray) -> np.ndarray:
-        ss, cc, sc = (S * S).sum(0), (C * C).sum(0), (S * C).sum(0)
-        sr, cr = S.T @ rr, C.T @ rr
+        sin, cos = np.sin(ph), np.cos(ph)
+        ss, cc, sc = l2 @ (sin * sin), l2 @ (cos * cos), l2 @ (sin * cos)
+        sr, cr = w @ sin, w @ cos
+        if project and PQ.shape[1]:
+            a_s, a_c = PQ.T @ sin, PQ.T @ cos  # (p, m)
+            ss, cc, sc = ss - (a_s * a_s).sum(0), cc - (a_c * a_c).sum(0), sc - (a_s * a_c).sum(0)
         det = ss * cc - sc * sc
         ok = det > 1e-9 * np.maximum(ss * cc, 1e-300)
         return np.where(ok, (cc * sr * sr - 2 * sc * sr * cr + ss * cr * cr) / np.where(ok, det, 1), 0.0)
 
     def exact(hs: np.ndarray) -> np.ndarray:
-        S, C = columns(hs)
-        return explained(S - Q @ (Q.T @ S), C - Q @ (Q.T @ C))
+        return explained(hs, True)
 
     grid = np.asarray(harmonics, float)
-    score = explained(*columns(grid))
+    score = explained(grid, False)
     peaks = [k for k in range(len(grid)) if score[k] >= score[max(k - 1, 0)] and score[k] >= score[min(k + 1, len(grid) - 1)]]
     peaks = sorted(peaks, key=lambda k: -score[k])[:n_peaks] or [int(np.argmax(score))]
     step = float(np.median(np.diff(grid))) if len(grid) > 1 else 0.1

@@ -348,6 +348,17 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
     extra = np.broadcast_to(np.asarray(prob.extra_var, float), (len(paths),))
     result["sigma_model_mm_by_recording"] = {p.name: float(np.sqrt(v)) for p, v in zip(paths, extra)}
     figures = {"training": np.linalg.norm(e_fit, axis=1)}
+    residuals = []  # (file, row, role, measured - modelled (n, 3))
+    outlier_rows = np.zeros(len(q), bool)
+    outlier_rows[cal.outliers] = True
+    for i, p in enumerate(paths):
+        mine = rec_id == i
+        kept = mine & ~outlier_rows
+        residuals.append((p.name, rows_of[kept], "train", None))
+        if outlier_rows[mine].any():
+            rows = rows_of[mine & outlier_rows]
+            residuals.append((p.name, rows, "left_out",
+                              train[i].xyz_mm[rows] - prob.model(s, train[i].q_rad[rows], frame=i, session=i)))
     if holdout:
         result["holdout"] = {}
         for i, (p, rec) in enumerate(zip(paths, train)):
@@ -356,6 +367,7 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
                 continue
             e = prob.model(s, rec.q_rad[m], frame=i, session=i) - rec.xyz_mm[m]
             result["holdout"][p.name] = {**_errors(e), "fraction": holdout}
+            residuals.append((p.name, np.flatnonzero(m), "holdout", -e))
             figures[f"{p.name} (held out)"] = np.linalg.norm(e, axis=1)
     tested = {}
     if tests or tests_new_frame:
@@ -366,6 +378,7 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
         _settle_pairs(keep, fl, pairs, prob.model(s, rec.q_rad, frame=0), rec.xyz_mm, rep)
         e = prob.model(s, rec.q_rad[keep], frame=0) - rec.xyz_mm[keep]
         result["test"][p.name] = {**_errors(e), "frame": f"{paths[0].name}'s"}
+        residuals.append((p.name, np.flatnonzero(keep), "test", -e))
         flagged[p.name] = fl
         figures[p.name] = np.linalg.norm(e, axis=1)
         tested[p.name] = rec.q_rad
@@ -384,6 +397,8 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
         ev[eval_rows] = True
         _settle_pairs(ev, fl, [pr for pr in pairs if ev[pr[0]] and ev[pr[1]]], model_xyz, rec.xyz_mm, rep)
         e = model_xyz[ev] - rec.xyz_mm[ev]
+        residuals.append((p.name, reg_rows, "register", rec.xyz_mm[reg_rows] - model_xyz[reg_rows]))
+        residuals.append((p.name, np.flatnonzero(ev), "test", -e))
         result["test"][p.name] = {**_errors(e), "frame": f"registered on {len(reg_rows)} rows ({100 * REGISTER_FRACTION:.0f} %, "
                                                           f"seed {SPLIT_SEED}), figures on the other {ev.sum()}"}
         flagged[p.name] = fl
@@ -394,8 +409,24 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
     result["coverage"] = {"warnings": coverage_warnings(chain, q, tested, comp_joints)}
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "fit.json").write_text(json.dumps(result, indent=2) + "\n")
+    _write_residuals(out_dir / "residuals.csv", residuals, e_fit)
     _figure(out_dir / "fit.png", result, figures)
     return result
+
+
+def _write_residuals(path: Path, parts: list, e_train: np.ndarray) -> None:
+    """residuals.csv: every row the fit modelled, as measured minus modelled (mm) in its
+    recording's frame: ``file, row`` (0-based, the recording's order), ``role`` (train: in the
+    fit; left_out: a training row the fit left out; holdout; register: a new frame's
+    registration rows; test), ``ex_mm, ey_mm, ez_mm``. For analyses of what the model leaves
+    out (periodic errors, drift along the row order)."""
+    lines = ["file,row,role,ex_mm,ey_mm,ez_mm"]
+    at = 0
+    for name, rows, role, e in parts:
+        if e is None:  # the training rows, in the order the fit stacked them
+            e, at = e_train[at:at + len(rows)], at + len(rows)
+        lines += [f"{name},{r},{role},{x:.6f},{y:.6f},{z:.6f}" for r, (x, y, z) in zip(rows, e)]
+    path.write_text("\n".join(lines) + "\n")
 
 
 def check_postures(q: np.ndarray, n_recordings: int) -> None:

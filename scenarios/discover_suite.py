@@ -70,6 +70,29 @@ def case_seed(kind: str, seed: int) -> int:
     return 1000 * seed + 17 + KINDS.index(kind)
 
 
+NULL_SEED = 5000  # the null calibration's recordings: seeds 5000, 5001, ... (apart from the suite's)
+
+
+def null_claims(scenario: str, k: int, floors) -> list[bool]:
+    """For the null calibration of the acceptance floor: whether ``discover`` claims any effect
+    (the twin's own ``geometry`` aside) on the fresh null recording ``k`` of ``scenario``
+    ("arm-cmm:ur10" for the UR10), at each of ``floors``; one recording, every floor."""
+    seed = NULL_SEED + k
+    if scenario.startswith("arm-cmm"):
+        arm = scenario.partition(":")[2] or "arm-cmm"
+        rec, _ = arm_recording("null", seed, arm=arm)
+        run = lambda f: discover_arm(rec, 0, f, arm=arm)  # noqa: E731
+    elif scenario == "probe-scanner":
+        rec, _ = scanner_recording("null", seed)
+        run = lambda f: discover_scanner(rec, 0, f)  # noqa: E731
+    elif scenario == "stewart":
+        rec, _ = stewart_recording("null", seed)
+        run = lambda f: discover_stewart(rec, 0, f)  # noqa: E731
+    else:
+        rec, _ = stage_recording(scenario, "null", seed)
+        run = lambda f: discover_stage(scenario, rec, 0, None, f)  # noqa: E731
+    return [any(e["name"] not in NOT_CONCEALED for e in run(f)[0]["effects"]) for f in floors]
+
 
 def concealed_discovery(scenario: str, kind: str, seed: int) -> tuple[dict, dict, dict]:
     """The suite's case (scenario, kind, seed) through discover: the sealed manifest, discovery.json's

@@ -1,4 +1,7 @@
 import os
+import subprocess
+import sys
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -19,3 +22,43 @@ def shared_data() -> Path:
     if not SHARED_DATA.is_dir():
         pytest.fail(f"shared data not found at {SHARED_DATA} (a clone of main needs shared/ beside it)")
     return SHARED_DATA
+
+
+FIGURES_TEST = "tests/test_readme_figures.py::test_the_readme_agrees_with_the_code"
+FIGURES_CHECK = pytest.StashKey()  # (process, its log) of the check started at collection
+
+
+@pytest.hookimpl(trylast=True)  # after -k and -m have deselected
+def pytest_collection_modifyitems(session, config, items):
+    """The README-figures check (half an hour of the project's own commands, one process) starts
+    now, beside the rest of the suite, and its test collects the result: on 2 cores the whole
+    suite then takes about as long as that check alone."""
+    if any(item.nodeid == FIGURES_TEST for item in items) and SHARED_DATA.is_dir():
+        from tests.test_readme_figures import figures_check_command
+
+        log = tempfile.TemporaryFile("w+")
+        proc = subprocess.Popen(figures_check_command(), cwd=REPO, stdout=log, stderr=subprocess.STDOUT, text=True)
+        config.stash[FIGURES_CHECK] = (proc, log)
+
+
+def pytest_sessionfinish(session, exitstatus):
+    """A check the session did not wait for (a -x stop, an interrupt) does not outlive it."""
+    started = session.config.stash.get(FIGURES_CHECK, None)
+    if started and started[0].poll() is None:
+        started[0].kill()
+        started[0].wait()
+
+
+def figures_check_result(config) -> tuple[int, str]:
+    """The README-figures check's exit status and printout: the one started at collection, or
+    one run now (the test run alone)."""
+    from tests.test_readme_figures import figures_check_command
+
+    started = config.stash.get(FIGURES_CHECK, None)
+    if started is None:
+        r = subprocess.run(figures_check_command(), cwd=REPO, capture_output=True, text=True)
+        return r.returncode, r.stdout + r.stderr
+    proc, log = started
+    proc.wait()
+    log.seek(0)
+    return proc.returncode, log.read()

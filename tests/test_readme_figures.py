@@ -1,19 +1,14 @@
 """The README's numbers agree with the code (issue 15): ``docs/figures.py --check`` regenerates
-the README's generated blocks (about thirteen minutes together on 2 cores: the render runs, the
-Monte-Carlo studies of the coverage, datasheet and physics tables, the concealed-effect suite,
-the UR10 fits on all four series and the discovery on ur10_C) and compares every number with the
-README's.
+every generated block of the README (the render runs, the Monte-Carlo studies, the concealed-effect
+suite and the null sweep, the UR10 fits and discoveries, the analyses of their residuals) and
+compares every number with the README's. It runs in its own process beside the rest of the suite
+(tests/conftest.py starts it at collection): about half an hour on 2 cores.
 
-The README is the expectation and the code the truth: nothing here holds a figure. The blocks
-left to ``make figures-check`` (together about twenty-five minutes) are: ur10-all-four (its
-fits with discovery on the training rows, ten minutes), discover-nulls (120 null recordings,
-each at three or four floors) and performance (machine timings, which ``make figures`` rewrites
-and nothing compares).
+The README is the expectation and the code the truth: nothing here holds a figure. One block is
+left to ``make figures``: performance (machine timings, which it rewrites and nothing compares).
 """
 
 import importlib.util
-import os
-import subprocess
 import sys
 
 import pytest
@@ -67,8 +62,18 @@ def test_a_rewrite_keeps_the_markers_and_reads_back(figures):
     assert figures.spans(new).keys() == {"t", "u"}
 
 
-def test_the_readme_agrees_with_the_code(figures, shared_data):
-    fast = [name for name, b in figures.BLOCKS.items() if b.ci]
-    r = subprocess.run([sys.executable, str(FIGURES), "--check", *fast], cwd=REPO, capture_output=True, text=True,
-                       env={**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")})
-    assert r.returncode == 0, r.stdout + r.stderr
+def figures_check_command() -> list[str]:
+    """``docs/figures.py --check`` over every block the CI runs (``ci=True``)."""
+    spec = importlib.util.spec_from_file_location("readme_figures_names", FIGURES)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    spec.loader.exec_module(module)
+    return [sys.executable, str(FIGURES), "--check", *[name for name, b in module.BLOCKS.items() if b.ci]]
+
+
+def test_the_readme_agrees_with_the_code(shared_data, request):
+    """Started beside the rest of the suite (tests/conftest.py), collected here."""
+    from tests.conftest import figures_check_result
+
+    code, printout = figures_check_result(request.config)
+    assert code == 0, printout

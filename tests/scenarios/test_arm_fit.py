@@ -61,6 +61,16 @@ def test_physics_recovers_the_twins_stiffness_and_carries_to_other_frames(series
     for name in ("test.csv", "other.csv"):
         assert phys["test"][name]["mean_mm"] < 0.06, phys["test"][name]
     assert "registered on" in phys["test"]["other.csv"]["frame"]
+    res = _residuals(tmp_path / "physics")
+    for name in ("test.csv", "other.csv"):
+        tested = [np.linalg.norm(e) for (f, _), (role, e) in res.items() if f == name and role == "test"]
+        assert len(tested) == phys["test"][name]["samples"]
+        assert np.mean(tested) == pytest.approx(phys["test"][name]["mean_mm"], abs=2e-6)
+    registered = sum(role == "register" for (f, _), (role, _) in res.items() if f == "other.csv")
+    assert registered + phys["test"]["other.csv"]["samples"] <= 300 and registered == pytest.approx(60, abs=2)
+    # the training rows in the fit: measured minus modelled whitens to the injected noise
+    train = np.array([e for (f, _), (role, e) in res.items() if f == "train.csv" and role == "train"])
+    assert np.sqrt(np.mean(train ** 2)) == pytest.approx(NOISE_MM, rel=0.15)
     code, geo = _fit(paths, tmp_path, "geometry")
     assert code == 0
     assert not any(p["name"].startswith("compliance") for p in geo["parameters"])
@@ -87,6 +97,27 @@ def test_holdout_keeps_rows_out_and_reports_them(series, tmp_path):
     for name, h in r["holdout"].items():
         assert h["mean_mm"] < 0.06
         assert abs(h["samples"] - 0.3 * 300 * (2 if name == "train.csv" else 1)) <= 3
+    # residuals.csv: each row once, held-out rows never in the fit, their figures those of fit.json
+    res = _residuals(out)
+    for name, h in r["holdout"].items():
+        mine = {k: v for k, v in res.items() if k[0] == name}
+        held = [np.linalg.norm(e) for (_, _), (role, e) in mine.items() if role == "holdout"]
+        assert len(held) == h["samples"] and np.mean(held) == pytest.approx(h["mean_mm"], abs=2e-6)
+        assert {role for role, _ in mine.values()} <= {"train", "holdout", "left_out"}
+    flagged = {(name, f["row"]) for name, rows in r.get("flagged", {}).items() for f in rows}
+    assert not flagged & {k for k, (role, _) in res.items() if role == "train"}
+
+
+def _residuals(out) -> dict:
+    """residuals.csv by (file, row): (role, measured - modelled (3,)); a row twice fails."""
+    lines = (out / "residuals.csv").read_text().splitlines()
+    assert lines[0] == "file,row,role,ex_mm,ey_mm,ez_mm"
+    res = {}
+    for line in lines[1:]:
+        name, row, role, *e = line.split(",")
+        assert (name, int(row)) not in res
+        res[name, int(row)] = (role, np.array(e, float))
+    return res
 
 
 def test_per_recording_harmonics_get_a_phase_in_each_training_recording(series, tmp_path):
