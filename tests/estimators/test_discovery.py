@@ -6,7 +6,7 @@ import pytest
 from calibench.estimators import discovery as dsc
 from calibench.estimators.arm_kinematics import Chain, jacobian, point, theta_index
 from calibench.estimators.effects import (Backlash, EncoderEccentricity, JointCompliance, TransmissionSearch,
-                                          best_period, harmonic_grid)
+                                          best_harmonic, best_period, harmonic_grid)
 
 
 def test_periodogram_and_refinement_find_the_period():
@@ -93,6 +93,30 @@ def test_transmission_harmonic_is_found_between_whole_numbers():
     assert t.harmonic == pytest.approx(17.5, abs=0.01)
     coef = np.linalg.lstsq(t.columns(d), r, rcond=None)[0]
     assert np.hypot(*coef) == pytest.approx(80e-6, rel=0.05)
+
+
+def test_harmonic_search_beside_other_columns_is_the_least_squares_optimum():
+    """The search sums per posture and projects the other columns off by their Gram matrix: its
+    harmonic must be where a plain least-squares fit (the other columns, a sine and a cosine,
+    some coordinates left out) explains most, found here by brute force on a fine grid."""
+    rng = np.random.default_rng(46)
+    chain = _chain()
+    q = rng.uniform(-np.pi, np.pi, (300, 6))
+    J = jacobian(chain, q)
+    Jt = J[:, :, theta_index(3)]
+    base = J[:, :, :12].reshape(-1, 12)  # joints 1-2's parameters: partly like the harmonic's columns
+    r = (Jt * (60e-6 * np.sin(13.3 * q[:, 2:3] - 1.0))).ravel() + base @ rng.normal(0, 1e-3, 12) \
+        + rng.normal(0, 0.002, 900)
+    rows = rng.random(900) > 0.1
+    h, _ = best_harmonic(q[:, 2], Jt, r, base, harmonic_grid(q[:, 2]), rows)
+
+    def explained(hh):
+        cols = np.c_[base, (Jt * np.sin(hh * q[:, 2:3])).ravel(), (Jt * np.cos(hh * q[:, 2:3])).ravel()][rows]
+        return -np.sum((r[rows] - cols @ np.linalg.lstsq(cols, r[rows], rcond=None)[0]) ** 2)
+
+    fine = np.arange(12.8, 13.8, 1e-4)
+    best = fine[np.argmax([explained(x) for x in fine])]
+    assert h == pytest.approx(best, abs=2e-4) and h == pytest.approx(13.3, abs=0.02)
 
 
 def test_compliance_column_is_the_sag_of_the_gravity_torque():
