@@ -13,13 +13,12 @@ them is rewritten.
     python docs/figures.py --list             # the blocks, what each runs, its time on 2 cores
 
 ``make figures`` and ``make figures-check`` run the first and the third (FIGURES="NAME ..." for
-some blocks); tests/test_readme_figures.py checks the blocks marked ``ci`` (all but the UR10 fits with
-discovery on the training rows, the null-recording sweep and the machine timings).
+some blocks); tests/test_readme_figures.py checks the blocks marked ``ci``: all but the machine timings.
 
 The check compares numbers, not words: the numbers of both texts are parsed in order and paired;
 a block whose count of numbers differs, or a pair beyond the block's tolerance, is a disagreement.
-Numbers that are machine timings (trials/s, seconds per run) are not generated: they stay typed
-in the README, outside the blocks, with the machine and benchmark they came from.
+Machine timings (trials/s, seconds per run) are generated too, by the blocks marked ``timing``
+(performance, run-times), with the machine they were measured on; they are never compared.
 
 The real-data blocks read ../shared/data (beside the repository). Runs go to a scratch folder.
 """
@@ -929,6 +928,56 @@ def performance():
 
     need_data(DATA / "opencv_left")
     return performance_table(DATA)
+
+
+@block(seconds=200, ci=False, timing=True)
+def run_times():
+    """One command of each kind, timed in this process (modules loaded once): calibench run per
+    scenario and fidelity, discover on one concealed recording of each instrument and on ur10_C,
+    render-fidelity studies of 4 trials, and the arm's Monte-Carlo unit on one core."""
+    import tempfile
+
+    import numpy as np
+    from threadpoolctl import threadpool_limits
+
+    from calibench.estimators.arm_identification import identify_identifiable
+    from calibench.scenarios.arm_cmm import tracker_problem
+    from calibench.scenarios.arms import chain_of
+    from calibench.scenarios.discover_suite import concealed_discovery
+    from calibench.scenarios.montecarlo import run_study
+    from calibench.sim.arm_cmm import ArmSim, ArmTruth
+
+    def timed(fn) -> float:
+        t = time.perf_counter()
+        fn()
+        return time.perf_counter() - t
+
+    out = scratch() / "timed"
+    timed(lambda: calibench("run", "stewart", "--no-rrd", "--out", out / "warm"))  # imports, once
+    runs = []
+    for sc in ("belt-stage", "vision-stage", "probe-scanner", "arm-cmm", "stewart"):
+        fids = ("analytic", "render") if sc.endswith("stage") else ("analytic",)
+        secs = [timed(lambda f=f: calibench("run", sc, "--fidelity", f, "--no-rrd", "--out", out / sc / f)) for f in fids]
+        runs.append(f"{sc} {' and '.join(f'{x:.1f} s' for x in secs)}{' (analytic and rendered)' if len(secs) > 1 else ''}")
+    disc = [timed(lambda c=c: concealed_discovery(*c)) for c in SHOWCASE]
+    need_data(UR10)
+    ur10 = timed(lambda: calibench("discover", "arm-cmm", *series("C"), "--arm", UR10 / "ur10.toml", "--out",
+                                   out / "ur10_C"))
+    rates = {}
+    for sc in ("belt-stage", "vision-stage"):
+        with tempfile.TemporaryDirectory() as d:
+            rates[sc] = 4 / timed(lambda sc=sc, d=d: run_study(sc, 4, 0, "render", Path(d), progress=False))
+    arm = ArmSim("arm-cmm", ArmTruth())
+    chain, rng = chain_of(arm.arm), np.random.default_rng(0)
+    q = arm.random_postures(50, rng)
+    with threadpool_limits(1):
+        unit = timed(lambda: [identify_identifiable(tracker_problem(arm, chain, q, arm.encoders(q, rng), rng))
+                              for _ in range(200)]) / 200
+    return (f"Other timings of the same run (one command each, in one process): `calibench run` {'; '.join(runs)}; "
+            f"`discover` on one concealed recording of each instrument {span(disc, '.1f')} s, on ur10_C "
+            f"{ur10:.0f} s; render-fidelity studies {rates['belt-stage']:.2f} (belt stage) and "
+            f"{rates['vision-stage']:.2f} (vision stage) trials/s on {os.cpu_count()} cores; the arm's "
+            f"identification on 50 postures (basis and Levenberg-Marquardt) {1000 * unit:.1f} ms, one core.")
 
 
 # --- discover ------------------------------------------------------------------------------------------------------

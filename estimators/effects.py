@@ -17,6 +17,7 @@ lengths in the Jacobian's layout. A missing driver means the candidate does not 
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import numpy as np
 
@@ -398,10 +399,13 @@ def best_harmonic(q: np.ndarray, Jt: np.ndarray, r: np.ndarray, base: np.ndarray
     l2 = P @ lever  # (n,)
     PQ = np.asarray(P @ Q)  # (n, p)
 
-    def explained(hs: np.ndarray, project: bool) -> np.ndarray:
-        ph = q[:, None] * hs[None, :]  # (n, m)
-        sin, cos = np.sin(ph), np.cos(ph)
-        ss, cc, sc = l2 @ (sin * sin), l2 @ (cos * cos), l2 @ (sin * cos)
+    def explained(hs: np.ndarray, project: bool, trig=None) -> np.ndarray:
+        if trig is None:
+            ph = q[:, None] * hs[None, :]  # (n, m)
+            sin, cos = np.sin(ph), np.cos(ph)
+            trig = sin, cos, sin * sin, cos * cos, sin * cos
+        sin, cos, sin2, cos2, sincos = trig
+        ss, cc, sc = l2 @ sin2, l2 @ cos2, l2 @ sincos
         sr, cr = w @ sin, w @ cos
         if project and PQ.shape[1]:
             a_s, a_c = PQ.T @ sin, PQ.T @ cos  # (p, m)
@@ -414,7 +418,7 @@ def best_harmonic(q: np.ndarray, Jt: np.ndarray, r: np.ndarray, base: np.ndarray
         return explained(hs, True)
 
     grid = np.asarray(harmonics, float)
-    score = explained(grid, False)
+    score = explained(grid, False, _grid_trig(np.ascontiguousarray(q, float).tobytes(), grid.tobytes()))
     peaks = [k for k in range(len(grid)) if score[k] >= score[max(k - 1, 0)] and score[k] >= score[min(k + 1, len(grid) - 1)]]
     peaks = sorted(peaks, key=lambda k: -score[k])[:n_peaks] or [int(np.argmax(score))]
     step = float(np.median(np.diff(grid))) if len(grid) > 1 else 0.1
@@ -439,6 +443,19 @@ def best_harmonic(q: np.ndarray, Jt: np.ndarray, r: np.ndarray, base: np.ndarray
         if e > best[0]:
             best = (e, h)
     return float(best[1]), step / 4
+
+
+@functools.lru_cache(maxsize=8)
+def _grid_trig(q_bytes: bytes, grid_bytes: bytes) -> tuple[np.ndarray, ...]:
+    """sin, cos, sin^2, cos^2 and sin cos of h q for every angle and grid harmonic, (n, m) each:
+    the same for every fold and every round of a discovery (only the rows' weights change), so
+    computed once per joint's angles and grid."""
+    ph = np.frombuffer(q_bytes)[:, None] * np.frombuffer(grid_bytes)[None, :]
+    sin, cos = np.sin(ph), np.cos(ph)
+    out = (sin, cos, sin * sin, cos * cos, sin * cos)
+    for a in out:
+        a.flags.writeable = False
+    return out
 
 
 def harmonic_grid(q_joint: np.ndarray, top: float = 60.0) -> np.ndarray:
