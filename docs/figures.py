@@ -919,7 +919,7 @@ def coverage_bands():
 
 
 # --- performance ---------------------------------------------------------------------------------------------------
-@block(seconds=400, ci=False, timing=True)
+@block(seconds=90, ci=False, timing=True)
 def performance():
     """benchmarks/results.py: each speed beside its peer measured in the same run, and the
     Monte-Carlo rates beside issue 16's goals (machine timings: regenerated, never checked)."""

@@ -1,6 +1,5 @@
 import os
 import subprocess
-import sys
 import tempfile
 from pathlib import Path
 
@@ -33,7 +32,8 @@ def pytest_collection_modifyitems(session, config, items):
     """The README-figures check (half an hour of the project's own commands, one process) starts
     now, beside the rest of the suite, and its test collects the result: on 2 cores the whole
     suite then takes about as long as that check alone."""
-    if any(item.nodeid == FIGURES_TEST for item in items) and SHARED_DATA.is_dir():
+    wanted = any(item.nodeid == FIGURES_TEST for item in items)
+    if wanted and SHARED_DATA.is_dir() and not config.option.collectonly:
         from tests.test_readme_figures import figures_check_command
 
         log = tempfile.TemporaryFile("w+")
