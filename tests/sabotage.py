@@ -185,6 +185,12 @@ def _arm_std_1p3x(mp):
     _wrap(mp, "calibench.estimators.arm_identification", "identify", scale)
 
 
+def _arm_always_converged(mp):
+    """The arm's Levenberg-Marquardt says converged whatever its last iterate (a silent last iterate)."""
+    _wrap(mp, "calibench.estimators.arm_identification", "identify",
+          lambda ident, *a, **k: dataclasses.replace(ident, converged=True))
+
+
 KIN = "tests/estimators/test_arm_kinematics.py"
 FAULTS: dict[str, Fault] = {
     "arm_dh_alpha_100urad": Fault(
@@ -229,6 +235,10 @@ FAULTS: dict[str, Fault] = {
         "the arm identification's std of its first kept parameter 1.3 x",
         _arm_std_1p3x,
         ("tests/estimators/test_arm_identification.py::test_identification_std_is_honest_per_parameter",)),
+    "arm_always_converged": Fault(
+        "the arm's Levenberg-Marquardt reports converged whatever its last iterate",
+        _arm_always_converged,
+        ("tests/estimators/test_arm_identification.py::test_a_solve_that_cannot_descend_is_not_called_converged",)),
 }
 
 _state: dict = {"name": None, "mp": None, "caught": []}
