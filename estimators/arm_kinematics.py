@@ -48,6 +48,8 @@ class Chain:
     com_mm : (N, 3) each link's centre of mass in its own link frame.
     tool_mass_kg : mass carried at the tool point.
     gravity_m_s2 : (3,) gravity in the base frame.
+
+    Treat a chain as immutable, its arrays too: its nominal table is computed once and kept.
     """
 
     convention: str
