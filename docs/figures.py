@@ -619,7 +619,8 @@ def ur10_periodogram():
     return (f"What the physics model leaves out shows in its residuals with nearly one frequency: fitted as one "
             f"joint-angle error at a common frequency on joints 1, 2 and 3 (a sine and a cosine per joint, through "
             f"the arm's Jacobian; `residuals.csv` of the physics fit on all four, training and held-out rows), A, B "
-            f"and D gain most at {words([f'{peak[c]:.2f}' for c in abd])} cycles per turn, C at {peak['ur10_C.csv']:.2f}; "
+            f"and D gain most at {words([f'{peak[c]:.2f}' for c in abd])} cycles per turn, C at "
+            f"{peak['ur10_C.csv']:.2f}; "
             f"the amplitudes there are {span(amps, '.2f')} mrad on A, B and D.")
 
 
@@ -957,8 +958,10 @@ def run_times():
     runs = []
     for sc in ("belt-stage", "vision-stage", "probe-scanner", "arm-cmm", "stewart"):
         fids = ("analytic", "render") if sc.endswith("stage") else ("analytic",)
-        secs = [timed(lambda f=f: calibench("run", sc, "--fidelity", f, "--no-rrd", "--out", out / sc / f)) for f in fids]
-        runs.append(f"{sc} {' and '.join(f'{x:.1f} s' for x in secs)}{' (analytic and rendered)' if len(secs) > 1 else ''}")
+        secs = [timed(lambda f=f: calibench("run", sc, "--fidelity", f, "--no-rrd", "--out", out / sc / f))
+                for f in fids]
+        both = " (analytic and rendered)" if len(secs) > 1 else ""
+        runs.append(f"{sc} {' and '.join(f'{x:.1f} s' for x in secs)}{both}")
     disc = [timed(lambda c=c: concealed_discovery(*c)) for c in SHOWCASE]
     need_data(UR10)
     ur10 = timed(lambda: calibench("discover", "arm-cmm", *series("C"), "--arm", UR10 / "ur10.toml", "--out",

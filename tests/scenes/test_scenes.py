@@ -54,9 +54,9 @@ def _model_arrays(model) -> dict:
 @pytest.mark.parametrize("arm_name", ["arm-cmm", "ur10"])
 def test_as_built_arm_model_is_the_mjcf_s(arm_name):
     """An as-built arm written into the cached spec compiles to the model its MJCF gives, every
-    array exactly (equal values, -0.0 and 0.0 alike; hundreds of arrays: frames, inertias, geoms, flags the compiler derives),
-    for nominal and perturbed arms, rigid and sprung, one after another (a spec reused must not
-    keep anything of the previous arm)."""
+    array exactly (equal values, -0.0 and 0.0 alike; hundreds of arrays: frames, inertias,
+    geoms, flags the compiler derives), for nominal and perturbed arms, rigid and sprung, one
+    after another (a spec reused must not keep anything of the previous arm)."""
     import mujoco
 
     from calibench.scenes.arm_cmm import as_built_model, build_mjcf, load_arm
