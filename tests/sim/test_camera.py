@@ -66,6 +66,39 @@ def test_render_matches_exact_projection(lens):
 
 
 @pytest.mark.render
+def test_saddle_refinement_beats_cornersubpix_on_renders():
+    """The claimed gain on what the bench itself renders (MuJoCo, the sensor's blur and noise,
+    the board tilted 0.3 and 0.6 rad): OpenCV's classic pipeline (findChessboardCorners, then
+    cornerSubPix in an 11 x 11 window) and ours on the same images, both against the exact
+    projection of the true corners. Ours under 0.02 px RMS and at least 3 x closer, with no mean
+    offset beyond 5 standard errors."""
+    g = BeltStageGeometry()
+    sim = BeltStageSim(g, BeltStageTruth())
+    rng = np.random.default_rng(7)
+    stop = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 100, 1e-4)
+    ours, theirs = [], []
+    try:
+        for tilt, azimuth in [(0.3, 0.2), (0.3, 2.0), (0.6, -1.0), (0.6, 3.5)]:
+            R = cv2.Rodrigues(tilt * np.array([np.cos(azimuth), np.sin(azimuth), 0.0]))[0]
+            sim.place_calib_board(R, np.array([0.0, 0.0, 900.0]) - R @ g.board.corners_mm().mean(axis=0))
+            img = sim.render(calib=True, rng=rng)
+            truth = sim.true_corners_px(calib=True)
+            grey = cv2.cvtColor(img, cv2.COLOR_RGB2GRAY)
+            ok, c = cv2.findChessboardCorners(grey, (g.board.cols, g.board.rows))
+            assert ok
+            c = cv2.cornerSubPix(grey, c, (5, 5), (-1, -1), stop).reshape(-1, 2)
+            nearest = np.argmin(np.linalg.norm(c[:, None] - truth[None], axis=2), axis=1)
+            theirs.append(c - truth[nearest])
+            ours.append(find_chessboard_corners(img, g.board.cols, g.board.rows) - truth)
+    finally:
+        sim.close()
+    ours, theirs = np.concatenate(ours), np.concatenate(theirs)
+    rms_ours, rms_theirs = (float(np.sqrt(np.mean(np.sum(e ** 2, axis=1)))) for e in (ours, theirs))
+    assert rms_ours < 0.02 and rms_ours < rms_theirs / 3, (rms_ours, rms_theirs)
+    np.testing.assert_array_less(np.abs(ours.mean(axis=0)), 5 * ours.std(axis=0, ddof=1) / np.sqrt(len(ours)))
+
+
+@pytest.mark.render
 def test_calibration_board_pose_is_rendered_where_placed():
     g = BeltStageGeometry()
     sim = BeltStageSim(g, BeltStageTruth())
