@@ -74,11 +74,12 @@ class Polynomial:
         return sigma_um * np.sqrt(np.diag(np.linalg.inv(A.T @ A))) / self._scales()
 
 
-def least_squares(A: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, np.ndarray, float, float]:
+def least_squares(A: np.ndarray, e: np.ndarray, with_std: bool = True) -> tuple[np.ndarray, np.ndarray, float, float]:
     """The one linear least-squares fitter of the error maps: coefficients c (p,) of
     A (n, p) @ c ~ e (n,) by QR, their 1-sigma (p,) from the residuals, the dof-adjusted RMSE
     sqrt(SSE / (n - p)) and the SSE. ValueError when n <= p or the columns are dependent.
-    Several maps on the same points at once: e (n, k) gives c and std (p, k), RMSE and SSE (k,)."""
+    Several maps on the same points at once: e (n, k) gives c and std (p, k), RMSE and SSE (k,).
+    ``with_std`` False: c alone is wanted (a cross-validation's fold), the rest is None."""
     n, p = A.shape
     if n <= p:
         raise ValueError(f"{n} points cannot fit {p} coefficients")
@@ -88,6 +89,8 @@ def least_squares(A: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, np.ndarray,
         raise ValueError("degenerate points: they do not span the model")
     e = np.asarray(e, float)
     c = np.linalg.solve(R, Q.T @ e)
+    if not with_std:
+        return c, None, None, None
     r = e - A @ c
     if e.ndim == 1:
         sse = float(r @ r)
@@ -120,11 +123,22 @@ def cv_rms(u, v, err_um, folds: int = 10, seed: int = 0, **model) -> tuple[float
     n = len(err_um)
     fold = np.empty(n, int)
     fold[np.random.default_rng(seed).permutation(n)] = np.arange(n) % folds
+    # the design once for every fold; each fold's fit and prediction as fit_polynomial and
+    # Polynomial.__call__ make them (coefficients through the model's scales and back)
+    A = design(u, v, model.get("degree", 3), model.get("period_mm"), model.get("along", 0))
+    scales = Polynomial(model.get("degree", 3), np.empty(0), 0.0, model.get("period_mm"))._scales()
+    e = np.asarray(err_um, float)
     mse = np.empty(folds)
     for k in range(folds):
         train, test = fold != k, fold == k
-        m = fit_polynomial(u[train], v[train], err_um[train], **model)
-        mse[k] = float(np.mean((err_um[test] - m(u[test], v[test])) ** 2))
+        if train.sum() <= A.shape[1]:
+            raise ValueError(f"{train.sum()} points cannot fit {A.shape[1]} coefficients of a degree-"
+                             f"{model.get('degree', 3)} polynomial")
+        try:
+            c = least_squares(A[train], e[train], with_std=False)[0]
+        except ValueError:
+            raise ValueError("degenerate points: they do not span the polynomial") from None
+        mse[k] = float(np.mean((e[test] - A[test] @ ((c / scales) * scales)) ** 2))
     return float(np.sqrt(mse.mean())), float(mse.std(ddof=1) / np.sqrt(folds))
 
 

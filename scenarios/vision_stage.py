@@ -104,8 +104,7 @@ class Microscope:
 
 def approach(sim: VisionStageSim, reading: np.ndarray) -> None:
     """Move to a reading from below on both axes (unidirectional approach)."""
-    sim.move(*(reading - 0.02))
-    sim.move(*reading)
+    sim.move_path(np.array([reading - 0.02, reading], float))
 
 
 def servo(sim: VisionStageSim, scope: Microscope, reading: np.ndarray, tol_px: float) -> tuple[np.ndarray, int]:
@@ -279,26 +278,18 @@ def interferometer_test(sim, config, lines, model) -> list[dict]:
     out = []
     for axis, other, targets in lines:
         m, n = len(targets), config.runs
-        dev = {+1: np.empty((m, n)), -1: np.empty((m, n))}
-        zero = None
         # every position's compensated command, the same in every run: solved once, all at once
         along = np.r_[targets, targets[0] - 2.0, targets[-1] + 2.0]  # the targets, then both overruns
         points = np.empty((m + 2, 2))
         points[:, axis], points[:, 1 - axis] = along, other
-        commands = dict(zip(along.tolist(), compensated_command(points, model).tolist()))
-        for run in range(n):
-            for direction in (+1, -1):
-                order = range(m) if direction > 0 else range(m - 1, -1, -1)
-                overrun = targets[0] - 2.0 if direction > 0 else targets[-1] + 2.0
-                for idx in [None, *order]:
-                    t = overrun if idx is None else targets[idx]
-                    sim.move(*commands[float(t)])
-                    if idx is None:
-                        continue
-                    reading = sim.interferometer_mm(axis, config.interferometer_noise_um)
-                    if zero is None:  # zeroed at the first target of the first run
-                        zero = reading - targets[0]
-                    dev[direction][idx, run] = (reading - zero - t) * 1000
+        commands = compensated_command(points, model)
+        # each run: the overrun below, the targets up, the overrun above, the targets down
+        up, down = np.r_[m, 0:m], np.r_[m + 1, m - 1:-1:-1]
+        path = np.tile(np.r_[up, down], n)
+        readings = sim.move_path(commands[path], path < m, axis, config.interferometer_noise_um)
+        readings = readings.reshape(n, 2, m)  # run, direction (up, down), in the order of travel
+        zero = readings[0, 0, 0] - targets[0]  # zeroed at the first target of the first run
+        dev = {+1: ((readings[:, 0] - zero - targets) * 1000).T, -1: ((readings[:, 1, ::-1] - zero - targets) * 1000).T}
         res = iso230_2.evaluate(targets, dev[+1], dev[-1])
         out.append({"axis": "xy"[axis], "at_mm": other, "targets_mm": targets, "dev_up_um": dev[+1],
                     "dev_down_um": dev[-1], "iso": res})

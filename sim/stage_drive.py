@@ -30,6 +30,18 @@ def travel_direction(before: np.ndarray, after: np.ndarray, last: np.ndarray) ->
                      for a, b, d in zip(before.tolist(), after.tolist(), last.tolist())])
 
 
+def travel_directions(before: np.ndarray, path: np.ndarray, last: np.ndarray) -> np.ndarray:
+    """:func:`travel_direction` along a path of moves: from ``before`` (k,) through the targets
+    ``path`` (m, k) in order, each axis's direction (m, k) of the move that ends at each target.
+    A loop of plain floats: most paths are a move or two."""
+    prev, d, out = np.asarray(before, float).tolist(), np.asarray(last, float).tolist(), []
+    for p in np.asarray(path, float).tolist():
+        d = [1.0 if b > a else -1.0 if b < a else x for a, b, x in zip(prev, p, d)]
+        out.append(d)
+        prev = p
+    return np.array(out)
+
+
 @dataclasses.dataclass(frozen=True)
 class DriveErrors:
     """One axis's drive errors (all zero: a perfect drive).

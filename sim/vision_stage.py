@@ -23,7 +23,7 @@ import numpy as np
 from calibench.scenes.vision_stage import VisionStageGeometry, build_mjcf
 from calibench.scenes.camera import MJ_TO_CV, world_to_cv_camera
 from calibench.sim.renderer import LensRenderer
-from calibench.sim.stage_drive import DriveErrors, travel_direction
+from calibench.sim.stage_drive import DriveErrors, travel_directions
 
 
 @dataclasses.dataclass(frozen=True)
@@ -77,11 +77,14 @@ _AXIS_OF = np.repeat([0, 1], 6)  # the axis of each of the twelve errors
 
 
 def _axes_errors(table: np.ndarray, u_mm: np.ndarray, travel_mm: np.ndarray) -> np.ndarray:
-    """:func:`axes_errors` from both axes' tables side by side, (5, 12)."""
+    """:func:`axes_errors` from both axes' tables side by side, (5, 12); ``u_mm`` (..., 2) gives
+    (..., 2, 6)."""
     linear, bow, amp, period, phase = table
-    u, travel = np.asarray(u_mm, float)[_AXIS_OF], np.asarray(travel_mm, float)[_AXIS_OF]
+    u_mm = np.asarray(u_mm, float)
+    u, travel = u_mm[..., _AXIS_OF], np.asarray(travel_mm, float)[_AXIS_OF]
     s = u / travel
-    return (linear * u + bow * 4 * s * (1 - s) + amp * np.sin(2 * np.pi * u / period + phase)).reshape(2, 6)
+    e = linear * u + bow * 4 * s * (1 - s) + amp * np.sin(2 * np.pi * u / period + phase)
+    return e.reshape(*u_mm.shape[:-1], 2, 6)
 
 
 # Sized after the seed paper: about 60 um uncompensated positioning error, of which the scales'
@@ -148,6 +151,8 @@ class VisionStageSim:
         self.rng = rng
         n = geometry.plate.n
         self.plate_errors_mm = rng.normal(0, truth.plate_error_um / 1000, (n * n, 2))
+        # every circle's true centre in the plate's frame, (n * n, 3) m
+        self._circles_m = np.c_[(geometry.plate.centres_mm() + self.plate_errors_mm) / 1000, np.zeros(n * n)]
         xml, assets = build_mjcf(geometry, self.plate_errors_mm)
         self.model = mujoco.MjModel.from_xml_string(xml, assets)
         self.data = mujoco.MjData(self.model)
@@ -173,27 +178,55 @@ class VisionStageSim:
     def move(self, x_mm: float, y_mm: float, temp_c: float | None = None) -> None:
         """Servo both axes to the scale readings (x_mm, y_mm), the room at ``temp_c`` (None: the
         drives' reference temperature)."""
-        target = np.array([x_mm, y_mm], float)
-        self._dir = travel_direction(self._reading, target, self._dir)
-        self._reading = target
+        self.move_path(np.array([[x_mm, y_mm]], float), temp_c=temp_c)
+
+    def _joint_positions(self, target: np.ndarray, direction: np.ndarray, noise_mm: np.ndarray,
+                         temp_c: float | None) -> np.ndarray:
+        """The slides' and error joints' positions (m, 14) (``_move_q``'s order) after moves to
+        the scale readings ``target`` (m, 2) made in ``direction`` (m, 2), with the drives'
+        random scatter ``noise_mm`` (m, 2)."""
         t, g = self.truth, self.geometry
-        lost = 0.5 * np.array(t.reversal_um) / 1000 * self._dir
+        lost = 0.5 * np.array(t.reversal_um) / 1000 * direction
         if not (t.drive_x.perfect and t.drive_y.perfect):
-            T = None if temp_c is None else np.array([temp_c])
-            lost = lost + [0.0 if d.perfect else float(d.error_mm(np.array([u]), self._dir[k:k + 1], T)[0])
-                           for k, (d, u) in enumerate(((t.drive_x, x_mm), (t.drive_y, y_mm)))]
-        noise = self.rng.normal(0, t.repeatability_um / 1000, 2)
+            T = None if temp_c is None else np.full(len(target), float(temp_c))
+            lost = lost + np.stack([np.zeros(len(target)) if d.perfect else d.error_mm(target[:, k], direction[:, k], T)
+                                    for k, d in enumerate((t.drive_x, t.drive_y))], axis=1)
         if self._tables[0] is not t.x or self._tables[1] is not t.y:  # the truth's axes: tabled once
             self._tables = (t.x, t.y, np.concatenate([t.x._table, t.y._table], axis=1))
-        ex, ey = _axes_errors(self._tables[2], target, g.travel_mm)  # pos, s1, s2, roll, pitch, yaw
-        along_x, along_y = ex[0] + (lost[0] + noise[0]), ey[0] + (lost[1] + noise[1])
+        e = _axes_errors(self._tables[2], target, g.travel_mm)  # (m, axis, pos s1 s2 roll pitch yaw)
+        along = e[:, :, 0] + (lost + noise_mm)
         # straight_1 of X is along Y_m, of Y along X_m; the joints a, b turn about X_m, Y_m: the X
         # carriage's roll and pitch, the Y carriage's pitch and roll
-        self.data.qpos[self._move_q] = (target[0] / 1000, along_x / 1000, ex[1] / 1000, ex[2] / 1000, ex[3], ex[4],
-                                        ex[5], target[1] / 1000, ey[1] / 1000, along_y / 1000, ey[2] / 1000, ey[4],
-                                        ey[3], ey[5])
-        mujoco.mj_kinematics(self.model, self.data)
-        mujoco.mj_camlight(self.model, self.data)
+        q = np.empty((len(target), 14))
+        q[:, 0], q[:, 1], q[:, 2:4], q[:, 4:7] = target[:, 0] / 1000, along[:, 0] / 1000, e[:, 0, 1:3] / 1000, e[:, 0, 3:]
+        q[:, 7], q[:, 8], q[:, 9], q[:, 10] = target[:, 1] / 1000, e[:, 1, 1] / 1000, along[:, 1] / 1000, e[:, 1, 2] / 1000
+        q[:, 11:] = e[:, 1, [4, 3, 5]]
+        return q
+
+    def move_path(self, targets: np.ndarray, read: np.ndarray | None = None, axis: int = 0,
+                  noise_um: float = 0.05, temp_c: float | None = None) -> np.ndarray:
+        """:meth:`move` through the scale readings ``targets`` (m, 2) in order, and read the
+        interferometer (:meth:`interferometer_mm`) along ``axis`` after each move where ``read``
+        (m,) is true: the readings, (read.sum(),) mm. The same as those moves and readings one
+        by one, random draws included: the moves' errors in one evaluation, the draws in one
+        batch in the order the single calls make them."""
+        targets = np.asarray(targets, float)
+        read = np.zeros(len(targets), bool) if read is None else np.asarray(read, bool)
+        direction = travel_directions(self._reading, targets, self._dir)
+        draws = 2 + read.astype(int)  # a move's scatter (x, y), then a reading's noise
+        first = np.cumsum(draws) - draws
+        z = self.rng.standard_normal(int(draws.sum()))
+        noise = z[first[:, None] + [0, 1]] * (self.truth.repeatability_um / 1000)
+        qpos = self._joint_positions(targets, direction, noise, temp_c)
+        at = []
+        for i in range(len(targets)):
+            self.data.qpos[self._move_q] = qpos[i]
+            mujoco.mj_kinematics(self.model, self.data)
+            mujoco.mj_camlight(self.model, self.data)
+            if read[i]:
+                at.append(self.point_in_body_mm("table")[axis])
+        self._dir, self._reading = direction[-1].copy(), targets[-1].copy()
+        return np.array(at) + z[first[read] + 2] * (noise_um / 1000)
 
     @property
     def reading_mm(self) -> np.ndarray:
@@ -238,7 +271,7 @@ class VisionStageSim:
 
     def true_circle_px(self, k: int) -> np.ndarray:
         """Exact image of circle k's centre (manufacturing error included), (2,) px."""
-        c = np.r_[(self.geometry.plate.centres_mm()[k] + self.plate_errors_mm[k]) / 1000, 0.0]
+        c = self._circles_m[k]
         R = self.data.xmat[self._plate].reshape(3, 3)
         world = self.data.xpos[self._plate] + R @ c
         cam = world_to_cv_camera(world[None], self.data.cam_xpos[self._cam],

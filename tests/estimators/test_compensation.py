@@ -58,6 +58,27 @@ def test_periodic_cross_validation_at_once_equals_one_fit_per_period():
         assert r == pytest.approx(r1, rel=1e-9) and s == pytest.approx(s1, rel=1e-6)
 
 
+def test_cross_validation_is_a_fit_per_fold_to_the_last_bit():
+    """cv_rms builds the design once and skips the std: each fold's error equals the one of
+    fit_polynomial on the fold's training points, predicted by the fitted model, bit for bit."""
+    u, v = _grid()
+    rng = np.random.default_rng(5)
+    err = _cubic(u, v) + 0.6 * np.sin(2 * np.pi * u / 80.0) + rng.normal(0, 0.3, u.size)
+    folds = 10
+    fold = np.empty(u.size, int)
+    fold[np.random.default_rng(0).permutation(u.size)] = np.arange(u.size) % folds
+    for model in (dict(degree=1), dict(degree=3), dict(degree=6), dict(degree=3, period_mm=80.0, along=0)):
+        mse = []
+        for k in range(folds):
+            tr, te = fold != k, fold == k
+            m = fit_polynomial(u[tr], v[tr], err[tr], **model)
+            mse.append(float(np.mean((err[te] - m(u[te], v[te])) ** 2)))
+        mse = np.array(mse)
+        assert cv_rms(u, v, err, folds, **model) == (float(np.sqrt(mse.mean())), float(mse.std(ddof=1) / np.sqrt(folds)))
+    with pytest.raises(ValueError, match="cannot fit"):
+        cv_rms(u[:40], v[:40], err[:40], degree=8)
+
+
 def test_line_ruler_equations_3_and_4():
     pitch = 10.0
     true_err_um = lambda r: 0.2 * r + 1.5 * np.sin(r / 30.0)  # noqa: E731

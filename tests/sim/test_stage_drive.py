@@ -61,3 +61,18 @@ def test_drive_errors_are_the_written_physics():
     mean = (e_fwd + e_back) / 2
     np.testing.assert_allclose(mean, 5e-3 * np.sin(2 * np.pi * u / 40 + 0.3) + 12e-6 * 2.0 * u, atol=1e-15)
     assert np.all(DriveErrors().error_mm(u, np.ones(3), np.full(3, 30.0)) == 0)
+
+
+def test_directions_along_a_path_equal_each_moves_own():
+    from calibench.sim.stage_drive import travel_direction, travel_directions
+
+    rng = np.random.default_rng(2)
+    path = rng.integers(0, 3, (30, 3)).astype(float)  # many moves leave an axis where it was
+    last, before = np.array([-1.0, 1.0, -1.0]), np.array([1.0, 1.0, 1.0])
+    one_by_one = []
+    for p in path:
+        last = travel_direction(before, p, last)
+        before = p
+        one_by_one.append(last)
+    np.testing.assert_array_equal(travel_directions(np.array([1.0, 1.0, 1.0]), path, np.array([-1.0, 1.0, -1.0])),
+                                  one_by_one)
