@@ -41,14 +41,16 @@ def trial_seed(study_seed: int, index: int) -> int:
     return int(np.random.SeedSequence([int(study_seed), int(index)]).generate_state(1)[0])
 
 
-def study_config(scenario: str, table: dict | None = None, arm: str | None = None):
+def study_config(scenario: str, table: dict | None = None, arm: str | None = None, checked_only: bool = False):
     """The scenario's config for a study: its defaults, overridden by ``table`` (the scenario's
-    table of a ``--config`` TOML, checked as ``run`` checks it), then ``arm``."""
+    table of a ``--config`` TOML, checked as ``run`` checks it), then ``arm``. ``checked_only``:
+    None once the config holds (raises :class:`BadInput` when it does not), for another process."""
     from calibench.scenarios.config import override
     from calibench.scenarios.registry import scenario as get
 
     config = override(get(scenario).config(), table or {}, scenario)
-    return config if arm is None else dataclasses.replace(config, arm=arm)
+    config = config if arm is None else dataclasses.replace(config, arm=arm)
+    return None if checked_only else config
 
 
 def run_trial(scenario: str, study_seed: int, index: int, fidelity: str, arm: str | None = None,
@@ -212,11 +214,15 @@ def run_study(scenario: str, trials: int, seed: int, fidelity: str, out_dir: Pat
     close = None
     failed = False
     try:
+        checked = None
         if early:
             executor, close = make_executor(workers, None)
             for _ in range(workers or os.cpu_count() or 1):
                 executor.submit(_load_scenario, scenario)
-        _prepare(scenario, seed, fidelity, out_dir, arm, table)
+            # a worker, which loads the scenario anyway, checks the config: this process then
+            # never imports the scenario's estimators, which on 2 cores would slow the workers' start
+            checked = executor.submit(study_config, scenario, table, arm, checked_only=True)
+        _prepare(scenario, seed, fidelity, out_dir, arm, table, checked)
         t0 = time.perf_counter()
         if todo:
             if executor is None:
@@ -256,9 +262,14 @@ def _load_scenario(scenario: str) -> None:
     get(scenario)
 
 
-def _prepare(scenario: str, seed: int, fidelity: str, out_dir: Path, arm, table) -> None:
-    """Check the config and the output folder (one study per folder), and record the study."""
-    study_config(scenario, table, arm)  # a bad config is said once, before any trial
+def _prepare(scenario: str, seed: int, fidelity: str, out_dir: Path, arm, table, checked=None) -> None:
+    """Check the config and the output folder (one study per folder), and record the study.
+    ``checked``: the future of the config's check in a worker (:func:`study_config`), if any."""
+    # a bad config is said once, before any trial
+    if checked is None:
+        study_config(scenario, table, arm)
+    else:
+        checked.result()
     out_dir.mkdir(parents=True, exist_ok=True)
     meta = {"scenario": scenario, "seed": seed, "fidelity": fidelity}
     if arm is not None:

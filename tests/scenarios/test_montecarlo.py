@@ -66,6 +66,17 @@ def test_a_finished_study_needs_no_workers(tmp_path, monkeypatch):
     assert again["parameters"] == first["parameters"]
 
 
+def test_a_bad_config_is_said_by_the_worker_that_checks_it(tmp_path):
+    """With a local pool a worker checks the config (this process never imports the scenario's
+    estimators): a bad value still comes back as one BadInput before any trial, nothing journaled."""
+    from calibench.errors import BadInput
+
+    with pytest.raises(BadInput, match="constant term must be positive"):
+        run_study("arm-cmm", 3, 0, "analytic", tmp_path, workers=1, progress=False,
+                  table={"stated_range_sigma_um": [0.0, 1.0]})
+    assert not (tmp_path / JOURNAL).exists() and not (tmp_path / "study.json").exists()
+
+
 def test_trials_are_reproducible_and_independent():
     assert trial_seed(0, 5) == trial_seed(0, 5)
     assert len({trial_seed(0, i) for i in range(100)} | {trial_seed(1, i) for i in range(100)}) == 200
