@@ -362,7 +362,9 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
     if holdout:
         result["holdout"] = {}
         for i, (p, rec) in enumerate(zip(paths, train)):
-            m = held[p.name]
+            m = held[p.name].copy()
+            # a row named bad (the farther of a disagreeing repeat) is not judged, as in a test recording
+            m[[f["row"] for f in flagged[p.name]]] = False
             if m.sum() == 0:
                 continue
             e = prob.model(s, rec.q_rad[m], frame=i, session=i) - rec.xyz_mm[m]

@@ -105,7 +105,29 @@ def test_holdout_keeps_rows_out_and_reports_them(series, tmp_path):
         assert len(held) == h["samples"] and np.mean(held) == pytest.approx(h["mean_mm"], abs=2e-6)
         assert {role for role, _ in mine.values()} <= {"train", "holdout", "left_out"}
     flagged = {(name, f["row"]) for name, rows in r.get("flagged", {}).items() for f in rows}
-    assert not flagged & {k for k, (role, _) in res.items() if role == "train"}
+    assert not flagged & {k for k, (role, _) in res.items() if role in ("train", "holdout")}
+
+
+def test_a_held_out_row_that_disagrees_with_its_repeat_is_flagged_not_judged(series, tmp_path):
+    """As in a test recording, of a held-out pair that disagrees the row farther from the model is
+    named and left out of the held-out figures (a bad reading is not the model's error)."""
+    from calibench.recordings import load_arm_csv
+
+    _, paths = series
+    rec = load_arm_csv(paths["train"], 6)
+    held = np.random.default_rng(0).permutation(len(rec))[:round(0.3 * len(rec))]  # fit's split (SPLIT_SEED)
+    a, b = (int(i) for i in held[:2])
+    q, y = rec.q_rad.copy(), rec.xyz_mm.copy()
+    q[b], y[b] = q[a], y[a] + [0.0, 1.2, 0.0]  # row b: row a's posture, measured 1.2 mm away
+    path = tmp_path / "pair.csv"
+    ArmRecording(q, y).to_csv(path)
+    out = tmp_path / "pair"
+    assert main(["fit", "arm-cmm", str(path), "--arm", "ur10", "--holdout", "0.3", "--out", str(out)]) == 0
+    r = json.loads((out / "fit.json").read_text())
+    assert b in {f["row"] for f in r["flagged"]["pair.csv"]}
+    res = _residuals(out)
+    assert res[("pair.csv", a)][0] == "holdout" and ("pair.csv", b) not in res
+    assert r["holdout"]["pair.csv"]["max_mm"] < 0.2
 
 
 def _residuals(out) -> dict:
