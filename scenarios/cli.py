@@ -221,11 +221,19 @@ def _internal_error(e: Exception, out: Path | None) -> int:
 
 
 def _scenario(name: str):
-    from calibench.scenarios.registry import NAMES, PLANNED, scenario
+    from calibench.scenarios.registry import scenario
+
+    _known(name)
+    return scenario(name)  # its module alone: the others would cost a second or two of imports
+
+
+def _known(name: str) -> None:
+    """A scenario's name checked, its module not imported (half a second a study's workers need)."""
+    from calibench.scenarios.registry import NAMES, PLANNED
     from calibench.scenarios.report import BadInput
 
     if name in NAMES:
-        return scenario(name)  # its module alone: the others would cost a second or two of imports
+        return
     if name in PLANNED:
         raise BadInput(f"scenario {name!r} is not built yet (available: {', '.join(NAMES)})")
     raise BadInput(f"unknown scenario {name!r} (available: {', '.join(NAMES)})")
@@ -323,7 +331,7 @@ def _fit_arm(args, out: Path) -> int:
 def _montecarlo(args) -> int:
     from calibench.scenarios.montecarlo import checks_table, run_study, summary_table
 
-    _scenario(args.scenario)
+    _known(args.scenario)
     out = args.out or Path("calibench-out") / f"{args.scenario}-montecarlo"
     arm = None
     if args.arm is not None:
