@@ -222,6 +222,16 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
     return report
 
 
+def directions_across(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit directions a, b (3,) across the unit vector ``u`` (3,), with a x b = u, by a
+    formula: the null space of a rank-one matrix from an SVD is a basis LAPACK picks freely, and
+    its pick differs between CPUs (the two-step's poses, hence its figures, moved by 10 %)."""
+    e = np.eye(3)[np.argmin(np.abs(u))]  # the axis farthest from u: the cross product is well scaled
+    a = np.cross(u, e)
+    a /= np.linalg.norm(a)
+    return a, np.cross(u, a)
+
+
 def two_step_leg(sim: StewartSim, stations: np.ndarray, i: int, rng, sigma_mm):
     """Lock leg i at its home length; translate the platform at three fixed orientations so the
     leg keeps its length; fit a sphere to each set of platform origins (Eq. 2). Returns (r, B, l),
@@ -239,7 +249,7 @@ def two_step_leg(sim: StewartSim, stations: np.ndarray, i: int, rng, sigma_mm):
     for R0 in orientations:
         c_true = sim.B[i] - R0 @ sim.r[i]  # the platform origin's sphere (truth drives the motion)
         u0 = (home_t - c_true) / np.linalg.norm(home_t - c_true)
-        a, b = np.linalg.svd(np.c_[u0, u0, u0].T)[2][1:]  # two directions across u0
+        a, b = directions_across(u0)
         dirs = [u0] + [np.cos(cap) * u0 + np.sin(cap) * (np.cos(k) * a + np.sin(k) * b)
                        for cap in (0.12, 0.24) for k in np.deg2rad([0, 90, 180, 270])]
         targets, d = [c_true + L * dvec for dvec in dirs], []

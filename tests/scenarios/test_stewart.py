@@ -3,6 +3,7 @@
 import dataclasses
 import json
 
+import numpy as np
 import pytest
 
 from calibench.scenarios.cli import main
@@ -63,3 +64,16 @@ def test_a_datasheet_off_by_a_common_factor_leaves_estimates_and_std_unchanged(t
         assert abs(pa[k].estimate - pb[k].estimate) < 1e-3 * pa[k].std, k
         assert pb[k].std == pytest.approx(pa[k].std, rel=1e-3), k
     assert b.info["whitened_rms"] == pytest.approx(a.info["whitened_rms"] / 1.5, rel=1e-3)
+
+
+def test_the_two_step_caps_turn_about_a_basis_fixed_by_formula():
+    """The cap's directions across the leg: orthonormal and right-handed about it, from a formula
+    (an SVD's null space is LAPACK's free pick and moved the two-step's figures between CPUs)."""
+    from calibench.scenarios.stewart import directions_across
+
+    rng = np.random.default_rng(0)
+    for u in [np.eye(3)[k] for k in range(3)] + list(rng.normal(size=(50, 3))):
+        u = u / np.linalg.norm(u)
+        a, b = directions_across(u)
+        np.testing.assert_allclose(np.array([a, b, u]) @ np.array([a, b, u]).T, np.eye(3), atol=1e-15)
+        np.testing.assert_allclose(np.cross(a, b), u, atol=1e-15)
