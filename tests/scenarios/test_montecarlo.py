@@ -3,6 +3,9 @@ statistics, bad input."""
 
 import concurrent.futures as cf
 import json
+import os
+import subprocess
+import sys
 
 import numpy as np
 import pyarrow.parquet as pq
@@ -67,13 +70,26 @@ def test_a_finished_study_needs_no_workers(tmp_path, monkeypatch):
 
 
 def test_a_bad_config_is_said_by_the_worker_that_checks_it(tmp_path):
-    """With a local pool a worker checks the config (this process never imports the scenario's
-    estimators): a bad value still comes back as one BadInput before any trial, nothing journaled."""
-    from calibench.errors import BadInput
-
-    with pytest.raises(BadInput, match="constant term must be positive"):
-        run_study("arm-cmm", 3, 0, "analytic", tmp_path, workers=1, progress=False,
-                  table={"stated_range_sigma_um": [0.0, 1.0]})
+    """With a local pool a worker checks the config: a bad value still comes back as one BadInput
+    before any trial, nothing journaled, and the process that ran the study (a fresh one, so no
+    other test's imports hide it) never imported the scenario's simulator or estimators."""
+    code = f"""
+import sys
+from pathlib import Path
+from calibench.errors import BadInput
+from calibench.scenarios.montecarlo import run_study
+try:
+    run_study("arm-cmm", 3, 0, "analytic", Path({str(tmp_path)!r}), workers=1, progress=False,
+              table={{"stated_range_sigma_um": [0.0, 1.0]}})
+except BadInput as e:
+    print("BadInput:", e)
+print(sorted(m for m in sys.modules if m.startswith(("calibench.estimators", "calibench.sim", "calibench.scenarios.arm"))))
+"""
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
+                         env={**os.environ, "MUJOCO_GL": "egl"})
+    said, imported = out.stdout.strip().splitlines()
+    assert said.startswith("BadInput:") and "constant term must be positive" in said, out.stdout + out.stderr
+    assert imported == "[]", imported
     assert not (tmp_path / JOURNAL).exists() and not (tmp_path / "study.json").exists()
 
 
