@@ -29,7 +29,7 @@ import dataclasses
 import numpy as np
 from scipy import linalg
 
-from calibench.estimators.arm_kinematics import (Chain, Pose, gravity_moments, jacobian, joint_axes, n_params,
+from calibench.estimators.arm_kinematics import (Chain, Pose, cross, gravity_moments, jacobian, joint_axes, n_params,
                                                  param_names, pose, theta_index)
 from calibench.estimators.rotations import matrix_to_rotvec, rigid_transform, rotvec_to_matrix, skew
 
@@ -53,10 +53,6 @@ def spherical_jacobian(y: np.ndarray) -> np.ndarray:
     J[:, 2, 1] = -y[:, 1] * y[:, 2] / (r2 * s)
     J[:, 2, 2] = s / r2
     return J
-
-
-def _cross3(u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    return np.cross(u, v)
 
 
 # --- points in the instrument's frame ------------------------------------------------------------
@@ -252,7 +248,7 @@ class PointProblem:
     def _tilt(self, s: PointState, P, m_perp) -> np.ndarray:
         """The tool point's shift from the bearings' tilt, (n, 3) mm, and its columns (n, 3, nt)."""
         _, o = joint_axes(P)
-        cols = _cross3(m_perp, P.point[:, None] - o[:, self.tj - 1]).transpose(0, 2, 1)
+        cols = cross(m_perp, P.point[:, None] - o[:, self.tj - 1]).transpose(0, 2, 1)
         return cols @ s.comp[len(self.cj):len(self.cj) + len(self.tj)], cols
 
     def base_points(self, s: PointState, q_rad: np.ndarray | None = None, session: int | None = None) -> np.ndarray:
@@ -450,15 +446,17 @@ class TrackerProblem:
 
     def _whitening(self, s: TrackerState) -> np.ndarray:
         """L^-1 of each posture's covariance diag(sigma^2) + G Sigma_q G^T, G = d(sph)/d(q)."""
-        cov = np.einsum("ni,ij->nij", self.sigma**2, np.eye(3))
+        cov = np.zeros((len(self.q), 3, 3))
+        cov[:, [0, 1, 2], [0, 1, 2]] = self.sigma**2
         if self.encoder_sigma > 0:
             if self._G is None:
                 P = self._pose(s.delta)
                 y = P.point @ s.R.T + s.t
-                # a joint's turn moves the point as that joint's zero offset does
-                Jq = jacobian(self.chain, P=P)[:, :, [theta_index(j) for j in range(1, self.N + 1)]]
-                self._G = np.einsum("nij,jk,nkl->nil", spherical_jacobian(y), s.R, Jq)
-            cov = cov + self.encoder_sigma**2 * np.einsum("nij,nkj->nik", self._G, self._G)
+                # a joint's turn moves the point as that joint's zero offset does: w x (p - o)
+                w, o = joint_axes(P)
+                Jq = cross(w, P.point[:, None] - o).transpose(0, 2, 1)
+                self._G = spherical_jacobian(y) @ (s.R @ Jq)
+            cov = cov + self.encoder_sigma**2 * (self._G @ self._G.transpose(0, 2, 1))
         return np.linalg.inv(np.linalg.cholesky(cov))
 
     def reweighted(self, sigma: np.ndarray, encoder_sigma_rad: float) -> "TrackerProblem":
@@ -508,12 +506,12 @@ class TrackerProblem:
         y = P.point @ s.R.T + s.t
         if self._W is None:
             self.start()
-        Js = np.einsum("nij,njk->nik", self._W, spherical_jacobian(y))
-        Jd = np.einsum("ij,njk->nik", s.R, jacobian(self.chain, P=P))
-        Jw = -skew(P.point @ s.R.T)  # left perturbation of R
-        Jt = np.broadcast_to(np.eye(3), (len(y), 3, 3))
-        Jy = np.concatenate([Jd, Jw, Jt], axis=2)
-        return np.einsum("nij,njk->nik", Js, Jy).reshape(len(y) * 3, -1)
+        Js = self._W @ spherical_jacobian(y)
+        Jy = np.empty((len(y), 3, self.nk + 6))
+        Jy[:, :, :self.nk] = s.R @ jacobian(self.chain, P=P)
+        Jy[:, :, self.nk:self.nk + 3] = -skew(P.point @ s.R.T)  # left perturbation of R
+        Jy[:, :, self.nk + 3:] = np.eye(3)
+        return (Js @ Jy).reshape(len(y) * 3, -1)
 
     def update(self, s: TrackerState, step: np.ndarray) -> TrackerState:
         """The state moved by ``step``: additive for the errors, a left rotation for the tracker frame."""

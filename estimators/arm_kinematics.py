@@ -217,7 +217,7 @@ def pose(chain: Chain, q_rad: np.ndarray, delta: np.ndarray | None = None) -> Po
     return Pose(chain.convention, link_R, link_o, link_o[:, N] + link_R[:, N] @ tool, c, s, a, d, alpha)
 
 
-def _cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+def cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """u x v over the last axis (np.cross's axis juggling costs more than the arithmetic here)."""
     out = np.empty(np.broadcast_shapes(u.shape, v.shape))
     out[..., 0] = u[..., 1] * v[..., 2] - u[..., 2] * v[..., 1]
@@ -248,7 +248,7 @@ def jacobian(chain: Chain, q_rad: np.ndarray | None = None, delta: np.ndarray | 
     for kind, _, which in ops:
         rot[which::5] = kind == "rot"
     # every motion's turn made, the shifts' then discarded: one pass instead of a masked copy
-    cols = np.where(rot[:, None], _cross(P.axis, P.point[:, None] - P.origin), P.axis)
+    cols = np.where(rot[:, None], cross(P.axis, P.point[:, None] - P.origin), P.axis)
     J[:, :, :5 * N] = cols.transpose(0, 2, 1)
     J[:, :, 5 * N:] = P.link_R[:, N]
     return J
@@ -270,10 +270,10 @@ def gravity_moments(chain: Chain, q_rad: np.ndarray | None = None, delta: np.nda
                        axis=1)
     x = np.concatenate([com, P.point[:, None]], axis=1) / 1000.0  # m
     # moments about the base origin and forces, summed from the tip inward: links l..N and the tool
-    moment = np.cumsum(_cross(x, f)[:, ::-1], axis=1)[:, ::-1]
+    moment = np.cumsum(cross(x, f)[:, ::-1], axis=1)[:, ::-1]
     force = np.cumsum(f[:, ::-1], axis=1)[:, ::-1]
     o = P.origin[:, _THETA::5] / 1000.0
-    return moment[:, :N] - _cross(o, force[:, :N])  # about o_i: M_0 - o_i x F
+    return moment[:, :N] - cross(o, force[:, :N])  # about o_i: M_0 - o_i x F
 
 
 def joint_axes(P: Pose) -> tuple[np.ndarray, np.ndarray]:

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 
 def skew(v: np.ndarray) -> np.ndarray:
@@ -15,21 +16,71 @@ def skew(v: np.ndarray) -> np.ndarray:
     return S
 
 
-def rotvec_to_matrix(w: np.ndarray) -> np.ndarray:
-    """Rotation vector (3,) rad -> matrix (3, 3) (scipy's Rotation: exact at every angle)."""
-    return Rotation.from_rotvec(np.asarray(w, float)).as_matrix()
-
-
 def rotvecs_to_matrices(w: np.ndarray) -> np.ndarray:
-    """Many rotation vectors at once: (n, 3) rad -> (n, 3, 3)."""
-    return Rotation.from_rotvec(np.asarray(w, float).reshape(-1, 3)).as_matrix()
+    """Many rotation vectors at once: (n, 3) rad -> (n, 3, 3), Rodrigues' formula.
+
+    Written with half-angle terms, sin(theta) / theta and 2 sin^2(theta / 2) / theta^2, so it is
+    exact to rounding at every angle, tiny ones included (1 - cos(theta) would lose the digits
+    there); a tenth of scipy's Rotation's time for one vector, which the solvers' steps take."""
+    w = np.asarray(w, float).reshape(-1, 3)
+    theta = np.sqrt(np.sum(w * w, axis=1))
+    half = 0.5 * theta
+    tiny = theta < 1e-8  # the series' next terms are below 1e-17 there
+    safe = np.where(tiny, 1.0, theta)
+    a = np.where(tiny, 1.0 - theta**2 / 6, np.sin(theta) / safe)
+    b = np.where(tiny, 0.5 - theta**2 / 24, 2 * (np.sin(half) / safe) ** 2)
+    x, y, z = w.T
+    R = np.empty((len(w), 3, 3))
+    R[:, 0, 0], R[:, 1, 1], R[:, 2, 2] = 1 - b * (y * y + z * z), 1 - b * (x * x + z * z), 1 - b * (x * x + y * y)
+    R[:, 0, 1], R[:, 1, 0] = b * x * y - a * z, b * x * y + a * z
+    R[:, 0, 2], R[:, 2, 0] = b * x * z + a * y, b * x * z - a * y
+    R[:, 1, 2], R[:, 2, 1] = b * y * z - a * x, b * y * z + a * x
+    return R
+
+
+def rotvec_to_matrix(w: np.ndarray) -> np.ndarray:
+    """Rotation vector (3,) rad -> matrix (3, 3), or a stack (..., 3) -> (..., 3, 3):
+    :func:`rotvecs_to_matrices`' formula, on scalars for one vector (a solver's step takes one,
+    and numpy's per-call cost would be most of the time)."""
+    if np.shape(w) != (3,):
+        return rotvecs_to_matrices(w).reshape(np.shape(w)[:-1] + (3, 3))
+    x, y, z = (float(v) for v in w)
+    theta = math.sqrt(x * x + y * y + z * z)
+    if theta < 1e-8:
+        a, b = 1.0 - theta**2 / 6, 0.5 - theta**2 / 24
+    else:
+        a, b = math.sin(theta) / theta, 2 * (math.sin(0.5 * theta) / theta) ** 2
+    return np.array([[1 - b * (y * y + z * z), b * x * y - a * z, b * x * z + a * y],
+                     [b * x * y + a * z, 1 - b * (x * x + z * z), b * y * z - a * x],
+                     [b * x * z - a * y, b * y * z + a * x, 1 - b * (x * x + y * y)]])
 
 
 def matrix_to_rotvec(R: np.ndarray) -> np.ndarray:
-    """Inverse of :func:`rotvec_to_matrix`, (3, 3) -> (3,) rad, angle in [0, pi]. scipy's
-    quaternion route keeps full precision for tiny angles (an arccos of the trace loses half the
-    digits there: 1 % at 1e-7 rad) and near pi."""
-    return Rotation.from_matrix(np.asarray(R, float)).as_rotvec()
+    """Inverse of :func:`rotvec_to_matrix`, (3, 3) -> (3,) rad, angle in [0, pi]. The quaternion
+    route (Shepperd's choice of its largest component, then 2 atan2(|v|, w)) keeps full precision
+    for tiny angles (an arccos of the trace loses half the digits there: 1 % at 1e-7 rad) and
+    near pi, as scipy's Rotation does, in a tenth of its time. A stack (..., 3, 3) -> (..., 3)."""
+    if np.shape(R) != (3, 3):
+        R = np.asarray(R, float)
+        return np.array([matrix_to_rotvec(r) for r in R.reshape(-1, 3, 3)]).reshape(R.shape[:-2] + (3,))
+    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = np.asarray(R, float).tolist()
+    tr = r00 + r11 + r22
+    k = max(range(4), key=(r00, r11, r22, tr).__getitem__)
+    if k == 3:
+        w, x, y, z = 1 + tr, r21 - r12, r02 - r20, r10 - r01
+    elif k == 0:
+        w, x, y, z = r21 - r12, 1 + 2 * r00 - tr, r01 + r10, r02 + r20
+    elif k == 1:
+        w, x, y, z = r02 - r20, r01 + r10, 1 + 2 * r11 - tr, r12 + r21
+    else:
+        w, x, y, z = r10 - r01, r02 + r20, r12 + r21, 1 + 2 * r22 - tr
+    if w < 0:  # the angle in [0, pi]
+        w, x, y, z = -w, -x, -y, -z
+    v = math.sqrt(x * x + y * y + z * z)
+    if v == 0.0:
+        return np.zeros(3)
+    angle = 2 * math.atan2(v, w)
+    return np.array([x, y, z]) * (angle / v)
 
 
 def rigid_transform(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

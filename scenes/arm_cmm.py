@@ -25,7 +25,6 @@ import tomllib
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from calibench.errors import BadInput
 
@@ -202,7 +201,28 @@ def arm_from_table(t: dict, where: str = "arm") -> ArmDescription:
 
 # --- MJCF ---------------------------------------------------------------------------------------
 def _rot(axis: str, angle: np.ndarray) -> np.ndarray:
-    return Rotation.from_euler(axis, np.asarray(angle, float)[:, None]).as_matrix()
+    """Turns about a coordinate axis by angles (N,), (N, 3, 3), written out."""
+    angle = np.asarray(angle, float)
+    c, s = np.cos(angle), np.sin(angle)
+    i, j = {"x": (1, 2), "y": (2, 0), "z": (0, 1)}[axis]
+    R = np.zeros((len(angle), 3, 3))
+    R[:, 3 - i - j, 3 - i - j] = 1.0
+    R[:, i, i], R[:, j, j], R[:, i, j], R[:, j, i] = c, c, -s, s
+    return R
+
+
+def _quat(axis: str, angle: np.ndarray) -> np.ndarray:
+    """The same turns as unit quaternions (N, 4), w x y z."""
+    half = 0.5 * np.asarray(angle, float)
+    q = np.zeros((len(half), 4))
+    q[:, 0], q[:, " xyz".index(axis)] = np.cos(half), np.sin(half)
+    return q
+
+
+def _qmul(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Hamilton products of quaternion stacks (N, 4), w x y z: the turn p, then q in p's frame."""
+    pw, pv, qw, qv = p[:, :1], p[:, 1:], q[:, :1], q[:, 1:]
+    return np.c_[pw * qw - np.sum(pv * qv, axis=1, keepdims=True), pw * qv + qw * pv + np.cross(pv, qv)]
 
 
 def joint_frames(convention: str, a, d, alpha, theta, beta) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -216,6 +236,16 @@ def joint_frames(convention: str, a, d, alpha, theta, beta) -> tuple[np.ndarray,
         return _rot("z", theta), np.zeros((len(a), 3)), M, np.stack([a, zero, d], axis=1)
     # mdh: RotX(alpha) RotY(beta) TransX(a) RotZ(theta + q) | TransZ(d)
     return M @ _rot("z", theta), a[:, None] * M[:, :, 0], eye, np.stack([zero, zero, d], axis=1)
+
+
+def joint_quats(convention: str, alpha, theta, beta) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`joint_frames`' pre_R and post_R as unit quaternions (N, 4), w x y z, made from the
+    half angles (a quaternion read back from a matrix would cost ten times as much)."""
+    alpha, theta, beta = (np.atleast_1d(np.asarray(v, float)) for v in (alpha, theta, beta))
+    M = _qmul(_quat("x", alpha), _quat("y", beta))
+    if convention == "dh":
+        return _quat("z", theta), M
+    return _qmul(M, _quat("z", theta)), _quat("x", np.zeros(len(alpha)))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -242,8 +272,8 @@ def _links(arm: ArmDescription, values: np.ndarray | None, tool_mm) -> _Links:
     N = arm.n_joints
     values = np.asarray(arm.nominal() if values is None else values, float)
     a, d, al, th, be = values.T
-    pre_R, pre_t, post_R, post_t = joint_frames(arm.convention, a / 1000, d / 1000, al, th, be)
-    quats = Rotation.from_matrix(np.concatenate([pre_R, post_R])).as_quat()[:, [3, 0, 1, 2]]
+    _, pre_t, post_R, post_t = joint_frames(arm.convention, a / 1000, d / 1000, al, th, be)
+    pre_quat, post_quat = joint_quats(arm.convention, al, th, be)
     if arm.has_masses:
         mass = np.maximum(np.asarray(arm.mass_kg, float), 1e-6)
         com = np.einsum("nij,nj->ni", post_R, np.asarray(arm.com_mm, float) / 1000) + post_t
@@ -252,7 +282,7 @@ def _links(arm: ArmDescription, values: np.ndarray | None, tool_mm) -> _Links:
     else:
         mass, com, inertia = np.full(N, 0.1), post_t / 2, np.full(N, 1e-3)
     tool = np.asarray(arm.tool_mm if tool_mm is None else tool_mm, float) / 1000
-    return _Links(pre_t, quats[:N], post_t, quats[N:], mass, com, inertia,
+    return _Links(pre_t, pre_quat, post_t, post_quat, mass, com, inertia,
                   tuple(bool(x) for x in np.linalg.norm(post_t, axis=1) > 1e-6), tool)
 
 

@@ -77,3 +77,22 @@ def test_as_built_arm_model_is_the_mjcf_s(arm_name):
             assert np.array_equal(fast[name], v, equal_nan=True), f"arm {k}: {name}"
         compared += len(parsed)
     assert compared > 6 * 100
+
+
+@pytest.mark.parametrize("convention", ["dh", "mdh"])
+def test_joint_quaternions_are_the_joint_frames_turns(convention):
+    """The MJCF's quaternions, made from half angles, turn as joint_frames' matrices do (MuJoCo's
+    own quaternion-to-matrix), to 1e-15, at random angles including whole turns."""
+    import mujoco
+
+    from calibench.scenes.arm_cmm import joint_frames, joint_quats
+
+    rng = np.random.default_rng(2)
+    alpha, theta, beta = rng.uniform(-2 * np.pi, 2 * np.pi, (3, 40))
+    pre_R, _, post_R, _ = joint_frames(convention, np.ones(40), np.ones(40), alpha, theta, beta)
+    pre_q, post_q = joint_quats(convention, alpha, theta, beta)
+    for q, R in zip(np.r_[pre_q, post_q], np.r_[pre_R, post_R]):
+        assert np.linalg.norm(q) == pytest.approx(1.0, abs=1e-15)
+        m = np.empty(9)
+        mujoco.mju_quat2Mat(m, q)
+        np.testing.assert_allclose(m.reshape(3, 3), R, rtol=0, atol=1e-15)
