@@ -228,11 +228,18 @@ def fit_plane(points: np.ndarray) -> Plane:
     """Total-least-squares plane through points (n, 3), with the covariance of its slopes.
 
     The slope covariance is that of a regression of the out-of-plane residuals on the in-plane
-    coordinates, scaled by the residual variance.
+    coordinates, scaled by the residual variance. The normal's sign (its largest component
+    positive) and the in-plane basis (the x axis projected, or y for a plane across x, then
+    normal x that) are fixed by rule: the SVD's own signs and pair of in-plane vectors are
+    LAPACK's free choice and differ between CPUs.
     """
     c = points.mean(axis=0)
     _, _, Vt = np.linalg.svd(points - c, full_matrices=False)
-    n, B = Vt[2], Vt[:2].T
+    n = Vt[2] * np.sign(Vt[2][np.argmax(np.abs(Vt[2]))])
+    b0 = np.eye(3)[0 if abs(n[0]) < 0.9 else 1]
+    b0 = b0 - n * (n @ b0)
+    b0 /= np.linalg.norm(b0)
+    B = np.stack([b0, np.cross(n, b0)], axis=1)
     xy = (points - c) @ B
     d = (points - c) @ n
     dof = max(len(points) - 3, 1)

@@ -67,13 +67,34 @@ def test_plane_fit_and_its_slope_covariance():
     for _ in range(300):
         z = 1800 + 2e-3 * xy[:, 0] - 1e-3 * xy[:, 1] + rng.normal(0, 0.2, 121)
         pl = fit_plane(np.c_[xy, z])
-        n = pl.normal * np.sign(pl.normal[2])
+        n = pl.normal
+        assert n[2] > 0  # by rule, not LAPACK's choice: the largest component positive
         slopes.append(-n[:2] / n[2])
         covs.append(pl.slope_cov)
     slopes = np.array(slopes)
     np.testing.assert_allclose(slopes.mean(axis=0), [2e-3, -1e-3], atol=4 * 0.2 / 290 / np.sqrt(121 * 300))
+    # the basis is x, then y, projected (the axes least along the normal): slope j is along axis j
     predicted = np.sqrt(np.diag(np.mean(covs, axis=0)))
-    np.testing.assert_allclose(np.sort(np.std(slopes, axis=0)), np.sort(predicted), rtol=0.15)
+    np.testing.assert_allclose(np.std(slopes, axis=0), predicted, rtol=0.15)
+
+
+def test_plane_s_normal_and_basis_are_fixed_by_rule():
+    """The same plane from its points in any order and mirrored through its centroid: the same
+    normal and in-plane basis (an SVD alone may flip either, differently on another CPU), the
+    basis right-handed with the normal and its first vector the x axis projected."""
+    rng = np.random.default_rng(7)
+    xy = rng.uniform(-500, 500, (60, 2))
+    pts = np.c_[xy, 1800 + 3e-3 * xy[:, 0] + 2e-3 * xy[:, 1] + rng.normal(0, 0.2, 60)]
+    ref = fit_plane(pts)
+    for other in (pts[::-1], pts[rng.permutation(60)], 2 * pts.mean(axis=0) - pts):
+        pl = fit_plane(other)
+        np.testing.assert_allclose(pl.normal, ref.normal, atol=1e-12)
+        np.testing.assert_allclose(pl.basis, ref.basis, atol=1e-12)
+    B = ref.basis
+    np.testing.assert_allclose(B.T @ B, np.eye(2), atol=1e-15)
+    np.testing.assert_allclose(np.cross(B[:, 0], B[:, 1]), ref.normal, atol=1e-15)
+    x_on_plane = np.array([1.0, 0, 0]) - ref.normal * ref.normal[0]
+    np.testing.assert_allclose(B[:, 0], x_on_plane / np.linalg.norm(x_on_plane), atol=1e-15)
 
 
 def test_ray_plane_intersection_removes_depth_noise():
