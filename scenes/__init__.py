@@ -1,20 +1,26 @@
 """What the machines are: nominal geometry -> MJCF (+ texture assets), one module per scene.
 
-``SCENES`` maps each scene's name to a function returning its default MJCF and assets.
+``SCENES`` maps each scene's name to a function returning its default MJCF and assets. Each
+imports its scene when called: importing one scene (a Monte-Carlo worker's) loads no other, and
+not OpenCV, which only the camera scenes' textures need.
 """
-
-from calibench.scenes import arm_cmm, belt_stage, probe_scanner, stewart, vision_stage
 
 
 def _belt_stage_default():
+    from calibench.scenes import belt_stage
+
     return belt_stage.build_mjcf(belt_stage.BeltStageGeometry())
 
 
 def _vision_stage_default():
+    from calibench.scenes import vision_stage
+
     return vision_stage.build_mjcf(vision_stage.VisionStageGeometry())
 
 
 def _probe_scanner_default():
+    from calibench.scenes import probe_scanner
+
     n = probe_scanner.ProbeScannerNominal()
     return probe_scanner.build_mjcf(probe_scanner.ProbeScannerGeometry(), n.d_mm, n.dL_mm, n.alpha0_rad), {}
 
@@ -22,6 +28,8 @@ def _probe_scanner_default():
 def _arm(name: str, stiffness_nm_per_rad: float):
     """A built-in arm with its tracker, cones and a spring on every joint (its sag under gravity
     is what the steps settle)."""
+    from calibench.scenes import arm_cmm
+
     arm = arm_cmm.load_arm(name)
     k = [stiffness_nm_per_rad] * arm.n_joints
     return arm_cmm.build_mjcf(arm, None, None, k, (2.2, -0.9, 0.35), (1, 0, 0, 0),
@@ -29,6 +37,8 @@ def _arm(name: str, stiffness_nm_per_rad: float):
 
 
 def _stewart_default():
+    from calibench.scenes import stewart
+
     g = stewart.StewartGeometry()
     return stewart.build_mjcf(g, g.base_hinges_mm, g.platform_hinges_mm, g.reflectors_mm, g.station_holes_mm), {}
 
