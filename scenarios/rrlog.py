@@ -8,18 +8,22 @@ Entity layout, shared by the scenarios:
 - ``error_map/...``: error vectors and residual series
 - ``report``: the truth-versus-estimate table (Markdown)
 
-World units are metres (MuJoCo's); a scenario converts before logging.
+World units are metres (MuJoCo's); a scenario converts before logging. trimesh and OpenCV are
+imported by the functions that use them: a study's log (a figure and a table) does without the
+half second they take to load.
 """
 
 from __future__ import annotations
 
 import dataclasses
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import cv2
 import numpy as np
 import rerun as rr
-import trimesh
+
+if TYPE_CHECKING:
+    import trimesh
 
 RED = (230, 60, 50)
 GREEN = (40, 200, 90)
@@ -119,6 +123,7 @@ def set_step(rec: rr.RecordingStream, timeline: str, step: int) -> None:
 # --- geometry ------------------------------------------------------------------------------
 def _geom_mesh(model, g: int) -> trimesh.Trimesh | None:
     import mujoco  # only for the enum values; the world is already built
+    import trimesh
 
     t = model.geom_type[g]
     size = model.geom_size[g]
@@ -149,6 +154,8 @@ def log_mujoco_bodies(rec: rr.RecordingStream, model, root: str = "world",
     draws a 2-D texture there (e.g. a calibration plate); geoms whose name ``skip`` accepts are
     left out (many small ones a scenario draws better itself).
     """
+    import trimesh
+
     paths = nested_paths(model, root)
     textures = textures or {}
     per_body = np.bincount(model.geom_bodyid, minlength=model.nbody)
@@ -186,6 +193,8 @@ def _log_mesh(rec, path: str, mesh: trimesh.Trimesh, rgba) -> None:
 
 
 def _log_textured_top(rec, path, model, g, image):
+    import trimesh
+
     hx, hy, hz = model.geom_size[g]
     R = trimesh.transformations.quaternion_matrix(model.geom_quat[g])[:3, :3]
     corners = np.array([[-hx, -hy, hz], [hx, -hy, hz], [hx, hy, hz], [-hx, hy, hz]]) @ R.T + model.geom_pos[g]
@@ -206,6 +215,8 @@ def log_textured_quad(rec: rr.RecordingStream, path: str, corners: np.ndarray, i
 def log_body_poses(rec: rr.RecordingStream, paths: dict[int, str], xpos: np.ndarray,
                    xquat: np.ndarray, parent_of: np.ndarray) -> None:
     """Body poses relative to their parents (MuJoCo ``xpos``/``xquat`` are world poses)."""
+    import trimesh
+
     for b, path in paths.items():
         p = parent_of[b]
         R_w = trimesh.transformations.quaternion_matrix(xquat[b])[:3, :3]
@@ -238,6 +249,8 @@ def log_camera(rec: rr.RecordingStream, path: str, K: np.ndarray, size: tuple[in
 
 def log_image(rec: rr.RecordingStream, path: str, image: np.ndarray) -> None:
     """An RGB image, stored losslessly as PNG."""
+    import cv2
+
     ok, buf = cv2.imencode(".png", image[..., ::-1] if image.ndim == 3 else image)
     rec.log(path, rr.EncodedImage(contents=buf.tobytes(), media_type="image/png"))
 
