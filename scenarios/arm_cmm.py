@@ -286,7 +286,7 @@ def trial_parameters(config: ArmCmmConfig, seed: int) -> list[Parameter]:
     parameter that has one against its independent reference (:func:`reference_values`; no
     planning, no cones, no figures)."""
     rng = np.random.default_rng(seed)
-    sim = ArmSim(config.arm, config.truth)
+    sim = ArmSim(config.arm, config.truth, reuse=True)  # the trial's alone: the last trial's model rewritten
     chain = chain_of(sim.arm)
     q = sim.random_postures(config.n_postures, rng)
     q_read = sim.encoders(q, rng)

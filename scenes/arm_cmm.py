@@ -393,3 +393,40 @@ def as_built_model(arm: ArmDescription, values: np.ndarray, tool_mm, stiffness_n
         spec.site("probe").pos = L.tool
         spec.body("tool").pos = L.tool
         return spec.compile()
+
+
+def write_as_built(model, arm: ArmDescription, values: np.ndarray, tool_mm) -> bool:
+    """Write an as-built arm into ``model`` in place, without compiling: an MjModel of
+    :func:`as_built_model` for the same arm and setup, reused from trial to trial (a Monte-Carlo
+    trial's twin). Written: each hinge body's frame, centre of mass and inertia, each link
+    frame, each capsule's pose and length (MuJoCo's own z-to-vector turn, as its compiler
+    turns a ``fromto``), the tool: what kinematics, inverse dynamics and rendering read (a test
+    checks them against the compiled model's, and the points and gravity torques). Not written:
+    the inertial frames of the massless link bodies, which nothing reads, and the collision
+    bounding volumes (contacts are off); ``mj_setConst`` redoes what the compiler derives at
+    qpos0 (the caller's, with its data). False, nothing written, when a link's capsule
+    became a sphere or back (another MJCF)."""
+    import mujoco
+
+    L = _links(arm, values, tool_mm)
+    N = arm.n_joints
+    hinge = [model.body(f"joint{i + 1}").id for i in range(N)]
+    geom = model.body_geomadr[hinge]
+    if tuple(bool(t) for t in model.geom_type[geom] == mujoco.mjtGeom.mjGEOM_CAPSULE) != L.capsule:
+        return False
+    link = [model.body(f"link{i + 1}").id for i in range(N)]
+    model.body_pos[hinge], model.body_quat[hinge], model.body_ipos[hinge] = L.pre_t, L.pre_quat, L.com
+    model.body_inertia[hinge] = L.inertia[:, None]
+    model.body_pos[link], model.body_quat[link] = L.post_t, L.post_quat
+    for i in np.flatnonzero(L.capsule):
+        g = geom[i]
+        half = 0.5 * np.linalg.norm(L.post_t[i])
+        model.geom_pos[g] = 0.5 * L.post_t[i]
+        mujoco.mju_quatZ2Vec(model.geom_quat[g], -L.post_t[i])  # the compiler's fromto: z from "to" to "from"
+        model.geom_size[g, 1] = half
+        model.geom_rbound[g] = model.geom_size[g, 0] + half
+        model.geom_aabb[g, 5] = model.geom_size[g, 0] + half
+    model.site_pos[model.site("probe").id] = L.tool
+    model.body_pos[model.body("tool").id] = L.tool
+    return True
+

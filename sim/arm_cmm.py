@@ -20,12 +20,13 @@ Instruments:
 from __future__ import annotations
 
 import dataclasses
+import threading
 
 import mujoco
 import numpy as np
 
-from calibench.scenes.arm_cmm import ArmDescription, as_built_model, load_arm
 from calibench.errors import BadInput
+from calibench.scenes.arm_cmm import ArmDescription, as_built_model, load_arm, write_as_built
 
 # The seed's Table 1 errors: (da, dd, dalpha, dtheta) of links 1-6 (mm, mm, rad, rad), then dd7,
 # the stylus length (mm): the tool point's z in the flange frame.
@@ -90,10 +91,41 @@ class ArmTruth:
         return Rz @ Ry @ Rx, np.asarray(self.tracker_pos_mm, float)
 
 
-class ArmSim:
-    """The as-built arm in MuJoCo. ``arm``: a description or the name/path of one."""
+# one reusable (model, data) per thread and setup, for :class:`ArmSim`'s ``reuse``
+_TWINS = threading.local()
 
-    def __init__(self, arm: ArmDescription | str, truth: ArmTruth = ArmTruth()):
+
+def _reused_twin(arm: ArmDescription, values: np.ndarray, tool_mm: np.ndarray, *setup) -> tuple:
+    """This thread's (model, data) of ``arm`` in ``setup`` (stiffness, tracker pose, cones), the
+    as-built ``values`` and ``tool_mm`` written into the model in place (:func:`write_as_built`);
+    compiled once per setup, again only when a link's capsule becomes a sphere or back."""
+    key = (arm,) + tuple(None if v is None else tuple(np.ravel(np.asarray(v, float)).tolist()) for v in setup)
+    cache = getattr(_TWINS, "cache", None)
+    if cache is None:
+        cache = _TWINS.cache = {}
+    twin = cache.get(key)
+    if twin is not None and write_as_built(twin[0], arm, values, tool_mm):
+        model, data, spring = twin
+        model.qpos_spring[:] = spring  # what a previous sim's stepping moved
+        mujoco.mj_setConst(model, data)
+        return model, data
+    model = as_built_model(arm, values, tool_mm, *setup)
+    data = mujoco.MjData(model)
+    if len(cache) >= 4:
+        cache.clear()
+    cache[key] = (model, data, model.qpos_spring.copy())
+    return model, data
+
+
+class ArmSim:
+    """The as-built arm in MuJoCo. ``arm``: a description or the name/path of one.
+
+    ``reuse``: write this arm into the thread's last MuJoCo model of the same arm and setup
+    instead of compiling one (a Monte-Carlo trial: compiling and a new MjData are a seventh of
+    its time). The model is then shared: the next ``reuse`` sim of that setup overwrites it,
+    so a reused sim is for one piece of work at a time, not to keep beside another."""
+
+    def __init__(self, arm: ArmDescription | str, truth: ArmTruth = ArmTruth(), reuse: bool = False):
         self.arm = load_arm(arm) if isinstance(arm, str) else arm
         self.truth = truth
         N = self.arm.n_joints
@@ -108,10 +140,14 @@ class ArmSim:
         R, p = truth.tracker2base()
         q = np.empty(4)
         mujoco.mju_mat2Quat(q, R.ravel())
-        self.model = as_built_model(self.arm, self.arm.nominal() + delta[:5 * N].reshape(N, 5),
-                                    np.asarray(self.arm.tool_mm) + delta[5 * N:], k, p / 1000, q,
-                                    (np.asarray(truth.cone_a_mm) / 1000, np.asarray(truth.cone_b_mm) / 1000))
-        self.data = mujoco.MjData(self.model)
+        args = (self.arm, self.arm.nominal() + delta[:5 * N].reshape(N, 5),
+                np.asarray(self.arm.tool_mm) + delta[5 * N:], k, p / 1000, q,
+                (np.asarray(truth.cone_a_mm) / 1000, np.asarray(truth.cone_b_mm) / 1000))
+        if reuse:
+            self.model, self.data = _reused_twin(*args)
+        else:
+            self.model = as_built_model(*args)
+            self.data = mujoco.MjData(self.model)
         self._probe = self.model.site("probe").id
         self._jac = np.zeros((3, self.model.nv))
 
@@ -135,6 +171,9 @@ class ArmSim:
             self.data.qpos[:] = qq
             mujoco.mj_kinematics(self.model, self.data)
             mujoco.mj_comPos(self.model, self.data)
+            # the bodies' velocities at rest: rne's velocity products read cvel, which a step
+            # before (settle_by_stepping) leaves at the last state's
+            mujoco.mj_comVel(self.model, self.data)
             mujoco.mj_rne(self.model, self.data, 0, self._rne)
             out[i] = -self._rne  # qfrc_bias at rest holds gravity: gravity's own torque is its negative
         return out

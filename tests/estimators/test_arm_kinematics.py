@@ -126,3 +126,7 @@ def test_gravity_torques_are_mujocos_inverse_dynamics(name):
     ours = gravity_torques(chain_of(arm), q)
     assert np.abs(mj).max() > 1.0  # the arms carry real torques
     np.testing.assert_allclose(ours, mj, atol=1e-9 * np.abs(mj).max())
+    # at rest whatever the twin did before: a step leaves the bodies' velocities behind
+    sprung = ArmSim(arm, ArmTruth(delta=(0.0,) * n_params(arm.n_joints), stiffness_nm_per_rad=(1e5,) * arm.n_joints))
+    sprung.settle_by_stepping(q[0], seconds=0.01)
+    np.testing.assert_allclose(sprung.gravity_torques(q), mj, rtol=0, atol=1e-12 * np.abs(mj).max())

@@ -96,3 +96,49 @@ def test_joint_quaternions_are_the_joint_frames_turns(convention):
         m = np.empty(9)
         mujoco.mju_quat2Mat(m, q)
         np.testing.assert_allclose(m.reshape(3, 3), R, rtol=0, atol=1e-15)
+
+
+@pytest.mark.parametrize("arm_name", ["arm-cmm", "ur10"])
+def test_a_reused_arm_twin_is_the_compiled_one(arm_name):
+    """A Monte-Carlo trial's twin (``ArmSim(..., reuse=True)``: the thread's last model of the
+    setup, the as-built arm written in place) against a twin compiled from scratch, for arms one
+    after another, rigid and sprung: every array kinematics, inverse dynamics and rendering read
+    (the massless link bodies' inertial frames aside), to 1e-15; the tool points and gravity
+    torques to 1e-12; nothing a previous twin's stepping moved is kept."""
+    from calibench.scenes.arm_cmm import load_arm
+    from calibench.sim.arm_cmm import ArmSim, ArmTruth
+
+    arm = load_arm(arm_name)
+    N = arm.n_joints
+    rng = np.random.default_rng(4)
+    for k in range(6):
+        delta = rng.normal(0, np.r_[np.tile([0.1, 0.1, 1e-3, 1e-3, 1e-3], N), 0.1, 0.1, 0.1])
+        truth = ArmTruth(delta=tuple(delta), stiffness_nm_per_rad=(1e5,) * N if k % 2 else ())
+        reused, compiled = ArmSim(arm, truth, reuse=True), ArmSim(arm, truth)
+        heavy = compiled.model.body_mass > 0
+        for name in ("body_pos", "body_quat", "body_mass", "body_inertia", "geom_pos", "geom_quat", "geom_size",
+                     "geom_rbound", "geom_aabb", "site_pos", "qpos_spring", "dof_M0", "jnt_stiffness"):
+            np.testing.assert_allclose(getattr(reused.model, name), getattr(compiled.model, name), rtol=0, atol=1e-15,
+                                       err_msg=f"arm {k}: {name}")
+        for name in ("body_ipos", "body_iquat"):
+            np.testing.assert_allclose(getattr(reused.model, name)[heavy], getattr(compiled.model, name)[heavy],
+                                       rtol=0, atol=1e-15, err_msg=f"arm {k}: {name}")
+        q = rng.uniform(-np.pi, np.pi, (20, N))
+        np.testing.assert_allclose(reused.probe_mm(q), compiled.probe_mm(q), rtol=0, atol=1e-12)
+        np.testing.assert_allclose(reused.gravity_torques(q), compiled.gravity_torques(q), rtol=0, atol=1e-12)
+        if k == 3:
+            reused.settle_by_stepping(q[0], seconds=0.01)  # moves qpos_spring: the next reuse must not keep it
+
+
+def test_a_link_that_becomes_a_point_is_not_written_in_place():
+    """A link whose length falls below 1 um is a sphere in the MJCF, not a capsule: the model
+    cannot take it in place, says so, and is left as it was."""
+    from calibench.scenes.arm_cmm import as_built_model, load_arm, write_as_built
+
+    arm = load_arm("arm-cmm")
+    model = as_built_model(arm, arm.nominal(), np.asarray(arm.tool_mm))
+    before = model.body_pos.copy()
+    values = arm.nominal()
+    values[2, :2] = 0.0  # joint 3's a and d: its link has no length
+    assert not write_as_built(model, arm, values, np.asarray(arm.tool_mm))
+    np.testing.assert_array_equal(model.body_pos, before)
