@@ -98,6 +98,9 @@ def _read_columns(path: str | Path, required: tuple, optional: tuple,
     if len(header) == 1 and ";" in header[0]:
         raise RecordingError(f"{path} is separated by semicolons (a spreadsheet's export with decimal commas?): "
                              "the format wants commas between values and points in numbers")
+    twice = sorted({h for h in header if h and header.count(h) > 1})
+    if twice:
+        raise RecordingError(f"{path}: column(s) {', '.join(twice)} named twice: which one is meant cannot be told")
     missing = [c for c in required if c not in header]
     if missing:
         raise RecordingError(f"{path}: missing column(s) {', '.join(missing)}")
@@ -192,6 +195,7 @@ class ArmRecording:
 
 
 ARM_REQUIRED = tuple(f"q{j}_deg" for j in range(1, 7)) + ("x_mm", "y_mm", "z_mm")
+MAX_STD_MM = 1000.0  # an instrument's 1-sigma of a metre is a wrong unit or a corrupt value, not a reading
 ARM_OPTIONAL = ("x_std_mm", "y_std_mm", "z_std_mm", "t_s", "temp_c")
 
 
@@ -208,6 +212,18 @@ def _joint_columns(path: Path) -> int:
     return n
 
 
+def _joint_gap(path: Path) -> str | None:
+    """The first q<j>_deg missing below the highest one the header names (a gap), or None."""
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as f:
+            header = [h.strip() for h in next(csv.reader(f), [])]
+    except (OSError, UnicodeDecodeError):
+        return None
+    named = [int(h[1:-4]) for h in header if h.startswith("q") and h.endswith("_deg") and h[1:-4].isdigit()]
+    gap = [j for j in range(1, max(named, default=0)) if j not in named]
+    return f"q{gap[0]}_deg" if gap else None
+
+
 def load_arm_csv(path: str | Path, n_joints: int | None = None, max_rows: int | None = None) -> ArmRecording:
     """Read an arm recording (CONTRACT, "Arms"): q1_deg..qN_deg, x_mm, y_mm, z_mm; optional
     x_std_mm, y_std_mm, z_std_mm, t_s, temp_c.
@@ -219,6 +235,9 @@ def load_arm_csv(path: str | Path, n_joints: int | None = None, max_rows: int | 
     path = Path(path)
     found = _joint_columns(path)
     n = n_joints if n_joints is not None else max(found, 1)
+    gap = _joint_gap(path)
+    if gap:
+        raise RecordingError(f"{path}: column {gap} is missing (the joint columns are q1_deg, q2_deg, ... without a gap)")
     if n_joints is not None and found and found != n_joints:
         raise RecordingError(f"{path}: {found} joint column(s) (q1_deg..q{found}_deg) but the arm has "
                              f"{n_joints} joints")
@@ -245,8 +264,17 @@ def load_arm_csv(path: str | Path, n_joints: int | None = None, max_rows: int | 
         raise RecordingError(f"{path}: {', '.join(present)} without the others: give all of x_std_mm, y_std_mm, z_std_mm")
     if present:
         std = np.stack([cols[c] for c in std_cols], axis=1)
-        if np.any(std < 0):
-            raise RecordingError(f"{path} line {int(np.argmax(np.any(std < 0, axis=1))) + 2}: a negative std")
+        if np.any(std <= 0):
+            raise RecordingError(f"{path} line {int(np.argmax(np.any(std <= 0, axis=1))) + 2}: a std of zero or below "
+                                 "(no instrument reads exactly: leave the std columns out to have the scatter estimated)")
+        if np.any(std > MAX_STD_MM):
+            raise RecordingError(f"{path} line {int(np.argmax(np.any(std > MAX_STD_MM, axis=1))) + 2}: a std of "
+                                 f"{std.max():.3g} mm (over {MAX_STD_MM:g} mm): a wrong unit or a corrupt value")
+    temp = cols.get("temp_c")
+    if temp is not None and np.any((temp < -100) | (temp > 200)):
+        i = int(np.argmax((temp < -100) | (temp > 200)))
+        raise RecordingError(f"{path} line {i + 2}: temp_c is {temp[i]:.3g}: not a machine's temperature in deg C "
+                             "(-100 to 200)")
     return ArmRecording(np.deg2rad(q_deg), xyz, cols.get("t_s"), cols.get("temp_c"), std)
 
 

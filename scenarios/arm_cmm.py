@@ -167,7 +167,11 @@ def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool
         q_true = candidates[idx]
         problem = tracker_problem(sim, chain, q_true, sim.encoders(q_true, rng), rng, config.stated)
         t0 = time.perf_counter()
-        ident = identify_identifiable(problem)
+        try:
+            ident = identify_identifiable(problem)
+        except np.linalg.LinAlgError:
+            raise BadInput(f"the arm {sim.arm.name} leaves the identification singular: its links give the tool "
+                           "point too little motion to determine its parameters (an arm without length?)") from None
         elapsed = time.perf_counter() - t0
         results[label] = (problem, ident, elapsed)
     problem, ident, ident_s = results["chosen"]

@@ -72,7 +72,19 @@ def calibrate(chain, q_rad: np.ndarray, xyz_mm: np.ndarray, recording: np.ndarra
               angle_terms=()) -> ArmCalibration:
     """Steps 2-4 of the module's recipe on stacked rows (q (n, N), xyz (n, 3), recording (n,)).
     ``prior``: the kinematic errors' prior in units of their typical size (None: none);
-    ``angle_terms``: joint-angle errors a discovery found (:func:`angle_terms_from_discovery`)."""
+    ``angle_terms``: joint-angle errors a discovery found (:func:`angle_terms_from_discovery`).
+    A singular system (an arm whose links have no length, postures that never move the tool
+    point) is bad input, said in one line."""
+    try:
+        return _calibrate(chain, q_rad, xyz_mm, recording, sigma_mm, model, parallel, robust, prior, angle_terms)
+    except np.linalg.LinAlgError:
+        raise BadInput("the postures and the arm leave the fit singular: the measured points cannot determine "
+                       "even the base frame and the tool (an arm without length? postures that never move the "
+                       "tool point?)") from None
+
+
+def _calibrate(chain, q_rad, xyz_mm, recording, sigma_mm, model, parallel, robust, prior, angle_terms) -> ArmCalibration:
+    """:func:`calibrate`, its singular systems not yet said."""
     joints, why = loaded_joints(chain, q_rad) if model == "physics" else ((), {})
     keep = np.ones(len(q_rad), bool)
     outliers = np.zeros(0, int)
@@ -118,6 +130,8 @@ def angle_terms_from_discovery(path, n_joints: int, n_recordings: int = 1) -> li
     to the joint's angle is set at each power-up)."""
     if isinstance(path, dict):
         d, path = path, "the discovery"
+    elif not str(path).strip():
+        raise BadInput("--effects is empty: give a discovery.json, or discover")
     else:
         try:
             d = json.loads(Path(path).read_text())
@@ -128,26 +142,50 @@ def angle_terms_from_discovery(path, n_joints: int, n_recordings: int = 1) -> li
     if not isinstance(d, dict) or d.get("scenario") != "arm-cmm" or not isinstance(d.get("effects"), list):
         raise BadInput(f"{path} is not the discovery.json of an arm-cmm recording")
     terms = []
-    for e in d["effects"]:
-        p = e.get("params", {}) if isinstance(e, dict) else {}
+    for k, e in enumerate(d["effects"]):
+        if not isinstance(e, dict) or not isinstance(e.get("params", {}), dict):
+            raise BadInput(f"{path}: effect {k + 1} is not an object with a name and its params")
+        name, p = e.get("name"), e.get("params", {})
+        if name not in ARM_EFFECTS:
+            raise BadInput(f"{path}: effect {name!r} is not an arm's (the arm's effects: {', '.join(ARM_EFFECTS)})")
+        if name not in ("transmission", "encoder_eccentricity", "nonsmooth"):
+            continue  # the model's own (geometry, compliance) or none the fit has a term for
         j = p.get("joint")
-        if e.get("name") not in ("transmission", "encoder_eccentricity", "nonsmooth"):
-            continue
-        if not isinstance(j, int) or not 1 <= j <= n_joints:
-            raise BadInput(f"{path}: effect {e.get('name')} names joint {j!r}; the arm has {n_joints} joints")
-        if e["name"] == "transmission":
+        if isinstance(j, bool) or not isinstance(j, int) or not 1 <= j <= n_joints:
+            raise BadInput(f"{path}: effect {name} names joint {j!r}; the arm has {n_joints} joints")
+        if name == "transmission":
             if not isinstance(p.get("per_recording", False), bool):
                 raise BadInput(f"{path}: per_recording of joint {j}'s transmission is true or false, "
                                f"not {p['per_recording']!r}")
             recs = range(n_recordings) if p.get("per_recording") else [None]
-            terms += [AngleTerm(j, "harmonic", harmonic=float(h), label="transmission", recording=r)
-                      for h in p.get("harmonics", []) for r in recs]
-        elif e["name"] == "encoder_eccentricity":
+            harmonics = _numbers(p.get("harmonics", []), f"{path}: joint {j}'s transmission harmonics", 0.0, 1e3)
+            terms += [AngleTerm(j, "harmonic", harmonic=h, label="transmission", recording=r)
+                      for h in harmonics for r in recs]
+        elif name == "encoder_eccentricity":
             terms.append(AngleTerm(j, "harmonic", harmonic=1.0, label="eccentricity"))
         elif "edges_deg" in p:
-            edges = np.r_[-np.inf, np.radians(np.asarray(p["edges_deg"], float)), np.inf]
-            terms.append(AngleTerm(j, "table", edges_rad=tuple(edges), label="table"))
+            edges_deg = _numbers(p["edges_deg"], f"{path}: joint {j}'s edges_deg", -3600.0, 3600.0)
+            if np.any(np.diff(edges_deg) <= 0):
+                raise BadInput(f"{path}: joint {j}'s edges_deg must increase")
+            terms.append(AngleTerm(j, "table", edges_rad=tuple(np.r_[-np.inf, np.radians(edges_deg), np.inf]),
+                                   label="table"))
     return terms
+
+
+# the effects a discover arm-cmm names (CONTRACT's effect names for an arm)
+ARM_EFFECTS = ("geometry", "joint_compliance", "encoder_eccentricity", "thermal_expansion", "transmission",
+               "nonsmooth")
+
+
+def _numbers(values, what: str, lo: float, hi: float) -> list[float]:
+    """A JSON list of plain numbers in (lo, hi], or one BadInput line saying what it holds."""
+    if not isinstance(values, list) or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                                               for v in values):
+        raise BadInput(f"{what}: a list of numbers, not {values!r}")
+    out = [float(v) for v in values]
+    if not all(lo < v <= hi for v in out):
+        raise BadInput(f"{what}: each between {lo:g} and {hi:g}, not {values!r}")
+    return out
 
 
 def _unit_and_factor(name: str) -> tuple[str, float]:
@@ -253,6 +291,8 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
     """The ``fit arm-cmm`` command: fit.json's content (also written to ``out_dir``). ``effects``:
     a discovery.json whose joint-angle effects join the model, or ``"discover"``: run the
     discovery here, on the training rows only (held-out rows never shape the model)."""
+    if arm_spec is not None and not str(arm_spec).strip():
+        raise BadInput("--arm is empty: give an ARM.toml or a built-in arm's name (arm-cmm, ur10)")
     arm = load_arm(arm_spec or "arm-cmm")
     run_discovery = str(effects) == "discover"
     terms = (angle_terms_from_discovery(effects, arm.n_joints, len(paths))
@@ -269,6 +309,7 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
     chain = chain_of(arm)
     N = arm.n_joints
     train = [_load(p, N) for p in paths]
+    judged = {p: _load(p, N) for p in tests + tests_new_frame}  # read now: a bad one is said before the fit
     rng = np.random.default_rng(SPLIT_SEED)
     flagged, pending, held, used = {}, {}, {}, []
     for p, rec in zip(paths, train):
@@ -278,6 +319,8 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
             idx = rng.permutation(len(rec))
             out = np.zeros(len(rec), bool)
             out[idx[:int(round(holdout * len(rec)))]] = True
+            if not (out & keep).any():
+                raise BadInput(f"--holdout {holdout:g} holds out no usable row of {p} ({len(rec)} rows)")
             held[p.name] = out & keep
             keep &= ~out
         used.append(keep)
@@ -375,8 +418,9 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
     if tests or tests_new_frame:
         result["test"] = {}
     for p in tests:
-        rec = _load(p, N)
+        rec = judged[p]
         keep, fl, pairs, rep = _screened(rec)
+        _enough_to_judge(p, keep)
         _settle_pairs(keep, fl, pairs, prob.model(s, rec.q_rad, frame=0), rec.xyz_mm, rep)
         e = prob.model(s, rec.q_rad[keep], frame=0) - rec.xyz_mm[keep]
         result["test"][p.name] = {**_errors(e), "frame": f"{paths[0].name}'s"}
@@ -385,14 +429,19 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
         figures[p.name] = np.linalg.norm(e, axis=1)
         tested[p.name] = rec.q_rad
     for p in tests_new_frame:
-        rec = _load(p, N)
+        rec = judged[p]
         keep, fl, pairs, rep = _screened(rec)
+        _enough_to_judge(p, keep)
         base_pts = prob.base_points(s, rec.q_rad)
         order = np.random.default_rng(SPLIT_SEED).permutation(np.flatnonzero(keep))
         k_reg = max(int(round(REGISTER_FRACTION * len(order))), 3)
         reg_rows, eval_rows = order[:k_reg], np.sort(order[k_reg:])
         if len(eval_rows) == 0:
             raise BadInput(f"{p}: {len(order)} usable rows; a new frame needs rows to register on and rows to judge")
+        sv = np.linalg.svd(rec.xyz_mm[reg_rows] - rec.xyz_mm[reg_rows].mean(axis=0), compute_uv=False)
+        if sv[1] < max(1e-3 * sv[0], 1.0):
+            raise BadInput(f"{p}: the {len(reg_rows)} rows a new frame is registered on measure points on one line "
+                           "(or one point): they cannot fix the frame's rotation")
         R, t = rigid_transform(base_pts[reg_rows], rec.xyz_mm[reg_rows])
         model_xyz = base_pts @ R.T + t
         ev = np.zeros(len(rec), bool)
@@ -409,6 +458,10 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
     result["flagged"] = {k: v for k, v in flagged.items() if v}
     comp_joints = [int(n[len("compliance"):]) for n in prob.names if n.startswith("compliance")]
     result["coverage"] = {"warnings": coverage_warnings(chain, q, tested, comp_joints)}
+    if result["fit"]["rms_mm"] > PLAUSIBLE_RMS_MM:
+        result["coverage"]["warnings"].insert(0, (
+            f"the fit leaves {result['fit']['rms_mm']:.3g} mm RMS, far beyond any arm's or instrument's error: is "
+            f"the arm description right (--arm; this fit used {arm.name}) and are the columns in degrees and mm?"))
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "fit.json").write_text(json.dumps(result, indent=2) + "\n")
     _write_residuals(out_dir / "residuals.csv", residuals, e_fit)
@@ -429,6 +482,16 @@ def _write_residuals(path: Path, parts: list, e_train: np.ndarray) -> None:
             e, at = e_train[at:at + len(rows)], at + len(rows)
         lines += [f"{name},{r},{role},{x:.6f},{y:.6f},{z:.6f}" for r, (x, y, z) in zip(rows, e)]
     path.write_text("\n".join(lines) + "\n")
+
+
+PLAUSIBLE_RMS_MM = 10.0  # a calibrated arm's fit beyond this is a wrong description or wrong columns
+
+
+def _enough_to_judge(path: Path, keep: np.ndarray) -> None:
+    """A test recording needs rows left to judge the fit on once its stale readings are out."""
+    if keep.sum() < 3:
+        raise BadInput(f"{path}: {keep.sum()} usable rows of {len(keep)} once the stale readings (a measurement "
+                       "repeated while the arm moved) are left out: too few to judge the fit on")
 
 
 def check_postures(q: np.ndarray, n_recordings: int) -> None:

@@ -361,6 +361,9 @@ def _montecarlo(args) -> int:
     if checks_table(s):
         print("\n" + checks_table(s))
     print(f"-> {out / 'summary.json'}")
+    if s["failed"]:
+        print(f"calibench: {s['failed']} of {s['trials']} trials failed, e.g. {s['errors'][0]} (every error and its "
+              f"trials: {out / 'trials.parquet'})", file=sys.stderr)
     return EXIT_OK if s["failed"] == 0 else EXIT_CHECK_FAILED
 
 

@@ -575,6 +575,8 @@ def run_discover(scenario: str, csv_path, out_dir: Path, seed: int = 0, holdout:
             from calibench.scenarios.twin import arm_truth
             from calibench.scenes.arm_cmm import load_arm
 
+            if arm is not None and not str(arm).strip():
+                raise BadInput("--arm is empty: give an ARM.toml or a built-in arm's name (arm-cmm, ur10)")
             description = load_arm(arm or "arm-cmm")
             recs = [load_arm_csv(p, description.n_joints, MAX_ROWS) for p in paths]
             out, fig = discover_arm(recs if len(recs) > 1 else recs[0], seed, arm=description,

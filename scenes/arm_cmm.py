@@ -23,6 +23,7 @@ import math
 import threading
 import tomllib
 from pathlib import Path
+from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
@@ -112,6 +113,8 @@ def load_arm(spec: str | Path) -> ArmDescription:
         raise ArmFileError(f"cannot read arm {path}: {e.strerror}") from None
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
         raise ArmFileError(f"arm {path} is not valid TOML: {e}") from None
+    if not table:
+        raise ArmFileError(f"arm {path} is empty: it describes no arm (see CONTRACT.md, \"Arms\")")
     _LOADED[key] = arm = arm_from_table(table, str(path))
     return arm
 
@@ -129,7 +132,7 @@ def _number(table: dict, key: str, where: str, default=None, lo=-math.inf, hi=ma
     return float(v)
 
 
-def _vector(table: dict, key: str, where: str, n: int, default=None) -> tuple:
+def _vector(table: dict, key: str, where: str, n: int, default=None, bound: float = math.inf) -> tuple:
     if key not in table:
         if default is None:
             raise ArmFileError(f"{where}: missing field {key}")
@@ -138,6 +141,8 @@ def _vector(table: dict, key: str, where: str, n: int, default=None) -> tuple:
     if (not isinstance(v, list) or len(v) != n
             or not all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in v)):
         raise ArmFileError(f"{where}: {key} must be a list of {n} finite numbers, not {v!r}")
+    if any(abs(x) > bound for x in v):
+        raise ArmFileError(f"{where}: {key} = {v} is out of range (each within +-{bound:g})")
     return tuple(float(x) for x in v)
 
 
@@ -178,7 +183,7 @@ def arm_from_table(t: dict, where: str = "arm") -> ArmDescription:
             raise ArmFileError(f"{w}: mass_kg and com_mm go together (the gravity model needs both)")
         if has_m:
             mass.append(_number(j, "mass_kg", w, lo=0.0, hi=1e4))
-            com.append(_vector(j, "com_mm", w, 3))
+            com.append(_vector(j, "com_mm", w, 3, bound=1e5))
     if mass and len(mass) != len(joints):
         raise ArmFileError(f"{where}: mass_kg and com_mm on {len(mass)} of {len(joints)} joints: give them for "
                            "every joint or none")
@@ -188,12 +193,16 @@ def arm_from_table(t: dict, where: str = "arm") -> ArmDescription:
     extra = set(tool) - {"offset_mm", "mass_kg"}
     if extra:
         raise ArmFileError(f"{where}: [tool]: unknown field(s) {', '.join(sorted(extra))} (known: mass_kg, offset_mm)")
+    tool_mm = _vector(tool, "offset_mm", f"{where}: [tool]", 3, default=(0.0, 0.0, 0.0), bound=1e5)
+    if sum(abs(x) for x in a + d) + np.linalg.norm(tool_mm) < 1.0:
+        raise ArmFileError(f"{where}: every a_mm, d_mm and the tool's offset_mm are zero: the arm has no length, "
+                           "its tool point never moves")
     g = _vector(t, "gravity_m_s2", where, 3, default=(0.0, 0.0, -9.81))
     if mass and not 1.0 < np.linalg.norm(g) < 100.0:
         raise ArmFileError(f"{where}: gravity_m_s2 has magnitude {np.linalg.norm(g):.3g}: expected about 9.81")
     return ArmDescription(
         name=name, convention=conv, a_mm=tuple(a), d_mm=tuple(d), alpha_rad=tuple(al), theta_rad=tuple(th),
-        range_rad=tuple(rng), tool_mm=_vector(tool, "offset_mm", f"{where}: [tool]", 3, default=(0.0, 0.0, 0.0)),
+        range_rad=tuple(rng), tool_mm=tool_mm,
         mass_kg=tuple(mass) if mass else None, com_mm=tuple(com) if com else None,
         tool_mass_kg=_number(tool, "mass_kg", f"{where}: [tool]", default=0.0, lo=0.0, hi=1e4),
         gravity_m_s2=g, source=where)
@@ -335,7 +344,7 @@ def build_mjcf(arm: ArmDescription, values: np.ndarray | None = None, tool_mm=No
     <geom name="length_bar" type="capsule" fromto="{ca[0]} {ca[1]} {ca[2] - 0.02} {cb[0]} {cb[1]} {cb[2] - 0.02}" size="0.008" rgba="0.3 0.3 0.35 1"/>"""
     reach = max(arm.reach_mm / 1000, 0.5)
     return f"""
-<mujoco model="{arm.name}">
+<mujoco model={quoteattr(arm.name)}>
   <compiler angle="radian" autolimits="true"/>
   <option gravity="{g[0]:.17g} {g[1]:.17g} {g[2]:.17g}" timestep="0.0005">
     <flag contact="disable"/>

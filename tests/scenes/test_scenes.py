@@ -142,3 +142,17 @@ def test_a_link_that_becomes_a_point_is_not_written_in_place():
     values[2, :2] = 0.0  # joint 3's a and d: its link has no length
     assert not write_as_built(model, arm, values, np.asarray(arm.tool_mm))
     np.testing.assert_array_equal(model.body_pos, before)
+
+
+def test_an_arm_s_name_is_text_in_its_mjcf():
+    """Quotes, angle brackets and ampersands in an arm's name stay its name: the MJCF compiles and
+    MuJoCo reads the name back (it used to end the attribute and break the XML)."""
+    import dataclasses
+
+    import mujoco
+
+    from calibench.scenes.arm_cmm import build_mjcf, load_arm
+
+    arm = dataclasses.replace(load_arm("ur10"), name='UR10" evil="<x>&')
+    model = mujoco.MjModel.from_xml_string(build_mjcf(arm))
+    assert model.names.split(b"\0")[0] == b'UR10" evil="<x>&'  # the model's name comes first
