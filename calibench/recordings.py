@@ -107,6 +107,12 @@ def _read_columns(path: str | Path, required: tuple, optional: tuple,
     body = [r for r in rows[1:] if any(cell.strip() for cell in r)]
     if not body:
         raise RecordingError(f"{path}: no data rows")
+    # a value beyond the header's last column shifts every value after it (a decimal comma, a
+    # stray separator): the columns can no longer be trusted (trailing empty cells are harmless)
+    for i, r in enumerate(rows[1:]):
+        if len(r) > len(header) and any(cell.strip() for cell in r[len(header):]):
+            raise RecordingError(f"{path} line {i + 2}: {len(r)} values, the header names {len(header)} columns "
+                                 "(a decimal comma, or a separator too many?)")
     if max_rows is not None and len(body) > max_rows:
         raise RecordingError(f"{path}: {len(body)} rows; this command takes at most {max_rows}: decimate the "
                              "recording or split it")

@@ -742,6 +742,8 @@ def identify(problem, basis: Basis, state=None, max_iter: int = 50, xtol: float 
     dof = max(len(r) - len(k), 1)
     s2 = cost / dof
     cov = np.linalg.inv(J.T @ J) * s2
+    if not np.all(np.diag(cov) >= 0):  # (NaN too) an inverse with a negative variance: singular to working precision
+        raise np.linalg.LinAlgError("the kept parameters' normal matrix is singular to working precision")
     names = problem.names
     values = problem.values(s)
     return Identification(state=s, estimate={names[j]: float(values[j]) for j in k},

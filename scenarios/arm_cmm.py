@@ -135,6 +135,15 @@ def _is_angle(name: str) -> bool:
     return name.startswith(("dalpha", "dtheta", "dbeta", "tracker_r"))
 
 
+def check_cones(config: ArmCmmConfig) -> None:
+    """Each cone is within the arm's reach (one seating found by the simulator's inverse
+    kinematics, on a generator of its own: a run's draws stay the same), else one BadInput line,
+    said before any work."""
+    sim = ArmSim(config.arm, config.truth)
+    for cone in (config.truth.cone_a_mm, config.truth.cone_b_mm):
+        sim.postures_in_cone(np.asarray(cone, float), 1, np.random.default_rng(0))
+
+
 def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool) -> Report:
     """Simulate the arm CMM (any serial arm of an ARM.toml) measured by a laser tracker, cones and a
     length bar; calibrate it from what its sensors recorded; compare with the truth.
@@ -302,7 +311,10 @@ def trial_parameters(config: ArmCmmConfig, seed: int) -> list[Parameter]:
     true_noise = noisy.reweighted(sim.tracker_sigma(noisy.meas), sim.truth.encoder_noise_urad * 1e-6)
     R_bt, t_bt = sim.base2tracker()
     J = true_noise.jacobian(TrackerState(sim.delta, R_bt, t_bt))[:, ident.basis.kept]
-    crlb = np.sqrt(np.diag(np.linalg.inv(J.T @ J)))
+    crlb2 = np.diag(np.linalg.inv(J.T @ J))
+    if not np.all(crlb2 >= 0):
+        raise np.linalg.LinAlgError("the bound's normal matrix is singular to working precision")
+    crlb = np.sqrt(crlb2)
     names = noisy.names
     bound = {names[j]: crlb[i] for i, j in enumerate(ident.basis.kept)}
     reference = reference_values(sim.arm, sim.delta, list(ident.estimate), ident.basis.partners)

@@ -258,7 +258,10 @@ def _run(args) -> int:
     if "arm-cmm" in configs:
         from calibench.scenes.arm_cmm import load_arm
 
+        from calibench.scenarios.arm_cmm import check_cones
+
         load_arm(configs["arm-cmm"].arm)  # a bad arm is said before anything runs
+        check_cones(configs["arm-cmm"])  # and cones it cannot reach
     status = EXIT_OK
     for s in scenarios:
         if args.out is None:

@@ -21,6 +21,7 @@ from calibench.scenarios.report import BadInput
 
 STAGE_DEGREE = {"belt-stage": 2, "vision-stage": 3}
 SUPPORTED = ("belt-stage", "vision-stage", "arm-cmm", "probe-scanner", "stewart")
+STAGES = ("belt-stage", "vision-stage")  # the scenarios whose folds --holdout chooses
 # Rows per recording: the candidates' design matrices grow with it (a 1e6-row stage recording
 # would need tens of GB); refused before any work, with the advice to decimate.
 MAX_ROWS = 100_000
@@ -44,12 +45,23 @@ def poly_base(x: np.ndarray, y: np.ndarray, degree: int, span: tuple[float, floa
 
 def folds_for(rec_run, x, y, holdout: str | None) -> tuple[np.ndarray, str]:
     """Fold label per sample: whole passes when there are several, else whole rows (or columns)
-    of a grid, else five contiguous blocks in time."""
-    if holdout in (None, "pass") and rec_run is not None and len(np.unique(rec_run)) >= 2:
+    of a grid, else five contiguous blocks in time. A scheme asked for by name that the
+    recording cannot give (one pass, no grid) is bad input, not quietly another scheme."""
+    passes = rec_run is not None and len(np.unique(rec_run)) >= 2
+    rows, cols = len(np.unique(y)) <= len(y) / 4, len(np.unique(x)) <= len(x) / 4
+    if holdout == "pass" and not passes:
+        raise BadInput("--holdout pass: the recording has one pass (its run column); hold out rows, columns or blocks")
+    if holdout == "rows" and not rows:
+        raise BadInput(f"--holdout rows: the recording's y values are not rows of a grid ({len(np.unique(y))} "
+                       f"distinct in {len(y)} samples); hold out blocks")
+    if holdout == "columns" and not cols:
+        raise BadInput(f"--holdout columns: the recording's x values are not columns of a grid "
+                       f"({len(np.unique(x))} distinct in {len(x)} samples); hold out blocks")
+    if holdout in (None, "pass") and passes:
         return np.unique(rec_run, return_inverse=True)[1], "leave one pass out"
-    if holdout in (None, "rows") and len(np.unique(y)) <= len(y) / 4:
+    if holdout in (None, "rows") and rows:
         return np.unique(y, return_inverse=True)[1], "leave one row (y) out"
-    if holdout == "columns" and len(np.unique(x)) <= len(x) / 4:
+    if holdout == "columns":
         return np.unique(x, return_inverse=True)[1], "leave one column (x) out"
     return np.minimum(np.arange(len(x)) * 5 // len(x), 4), "five contiguous blocks"
 
@@ -547,6 +559,9 @@ def run_discover(scenario: str, csv_path, out_dir: Path, seed: int = 0, holdout:
 
     if scenario not in SUPPORTED:
         raise BadInput(f"discover supports {', '.join(SUPPORTED)}, not {scenario!r}")
+    if holdout is not None and scenario not in STAGES:
+        raise BadInput(f"--holdout {holdout}: for the stages ({', '.join(STAGES)}); discover {scenario} holds out "
+                       "its own folds (an arm's and a platform's contiguous blocks, a scanner's turns)")
 
     def once(config):
         """discovery.json's content and the figure's data, the recording replayed by the twin of

@@ -181,15 +181,21 @@ def make_executor(workers: int | None, scheduler: str | None):
                                 initializer=_ignore_interrupts)
 
     def close(interrupted: bool = False) -> None:
-        if interrupted:  # a worker mid-chunk would hold the exit for its whole chunk: its trials are not kept anyway
-            procs = list((getattr(ex, "_processes", None) or {}).values())
-            for proc in procs:
-                proc.terminate()
-            for proc in procs:  # a worker that ignores SIGTERM (stuck in C) must not hold the exit
-                proc.join(5)
-                if proc.is_alive():
-                    proc.kill()
-        ex.shutdown(wait=False, cancel_futures=True)
+        if not interrupted:
+            ex.shutdown(wait=False, cancel_futures=True)
+            return
+        # a worker mid-chunk would hold the exit for its whole chunk: its trials are not kept anyway
+        procs = list((getattr(ex, "_processes", None) or {}).values())
+        for proc in procs:
+            proc.terminate()
+        for proc in procs:  # a worker that ignores SIGTERM (stuck in C) must not hold the exit
+            proc.join(5)
+            if proc.is_alive():
+                proc.kill()
+        # the workers are gone, so waiting is short; not waiting leaves the pool's manager thread
+        # closing its wake-up pipe while the interpreter's exit writes to it (Python 3.11's
+        # concurrent.futures race): a traceback after the one line, about 1 Ctrl-C in 20
+        ex.shutdown(wait=True, cancel_futures=True)
 
     return ex, close
 
@@ -237,6 +243,15 @@ def run_study(scenario: str, trials: int, seed: int, fidelity: str, out_dir: Pat
             close(failed)
     rows = [done[i] for i in sorted(done) if i < trials]
     summary = summarise(scenario, rows, time.perf_counter() - t0)
+    if rows and all(not r["ok"] and r["error"].startswith("LinAlgError") for r in rows):
+        raise BadInput(f"every trial's estimate is singular: the {scenario} set-up cannot determine its parameters"
+                       + (" (is the arm degenerate: planar, or without length?)" if arm else "")
+                       + f"; e.g. {rows[0]['error']}")
+    if not summary["parameters"] and any(r["ok"] for r in rows):
+        # an empty table is no result: the set-up leaves nothing to estimate (an arm of one joint,
+        # whose every error the tracker's frame and the tool absorb); the journal stays
+        raise BadInput(f"no trial estimated a parameter it could compare with the truth: the {scenario} set-up "
+                       "leaves nothing identifiable beside its frames" + (" (is the arm degenerate?)" if arm else ""))
     summary["resumed"] = len(rows) - sum(1 for i in todo if i in done)
     write_outputs(out_dir, rows, summary)
     return summary

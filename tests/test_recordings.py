@@ -25,11 +25,20 @@ def test_csv_round_trip_keeps_optional_columns(tmp_path):
     ("x_cmd_mm,y_cmd_mm,x_meas_mm,y_meas_mm\n1,2,3,abc\n", "not a number"),
     ("x_cmd_mm,y_cmd_mm,x_meas_mm,y_meas_mm\n1,2,3\n", "not a number"),
     ("x_cmd_mm,y_cmd_mm,x_meas_mm,y_meas_mm\n1,2,3,inf\n", "not finite"),
+    # a decimal comma in one cell: every value after it would move one column along
+    ("x_cmd_mm,y_cmd_mm,x_meas_mm,y_meas_mm\n1,2,3,4\n1,2,3,4,5\n", "line 3: 5 values, the header names 4"),
 ])
 def test_defects_are_named(tmp_path, text, message):
     (tmp_path / "r.csv").write_text(text)
     with pytest.raises(RecordingError, match=message):
         load_stage_csv(tmp_path / "r.csv")
+
+
+def test_trailing_empty_cells_are_harmless(tmp_path):
+    """A spreadsheet's export may end rows with a separator: no value moves, so it is read."""
+    (tmp_path / "r.csv").write_text("x_cmd_mm,y_cmd_mm,x_meas_mm,y_meas_mm\n1,2,3,4,\n5,6,7,8, ,\n")
+    rec = load_stage_csv(tmp_path / "r.csv")
+    np.testing.assert_array_equal(rec.y_meas_mm, [4.0, 8.0])
 
 
 def test_the_shipped_sample_is_the_papers_two_tables_joined(shared_data):
