@@ -230,13 +230,16 @@ def _joint_gap(path: Path) -> str | None:
     return f"q{gap[0]}_deg" if gap else None
 
 
-def load_arm_csv(path: str | Path, n_joints: int | None = None, max_rows: int | None = None) -> ArmRecording:
+def load_arm_csv(path: str | Path, n_joints: int | None = None, max_rows: int | None = None,
+                 range_deg: np.ndarray | None = None) -> ArmRecording:
     """Read an arm recording (CONTRACT, "Arms"): q1_deg..qN_deg, x_mm, y_mm, z_mm; optional
     x_std_mm, y_std_mm, z_std_mm, t_s, temp_c.
 
     ``n_joints``: the arm's joint count; a recording with another count is refused. Angles that
     are evidently radians (every |q| below 2 pi over a spread of postures) and positions that are
-    evidently metres are refused too: the format says degrees and millimetres.
+    evidently metres are refused too: the format says degrees and millimetres. ``range_deg``
+    (n_joints, 2): the arm's joint ranges; an arm whose every joint stays within 2 pi degrees
+    cannot tell its degrees from radians, so its readings are taken as the format says.
     """
     path = Path(path)
     found = _joint_columns(path)
@@ -251,7 +254,8 @@ def load_arm_csv(path: str | Path, n_joints: int | None = None, max_rows: int | 
     cols = _read_columns(path, q_cols + ("x_mm", "y_mm", "z_mm"), ARM_OPTIONAL, max_rows)
     q_deg = np.stack([cols[c] for c in q_cols], axis=1)
     xyz = np.stack([cols["x_mm"], cols["y_mm"], cols["z_mm"]], axis=1)
-    if len(q_deg) >= 10 and np.ptp(q_deg, axis=0).max() > 0.5 and np.abs(q_deg).max() <= 2 * np.pi:
+    tiny_arm = range_deg is not None and np.abs(np.asarray(range_deg, float)).max() <= 2 * np.pi
+    if len(q_deg) >= 10 and np.ptp(q_deg, axis=0).max() > 0.5 and np.abs(q_deg).max() <= 2 * np.pi and not tiny_arm:
         raise RecordingError(f"{path}: every joint angle lies within +-{np.abs(q_deg).max():.2f}: these look like "
                              "radians, the format wants degrees (q<j>_deg)")
     if np.abs(q_deg).max() > 3600:

@@ -551,9 +551,12 @@ def _terms_words(terms: list[str]) -> str:
     """fit.json's effect terms (``angle_transmission2``, ``angle_table2``...) in words, as
     :func:`_effects_words` says a discovery's."""
     kinds = {"transmission": "transmission", "table": "nonsmooth", "eccentricity": "encoder_eccentricity"}
-    matches = (re.fullmatch(r"angle_([a-z]+)(\d+)", t) for t in terms)
-    found = sorted({(m.group(1), int(m.group(2))) for m in matches if m})
-    return _effects_words({"effects": [{"name": kinds[k], "params": {"joint": j}} for k, j in found if k in kinds]})
+    matches = [m for m in (re.fullmatch(r"angle_([a-z]+)(\d+)(_rec\d+)?", t) for t in terms) if m]
+    found = sorted({(m.group(1), int(m.group(2))) for m in matches})
+    words = _effects_words({"effects": [{"name": kinds[k], "params": {"joint": j}} for k, j in found if k in kinds]})
+    per = sorted({int(m.group(2)) for m in matches if m.group(3)})
+    return words + (f" (a phase per session on joint{'s' if len(per) > 1 else ''} {', '.join(map(str, per))})"
+                    if per else "")
 
 
 @block(seconds=350, ci=True)

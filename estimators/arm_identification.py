@@ -170,6 +170,34 @@ class PointProblem:
         self.frame_names = tuple(f"base_{f}{s}" for s in suffix for f in frame)
         self.R_ref: np.ndarray | None = None
         self.prior = prior
+        # tool components held at the drawing's value: ones the base frames already move the data
+        # as (an arm whose axes are all parallel: the tool's and the base's height), see held_tool
+        self.held: tuple[int, ...] = ()
+
+    def held_tool(self, state=None, rel_tol: float = 1e-6) -> dict[str, str]:
+        """Hold each tool component the base frames (and the other tool components) already move
+        the data as: every axis parallel to one direction leaves the tool's offset along it and
+        the base's indistinguishable. Sets :attr:`held` (left out of :attr:`always`); returns
+        {name: why}."""
+        self.held = ()
+        s = self.start() if state is None else state
+        names = self.names
+        Js = self.jacobian(s) * parameter_scales(names)
+        frames = np.arange(len(names) - len(self.frame_names), len(names))
+        kept, why = list(frames), {}
+        top = np.linalg.norm(Js[:, frames], axis=0).max()
+        for k in range(self.nk - 3, self.nk):
+            Q = np.linalg.qr(Js[:, kept])[0]
+            rest = Js[:, k] - Q @ (Q.T @ Js[:, k])
+            if np.linalg.norm(rest) > rel_tol * top:
+                kept.append(k)
+                continue
+            coef = np.linalg.lstsq(Js[:, kept], Js[:, k], rcond=None)[0]
+            big = [(names[kept[i]], coef[i]) for i in np.argsort(-np.abs(coef))[:2] if abs(coef[i]) > 0.05]
+            why[names[k]] = ("moves the data as " + " + ".join(f"{n} ({c:+.2f})" for n, c in big)
+                             + ": held at the drawing's value")
+        self.held = tuple(int(names.index(n)) for n in why)
+        return why
 
     def _term_functions(self, q_rad: np.ndarray, rec: np.ndarray | None) -> list[np.ndarray]:
         """Each angle term's functions (n, k) at postures ``q_rad`` (n, N) of recordings ``rec``
@@ -191,9 +219,10 @@ class PointProblem:
 
     @property
     def always(self) -> np.ndarray:
-        """Columns always estimated: the base frames and the tool point."""
+        """Columns always estimated: the base frames and the tool point (but its :attr:`held` components)."""
         nf = len(self.frame_names)
-        return np.r_[np.arange(self.nk - 3, self.nk), np.arange(len(self.names) - nf, len(self.names))]
+        tool = [k for k in range(self.nk - 3, self.nk) if k not in self.held]
+        return np.r_[np.array(tool, int), np.arange(len(self.names) - nf, len(self.names))]
 
     @property
     def groups(self) -> list[np.ndarray]:

@@ -332,23 +332,49 @@ class Transmission(JointEffect):
     name: str = "transmission"
     harmonic: float = 2.0
     harmonic_std: float = 0.0
+    # its own amplitude and phase in each recording (``rec`` (n,) among the drivers): a motor-side
+    # error, whose phase to the joint's angle is set anew at each power-up
+    per_recording: bool = False
 
     def __post_init__(self):
-        object.__setattr__(self, "needs", ("Jq", "q"))
+        object.__setattr__(self, "needs", ("Jq", "q", "rec") if self.per_recording else ("Jq", "q"))
+
+    @property
+    def key(self) -> str:
+        """One shared and one per-recording transmission per joint."""
+        return f"{self.name}:joint{self.joint}" + (":per_recording" if self.per_recording else "")
 
     def columns(self, d):
         q = np.asarray(d["q"], float)[:, self.joint - 1]
         Jt = _joint_column(d, self.joint)
         h = self.harmonic * q
-        return -np.stack([(Jt * np.sin(h)[:, None]).ravel(), (Jt * np.cos(h)[:, None]).ravel()], axis=1)
+        cols = -np.stack([(Jt * np.sin(h)[:, None]).ravel(), (Jt * np.cos(h)[:, None]).ravel()], axis=1)
+        if not self.per_recording:
+            return cols
+        rec = np.repeat(np.asarray(d["rec"], int), Jt.shape[1])
+        return np.concatenate([cols * (rec == r)[:, None] for r in range(int(rec.max()) + 1)], axis=1)
 
     def describe(self, coef, cov):
-        amp, amp_std, phase = _amplitude(*coef, cov)
-        return ({"joint": self.joint, "harmonics": [self.harmonic], "amplitude_urad": [amp * 1e6],
-                 "phase_rad": [phase]},
-                {"amplitude_urad": [amp_std * 1e6], "harmonics": [self.harmonic_std]},
-                f"joint {self.joint}'s angle is {amp * 1e6:.0f} urad off {self.harmonic:.2f} times per turn: a "
-                f"harmonic of its gear train or encoder")
+        parts = [_amplitude(*coef[k:k + 2], cov[k:k + 2, k:k + 2]) for k in range(0, len(coef), 2)]
+        amp, amp_std, phase = parts[0]
+        params = {"joint": self.joint, "harmonics": [self.harmonic], "amplitude_urad": [amp * 1e6],
+                  "phase_rad": [phase]}
+        stds = {"amplitude_urad": [amp_std * 1e6], "harmonics": [self.harmonic_std]}
+        words = (f"joint {self.joint}'s angle is {amp * 1e6:.0f} urad off {self.harmonic:.2f} times per turn: a "
+                 f"harmonic of its gear train or encoder")
+        if self.per_recording:
+            # amplitude_urad stays one per harmonic (the contract's): the recordings' RMS amplitude
+            amps, amp_stds = [a * 1e6 for a, _, _ in parts], [a_std * 1e6 for _, a_std, _ in parts]
+            del params["phase_rad"]  # no phase the recordings share
+            params.update(per_recording=True, amplitude_urad=[float(np.sqrt(np.mean(np.square(amps))))],
+                          amplitude_urad_by_recording=amps, phase_rad_by_recording=[ph for _, _, ph in parts])
+            # first order, amplitudes of about one size: the RMS of R independent ones
+            stds.update(amplitude_urad=[float(np.sqrt(np.mean(np.square(amp_stds)) / len(amps)))],
+                        amplitude_urad_by_recording=amp_stds)
+            words = (f"joint {self.joint}'s angle is {min(amps):.0f}-{max(amps):.0f} urad off {self.harmonic:.2f} "
+                     f"times per turn with a phase of its own in each recording: a harmonic of the motor's side of "
+                     f"its gear train, whose phase is set at power-up")
+        return params, stds, words
 
 
 @dataclasses.dataclass(frozen=True)
@@ -360,24 +386,35 @@ class TransmissionSearch:
     harmonics: np.ndarray
     axis: str = "xyz"
     name: str = "transmission"
+    per_recording: bool = False  # one harmonic, its amplitude and phase per recording (:class:`Transmission`)
 
     @property
     def key(self) -> str:
-        """The search's name and joint: one search per joint."""
-        return f"{self.name}:joint{self.joint}"
+        """The search's name and joint: one shared and one per-recording search per joint."""
+        return f"{self.name}:joint{self.joint}" + (":per_recording" if self.per_recording else "")
+
+    def applies(self, drivers) -> bool:
+        """A per-recording search needs several recordings."""
+        rec = drivers.get("rec")
+        return not self.per_recording or (rec is not None and len(np.unique(rec)) > 1)
 
     def fix(self, r: np.ndarray, others: np.ndarray, rows: np.ndarray, drivers: dict) -> Transmission:
         """The best harmonic on rows ``rows`` (bool over the signal's rows) beside ``others``."""
         q = np.asarray(drivers["q"], float)[:, self.joint - 1]
         Jt = _joint_column(drivers, self.joint)
-        h, h_std = best_harmonic(q, Jt, r, others, self.harmonics, rows)
-        return Transmission(joint=self.joint, harmonic=h, harmonic_std=h_std)
+        groups = np.asarray(drivers["rec"], int) if self.per_recording else None
+        h, h_std = best_harmonic(q, Jt, r, others, self.harmonics, rows, groups=groups)
+        return Transmission(joint=self.joint, harmonic=h, harmonic_std=h_std, per_recording=self.per_recording)
 
 
 def best_harmonic(q: np.ndarray, Jt: np.ndarray, r: np.ndarray, base: np.ndarray, harmonics: np.ndarray,
-                  rows: np.ndarray | None = None, n_peaks: int = 3) -> tuple[float, float]:
+                  rows: np.ndarray | None = None, n_peaks: int = 3, groups: np.ndarray | None = None
+                  ) -> tuple[float, float]:
     """The harmonic h (cycles per turn) whose angle error a sin(h q) + b cos(h q), seen through
     ``Jt`` (n, 3), best explains ``r`` (3 n,) beside ``base`` (3 n, p), on ``rows`` (3 n,) bool.
+    ``groups`` (n,) int: each group of postures (a recording) gets its own a and b, the harmonic
+    being shared; what each group's pair explains is summed (the pairs' coupling through
+    ``base`` is left out of the sum, as the grid's ranking leaves it out).
 
     The grid over ``harmonics`` ranks by the residual's projection alone (the columns are not
     orthogonalised against ``base``: cheap, and the ranking barely moves); the best ``n_peaks``
@@ -399,7 +436,7 @@ def best_harmonic(q: np.ndarray, Jt: np.ndarray, r: np.ndarray, base: np.ndarray
     l2 = P @ lever  # (n,)
     PQ = np.asarray(P @ Q)  # (n, p)
 
-    def explained(hs: np.ndarray, project: bool, trig=None) -> np.ndarray:
+    def explained_by(w, l2, PQ, hs: np.ndarray, project: bool, trig=None) -> np.ndarray:
         if trig is None:
             ph = q[:, None] * hs[None, :]  # (n, m)
             sin, cos = np.sin(ph), np.cos(ph)
@@ -413,6 +450,13 @@ def best_harmonic(q: np.ndarray, Jt: np.ndarray, r: np.ndarray, base: np.ndarray
         det = ss * cc - sc * sc
         ok = det > 1e-9 * np.maximum(ss * cc, 1e-300)
         return np.where(ok, (cc * sr * sr - 2 * sc * sr * cr + ss * cr * cr) / np.where(ok, det, 1), 0.0)
+
+    # a posture's sums belong to its group alone: each group's share is the sums masked to it
+    parts = [(w, l2, PQ)] if groups is None else [(w * m, l2 * m, PQ * m[:, None])
+                                                  for m in (groups == g for g in np.unique(groups))]
+
+    def explained(hs: np.ndarray, project: bool, trig=None) -> np.ndarray:
+        return sum(explained_by(*part, hs, project, trig) for part in parts)
 
     def exact(hs: np.ndarray) -> np.ndarray:
         return explained(hs, True)

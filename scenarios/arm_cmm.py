@@ -36,7 +36,7 @@ from calibench.estimators.arm_identification import (ConeProblem, TrackerProblem
 from calibench.estimators.rotations import rigid_transform
 from calibench.estimators.arm_kinematics import Chain, param_names, point
 from calibench.scenarios.arms import chain_of
-from calibench.scenarios.report import Check, Parameter, Report
+from calibench.scenarios.report import BadInput, Check, Parameter, Report
 from calibench.sim.arm_cmm import ArmSim, ArmTruth
 
 NAME = "arm-cmm"

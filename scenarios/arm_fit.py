@@ -92,6 +92,7 @@ def _calibrate(chain, q_rad, xyz_mm, recording, sigma_mm, model, parallel, robus
         problem = PointProblem(chain, q_rad[keep], xyz_mm[keep], recording[keep],
                                None if sigma_mm is None else sigma_mm[keep], compliance_joints=joints, prior=prior,
                                angle_terms=angle_terms)
+        held = problem.held_tool()
         n_par = len(problem.names)
         if 3 * keep.sum() <= n_par + 3:
             raise BadInput(f"{keep.sum()} postures for {n_par} parameters (base frames, tool, kinematics): "
@@ -119,7 +120,7 @@ def _calibrate(chain, q_rad, xyz_mm, recording, sigma_mm, model, parallel, robus
         rows = np.flatnonzero(keep)
         outliers = np.r_[outliers, rows[bad]]
         keep[rows[bad]] = False
-    return ArmCalibration(problem, ident, model, why, np.sort(outliers), sigma, problem.names)
+    return ArmCalibration(problem, ident, model, {**why, **held}, np.sort(outliers), sigma, problem.names)
 
 
 def angle_terms_from_discovery(path, n_joints: int, n_recordings: int = 1) -> list[AngleTerm]:
@@ -255,9 +256,25 @@ def coverage_warnings(chain, q_train: np.ndarray, tests: dict[str, np.ndarray], 
     return out
 
 
-def _load(path: Path, n_joints: int) -> ArmRecording:
-    rec = load_arm_csv(path, n_joints, MAX_ROWS)
-    return rec
+def _labels(paths: list[Path]) -> dict[Path, str]:
+    """Each recording's name in fit.json and residuals.csv: its file name, or as many of its last
+    path parts as tell it from another recording of the same name (setup1/data.csv). The same
+    file given twice is refused."""
+    resolved = [p.resolve() for p in paths]
+    twice = sorted({str(p) for p in paths if resolved.count(p.resolve()) > 1})
+    if twice:
+        raise BadInput(f"{twice[0]} is given twice among the recordings: give each recording once")
+    labels = {}
+    for p, r in zip(paths, resolved):
+        k = 1
+        while sum(o.parts[-k:] == r.parts[-k:] for o in resolved) > 1:
+            k += 1
+        labels[p] = "/".join(r.parts[-k:])
+    return labels
+
+
+def _load(path: Path, arm) -> ArmRecording:
+    return load_arm_csv(path, arm.n_joints, MAX_ROWS, np.degrees(arm.range_rad))
 
 
 def _screened(rec: ArmRecording) -> tuple[np.ndarray, list[dict], list[tuple[int, int, float]]]:
@@ -303,25 +320,23 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
         raise BadInput(f"--model physics needs the arm's masses (mass_kg and com_mm per joint in {arm.source})")
     if holdout is not None and not 0.0 < holdout < 0.9:
         raise BadInput(f"--holdout {holdout}: a fraction between 0 and 0.9")
-    names = [p.name for p in paths + tests + tests_new_frame]
-    if len(set(names)) < len(names):
-        raise BadInput("the same file name appears twice among the recordings: give each recording once")
+    label = _labels(paths + tests + tests_new_frame)
     chain = chain_of(arm)
     N = arm.n_joints
-    train = [_load(p, N) for p in paths]
-    judged = {p: _load(p, N) for p in tests + tests_new_frame}  # read now: a bad one is said before the fit
+    train = [_load(p, arm) for p in paths]
+    judged = {p: _load(p, arm) for p in tests + tests_new_frame}  # read now: a bad one is said before the fit
     rng = np.random.default_rng(SPLIT_SEED)
     flagged, pending, held, used = {}, {}, {}, []
     for p, rec in zip(paths, train):
         keep, fl, pairs, rep = _screened(rec)
-        flagged[p.name], pending[p.name] = fl, (pairs, rep)
+        flagged[label[p]], pending[label[p]] = fl, (pairs, rep)
         if holdout:
             idx = rng.permutation(len(rec))
             out = np.zeros(len(rec), bool)
             out[idx[:int(round(holdout * len(rec)))]] = True
             if not (out & keep).any():
                 raise BadInput(f"--holdout {holdout:g} holds out no usable row of {p} ({len(rec)} rows)")
-            held[p.name] = out & keep
+            held[label[p]] = out & keep
             keep &= ~out
         used.append(keep)
     for p, rec, keep in zip(paths, train, used):
@@ -344,11 +359,11 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
     cal = calibrate(chain, q, y, rec_id, sig, model, arm.parallel_pairs(), angle_terms=terms)
     # settle the training recordings' disagreeing pairs with the fitted model, refit if any
     rows_of = np.concatenate([np.flatnonzero(k) for k in used])
-    if any(pending[p.name][0] for p in paths):
+    if any(pending[label[p]][0] for p in paths):
         for i, (p, rec) in enumerate(zip(paths, train)):
-            pairs, rep = pending[p.name]
+            pairs, rep = pending[label[p]]
             if pairs:
-                _settle_pairs(used[i], flagged[p.name], pairs, cal.problem.model(cal.state, rec.q_rad, frame=i, session=i),
+                _settle_pairs(used[i], flagged[label[p]], pairs, cal.problem.model(cal.state, rec.q_rad, frame=i, session=i),
                               rec.xyz_mm, rep)
         q = np.vstack([r.q_rad[k] for r, k in zip(train, used)])
         y = np.vstack([r.xyz_mm[k] for r, k in zip(train, used)])
@@ -359,7 +374,7 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
     # model-based outliers of the training rows, by file
     for i_row in cal.outliers:
         i_rec = int(rec_id[i_row])
-        flagged[paths[i_rec].name].append({"row": int(rows_of[i_row]),
+        flagged[label[paths[i_rec]]].append({"row": int(rows_of[i_row]),
                                            "why": "its residual is beyond any Gaussian scatter of the fit's size "
                                                   "(p < 1e-6): left out of the fit"})
     s = cal.state
@@ -381,15 +396,15 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
     result["dropped"] = [{"name": k, "why": v} for k, v in {**cal.ident.basis.dropped, **cal.compliance_dropped}.items()]
     bases = {}
     for i, p in enumerate(paths):
-        bases[p.name] = {"translation_mm": s.t[i].tolist(), "rotvec_rad": matrix_to_rotvec(s.R[i]).tolist()}
-    result["base"] = bases[paths[0].name]
+        bases[label[p]] = {"translation_mm": s.t[i].tolist(), "rotvec_rad": matrix_to_rotvec(s.R[i]).tolist()}
+    result["base"] = bases[label[paths[0]]]
     result["bases"] = bases
     result["tool_mm"] = (np.asarray(chain.tool_mm) + s.delta[-3:]).tolist()
     fit_fig = _errors(e_fit)
     result["fit"] = {k: fit_fig[k] for k in ("mean_mm", "rms_mm", "max_mm")}
     result["sigma_model_mm"] = cal.sigma_model_mm
     extra = np.broadcast_to(np.asarray(prob.extra_var, float), (len(paths),))
-    result["sigma_model_mm_by_recording"] = {p.name: float(np.sqrt(v)) for p, v in zip(paths, extra)}
+    result["sigma_model_mm_by_recording"] = {label[p]: float(np.sqrt(v)) for p, v in zip(paths, extra)}
     figures = {"training": np.linalg.norm(e_fit, axis=1)}
     residuals = []  # (file, row, role, measured - modelled (n, 3))
     outlier_rows = np.zeros(len(q), bool)
@@ -397,23 +412,23 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
     for i, p in enumerate(paths):
         mine = rec_id == i
         kept = mine & ~outlier_rows
-        residuals.append((p.name, rows_of[kept], "train", None))
+        residuals.append((label[p], rows_of[kept], "train", None))
         if outlier_rows[mine].any():
             rows = rows_of[mine & outlier_rows]
-            residuals.append((p.name, rows, "left_out",
+            residuals.append((label[p], rows, "left_out",
                               train[i].xyz_mm[rows] - prob.model(s, train[i].q_rad[rows], frame=i, session=i)))
     if holdout:
         result["holdout"] = {}
         for i, (p, rec) in enumerate(zip(paths, train)):
-            m = held[p.name].copy()
+            m = held[label[p]].copy()
             # a row named bad (the farther of a disagreeing repeat) is not judged, as in a test recording
-            m[[f["row"] for f in flagged[p.name]]] = False
+            m[[f["row"] for f in flagged[label[p]]]] = False
             if m.sum() == 0:
                 continue
             e = prob.model(s, rec.q_rad[m], frame=i, session=i) - rec.xyz_mm[m]
-            result["holdout"][p.name] = {**_errors(e), "fraction": holdout}
-            residuals.append((p.name, np.flatnonzero(m), "holdout", -e))
-            figures[f"{p.name} (held out)"] = np.linalg.norm(e, axis=1)
+            result["holdout"][label[p]] = {**_errors(e), "fraction": holdout}
+            residuals.append((label[p], np.flatnonzero(m), "holdout", -e))
+            figures[f"{label[p]} (held out)"] = np.linalg.norm(e, axis=1)
     tested = {}
     if tests or tests_new_frame:
         result["test"] = {}
@@ -423,11 +438,11 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
         _enough_to_judge(p, keep)
         _settle_pairs(keep, fl, pairs, prob.model(s, rec.q_rad, frame=0), rec.xyz_mm, rep)
         e = prob.model(s, rec.q_rad[keep], frame=0) - rec.xyz_mm[keep]
-        result["test"][p.name] = {**_errors(e), "frame": f"{paths[0].name}'s"}
-        residuals.append((p.name, np.flatnonzero(keep), "test", -e))
-        flagged[p.name] = fl
-        figures[p.name] = np.linalg.norm(e, axis=1)
-        tested[p.name] = rec.q_rad
+        result["test"][label[p]] = {**_errors(e), "frame": f"{label[paths[0]]}'s"}
+        residuals.append((label[p], np.flatnonzero(keep), "test", -e))
+        flagged[label[p]] = fl
+        figures[label[p]] = np.linalg.norm(e, axis=1)
+        tested[label[p]] = rec.q_rad
     for p in tests_new_frame:
         rec = judged[p]
         keep, fl, pairs, rep = _screened(rec)
@@ -448,16 +463,22 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
         ev[eval_rows] = True
         _settle_pairs(ev, fl, [pr for pr in pairs if ev[pr[0]] and ev[pr[1]]], model_xyz, rec.xyz_mm, rep)
         e = model_xyz[ev] - rec.xyz_mm[ev]
-        residuals.append((p.name, reg_rows, "register", rec.xyz_mm[reg_rows] - model_xyz[reg_rows]))
-        residuals.append((p.name, np.flatnonzero(ev), "test", -e))
-        result["test"][p.name] = {**_errors(e), "frame": f"registered on {len(reg_rows)} rows ({100 * REGISTER_FRACTION:.0f} %, "
+        residuals.append((label[p], reg_rows, "register", rec.xyz_mm[reg_rows] - model_xyz[reg_rows]))
+        residuals.append((label[p], np.flatnonzero(ev), "test", -e))
+        result["test"][label[p]] = {**_errors(e), "frame": f"registered on {len(reg_rows)} rows ({100 * REGISTER_FRACTION:.0f} %, "
                                                           f"seed {SPLIT_SEED}), figures on the other {ev.sum()}"}
-        flagged[p.name] = fl
-        figures[p.name] = np.linalg.norm(e, axis=1)
-        tested[p.name] = rec.q_rad
+        flagged[label[p]] = fl
+        figures[label[p]] = np.linalg.norm(e, axis=1)
+        tested[label[p]] = rec.q_rad
     result["flagged"] = {k: v for k, v in flagged.items() if v}
     comp_joints = [int(n[len("compliance"):]) for n in prob.names if n.startswith("compliance")]
     result["coverage"] = {"warnings": coverage_warnings(chain, q, tested, comp_joints)}
+    stated = [label[p] for p, r in zip(paths, train) if r.xyz_std_mm is not None]
+    if stated and len(stated) < len(paths):  # one weighting for all, or the recordings' weights would not compare
+        result["coverage"]["warnings"].append(
+            f"{', '.join(stated)} state{'s' if len(stated) == 1 else ''} a std per value, "
+            f"{', '.join(label[p] for p in paths if label[p] not in stated)} not: the stated std are not used, every row "
+            "is weighted by the fitted scatter of its recording")
     if result["fit"]["rms_mm"] > PLAUSIBLE_RMS_MM:
         result["coverage"]["warnings"].insert(0, (
             f"the fit leaves {result['fit']['rms_mm']:.3g} mm RMS, far beyond any arm's or instrument's error: is "

@@ -57,7 +57,7 @@ def _parser() -> argparse.ArgumentParser:
                        description=f"Run a scenario ({names}) or all of them; writes DIR/report.json and DIR/run.rrd.")
     r.add_argument("scenario", help=f"one of: {names}; or 'all'")
     r.add_argument("--seed", type=_seed, default=0, help="random seed (default 0)")
-    r.add_argument("--out", type=Path, help="output folder (default ./calibench-out/<scenario>)")
+    r.add_argument("--out", type=_folder, help="output folder (default ./calibench-out/<scenario>)")
     r.add_argument("--fidelity", choices=("render", "analytic"), default="render",
                    help="render: pixels through MuJoCo's renderer and the real detector; "
                         "analytic: exact projection plus detector noise (default render)")
@@ -73,7 +73,7 @@ def _parser() -> argparse.ArgumentParser:
                                    "own base frame, and recordings to test the result on.")
     f.add_argument("scenario", help=f"one of: {fit_names}")
     f.add_argument("recordings", type=Path, nargs="+", metavar="RECORDING", help="CSV recording(s)")
-    f.add_argument("--out", type=Path, help="output folder (default ./calibench-out/<scenario>)")
+    f.add_argument("--out", type=_folder, help="output folder (default ./calibench-out/<scenario>)")
     f.add_argument("--arm", help="arm-cmm: ARM.toml or a built-in arm (arm-cmm, ur10); default the seed's arm")
     f.add_argument("--test", type=Path, action="append", default=[], metavar="CSV",
                    help="arm-cmm: a recording in the first training recording's frame to test on (repeatable)")
@@ -98,7 +98,7 @@ def _parser() -> argparse.ArgumentParser:
     mc.add_argument("--workers", type=_positive_int, help="local worker processes (default: all cores)")
     mc.add_argument("--scheduler", help="address of a Dask scheduler (tcp://host:8786) instead of local workers")
     mc.add_argument("--seed", type=_seed, default=0, help="study seed (default 0)")
-    mc.add_argument("--out", type=Path, help="output folder (default ./calibench-out/<scenario>-montecarlo)")
+    mc.add_argument("--out", type=_folder, help="output folder (default ./calibench-out/<scenario>-montecarlo)")
     mc.add_argument("--fidelity", choices=("render", "analytic"), default="analytic",
                     help="sensor fidelity of each trial (default analytic)")
     mc.add_argument("--arm", help="arm-cmm: ARM.toml or a built-in arm (arm-cmm, ur10)")
@@ -112,7 +112,7 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("scenario", help="one of: belt-stage, vision-stage, probe-scanner, arm-cmm, stewart")
     d.add_argument("recording", type=Path, nargs="+", help="CSV in the CONTRACT's format for the scenario (arm-cmm: "
                                                            "one or more, each with its own base frame)")
-    d.add_argument("--out", type=Path, help="output folder (default ./calibench-out/<scenario>-discover)")
+    d.add_argument("--out", type=_folder, help="output folder (default ./calibench-out/<scenario>-discover)")
     d.add_argument("--seed", type=_seed, default=0, help="seed of the permutation tests (default 0)")
     d.add_argument("--arm", help="arm-cmm: ARM.toml or a built-in arm (arm-cmm, ur10); default the seed's arm")
     d.add_argument("--config", type=Path, help="probe-scanner: a run --config file whose twin replays the "
@@ -132,13 +132,13 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("--fix-aspect", action="store_true", help="keep fx = fy")
     c.add_argument("--radial", type=int, choices=(2, 3), default=3, help="radial terms k1..k3 (default 3)")
     c.add_argument("--no-tangential", action="store_true", help="no tangential terms p1, p2")
-    c.add_argument("--out", type=Path, default=Path("calibench-out/camera"), help="output folder")
+    c.add_argument("--out", type=_folder, default=Path("calibench-out/camera"), help="output folder")
     i = sub.add_parser("iso230", help="ISO 230-2 evaluation of a real bidirectional run of one axis",
                        description="Evaluate a bidirectional positioning run (target_mm, run, direction, and "
                                    "deviation_um or actual_mm) as ISO 230-2:2014; writes DIR/iso230.json and "
                                    "DIR/iso230.png.")
     i.add_argument("run", type=Path, metavar="RUN.csv", help="the run, one row per reading")
-    i.add_argument("--out", type=Path, default=Path("calibench-out/iso230"), help="output folder")
+    i.add_argument("--out", type=_folder, default=Path("calibench-out/iso230"), help="output folder")
     if PLANNED:
         p.epilog = f"Scenarios planned but not built yet: {', '.join(PLANNED)}."
     return p
@@ -181,6 +181,13 @@ def main(argv: list[str] | None = None) -> int:
         return _internal_error(e, getattr(args, "out", None))
 
 
+def _folder(text: str) -> Path:
+    """--out's folder; an empty one is refused (it would be the current folder, silently)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("is empty: give an output folder")
+    return Path(text)
+
+
 def _check_out(out: Path | None) -> Path | None:
     """--out must be a folder calibench can write: said before any work. Returns the folder if
     this call created it (removed again if the command ends in bad input, empty)."""
@@ -189,10 +196,14 @@ def _check_out(out: Path | None) -> Path | None:
     from calibench.scenarios.report import BadInput
 
     out = Path(out)
-    for parent in [out, *out.parents]:
-        if parent.exists() and not parent.is_dir():
-            raise BadInput(f"--out {out}: {parent} is a file, not a folder")
-    created = None if out.exists() else out
+    try:
+        for parent in [out, *out.parents]:
+            if parent.exists() and not parent.is_dir():
+                raise BadInput(f"--out {out}: {parent} is a file, not a folder")
+        created = None if out.exists() else out
+    except OSError as e:  # a name too long for the file system, a folder that cannot be read
+        raise BadInput(f"--out {str(out)[:80]}{'...' if len(str(out)) > 80 else ''}: cannot write there "
+                       f"({e.strerror})") from None
     try:
         out.mkdir(parents=True, exist_ok=True)
         probe = out / ".calibench-write-test"
@@ -207,7 +218,10 @@ def _internal_error(e: Exception, out: Path | None) -> int:
     """A defect of calibench: one line, the traceback in OUT/error.log (CONTRACT's exit 3)."""
     import traceback
 
-    where = Path(out) if out is not None and not Path(out).is_file() else Path("calibench-out")
+    try:
+        where = Path(out) if out is not None and not Path(out).is_file() else Path("calibench-out")
+    except OSError:
+        where = Path("calibench-out")
     text = "".join(traceback.format_exception(e))
     try:
         where.mkdir(parents=True, exist_ok=True)

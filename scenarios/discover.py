@@ -10,6 +10,7 @@ Writes DIR/discovery.json (CONTRACT) and DIR/discovery.png (residual maps before
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -225,8 +226,8 @@ def _describe(signals, terms, found, drivers, noise):
 
 def _plain(d):
     def one(v):
-        if isinstance(v, str) or v is None:
-            return v
+        if isinstance(v, (str, bool, np.bool_)) or v is None:
+            return v if not isinstance(v, np.bool_) else bool(v)
         if isinstance(v, (list, tuple, np.ndarray)):
             return [one(x) for x in v]
         return int(v) if isinstance(v, (int, np.integer)) else float(v)
@@ -417,6 +418,11 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
     geometry = Geometry(kept=kin, names=tuple(problem.names[k] for k in kin))
     candidates = [geometry] + [EncoderEccentricity(joint=j) for j in range(1, N + 1)]
     candidates += [TransmissionSearch(joint=j, harmonics=harmonic_grid(q[:, j - 1])) for j in range(1, N + 1)]
+    # several recordings: a joint's harmonic may also keep its frequency and take a phase per
+    # recording (a motor-side error, its phase set at each power-up)
+    drivers["rec"] = rec_id
+    candidates += [TransmissionSearch(joint=j, harmonics=harmonic_grid(q[:, j - 1]), per_recording=True)
+                   for j in range(1, N + 1)]
     not_applicable = {}
     if drivers["tau"] is not None:
         candidates += [JointCompliance(joint=j) for j in range(1, N + 1)]
@@ -431,6 +437,7 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
     noise = {"xyz": dsc.Noise(None, 0.0, 0)}
     found, terms = dsc.select([sig], candidates, drivers, fold, noise, floor=floor)
     dsc.prune(sig, found, terms, drivers, fold, floor)
+    _shared_unless_sessions_differ(sig, found, terms["xyz"], drivers, fold, floor)
     # what no candidate explains: a table over one joint's angle, kept if it helps held out
     cache = {}
     cv_now = dsc._rms(dsc.cv_residuals(sig, terms["xyz"], drivers, fold, cache))
@@ -463,6 +470,25 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
            "not_accepted": {**found.rejected, **not_applicable}, "confounded": confounded,
            "summary": _arm_summary(arm.name, found, effects, names)}
     return out, {"signals": [sig], "fitted": fitted}
+
+
+def _shared_unless_sessions_differ(sig, found, terms: list, drivers, fold, floor: float) -> None:
+    """A harmonic with a phase per recording stays so only if it beats the same harmonic with
+    one phase for all by ``floor`` of the held-out RMS (the extra coefficients otherwise fit
+    noise): replaced in ``terms`` and in its step otherwise."""
+    for i, t in enumerate(terms):
+        if not getattr(t, "per_recording", False):
+            continue
+        shared = dataclasses.replace(t, per_recording=False)
+        cv_per = dsc._rms(dsc.cv_residuals(sig, terms, drivers, fold, {}))
+        cv_shared = dsc._rms(dsc.cv_residuals(sig, terms[:i] + [shared] + terms[i + 1:], drivers, fold, {}))
+        if cv_per > (1 - floor) * cv_shared:
+            for k, st in enumerate(found.steps):
+                if st.term is t:  # the last step's figure is the final one: both now the shared term's
+                    last = k == len(found.steps) - 1
+                    found.steps[k] = dataclasses.replace(st, term=shared, cv_after=cv_shared if last else st.cv_after)
+            terms[i] = shared
+            found.cv_final = cv_shared
 
 
 def _arm_summary(name: str, found, effects: list, names: list) -> str:
@@ -593,7 +619,7 @@ def run_discover(scenario: str, csv_path, out_dir: Path, seed: int = 0, holdout:
             if arm is not None and not str(arm).strip():
                 raise BadInput("--arm is empty: give an ARM.toml or a built-in arm's name (arm-cmm, ur10)")
             description = load_arm(arm or "arm-cmm")
-            recs = [load_arm_csv(p, description.n_joints, MAX_ROWS) for p in paths]
+            recs = [load_arm_csv(p, description.n_joints, MAX_ROWS, np.degrees(description.range_rad)) for p in paths]
             out, fig = discover_arm(recs if len(recs) > 1 else recs[0], seed, arm=description,
                                     truth=arm_truth(description, config))
             if len(paths) > 1:

@@ -153,8 +153,10 @@ def arm_from_table(t: dict, where: str = "arm") -> ArmDescription:
     if extra:
         raise ArmFileError(f"{where}: unknown field(s) {', '.join(sorted(extra))} (known: {', '.join(sorted(known))})")
     name = t.get("name", Path(where).stem)
-    if not isinstance(name, str) or not name:
+    if not isinstance(name, str) or not name.strip():
         raise ArmFileError(f"{where}: name must be a text")
+    if not name.isprintable():  # a newline or a tab would split or shift every line that names the arm
+        raise ArmFileError(f"{where}: name {name!r} holds a control character (a newline, a tab): one printable line")
     conv = t.get("convention")
     if conv not in ("dh", "mdh"):
         raise ArmFileError(f"{where}: convention must be \"dh\" or \"mdh\", not {conv!r}")

@@ -76,6 +76,11 @@ class ArmTruth:
     angle_noise_urad: float = 4.0
     cone_seat_um: float = 2.0
 
+    def __post_init__(self):
+        if self.bar_length_mm < 1.0:  # the bar's MJCF capsule, and its length's information, need one
+            raise ValueError("cone_a_mm and cone_b_mm coincide (within 1 mm): the length bar between the cones "
+                             "has no length")
+
     @property
     def bar_length_mm(self) -> float:
         """The length bar's true length (mm): the distance between the two cones' centres."""
@@ -89,6 +94,16 @@ class ArmTruth:
         Rx = np.array([[1, 0, 0], [0, np.cos(ax), -np.sin(ax)], [0, np.sin(ax), np.cos(ax)]])
         Ry = np.array([[np.cos(ay), 0, np.sin(ay)], [0, 1, 0], [-np.sin(ay), 0, np.cos(ay)]])
         return Rz @ Ry @ Rx, np.asarray(self.tracker_pos_mm, float)
+
+
+def _within(q: np.ndarray, lim: np.ndarray) -> np.ndarray | None:
+    """The angles ``q`` (N,) rad, each turned by whole turns into [-pi, pi) or, failing that, into
+    its range ``lim`` (N, 2); None if a joint's angle is in no turn of its range."""
+    out = (q + np.pi) % (2 * np.pi) - np.pi
+    for turn in (0.0, 2 * np.pi, -2 * np.pi):
+        inside = (out + turn >= lim[:, 0]) & (out + turn <= lim[:, 1])
+        out = np.where(~((out >= lim[:, 0]) & (out <= lim[:, 1])) & inside, out + turn, out)
+    return out if np.all((out >= lim[:, 0]) & (out <= lim[:, 1])) else None
 
 
 # one reusable (model, data) per thread and setup, for :class:`ArmSim`'s ``reuse``
@@ -282,7 +297,9 @@ class ArmSim:
                 J = self._jac
                 q = q + J.T @ np.linalg.solve(J @ J.T + 1e-6 * np.eye(3), err)
             if np.linalg.norm(err) < 1e-10:
-                out.append((q + np.pi) % (2 * np.pi) - np.pi)
+                seated = _within(q, lim)
+                if seated is not None:  # a seating the joints' ranges forbid is no seating
+                    out.append(seated)
         return np.array(out)
 
     def encoders(self, q_motor: np.ndarray, rng: np.random.Generator) -> np.ndarray:

@@ -169,7 +169,8 @@ def _elastic_belt(axis: str, rng: np.random.Generator, x: np.ndarray, y: np.ndar
 
 
 def arm_recording(kind: str, seed: int, n: int = 300, noise_um: float = 10.0,
-                  arm: str = "arm-cmm", joint: int | None = None) -> tuple[ArmRecording, dict]:
+                  arm: str = "arm-cmm", joint: int | None = None, harmonic: float | None = None,
+                  phase_rad: float | None = None, amplitude_urad: float | None = None) -> tuple[ArmRecording, dict]:
     """A blinded arm recording: the twin with its default as-built errors (Table 1 for the seed's
     arm), probed at ``n`` postures by a reference of ``noise_um`` 1-sigma per coordinate that
     reports in its own frame (a tracker's), with the concealed effect of ``kind``:
@@ -181,7 +182,8 @@ def arm_recording(kind: str, seed: int, n: int = 300, noise_um: float = 10.0,
     - ``compliance``: the two most loaded joints given way under gravity (stiffness drawn so the
       largest sag is 100-300 urad), the links settled where MuJoCo's physics puts them.
 
-    ``joint``: the eccentric joint (default: drawn).
+    ``joint``: the eccentric (or geared) joint; ``harmonic``, ``phase_rad``, ``amplitude_urad``: the
+    gear's (default: each drawn; given, sessions of one gear train can be recorded).
     """
     from calibench.scenes.arm_cmm import load_arm
     from calibench.sim.arm_cmm import ArmSim, ArmTruth
@@ -207,9 +209,12 @@ def arm_recording(kind: str, seed: int, n: int = 300, noise_um: float = 10.0,
     if kind == "transmission":
         j = joint or int(rng.integers(1, N + 1))
         h, A, ph = rng.uniform(8, 40), rng.uniform(150, 300) * 1e-6, rng.uniform(0, 2 * np.pi)
+        h = h if harmonic is None else harmonic
+        ph = ph if phase_rad is None else phase_rad
+        A = A if amplitude_urad is None else amplitude_urad * 1e-6
         q_read[:, j - 1] += A * np.sin(h * q[:, j - 1] + ph)
         effects.append({"name": "transmission", "axis": "xyz",
-                        "params": {"joint": j, "harmonics": [h], "amplitude_urad": [A * 1e6]}})
+                        "params": {"joint": j, "harmonics": [h], "amplitude_urad": [A * 1e6], "phase_rad": ph}})
     if kind == "thermal":
         rise, k = rng.uniform(2, 5), rng.uniform(10, 25)
         T = T + rise * (1 - np.exp(-t / (t[-1] / 2)))

@@ -19,6 +19,7 @@ from calibench.scenarios.cli import main
 
 RESULTS = ("report.json", "fit.json", "discovery.json", "summary.json", "intrinsics.json", "iso230.json")
 STAGE_HEAD = "x_cmd_mm,y_cmd_mm,x_meas_mm,y_meas_mm"
+UR10_TOML = (Path(__file__).resolve().parents[1] / "scenes" / "arms" / "ur10.toml").read_text()
 UR10_Q = ["q1_deg", "q2_deg", "q3_deg", "q4_deg", "q5_deg", "q6_deg"]
 
 
@@ -87,6 +88,20 @@ CASES = [
     ("run-out-is-file", {"f.txt": "x"}, ["run", "belt-stage", "--out", "{d}/f.txt"], 2, "is a file"),
     ("run-out-under-file", {"f.txt": "x"}, ["run", "belt-stage", "--out", "{d}/f.txt/sub"], 2, "--out"),
     ("run-out-unwritable", {}, ["run", "belt-stage", "--out", "/proc/calibench-out"], 2, "--out"),
+    ("run-out-name-too-long", {}, ["run", "belt-stage", "--out", "{d}/" + "x" * 300], 2, "File name too long"),
+    ("fit-out-empty", {"r.csv": stage_csv()}, ["fit", "belt-stage", "{d}/r.csv", "--out", ""], 2, "--out: is empty"),
+    ("run-arm-cones-coincide", {"c.toml": "[arm-cmm.truth]\ncone_a_mm = [450.0, 250.0, -150.0]\n"
+                                          "cone_b_mm = [450.0, 250.0, -150.0]\n"},
+     ["run", "arm-cmm", "--config", "{d}/c.toml", "--out", "{d}/o"], 2, "coincide"),
+    ("mc-arm-cones-coincide", {"c.toml": "[arm-cmm.truth]\ncone_a_mm = [450.0, 250.0, -150.0]\n"
+                                         "cone_b_mm = [450.0, 250.5, -150.0]\n"},
+     ["montecarlo", "arm-cmm", "--config", "{d}/c.toml", "--trials", "2", "--out", "{d}/o"], 2, "coincide"),
+    ("run-arm-name-newline", {"a.toml": ARM_TOML.replace('name = "Two"', 'name = "Two\\nlines"')},
+     ["run", "arm-cmm", "--arm", "{d}/a.toml", "--out", "{d}/o"], 2, "control character"),
+    ("run-arm-cones-outside-ranges", {"a.toml": "name = \"UR10narrow\"\n" + "\n".join(
+        line + ("\nrange_deg = [-5.0, 5.0]" if line.startswith("theta_deg") else "")
+        for line in UR10_TOML.splitlines() if not line.startswith("name"))},
+     ["run", "arm-cmm", "--arm", "{d}/a.toml", "--out", "{d}/o"], 2, "out of the arm UR10narrow's reach"),
     ("run-arm-on-stage", {}, ["run", "belt-stage", "--arm", "ur10"], 2, "--arm applies to arm-cmm"),
     ("run-arm-missing", {}, ["run", "arm-cmm", "--arm", "{d}/none.toml"], 2, "none.toml"),
     ("run-arm-unknown-builtin", {}, ["run", "arm-cmm", "--arm", "kuka"], 2, "kuka"),
@@ -250,7 +265,7 @@ CASES = [
                                     "r.csv": lambda p: p.write_text(arm_csv(*arm_rows(n_joints=2)))},
      ["fit", "arm-cmm", "{d}/r.csv", "--arm", "{d}/a.toml", "--model", "physics"], 2, "needs the arm's masses"),
     ("arm-same-file-twice", {"r.csv": lambda p: p.write_text(arm_csv(*arm_rows()))},
-     ["fit", "arm-cmm", "{d}/r.csv", "{d}/r.csv", "--arm", "ur10"], 2, "same file name"),
+     ["fit", "arm-cmm", "{d}/r.csv", "{d}/r.csv", "--arm", "ur10"], 2, "is given twice"),
     ("arm-effects-missing", {"r.csv": lambda p: p.write_text(arm_csv(*arm_rows()))},
      ["fit", "arm-cmm", "{d}/r.csv", "--arm", "ur10", "--effects", "{d}/none.json"], 2, "cannot read"),
     ("arm-effects-not-json", {"r.csv": lambda p: p.write_text(arm_csv(*arm_rows())), "e.json": "{{"},

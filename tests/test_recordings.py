@@ -53,3 +53,17 @@ def test_the_shipped_sample_is_the_papers_two_tables_joined(shared_data):
     rec = load_stage_csv(Path(__file__).resolve().parents[1] / "examples" / "belt_stage_paper.csv")
     assert np.array_equal(rec.x_cmd_mm, ex[:, 0]) and np.array_equal(rec.y_cmd_mm, ex[:, 1])
     assert np.allclose(rec.x_err_mm, ex[:, 2], atol=5e-5) and np.allclose(rec.y_err_mm, ey[:, 2], atol=5e-5)
+
+
+def test_an_arm_whose_joints_stay_within_six_degrees_is_read_in_degrees(tmp_path):
+    """Readings within +-5 deg look like radians; an arm whose declared ranges are that narrow
+    cannot tell them apart, so its file is read as the format says (degrees)."""
+    from calibench.recordings import ArmRecording, load_arm_csv
+
+    rng = np.random.default_rng(3)
+    q = np.radians(rng.uniform(-5, 5, (40, 2)))
+    ArmRecording(q, rng.uniform(-500, 500, (40, 3))).to_csv(tmp_path / "r.csv")
+    with pytest.raises(RecordingError, match="radians"):
+        load_arm_csv(tmp_path / "r.csv", 2)
+    rec = load_arm_csv(tmp_path / "r.csv", 2, range_deg=np.array([[-5.0, 5.0], [-6.0, 6.0]]))
+    np.testing.assert_allclose(rec.q_rad, q, rtol=1e-8)

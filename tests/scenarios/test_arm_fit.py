@@ -176,6 +176,76 @@ def test_training_on_half_the_workspace_warns(series, tmp_path):
     assert any("test.csv" in w and "q2" in w for w in warnings), warnings
 
 
+def test_stated_std_in_some_recordings_only_are_said_unused(series, tmp_path):
+    """One recording states its std, the other not: one weighting for both, said in a warning."""
+    sim, paths = series
+    from calibench.recordings import load_arm_csv
+
+    rec = load_arm_csv(paths["train"], 6)
+    stated = tmp_path / "stated.csv"
+    ArmRecording(rec.q_rad, rec.xyz_mm, xyz_std_mm=np.full(rec.xyz_mm.shape, NOISE_MM)).to_csv(stated)
+    out = tmp_path / "mixed"
+    assert main(["fit", "arm-cmm", str(stated), str(paths["other"]), "--arm", "ur10", "--out", str(out)]) == 0
+    warnings = json.loads((out / "fit.json").read_text())["coverage"]["warnings"]
+    assert any("stated.csv states a std per value, other.csv not" in w for w in warnings), warnings
+
+
+def test_recordings_of_one_name_in_two_folders_are_told_apart(series, tmp_path):
+    """setup1/data.csv and setup2/data.csv: both judged, each named by its folder too."""
+    import shutil
+
+    sim, paths = series
+    for folder, which in (("setup1", "test"), ("setup2", "other")):
+        (tmp_path / folder).mkdir()
+        shutil.copy(paths[which], tmp_path / folder / "data.csv")
+    out = tmp_path / "out"
+    assert main(["fit", "arm-cmm", str(paths["train"]), "--test", str(tmp_path / "setup1" / "data.csv"),
+                 "--test-new-frame", str(tmp_path / "setup2" / "data.csv"), "--arm", "ur10", "--model", "geometry",
+                 "--out", str(out)]) == 0
+    fit = json.loads((out / "fit.json").read_text())
+    assert set(fit["test"]) == {"setup1/data.csv", "setup2/data.csv"}
+    assert fit["test"]["setup2/data.csv"]["frame"].startswith("registered")
+
+
+SCARA = """name = "scara"
+convention = "dh"
+[[joint]]
+a_mm = 400.0
+d_mm = 300.0
+alpha_deg = 0.0
+[[joint]]
+a_mm = 350.0
+d_mm = 0.0
+alpha_deg = 0.0
+[[joint]]
+a_mm = 0.0
+d_mm = 0.0
+alpha_deg = 0.0
+[tool]
+offset_mm = [60.0, 0.0, -100.0]
+"""
+
+
+def test_an_arm_whose_axes_are_all_parallel_holds_its_tools_height(tmp_path):
+    """A SCARA's axes are all vertical: the tool's height moves the data as the base's does. The
+    fit holds tool_z at the drawing's value, says so, and fits to the tracker's noise (it was
+    refused as singular)."""
+    (tmp_path / "scara.toml").write_text(SCARA)
+    sim = ArmSim(str(tmp_path / "scara.toml"), ArmTruth())
+    rng = np.random.default_rng(4)
+    q = sim.random_postures(300, rng)
+    R, t = rotvec_to_matrix(np.array([0.002, -0.001, 0.7])), np.array([1500.0, -300.0, 80.0])
+    ArmRecording(q, sim.probe_mm(q) @ R.T + t + rng.normal(0, NOISE_MM, (300, 3))).to_csv(tmp_path / "s.csv")
+    out = tmp_path / "out"
+    assert main(["fit", "arm-cmm", str(tmp_path / "s.csv"), "--arm", str(tmp_path / "scara.toml"), "--out",
+                 str(out)]) == 0
+    fit = json.loads((out / "fit.json").read_text())
+    held = {d["name"]: d["why"] for d in fit["dropped"]}
+    assert "base_z" in held["tool_z"] and "held at the drawing" in held["tool_z"]
+    # 3-D RMS of a 3-coordinate Gaussian less the fitted parameters' share: within 15 % of sqrt(3) sigma
+    assert abs(fit["fit"]["rms_mm"] / (np.sqrt(3) * NOISE_MM) - 1) < 0.15, fit["fit"]
+
+
 def _write(tmp_path, name, q_deg, xyz):
     path = tmp_path / name
     ArmRecording(np.radians(q_deg), xyz).to_csv(path)
