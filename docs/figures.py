@@ -559,7 +559,7 @@ def _terms_words(terms: list[str]) -> str:
                     if per else "")
 
 
-@block(seconds=350, ci=True)
+@block(seconds=850, ci=True)
 def ur10_all_four():
     """calibench fit arm-cmm on all four series, --holdout 0.3: physics, with the discovery on C's
     effects (calibench discover arm-cmm ur10_C.csv), with fit's own discovery on the training rows
