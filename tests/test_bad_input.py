@@ -49,6 +49,15 @@ def arm_csv(q, xyz, header=None):
     return head + "\n" + body + "\n"
 
 
+def arm_csv_with(columns: str, cells: str):
+    """A writer of the well-formed arm recording with ``columns`` added to its header and
+    ``cells`` to every row (a column of one spoiled value, say)."""
+    def write(path):
+        head, *rows = arm_csv(*arm_rows()).splitlines()
+        path.write_text("\n".join([f"{head},{columns}"] + [f"{r},{cells}" for r in rows]) + "\n")
+    return write
+
+
 ARM_TOML = """name = "Two"
 convention = "dh"
 [[joint]]
@@ -243,13 +252,9 @@ CASES = [
     ("arm-one-posture-300", {"r.csv": lambda p: p.write_text(arm_csv(np.tile(arm_rows()[0][:1], (300, 1)),
                                                                       np.tile(arm_rows()[1][:1], (300, 1))))},
      ["fit", "arm-cmm", "{d}/r.csv", "--arm", "ur10"], 2, "distinct postures"),
-    ("arm-negative-std", {"r.csv": lambda p: p.write_text(
-        arm_csv(*arm_rows()).replace("z_mm\n", "z_mm,x_std_mm,y_std_mm,z_std_mm\n").replace("\n", ",0.01,0.01,-0.01\n")
-        .replace("z_mm,x_std_mm,y_std_mm,z_std_mm,0.01,0.01,-0.01", "z_mm,x_std_mm,y_std_mm,z_std_mm"))},
+    ("arm-negative-std", {"r.csv": arm_csv_with("x_std_mm,y_std_mm,z_std_mm", "0.01,0.01,-0.01")},
      ["fit", "arm-cmm", "{d}/r.csv", "--arm", "ur10"], 2, "std of zero or below"),
-    ("arm-partial-std", {"r.csv": lambda p: p.write_text(
-        arm_csv(*arm_rows()).replace("z_mm\n", "z_mm,x_std_mm\n").replace("\n", ",0.01\n")
-        .replace("z_mm,x_std_mm,0.01", "z_mm,x_std_mm"))},
+    ("arm-partial-std", {"r.csv": arm_csv_with("x_std_mm", "0.01")},
      ["fit", "arm-cmm", "{d}/r.csv", "--arm", "ur10"], 2, "without the others"),
     ("arm-holdout-zero", {"r.csv": lambda p: p.write_text(arm_csv(*arm_rows()))},
      ["fit", "arm-cmm", "{d}/r.csv", "--arm", "ur10", "--holdout", "0"], 2, "--holdout"),
@@ -329,21 +334,15 @@ CASES = [
     ("arm-empty-arm", {"r.csv": lambda p: p.write_text(arm_csv(*arm_rows()))}, ["fit", "arm-cmm", "{d}/r.csv", "--arm", ""], 2, "--arm is empty"),
     ("discover-arm-empty-arm", {"r.csv": lambda p: p.write_text(arm_csv(*arm_rows()))}, ["discover", "arm-cmm", "{d}/r.csv", "--arm", ""], 2,
      "--arm is empty"),
-    ("arm-duplicate-column", {"r.csv": lambda p: p.write_text(arm_csv(*arm_rows()).replace("z_mm\n", "z_mm,x_mm\n")
-                                                               .replace("\n", ",0\n").replace("x_mm,0", "x_mm"))},
+    ("arm-duplicate-column", {"r.csv": arm_csv_with("x_mm", "0")},
      ["fit", "arm-cmm", "{d}/r.csv", "--arm", "ur10"], 2, "named twice"),
     ("arm-missing-middle-joint", {"r.csv": lambda p: p.write_text(arm_csv(*arm_rows()).replace("q3_deg", "q9_deg"))},
      ["fit", "arm-cmm", "{d}/r.csv", "--arm", "ur10"], 2, "column q3_deg is missing"),
-    ("arm-zero-std", {"r.csv": lambda p: p.write_text(
-        arm_csv(*arm_rows()).replace("z_mm\n", "z_mm,x_std_mm,y_std_mm,z_std_mm\n").replace("\n", ",0.01,0.01,0\n")
-        .replace("z_mm,x_std_mm,y_std_mm,z_std_mm,0.01,0.01,0", "z_mm,x_std_mm,y_std_mm,z_std_mm"))},
+    ("arm-zero-std", {"r.csv": arm_csv_with("x_std_mm,y_std_mm,z_std_mm", "0.01,0.01,0")},
      ["fit", "arm-cmm", "{d}/r.csv", "--arm", "ur10"], 2, "std of zero or below"),
-    ("arm-huge-std", {"r.csv": lambda p: p.write_text(
-        arm_csv(*arm_rows()).replace("z_mm\n", "z_mm,x_std_mm,y_std_mm,z_std_mm\n").replace("\n", ",0.01,0.01,1e300\n")
-        .replace("z_mm,x_std_mm,y_std_mm,z_std_mm,0.01,0.01,1e300", "z_mm,x_std_mm,y_std_mm,z_std_mm"))},
+    ("arm-huge-std", {"r.csv": arm_csv_with("x_std_mm,y_std_mm,z_std_mm", "0.01,0.01,1e300")},
      ["fit", "arm-cmm", "{d}/r.csv", "--arm", "ur10"], 2, "over 1000 mm"),
-    ("arm-absurd-temperature", {"r.csv": lambda p: p.write_text(
-        arm_csv(*arm_rows()).replace("z_mm\n", "z_mm,temp_c\n").replace("\n", ",1e308\n").replace("z_mm,temp_c,1e308", "z_mm,temp_c"))},
+    ("arm-absurd-temperature", {"r.csv": arm_csv_with("temp_c", "1e308")},
      ["fit", "arm-cmm", "{d}/r.csv", "--arm", "ur10"], 2, "temp_c"),
     ("arm-holdout-rounds-to-none", {"r.csv": lambda p: p.write_text(arm_csv(*arm_rows()))},
      ["fit", "arm-cmm", "{d}/r.csv", "--arm", "ur10", "--holdout", "0.0001"], 2, "holds out no usable row"),
