@@ -179,23 +179,17 @@ class PointProblem:
         the data as: every axis parallel to one direction leaves the tool's offset along it and
         the base's indistinguishable. Sets :attr:`held` (left out of :attr:`always`); returns
         {name: why}."""
+        import types
+
         self.held = ()
         s = self.start() if state is None else state
         names = self.names
-        Js = self.jacobian(s) * parameter_scales(names)
+        # the identifiable basis with the frames always kept and the tool as the one group
         frames = np.arange(len(names) - len(self.frame_names), len(names))
-        kept, why = list(frames), {}
-        top = np.linalg.norm(Js[:, frames], axis=0).max()
-        for k in range(self.nk - 3, self.nk):
-            Q = np.linalg.qr(Js[:, kept])[0]
-            rest = Js[:, k] - Q @ (Q.T @ Js[:, k])
-            if np.linalg.norm(rest) > rel_tol * top:
-                kept.append(k)
-                continue
-            coef = np.linalg.lstsq(Js[:, kept], Js[:, k], rcond=None)[0]
-            big = [(names[kept[i]], coef[i]) for i in np.argsort(-np.abs(coef))[:2] if abs(coef[i]) > 0.05]
-            why[names[k]] = ("moves the data as " + " + ".join(f"{n} ({c:+.2f})" for n, c in big)
-                             + ": held at the drawing's value")
+        view = types.SimpleNamespace(names=names, jacobian=self.jacobian, always=frames,
+                                     groups=[np.arange(self.nk - 3, self.nk)])
+        dropped = identifiable_basis(view, s, rel_tol=rel_tol).dropped
+        why = {n: f"{text}: held at the drawing's value" for n, text in dropped.items()}
         self.held = tuple(int(names.index(n)) for n in why)
         return why
 
