@@ -27,7 +27,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-from scipy import linalg
+from scipy.linalg import lapack
 
 from calibench.estimators.arm_kinematics import (Chain, Pose, cross, gravity_moments, jacobian, joint_axes, n_params,
                                                  param_names, pose, theta_index)
@@ -443,7 +443,7 @@ class TrackerProblem:
     @property
     def always(self) -> np.ndarray:
         """The tracker's frame and the tool point."""
-        return np.r_[np.arange(self.nk - 3, self.nk), np.arange(self.nk, self.nk + 6)]
+        return np.arange(self.nk - 3, self.nk + 6)
 
     @property
     def groups(self) -> list[np.ndarray]:
@@ -543,7 +543,7 @@ class TrackerProblem:
 
     def values(self, s: TrackerState) -> np.ndarray:
         """The state as one vector (len(names),)."""
-        return np.r_[s.delta, matrix_to_rotvec(s.R @ self.R_ref.T), s.t]
+        return np.concatenate([s.delta, matrix_to_rotvec(s.R @ self.R_ref.T), s.t])
 
 
 # --- cones and a length bar -----------------------------------------------------------------------
@@ -648,6 +648,32 @@ def _parallel_note(name: str, partners: list[str], parallel: list[tuple[int, int
     return ""
 
 
+def _pivoted_qr(a: np.ndarray):
+    """QR with column pivoting of ``a`` (m, n), m >= n, by LAPACK's geqp3 called directly (scipy's
+    ``qr`` checks, copies and forms the whole Q, three times the work on a trial's small matrix).
+    Returns ``Q(k)`` the first k columns of Q (m, k), R's diagonal (n,) and the pivots (n,)."""
+    lwork = int(lapack.dgeqp3(a, lwork=-1)[3][0])  # the blocked code's workspace: a tall Jacobian gains
+    qr, jpvt, tau, _, info = lapack.dgeqp3(a, lwork=max(lwork, 3 * a.shape[1] + 1))
+    if info != 0:
+        raise np.linalg.LinAlgError(f"geqp3 failed (info {info})")
+
+    def Q(k: int) -> np.ndarray:
+        return lapack.dorgqr(qr[:, :k], tau[:k])[0] if k else np.empty((len(a), 0))
+
+    return Q, np.diag(qr).copy(), jpvt - 1
+
+
+def _explained(K: np.ndarray, D: np.ndarray) -> np.ndarray:
+    """Least-squares coefficients (k, d) of the columns D (m, d) on the kept columns K (m, k).
+    The groups' columns are kept only when independent to rel_tol (scaled: a condition of about
+    1 / rel_tol at worst), so the normal equations lose nothing a reason or a partner's threshold
+    could see, at a fifth of lstsq's time; lstsq only when ``always`` columns repeat each other."""
+    try:
+        return np.linalg.solve(K.T @ K, K.T @ D)
+    except np.linalg.LinAlgError:
+        return np.linalg.lstsq(K, D, rcond=None)[0]
+
+
 def identifiable_basis(problem, state=None, rel_tol: float = 1e-4, parallel: list | None = None,
                        explain: bool = True) -> Basis:
     """Practical rank of the scaled, whitened Jacobian, group by group: ``problem.always`` (kept
@@ -661,35 +687,41 @@ def identifiable_basis(problem, state=None, rel_tol: float = 1e-4, parallel: lis
     # each column as the data move under a typical-size error of its parameter
     Js = problem.jacobian(s) * parameter_scales(names)
     norm = np.linalg.norm(Js, axis=0)
-    zero = norm < 1e-9 * max(norm.max(), 1e-300)
-    kept = [int(k) for k in problem.always]
-    dropped = []
     top = norm.max()
+    zero = norm < 1e-9 * max(top, 1e-300)
+    kept = np.asarray(problem.always, int)
+    is_kept = np.zeros(len(names), bool)
+    is_kept[kept] = True
+    dropped = []
+    Q = np.linalg.qr(Js[:, kept])[0]  # an orthonormal basis of the kept columns, grown group by group
     for cols in problem.groups:
-        cols = np.array([c for c in cols if c not in kept and not zero[c]], int)
+        cols = np.asarray(cols, int)
+        cols = cols[~is_kept[cols] & ~zero[cols]]
         if len(cols) == 0:
             continue
-        Q, _ = np.linalg.qr(Js[:, kept])
         rest = Js[:, cols] - Q @ (Q.T @ Js[:, cols])
-        _, Rr, piv = linalg.qr(rest, mode="economic", pivoting=True)
-        diag = np.abs(np.diag(Rr))
-        rank = int(np.sum(diag > rel_tol * top))
-        kept += list(cols[piv[:rank]])
-        dropped += list(cols[piv[rank:]])
-    kept = np.sort(np.array(kept))
+        rest -= Q @ (Q.T @ rest)  # projected twice: a nearly dependent column keeps no trace of Q's span
+        Qr, diag, piv = _pivoted_qr(rest)
+        rank = int(np.sum(np.abs(diag) > rel_tol * top))
+        kept = np.concatenate([kept, cols[piv[:rank]]])
+        is_kept[cols[piv[:rank]]] = True
+        dropped += cols[piv[rank:]].tolist()
+        Q = np.hstack([Q, Qr(rank)])  # rest is orthogonal to Q, so its own basis extends Q's
+    kept = np.sort(kept)
     if not explain:
         return Basis(kept=kept, dropped={names[j]: "" for j in dropped})
     reasons = {names[j]: "does not move the data at all" for j in np.flatnonzero(zero)
                if j not in kept and any(j in g for g in problem.groups)}
-    coefs = np.linalg.lstsq(Js[:, kept], Js[:, dropped], rcond=None)[0] if dropped else None
+    coefs = _explained(Js[:, kept], Js[:, dropped]) if dropped else None
+    kept_names = [names[k] for k in kept]
     partners = {}
-    for m, j in enumerate(dropped):
-        coef = coefs[:, m]
-        order = np.argsort(-np.abs(coef))
-        big = [(names[kept[k]], coef[k]) for k in order[:3] if abs(coef[k]) > 0.05 * abs(coef[order[0]])]
-        text = "moves the data as " + " + ".join(f"{n} ({c:+.2f})" for n, c in big)
-        reasons[names[j]] = text + _parallel_note(names[j], [n for n, _ in big], parallel or [])
-        partners[names[j]] = {names[kept[k]]: float(coef[k]) for k in range(len(kept))}
+    if dropped:
+        top3 = np.argsort(-np.abs(coefs), axis=0)[:3].T.tolist()  # each dropped column's largest partners
+        for j, coef, order in zip(dropped, coefs.T.tolist(), top3):
+            big = [(kept_names[k], coef[k]) for k in order if abs(coef[k]) > 0.05 * abs(coef[order[0]])]
+            text = "moves the data as " + " + ".join(f"{n} ({c:+.2f})" for n, c in big)
+            reasons[names[j]] = text + _parallel_note(names[j], [n for n, _ in big], parallel or [])
+            partners[names[j]] = dict(zip(kept_names, coef))
     return Basis(kept=kept, dropped=reasons, partners=partners)
 
 

@@ -86,6 +86,7 @@ class Chain:
         return np.stack([self.a_mm, self.d_mm, self.alpha_rad, self.theta_rad, np.zeros(self.n_joints)], axis=1)
 
 
+@functools.lru_cache(maxsize=None)
 def param_names(n_joints: int) -> tuple[str, ...]:
     """Names of the error parameters, in ``delta``'s order."""
     return tuple(f"{k}{i}" for i in range(1, n_joints + 1) for k in KINDS) + ("tool_x", "tool_y", "tool_z")

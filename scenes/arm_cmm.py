@@ -20,6 +20,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+import os
 import threading
 import tomllib
 from pathlib import Path
@@ -101,7 +102,8 @@ def load_arm(spec: str | Path) -> ArmDescription:
     path = BUILTIN.get(str(spec), Path(spec))
     try:
         st = path.stat()
-        key = (str(path.resolve()), st.st_mtime_ns, st.st_size)
+        # the path as given, where it was given (resolving it costs more than a trial's prior)
+        key = (str(path) if path.is_absolute() else (os.getcwd(), str(path)), st.st_mtime_ns, st.st_size)
         if key in _LOADED:
             return _LOADED[key]
         with open(path, "rb") as f:
@@ -233,7 +235,14 @@ def _quat(axis: str, angle: np.ndarray) -> np.ndarray:
 def _qmul(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     """Hamilton products of quaternion stacks (N, 4), w x y z: the turn p, then q in p's frame."""
     pw, pv, qw, qv = p[:, :1], p[:, 1:], q[:, :1], q[:, 1:]
-    return np.c_[pw * qw - np.sum(pv * qv, axis=1, keepdims=True), pw * qv + qw * pv + np.cross(pv, qv)]
+    out = np.empty(np.broadcast_shapes(p.shape, q.shape))
+    out[:, :1] = pw * qw - np.sum(pv * qv, axis=1, keepdims=True)
+    out[:, 1:] = pw * qv + qw * pv
+    # pv x qv written out (np.cross's axis handling costs more than its arithmetic here)
+    out[:, 1] += pv[:, 1] * qv[:, 2] - pv[:, 2] * qv[:, 1]
+    out[:, 2] += pv[:, 2] * qv[:, 0] - pv[:, 0] * qv[:, 2]
+    out[:, 3] += pv[:, 0] * qv[:, 1] - pv[:, 1] * qv[:, 0]
+    return out
 
 
 def joint_frames(convention: str, a, d, alpha, theta, beta) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -429,14 +438,16 @@ def write_as_built(model, arm: ArmDescription, values: np.ndarray, tool_mm) -> b
     model.body_pos[hinge], model.body_quat[hinge], model.body_ipos[hinge] = L.pre_t, L.pre_quat, L.com
     model.body_inertia[hinge] = L.inertia[:, None]
     model.body_pos[link], model.body_quat[link] = L.post_t, L.post_quat
-    for i in np.flatnonzero(L.capsule):
-        g = geom[i]
-        half = 0.5 * np.linalg.norm(L.post_t[i])
-        model.geom_pos[g] = 0.5 * L.post_t[i]
-        mujoco.mju_quatZ2Vec(model.geom_quat[g], -L.post_t[i])  # the compiler's fromto: z from "to" to "from"
-        model.geom_size[g, 1] = half
-        model.geom_rbound[g] = model.geom_size[g, 0] + half
-        model.geom_aabb[g, 5] = model.geom_size[g, 0] + half
+    caps = np.flatnonzero(L.capsule)
+    g = geom[caps]
+    half = 0.5 * np.sqrt(np.sum(L.post_t[caps] ** 2, axis=1))
+    model.geom_pos[g] = 0.5 * L.post_t[caps]
+    quat = model.geom_quat
+    for i, gi in zip(caps, g):
+        mujoco.mju_quatZ2Vec(quat[gi], -L.post_t[i])  # the compiler's fromto: z from "to" to "from"
+    model.geom_size[g, 1] = half
+    model.geom_rbound[g] = model.geom_size[g, 0] + half
+    model.geom_aabb[g, 5] = model.geom_size[g, 0] + half
     model.site_pos[model.site("probe").id] = L.tool
     model.body_pos[model.body("tool").id] = L.tool
     return True

@@ -20,6 +20,7 @@ Instruments:
 from __future__ import annotations
 
 import dataclasses
+import functools
 import threading
 
 import mujoco
@@ -34,6 +35,7 @@ TABLE1_DELTA = (0.10, -0.05, 0.0010, 0.0014, -0.08, 0.11, 0.0014, -0.0023, -0.12
                 0.03, 0.13, 0.0017, 0.0010, 0.07, -0.04, 0.0010, -0.0014, -0.14, 0.05, -0.0010, 0.0010, -0.03)
 
 
+@functools.lru_cache(maxsize=1)
 def table1_errors() -> tuple:
     """Table 1 in the general layout: (da, dd, dalpha, dtheta, dbeta) per joint, tool (x, y, z)."""
     t = np.asarray(TABLE1_DELTA)
@@ -181,17 +183,19 @@ class ArmSim:
         """The torque gravity puts on each joint at rest, MuJoCo's inverse dynamics, (n, N) N m."""
         q = np.atleast_2d(q_rad)
         out = np.empty(q.shape)
-        self.data.qvel[:] = 0.0
-        for i, qq in enumerate(q):
-            self.data.qpos[:] = qq
-            mujoco.mj_kinematics(self.model, self.data)
-            mujoco.mj_comPos(self.model, self.data)
+        model, data, rne = self.model, self.data, self._rne
+        data.qvel[:] = 0.0
+        qpos = data.qpos
+        for i in range(len(q)):
+            qpos[:] = q[i]
+            mujoco.mj_kinematics(model, data)
+            mujoco.mj_comPos(model, data)
             # the bodies' velocities at rest: rne's velocity products read cvel, which a step
             # before (settle_by_stepping) leaves at the last state's
-            mujoco.mj_comVel(self.model, self.data)
-            mujoco.mj_rne(self.model, self.data, 0, self._rne)
-            out[i] = -self._rne  # qfrc_bias at rest holds gravity: gravity's own torque is its negative
-        return out
+            mujoco.mj_comVel(model, data)
+            mujoco.mj_rne(model, data, 0, rne)
+            out[i] = rne
+        return -out  # qfrc_bias at rest holds gravity: gravity's own torque is its negative
 
     @property
     def _rne(self) -> np.ndarray:
@@ -247,10 +251,15 @@ class ArmSim:
         """True tool points (base frame) for link angles (n, N) -> (n, 3) mm."""
         q = np.atleast_2d(q_link)
         out = np.empty((len(q), 3))
-        for i, qq in enumerate(q):
-            self.set_posture(qq)
-            out[i] = self.data.site_xpos[self._probe] * 1000
-        return out
+        # the loop is the time of a Monte-Carlo trial's truth: no lookups in it (views stay valid,
+        # MuJoCo writes into the same buffers)
+        model, data, kinematics = self.model, self.data, mujoco.mj_kinematics
+        qpos, probe = data.qpos, data.site_xpos[self._probe]
+        for i in range(len(q)):
+            qpos[:] = q[i]
+            kinematics(model, data)
+            out[i] = probe
+        return out * 1000
 
     def probe_mm(self, q_motor: np.ndarray) -> np.ndarray:
         """True tool points for motor angles (n, N): the links settled under gravity first."""
@@ -262,13 +271,13 @@ class ArmSim:
         (default: 0.3 of the reach below the base), (n, N)."""
         lim = np.array(self.arm.range_rad)
         floor = -0.3 * self.arm.reach_mm if min_z_mm is None else min_z_mm
-        out = []
+        out, found = [], 0
         for _ in range(1000):
             q = rng.uniform(lim[:, 0], lim[:, 1], (n, self.n_joints))
-            z = self.point_mm(q)[:, 2]
-            out.extend(q[z > floor])
-            if len(out) >= n:
-                return np.array(out[:n])
+            out.append(q[self.point_mm(q)[:, 2] > floor])
+            found += len(out[-1])
+            if found >= n:
+                return np.concatenate(out)[:n]
         raise BadInput(f"the arm {self.arm.name} rarely keeps its tool above z = {floor:.0f} mm")
 
     def postures_in_cone(self, cone_mm: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:
