@@ -25,6 +25,7 @@ encoder reading (:func:`estimators.arm_kinematics.gravity_torques`).
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import numpy as np
 from scipy.linalg import lapack
@@ -498,7 +499,7 @@ class TrackerProblem:
     def _pose(self, delta: np.ndarray) -> Pose:
         """The chain at the recording's postures, the last one kept: the solver asks for the
         Jacobian where it has just evaluated the residuals."""
-        if self._last is None or not np.array_equal(self._last[0], delta):
+        if self._last is None or not _same(self._last[0], delta):
             self._last = (delta.copy(), pose(self.chain, self.q, delta))
         return self._last[1]
 
@@ -517,7 +518,7 @@ class TrackerProblem:
         The last one is kept: the basis is found where the solver starts and again where it
         stops, at the very states the solver takes its own Jacobians."""
         c = self._last_jacobian
-        if c is not None and np.array_equal(c[0], s.delta) and np.array_equal(c[1], s.R) and np.array_equal(c[2], s.t):
+        if c is not None and _same(c[0], s.delta) and _same(c[1], s.R) and _same(c[2], s.t):
             return c[3].copy()
         J = self._jacobian(s)
         self._last_jacobian = (s.delta.copy(), s.R.copy(), s.t.copy(), J.copy())
@@ -829,10 +830,22 @@ def parameter_scales(names) -> np.ndarray:
     for a joint's angle error terms,
     10 urad / N m for a joint's compliance (a robot's gearbox: 1e5 N m / rad), 1 urad / N m for a
     bearing's tilt."""
-    return np.array([1e-3 if n.startswith(("dalpha", "dtheta", "dbeta", "tracker_r", "base_r", "cone_r")) else
-                     1e-4 if n.startswith("angle_") else
-                     1e-5 if n.startswith("compliance") else 1e-6 if n.startswith("tilt_compliance") else 0.1
-                     for n in names])
+    return np.array(_scales(tuple(names)))
+
+
+@functools.lru_cache(maxsize=64)
+def _scales(names: tuple) -> tuple:
+    # a problem asks for its columns' sizes at every basis and bound: its names are few and fixed
+    return tuple(1e-3 if n.startswith(("dalpha", "dtheta", "dbeta", "tracker_r", "base_r", "cone_r")) else
+                 1e-4 if n.startswith("angle_") else
+                 1e-5 if n.startswith("compliance") else 1e-6 if n.startswith("tilt_compliance") else 0.1
+                 for n in names)
+
+
+def _same(a: np.ndarray, b: np.ndarray) -> bool:
+    """np.array_equal for two float arrays, without its conversions (a cache's test, called at every
+    residual and Jacobian)."""
+    return a.shape == b.shape and bool((a == b).all())
 
 
 def observability_index(J: np.ndarray) -> float:
