@@ -664,15 +664,17 @@ def _pivoted_qr(a: np.ndarray):
     return Q, np.diag(qr).copy(), jpvt - 1
 
 
-def _explained(K: np.ndarray, D: np.ndarray) -> np.ndarray:
+def _explained(Q: np.ndarray | None, K: np.ndarray, D: np.ndarray) -> np.ndarray:
     """Least-squares coefficients (k, d) of the columns D (m, d) on the kept columns K (m, k).
-    The groups' columns are kept only when independent to rel_tol (scaled: a condition of about
-    1 / rel_tol at worst), so the normal equations lose nothing a reason or a partner's threshold
-    could see, at a fifth of lstsq's time; lstsq only when ``always`` columns repeat each other."""
-    try:
-        return np.linalg.solve(K.T @ K, K.T @ D)
-    except np.linalg.LinAlgError:
-        return np.linalg.lstsq(K, D, rcond=None)[0]
+    ``Q`` (m, k): an orthonormal basis of K's span, or None when K's columns repeat each other
+    (lstsq's minimum-norm answer then). K = Q (Q^T K) exactly, so the k x k system Q^T K c = Q^T D
+    is the least-squares problem at K's own condition, at half of lstsq's time."""
+    if Q is not None:
+        try:
+            return np.linalg.solve(Q.T @ K, Q.T @ D)
+        except np.linalg.LinAlgError:
+            pass
+    return np.linalg.lstsq(K, D, rcond=None)[0]
 
 
 def identifiable_basis(problem, state=None, rel_tol: float = 1e-4, parallel: list | None = None,
@@ -694,7 +696,9 @@ def identifiable_basis(problem, state=None, rel_tol: float = 1e-4, parallel: lis
     is_kept = np.zeros(len(names), bool)
     is_kept[kept] = True
     dropped = []
-    Q = np.linalg.qr(Js[:, kept])[0]  # an orthonormal basis of the kept columns, grown group by group
+    Q, R = np.linalg.qr(Js[:, kept])  # an orthonormal basis of the kept columns, grown group by group
+    # always-kept columns that repeat each other (a degenerate set-up) leave Q wider than their span
+    independent = bool(np.all(np.abs(np.diag(R)) > rel_tol * top))
     for cols in problem.groups:
         cols = np.asarray(cols, int)
         cols = cols[~is_kept[cols] & ~zero[cols]]
@@ -713,7 +717,7 @@ def identifiable_basis(problem, state=None, rel_tol: float = 1e-4, parallel: lis
         return Basis(kept=kept, dropped={names[j]: "" for j in dropped})
     reasons = {names[j]: "does not move the data at all" for j in np.flatnonzero(zero)
                if j not in kept and any(j in g for g in problem.groups)}
-    coefs = _explained(Js[:, kept], Js[:, dropped]) if dropped else None
+    coefs = _explained(Q if independent else None, Js[:, kept], Js[:, dropped]) if dropped else None
     kept_names = [names[k] for k in kept]
     partners = {}
     if dropped:

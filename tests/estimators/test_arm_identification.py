@@ -102,6 +102,57 @@ def test_dropped_parameters_are_named_with_their_partners(arm):
     assert all(f"dbeta{j}" in basis.dropped for j in range(1, 7))
 
 
+def _partners_by_lstsq(problem, basis) -> dict:
+    """The dropped columns on the kept ones by numpy's lstsq, in the basis's scaled units."""
+    Js = problem.jacobian(problem.start()) * parameter_scales(problem.names)
+    dropped = [problem.names.index(n) for n in basis.dropped if n in basis.partners]
+    coef = np.linalg.lstsq(Js[:, basis.kept], Js[:, dropped], rcond=None)[0]
+    return {problem.names[j]: coef[:, m] for m, j in enumerate(dropped)}
+
+
+def test_partners_are_the_least_squares_coefficients(arm):
+    """The basis solves for its partners through its own orthonormal basis (not lstsq, for speed):
+    the same coefficients to 1e-9 of the largest, on the seed's arm (tracker) and a UR10 (points)."""
+    sim, chain = arm
+    q = sim.random_postures(50, np.random.default_rng(2))
+    ur10 = ArmSim("ur10", ArmTruth())
+    q10 = ur10.random_postures(60, np.random.default_rng(3))
+    for problem in (tracker_problem(sim, chain, q, q, None), PointProblem(chain_of(ur10.arm), q10, ur10.point_mm(q10))):
+        basis = identifiable_basis(problem)
+        expected = _partners_by_lstsq(problem, basis)
+        assert len(expected) >= 6
+        for name, coef in expected.items():
+            got = np.array(list(basis.partners[name].values()))
+            np.testing.assert_allclose(got, coef, rtol=0, atol=1e-9 * np.abs(coef).max(), err_msg=name)
+
+
+class _Columns:
+    """A problem that is only its Jacobian (n, 5): two always-kept columns that repeat each other
+    (a degenerate set-up), then a group whose last column is the sum of the two before."""
+    names = ("a0", "a1", "dd1", "dd2", "dd3")
+    always, groups = np.array([0, 1]), [np.array([2, 3, 4])]
+
+    def __init__(self):
+        J = np.random.default_rng(0).normal(size=(40, 5))
+        J[:, 1] = 2 * J[:, 0]
+        J[:, 4] = J[:, 2] - 0.5 * J[:, 3]
+        self.J = J / parameter_scales(self.names)
+
+    def start(self):
+        return None
+
+    def jacobian(self, s):
+        return self.J.copy()
+
+
+def test_partners_of_a_degenerate_set_up_are_lstsqs_minimum_norm_answer():
+    problem = _Columns()
+    basis = identifiable_basis(problem)
+    assert len(basis.kept) == 4 and len(basis.dropped) == 1  # both a's kept (always), one of the three d's dropped
+    (name, coef), = _partners_by_lstsq(problem, basis).items()
+    np.testing.assert_allclose(list(basis.partners[name].values()), coef, rtol=0, atol=1e-9 * np.abs(coef).max())
+
+
 def test_parallel_axes_keep_hayatis_beta_and_say_why_d_goes():
     """The UR10's joints 2, 3 and 4 are parallel: DH's d there are one combination, the tilt
     between the axes is beta's."""
