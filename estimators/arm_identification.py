@@ -649,32 +649,68 @@ def _parallel_note(name: str, partners: list[str], parallel: list[tuple[int, int
     return ""
 
 
-def _pivoted_qr(a: np.ndarray):
-    """QR with column pivoting of ``a`` (m, n), m >= n, by LAPACK's geqp3 called directly (scipy's
-    ``qr`` checks, copies and forms the whole Q, three times the work on a trial's small matrix).
-    Returns ``Q(k)`` the first k columns of Q (m, k), R's diagonal (n,) and the pivots (n,)."""
-    lwork = int(lapack.dgeqp3(a, lwork=-1)[3][0])  # the blocked code's workspace: a tall Jacobian gains
+def _pivoted_qr(a: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
+    """Column-pivoted QR of ``a`` (m, n) cut at its practical rank: R's diagonal above ``tol``.
+
+    LAPACK's geqp3 and orgqr called directly: scipy's ``qr`` checks, copies and forms the whole Q,
+    three times the work on a trial's small matrix. Any m (few postures give fewer rows than a
+    group has columns).
+
+    Returns
+    -------
+    Q : (m, rank) orthonormal basis of the span of ``a``'s first ``rank`` pivoted columns
+    pivots : (n,) column order, the first ``rank`` the independent ones
+    """
+    if a.shape[1] == 0:
+        return np.empty((len(a), 0)), np.empty(0, int)
+    # the blocked code's workspace (asked for): a tall Jacobian gains from it
+    lwork = int(lapack.dgeqp3(a, lwork=-1)[3][0])
     qr, jpvt, tau, _, info = lapack.dgeqp3(a, lwork=max(lwork, 3 * a.shape[1] + 1))
     if info != 0:
         raise np.linalg.LinAlgError(f"geqp3 failed (info {info})")
-
-    def Q(k: int) -> np.ndarray:
-        return lapack.dorgqr(qr[:, :k], tau[:k])[0] if k else np.empty((len(a), 0))
-
-    return Q, np.diag(qr).copy(), jpvt - 1
+    rank = int(np.sum(np.abs(np.diag(qr)) > tol))
+    Q = lapack.dorgqr(qr[:, :rank], tau[:rank])[0] if rank else np.empty((len(a), 0))
+    return Q, jpvt - 1
 
 
 def _explained(Q: np.ndarray | None, K: np.ndarray, D: np.ndarray) -> np.ndarray:
     """Least-squares coefficients (k, d) of the columns D (m, d) on the kept columns K (m, k).
-    ``Q`` (m, k): an orthonormal basis of K's span, or None when K's columns repeat each other
-    (lstsq's minimum-norm answer then). K = Q (Q^T K) exactly, so the k x k system Q^T K c = Q^T D
-    is the least-squares problem at K's own condition, at half of lstsq's time."""
-    if Q is not None:
-        try:
-            return np.linalg.solve(Q.T @ K, Q.T @ D)
-        except np.linalg.LinAlgError:
-            pass
-    return np.linalg.lstsq(K, D, rcond=None)[0]
+
+    ``Q`` (m, k): an orthonormal basis of K's span, K's columns independent; K = Q (Q^T K)
+    exactly, so the k x k system Q^T K c = Q^T D is the least-squares problem at K's own
+    condition. None when K's columns repeat each other: lstsq's minimum-norm answer (a solve
+    there would not fail, it would return huge coefficients)."""
+    if Q is None:
+        return np.linalg.lstsq(K, D, rcond=None)[0]
+    return np.linalg.solve(Q.T @ K, Q.T @ D)
+
+
+def _grow_basis(Js: np.ndarray, always: np.ndarray, groups, skip: np.ndarray, tol: float):
+    """Columns of ``Js`` (m, n) kept group by group, and an orthonormal basis of their span.
+
+    ``always`` are kept whatever the data; each group's columns (but ``skip``'s) are pivoted on
+    what the kept ones cannot explain, so a later group's column that repeats an earlier one is the
+    one dropped. Returns kept (k,) and dropped (d,) column indices, in the order found, Q (m, r),
+    and whether the always-kept columns are independent (then r = k)."""
+    Q, piv = _pivoted_qr(Js[:, always], tol)
+    always_independent = Q.shape[1] == len(always)  # else a degenerate set-up: they repeat each other
+    kept, dropped = [always], []
+    is_kept = np.zeros(Js.shape[1], bool)
+    is_kept[always] = True
+    for cols in groups:
+        cols = np.asarray(cols, int)
+        cols = cols[~is_kept[cols] & ~skip[cols]]
+        if len(cols) == 0:
+            continue
+        rest = Js[:, cols] - Q @ (Q.T @ Js[:, cols])
+        rest -= Q @ (Q.T @ rest)  # projected twice: a nearly dependent column keeps no trace of Q's span
+        Qr, piv = _pivoted_qr(rest, tol)
+        rank = Qr.shape[1]
+        kept.append(cols[piv[:rank]])
+        is_kept[cols[piv[:rank]]] = True
+        dropped.append(cols[piv[rank:]])
+        Q = np.hstack([Q, Qr])  # rest is orthogonal to Q, so its own basis extends Q's
+    return np.concatenate(kept), np.concatenate(dropped or [np.empty(0, int)]), Q, always_independent
 
 
 def identifiable_basis(problem, state=None, rel_tol: float = 1e-4, parallel: list | None = None,
@@ -682,51 +718,51 @@ def identifiable_basis(problem, state=None, rel_tol: float = 1e-4, parallel: lis
     """Practical rank of the scaled, whitened Jacobian, group by group: ``problem.always`` (kept
     whatever the data), then each of ``problem.groups`` pivoted (QR) on what the kept columns
     cannot explain, so a later group's column that repeats an earlier one is the one dropped.
-    ``rel_tol`` is relative to the largest column: a dependence that holds only up to the data's
-    own scatter is a dependence. ``parallel``: consecutive parallel joint pairs, for the reasons.
-    ``explain`` False: the kept columns alone (no reasons, no partners), to compare two bases."""
+
+    Parameters
+    ----------
+    problem : a problem (``names``, ``always``, ``groups``, ``start()``, ``jacobian(state)``)
+    state : the state to linearise at (default ``problem.start()``)
+    rel_tol : float
+        Relative to the largest column: a dependence that holds only up to the data's own scatter
+        is a dependence.
+    parallel : list of (i, j), optional
+        Consecutive parallel joint pairs, for the reasons.
+    explain : bool
+        False: the kept columns alone (no reasons, no partners), to compare two bases.
+
+    Returns
+    -------
+    Basis : kept (k,) sorted column indices; dropped in column order, each with what it moves the
+    data as (partners in units of the parameters' typical sizes)
+    """
     s = problem.start() if state is None else state
     names = problem.names
     # each column as the data move under a typical-size error of its parameter
     Js = problem.jacobian(s) * parameter_scales(names)
+    if not np.isfinite(Js).all():  # geqp3 would return a basis of garbage
+        raise np.linalg.LinAlgError("the Jacobian is not finite")
     norm = np.linalg.norm(Js, axis=0)
-    top = norm.max()
+    top = norm.max(initial=0.0)
     zero = norm < 1e-9 * max(top, 1e-300)
-    kept = np.asarray(problem.always, int)
-    is_kept = np.zeros(len(names), bool)
-    is_kept[kept] = True
-    dropped = []
-    Q, R = np.linalg.qr(Js[:, kept])  # an orthonormal basis of the kept columns, grown group by group
-    # always-kept columns that repeat each other (a degenerate set-up) leave Q wider than their span
-    independent = bool(np.all(np.abs(np.diag(R)) > rel_tol * top))
-    for cols in problem.groups:
-        cols = np.asarray(cols, int)
-        cols = cols[~is_kept[cols] & ~zero[cols]]
-        if len(cols) == 0:
-            continue
-        rest = Js[:, cols] - Q @ (Q.T @ Js[:, cols])
-        rest -= Q @ (Q.T @ rest)  # projected twice: a nearly dependent column keeps no trace of Q's span
-        Qr, diag, piv = _pivoted_qr(rest)
-        rank = int(np.sum(np.abs(diag) > rel_tol * top))
-        kept = np.concatenate([kept, cols[piv[:rank]]])
-        is_kept[cols[piv[:rank]]] = True
-        dropped += cols[piv[rank:]].tolist()
-        Q = np.hstack([Q, Qr(rank)])  # rest is orthogonal to Q, so its own basis extends Q's
-    kept = np.sort(kept)
+    kept, dropped, Q, always_independent = _grow_basis(Js, np.asarray(problem.always, int), problem.groups,
+                                                       zero, rel_tol * top)
+    kept, dropped = np.sort(kept), np.sort(dropped)  # kept in Q's order for the partners below
     if not explain:
         return Basis(kept=kept, dropped={names[j]: "" for j in dropped})
     reasons = {names[j]: "does not move the data at all" for j in np.flatnonzero(zero)
                if j not in kept and any(j in g for g in problem.groups)}
-    coefs = _explained(Q if independent else None, Js[:, kept], Js[:, dropped]) if dropped else None
+    if len(dropped) == 0:
+        return Basis(kept=kept, dropped=reasons)
+    coefs = _explained(Q if always_independent else None, Js[:, kept], Js[:, dropped])
     kept_names = [names[k] for k in kept]
     partners = {}
-    if dropped:
-        top3 = np.argsort(-np.abs(coefs), axis=0)[:3].T.tolist()  # each dropped column's largest partners
-        for j, coef, order in zip(dropped, coefs.T.tolist(), top3):
-            big = [(kept_names[k], coef[k]) for k in order if abs(coef[k]) > 0.05 * abs(coef[order[0]])]
-            text = "moves the data as " + " + ".join(f"{n} ({c:+.2f})" for n, c in big)
-            reasons[names[j]] = text + _parallel_note(names[j], [n for n, _ in big], parallel or [])
-            partners[names[j]] = dict(zip(kept_names, coef))
+    largest3 = np.argsort(-np.abs(coefs), axis=0)[:3].T.tolist()  # each dropped column's largest partners
+    for j, coef, order in zip(dropped.tolist(), coefs.T.tolist(), largest3):
+        big = [(kept_names[k], coef[k]) for k in order if abs(coef[k]) > 0.05 * abs(coef[order[0]])]
+        text = "moves the data as " + " + ".join(f"{n} ({c:+.2f})" for n, c in big)
+        reasons[names[j]] = text + _parallel_note(names[j], [n for n, _ in big], parallel or [])
+        partners[names[j]] = dict(zip(kept_names, coef))
     return Basis(kept=kept, dropped=reasons, partners=partners)
 
 
@@ -839,7 +875,7 @@ def parameter_scales(names) -> np.ndarray:
 
 @functools.lru_cache(maxsize=64)
 def _scales(names: tuple) -> tuple:
-    # a problem asks for its columns' sizes at every basis and bound: its names are few and fixed
+    """The typical sizes of ``names``' errors, cached: a problem asks at every basis and bound."""
     return tuple(1e-3 if n.startswith(("dalpha", "dtheta", "dbeta", "tracker_r", "base_r", "cone_r")) else
                  1e-4 if n.startswith("angle_") else
                  1e-5 if n.startswith("compliance") else 1e-6 if n.startswith("tilt_compliance") else 0.1

@@ -94,7 +94,7 @@ class ArmDescription:
         return pairs
 
 
-_LOADED: dict[tuple, ArmDescription] = {}  # by (path, mtime, size): a study's trials read it once
+_LOADED: dict[tuple, ArmDescription] = {}  # by (path as given, mtime, size): a study's trials read it once
 
 
 def load_arm(spec: str | Path) -> ArmDescription:

@@ -153,6 +153,39 @@ def test_partners_of_a_degenerate_set_up_are_lstsqs_minimum_norm_answer():
     np.testing.assert_allclose(list(basis.partners[name].values()), coef, rtol=0, atol=1e-9 * np.abs(coef).max())
 
 
+def test_a_degenerate_set_up_keeps_a_column_its_repeated_columns_do_not_explain():
+    """Two always-kept columns that repeat each other span one direction; a group column across
+    it is new information and is kept, even where an unpivoted QR of the two would put its
+    rounding-noise second column (the adversarial place for it)."""
+    problem = _Columns()
+    Js = problem.J * parameter_scales(problem.names)
+    noise_direction = np.linalg.qr(Js[:, :2])[0][:, 1]  # unit, across a0, chosen by rounding
+    problem.J[:, 3] = 3 * noise_direction / parameter_scales(problem.names)[3]
+    problem.J[:, 4] = problem.J[:, 2] / 4 + 1e-12  # the one to drop: dd1 again
+    basis = identifiable_basis(problem)
+    assert "dd2" not in basis.dropped and list(basis.dropped) == ["dd3"]
+    assert basis.partners["dd3"]["dd1"] == pytest.approx(0.25 * parameter_scales(("dd1",))[0]
+                                                         / parameter_scales(("dd3",))[0], rel=1e-6)
+
+
+def test_dropped_parameters_come_in_column_order(arm):
+    sim, chain = arm
+    q = sim.random_postures(50, np.random.default_rng(2))
+    problem = tracker_problem(sim, chain, q, q, None)
+    dropped = list(identifiable_basis(problem).dropped)
+    assert dropped == sorted(dropped, key=problem.names.index)
+
+
+def test_a_jacobian_that_is_not_finite_is_an_error_not_a_basis():
+    problem = _Columns()
+    problem.J[7, 2] = np.nan
+    with pytest.raises(np.linalg.LinAlgError, match="not finite"):
+        identifiable_basis(problem)
+    problem.J[7, 2] = np.inf
+    with pytest.raises(np.linalg.LinAlgError, match="not finite"):
+        identifiable_basis(problem)
+
+
 def test_parallel_axes_keep_hayatis_beta_and_say_why_d_goes():
     """The UR10's joints 2, 3 and 4 are parallel: DH's d there are one combination, the tilt
     between the axes is beta's."""
