@@ -104,7 +104,9 @@ def _read_columns(path: str | Path, required: tuple, optional: tuple,
     missing = [c for c in required if c not in header]
     if missing:
         raise RecordingError(f"{path}: missing column(s) {', '.join(missing)}")
-    body = [r for r in rows[1:] if any(cell.strip() for cell in r)]
+    # each data row with its line in the file (blank lines are skipped, not renumbered)
+    lines = [i + 2 for i, r in enumerate(rows[1:]) if any(cell.strip() for cell in r)]
+    body = [rows[i - 1] for i in lines]
     if not body:
         raise RecordingError(f"{path}: no data rows")
     # a value beyond the header's last column shifts every value after it (a decimal comma, a
@@ -122,39 +124,67 @@ def _read_columns(path: str | Path, required: tuple, optional: tuple,
             continue
         j = header.index(name)
         try:  # the whole column at once; the loop below only finds the bad cell
-            values = np.array([r[j] for r in body], dtype=float)
+            cells = [r[j] for r in body]
+            values = np.array(cells, dtype=float)
+            if any("_" in c for c in cells):  # Python's float reads 1_000: a CSV number has no underscore
+                raise ValueError
         except (IndexError, ValueError):
-            for i, r in enumerate(body):
+            for line, r in zip(lines, body):
                 cell = r[j] if j < len(r) else ""
                 try:
+                    if "_" in cell:
+                        raise ValueError
                     float(cell)
                 except ValueError:
-                    raise RecordingError(f"{path} line {i + 2}: column {name} is {cell!r}, not a number") from None
+                    raise RecordingError(f"{path} line {line}: column {name} is {cell!r}, not a number") from None
             raise
         bad = ~np.isfinite(values)
         if bad.any():
-            raise RecordingError(f"{path} line {int(np.argmax(bad)) + 2}: column {name} is not finite")
+            raise RecordingError(f"{path} line {lines[int(np.argmax(bad))]}: column {name} is not finite")
         fields[name] = values
+    fields["_line"] = np.array(lines)
+    _check_common(path, fields)
     return fields
 
 
-MAX_STAGE_MM = 1e7  # 10 km: beyond it a coordinate is a wrong unit or a corrupt value
+def _check_common(path, cols: dict) -> None:
+    """The optional columns every format shares: a machine's temperature, a load, a pass id."""
+    line = cols["_line"]
+    for name, lo, hi, what in (("temp_c", -100.0, 200.0, "not a machine's temperature in deg C (-100 to 200)"),
+                               ("load_n", -1e6, 1e6, "over 100 t: a wrong unit or a corrupt value")):
+        v = cols.get(name)
+        if v is not None and np.any((v < lo) | (v > hi)):
+            i = int(np.argmax((v < lo) | (v > hi)))
+            raise RecordingError(f"{path} line {line[i]}: {name} is {v[i]:.3g}: {what}")
+    run = cols.get("run")
+    if run is not None and np.any(run != np.round(run)):
+        i = int(np.argmax(run != np.round(run)))
+        raise RecordingError(f"{path} line {line[i]}: run is {run[i]:g}; a pass id is a whole number")
+
+
+MAX_STAGE_MM = 5e4  # 50 m, beyond the largest gantry: a coordinate there is a wrong unit or a corrupt value
 
 
 def load_stage_csv(path: str | Path, max_rows: int | None = None) -> StageRecording:
     """Read a stage recording; one clear RecordingError for any defect (a missing column, a
-    value that is not a number or not finite, a coordinate beyond 10 km, a direction other than
-    -1, 0, +1). ``max_rows``: refuse longer recordings before converting them."""
+    value that is not a number or not finite, a coordinate beyond 50 m or every one within 2 mm
+    (micrometres, metres), a direction other than -1, 0, +1). ``max_rows``: refuse longer recordings before converting them."""
     cols = _read_columns(path, StageRecording.REQUIRED, StageRecording.OPTIONAL, max_rows)
+    line = cols.pop("_line")
     for name in StageRecording.REQUIRED:
         big = np.abs(cols[name]) > MAX_STAGE_MM
         if big.any():
-            raise RecordingError(f"{path} line {int(np.argmax(big)) + 2}: {name} is {cols[name][big][0]:.3g} mm "
-                                 "(over 10 km): a wrong unit or a corrupt value")
+            raise RecordingError(f"{path} line {line[int(np.argmax(big))]}: {name} is {cols[name][big][0]:.3g} mm "
+                                 f"(over {MAX_STAGE_MM / 1000:g} m): a wrong unit (um?) or a corrupt value")
+    # the stage moved between stations, yet every coordinate stays within 2: the unit, not the stage
+    xy = np.stack([cols[c] for c in StageRecording.REQUIRED], axis=1)
+    if len(xy) >= 10 and np.ptp(xy[:, :2], axis=0).max() > 0 and np.abs(xy).max() < 2.0:
+        raise RecordingError(f"{path}: every position lies within +-{np.abs(xy).max():.3g}: metres? the format wants "
+                             "millimetres (x_cmd_mm, ...)")
     for name in ("dir_x", "dir_y"):
         if name in cols and not np.isin(cols[name], (-1.0, 0.0, 1.0)).all():
             i = int(np.argmax(~np.isin(cols[name], (-1.0, 0.0, 1.0))))
-            raise RecordingError(f"{path} line {i + 2}: {name} is {cols[name][i]:g}; a direction is -1, 0 or +1")
+            raise RecordingError(f"{path} line {line[i]}: {name} is {cols[name][i]:g}; a direction is -1, 0 or +1")
     return StageRecording(**cols)
 
 
@@ -252,6 +282,7 @@ def load_arm_csv(path: str | Path, n_joints: int | None = None, max_rows: int | 
                              f"{n_joints} joints")
     q_cols = tuple(f"q{j}_deg" for j in range(1, n + 1))
     cols = _read_columns(path, q_cols + ("x_mm", "y_mm", "z_mm"), ARM_OPTIONAL, max_rows)
+    line = cols.pop("_line")
     q_deg = np.stack([cols[c] for c in q_cols], axis=1)
     xyz = np.stack([cols["x_mm"], cols["y_mm"], cols["z_mm"]], axis=1)
     tiny_arm = range_deg is not None and np.abs(np.asarray(range_deg, float)).max() <= 2 * np.pi
@@ -275,16 +306,11 @@ def load_arm_csv(path: str | Path, n_joints: int | None = None, max_rows: int | 
     if present:
         std = np.stack([cols[c] for c in std_cols], axis=1)
         if np.any(std <= 0):
-            raise RecordingError(f"{path} line {int(np.argmax(np.any(std <= 0, axis=1))) + 2}: a std of zero or below "
+            raise RecordingError(f"{path} line {line[int(np.argmax(np.any(std <= 0, axis=1)))]}: a std of zero or below "
                                  "(no instrument reads exactly: leave the std columns out to have the scatter estimated)")
         if np.any(std > MAX_STD_MM):
-            raise RecordingError(f"{path} line {int(np.argmax(np.any(std > MAX_STD_MM, axis=1))) + 2}: a std of "
+            raise RecordingError(f"{path} line {line[int(np.argmax(np.any(std > MAX_STD_MM, axis=1)))]}: a std of "
                                  f"{std.max():.3g} mm (over {MAX_STD_MM:g} mm): a wrong unit or a corrupt value")
-    temp = cols.get("temp_c")
-    if temp is not None and np.any((temp < -100) | (temp > 200)):
-        i = int(np.argmax((temp < -100) | (temp > 200)))
-        raise RecordingError(f"{path} line {i + 2}: temp_c is {temp[i]:.3g}: not a machine's temperature in deg C "
-                             "(-100 to 200)")
     return ArmRecording(np.deg2rad(q_deg), xyz, cols.get("t_s"), cols.get("temp_c"), std)
 
 
@@ -332,6 +358,7 @@ def load_axis_run(path: str | Path) -> AxisRun:
     deviation_um or actual_mm."""
     path = Path(path)
     cols = _read_columns(path, ("target_mm", "run", "direction"), ("deviation_um", "actual_mm"))
+    line = cols.pop("_line")
     if "deviation_um" in cols:
         dev = cols["deviation_um"]
     elif "actual_mm" in cols:
@@ -341,7 +368,7 @@ def load_axis_run(path: str | Path) -> AxisRun:
     d = cols["direction"]
     if not np.all(np.isin(d, (-1.0, 1.0))):
         bad = int(np.argmax(~np.isin(d, (-1.0, 1.0))))
-        raise RecordingError(f"{path} line {bad + 2}: direction is {d[bad]:g}; +1 (approached from below) or -1")
+        raise RecordingError(f"{path} line {line[bad]}: direction is {d[bad]:g}; +1 (approached from below) or -1")
     if np.abs(dev).max() > 1e6:
         raise RecordingError(f"{path}: a deviation of {np.abs(dev).max():.3g} um (over a metre): wrong unit or a "
                              "corrupt value")
@@ -381,17 +408,25 @@ class ScannerRecording:
         _write_csv(path, cols, data)
 
 
+MAX_RHO_MM = 1000.0  # a spectacle frame's scanner reads within a few cm of its axis
+
+
 def load_scanner_csv(path: str | Path, max_rows: int | None = None) -> ScannerRecording:
     """Read a probe-scanner recording: turn, theta_deg, rho_mm; optional t_s, temp_c. Refused:
-    a turn that is not an integer, a reading that is not positive."""
+    a turn that is not an integer, a reading that is not positive or beyond a metre."""
     cols = _read_columns(path, ("turn", "theta_deg", "rho_mm"), ("t_s", "temp_c"), max_rows)
+    line = cols.pop("_line")
     turn = cols["turn"]
     if np.any(turn != np.round(turn)):
         i = int(np.argmax(turn != np.round(turn)))
-        raise RecordingError(f"{path} line {i + 2}: turn is {turn[i]:g}; a turn is an integer")
+        raise RecordingError(f"{path} line {line[i]}: turn is {turn[i]:g}; a turn is an integer")
     if np.any(cols["rho_mm"] <= 0):
         i = int(np.argmax(cols["rho_mm"] <= 0))
-        raise RecordingError(f"{path} line {i + 2}: rho_mm is {cols['rho_mm'][i]:g}; a probe reading is positive")
+        raise RecordingError(f"{path} line {line[i]}: rho_mm is {cols['rho_mm'][i]:g}; a probe reading is positive")
+    if np.any(cols["rho_mm"] > MAX_RHO_MM):
+        i = int(np.argmax(cols["rho_mm"] > MAX_RHO_MM))
+        raise RecordingError(f"{path} line {line[i]}: rho_mm is {cols['rho_mm'][i]:.3g}: over {MAX_RHO_MM:g} mm from "
+                             "the table's axis, a wrong unit (um?) or a corrupt value")
     if np.abs(cols["theta_deg"]).max() > 36000:
         raise RecordingError(f"{path}: a table angle of {np.abs(cols['theta_deg']).max():.3g} deg: not an angle "
                              "in degrees")
@@ -452,13 +487,14 @@ def load_stewart_csv(path: str | Path, max_rows: int | None = None) -> StewartRe
     legs = tuple(f"l{i}_mm" for i in range(1, 7))
     dirs = tuple(f"dir_{i}" for i in range(1, 7))
     cols = _read_columns(path, legs + STEWART_POSE, ("t_s", "temp_c", "load_n") + dirs, max_rows)
+    line = cols.pop("_line")
     present = [c for c in dirs if c in cols]
     if present and len(present) < 6:
         raise RecordingError(f"{path}: {', '.join(present)} without the others: give all of dir_1..dir_6 or none")
     direction = np.stack([cols[c] for c in dirs], axis=1) if present else None
     if direction is not None and not np.isin(direction, (-1.0, 0.0, 1.0)).all():
         i = int(np.argmax(~np.isin(direction, (-1.0, 0.0, 1.0)).all(axis=1)))
-        raise RecordingError(f"{path} line {i + 2}: a dir_ column is not -1, 0 or +1")
+        raise RecordingError(f"{path} line {line[i]}: a dir_ column is not -1, 0 or +1")
     ang = np.stack([cols[c] for c in ("rx_deg", "ry_deg", "rz_deg")], axis=1)
     if np.abs(ang).max() > 360:
         raise RecordingError(f"{path}: an angle of {np.abs(ang).max():.3g} deg in rx/ry/rz: not degrees")

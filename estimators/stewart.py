@@ -203,23 +203,32 @@ def forward_kinematics(lengths: np.ndarray, r: np.ndarray, B: np.ndarray, R0: np
 def forward_kinematics_many(lengths: np.ndarray, r: np.ndarray, B: np.ndarray, R0: np.ndarray, t0: np.ndarray,
                             iterations: int = 30) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`forward_kinematics` for many leg-length sets (n, 6) at once, each from (R0, t0):
-    poses R (n, 3, 3), t (n, 3) and whether each converged (n,)."""
+    poses R (n, 3, 3), t (n, 3) and whether each converged (n,). A set no pose can take (a
+    negative length, a singularity on the way) is one that did not converge; the others go on."""
     lengths = np.asarray(lengths, float)
     n = len(lengths)
     R, t = np.repeat(np.asarray(R0, float)[None], n, axis=0), np.repeat(np.asarray(t0, float)[None], n, axis=0)
     step = np.full((n, 6), np.inf)
+    lost = np.zeros(n, bool)  # poses whose iteration left the finite numbers: not converged, and frozen
     for _ in range(iterations):
         Rr = np.einsum("nij,kj->nki", R, r)  # (n, 6, 3)
         v = Rr + t[:, None] - B
         L = np.linalg.norm(v, axis=2)
-        u = v / L[..., None]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            u = v / L[..., None]
         J = np.concatenate([np.cross(Rr, u), u], axis=2)  # (n, 6, 6)
-        step = np.linalg.solve(J, (lengths - L)[..., None])[..., 0]
+        rhs = lengths - L
+        lost |= ~(np.isfinite(J).all(axis=(1, 2)) & np.isfinite(rhs).all(axis=1))
+        J[lost], rhs[lost] = np.eye(6), 0.0
+        try:
+            step = np.linalg.solve(J, rhs[..., None])[..., 0]
+        except np.linalg.LinAlgError:  # a pose at a singularity must not stop the others
+            step = np.einsum("nij,nj->ni", np.linalg.pinv(J), rhs)
         R = np.einsum("nij,njk->nik", rotvec_to_matrix(step[:, :3]), R)
         t = t + step[:, 3:]
         if np.max(np.abs(step)) < 1e-13:
             break
-    return R, t, np.max(np.abs(step), axis=1) < CONVERGED_STEP
+    return R, t, (np.max(np.abs(step), axis=1) < CONVERGED_STEP) & ~lost
 
 
 @dataclasses.dataclass(frozen=True)

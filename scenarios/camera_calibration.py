@@ -24,11 +24,15 @@ def calibrate_photos(paths: list[Path], cols: int, rows: int, square_mm: float, 
     for p in paths:
         if not p.is_file():
             raise BadInput(f"camera: no such image {p}")
+    twice = next((p for k, p in enumerate(paths) if any(_same_file(p, q) for q in paths[:k])), None)
+    if twice is not None:
+        raise BadInput(f"camera: {twice} is given twice: a photo counts once")
+    names = _labels(paths)
     images, rejected = {}, {}
     for p in paths:
-        img = cv2.imread(str(p), cv2.IMREAD_GRAYSCALE)
+        img, why = _read_gray(p)
         if img is None:
-            rejected[p.name] = "not a readable image"
+            rejected[names[p]] = why
         else:
             images[p] = img
     # the size most photos share is the camera's: one odd photo, first or not, is the one rejected
@@ -37,16 +41,16 @@ def calibrate_photos(paths: list[Path], cols: int, rows: int, square_mm: float, 
     used, points, left_out = [], [], {}
     for p, img in images.items():
         if img.shape[::-1] != size:
-            rejected[p.name] = f"size {img.shape[1]}x{img.shape[0]} differs from the others' {size[0]}x{size[1]}"
+            rejected[names[p]] = f"size {img.shape[1]}x{img.shape[0]} differs from the others' {size[0]}x{size[1]}"
             continue
         corners = find_chessboard_corners(img, cols, rows)
         if corners is None:
-            rejected[p.name] = f"no {cols}x{rows} chessboard found"
+            rejected[names[p]] = f"no {cols}x{rows} chessboard found"
             continue
         # the same view twice adds no information but would count as a constraint: left out
         same = next((u for u, c in zip(used, points) if np.nanmax(np.abs(c - corners)) < 0.5), None)
         if same is not None:
-            rejected[p.name] = f"the same view as {same} (corners within 0.5 px)"
+            rejected[names[p]] = f"the same view as {same} (corners within 0.5 px)"
             continue
         # a detector's gross error (pixels off the board's grid) would pull the whole calibration:
         # the corner is left out of its view and named
@@ -54,8 +58,8 @@ def calibrate_photos(paths: list[Path], cols: int, rows: int, square_mm: float, 
         if gross:
             corners = corners.copy()
             corners[[k for k, _ in gross]] = np.nan
-            left_out[p.name] = [{"corner": k, "off_grid_px": round(r, 2)} for k, r in gross]
-        used.append(p.name)
+            left_out[names[p]] = [{"corner": k, "off_grid_px": round(r, 2)} for k, r in gross]
+        used.append(names[p])
         points.append(corners)
     if len(used) < 3:
         why = "; ".join(f"{k}: {v}" for k, v in list(rejected.items())[:3])
@@ -83,6 +87,34 @@ def calibrate_photos(paths: list[Path], cols: int, rows: int, square_mm: float, 
         "corners_left_out": left_out,
         "model": {"fix_aspect": fix_aspect, "radial": radial, "tangential": tangential},
     }
+
+
+def _labels(paths: list[Path]) -> dict[Path, str]:
+    """Each photo's name in intrinsics.json: its file name, or its path where two share a name."""
+    counts = {}
+    for p in paths:
+        counts[p.name] = counts.get(p.name, 0) + 1
+    return {p: p.name if counts[p.name] == 1 else str(p) for p in paths}
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return a.samefile(b)
+    except OSError:
+        return False
+
+
+def _read_gray(path: Path) -> tuple[np.ndarray | None, str]:
+    """The photo in grey levels, or None and why. Decoded from its bytes: imdecode refuses a
+    truncated JPEG, where imread would return its grey remainder and print libjpeg's warning."""
+    try:
+        data = np.frombuffer(path.read_bytes(), np.uint8)
+    except OSError as e:
+        return None, f"cannot read it ({e.strerror})"
+    img = cv2.imdecode(data, cv2.IMREAD_GRAYSCALE) if data.size else None
+    if img is None:
+        return None, "not a readable image (truncated, or not an image)"
+    return img, ""
 
 
 def run_camera(paths: list[Path], cols: int, rows: int, square_mm: float, fix_aspect: bool, radial: int,

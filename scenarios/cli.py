@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
@@ -35,11 +36,14 @@ def _ranged(kind: type, ok, rule: str):
     return parse
 
 
-_positive_int = _ranged(int, lambda v: v >= 1, "at least 1")
+# more local processes than a few per core only compete (and each holds a scenario in memory)
+MAX_WORKERS = 4 * (os.cpu_count() or 1)
+_workers = _ranged(int, lambda v: 1 <= v <= MAX_WORKERS,
+                   f"from 1 to {MAX_WORKERS} local workers on this machine ({os.cpu_count()} cores)")
 _seed = _ranged(int, lambda v: 0 <= v < 2**63, "a seed is a whole number from 0 to 2^63 - 1")
 _trials = _ranged(int, lambda v: 1 <= v <= MAX_TRIALS, f"from 1 to {MAX_TRIALS} trials a study (run several studies)")
-_positive_float = _ranged(float, lambda v: 0 < v < float("inf"), "a positive finite number")
 _fraction = _ranged(float, lambda v: 0 < v < 0.9, "a fraction between 0 and 0.9")
+_square_mm = _ranged(float, lambda v: 0.001 <= v <= 10_000, "a square's side from 0.001 to 10000 mm")
 _board_count = _ranged(int, lambda v: v >= 2, "a board has at least 2 inner corners each way")
 
 
@@ -95,7 +99,7 @@ def _parser() -> argparse.ArgumentParser:
                                     "Rerunning the same command resumes: finished trials are kept.")
     mc.add_argument("scenario", help=f"one of: {names}")
     mc.add_argument("--trials", type=_trials, required=True, help="number of trials")
-    mc.add_argument("--workers", type=_positive_int, help="local worker processes (default: all cores)")
+    mc.add_argument("--workers", type=_workers, help="local worker processes (default: all cores)")
     mc.add_argument("--scheduler", help="address of a Dask scheduler (tcp://host:8786) instead of local workers")
     mc.add_argument("--seed", type=_seed, default=0, help="study seed (default 0)")
     mc.add_argument("--out", type=_folder, help="output folder (default ./calibench-out/<scenario>-montecarlo)")
@@ -115,10 +119,9 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--out", type=_folder, help="output folder (default ./calibench-out/<scenario>-discover)")
     d.add_argument("--seed", type=_seed, default=0, help="seed of the permutation tests (default 0)")
     d.add_argument("--arm", help="arm-cmm: ARM.toml or a built-in arm (arm-cmm, ur10); default the seed's arm")
-    d.add_argument("--config", type=Path, help="probe-scanner: a run --config file whose twin replays the "
-                                                "recording (e.g. one --twin wrote)")
-    d.add_argument("--twin", type=Path, help="probe-scanner: write the twin updated with what was found, as a "
-                                              "run --config file")
+    d.add_argument("--config", type=Path, help="a run --config file whose twin replays the recording (e.g. one "
+                                                "--twin wrote)")
+    d.add_argument("--twin", type=Path, help="write the twin updated with what was found, as a run --config file")
     d.add_argument("--holdout", choices=("pass", "rows", "columns", "blocks"),
                    help="what cross-validation holds out (default: passes if the recording has several, "
                         "else whole rows of a grid, else contiguous blocks)")
@@ -128,7 +131,7 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("images", nargs="+", type=Path, help="photos of the chessboard")
     c.add_argument("--cols", type=_board_count, required=True, help="inner corners per row")
     c.add_argument("--rows", type=_board_count, required=True, help="inner corners per column")
-    c.add_argument("--square-mm", type=_positive_float, required=True, help="side of a square, mm")
+    c.add_argument("--square-mm", type=_square_mm, required=True, help="side of a square, mm")
     c.add_argument("--fix-aspect", action="store_true", help="keep fx = fy")
     c.add_argument("--radial", type=int, choices=(2, 3), default=3, help="radial terms k1..k3 (default 3)")
     c.add_argument("--no-tangential", action="store_true", help="no tangential terms p1, p2")

@@ -78,6 +78,7 @@ def discover_stage(scenario: str, rec, seed: int = 0, holdout: str | None = None
     x, y = rec.x_cmd_mm, rec.y_cmd_mm
     if n < 20:
         raise BadInput(f"{n} stations: discover needs at least 20")
+    _within_travel(scenario, x, y)
     sim = replay_stage(scenario, x, y, rec.temp_c, truth)
     drivers = {"x": x, "y": y, "dir_x": rec.dir_x, "dir_y": rec.dir_y, "t_s": rec.t_s, "temp_c": rec.temp_c,
                "run": rec.run}
@@ -173,6 +174,18 @@ def _grow_backlash(signals, terms, found, drivers, fold, noise, floor) -> dict:
 
 
 UNEXPLAINED_RATIO = 1.5  # held-out RMS over repeatability beyond which something is left
+
+
+def _within_travel(scenario: str, x: np.ndarray, y: np.ndarray) -> None:
+    """BadInput when a commanded station lies beyond the twin's travel (by more than 5 % of it):
+    the twin cannot replay it, and a recording there is in another unit or of another stage."""
+    from calibench.sim.replay import stage_travel_mm
+
+    travel = stage_travel_mm(scenario)
+    for axis, v, t in (("x", x, travel[0]), ("y", y, travel[1])):
+        if v.min() < -0.05 * t or v.max() > 1.05 * t:
+            raise BadInput(f"{axis}_cmd_mm reaches {v.min() if v.min() < -0.05 * t else v.max():.6g} mm; the twin's "
+                           f"{scenario} travels 0-{t:g} mm in {axis}: a wrong unit (um?) or another stage")
 
 
 def one_axis_fit(axis: str, rms_nominal: float, found, noise: dict, after_noise: dict) -> dict:
@@ -581,6 +594,15 @@ def run_discover(scenario: str, csv_path, out_dir: Path, seed: int = 0, holdout:
     paths = list(csv_path) if isinstance(csv_path, (list, tuple)) else [csv_path]
     if scenario != "arm-cmm" and len(paths) != 1:
         raise BadInput(f"discover {scenario}: one recording, not {len(paths)}")
+    if config is not None:
+        from calibench.scenarios.config import load_toml
+
+        tables = load_toml(config)
+        if scenario not in tables:
+            raise BadInput(f"config {config} has no [{scenario}] table (it has: {', '.join(tables) or 'none'}): "
+                           "its twin is not this instrument's")
+    if twin is not None and any(_same_file(twin, p) for p in paths):
+        raise BadInput(f"--twin {twin} is a recording of this run: the twin would overwrite it")
     from calibench.recordings import load_arm_csv, load_stage_csv
 
     if scenario not in SUPPORTED:
@@ -649,6 +671,13 @@ def run_discover(scenario: str, csv_path, out_dir: Path, seed: int = 0, holdout:
     (out_dir / "discovery.json").write_text(json.dumps(out, indent=2, default=_json_default) + "\n")
     _figure(out_dir / "discovery.png", out, fig, before)
     return out
+
+
+def _same_file(a, b) -> bool:
+    try:
+        return Path(a).resolve() == Path(b).resolve() or Path(a).samefile(b)
+    except OSError:
+        return False
 
 
 def write_toml(path: Path, tables: dict, comment: str) -> None:

@@ -68,7 +68,15 @@ def scene_model(rec, config) -> tuple[object, np.ndarray, np.ndarray, np.ndarray
     a, rc = g.plate.half_side_mm, g.plate.corner_radius_mm
     start = ScannerCalibration(nom.d_mm, nom.dL_mm, nom.alpha0_rad, np.zeros(2))
     th = rec.theta_rad
-    cal = calibrate_lsq(th, rec.rho_mm, a, rc, start)
+    try:
+        cal = calibrate_lsq(th, rec.rho_mm, a, rc, start)
+    except np.linalg.LinAlgError:  # readings no rail can give: the normal matrix has no inverse
+        cal = None
+    if cal is None or not np.isfinite(cal.rms_mm) or cal.rms_mm > 1.0:
+        rms = "no fit" if cal is None else f"rms {cal.rms_mm:.3g} mm"
+        raise BadInput(f"the recording does not fit the calibration plate ({2 * a:g} mm square, r = {rc:g} mm) with "
+                       f"any rail ({rms}): another artefact, a wrong unit (the format: mm and degrees), or not a "
+                       "probe-scanner recording?")
     p = np.r_[cal.d_mm, cal.dL_mm, cal.alpha0_rad, cal.centre_mm]
     steps = np.array([1e-4, 1e-4, 1e-6, 1e-4, 1e-4])
     cols = np.empty((len(th), 5))
@@ -78,9 +86,9 @@ def scene_model(rec, config) -> tuple[object, np.ndarray, np.ndarray, np.ndarray
         lo[k] -= steps[k]
         f = [rounded_square_rho(th, v[0], v[1], v[2], v[3:5], a, rc) for v in (hi, lo)]
         cols[:, k] = (f[0] - f[1]) / (2 * steps[k])
-    if not np.all(np.isfinite(cols)) or cal.rms_mm > 1.0:
-        raise BadInput(f"the recording does not fit the calibration plate ({2 * a:g} mm square, r = {rc:g} mm) with "
-                       f"any rail (rms {cal.rms_mm:.3g} mm): another artefact, or not a probe-scanner recording?")
+    if not np.all(np.isfinite(cols)):
+        raise BadInput(f"the recording does not fit the calibration plate ({2 * a:g} mm square, r = {rc:g} mm): "
+                       "its rail's model has no slope there")
     rho_twin = _twin(config, cal).reading_mm("plate", th)
     return cal, rho_twin, cols, cols[:, 2]
 

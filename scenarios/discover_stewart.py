@@ -21,6 +21,10 @@ from calibench.scenarios.report import BadInput
 # The platform's practical floor: 4 % of the held-out RMS. One leg's effect shows on a sixth of
 # the rows; the null recordings of the suite (benchmarks/discover.py) stay below 1 %.
 STEWART_FLOOR = 0.04
+# A pose whose leg disagrees with the nominal platform by more than this is no calibration error:
+# the hinges' errors are tenths of a millimetre, the legs' compliance and growth micrometres.
+MAX_LEG_RESIDUAL_MM = 10.0
+MIN_DISTINCT_POSES = 20  # 42 hinge parameters and the frame's 6 from 6 readings a pose, with room for the folds
 EXPERIMENTS = {
     "leg_compliance": "add a known payload to the platform, or hold poses that load the legs differently",
     "thermal_expansion": "let the machine's temperature change by several K during the recording",
@@ -56,6 +60,24 @@ def register(rec, geometry, iterations: int = 10) -> tuple[np.ndarray, np.ndarra
         if np.max(np.abs(step)) < 1e-10:
             break
     return Rf, tf
+
+
+def _check_registered(rec, g, Rf, tf) -> None:
+    """BadInput when a pose's legs disagree with the registered nominal platform by more than any
+    calibration error could (MAX_LEG_RESIDUAL_MM): a corrupt row, a wrong unit, another machine."""
+    res = _frame_model(rec, g, Rf, tf)[0].reshape(-1, 6)
+    worst = np.abs(res).max(axis=1)
+    far = worst > MAX_LEG_RESIDUAL_MM
+    if far.mean() > 0.5:
+        raise BadInput(f"the legs' readings disagree with the tracker's poses on the nominal platform by "
+                       f"{np.median(worst):.3g} mm (median): a wrong unit (the format: mm and degrees), readings "
+                       "not relative to the initial lengths, or another platform (--config)")
+    if far.any():
+        rows = np.flatnonzero(far)
+        listed = ", ".join(str(int(k) + 1) for k in rows[:5]) + (" ..." if len(rows) > 5 else "")
+        raise BadInput(f"data row(s) {listed}: the legs' readings disagree with the tracker's pose by up to "
+                       f"{worst[far].max():.3g} mm, where the other rows agree within {worst[~far].max():.3g} mm: "
+                       "corrupt rows (leave them out)")
 
 
 def _frame_model(rec, g, Rf, tf):
@@ -229,7 +251,12 @@ def discover_stewart(rec, seed: int = 0, floor: float = STEWART_FLOOR, config=No
     n = len(rec)
     if n < 60:
         raise BadInput(f"{n} poses: discover stewart needs at least 60 (42 hinge parameters and the tracker's frame)")
+    distinct = len(np.unique(stations(rec)))
+    if distinct < MIN_DISTINCT_POSES:
+        raise BadInput(f"{distinct} distinct poses among {n}: the hinges need at least {MIN_DISTINCT_POSES} poses "
+                       "spread over the workspace")
     Rf, tf = register(rec, g)
+    _check_registered(rec, g, Rf, tf)
     truth = config.truth if config.truth.has_leg_physics else None
     drivers, r, frame = twin_drivers(rec, g, Rf, tf, rec.load_n, truth)
     if truth is not None:  # register again with the twin's leg physics taken out of the readings

@@ -222,8 +222,9 @@ def run_study(scenario: str, trials: int, seed: int, fidelity: str, out_dir: Pat
     try:
         checked = None
         if early:
+            workers = min(workers or os.cpu_count() or 1, len(todo))  # no idle processes to start
             executor, close = make_executor(workers, None)
-            for _ in range(workers or os.cpu_count() or 1):
+            for _ in range(workers):
                 executor.submit(_load_scenario, scenario)
             # a worker, which loads the scenario anyway, checks the config: this process then
             # never imports the scenario's estimators, which on 2 cores would slow the workers' start
@@ -247,6 +248,9 @@ def run_study(scenario: str, trials: int, seed: int, fidelity: str, out_dir: Pat
         raise BadInput(f"every trial's estimate is singular: the {scenario} set-up cannot determine its parameters"
                        + (" (is the arm degenerate: planar, or without length?)" if arm else "")
                        + f"; e.g. {rows[0]['error']}")
+    if table and rows and not any(r["ok"] for r in rows):
+        raise BadInput(f"every trial failed with the config's values (e.g. {rows[0]['error']}): the {scenario} "
+                       "set-up they describe cannot be calibrated")
     if not summary["parameters"] and any(r["ok"] for r in rows):
         # an empty table is no result: the set-up leaves nothing to estimate (an arm of one joint,
         # whose every error the tracker's frame and the tool absorb); the journal stays

@@ -10,6 +10,19 @@ import dataclasses
 import numpy as np
 
 
+def stage_travel_mm(scenario: str) -> tuple[float, float]:
+    """The stage twin's travel in x and y (mm), from its home at 0."""
+    if scenario == "belt-stage":
+        from calibench.scenes.belt_stage import BeltStageGeometry
+
+        return BeltStageGeometry().travel_mm
+    if scenario == "vision-stage":
+        from calibench.scenes.vision_stage import VisionStageGeometry
+
+        return VisionStageGeometry().travel_mm
+    raise ValueError(f"no stage twin for {scenario!r}")
+
+
 def replay_stage(scenario: str, x: np.ndarray, y: np.ndarray, temp_c: np.ndarray | None = None,
                  truth=None) -> np.ndarray:
     """Where the twin's carriage / table really is for each command in turn, (n, 2) mm from

@@ -58,6 +58,33 @@ def arm_csv_with(columns: str, cells: str):
     return write
 
 
+def stewart_with(spoil):
+    """A writer of a simulated Stewart recording (200 poses, no concealed effect) passed through
+    ``spoil(rows)``: rows (n, k) of its CSV's values, changed in place; returns the header too."""
+    def write(path):
+        from calibench.sim.concealed import stewart_recording
+
+        stewart_recording("null", 0)[0].to_csv(path)
+        head, *lines = path.read_text().splitlines()
+        rows = np.array([[float(v) for v in line.split(",")] for line in lines])
+        spoil(rows, head.split(","))
+        path.write_text(head + "\n" + "\n".join(",".join(f"{v:.10g}" for v in r) for r in rows) + "\n")
+    return write
+
+
+def _identical(rows, head):
+    rows[:] = rows[0]
+
+
+def _corrupt_leg(rows, head):
+    rows[50, head.index("l3_mm")] = -500.0
+
+
+def _angles_in_radians(rows, head):
+    for c in ("rx_deg", "ry_deg", "rz_deg"):
+        rows[:, head.index(c)] = np.radians(rows[:, head.index(c)])
+
+
 ARM_TOML = """name = "Two"
 convention = "dh"
 [[joint]]
@@ -78,6 +105,14 @@ def png(path, size=(480, 640), value=128):
 
     cv2.imwrite(str(path), np.full((*size, 3), value, np.uint8))
     return path
+
+
+def _truncated_jpeg(path):
+    import cv2
+
+    img = np.random.default_rng(0).integers(0, 255, (240, 320, 3), np.uint8)
+    data = cv2.imencode(".jpg", img)[1].tobytes()
+    path.write_bytes(data[:len(data) // 2])
 
 
 # --- the corpus --------------------------------------------------------------------------------
@@ -410,12 +445,45 @@ CASES = [
      2, "one pass"),
     ("discover-too-many-rows", {"r.csv": lambda p: p.write_text(STAGE_HEAD + "\n" + "1,2,3,4\n" * 100_001)},
      ["discover", "belt-stage", "{d}/r.csv"], 2, "100001 rows"),
+    ("discover-stage-in-um", {"r.csv": stage_csv().replace(STAGE_HEAD, "h").replace(",", "000,")
+                             .replace("\n", "000\n").replace("h000", STAGE_HEAD)},
+     ["discover", "belt-stage", "{d}/r.csv"], 2, "wrong unit (um?)"),
+    ("fit-stage-in-metres", {"r.csv": STAGE_HEAD + "\n" + "".join(
+        f"{x / 1000:g},{y / 1000:g},{x / 1000 + 1e-6:g},{y / 1000:g}\n" for x in range(0, 500, 50) for y in (0, 200))},
+     ["fit", "belt-stage", "{d}/r.csv"], 2, "metres?"),
+    ("discover-stage-beyond-travel", {"r.csv": stage_csv(n=6).replace("500,", "1500,")},
+     ["discover", "belt-stage", "{d}/r.csv"], 2, "travels 0-1000 mm"),
+    ("fit-underscore-number", {"r.csv": stage_csv().replace("\n100,", "\n1_00,", 1)},
+     ["fit", "belt-stage", "{d}/r.csv"], 2, "not a number"),
+    ("fit-line-after-blank-lines", {"r.csv": STAGE_HEAD + "\n1,2,1,2\n\n\n3,4,nan,4\n"},
+     ["fit", "belt-stage", "{d}/r.csv"], 2, "line 5:"),
+    ("fit-run-fraction", {"r.csv": stage_csv(extra=",run").replace("\n", ",0.5\n").replace("run,0.5", "run")},
+     ["fit", "belt-stage", "{d}/r.csv"], 2, "a pass id is a whole number"),
+    ("discover-stage-temperature-absurd", {"r.csv": stage_csv(extra=",temp_c").replace("\n", ",1e300\n")
+                                           .replace("temp_c,1e300", "temp_c")},
+     ["discover", "belt-stage", "{d}/r.csv"], 2, "temp_c is 1e+300"),
+    ("discover-scanner-in-um", {"r.csv": "turn,theta_deg,rho_mm\n" + "".join(
+        f"0,{0.25 * i},{25000 + i}\n" for i in range(1440))}, ["discover", "probe-scanner", "{d}/r.csv"], 2,
+     "over 1000 mm"),
+    ("discover-scanner-twin-over-recording", {"r.csv": "turn,theta_deg,rho_mm\n0,0,20\n"},
+     ["discover", "probe-scanner", "{d}/r.csv", "--twin", "{d}/r.csv"], 2, "would overwrite it"),
+    ("discover-config-without-the-scenario", {"r.csv": "turn,theta_deg,rho_mm\n0,0,20\n",
+                                              "c.toml": "[stewart]\ntranslation_mm = 5.0\n"},
+     ["discover", "probe-scanner", "{d}/r.csv", "--config", "{d}/c.toml"], 2, "no [probe-scanner] table"),
+    ("discover-stewart-identical-poses", {"r.csv": stewart_with(_identical)}, ["discover", "stewart", "{d}/r.csv"],
+     2, "1 distinct poses among 200"),
+    ("discover-stewart-corrupt-row", {"r.csv": stewart_with(_corrupt_leg)}, ["discover", "stewart", "{d}/r.csv"],
+     2, "data row(s) 51:"),
+    ("discover-stewart-radians", {"r.csv": stewart_with(_angles_in_radians)}, ["discover", "stewart", "{d}/r.csv"],
+     2, "a wrong unit"),
     # montecarlo
     ("mc-trials-zero", {}, ["montecarlo", "belt-stage", "--trials", "0"], 2, "--trials"),
     ("mc-trials-negative", {}, ["montecarlo", "belt-stage", "--trials", "-3"], 2, "--trials"),
     ("mc-trials-missing", {}, ["montecarlo", "belt-stage"], 2, "--trials"),
     ("mc-trials-huge", {}, ["montecarlo", "belt-stage", "--trials", "1000000000"], 2, "--trials"),
     ("mc-workers-zero", {}, ["montecarlo", "belt-stage", "--trials", "2", "--workers", "0"], 2, "--workers"),
+    ("mc-workers-beyond-the-machine", {}, ["montecarlo", "belt-stage", "--trials", "2", "--workers", "100000"], 2,
+     "local workers on this machine"),
     ("mc-workers-negative", {}, ["montecarlo", "belt-stage", "--trials", "2", "--workers", "-2"], 2, "--workers"),
     ("mc-scheduler-not-url", {}, ["montecarlo", "belt-stage", "--trials", "2", "--scheduler", "notaurl",
                                   "--out", "{d}/o"], 2, "--scheduler"),
@@ -453,6 +521,13 @@ CASES = [
                                            "nan"], 2, "--square-mm"),
     ("camera-square-text", {"a.png": png}, ["camera", "{d}/a.png", "--cols", "9", "--rows", "6", "--square-mm",
                                             "big"], 2, "--square-mm"),
+    ("camera-square-absurd", {"a.png": png}, ["camera", "{d}/a.png", "--cols", "9", "--rows", "6", "--square-mm",
+                                              "1e-300"], 2, "from 0.001 to 10000 mm"),
+    ("camera-truncated-jpeg", {"a.jpg": lambda p: _truncated_jpeg(p)},
+     ["camera", "{d}/a.jpg", "--cols", "9", "--rows", "6", "--square-mm", "25", "--out", "{d}/o"], 2,
+     "a.jpg: not a readable image (truncated"),
+    ("camera-same-file-twice", {"a.png": png}, ["camera", "{d}/a.png", "{d}/a.png", "--cols", "9", "--rows", "6",
+                                                "--square-mm", "25"], 2, "is given twice"),
     ("camera-radial-4", {"a.png": png}, ["camera", "{d}/a.png", "--cols", "9", "--rows", "6", "--square-mm", "25",
                                          "--radial", "4"], 2, "invalid choice"),
     ("camera-out-is-file", {"a.png": png, "f.txt": "x"},

@@ -244,3 +244,21 @@ def test_many_poses_from_leg_lengths_at_once_are_each_one_alone():
         R1, t1, _ = forward_kinematics(L[i], r, B, np.eye(3), np.array([0, 0, 750.0]))
         np.testing.assert_allclose(Rm[i], R1, atol=1e-9)
         np.testing.assert_allclose(tm[i], t1, atol=1e-9)
+
+
+def test_a_leg_set_no_pose_can_take_fails_alone():
+    """One set with a leg of -500 mm (no pose has it: the Newton leaves the finite numbers) among
+    good ones: that set is not converged, every other is solved as if alone."""
+    rng = np.random.default_rng(9)
+    a, b = np.deg2rad([-15, 15, 105, 135, 225, 255]), np.deg2rad([-45, 45, 75, 165, 195, 285])
+    B = np.c_[500 * np.cos(a), 500 * np.sin(a), np.zeros(6)]
+    r = np.c_[300 * np.cos(b), 300 * np.sin(b), np.zeros(6)]
+    poses = [(_rot(rng.normal(0, 0.08, 3)), np.array([0, 0, 800.0]) + rng.normal(0, 50, 3)) for _ in range(5)]
+    L = np.array([leg_lengths(R, t, r, B) for R, t in poses])
+    bad = L.copy()
+    bad[2, 3] = -500.0
+    with np.errstate(all="raise"):  # no warning may leak either
+        Rm, tm, ok = forward_kinematics_many(bad, r, B, np.eye(3), np.array([0, 0, 750.0]))
+    assert not ok[2] and ok[[0, 1, 3, 4]].all()
+    for i in (0, 1, 3, 4):
+        np.testing.assert_allclose(tm[i], poses[i][1], atol=1e-9)
