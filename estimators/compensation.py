@@ -170,7 +170,10 @@ def cv_rms_periodic(u, v, err_um, periods_mm: np.ndarray, along: int, folds: int
     return np.sqrt(mse.mean(axis=0)), mse.std(axis=0, ddof=1) / np.sqrt(folds)
 
 
-def select_model(u: np.ndarray, v: np.ndarray, err_um: np.ndarray, along: int, degrees=range(1, 9),
+MODEL_DEGREES = range(1, 9)  # the polynomial degrees select_model tries by default
+
+
+def select_model(u: np.ndarray, v: np.ndarray, err_um: np.ndarray, along: int, degrees=MODEL_DEGREES,
                  periods_mm: np.ndarray | None = None, folds: int = 10) -> tuple[Polynomial, dict[str, float]]:
     """The simplest candidate within one standard error of the least cross-validated error
     (the one-standard-error rule: the minimum over many candidates, periods above all, is

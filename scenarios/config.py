@@ -35,10 +35,14 @@ FIXED_LENGTH = {"travel_mm", "error_x", "error_y", "centre_mm", "plate_centre_mm
                 "stated_range_sigma_um", "stated_length_sigma_um"}
 # Floats that are scatters, limits or sizes: a negative one is a typo, not a physics.
 NONNEGATIVE = ("noise", "sigma", "jitter", "limit", "tolerance", "repeatability", "quantum", "psf", "seat",
-               "error_um", "aim_um", "reversal_um", "contour_quanta", "requirement")
+               "error_um", "aim_um", "reversal_um", "contour_quanta", "requirement",
+               # physics MuJoCo refuses negative (masses, inertias, densities) and a leg that would
+               # shorten under load, or a radius below zero
+               "mass", "inertia", "density", "compliance", "radius")
 POSITIVE = ("square_mm", "pitch_mm", "diameter_mm", "fx", "fy", "working_distance_mm", "camera_height_mm",
             "period", "half_side_mm", "rail_length_mm", "A_mm", "B_mm", "travel_mm", "home_height_mm",
-            "translation_mm", "rotation_deg", "p", "reading_sigma_um", "angle_sigma_urad")
+            "translation_mm", "rotation_deg", "p", "reading_sigma_um", "angle_sigma_urad",
+            "kg")  # a moving body's mass: MuJoCo needs it above zero
 
 
 def load_toml(path: str | Path) -> dict:
@@ -70,6 +74,10 @@ def override(obj: Any, table: dict, where: str) -> Any:
             changes[key] = _coerce(current, value, f"{where}.{key}")
     try:
         return dataclasses.replace(obj, **changes)
+    except BadInput as e:
+        if str(e).startswith("config: "):  # a config class's own check, which names its key
+            raise
+        raise BadInput(f"config: {where}: {e}") from None
     except (TypeError, ValueError) as e:
         raise BadInput(f"config: {where}: {e}") from None
 
@@ -133,3 +141,56 @@ def _coerce(current: Any, value: Any, where: str) -> Any:
     if isinstance(current, str) and not isinstance(value, str):
         raise BadInput(f"config: {where} must be a string")
     return value
+
+
+# --- checks across keys, shared by the scenarios' config classes (their __post_init__) ---------
+def show(value: Any) -> str:
+    """A config value as the line quoting it shows it: numbers in %g, lists as lists, short."""
+    if isinstance(value, (bool, str)):
+        return repr(value)
+    if isinstance(value, (int, float, np.integer, np.floating)):
+        return f"{float(value):g}" if isinstance(value, (float, np.floating)) else str(int(value))
+    arr = np.asarray(value, dtype=float)
+    text = np.array2string(arr, separator=", ", formatter={"float_kind": lambda x: f"{x:g}"}, threshold=12,
+                           max_line_width=10_000).replace("\n", "")
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+def bad(where: str, value: Any, why: str) -> BadInput:
+    """The one line of a config value that cannot be used: its key, its value, why and the range."""
+    return BadInput(f"config: {where} = {show(value)}: {why}")
+
+
+# A lens's radial displacement over the image, relative to the distance from the principal point:
+# OpenCV's five-coefficient model is calibrated on lenses that bend the image's corners by tens of
+# per cent at most; beyond that (or a lens that folds the image back) no calibration view is
+# placed and no calibration converges.
+MAX_LENS_BEND = 0.3
+
+
+def check_camera(cam, where: str) -> None:
+    """A :class:`~calibench.scenes.camera.PinholeCamera`'s principal point in the middle half of
+    its image, and a lens that bends the image by at most MAX_LENS_BEND and one-to-one."""
+    for name, c, size in (("cx", cam.cx, cam.width), ("cy", cam.cy, cam.height)):
+        lo, hi = (size - 1) / 2 - size / 4, (size - 1) / 2 + size / 4
+        if not lo <= c <= hi:
+            raise bad(f"{where}.{name}", c, f"the principal point lies near the middle of the {size} px image: "
+                                            f"{name} from {lo:g} to {hi:g}")
+    # the image's extent in normalised coordinates, a grid over it (corners included)
+    u = np.linspace(-cam.cx / cam.fx, (cam.width - 1 - cam.cx) / cam.fx, 33)
+    v = np.linspace(-cam.cy / cam.fy, (cam.height - 1 - cam.cy) / cam.fy, 33)
+    xy = np.stack(np.meshgrid(u, v), axis=-1).reshape(-1, 2)
+    with np.errstate(all="ignore"):
+        d = cam.distort_normalized(xy)
+        r = np.linalg.norm(xy, axis=1)
+        bend = np.max(np.linalg.norm(d - xy, axis=1)[r > 0] / r[r > 0])
+        h = 1e-6
+        jx = (cam.distort_normalized(xy + [h, 0]) - cam.distort_normalized(xy - [h, 0])) / (2 * h)
+        jy = (cam.distort_normalized(xy + [0, h]) - cam.distort_normalized(xy - [0, h])) / (2 * h)
+        det = jx[:, 0] * jy[:, 1] - jx[:, 1] * jy[:, 0]
+    if not (np.isfinite(bend) and bend <= MAX_LENS_BEND and np.all(det > 0)):
+        lens = ", ".join(f"{k} = {getattr(cam, k):g}" for k in ("k1", "k2", "p1", "p2", "k3"))
+        how = (f"moves the image's points by up to {bend:.3g} of their distance from the principal point"
+               if np.isfinite(bend) else "is not finite over the image")
+        raise BadInput(f"config: {where}: the lens {lens} {how}{'' if np.all(det > 0) else ' and folds the image'}"
+                       f": a calibratable lens bends them by at most {MAX_LENS_BEND:.0%}, one-to-one")

@@ -37,6 +37,53 @@ class ProbeScannerConfig:
     d_requirement_mm: float = 0.5  # the system requirement on d (and on dL)
     contour_quanta: float = 3.0  # "after" must be within this many encoder quanta
 
+    def __post_init__(self):
+        check_config(self)
+
+
+def check_config(c: ProbeScannerConfig) -> None:
+    """What makes a probe-scanner set-up workable, checked before any simulation (BadInput, one
+    line naming the key): a rail whose stylus starts inside both openings, a plate whose sides stay
+    flat where the paper's fits look, and windows the quadratic fits can take."""
+    from calibench.scenarios.config import bad, show
+    from calibench.scenarios.report import BadInput
+
+    g, t = c.geometry, c.truth
+    a, r = g.plate.half_side_mm, g.plate.corner_radius_mm
+    # the estimators' convention (rotary_probe): d > 0 by the mechanism's construction
+    if not t.d_mm > 0:
+        raise bad(f"{NAME}.truth.d_mm", t.d_mm, "the rail's offset from the table's axis is positive by the "
+                                                "mechanism's construction (the estimators take that branch)")
+    # the stylus starts at Q, hypot(d, dL) from the table's axis, and must find a wall all round
+    q = float(np.hypot(t.d_mm, t.dL_mm))
+    plate_room = a - float(np.hypot(*t.plate_centre_mm))
+    rim_room = float(np.min(np.linalg.norm(g.lens.outline(n=4000), axis=1)))
+    if not q < min(plate_room, rim_room):
+        raise BadInput(f"config: {NAME}.truth.d_mm = {show(t.d_mm)} (with dL_mm = {show(t.dL_mm)}): the stylus starts "
+                       f"{q:.4g} mm from the table's axis and must start inside both openings all round: "
+                       f"hypot(d_mm, dL_mm) below {min(plate_room, rim_room):.4g} mm (the plate's opening leaves "
+                       f"{plate_room:.4g} mm, the rim's {rim_room:.4g} mm)")
+    # the quadratic fits around the four minima: 3 to a quarter turn of samples (fit_minima)
+    n = g.samples_per_turn
+    ms = np.arange(*c.m_sweep)
+    if len(ms) == 0 or ms.min() < 3 or ms.max() > n // 4:
+        raise bad(f"{NAME}.m_sweep", c.m_sweep, f"range(start, stop, step) of window sizes m from 3 to {n // 4} "
+                                                f"(a quarter of the {n} samples of a turn), not empty")
+    if not 3 <= c.paper_m <= n // 4:
+        raise bad(f"{NAME}.paper_m", c.paper_m, f"from 3 to {n // 4} samples (a quarter of the {n} of a turn)")
+    # each side's minimum lies at its middle; the widest window reaches along the side to
+    # (d + a sin phi) / cos phi at phi* +- its half-width (sin phi* = -d / a): the side must be
+    # flat there, or the paper's fits see the corner (and a radius of a or more is no square)
+    if t.d_mm < a:
+        half = (max(int(ms.max()), c.paper_m) / 2) / n * 2 * np.pi
+        phi = np.arcsin(-t.d_mm / a) + np.array([-half, half])
+        reach = float(np.max(np.abs((t.d_mm + a * np.sin(phi)) / np.cos(phi)))) + float(np.hypot(*t.plate_centre_mm))
+        if not r < a - reach:
+            raise bad(f"{NAME}.geometry.plate.corner_radius_mm", r,
+                      f"the plate's sides must be flat where the fits around their middles look ({reach:.3g} mm each "
+                      f"side of the middle): corner_radius_mm from 0 to below {a - reach:.4g} mm with half_side_mm "
+                      f"= {a:g}")
+
 
 def run(config: ProbeScannerConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool) -> Report:
     """Simulate the rotary probe scanner tracing its calibration opening and a spectacle rim; calibrate

@@ -28,7 +28,7 @@ from calibench.estimators.stewart import (LegCalibration, TrackerObservations, a
                                           fit_sphere, forward_kinematics_many, joint_information, multilaterate_many,
                                           rigid_transform, trilaterate)
 from calibench.scenarios.report import Check, Parameter, Report
-from calibench.scenes.stewart import StewartGeometry
+from calibench.scenes.stewart import LEG_STROKE_MM, PLATFORM_KG, StewartGeometry
 from calibench.sim.stewart import StewartSim, StewartTruth
 
 NAME = "stewart"
@@ -56,11 +56,103 @@ class StewartConfig:
     def __post_init__(self):
         if max(self.stated_length_sigma_um) <= 0:
             raise ValueError("stated_length_sigma_um: the tracker's stated sigma a + b L needs a or b positive")
+        check_config(self)
 
     def length_sigma_mm(self, L_mm) -> np.ndarray:
         """The stated 1-sigma (mm) of the tracker's distances ``L_mm`` (mm)."""
         a, b = self.stated_length_sigma_um
         return (a + b * np.asarray(L_mm) / 1000) / 1000
+
+
+# What the config's checks hold the set-up to (see check_config).
+MAX_ERROR_FRACTION = 0.1  # a 1-sigma geometric error over 10 % of the platform's size is not a calibration error
+MAX_GIVE_FRACTION = 0.01  # a leg's give under the load, of its length: beyond it the legs are springs
+MAX_ROTATION_DEG = 90.0  # the poses' turn about each axis: beyond it the platform lies on its side
+MAX_CONDITION = 1000.0  # the legs' Jacobian (rotations over the platform's radius): beyond it, near-singular
+
+
+def _legs(config: StewartConfig, R: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The nominal legs' lengths (n, 6) mm and the condition numbers (n,) of their Jacobian at
+    poses R (n, 3, 3), t (n, 3): rows (u, (R r) x u / rho), u the leg's unit vector, rho the
+    platform's hinge radius (so turns and shifts weigh alike)."""
+    g = config.geometry
+    r, B = np.asarray(g.platform_hinges_mm, float), np.asarray(g.base_hinges_mm, float)
+    arm = np.einsum("nij,kj->nki", R, r)  # (n, 6, 3)
+    v = arm + t[:, None] - B
+    L = np.linalg.norm(v, axis=2)
+    rho = float(np.max(np.linalg.norm(r, axis=1)))
+    with np.errstate(all="ignore"):
+        u = v / L[..., None]
+        J = np.concatenate([u, np.cross(arm, u) / rho], axis=2)
+        sv = np.linalg.svd(np.nan_to_num(J, nan=0.0, posinf=0.0, neginf=0.0), compute_uv=False)
+        cond = np.where(sv[:, -1] > 0, sv[:, 0] / sv[:, -1], np.inf)
+    return L, cond
+
+
+def check_config(c: StewartConfig) -> None:
+    """What makes a Stewart set-up workable, checked before any simulation (BadInput, one line
+    naming the key): enough poses for the legs' identification, a platform that is not singular
+    and whose legs stay in their stroke over the poses, and errors that are errors."""
+    from calibench.scenarios.config import bad, show
+    from calibench.scenarios.report import BadInput
+
+    g, t = c.geometry, c.truth
+    need = len(LEG_PARAMS) + 1
+    if c.n_poses < need:
+        raise bad(f"{NAME}.n_poses", c.n_poses,
+                  f"at least {need}: each leg's one-step calibration solves {len(LEG_PARAMS)} unknowns (r, B, l) by "
+                  f"least squares and scales their covariance by the residuals' variance, which needs one pose more")
+    if not c.rotation_deg <= MAX_ROTATION_DEG:
+        raise bad(f"{NAME}.rotation_deg", c.rotation_deg,
+                  f"the poses turn by up to this about each axis: from 0 to {MAX_ROTATION_DEG:g} degrees")
+    # the platform at home: not singular, the legs within their stroke
+    size_p = float(np.max(np.linalg.norm(np.asarray(g.platform_hinges_mm, float), axis=1)))
+    size_b = float(np.max(np.linalg.norm(np.asarray(g.base_hinges_mm, float), axis=1)))
+    home_t = np.array([[0.0, 0.0, g.home_height_mm]])
+    L, cond = _legs(c, np.eye(3)[None], home_t)
+    lo, hi = LEG_STROKE_MM
+    if not np.all((L >= lo) & (L <= hi)):
+        raise bad(f"{NAME}.geometry.home_height_mm", g.home_height_mm,
+                  f"at home the legs are {L.min():.4g} to {L.max():.4g} mm long: the legs' stroke is {lo:g} to "
+                  f"{hi:g} mm (the scene's slides)")
+    if not cond[0] <= MAX_CONDITION:
+        raise BadInput(f"config: {NAME}.geometry: platform_hinges_mm and base_hinges_mm leave the platform singular at "
+                       f"home (the legs' Jacobian has condition number {cond[0]:.3g}, at most {MAX_CONDITION:g}): six "
+                       f"legs pin its six degrees of freedom only from hinges spread around platform and base (now "
+                       f"out to {size_p:.4g} mm and {size_b:.4g} mm from their centres)")
+    # the poses' range: home +- translation_mm, +- rotation_deg about each axis
+    corners = np.array(np.meshgrid(*[[-1.0, 0.0, 1.0]] * 6)).reshape(6, -1).T  # (729, 6)
+    R = rotvec_to_matrix(np.deg2rad(c.rotation_deg) * corners[:, 3:])
+    L, cond = _legs(c, R, home_t + c.translation_mm * corners[:, :3])
+    what = (f"the poses (home_height_mm = {show(g.home_height_mm)}, +- translation_mm = {show(c.translation_mm)} "
+            f"along and +- rotation_deg = {show(c.rotation_deg)} about each axis)")
+    if not np.all((L >= lo) & (L <= hi)):
+        raise BadInput(f"config: {NAME}: {what} take the legs from {L.min():.4g} to {L.max():.4g} mm: their stroke is "
+                       f"{lo:g} to {hi:g} mm (the scene's slides); a smaller translation_mm or rotation_deg")
+    if not np.all(cond <= MAX_CONDITION):
+        raise BadInput(f"config: {NAME}: {what} come near a singularity (the legs' Jacobian's condition number "
+                       f"{np.max(cond):.3g}, at most {MAX_CONDITION:g}); a smaller translation_mm or rotation_deg")
+    # the injected geometric errors: errors, not a different machine
+    size = min(size_p, size_b)
+    for key in ("hinge_error_mm", "length_error_mm", "station_offset_mm"):
+        v = getattr(t, key)
+        if not v <= MAX_ERROR_FRACTION * size:
+            raise bad(f"{NAME}.truth.{key}", v,
+                      f"a 1-sigma geometric error is at most {MAX_ERROR_FRACTION:.0%} of the platform's size (its "
+                      f"hinges {size:g} mm from the centre): from 0 to {MAX_ERROR_FRACTION * size:g} mm")
+    # the legs' give under the load (the payload and the platform's weight, shared by six legs
+    # leaning as they do at home): a small error, not a spring
+    Lh, _ = _legs(c, np.eye(3)[None], home_t)
+    v = np.asarray(g.platform_hinges_mm, float) + home_t - np.asarray(g.base_hinges_mm, float)
+    lean = float(np.min(np.abs(v[:, 2]) / np.linalg.norm(v, axis=1)))
+    force = abs(t.payload_n + 9.81 * PLATFORM_KG) / (6 * max(lean, 1e-3))
+    give = np.abs(np.asarray(t.leg_compliance_um_per_n, float)) * force / 1000
+    if not np.all(give <= MAX_GIVE_FRACTION * Lh[0]):
+        most = MAX_GIVE_FRACTION * float(Lh[0].min()) * 1000 / force
+        raise bad(f"{NAME}.truth.leg_compliance_um_per_n", t.leg_compliance_um_per_n,
+                  f"a leg would give {give.max():.4g} mm under the load (payload_n = {t.payload_n:g} and the "
+                  f"platform's weight, about {force:.4g} N a leg): at most {MAX_GIVE_FRACTION:.0%} of its length, "
+                  f"compliance from 0 to {most:.3g} um/N")
 
 
 def random_poses(n, rng, config):

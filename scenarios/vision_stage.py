@@ -26,7 +26,8 @@ import numpy as np
 
 from calibench.estimators import iso230_2
 from calibench.estimators.circles import find_dark_circle
-from calibench.estimators.compensation import LineRuler, compensated_command, fit_polynomial, select_model
+from calibench.estimators.compensation import (MODEL_DEGREES, LineRuler, compensated_command, fit_polynomial,
+                                              select_model)
 from calibench.scenarios.report import Check, Parameter, Report, progress
 from calibench.scenes.vision_stage import VisionStageGeometry
 from calibench.sim.vision_stage import LineRuler as RulerArtefact
@@ -62,6 +63,82 @@ class VisionStageConfig:
     phi_limit_urad: float = 10.0
     lineruler_limit_um: float = 8.0
     polynomial_limit_um: float = 3.0
+
+    def __post_init__(self):
+        check_config(self)
+
+
+# What the config's checks hold the set-up to (see check_config).
+MAX_SQUARENESS_RAD = 0.01  # 10 mm per metre: beyond it the axes are not square, not slightly out of square
+MAX_TURN_ERROR = 0.5  # the operator's turn off by half of it at 1 sigma: the rotate-and-check loop still closes
+MIN_RULER_PITCH_MM = 1.0  # graduations far apart beside the aim's scatter (um), so their readings increase
+RULER_SHORTER_BY_MM = 10.0  # measure_rulers lays each ruler over the travel less this (its ends clear)
+MAX_RULER_SCATTER = 0.1  # the aim's and the graduations' 1-sigma, of the pitch: the readings stay in order
+
+
+def check_config(c: VisionStageConfig) -> None:
+    """What makes a vision-stage set-up workable, checked before any simulation (BadInput, one
+    line naming the key): a microscope whose field holds one circle, a grid of circles on the plate
+    and in the travel with enough circles for the models, interferometer lines over the calibrated
+    range, a ruler with graduations, and errors that are errors."""
+    from calibench.scenarios.config import bad, check_camera
+
+    g = c.geometry
+    cam, plate = g.camera, g.plate
+    check_camera(cam, f"{NAME}.geometry.camera")
+    # the microscope's field must hold a whole circle, and not two of them
+    field = np.array([cam.width / cam.fx, cam.height / cam.fy]) * g.working_distance_mm
+    lo = plate.diameter_mm / min(cam.width / cam.fx, cam.height / cam.fy)
+    hi = (plate.pitch_mm + plate.diameter_mm) / max(cam.width / cam.fx, cam.height / cam.fy)
+    if not lo < g.working_distance_mm < hi:
+        raise bad(f"{NAME}.geometry.working_distance_mm", g.working_distance_mm,
+                  f"the microscope sees {field[0]:.3g} x {field[1]:.3g} mm; its field must hold one whole "
+                  f"{plate.diameter_mm:g} mm circle and not two ({plate.pitch_mm:g} mm pitch): working_distance_mm "
+                  f"from {lo:.4g} to {hi:.4g} with this camera")
+    if plate.diameter_mm >= plate.pitch_mm:
+        raise bad(f"{NAME}.geometry.plate.diameter_mm", plate.diameter_mm,
+                  f"the circles must stand apart: a diameter below the pitch ({plate.pitch_mm:g} mm)")
+    # the grid: on the plate, in the travel, and enough circles along each axis for every model
+    # the scenario fits (select_model's polynomial degrees up to its largest need one circle more)
+    need = max(max(MODEL_DEGREES), 3) + 1
+    for axis, n in enumerate(c.grid):
+        room = int((g.travel_mm[axis] - g.plate_origin_reading_mm[axis]) // plate.pitch_mm) + 1
+        most = min(plate.n, room)
+        if not need <= n <= most:
+            raise bad(f"{NAME}.grid", c.grid,
+                      f"from {need} to {most} circles along {'XY'[axis]} ({need}: the model selection fits "
+                      f"polynomials up to degree {need - 1}, which need {need} along each axis; {most}: the plate's "
+                      f"{plate.n} x {plate.n} circles at {plate.pitch_mm:g} mm within the {g.travel_mm[axis]:g} mm "
+                      f"travel)")
+    # interferometer lines: at least one each way, over the range the plate calibrated
+    for axis, key in ((1, "x_lines_at_y_mm"), (0, "y_lines_at_x_mm")):
+        at = np.asarray(getattr(c, key), float)
+        lo = g.plate_origin_reading_mm[axis]
+        hi = lo + (c.grid[axis] - 1) * plate.pitch_mm
+        if len(at) == 0 or not np.all((at >= lo) & (at <= hi)):
+            raise bad(f"{NAME}.{key}", getattr(c, key),
+                      f"one line or more, each over the range the grid calibrates: {'XY'[axis]} from {lo:g} to "
+                      f"{hi:g} mm (a model is not tested where it extrapolates)")
+    # the line rulers: graduations far enough apart to read in order, two or more on each axis
+    longest = min(g.travel_mm) - RULER_SHORTER_BY_MM
+    if not MIN_RULER_PITCH_MM <= c.ruler_pitch_mm <= longest:
+        raise bad(f"{NAME}.ruler_pitch_mm", c.ruler_pitch_mm,
+                  f"from {MIN_RULER_PITCH_MM:g} mm (graduations read in order through the aim's scatter) to "
+                  f"{longest:g} mm (two graduations on the {longest:g} mm ruler of the shorter axis)")
+    for key in ("ruler_aim_um", "ruler_error_um"):
+        if getattr(c, key) / 1000 > MAX_RULER_SCATTER * c.ruler_pitch_mm:
+            raise bad(f"{NAME}.{key}", getattr(c, key),
+                      f"a graduation's scatter is a small part of the pitch: at most {MAX_RULER_SCATTER:.0%} of "
+                      f"ruler_pitch_mm = {c.ruler_pitch_mm:g}, {MAX_RULER_SCATTER * c.ruler_pitch_mm * 1000:g} um")
+    if not 0 <= c.turn_error <= MAX_TURN_ERROR:
+        raise bad(f"{NAME}.turn_error", c.turn_error,
+                  f"the fraction the operator's turn is off by: from 0 to {MAX_TURN_ERROR:g} (at 1 or more the "
+                  f"rotate-and-check loop does not converge)")
+    s = c.truth.squareness_rad
+    if not abs(s) <= MAX_SQUARENESS_RAD:
+        raise bad(f"{NAME}.truth.squareness_rad", s,
+                  f"a squareness error is a small angle: from -{MAX_SQUARENESS_RAD:g} to {MAX_SQUARENESS_RAD:g} rad "
+                  f"({MAX_SQUARENESS_RAD * 1000:g} mm per metre)")
 
 
 class Microscope:
@@ -241,7 +318,7 @@ def measure_rulers(sim: VisionStageSim, config: VisionStageConfig, rng, s00) -> 
     g = config.geometry
     out = []
     for axis in (0, 1):
-        length = g.travel_mm[axis] - 10
+        length = g.travel_mm[axis] - RULER_SHORTER_BY_MM
         n = int(length // config.ruler_pitch_mm) + 1
         other = 1 - axis
         mid = s00[other] + (config.grid[other] - 1) * g.plate.pitch_mm / 2

@@ -15,6 +15,9 @@ import cv2
 import numpy as np
 
 
+TEXTURE_PX_PER_SQUARE = 64  # the texture's resolution the scenes use: the margin a whole number of its pixels
+
+
 @dataclasses.dataclass(frozen=True)
 class Chessboard:
     """A printed chessboard with a white margin.
@@ -61,7 +64,7 @@ class Chessboard:
         xy = np.stack([i.ravel(), j.ravel()], axis=1) * self.square_mm
         return np.hstack([xy, np.zeros((self.n_corners, 1))])
 
-    def texture(self, px_per_square: int = 64) -> np.ndarray:
+    def texture(self, px_per_square: int = TEXTURE_PX_PER_SQUARE) -> np.ndarray:
         """Texture image of the whole plate, shape (height_px, width_px, 3), uint8 RGB.
 
         Stored as the plate is seen from the front: row 0 is the plate edge at the smallest
@@ -82,7 +85,7 @@ class Chessboard:
         img[m:m + ny * s, m:m + nx * s][black] = 0
         return np.repeat(img[:, :, None], 3, axis=2)
 
-    def texture_png(self, px_per_square: int = 64) -> bytes:
+    def texture_png(self, px_per_square: int = TEXTURE_PX_PER_SQUARE) -> bytes:
         """The board's texture as PNG bytes, ``px_per_square`` pixels a square."""
         ok, buf = cv2.imencode(".png", self.texture(px_per_square))
         assert ok

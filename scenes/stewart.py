@@ -46,6 +46,10 @@ class StewartGeometry:
 
 
 
+LEG_STROKE_MM = (400.0, 1200.0)  # the legs' slides' range: the pin-to-pin lengths the platform can take
+PLATFORM_KG = 20.0
+
+
 def build_mjcf(g: StewartGeometry, B_mm: np.ndarray, r_mm: np.ndarray, reflectors_mm: np.ndarray,
                stations_mm: np.ndarray) -> str:
     """The platform's MJCF: base, platform and six legs (a slide between two universal joints)."""
@@ -58,7 +62,7 @@ def build_mjcf(g: StewartGeometry, B_mm: np.ndarray, r_mm: np.ndarray, reflector
       <joint name="leg{i}_uy" type="hinge" axis="0 1 0"/>
       <geom name="leg{i}_cyl" type="cylinder" fromto="0 0 0 0 0 0.35" size="0.025" rgba="0.5 0.52 0.55 1" mass="2" contype="0" conaffinity="0"/>
       <body name="leg{i}_rod">
-        <joint name="leg{i}_slide" type="slide" axis="0 0 1" range="0.4 1.2"/>
+        <joint name="leg{i}_slide" type="slide" axis="0 0 1" range="{LEG_STROKE_MM[0] / 1000} {LEG_STROKE_MM[1] / 1000}"/>
         <geom name="leg{i}_rod" type="capsule" fromto="0 0 -0.45 0 0 0" size="0.014" rgba="0.8 0.8 0.82 1" mass="1" contype="0" conaffinity="0"/>
         <site name="leg{i}_end" pos="0 0 0" size="0.01"/>
       </body>
@@ -84,7 +88,7 @@ def build_mjcf(g: StewartGeometry, B_mm: np.ndarray, r_mm: np.ndarray, reflector
     <geom name="measuring_plate" type="box" size="0.02 0.6 0.7" pos="1.55 0 0.9" rgba="0.4 0.4 0.45 0.6" contype="0" conaffinity="0"/>{nests}{stations}{legs}
     <body name="platform" pos="0 0 {h}">
       <freejoint name="platform"/>
-      <geom name="platform" type="cylinder" size="0.34 0.015" rgba="0.6 0.45 0.25 1" mass="20" contype="0" conaffinity="0"/>{sites}{refl}
+      <geom name="platform" type="cylinder" size="0.34 0.015" rgba="0.6 0.45 0.25 1" mass="{PLATFORM_KG}" contype="0" conaffinity="0"/>{sites}{refl}
     </body>
   </worldbody>
   <equality>{eqs}

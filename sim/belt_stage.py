@@ -220,8 +220,11 @@ def _view_attempts(draw, fu, fv, cam, corners, centre, half, outer, edge_px):
     return (R[:, 2, 2] > 0.3) & inside & plate_in, R, t
 
 
+INTRINSIC_VIEW_DEPTH_MM = (750.0, 1150.0)  # the calibration views' board distances from the camera
+
+
 def intrinsic_view_poses(geometry: BeltStageGeometry, n_views: int, rng: np.random.Generator,
-                         depth_mm: tuple[float, float] = (750.0, 1150.0),
+                         depth_mm: tuple[float, float] = INTRINSIC_VIEW_DEPTH_MM,
                          max_tilt_rad: float = 0.6, edge_px: float = 12.0):
     """Board poses in the camera frame for intrinsic calibration, spread over the image.
 
