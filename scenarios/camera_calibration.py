@@ -65,7 +65,7 @@ def calibrate_photos(paths: list[Path], cols: int, rows: int, square_mm: float, 
         why = "; ".join(f"{k}: {v}" for k, v in list(rejected.items())[:3])
         more = f" and {len(rejected) - 3} more" if len(rejected) > 3 else ""
         raise BadInput(f"camera: {len(used)} usable view(s) of the {cols}x{rows} board among {len(paths)} image(s), "
-                       f"a calibration needs at least 3 distinct ones ({why}{more})")
+                       f"a calibration needs at least 3 distinct ones" + (f" ({why}{more})" if why else ""))
     board = Chessboard(cols=cols, rows=rows, square_mm=square_mm)
     try:
         calib = calibrate_camera(board.corners_mm(), points, size, fix_aspect=fix_aspect,

@@ -43,6 +43,9 @@ class ProbeScannerTruth:
     def __post_init__(self):
         if not len(self.runout_harmonics) == len(self.runout_mm) == len(self.runout_phase_rad):
             raise ValueError("runout_harmonics, runout_mm and runout_phase_rad need one value each per harmonic")
+        if any(not (float(k).is_integer() and k >= 1) for k in self.runout_harmonics):
+            raise ValueError(f"runout_harmonics = {list(self.runout_harmonics)}: a run-out repeats a whole number of "
+                             "times per turn, 1 or more")
 
 
 @dataclasses.dataclass

@@ -37,6 +37,12 @@ class StewartTruth:
     leg_pitch_lead_mm: tuple = (0.0,) * 6
     leg_pitch_phase_rad: tuple = (0.0,) * 6
 
+    def __post_init__(self):
+        pitched = (np.asarray(self.leg_pitch_um, float) != 0) & ~(np.asarray(self.leg_pitch_lead_mm, float) > 0)
+        if pitched.any():  # leg_effects_mm would leave the error out without a word
+            raise ValueError(f"leg {int(np.argmax(pitched)) + 1} has a pitch error (leg_pitch_um) but no screw lead: "
+                             "leg_pitch_lead_mm must be positive there")
+
     @property
     def has_leg_physics(self) -> bool:
         """Whether any leg effect is switched on."""
