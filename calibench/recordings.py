@@ -78,8 +78,9 @@ class StageRecording:
 
 
 def _read_columns(path: str | Path, required: tuple, optional: tuple,
-                  max_rows: int | None = None) -> dict[str, np.ndarray]:
-    """Numeric columns of a CSV by name; one clear RecordingError for any defect."""
+                  max_rows: int | None = None) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """Numeric columns of a CSV by name, and each data row's line in the file (n,); one clear
+    RecordingError for any defect."""
     path = Path(path)
     try:
         with open(path, newline="", encoding="utf-8-sig") as f:
@@ -142,14 +143,14 @@ def _read_columns(path: str | Path, required: tuple, optional: tuple,
         if bad.any():
             raise RecordingError(f"{path} line {lines[int(np.argmax(bad))]}: column {name} is not finite")
         fields[name] = values
-    fields["_line"] = np.array(lines)
-    _check_common(path, fields)
-    return fields
+    line = np.array(lines)
+    _check_common(path, fields, line)
+    return fields, line
 
 
-def _check_common(path, cols: dict) -> None:
-    """The optional columns every format shares: a machine's temperature, a load, a pass id."""
-    line = cols["_line"]
+def _check_common(path, cols: dict, line: np.ndarray) -> None:
+    """The optional columns every format shares: a machine's temperature, a load, a pass id.
+    ``line`` (n,): each row's line in the file."""
     for name, lo, hi, what in (("temp_c", -100.0, 200.0, "not a machine's temperature in deg C (-100 to 200)"),
                                ("load_n", -1e6, 1e6, "over 100 t: a wrong unit or a corrupt value")):
         v = cols.get(name)
@@ -169,8 +170,7 @@ def load_stage_csv(path: str | Path, max_rows: int | None = None) -> StageRecord
     """Read a stage recording; one clear RecordingError for any defect (a missing column, a
     value that is not a number or not finite, a coordinate beyond 50 m or every one within 2 mm
     (micrometres, metres), a direction other than -1, 0, +1). ``max_rows``: refuse longer recordings before converting them."""
-    cols = _read_columns(path, StageRecording.REQUIRED, StageRecording.OPTIONAL, max_rows)
-    line = cols.pop("_line")
+    cols, line = _read_columns(path, StageRecording.REQUIRED, StageRecording.OPTIONAL, max_rows)
     for name in StageRecording.REQUIRED:
         big = np.abs(cols[name]) > MAX_STAGE_MM
         if big.any():
@@ -281,8 +281,7 @@ def load_arm_csv(path: str | Path, n_joints: int | None = None, max_rows: int | 
         raise RecordingError(f"{path}: {found} joint column(s) (q1_deg..q{found}_deg) but the arm has "
                              f"{n_joints} joints")
     q_cols = tuple(f"q{j}_deg" for j in range(1, n + 1))
-    cols = _read_columns(path, q_cols + ("x_mm", "y_mm", "z_mm"), ARM_OPTIONAL, max_rows)
-    line = cols.pop("_line")
+    cols, line = _read_columns(path, q_cols + ("x_mm", "y_mm", "z_mm"), ARM_OPTIONAL, max_rows)
     q_deg = np.stack([cols[c] for c in q_cols], axis=1)
     xyz = np.stack([cols["x_mm"], cols["y_mm"], cols["z_mm"]], axis=1)
     tiny_arm = range_deg is not None and np.abs(np.asarray(range_deg, float)).max() <= 2 * np.pi
@@ -357,8 +356,7 @@ def load_axis_run(path: str | Path) -> AxisRun:
     """Read a bidirectional run (CONTRACT, "iso230"): target_mm, run, direction and either
     deviation_um or actual_mm."""
     path = Path(path)
-    cols = _read_columns(path, ("target_mm", "run", "direction"), ("deviation_um", "actual_mm"))
-    line = cols.pop("_line")
+    cols, line = _read_columns(path, ("target_mm", "run", "direction"), ("deviation_um", "actual_mm"))
     if "deviation_um" in cols:
         dev = cols["deviation_um"]
     elif "actual_mm" in cols:
@@ -414,8 +412,7 @@ MAX_RHO_MM = 1000.0  # a spectacle frame's scanner reads within a few cm of its 
 def load_scanner_csv(path: str | Path, max_rows: int | None = None) -> ScannerRecording:
     """Read a probe-scanner recording: turn, theta_deg, rho_mm; optional t_s, temp_c. Refused:
     a turn that is not an integer, a reading that is not positive or beyond a metre."""
-    cols = _read_columns(path, ("turn", "theta_deg", "rho_mm"), ("t_s", "temp_c"), max_rows)
-    line = cols.pop("_line")
+    cols, line = _read_columns(path, ("turn", "theta_deg", "rho_mm"), ("t_s", "temp_c"), max_rows)
     turn = cols["turn"]
     if np.any(turn != np.round(turn)):
         i = int(np.argmax(turn != np.round(turn)))
@@ -486,8 +483,7 @@ def load_stewart_csv(path: str | Path, max_rows: int | None = None) -> StewartRe
 
     legs = tuple(f"l{i}_mm" for i in range(1, 7))
     dirs = tuple(f"dir_{i}" for i in range(1, 7))
-    cols = _read_columns(path, legs + STEWART_POSE, ("t_s", "temp_c", "load_n") + dirs, max_rows)
-    line = cols.pop("_line")
+    cols, line = _read_columns(path, legs + STEWART_POSE, ("t_s", "temp_c", "load_n") + dirs, max_rows)
     present = [c for c in dirs if c in cols]
     if present and len(present) < 6:
         raise RecordingError(f"{path}: {', '.join(present)} without the others: give all of dir_1..dir_6 or none")
