@@ -230,14 +230,20 @@ def test_many_points_multilaterated_at_once_are_each_one_alone():
         assert ok[i] == one_ok
 
 
-def test_many_poses_from_leg_lengths_at_once_are_each_one_alone():
-    """Batched forward kinematics against the single-pose Newton, pose by pose (1e-9)."""
+def _platform_and_poses(n: int):
+    """A platform's hinges r (6, 3), its base's B (6, 3) and ``n`` random poses about 800 mm up,
+    with their legs' lengths (n, 6)."""
     rng = np.random.default_rng(9)
     a, b = np.deg2rad([-15, 15, 105, 135, 225, 255]), np.deg2rad([-45, 45, 75, 165, 195, 285])
     B = np.c_[500 * np.cos(a), 500 * np.sin(a), np.zeros(6)]
     r = np.c_[300 * np.cos(b), 300 * np.sin(b), np.zeros(6)]
-    poses = [(_rot(rng.normal(0, 0.08, 3)), np.array([0, 0, 800.0]) + rng.normal(0, 50, 3)) for _ in range(6)]
-    L = np.array([leg_lengths(R, t, r, B) for R, t in poses])
+    poses = [(_rot(rng.normal(0, 0.08, 3)), np.array([0, 0, 800.0]) + rng.normal(0, 50, 3)) for _ in range(n)]
+    return r, B, poses, np.array([leg_lengths(R, t, r, B) for R, t in poses])
+
+
+def test_many_poses_from_leg_lengths_at_once_are_each_one_alone():
+    """Batched forward kinematics against the single-pose Newton, pose by pose (1e-9)."""
+    r, B, poses, L = _platform_and_poses(6)
     Rm, tm, ok = forward_kinematics_many(L, r, B, np.eye(3), np.array([0, 0, 750.0]))
     assert ok.all()
     for i in range(len(poses)):
@@ -249,12 +255,7 @@ def test_many_poses_from_leg_lengths_at_once_are_each_one_alone():
 def test_a_leg_set_no_pose_can_take_fails_alone():
     """One set with a leg of -500 mm (no pose has it: the Newton leaves the finite numbers) among
     good ones: that set is not converged, every other is solved as if alone."""
-    rng = np.random.default_rng(9)
-    a, b = np.deg2rad([-15, 15, 105, 135, 225, 255]), np.deg2rad([-45, 45, 75, 165, 195, 285])
-    B = np.c_[500 * np.cos(a), 500 * np.sin(a), np.zeros(6)]
-    r = np.c_[300 * np.cos(b), 300 * np.sin(b), np.zeros(6)]
-    poses = [(_rot(rng.normal(0, 0.08, 3)), np.array([0, 0, 800.0]) + rng.normal(0, 50, 3)) for _ in range(5)]
-    L = np.array([leg_lengths(R, t, r, B) for R, t in poses])
+    r, B, poses, L = _platform_and_poses(5)
     bad = L.copy()
     bad[2, 3] = -500.0
     with np.errstate(all="raise"):  # no warning may leak either
