@@ -18,6 +18,7 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 from pathlib import Path
 
 import numpy as np
@@ -71,12 +72,11 @@ MAX_ROTATION_DEG = 90.0  # the poses' turn about each axis: beyond it the platfo
 MAX_CONDITION = 1000.0  # the legs' Jacobian (rotations over the platform's radius): beyond it, near-singular
 
 
-def _legs(config: StewartConfig, R: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _legs(r: np.ndarray, B: np.ndarray, R: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The nominal legs' lengths (n, 6) mm and the condition numbers (n,) of their Jacobian at
-    poses R (n, 3, 3), t (n, 3): rows (u, (R r) x u / rho), u the leg's unit vector, rho the
-    platform's hinge radius (so turns and shifts weigh alike)."""
-    g = config.geometry
-    r, B = np.asarray(g.platform_hinges_mm, float), np.asarray(g.base_hinges_mm, float)
+    poses R (n, 3, 3), t (n, 3), for platform hinges r (6, 3) and base hinges B (6, 3): rows
+    (u, (R r) x u / rho), u the leg's unit vector, rho the platform's hinge radius (so turns and
+    shifts weigh alike)."""
     arm = np.einsum("nij,kj->nki", R, r)  # (n, 6, 3)
     v = arm + t[:, None] - B
     L = np.linalg.norm(v, axis=2)
@@ -87,6 +87,21 @@ def _legs(config: StewartConfig, R: np.ndarray, t: np.ndarray) -> tuple[np.ndarr
         sv = np.linalg.svd(np.nan_to_num(J, nan=0.0, posinf=0.0, neginf=0.0), compute_uv=False)
         cond = np.where(sv[:, -1] > 0, sv[:, 0] / sv[:, -1], np.inf)
     return L, cond
+
+
+@functools.lru_cache(maxsize=16)
+def _workspace(r: tuple, B: tuple, home_height_mm: float, translation_mm: float, rotation_deg: float) -> tuple:
+    """The legs at home (6,) and their Jacobian's condition there; the legs' shortest and longest
+    and the largest condition over the poses' range (home +- translation along, +- rotation about
+    each axis: the 3^6 corners and mid-points). Cached: a study's trials share their geometry, and
+    the 729 poses cost a few milliseconds."""
+    r, B = np.asarray(r, float).reshape(6, 3), np.asarray(B, float).reshape(6, 3)
+    home_t = np.array([[0.0, 0.0, home_height_mm]])
+    L_home, cond_home = _legs(r, B, np.eye(3)[None], home_t)
+    corners = np.array(np.meshgrid(*[[-1.0, 0.0, 1.0]] * 6)).reshape(6, -1).T  # (729, 6)
+    R = rotvec_to_matrix(np.deg2rad(rotation_deg) * corners[:, 3:])
+    L, cond = _legs(r, B, R, home_t + translation_mm * corners[:, :3])
+    return L_home[0], float(cond_home[0]), float(L.min()), float(L.max()), float(np.max(cond))
 
 
 def check_config(c: StewartConfig) -> None:
@@ -106,32 +121,30 @@ def check_config(c: StewartConfig) -> None:
         raise bad(f"{NAME}.rotation_deg", c.rotation_deg,
                   f"the poses turn by up to this about each axis: from 0 to {MAX_ROTATION_DEG:g} degrees")
     # the platform at home: not singular, the legs within their stroke
-    size_p = float(np.max(np.linalg.norm(np.asarray(g.platform_hinges_mm, float), axis=1)))
-    size_b = float(np.max(np.linalg.norm(np.asarray(g.base_hinges_mm, float), axis=1)))
-    home_t = np.array([[0.0, 0.0, g.home_height_mm]])
-    L, cond = _legs(c, np.eye(3)[None], home_t)
+    r, B = np.asarray(g.platform_hinges_mm, float), np.asarray(g.base_hinges_mm, float)
+    size_p, size_b = float(np.max(np.linalg.norm(r, axis=1))), float(np.max(np.linalg.norm(B, axis=1)))
+    L_home, cond_home, L_min, L_max, cond_max = _workspace(tuple(r.ravel()), tuple(B.ravel()),
+                                                           float(g.home_height_mm), float(c.translation_mm),
+                                                           float(c.rotation_deg))
     lo, hi = LEG_STROKE_MM
-    if not np.all((L >= lo) & (L <= hi)):
+    if not np.all((L_home >= lo) & (L_home <= hi)):
         raise bad(f"{NAME}.geometry.home_height_mm", g.home_height_mm,
-                  f"at home the legs are {L.min():.4g} to {L.max():.4g} mm long: the legs' stroke is {lo:g} to "
-                  f"{hi:g} mm (the scene's slides)")
-    if not cond[0] <= MAX_CONDITION:
+                  f"at home the legs are {L_home.min():.4g} to {L_home.max():.4g} mm long: the legs' stroke is {lo:g} "
+                  f"to {hi:g} mm (the scene's slides)")
+    if not cond_home <= MAX_CONDITION:
         raise BadInput(f"config: {NAME}.geometry: platform_hinges_mm and base_hinges_mm leave the platform singular at "
-                       f"home (the legs' Jacobian has condition number {cond[0]:.3g}, at most {MAX_CONDITION:g}): six "
-                       f"legs pin its six degrees of freedom only from hinges spread around platform and base (now "
-                       f"out to {size_p:.4g} mm and {size_b:.4g} mm from their centres)")
+                       f"home (the legs' Jacobian has condition number {cond_home:.3g}, at most {MAX_CONDITION:g}): "
+                       f"six legs pin its six degrees of freedom only from hinges spread around platform and base "
+                       f"(now out to {size_p:.4g} mm and {size_b:.4g} mm from their centres)")
     # the poses' range: home +- translation_mm, +- rotation_deg about each axis
-    corners = np.array(np.meshgrid(*[[-1.0, 0.0, 1.0]] * 6)).reshape(6, -1).T  # (729, 6)
-    R = rotvec_to_matrix(np.deg2rad(c.rotation_deg) * corners[:, 3:])
-    L, cond = _legs(c, R, home_t + c.translation_mm * corners[:, :3])
     what = (f"the poses (home_height_mm = {show(g.home_height_mm)}, +- translation_mm = {show(c.translation_mm)} "
             f"along and +- rotation_deg = {show(c.rotation_deg)} about each axis)")
-    if not np.all((L >= lo) & (L <= hi)):
-        raise BadInput(f"config: {NAME}: {what} take the legs from {L.min():.4g} to {L.max():.4g} mm: their stroke is "
+    if not lo <= L_min <= L_max <= hi:
+        raise BadInput(f"config: {NAME}: {what} take the legs from {L_min:.4g} to {L_max:.4g} mm: their stroke is "
                        f"{lo:g} to {hi:g} mm (the scene's slides); a smaller translation_mm or rotation_deg")
-    if not np.all(cond <= MAX_CONDITION):
+    if not cond_max <= MAX_CONDITION:
         raise BadInput(f"config: {NAME}: {what} come near a singularity (the legs' Jacobian's condition number "
-                       f"{np.max(cond):.3g}, at most {MAX_CONDITION:g}); a smaller translation_mm or rotation_deg")
+                       f"{cond_max:.3g}, at most {MAX_CONDITION:g}); a smaller translation_mm or rotation_deg")
     # the injected geometric errors: errors, not a different machine
     size = min(size_p, size_b)
     for key in ("hinge_error_mm", "length_error_mm", "station_offset_mm"):
@@ -142,13 +155,12 @@ def check_config(c: StewartConfig) -> None:
                       f"hinges {size:g} mm from the centre): from 0 to {MAX_ERROR_FRACTION * size:g} mm")
     # the legs' give under the load (the payload and the platform's weight, shared by six legs
     # leaning as they do at home): a small error, not a spring
-    Lh, _ = _legs(c, np.eye(3)[None], home_t)
-    v = np.asarray(g.platform_hinges_mm, float) + home_t - np.asarray(g.base_hinges_mm, float)
+    v = r + [0.0, 0.0, g.home_height_mm] - B
     lean = float(np.min(np.abs(v[:, 2]) / np.linalg.norm(v, axis=1)))
     force = abs(t.payload_n + 9.81 * PLATFORM_KG) / (6 * max(lean, 1e-3))
     give = np.abs(np.asarray(t.leg_compliance_um_per_n, float)) * force / 1000
-    if not np.all(give <= MAX_GIVE_FRACTION * Lh[0]):
-        most = MAX_GIVE_FRACTION * float(Lh[0].min()) * 1000 / force
+    if not np.all(give <= MAX_GIVE_FRACTION * L_home):
+        most = MAX_GIVE_FRACTION * float(L_home.min()) * 1000 / force
         raise bad(f"{NAME}.truth.leg_compliance_um_per_n", t.leg_compliance_um_per_n,
                   f"a leg would give {give.max():.4g} mm under the load (payload_n = {t.payload_n:g} and the "
                   f"platform's weight, about {force:.4g} N a leg): at most {MAX_GIVE_FRACTION:.0%} of its length, "
