@@ -21,6 +21,15 @@ class RecordingError(BadInput):
     """A recording that cannot be used as it is (missing column, NaN, unreadable file)."""
 
 
+def same_file(a: str | Path, b: str | Path) -> bool:
+    """Whether two paths name one file (through links too); a path that does not exist yet is
+    the other only if it resolves to it."""
+    try:
+        return Path(a).resolve() == Path(b).resolve() or Path(a).samefile(b)
+    except OSError:
+        return False
+
+
 @dataclasses.dataclass
 class CameraViews:
     """Views of a chessboard by one camera.

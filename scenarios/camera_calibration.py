@@ -11,6 +11,7 @@ import numpy as np
 from calibench.estimators.chessboard import find_chessboard_corners, gross_corners
 from calibench.estimators.zhang import CalibrationError, calibrate_camera
 from calibench.scenarios.report import BadInput
+from calibench.recordings import same_file
 from calibench.scenes.checkerboard import Chessboard
 
 
@@ -24,7 +25,7 @@ def calibrate_photos(paths: list[Path], cols: int, rows: int, square_mm: float, 
     for p in paths:
         if not p.is_file():
             raise BadInput(f"camera: no such image {p}")
-    twice = next((p for k, p in enumerate(paths) if any(_same_file(p, q) for q in paths[:k])), None)
+    twice = next((p for k, p in enumerate(paths) if any(same_file(p, q) for q in paths[:k])), None)
     if twice is not None:
         raise BadInput(f"camera: {twice} is given twice: a photo counts once")
     names = _labels(paths)
@@ -95,13 +96,6 @@ def _labels(paths: list[Path]) -> dict[Path, str]:
     for p in paths:
         counts[p.name] = counts.get(p.name, 0) + 1
     return {p: p.name if counts[p.name] == 1 else str(p) for p in paths}
-
-
-def _same_file(a: Path, b: Path) -> bool:
-    try:
-        return a.samefile(b)
-    except OSError:
-        return False
 
 
 def _read_gray(path: Path) -> tuple[np.ndarray | None, str]:

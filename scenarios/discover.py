@@ -19,6 +19,7 @@ import numpy as np
 from calibench.estimators import discovery as dsc
 from calibench.estimators.effects import polynomial_candidates, stage_candidates
 from calibench.scenarios.report import BadInput
+from calibench.recordings import same_file
 
 STAGE_DEGREE = {"belt-stage": 2, "vision-stage": 3}
 SUPPORTED = ("belt-stage", "vision-stage", "arm-cmm", "probe-scanner", "stewart")
@@ -601,7 +602,7 @@ def run_discover(scenario: str, csv_path, out_dir: Path, seed: int = 0, holdout:
         if scenario not in tables:
             raise BadInput(f"config {config} has no [{scenario}] table (it has: {', '.join(tables) or 'none'}): "
                            "its twin is not this instrument's")
-    if twin is not None and any(_same_file(twin, p) for p in paths):
+    if twin is not None and any(same_file(twin, p) for p in paths):
         raise BadInput(f"--twin {twin} is a recording of this run: the twin would overwrite it")
     from calibench.recordings import load_arm_csv, load_stage_csv
 
@@ -671,13 +672,6 @@ def run_discover(scenario: str, csv_path, out_dir: Path, seed: int = 0, holdout:
     (out_dir / "discovery.json").write_text(json.dumps(out, indent=2, default=_json_default) + "\n")
     _figure(out_dir / "discovery.png", out, fig, before)
     return out
-
-
-def _same_file(a, b) -> bool:
-    try:
-        return Path(a).resolve() == Path(b).resolve() or Path(a).samefile(b)
-    except OSError:
-        return False
 
 
 def write_toml(path: Path, tables: dict, comment: str) -> None:
