@@ -93,6 +93,28 @@ print(sorted(m for m in sys.modules if m.startswith(("calibench.estimators", "ca
     assert not (tmp_path / JOURNAL).exists() and not (tmp_path / "study.json").exists()
 
 
+def test_a_config_under_which_every_trial_fails_is_bad_input(tmp_path, monkeypatch):
+    """The safety net behind the config checks: a config they pass but under which no trial runs
+    (here every trial's prior made to fail) is one BadInput line naming a trial's error, not an
+    empty table with exit 0; the trials stay in the journal. Without a config the same failures
+    are the study's result (a defect of calibench, not of the input)."""
+    from calibench.errors import BadInput
+    from calibench.scenarios import arm_cmm
+
+    def no_prior(config, rng):
+        raise ValueError("the set-up cannot seat a cone")
+
+    monkeypatch.setattr(arm_cmm, "prior", no_prior)
+    table = {"stated_angle_sigma_urad": 6.0}
+    with cf.ThreadPoolExecutor(1) as ex, pytest.raises(BadInput, match="every trial failed with the config's "
+                                                                       "values .*cannot seat a cone"):
+        run_study("arm-cmm", 3, 0, "analytic", tmp_path / "config", executor=ex, progress=False, table=table)
+    assert len(load_journal(tmp_path / "config")) == 3
+    with cf.ThreadPoolExecutor(1) as ex:
+        summary = run_study("arm-cmm", 3, 0, "analytic", tmp_path / "plain", executor=ex, progress=False)
+    assert summary["failed"] == 3
+
+
 def test_trials_are_reproducible_and_independent():
     assert trial_seed(0, 5) == trial_seed(0, 5)
     assert len({trial_seed(0, i) for i in range(100)} | {trial_seed(1, i) for i in range(100)}) == 200
