@@ -244,7 +244,7 @@ class Geometry(Effect):
 
     def columns(self, d):
         J = np.asarray(d["J"], float)[:, :, list(self.kept)]
-        return J.reshape(-1, len(self.kept))
+        return J.reshape(3 * len(J), len(self.kept))
 
     def describe(self, coef, cov):
         angle = {n: n.startswith(("dalpha", "dtheta", "dbeta")) for n in self.names}

@@ -319,11 +319,15 @@ ARM_EXPERIMENTS = {
 }
 
 
-def arm_drivers(arm, q_rad: np.ndarray, temp_c=None, t_s=None, truth=None) -> tuple[dict, np.ndarray]:
+def arm_drivers(arm, q_rad: np.ndarray, temp_c=None, t_s=None, truth=None,
+                delta: np.ndarray | None = None) -> tuple[dict, np.ndarray]:
     """What the arm's candidates need, and the twin's tool points: MuJoCo's nominal (rigid) arm
     at the readings (n, 3) mm, its gravity torques (MuJoCo's inverse dynamics) when the arm has
-    masses, the chain's Jacobians. ``truth``: a twin updated by ``discover --twin`` (its
-    geometry, and its joints' stiffness: the links then settle under gravity in MuJoCo)."""
+    masses, the chain's Jacobians, the twin's chain errors. ``truth``: a twin updated by
+    ``discover --twin`` (its geometry, and its joints' stiffness: the links then settle under
+    gravity in MuJoCo).
+    ``delta``: the chain's errors (5 N + 3,) at which the Jacobians, the points and the flange
+    are taken (the drawing's chain if None)."""
     from calibench.estimators.arm_kinematics import jacobian, pose, theta_index
     from calibench.scenarios.arms import chain_of
     from calibench.sim.arm_cmm import ArmSim, ArmTruth
@@ -332,13 +336,13 @@ def arm_drivers(arm, q_rad: np.ndarray, temp_c=None, t_s=None, truth=None) -> tu
     twin = ArmSim(arm, truth if truth is not None else ArmTruth(delta=(0.0,) * (5 * N + 3)))
     sim = twin.probe_mm(q_rad)
     chain = chain_of(arm)
-    P = pose(chain, q_rad)
+    P = pose(chain, q_rad, delta)
     J = jacobian(chain, P=P)
     grow = np.zeros(5 * N + 3)
     grow[0:5 * N:5], grow[1:5 * N:5], grow[5 * N:] = arm.a_mm, arm.d_mm, arm.tool_mm
     drivers = {"q": q_rad, "J": J, "Jq": J[:, :, [theta_index(j) for j in range(1, N + 1)]], "grow": grow,
                "temp_c": temp_c, "t_s": t_s, "tau": twin.gravity_torques(q_rad) if arm.has_masses else None,
-               "point": P.point, "flange_R": P.link_R[:, N]}
+               "point": P.point, "flange_R": P.link_R[:, N], "delta_twin": np.asarray(twin.delta, float)}
     return drivers, sim
 
 
@@ -365,11 +369,12 @@ def discover_arm(rec, seed: int = 0, floor: float = ARM_FLOOR, arm="arm-cmm", tr
 
 
 def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, dict]:
-    from calibench.estimators.arm_identification import PointProblem, identifiable_basis
+    from calibench.estimators.arm_kinematics import pose
     from calibench.estimators.arm_screening import screen
     from calibench.estimators.effects import (ArmThermalExpansion, EncoderEccentricity, Geometry, JointCompliance,
                                               TransmissionSearch, harmonic_grid, joint_table)
-    from calibench.estimators.rotations import rigid_transform, skew
+    from calibench.estimators.rotations import skew
+    from calibench.scenarios.arm_fit import calibrate, check_postures
     from calibench.scenarios.arms import chain_of, load_arm
 
     arm = load_arm(arm) if isinstance(arm, (str, Path)) else arm
@@ -379,8 +384,6 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
     for k, r in enumerate(recs):
         if r.n_joints != N:
             raise BadInput(f"recording {k + 1} has {r.n_joints} joints, the arm {arm.name} {N}")
-    from calibench.scenarios.arm_fit import check_postures
-
     check_postures(np.vstack([r.q_rad for r in recs]), len(recs))
     for k, r in enumerate(recs):
         flagged = screen(r.q_rad, r.xyz_mm)
@@ -408,29 +411,33 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
     temp, t_s = joined("temp_c"), joined("t_s")
     if truth is not None and truth.delta and len(truth.delta) != 5 * N + 3:
         raise BadInput(f"the twin's truth.delta has {len(truth.delta)} values; the arm {arm.name} needs 5 x {N} + 3")
-    drivers, sim = arm_drivers(arm, q, temp, t_s, truth)
-    # each recording's base frame, registered: its points taken into the arm's base frame
-    meas_base = np.empty_like(xyz)
-    for i in range(len(recs)):
-        m = rec_id == i
-        R, t = rigid_transform(sim[m], xyz[m])
-        meas_base[m] = (xyz[m] - t) @ R
-    r = meas_base - sim
+    chain = chain_of(arm)
+    solved = calibrate(chain, q, xyz, rec_id, None, "geometry", arm.parallel_pairs(), robust=False, prior=None)
+    problem, basis, s = solved.problem, solved.ident.basis, solved.state
+    drivers, sim = arm_drivers(arm, q, temp, t_s, truth, delta=s.delta)
+    # each recording's points in the arm's base frame, by the frame the geometry's fit found
+    meas_base = np.einsum("nji,nj->ni", s.R[rec_id], xyz - s.t[rec_id])
+    # The candidates are linear, the chain is not: over a 2 m arm a milliradian's error moves the
+    # point's lever arms, and a tool guessed 100 mm off moves every joint's. So every column is
+    # taken at the geometry's solution, and the signal loses the chain's remainder there
+    # (f(d*) - f(d_twin) - J(d*) (d* - d_twin)): the geometry term then holds exactly at d*.
+    at_twin = pose(chain, q, drivers["delta_twin"]).point
+    remainder = drivers["point"] - at_twin - np.einsum("nij,j->ni", drivers["J"], s.delta - drivers["delta_twin"])
+    r = meas_base - sim - remainder
     # the scene model's free columns: each frame (small turn and shift) and the shared tool point
     frame = np.zeros((n, 3, 6 * len(recs) + 3))
     for i in range(len(recs)):
         m = rec_id == i
-        frame[m, :, 6 * i:6 * i + 3] = -skew(sim[m])
+        frame[m, :, 6 * i:6 * i + 3] = -skew(drivers["point"][m])
         frame[m, :, 6 * i + 3:6 * i + 6] = np.eye(3)
     frame[:, :, -3:] = drivers["flange_R"]
     sig = dsc.Signal("xyz_meas - xyz_sim", "xyz", r.ravel(), frame.reshape(3 * n, -1), np.repeat(np.arange(n), 3))
-    chain = chain_of(arm)
-    problem = PointProblem(chain, q, meas_base, rec_id)
-    basis = identifiable_basis(problem, parallel=arm.parallel_pairs())
     nk = 5 * N
     kin = tuple(int(k) for k in basis.kept if k < nk)
     geometry = Geometry(kept=kin, names=tuple(problem.names[k] for k in kin))
-    candidates = [geometry] + [EncoderEccentricity(joint=j) for j in range(1, N + 1)]
+    # postures that move one joint only leave no kinematic error the frames and tool do not absorb
+    candidates = [geometry] if kin else []
+    candidates += [EncoderEccentricity(joint=j) for j in range(1, N + 1)]
     candidates += [TransmissionSearch(joint=j, harmonics=harmonic_grid(q[:, j - 1])) for j in range(1, N + 1)]
     # several recordings: a joint's harmonic may also keep its frequency and take a phase per
     # recording (a motor-side error, its phase set at each power-up)
