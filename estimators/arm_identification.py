@@ -781,6 +781,8 @@ class Identification:
 # a sum of squares of a few hundred whitened residuals is exact to about 1e-14 of itself: a
 # promised decrease below this fraction of the cost is rounding (a step of ~1e-6 std)
 COST_ROUNDING = 1e-13
+# kept columns whose variance inflation reaches this repeat each other (see identify)
+MAX_VARIANCE_INFLATION = 1e12
 
 
 def identify(problem, basis: Basis, state=None, max_iter: int = 50, xtol: float = 1e-8) -> Identification:
@@ -837,9 +839,19 @@ def identify(problem, basis: Basis, state=None, max_iter: int = 50, xtol: float 
     J = problem.jacobian(s)[:, k]
     dof = max(len(r) - len(k), 1)
     s2 = cost / dof
-    cov = np.linalg.inv(J.T @ J) * s2
-    if not np.all(np.diag(cov) >= 0):  # (NaN too) an inverse with a negative variance: singular to working precision
+    A = J.T @ J
+    try:
+        A_inv = np.linalg.inv(A)
+    except np.linalg.LinAlgError:
+        A_inv = np.full_like(A, np.nan)  # exactly singular: said below, as every other kind is
+    # Each kept column's variance inflation, (A^-1)_ii A_ii: 1 alone, 1 / (1 - R^2) beside columns
+    # that explain it by R^2. The basis keeps none beyond about 1e8; columns that repeat each
+    # other to rounding (frames and a tool a degenerate arm cannot tell apart) give about 1 / eps,
+    # or a negative variance, or a NaN, whichever the rounding picks: all of them are singular.
+    vif = np.diag(A_inv) * np.diag(A)
+    if not np.all((vif >= 0.5) & (vif < MAX_VARIANCE_INFLATION)):
         raise np.linalg.LinAlgError("the kept parameters' normal matrix is singular to working precision")
+    cov = A_inv * s2
     names = problem.names
     values = problem.values(s)
     return Identification(state=s, estimate={names[j]: float(values[j]) for j in k},
