@@ -483,6 +483,14 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
         result["coverage"]["warnings"].insert(0, (
             f"the fit leaves {result['fit']['rms_mm']:.3g} mm RMS, far beyond any arm's or instrument's error: is "
             f"the arm description right (--arm; this fit used {arm.name}) and are the columns in degrees and mm?"))
+    elif tests:
+        # a plausible fit and a same-frame test hundreds of times off it: the test's tracker stood elsewhere
+        for p in tests:
+            got = result["test"][label[p]]["rms_mm"]
+            if got > PLAUSIBLE_RMS_MM and got > 100 * result["fit"]["rms_mm"]:
+                result["coverage"]["warnings"].insert(0, (
+                    f"{label[p]}: {got:.4g} mm RMS off the fitted arm in {label[paths[0]]}'s frame: is it from another "
+                    "setup? (--test-new-frame registers its own frame)"))
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "fit.json").write_text(json.dumps(result, indent=2) + "\n")
     _write_residuals(out_dir / "residuals.csv", residuals, e_fit)

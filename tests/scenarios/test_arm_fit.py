@@ -176,6 +176,21 @@ def test_training_on_half_the_workspace_warns(series, tmp_path):
     assert any("test.csv" in w and "q2" in w for w in warnings), warnings
 
 
+def test_a_same_frame_test_from_another_setup_is_said(series, tmp_path):
+    """--test means the first training recording's frame; a recording from another tracker
+    placement given there is metres off, which fit.json's figures show but a user reading only
+    the printout's warnings could miss: it is warned about, with the option that fits it. The
+    same recording as --test-new-frame, and the right --test, are not."""
+    sim, paths = series
+    out = tmp_path / "swapped"
+    assert main(["fit", "arm-cmm", str(paths["train"]), "--test", str(paths["other"]), "--test-new-frame",
+                 str(paths["test"]), "--arm", "ur10", "--out", str(out)]) == 0
+    warnings = json.loads((out / "fit.json").read_text())["coverage"]["warnings"]
+    assert any(w.startswith("other.csv:") and "--test-new-frame" in w for w in warnings), warnings
+    _, right = _fit(paths, tmp_path, "physics")
+    assert not any("--test-new-frame" in w for w in right["coverage"]["warnings"]), right["coverage"]["warnings"]
+
+
 def test_stated_std_in_some_recordings_only_are_said_unused(series, tmp_path):
     """One recording states its std, the other not: one weighting for both, said in a warning."""
     sim, paths = series
