@@ -743,7 +743,11 @@ def identifiable_basis(problem, state=None, rel_tol: float = 1e-4, parallel: lis
     if not np.isfinite(Js).all():  # geqp3 would return a basis of garbage
         raise np.linalg.LinAlgError("the Jacobian is not finite")
     norm = np.linalg.norm(Js, axis=0)
-    top = norm.max(initial=0.0)
+    # The tolerance's reference is the largest column of a geometric error: a compliance's column
+    # grows with the arm's torques (a 200 kg arm's, 25 times an angle's), and would otherwise lift
+    # the tolerance over columns of the geometry that the data do determine.
+    geometric = np.array([not n.startswith(("compliance", "tilt_compliance")) for n in names])
+    top = norm[geometric].max(initial=0.0) if geometric.any() else norm.max(initial=0.0)
     zero = norm < 1e-9 * max(top, 1e-300)
     kept, dropped, Q, always_independent = _grow_basis(Js, np.asarray(problem.always, int), problem.groups,
                                                        zero, rel_tol * top)

@@ -241,6 +241,84 @@ offset_mm = [60.0, 0.0, -100.0]
 """
 
 
+HEAVY = """name = "heavy"
+convention = "dh"
+[[joint]]
+a_mm = 350.0
+d_mm = 675.0
+alpha_deg = -90.0
+range_deg = [-170.0, 170.0]
+theta_deg = 0.0
+mass_kg = 400.0
+com_mm = [-150.0, 100.0, 0.0]
+[[joint]]
+a_mm = 1150.0
+d_mm = 0.0
+alpha_deg = 0.0
+range_deg = [-60.0, 60.0]
+theta_deg = -90.0
+mass_kg = 200.0
+com_mm = [-600.0, 0.0, 150.0]
+[[joint]]
+a_mm = 41.0
+d_mm = 0.0
+alpha_deg = -90.0
+range_deg = [-120.0, 120.0]
+theta_deg = 0.0
+mass_kg = 180.0
+com_mm = [0.0, 0.0, 150.0]
+[[joint]]
+a_mm = 0.0
+d_mm = 1200.0
+alpha_deg = 90.0
+range_deg = [-170.0, 170.0]
+theta_deg = 0.0
+mass_kg = 60.0
+com_mm = [0.0, 300.0, 0.0]
+[[joint]]
+a_mm = 0.0
+d_mm = 0.0
+alpha_deg = -90.0
+range_deg = [-120.0, 120.0]
+theta_deg = 0.0
+mass_kg = 20.0
+com_mm = [0.0, 0.0, 30.0]
+[[joint]]
+a_mm = 0.0
+d_mm = 215.0
+alpha_deg = 0.0
+range_deg = [-170.0, 170.0]
+theta_deg = 0.0
+mass_kg = 5.0
+com_mm = [0.0, 0.0, -20.0]
+[tool]
+offset_mm = [12.5, -8.3, 135.2]
+mass_kg = 8.0
+"""
+
+
+def test_a_heavy_arms_compliance_does_not_crowd_out_its_geometry(tmp_path):
+    """A 900 kg arm (a KR 210's proportions): a compliance's column, its gravity torque (5 kN m)
+    times a typical 10 urad / N m, is 25 times an angle error's. The identifiable basis measured
+    its tolerance against the largest column, so --model physics dropped kinematic errors that
+    --model geometry determines (da5 and dd5 here, with the wrist's ranges of a KR 210). Now the
+    tolerance is measured against the largest geometric column, and both keep the same geometry."""
+    (tmp_path / "heavy.toml").write_text(HEAVY)
+    sim = ArmSim(str(tmp_path / "heavy.toml"), ArmTruth(stiffness_nm_per_rad=(np.inf, 5e7, 3e7, np.inf, np.inf, np.inf)))
+    rng = np.random.default_rng(5)
+    q = sim.random_postures(600, rng)
+    R, t = rotvec_to_matrix(np.array([0.01, 0.02, 2.0])), np.array([3000.0, -1500.0, 200.0])
+    ArmRecording(q, sim.probe_mm(q) @ R.T + t + rng.normal(0, NOISE_MM, (600, 3))).to_csv(tmp_path / "h.csv")
+    kept = {}
+    for model in ("geometry", "physics"):
+        out = tmp_path / model
+        assert main(["fit", "arm-cmm", str(tmp_path / "h.csv"), "--arm", str(tmp_path / "heavy.toml"), "--model",
+                     model, "--out", str(out)]) == 0
+        names = [p["name"] for p in json.loads((out / "fit.json").read_text())["parameters"]]
+        kept[model] = {n for n in names if not n.startswith("compliance")}
+    assert kept["physics"] == kept["geometry"], kept
+
+
 def test_an_arm_whose_axes_are_all_parallel_holds_its_tools_height(tmp_path):
     """A SCARA's axes are all vertical: the tool's height moves the data as the base's does. The
     fit holds tool_z at the drawing's value, says so, and fits to the tracker's noise (it was
