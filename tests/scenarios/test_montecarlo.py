@@ -115,6 +115,17 @@ def test_a_config_under_which_every_trial_fails_is_bad_input(tmp_path, monkeypat
     assert summary["failed"] == 3
 
 
+def test_a_study_whose_trials_compare_nothing_is_bad_input(tmp_path, monkeypatch):
+    """Trials that succeed without one parameter to compare with the truth (an arm whose every
+    error its frames and tool absorb) make an empty table: one BadInput line, not exit 0."""
+    from calibench.errors import BadInput
+    from calibench.scenarios import arm_cmm
+
+    monkeypatch.setattr(arm_cmm, "trial_parameters", lambda config, seed: [])
+    with cf.ThreadPoolExecutor(1) as ex, pytest.raises(BadInput, match="no trial estimated a parameter"):
+        run_study("arm-cmm", 3, 0, "analytic", tmp_path, executor=ex, progress=False)
+
+
 def test_trials_are_reproducible_and_independent():
     assert trial_seed(0, 5) == trial_seed(0, 5)
     assert len({trial_seed(0, i) for i in range(100)} | {trial_seed(1, i) for i in range(100)}) == 200
