@@ -241,60 +241,22 @@ offset_mm = [60.0, 0.0, -100.0]
 """
 
 
-HEAVY = """name = "heavy"
-convention = "dh"
-[[joint]]
-a_mm = 350.0
-d_mm = 675.0
-alpha_deg = -90.0
-range_deg = [-170.0, 170.0]
-theta_deg = 0.0
-mass_kg = 400.0
-com_mm = [-150.0, 100.0, 0.0]
-[[joint]]
-a_mm = 1150.0
-d_mm = 0.0
-alpha_deg = 0.0
-range_deg = [-60.0, 60.0]
-theta_deg = -90.0
-mass_kg = 200.0
-com_mm = [-600.0, 0.0, 150.0]
-[[joint]]
-a_mm = 41.0
-d_mm = 0.0
-alpha_deg = -90.0
-range_deg = [-120.0, 120.0]
-theta_deg = 0.0
-mass_kg = 180.0
-com_mm = [0.0, 0.0, 150.0]
-[[joint]]
-a_mm = 0.0
-d_mm = 1200.0
-alpha_deg = 90.0
-range_deg = [-170.0, 170.0]
-theta_deg = 0.0
-mass_kg = 60.0
-com_mm = [0.0, 300.0, 0.0]
-[[joint]]
-a_mm = 0.0
-d_mm = 0.0
-alpha_deg = -90.0
-range_deg = [-120.0, 120.0]
-theta_deg = 0.0
-mass_kg = 20.0
-com_mm = [0.0, 0.0, 30.0]
-[[joint]]
-a_mm = 0.0
-d_mm = 215.0
-alpha_deg = 0.0
-range_deg = [-170.0, 170.0]
-theta_deg = 0.0
-mass_kg = 5.0
-com_mm = [0.0, 0.0, -20.0]
-[tool]
-offset_mm = [12.5, -8.3, 135.2]
-mass_kg = 8.0
-"""
+# A KR 210's proportions, 900 kg: a_mm, d_mm, alpha_deg, theta_deg, range_deg, mass_kg, com_mm per joint
+HEAVY_JOINTS = [(350.0, 675.0, -90.0, 0.0, (-170, 170), 400.0, (-150.0, 100.0, 0.0)),
+                (1150.0, 0.0, 0.0, -90.0, (-60, 60), 200.0, (-600.0, 0.0, 150.0)),
+                (41.0, 0.0, -90.0, 0.0, (-120, 120), 180.0, (0.0, 0.0, 150.0)),
+                (0.0, 1200.0, 90.0, 0.0, (-170, 170), 60.0, (0.0, 300.0, 0.0)),
+                (0.0, 0.0, -90.0, 0.0, (-120, 120), 20.0, (0.0, 0.0, 30.0)),
+                (0.0, 215.0, 0.0, 0.0, (-170, 170), 5.0, (0.0, 0.0, -20.0))]
+
+
+def _arm_toml(name: str, joints, tool_mm, tool_kg: float) -> str:
+    """An ARM.toml (CONTRACT, "Arms") from one row per joint, as :data:`HEAVY_JOINTS`."""
+    text = f'name = "{name}"\nconvention = "dh"\n'
+    for a, d, alpha, theta, (lo, hi), m, com in joints:
+        text += (f"[[joint]]\na_mm = {a}\nd_mm = {d}\nalpha_deg = {alpha}\ntheta_deg = {theta}\n"
+                 f"range_deg = [{lo}.0, {hi}.0]\nmass_kg = {m}\ncom_mm = {list(com)}\n")
+    return text + f"[tool]\noffset_mm = {list(tool_mm)}\nmass_kg = {tool_kg}\n"
 
 
 def test_a_heavy_arms_compliance_does_not_crowd_out_its_geometry(tmp_path):
@@ -303,7 +265,7 @@ def test_a_heavy_arms_compliance_does_not_crowd_out_its_geometry(tmp_path):
     its tolerance against the largest column, so --model physics dropped kinematic errors that
     --model geometry determines (da5 and dd5 here, with the wrist's ranges of a KR 210). Now the
     tolerance is measured against the largest geometric column, and both keep the same geometry."""
-    (tmp_path / "heavy.toml").write_text(HEAVY)
+    (tmp_path / "heavy.toml").write_text(_arm_toml("heavy", HEAVY_JOINTS, (12.5, -8.3, 135.2), 8.0))
     sim = ArmSim(str(tmp_path / "heavy.toml"), ArmTruth(stiffness_nm_per_rad=(np.inf, 5e7, 3e7, np.inf, np.inf, np.inf)))
     rng = np.random.default_rng(5)
     q = sim.random_postures(600, rng)
