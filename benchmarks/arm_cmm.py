@@ -16,7 +16,12 @@ import numpy as np
 from scipy import optimize
 from threadpoolctl import threadpool_limits
 
-from calibench.estimators.arm_identification import PointProblem, identifiable_basis, identify, identify_identifiable
+from calibench.estimators.arm_identification import (
+    PointProblem,
+    identifiable_basis,
+    identify,
+    identify_identifiable,
+)
 from calibench.scenarios.arm_cmm import tracker_problem
 from calibench.scenarios.arms import chain_of, loaded_joints
 from calibench.sim.arm_cmm import ArmSim, ArmTruth
@@ -31,7 +36,9 @@ def seed_arm_trials(n: int = 200) -> None:
     for _ in range(n):
         identify_identifiable(tracker_problem(arm, chain, q, arm.encoders(q, rng), rng))
     dt = time.perf_counter() - t
-    print(f"arm-cmm identification, 50 postures: {n / dt:.1f} trials/s on one core ({dt / n * 1000:.1f} ms each)")
+    print(
+        f"arm-cmm identification, 50 postures: {n / dt:.1f} trials/s on one core ({dt / n * 1000:.1f} ms each)"
+    )
 
 
 def ur10_physics(n: int = 2773, quiet: bool = False) -> dict:
@@ -45,7 +52,9 @@ def ur10_physics(n: int = 2773, quiet: bool = False) -> dict:
     joints, _ = loaded_joints(chain, q)
 
     def problem():
-        return PointProblem(chain, q, y, sigma_mm=np.full_like(y, 0.02), compliance_joints=joints, prior=1.0)
+        return PointProblem(
+            chain, q, y, sigma_mm=np.full_like(y, 0.02), compliance_joints=joints, prior=1.0
+        )
 
     p = problem()
     t = time.perf_counter()
@@ -65,15 +74,26 @@ def ur10_physics(n: int = 2773, quiet: bool = False) -> dict:
         return p2.residuals(p2.update(s0, step))
 
     t = time.perf_counter()
-    ref = optimize.least_squares(residuals, np.zeros(len(k)), jac="2-point", method="lm", x_scale="jac")
+    ref = optimize.least_squares(
+        residuals, np.zeros(len(k)), jac="2-point", method="lm", x_scale="jac"
+    )
     t_fd = time.perf_counter() - t
     cost_ours = float(np.sum(p.residuals(ours.state) ** 2))
     if not quiet:
-        print(f"UR10, {n} poses, physics ({len(k)} parameters, compliance of joints {joints}): basis {t_basis:.2f} s; "
-              f"identification {t_ours:.2f} s with the analytic Jacobian ({ours.iterations} iterations), "
-              f"{t_fd:.2f} s with finite differences ({ref.nfev} evaluations); {t_fd / t_ours:.0f}x; "
-              f"cost {cost_ours:.1f} vs {2 * ref.cost:.1f}")
-    return {"n": n, "k": len(k), "ours_s": t_ours, "peer_s": t_fd, "cost_ours": cost_ours, "cost_peer": 2 * ref.cost}
+        print(
+            f"UR10, {n} poses, physics ({len(k)} parameters, compliance of joints {joints}): basis {t_basis:.2f} s; "
+            f"identification {t_ours:.2f} s with the analytic Jacobian ({ours.iterations} iterations), "
+            f"{t_fd:.2f} s with finite differences ({ref.nfev} evaluations); {t_fd / t_ours:.0f}x; "
+            f"cost {cost_ours:.1f} vs {2 * ref.cost:.1f}"
+        )
+    return {
+        "n": n,
+        "k": len(k),
+        "ours_s": t_ours,
+        "peer_s": t_fd,
+        "cost_ours": cost_ours,
+        "cost_peer": 2 * ref.cost,
+    }
 
 
 def main():

@@ -37,8 +37,10 @@ def cpu_model() -> str:
 
 
 def main():
-    print(f"machine: {cpu_model()}, {os.cpu_count()} cores, "
-          f"python {platform.python_version()}, MUJOCO_GL={os.environ.get('MUJOCO_GL')}")
+    print(
+        f"machine: {cpu_model()}, {os.cpu_count()} cores, "
+        f"python {platform.python_version()}, MUJOCO_GL={os.environ.get('MUJOCO_GL')}"
+    )
     g = BeltStageGeometry()
     s = BeltStageSim(g, BeltStageTruth())
     xs = np.linspace(0, 245_000, 16).astype(int)
@@ -51,7 +53,9 @@ def main():
 
     print(f"render (640x480, 2x supersampled, lens, blur, noise): {rate(frame, 16):6.1f} frames/s")
     img = frame(0)
-    print(f"chessboard detection + saddle refinement: {rate(lambda i: find_chessboard_corners(img, 9, 6), 16):6.1f} images/s")
+    print(
+        f"chessboard detection + saddle refinement: {rate(lambda i: find_chessboard_corners(img, 9, 6), 16):6.1f} images/s"
+    )
     s.close()
     with TemporaryDirectory() as d:
         for fidelity, n in (("analytic", 3), ("render", 1)):

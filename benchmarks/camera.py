@@ -33,8 +33,13 @@ def opencv(paths, cols, rows, square_mm):
         size = img.shape[::-1]
         ok, c = cv2.findChessboardCorners(img, (cols, rows))
         if ok:
-            c = cv2.cornerSubPix(img, c, (5, 5), (-1, -1),
-                                 (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 1e-3))
+            c = cv2.cornerSubPix(
+                img,
+                c,
+                (5, 5),
+                (-1, -1),
+                (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 1e-3),
+            )
             objs.append(obj)
             imgs.append(c)
     rms, K, *_ = cv2.calibrateCamera(objs, imgs, size, None, None, flags=cv2.CALIB_FIX_ASPECT_RATIO)
@@ -42,10 +47,16 @@ def opencv(paths, cols, rows, square_mm):
 
 
 def main():
-    data = Path(sys.argv[1]) if len(sys.argv) > 1 else Path(__file__).resolve().parents[2] / "shared" / "data"
+    data = (
+        Path(sys.argv[1])
+        if len(sys.argv) > 1
+        else Path(__file__).resolve().parents[2] / "shared" / "data"
+    )
     paths = sorted((data / "opencv_left").glob("left*.jpg"))
-    print(f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, OpenCV {cv2.__version__}, "
-          f"{len(paths)} photos")
+    print(
+        f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, OpenCV {cv2.__version__}, "
+        f"{len(paths)} photos"
+    )
     t_cv, t_cb = [], []
     for _ in range(5):
         t0 = time.perf_counter()

@@ -20,33 +20,57 @@ import numpy as np
 
 from calibench.scenarios.montecarlo import run_study
 
-STATED = {"arm-cmm": {"stated_range_sigma_um": [5.0, 1.0], "stated_angle_sigma_urad": 4.0,
-                      "stated_encoder_sigma_urad": 5.0},
-          "stewart": {"stated_length_sigma_um": [0.3, 0.3], "stated_reading_sigma_um": 1.0}}
+STATED = {
+    "arm-cmm": {
+        "stated_range_sigma_um": [5.0, 1.0],
+        "stated_angle_sigma_urad": 4.0,
+        "stated_encoder_sigma_urad": 5.0,
+    },
+    "stewart": {"stated_length_sigma_um": [0.3, 0.3], "stated_reading_sigma_um": 1.0},
+}
 
 
 def scaled(table: dict, factor: float) -> dict:
     """Every stated sigma of ``table`` times ``factor``."""
-    return {k: [factor * x for x in v] if isinstance(v, list) else factor * v for k, v in table.items()}
+    return {
+        k: [factor * x for x in v] if isinstance(v, list) else factor * v for k, v in table.items()
+    }
 
 
 def main():
-    counts = {"arm-cmm": int(sys.argv[1]) if len(sys.argv) > 1 else 1000,
-              "stewart": int(sys.argv[2]) if len(sys.argv) > 2 else 200}
+    counts = {
+        "arm-cmm": int(sys.argv[1]) if len(sys.argv) > 1 else 1000,
+        "stewart": int(sys.argv[2]) if len(sys.argv) > 2 else 200,
+    }
     print(f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, spawn pool")
-    print(f"{'scenario':9s} {'datasheet':>9s} {'trials':>6s} {'coverage':>9s} {'params out of band':>19s} {'s':>6s}")
+    print(
+        f"{'scenario':9s} {'datasheet':>9s} {'trials':>6s} {'coverage':>9s} {'params out of band':>19s} {'s':>6s}"
+    )
     for name, n in counts.items():
         for factor in (1.0, 1.5, 1 / 1.5):
             with tempfile.TemporaryDirectory() as tmp:
                 t0 = time.perf_counter()
-                s = run_study(name, n, 0, "analytic", Path(tmp), progress=False,
-                              table=scaled(STATED[name], factor))
+                s = run_study(
+                    name,
+                    n,
+                    0,
+                    "analytic",
+                    Path(tmp),
+                    progress=False,
+                    table=scaled(STATED[name], factor),
+                )
                 elapsed = time.perf_counter() - t0
             params = [p for p in s["parameters"] if p["coverage_95"] is not None]
             pooled = np.mean([p["coverage_95"] for p in params])
-            out = sum(not lo <= p["coverage_95"] <= hi for p in params for lo, hi in [p["coverage_95_expected"]])
-            print(f"{name:9s} {factor:9.3f} {s['trials']:6d} {pooled:9.3f} {out:>12d} of {len(params):<4d} "
-                  f"{elapsed:6.0f}")
+            out = sum(
+                not lo <= p["coverage_95"] <= hi
+                for p in params
+                for lo, hi in [p["coverage_95_expected"]]
+            )
+            print(
+                f"{name:9s} {factor:9.3f} {s['trials']:6d} {pooled:9.3f} {out:>12d} of {len(params):<4d} "
+                f"{elapsed:6.0f}"
+            )
 
 
 if __name__ == "__main__":

@@ -32,12 +32,14 @@ def suite():
     dt = time.perf_counter() - t
     print(table(results))
     s = score(results)
-    print(f"\n{s['recordings']} recordings in {dt:.0f} s ({dt / s['recordings']:.1f} s each): "
-          f"detection {s['detection']:.0%}, false claims on nulls {s['null_false_claim_rate']:.0%}, "
-          f"spurious claims beside real ones {s['spurious_claims']}, parameters within limits "
-          f"{s['params_within_limit']:.0%} (worst {s['worst_param'][0]} {s['worst_param'][1]:.3f} of "
-          f"{s['worst_param'][2]}), cv after/before <= 0.5 in {s['ratios_ok']:.0%} of {s['n_dominated']} "
-          f"dominated recordings (worst {s['worst_ratio']:.2f})")
+    print(
+        f"\n{s['recordings']} recordings in {dt:.0f} s ({dt / s['recordings']:.1f} s each): "
+        f"detection {s['detection']:.0%}, false claims on nulls {s['null_false_claim_rate']:.0%}, "
+        f"spurious claims beside real ones {s['spurious_claims']}, parameters within limits "
+        f"{s['params_within_limit']:.0%} (worst {s['worst_param'][0]} {s['worst_param'][1]:.3f} of "
+        f"{s['worst_param'][2]}), cv after/before <= 0.5 in {s['ratios_ok']:.0%} of {s['n_dominated']} "
+        f"dominated recordings (worst {s['worst_ratio']:.2f})"
+    )
 
 
 def null_calibration(n):
@@ -48,8 +50,10 @@ def null_calibration(n):
     for sc in ("belt-stage", "vision-stage", "arm-cmm", "arm-cmm:ur10", "probe-scanner", "stewart"):
         claims = np.sum([null_claims(sc, k, floors) for k in range(n)], axis=0)
         print(f"| {sc} | " + " | ".join(f"{c / n:.0%}" for c in claims) + " |")
-    print(f"house floor: {dsc.FLOOR:.0%} (the stages and the scanner); the arm's 3 %, the platform's "
-          f"{STEWART_FLOOR:.0%}")
+    print(
+        f"house floor: {dsc.FLOOR:.0%} (the stages and the scanner); the arm's 3 %, the platform's "
+        f"{STEWART_FLOOR:.0%}"
+    )
 
 
 def paper():
@@ -58,14 +62,20 @@ def paper():
     for holdout in ("rows", "columns"):
         d, _ = discover_stage("belt-stage", rec, 0, holdout)
         f = d["fit"]
-        print(f"- {d['holdout']}: residual rms {f['rms_nominal'] * 1000:.0f} um, held-out "
-              f"{f['cv_rms_nominal'] * 1000:.0f} -> {f['cv_rms_final'] * 1000:.0f} um")
+        print(
+            f"- {d['holdout']}: residual rms {f['rms_nominal'] * 1000:.0f} um, held-out "
+            f"{f['cv_rms_nominal'] * 1000:.0f} -> {f['cv_rms_final'] * 1000:.0f} um"
+        )
         for e in d["effects"]:
-            print(f"  - {e['name']} ({e['axis']}) {e['params']}: {e['cv_rms_before'] * 1000:.0f} -> "
-                  f"{e['cv_rms_after'] * 1000:.0f} um")
+            print(
+                f"  - {e['name']} ({e['axis']}) {e['params']}: {e['cv_rms_before'] * 1000:.0f} -> "
+                f"{e['cv_rms_after'] * 1000:.0f} um"
+            )
         for loc in d["located"]:
-            print(f"  - {loc['signal']} against {loc['driver']}: score {loc['score']:.2f}, p {loc['p_value']:.3f}; "
-                  f"{loc['where']}")
+            print(
+                f"  - {loc['signal']} against {loc['driver']}: score {loc['score']:.2f}, p {loc['p_value']:.3f}; "
+                f"{loc['where']}"
+            )
 
 
 if __name__ == "__main__":

@@ -29,7 +29,9 @@ def main():
     n_analytic = int(sys.argv[1]) if len(sys.argv) > 1 and sys.argv[1] != "-" else None
     n_render = int(sys.argv[2]) if len(sys.argv) > 2 else 4
     print(f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, spawn pool")
-    print(f"{'scenario':14s} {'fidelity':9s} {'trials':>6s} {'trials/s':>9s} {'whole command':>14s} {'goal':>5s}")
+    print(
+        f"{'scenario':14s} {'fidelity':9s} {'trials':>6s} {'trials/s':>9s} {'whole command':>14s} {'goal':>5s}"
+    )
     for name in SCENARIOS:
         size, goal = STUDIES[name]
         for fidelity, n in (("analytic", n_analytic or size), ("render", n_render)):
@@ -40,9 +42,11 @@ def main():
                 s = run_study(name, n, 0, fidelity, Path(d), progress=False)
                 dt = time.perf_counter() - t
                 busy = sum(r["elapsed_s"] for r in load_journal(Path(d)).values())
-            print(f"{name:14s} {fidelity:9s} {n:6d} {n * (os.cpu_count() or 1) / busy:9.2f} {n / dt:14.2f} "
-                  + (f"{goal:5d}" if fidelity == "analytic" else " " * 5)
-                  + (f"   ({s['failed']} failed)" if s["failed"] else ""))
+            print(
+                f"{name:14s} {fidelity:9s} {n:6d} {n * (os.cpu_count() or 1) / busy:9.2f} {n / dt:14.2f} "
+                + (f"{goal:5d}" if fidelity == "analytic" else " " * 5)
+                + (f"   ({s['failed']} failed)" if s["failed"] else "")
+            )
 
 
 if __name__ == "__main__":

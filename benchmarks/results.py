@@ -27,8 +27,13 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 # trials per study, and the trials/s on 2 cores issue 16 asks for
-STUDIES = {"arm-cmm": (1000, 200), "stewart": (200, 10), "belt-stage": (100, 8), "probe-scanner": (40, 5),
-           "vision-stage": (60, 3)}
+STUDIES = {
+    "arm-cmm": (1000, 200),
+    "stewart": (200, 10),
+    "belt-stage": (100, 8),
+    "probe-scanner": (40, 5),
+    "vision-stage": (60, 3),
+}
 
 
 def machine() -> str:
@@ -85,7 +90,11 @@ def camera(data: Path, rounds: int = 5) -> dict:
         t = time.perf_counter()
         calibrate_photos(paths, 9, 6, 25.0, fix_aspect=True)
         t_cb.append(time.perf_counter() - t)
-    return {"ours_ms": 1000 * float(np.median(t_cb)), "peer_ms": 1000 * float(np.median(t_cv)), "photos": len(paths)}
+    return {
+        "ours_ms": 1000 * float(np.median(t_cb)),
+        "peer_ms": 1000 * float(np.median(t_cv)),
+        "photos": len(paths),
+    }
 
 
 def studies() -> dict:
@@ -97,7 +106,12 @@ def studies() -> dict:
         with tempfile.TemporaryDirectory() as d:
             t = time.perf_counter()
             s = run_study(name, n, 0, "analytic", Path(d), progress=False)
-            out[name] = {"trials": n, "rate": n / (time.perf_counter() - t), "goal": goal, "failed": s["failed"]}
+            out[name] = {
+                "trials": n,
+                "rate": n / (time.perf_counter() - t),
+                "goal": goal,
+                "failed": s["failed"],
+            }
     return out
 
 
@@ -111,23 +125,41 @@ def table(data: Path) -> str:
         arm = ur10_physics(quiet=True)
     st = studies()
     rows = [
-        ("render 640x480 through the lens (2x supersampled, distortion, blur, noise)",
-         f"{r['ours_ms']:.0f} ms", f"MuJoCo's bare 640x480 frame {r['peer_ms']:.0f} ms",
-         f"{r['ours_ms'] / r['peer_ms']:.1f}x"),
-        (f"`calibench camera` on OpenCV's {c['photos']} sample photos (0.01 px corners, gross-corner check, std)",
-         f"{c['ours_ms']:.0f} ms", f"OpenCV's classic pipeline {c['peer_ms']:.0f} ms",
-         f"{c['ours_ms'] / c['peer_ms']:.2f}x"),
-        (f"UR10 identification with physics, {arm['n']} poses, {arm['k']} parameters, one thread",
-         f"{arm['ours_s']:.2f} s (analytic Jacobian)",
-         f"pybotics' approach (scipy's LM, finite differences) {arm['peer_s']:.1f} s, the same cost to "
-         f"{abs(arm['cost_ours'] / arm['cost_peer'] - 1):.0e}", f"{arm['ours_s'] / arm['peer_s']:.3f}x"),
+        (
+            "render 640x480 through the lens (2x supersampled, distortion, blur, noise)",
+            f"{r['ours_ms']:.0f} ms",
+            f"MuJoCo's bare 640x480 frame {r['peer_ms']:.0f} ms",
+            f"{r['ours_ms'] / r['peer_ms']:.1f}x",
+        ),
+        (
+            f"`calibench camera` on OpenCV's {c['photos']} sample photos (0.01 px corners, gross-corner check, std)",
+            f"{c['ours_ms']:.0f} ms",
+            f"OpenCV's classic pipeline {c['peer_ms']:.0f} ms",
+            f"{c['ours_ms'] / c['peer_ms']:.2f}x",
+        ),
+        (
+            f"UR10 identification with physics, {arm['n']} poses, {arm['k']} parameters, one thread",
+            f"{arm['ours_s']:.2f} s (analytic Jacobian)",
+            f"pybotics' approach (scipy's LM, finite differences) {arm['peer_s']:.1f} s, the same cost to "
+            f"{abs(arm['cost_ours'] / arm['cost_peer'] - 1):.0e}",
+            f"{arm['ours_s'] / arm['peer_s']:.3f}x",
+        ),
     ]
     for name, s in st.items():
-        rows.append((f"Monte Carlo, {name}, analytic, {s['trials']} trials (whole command, {os.cpu_count()} cores)",
-                     f"{s['rate']:.1f} trials/s", f"goal {s['goal']} trials/s",
-                     f"{s['rate'] / s['goal']:.2f} of the goal"))
-    lines = [f"Measured on {machine()} by `python benchmarks/results.py`.", "",
-             "| what | calibench | peer, same run | ratio |", "|---|---|---|---|"]
+        rows.append(
+            (
+                f"Monte Carlo, {name}, analytic, {s['trials']} trials (whole command, {os.cpu_count()} cores)",
+                f"{s['rate']:.1f} trials/s",
+                f"goal {s['goal']} trials/s",
+                f"{s['rate'] / s['goal']:.2f} of the goal",
+            )
+        )
+    lines = [
+        f"Measured on {machine()} by `python benchmarks/results.py`.",
+        "",
+        "| what | calibench | peer, same run | ratio |",
+        "|---|---|---|---|",
+    ]
     lines += [f"| {a} | {b} | {p} | {q} |" for a, b, p, q in rows]
     return "\n".join(lines)
 

@@ -86,8 +86,9 @@ class StageRecording:
             w.writerows([[f"{v:.9g}" for v in row] for row in data])
 
 
-def _read_columns(path: str | Path, required: tuple, optional: tuple,
-                  max_rows: int | None = None) -> tuple[dict[str, np.ndarray], np.ndarray]:
+def _read_columns(
+    path: str | Path, required: tuple, optional: tuple, max_rows: int | None = None
+) -> tuple[dict[str, np.ndarray], np.ndarray]:
     """Numeric columns of a CSV by name, and each data row's line in the file (n,); one clear
     RecordingError for any defect."""
     path = Path(path)
@@ -99,18 +100,24 @@ def _read_columns(path: str | Path, required: tuple, optional: tuple,
     except OSError as e:
         raise RecordingError(f"cannot read {path}: {e.strerror}") from None
     except UnicodeDecodeError:
-        raise RecordingError(f"{path} is not UTF-8 text (Latin-1, or not a CSV at all?): save it as UTF-8 CSV") from None
+        raise RecordingError(
+            f"{path} is not UTF-8 text (Latin-1, or not a CSV at all?): save it as UTF-8 CSV"
+        ) from None
     except csv.Error as e:
         raise RecordingError(f"{path} is not a CSV file ({e})") from None
     if not rows or not rows[0]:
         raise RecordingError(f"{path} is empty")
     header = [h.strip() for h in rows[0]]
     if len(header) == 1 and ";" in header[0]:
-        raise RecordingError(f"{path} is separated by semicolons (a spreadsheet's export with decimal commas?): "
-                             "the format wants commas between values and points in numbers")
+        raise RecordingError(
+            f"{path} is separated by semicolons (a spreadsheet's export with decimal commas?): "
+            "the format wants commas between values and points in numbers"
+        )
     twice = sorted({h for h in header if h and header.count(h) > 1})
     if twice:
-        raise RecordingError(f"{path}: column(s) {', '.join(twice)} named twice: which one is meant cannot be told")
+        raise RecordingError(
+            f"{path}: column(s) {', '.join(twice)} named twice: which one is meant cannot be told"
+        )
     missing = [c for c in required if c not in header]
     if missing:
         raise RecordingError(f"{path}: missing column(s) {', '.join(missing)}")
@@ -122,12 +129,16 @@ def _read_columns(path: str | Path, required: tuple, optional: tuple,
     # a value beyond the header's last column shifts every value after it (a decimal comma, a
     # stray separator): the columns can no longer be trusted (trailing empty cells are harmless)
     for i, r in enumerate(rows[1:]):
-        if len(r) > len(header) and any(cell.strip() for cell in r[len(header):]):
-            raise RecordingError(f"{path} line {i + 2}: {len(r)} values, the header names {len(header)} columns "
-                                 "(a decimal comma, or a separator too many?)")
+        if len(r) > len(header) and any(cell.strip() for cell in r[len(header) :]):
+            raise RecordingError(
+                f"{path} line {i + 2}: {len(r)} values, the header names {len(header)} columns "
+                "(a decimal comma, or a separator too many?)"
+            )
     if max_rows is not None and len(body) > max_rows:
-        raise RecordingError(f"{path}: {len(body)} rows; this command takes at most {max_rows}: decimate the "
-                             "recording or split it")
+        raise RecordingError(
+            f"{path}: {len(body)} rows; this command takes at most {max_rows}: decimate the "
+            "recording or split it"
+        )
     fields = {}
     for name in required + optional:
         if name not in header:
@@ -136,7 +147,9 @@ def _read_columns(path: str | Path, required: tuple, optional: tuple,
         try:  # the whole column at once; the loop below only finds the bad cell
             cells = [r[j] for r in body]
             values = np.array(cells, dtype=float)
-            if any("_" in c for c in cells):  # Python's float reads 1_000: a CSV number has no underscore
+            if any(
+                "_" in c for c in cells
+            ):  # Python's float reads 1_000: a CSV number has no underscore
                 raise ValueError
         except (IndexError, ValueError):
             for line, r in zip(lines, body):
@@ -146,11 +159,15 @@ def _read_columns(path: str | Path, required: tuple, optional: tuple,
                         raise ValueError
                     float(cell)
                 except ValueError:
-                    raise RecordingError(f"{path} line {line}: column {name} is {cell!r}, not a number") from None
+                    raise RecordingError(
+                        f"{path} line {line}: column {name} is {cell!r}, not a number"
+                    ) from None
             raise
         bad = ~np.isfinite(values)
         if bad.any():
-            raise RecordingError(f"{path} line {lines[int(np.argmax(bad))]}: column {name} is not finite")
+            raise RecordingError(
+                f"{path} line {lines[int(np.argmax(bad))]}: column {name} is not finite"
+            )
         fields[name] = values
     line = np.array(lines)
     _check_common(path, fields, line)
@@ -160,8 +177,10 @@ def _read_columns(path: str | Path, required: tuple, optional: tuple,
 def _check_common(path, cols: dict, line: np.ndarray) -> None:
     """The optional columns every format shares: a machine's temperature, a load, a pass id.
     ``line`` (n,): each row's line in the file."""
-    for name, lo, hi, what in (("temp_c", -100.0, 200.0, "not a machine's temperature in deg C (-100 to 200)"),
-                               ("load_n", -1e6, 1e6, "over 100 t: a wrong unit or a corrupt value")):
+    for name, lo, hi, what in (
+        ("temp_c", -100.0, 200.0, "not a machine's temperature in deg C (-100 to 200)"),
+        ("load_n", -1e6, 1e6, "over 100 t: a wrong unit or a corrupt value"),
+    ):
         v = cols.get(name)
         if v is not None and np.any((v < lo) | (v > hi)):
             i = int(np.argmax((v < lo) | (v > hi)))
@@ -169,10 +188,14 @@ def _check_common(path, cols: dict, line: np.ndarray) -> None:
     run = cols.get("run")
     if run is not None and np.any(run != np.round(run)):
         i = int(np.argmax(run != np.round(run)))
-        raise RecordingError(f"{path} line {line[i]}: run is {run[i]:g}; a pass id is a whole number")
+        raise RecordingError(
+            f"{path} line {line[i]}: run is {run[i]:g}; a pass id is a whole number"
+        )
 
 
-MAX_STAGE_MM = 5e4  # 50 m, beyond the largest gantry: a coordinate there is a wrong unit or a corrupt value
+MAX_STAGE_MM = (
+    5e4  # 50 m, beyond the largest gantry: a coordinate there is a wrong unit or a corrupt value
+)
 
 
 def load_stage_csv(path: str | Path, max_rows: int | None = None) -> StageRecording:
@@ -183,17 +206,23 @@ def load_stage_csv(path: str | Path, max_rows: int | None = None) -> StageRecord
     for name in StageRecording.REQUIRED:
         big = np.abs(cols[name]) > MAX_STAGE_MM
         if big.any():
-            raise RecordingError(f"{path} line {line[int(np.argmax(big))]}: {name} is {cols[name][big][0]:.3g} mm "
-                                 f"(over {MAX_STAGE_MM / 1000:g} m): a wrong unit (um?) or a corrupt value")
+            raise RecordingError(
+                f"{path} line {line[int(np.argmax(big))]}: {name} is {cols[name][big][0]:.3g} mm "
+                f"(over {MAX_STAGE_MM / 1000:g} m): a wrong unit (um?) or a corrupt value"
+            )
     # the stage moved between stations, yet every coordinate stays within 2: the unit, not the stage
     xy = np.stack([cols[c] for c in StageRecording.REQUIRED], axis=1)
     if len(xy) >= 10 and np.ptp(xy[:, :2], axis=0).max() > 0 and np.abs(xy).max() < 2.0:
-        raise RecordingError(f"{path}: every position lies within +-{np.abs(xy).max():.3g}: metres? the format wants "
-                             "millimetres (x_cmd_mm, ...)")
+        raise RecordingError(
+            f"{path}: every position lies within +-{np.abs(xy).max():.3g}: metres? the format wants "
+            "millimetres (x_cmd_mm, ...)"
+        )
     for name in ("dir_x", "dir_y"):
         if name in cols and not np.isin(cols[name], (-1.0, 0.0, 1.0)).all():
             i = int(np.argmax(~np.isin(cols[name], (-1.0, 0.0, 1.0))))
-            raise RecordingError(f"{path} line {line[i]}: {name} is {cols[name][i]:g}; a direction is -1, 0 or +1")
+            raise RecordingError(
+                f"{path} line {line[i]}: {name} is {cols[name][i]:g}; a direction is -1, 0 or +1"
+            )
     return StageRecording(**cols)
 
 
@@ -220,11 +249,16 @@ class ArmRecording:
     def n_joints(self) -> int:
         return self.q_rad.shape[1]
 
-    def subset(self, rows: np.ndarray) -> "ArmRecording":
+    def subset(self, rows: np.ndarray) -> ArmRecording:
         """The recording restricted to ``rows`` (indices or a boolean mask)."""
         pick = lambda v: None if v is None else v[rows]  # noqa: E731
-        return ArmRecording(self.q_rad[rows], self.xyz_mm[rows], pick(self.t_s), pick(self.temp_c),
-                            pick(self.xyz_std_mm))
+        return ArmRecording(
+            self.q_rad[rows],
+            self.xyz_mm[rows],
+            pick(self.t_s),
+            pick(self.temp_c),
+            pick(self.xyz_std_mm),
+        )
 
     def to_csv(self, path) -> None:
         cols = [f"q{j}_deg" for j in range(1, self.n_joints + 1)] + ["x_mm", "y_mm", "z_mm"]
@@ -236,11 +270,15 @@ class ArmRecording:
             if getattr(self, name) is not None:
                 cols.append(name)
                 data.append(getattr(self, name)[:, None])
-        np.savetxt(path, np.hstack(data), delimiter=",", header=",".join(cols), comments="", fmt="%.9g")
+        np.savetxt(
+            path, np.hstack(data), delimiter=",", header=",".join(cols), comments="", fmt="%.9g"
+        )
 
 
 ARM_REQUIRED = tuple(f"q{j}_deg" for j in range(1, 7)) + ("x_mm", "y_mm", "z_mm")
-MAX_STD_MM = 1000.0  # an instrument's 1-sigma of a metre is a wrong unit or a corrupt value, not a reading
+MAX_STD_MM = (
+    1000.0  # an instrument's 1-sigma of a metre is a wrong unit or a corrupt value, not a reading
+)
 ARM_OPTIONAL = ("x_std_mm", "y_std_mm", "z_std_mm", "t_s", "temp_c")
 
 
@@ -264,13 +302,21 @@ def _joint_gap(path: Path) -> str | None:
             header = [h.strip() for h in next(csv.reader(f), [])]
     except (OSError, UnicodeDecodeError):
         return None
-    named = [int(h[1:-4]) for h in header if h.startswith("q") and h.endswith("_deg") and h[1:-4].isdigit()]
+    named = [
+        int(h[1:-4])
+        for h in header
+        if h.startswith("q") and h.endswith("_deg") and h[1:-4].isdigit()
+    ]
     gap = [j for j in range(1, max(named, default=0)) if j not in named]
     return f"q{gap[0]}_deg" if gap else None
 
 
-def load_arm_csv(path: str | Path, n_joints: int | None = None, max_rows: int | None = None,
-                 range_deg: np.ndarray | None = None) -> ArmRecording:
+def load_arm_csv(
+    path: str | Path,
+    n_joints: int | None = None,
+    max_rows: int | None = None,
+    range_deg: np.ndarray | None = None,
+) -> ArmRecording:
     """Read an arm recording (CONTRACT, "Arms"): q1_deg..qN_deg, x_mm, y_mm, z_mm; optional
     x_std_mm, y_std_mm, z_std_mm, t_s, temp_c.
 
@@ -285,40 +331,63 @@ def load_arm_csv(path: str | Path, n_joints: int | None = None, max_rows: int | 
     n = n_joints if n_joints is not None else max(found, 1)
     gap = _joint_gap(path)
     if gap:
-        raise RecordingError(f"{path}: column {gap} is missing (the joint columns are q1_deg, q2_deg, ... without a gap)")
+        raise RecordingError(
+            f"{path}: column {gap} is missing (the joint columns are q1_deg, q2_deg, ... without a gap)"
+        )
     if n_joints is not None and found and found != n_joints:
-        raise RecordingError(f"{path}: {found} joint column(s) (q1_deg..q{found}_deg) but the arm has "
-                             f"{n_joints} joints")
+        raise RecordingError(
+            f"{path}: {found} joint column(s) (q1_deg..q{found}_deg) but the arm has "
+            f"{n_joints} joints"
+        )
     q_cols = tuple(f"q{j}_deg" for j in range(1, n + 1))
     cols, line = _read_columns(path, q_cols + ("x_mm", "y_mm", "z_mm"), ARM_OPTIONAL, max_rows)
     q_deg = np.stack([cols[c] for c in q_cols], axis=1)
     xyz = np.stack([cols["x_mm"], cols["y_mm"], cols["z_mm"]], axis=1)
     tiny_arm = range_deg is not None and np.abs(np.asarray(range_deg, float)).max() <= 2 * np.pi
-    if len(q_deg) >= 10 and np.ptp(q_deg, axis=0).max() > 0.5 and np.abs(q_deg).max() <= 2 * np.pi and not tiny_arm:
-        raise RecordingError(f"{path}: every joint angle lies within +-{np.abs(q_deg).max():.2f}: these look like "
-                             "radians, the format wants degrees (q<j>_deg)")
+    if (
+        len(q_deg) >= 10
+        and np.ptp(q_deg, axis=0).max() > 0.5
+        and np.abs(q_deg).max() <= 2 * np.pi
+        and not tiny_arm
+    ):
+        raise RecordingError(
+            f"{path}: every joint angle lies within +-{np.abs(q_deg).max():.2f}: these look like "
+            "radians, the format wants degrees (q<j>_deg)"
+        )
     if np.abs(q_deg).max() > 3600:
-        raise RecordingError(f"{path}: a joint angle of {np.abs(q_deg).max():.3g} deg: not an angle in degrees")
+        raise RecordingError(
+            f"{path}: a joint angle of {np.abs(q_deg).max():.3g} deg: not an angle in degrees"
+        )
     # the arm moved (a joint over 20 deg) yet its point stayed within 5: the unit, not the arm
     if len(xyz) >= 10 and np.ptp(q_deg, axis=0).max() > 20 and 0 < np.ptp(xyz, axis=0).max() < 5.0:
-        raise RecordingError(f"{path}: the measured points span only {np.ptp(xyz, axis=0).max():.3g} in x, y and z: "
-                             "metres? the format wants millimetres (x_mm, y_mm, z_mm)")
+        raise RecordingError(
+            f"{path}: the measured points span only {np.ptp(xyz, axis=0).max():.3g} in x, y and z: "
+            "metres? the format wants millimetres (x_mm, y_mm, z_mm)"
+        )
     if np.abs(xyz).max() > 1e6:
-        raise RecordingError(f"{path}: a measured coordinate of {np.abs(xyz).max():.3g} mm (over a kilometre): "
-                             "wrong unit or a corrupt value")
+        raise RecordingError(
+            f"{path}: a measured coordinate of {np.abs(xyz).max():.3g} mm (over a kilometre): "
+            "wrong unit or a corrupt value"
+        )
     std = None
     std_cols = ("x_std_mm", "y_std_mm", "z_std_mm")
     present = [c for c in std_cols if c in cols]
     if present and len(present) < 3:
-        raise RecordingError(f"{path}: {', '.join(present)} without the others: give all of x_std_mm, y_std_mm, z_std_mm")
+        raise RecordingError(
+            f"{path}: {', '.join(present)} without the others: give all of x_std_mm, y_std_mm, z_std_mm"
+        )
     if present:
         std = np.stack([cols[c] for c in std_cols], axis=1)
         if np.any(std <= 0):
-            raise RecordingError(f"{path} line {line[int(np.argmax(np.any(std <= 0, axis=1)))]}: a std of zero or below "
-                                 "(no instrument reads exactly: leave the std columns out to have the scatter estimated)")
+            raise RecordingError(
+                f"{path} line {line[int(np.argmax(np.any(std <= 0, axis=1)))]}: a std of zero or below "
+                "(no instrument reads exactly: leave the std columns out to have the scatter estimated)"
+            )
         if np.any(std > MAX_STD_MM):
-            raise RecordingError(f"{path} line {line[int(np.argmax(np.any(std > MAX_STD_MM, axis=1)))]}: a std of "
-                                 f"{std.max():.3g} mm (over {MAX_STD_MM:g} mm): a wrong unit or a corrupt value")
+            raise RecordingError(
+                f"{path} line {line[int(np.argmax(np.any(std > MAX_STD_MM, axis=1)))]}: a std of "
+                f"{std.max():.3g} mm (over {MAX_STD_MM:g} mm): a wrong unit or a corrupt value"
+            )
     return ArmRecording(np.deg2rad(q_deg), xyz, cols.get("t_s"), cols.get("temp_c"), std)
 
 
@@ -351,11 +420,15 @@ class AxisRun:
             counts = [int(np.sum(m & (self.target_mm == t))) for t in targets]
             if min(counts) == 0:
                 t = targets[counts.index(0)]
-                raise RecordingError(f"target {t:g} mm has no reading approached in the {word} direction: a "
-                                     "bidirectional run needs both at every target")
+                raise RecordingError(
+                    f"target {t:g} mm has no reading approached in the {word} direction: a "
+                    "bidirectional run needs both at every target"
+                )
             if len(set(counts)) > 1:
-                raise RecordingError(f"the {word} direction has {min(counts)} to {max(counts)} readings per target: "
-                                     "every target needs the same number of runs")
+                raise RecordingError(
+                    f"the {word} direction has {min(counts)} to {max(counts)} readings per target: "
+                    "every target needs the same number of runs"
+                )
             order = np.lexsort((self.run[m], self.target_mm[m]))
             cols[d] = self.deviation_um[m][order].reshape(len(targets), counts[0])
         return targets, cols[+1], cols[-1]
@@ -365,7 +438,9 @@ def load_axis_run(path: str | Path) -> AxisRun:
     """Read a bidirectional run (CONTRACT, "iso230"): target_mm, run, direction and either
     deviation_um or actual_mm."""
     path = Path(path)
-    cols, line = _read_columns(path, ("target_mm", "run", "direction"), ("deviation_um", "actual_mm"))
+    cols, line = _read_columns(
+        path, ("target_mm", "run", "direction"), ("deviation_um", "actual_mm")
+    )
     if "deviation_um" in cols:
         dev = cols["deviation_um"]
     elif "actual_mm" in cols:
@@ -375,15 +450,21 @@ def load_axis_run(path: str | Path) -> AxisRun:
     d = cols["direction"]
     if not np.all(np.isin(d, (-1.0, 1.0))):
         bad = int(np.argmax(~np.isin(d, (-1.0, 1.0))))
-        raise RecordingError(f"{path} line {line[bad]}: direction is {d[bad]:g}; +1 (approached from below) or -1")
+        raise RecordingError(
+            f"{path} line {line[bad]}: direction is {d[bad]:g}; +1 (approached from below) or -1"
+        )
     if np.abs(dev).max() > 1e6:
-        raise RecordingError(f"{path}: a deviation of {np.abs(dev).max():.3g} um (over a metre): wrong unit or a "
-                             "corrupt value")
+        raise RecordingError(
+            f"{path}: a deviation of {np.abs(dev).max():.3g} um (over a metre): wrong unit or a "
+            "corrupt value"
+        )
     return AxisRun(cols["target_mm"], cols["run"], d.astype(int), dev)
 
 
 def _write_csv(path, cols: list[str], data: list[np.ndarray]) -> None:
-    np.savetxt(path, np.column_stack(data), delimiter=",", header=",".join(cols), comments="", fmt="%.10g")
+    np.savetxt(
+        path, np.column_stack(data), delimiter=",", header=",".join(cols), comments="", fmt="%.10g"
+    )
 
 
 @dataclasses.dataclass
@@ -407,7 +488,10 @@ class ScannerRecording:
         return len(self.rho_mm)
 
     def to_csv(self, path) -> None:
-        cols, data = ["turn", "theta_deg", "rho_mm"], [self.turn, np.rad2deg(self.theta_rad), self.rho_mm]
+        cols, data = (
+            ["turn", "theta_deg", "rho_mm"],
+            [self.turn, np.rad2deg(self.theta_rad), self.rho_mm],
+        )
         for name in ("t_s", "temp_c"):
             if getattr(self, name) is not None:
                 cols.append(name)
@@ -428,16 +512,27 @@ def load_scanner_csv(path: str | Path, max_rows: int | None = None) -> ScannerRe
         raise RecordingError(f"{path} line {line[i]}: turn is {turn[i]:g}; a turn is an integer")
     if np.any(cols["rho_mm"] <= 0):
         i = int(np.argmax(cols["rho_mm"] <= 0))
-        raise RecordingError(f"{path} line {line[i]}: rho_mm is {cols['rho_mm'][i]:g}; a probe reading is positive")
+        raise RecordingError(
+            f"{path} line {line[i]}: rho_mm is {cols['rho_mm'][i]:g}; a probe reading is positive"
+        )
     if np.any(cols["rho_mm"] > MAX_RHO_MM):
         i = int(np.argmax(cols["rho_mm"] > MAX_RHO_MM))
-        raise RecordingError(f"{path} line {line[i]}: rho_mm is {cols['rho_mm'][i]:.3g}: over {MAX_RHO_MM:g} mm from "
-                             "the table's axis, a wrong unit (um?) or a corrupt value")
+        raise RecordingError(
+            f"{path} line {line[i]}: rho_mm is {cols['rho_mm'][i]:.3g}: over {MAX_RHO_MM:g} mm from "
+            "the table's axis, a wrong unit (um?) or a corrupt value"
+        )
     if np.abs(cols["theta_deg"]).max() > 36000:
-        raise RecordingError(f"{path}: a table angle of {np.abs(cols['theta_deg']).max():.3g} deg: not an angle "
-                             "in degrees")
-    return ScannerRecording(turn.astype(int), np.deg2rad(cols["theta_deg"]), cols["rho_mm"], cols.get("t_s"),
-                            cols.get("temp_c"))
+        raise RecordingError(
+            f"{path}: a table angle of {np.abs(cols['theta_deg']).max():.3g} deg: not an angle "
+            "in degrees"
+        )
+    return ScannerRecording(
+        turn.astype(int),
+        np.deg2rad(cols["theta_deg"]),
+        cols["rho_mm"],
+        cols.get("t_s"),
+        cols.get("temp_c"),
+    )
 
 
 STEWART_POSE = ("x_mm", "y_mm", "z_mm", "rx_deg", "ry_deg", "rz_deg")
@@ -470,7 +565,11 @@ class StewartRecording:
         from scipy.spatial.transform import Rotation
 
         cols = [f"l{i}_mm" for i in range(1, 7)] + list(STEWART_POSE)
-        data = [self.readings_mm, self.t_mm, Rotation.from_matrix(self.R).as_euler("XYZ", degrees=True)]
+        data = [
+            self.readings_mm,
+            self.t_mm,
+            Rotation.from_matrix(self.R).as_euler("XYZ", degrees=True),
+        ]
         for name in ("t_s", "temp_c"):
             if getattr(self, name) is not None:
                 cols.append(name)
@@ -492,19 +591,34 @@ def load_stewart_csv(path: str | Path, max_rows: int | None = None) -> StewartRe
 
     legs = tuple(f"l{i}_mm" for i in range(1, 7))
     dirs = tuple(f"dir_{i}" for i in range(1, 7))
-    cols, line = _read_columns(path, legs + STEWART_POSE, ("t_s", "temp_c", "load_n") + dirs, max_rows)
+    cols, line = _read_columns(
+        path, legs + STEWART_POSE, ("t_s", "temp_c", "load_n") + dirs, max_rows
+    )
     present = [c for c in dirs if c in cols]
     if present and len(present) < 6:
-        raise RecordingError(f"{path}: {', '.join(present)} without the others: give all of dir_1..dir_6 or none")
+        raise RecordingError(
+            f"{path}: {', '.join(present)} without the others: give all of dir_1..dir_6 or none"
+        )
     direction = np.stack([cols[c] for c in dirs], axis=1) if present else None
     if direction is not None and not np.isin(direction, (-1.0, 0.0, 1.0)).all():
         i = int(np.argmax(~np.isin(direction, (-1.0, 0.0, 1.0)).all(axis=1)))
         raise RecordingError(f"{path} line {line[i]}: a dir_ column is not -1, 0 or +1")
     ang = np.stack([cols[c] for c in ("rx_deg", "ry_deg", "rz_deg")], axis=1)
     if np.abs(ang).max() > 360:
-        raise RecordingError(f"{path}: an angle of {np.abs(ang).max():.3g} deg in rx/ry/rz: not degrees")
+        raise RecordingError(
+            f"{path}: an angle of {np.abs(ang).max():.3g} deg in rx/ry/rz: not degrees"
+        )
     t = np.stack([cols[c] for c in ("x_mm", "y_mm", "z_mm")], axis=1)
     if np.abs(t).max() > 1e6:
-        raise RecordingError(f"{path}: a coordinate of {np.abs(t).max():.3g} mm (over a kilometre): wrong unit")
-    return StewartRecording(np.stack([cols[c] for c in legs], axis=1), Rotation.from_euler("XYZ", ang, degrees=True)
-                            .as_matrix(), t, cols.get("t_s"), cols.get("temp_c"), direction, cols.get("load_n"))
+        raise RecordingError(
+            f"{path}: a coordinate of {np.abs(t).max():.3g} mm (over a kilometre): wrong unit"
+        )
+    return StewartRecording(
+        np.stack([cols[c] for c in legs], axis=1),
+        Rotation.from_euler("XYZ", ang, degrees=True).as_matrix(),
+        t,
+        cols.get("t_s"),
+        cols.get("temp_c"),
+        direction,
+        cols.get("load_n"),
+    )

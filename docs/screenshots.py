@@ -62,8 +62,13 @@ async def _capture(devtools_port: int, url: str, png: Path) -> None:
                 if msg.get("id") == i:
                     return msg.get("result", {})
 
-        await call("Emulation.setDeviceMetricsOverride", width=SIZE[0], height=SIZE[1], deviceScaleFactor=1,
-                   mobile=False)
+        await call(
+            "Emulation.setDeviceMetricsOverride",
+            width=SIZE[0],
+            height=SIZE[1],
+            deviceScaleFactor=1,
+            mobile=False,
+        )
         await call("Page.navigate", url=url)
         await asyncio.sleep(WAIT_S)
         shot = await call("Page.captureScreenshot", format="png")
@@ -74,13 +79,28 @@ def screenshot(rrd: Path, png: Path) -> None:
     web, grpc, devtools = _free_port(), _free_port(), _free_port()
     rerun = Path(sys.executable).with_name("rerun")
     # own process groups: `rerun` and `chromium` start children that a plain terminate() would orphan
-    server = subprocess.Popen([str(rerun), "--serve-web", "--web-viewer-port", str(web), "--port", str(grpc), str(rrd)],
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
-    browser = subprocess.Popen([shutil.which("chromium") or "chromium", "--headless=new", "--no-sandbox",
-                                "--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--ignore-gpu-blocklist",
-                                f"--window-size={SIZE[0]},{SIZE[1]}", f"--remote-debugging-port={devtools}",
-                                "about:blank"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                               start_new_session=True)
+    server = subprocess.Popen(
+        [str(rerun), "--serve-web", "--web-viewer-port", str(web), "--port", str(grpc), str(rrd)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
+    browser = subprocess.Popen(
+        [
+            shutil.which("chromium") or "chromium",
+            "--headless=new",
+            "--no-sandbox",
+            "--use-angle=swiftshader",
+            "--enable-unsafe-swiftshader",
+            "--ignore-gpu-blocklist",
+            f"--window-size={SIZE[0]},{SIZE[1]}",
+            f"--remote-debugging-port={devtools}",
+            "about:blank",
+        ],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
     try:
         _wait_http(f"http://127.0.0.1:{web}")
         _wait_http(f"http://127.0.0.1:{devtools}/json/version")

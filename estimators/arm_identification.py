@@ -30,8 +30,18 @@ import functools
 import numpy as np
 from scipy.linalg import lapack
 
-from calibench.estimators.arm_kinematics import (Chain, Pose, cross, gravity_moments, jacobian, joint_axes, n_params,
-                                                 param_names, pose, theta_index)
+from calibench.estimators.arm_kinematics import (
+    Chain,
+    Pose,
+    cross,
+    gravity_moments,
+    jacobian,
+    joint_axes,
+    n_params,
+    param_names,
+    pose,
+    theta_index,
+)
 from calibench.estimators.rotations import matrix_to_rotvec, rigid_transform, rotvec_to_matrix, skew
 
 
@@ -132,9 +142,18 @@ class PointProblem:
         seen. The std are posterior std.
     """
 
-    def __init__(self, chain: Chain, q_rad: np.ndarray, xyz_mm: np.ndarray, recording: np.ndarray | None = None,
-                 sigma_mm: np.ndarray | None = None, compliance_joints=(), tilt_joints=(), prior: float | None = None,
-                 angle_terms=()):
+    def __init__(
+        self,
+        chain: Chain,
+        q_rad: np.ndarray,
+        xyz_mm: np.ndarray,
+        recording: np.ndarray | None = None,
+        sigma_mm: np.ndarray | None = None,
+        compliance_joints=(),
+        tilt_joints=(),
+        prior: float | None = None,
+        angle_terms=(),
+    ):
         self.chain = chain
         self.q = np.asarray(q_rad, float)
         self.y = np.asarray(xyz_mm, float)
@@ -187,8 +206,12 @@ class PointProblem:
         names = self.names
         # the identifiable basis with the frames always kept and the tool as the one group
         frames = np.arange(len(names) - len(self.frame_names), len(names))
-        view = types.SimpleNamespace(names=names, jacobian=self.jacobian, always=frames,
-                                     groups=[np.arange(self.nk - 3, self.nk)])
+        view = types.SimpleNamespace(
+            names=names,
+            jacobian=self.jacobian,
+            always=frames,
+            groups=[np.arange(self.nk - 3, self.nk)],
+        )
         dropped = identifiable_basis(view, s, rel_tol=rel_tol).dropped
         why = {n: f"{text}: held at the drawing's value" for n, text in dropped.items()}
         self.held = tuple(int(names.index(n)) for n in why)
@@ -208,9 +231,13 @@ class PointProblem:
     @property
     def names(self) -> tuple[str, ...]:
         """Parameter names, in the column order of :meth:`jacobian` and :meth:`values`."""
-        return (param_names(self.N) + tuple(f"compliance{j}" for j in self.cj)
-                + tuple(f"tilt_compliance{j}" for j in self.tj) + tuple(n for t in self.terms for n in t.names)
-                + self.frame_names)
+        return (
+            param_names(self.N)
+            + tuple(f"compliance{j}" for j in self.cj)
+            + tuple(f"tilt_compliance{j}" for j in self.tj)
+            + tuple(n for t in self.terms for n in t.names)
+            + self.frame_names
+        )
 
     @property
     def always(self) -> np.ndarray:
@@ -251,7 +278,9 @@ class PointProblem:
         for r in range(self.n_rec):
             m = self.rec == r
             if m.sum() < 3:
-                raise ValueError(f"recording {r + 1} has {m.sum()} rows: a base frame needs at least 3")
+                raise ValueError(
+                    f"recording {r + 1} has {m.sum()} rows: a base frame needs at least 3"
+                )
             R[r], t[r] = rigid_transform(p[m], self.y[m])
         if self.R_ref is None:
             self.R_ref = R.copy()
@@ -262,10 +291,10 @@ class PointProblem:
         q, tau, F = (self.q, self.tau, self.F) if q is None else (q, tau, F)
         out = q.copy()
         if self.compliance and tau is not None and len(self.cj):
-            out[:, self.cj - 1] += s.comp[:len(self.cj)] * tau
+            out[:, self.cj - 1] += s.comp[: len(self.cj)] * tau
         k = len(self.cj) + len(self.tj)
         for t, Ft in zip(self.terms, F or ()):
-            out[:, t.joint - 1] -= Ft @ s.comp[k:k + Ft.shape[1]]
+            out[:, t.joint - 1] -= Ft @ s.comp[k : k + Ft.shape[1]]
             k += Ft.shape[1]
         return out
 
@@ -273,9 +302,11 @@ class PointProblem:
         """The tool point's shift from the bearings' tilt, (n, 3) mm, and its columns (n, 3, nt)."""
         _, o = joint_axes(P)
         cols = cross(m_perp, P.point[:, None] - o[:, self.tj - 1]).transpose(0, 2, 1)
-        return cols @ s.comp[len(self.cj):len(self.cj) + len(self.tj)], cols
+        return cols @ s.comp[len(self.cj) : len(self.cj) + len(self.tj)], cols
 
-    def base_points(self, s: PointState, q_rad: np.ndarray | None = None, session: int | None = None) -> np.ndarray:
+    def base_points(
+        self, s: PointState, q_rad: np.ndarray | None = None, session: int | None = None
+    ) -> np.ndarray:
         """Modelled tool points in the arm's base frame, (n, 3) mm: this problem's postures, or
         others ``q_rad`` (m, N) (their gravity loads computed here) taken in recording
         ``session``'s session (None: one the fit has not seen, where per-recording angle terms
@@ -286,16 +317,28 @@ class PointProblem:
             q_rad = np.atleast_2d(np.asarray(q_rad, float))
             tau, m_perp = None, None
             if self.compliance:
-                other = PointProblem(self.chain, q_rad, np.zeros((len(q_rad), 3)), compliance_joints=self.cj,
-                                     tilt_joints=self.tj)
+                other = PointProblem(
+                    self.chain,
+                    q_rad,
+                    np.zeros((len(q_rad), 3)),
+                    compliance_joints=self.cj,
+                    tilt_joints=self.tj,
+                )
                 tau, m_perp = other.tau, other.m_perp
-            F = self._term_functions(q_rad, None if session is None else np.full(len(q_rad), session))
+            F = self._term_functions(
+                q_rad, None if session is None else np.full(len(q_rad), session)
+            )
             q_eff = self._q_eff(s, q_rad, tau, F)
         P = pose(self.chain, q_eff, s.delta)
         return P.point + (self._tilt(s, P, m_perp)[0] if len(self.tj) else 0.0)
 
-    def model(self, s: PointState, q_rad: np.ndarray | None = None, frame: int = 0,
-              session: int | None = None) -> np.ndarray:
+    def model(
+        self,
+        s: PointState,
+        q_rad: np.ndarray | None = None,
+        frame: int = 0,
+        session: int | None = None,
+    ) -> np.ndarray:
         """Modelled points (n, 3) in the instrument frame: this problem's rows (each in its own
         recording's frame), or postures ``q_rad`` (m, N) in recording ``frame``'s frame, with
         recording ``session``'s per-recording angle terms (None: another session's rows, e.g. a
@@ -340,8 +383,8 @@ class PointProblem:
         Jf = np.zeros((n, 3, 6 * self.n_rec))
         for r in range(self.n_rec):
             m = self.rec == r
-            Jf[m, :, 6 * r:6 * r + 3] = -skew(Rp[m])  # left perturbation of R
-            Jf[m, :, 6 * r + 3:6 * r + 6] = np.eye(3)
+            Jf[m, :, 6 * r : 6 * r + 3] = -skew(Rp[m])  # left perturbation of R
+            Jf[m, :, 6 * r + 3 : 6 * r + 6] = np.eye(3)
         cols.append(Jf)
         J = (-np.concatenate(cols, axis=2) * self.weights()[:, :, None]).reshape(3 * n, -1)
         if self.prior is None:
@@ -354,9 +397,9 @@ class PointProblem:
     def update(self, s: PointState, step: np.ndarray) -> PointState:
         """The state moved by ``step`` (len(names),): additive for the errors, a left rotation for each base frame."""
         nk, nc = self.nk, self.nc
-        f = step[nk + nc:].reshape(self.n_rec, 6)
+        f = step[nk + nc :].reshape(self.n_rec, 6)
         R = np.stack([rotvec_to_matrix(f[r, :3]) @ s.R[r] for r in range(self.n_rec)])
-        comp = s.comp + step[nk:nk + nc] if nc else s.comp
+        comp = s.comp + step[nk : nk + nc] if nc else s.comp
         return PointState(s.delta + step[:nk], comp, R, s.t + f[:, 3:])
 
     def values(self, s: PointState) -> np.ndarray:
@@ -380,11 +423,14 @@ class PointProblem:
             m = self.rec == r
             extra[r] = _variance_component(e2[m], base[m], max(dof * e2[m].size / n_values, 1.0))
         self.extra_var = extra
-        return float(np.sqrt(np.sum(extra * np.bincount(self.rec, minlength=self.n_rec)) / len(self.rec)))
+        return float(
+            np.sqrt(np.sum(extra * np.bincount(self.rec, minlength=self.n_rec)) / len(self.rec))
+        )
 
 
 def _variance_component(e2: np.ndarray, base: np.ndarray, target: float) -> float:
     """v >= 0 with sum(e2 / (base + v)) = target (0 if the stated sigma already covers it)."""
+
     def chi2(v):
         return float(np.sum(e2 / np.maximum(base + v, 1e-12)))
 
@@ -412,10 +458,17 @@ class TrackerState:
 class TrackerProblem:
     """A laser tracker's spherical readings (range, azimuth, elevation) of the tool point, with its own base frame; the
     seed's identification."""
+
     NUISANCE = ("tracker_rx", "tracker_ry", "tracker_rz", "tracker_x", "tracker_y", "tracker_z")
 
-    def __init__(self, chain: Chain, q_rad: np.ndarray, measured: np.ndarray, sigma: np.ndarray,
-                 encoder_sigma_rad: float = 0.0):
+    def __init__(
+        self,
+        chain: Chain,
+        q_rad: np.ndarray,
+        measured: np.ndarray,
+        sigma: np.ndarray,
+        encoder_sigma_rad: float = 0.0,
+    ):
         """q (n, N) encoder readings; measured (n, 3) range (mm), azimuth, elevation (rad);
         sigma (n, 3) their 1-sigma; the encoders' 1-sigma, which reaches the measurement
         through the arm (each posture's residuals are whitened by the full 3 x 3 covariance,
@@ -449,12 +502,17 @@ class TrackerProblem:
     @property
     def groups(self) -> list[np.ndarray]:
         """Column groups the identifiable basis is found in: kinematics, then Hayati's beta."""
-        return [np.array([5 * i + k for i in range(self.N) for k in range(4)]), np.arange(4, 5 * self.N, 5)]
+        return [
+            np.array([5 * i + k for i in range(self.N) for k in range(4)]),
+            np.arange(4, 5 * self.N, 5),
+        ]
 
     def cartesian(self) -> np.ndarray:
         """The measurements as points in the tracker's frame, (n, 3) mm."""
         r, az, el = self.meas.T
-        return np.stack([r * np.cos(el) * np.cos(az), r * np.cos(el) * np.sin(az), r * np.sin(el)], axis=1)
+        return np.stack(
+            [r * np.cos(el) * np.cos(az), r * np.cos(el) * np.sin(az), r * np.sin(el)], axis=1
+        )
 
     def start(self) -> TrackerState:
         """Nominal arm; the frame from a rigid fit of the measured points to the nominal ones."""
@@ -483,13 +541,18 @@ class TrackerProblem:
             cov = cov + self.encoder_sigma**2 * (self._G @ self._G.transpose(0, 2, 1))
         return np.linalg.inv(np.linalg.cholesky(cov))
 
-    def reweighted(self, sigma: np.ndarray, encoder_sigma_rad: float) -> "TrackerProblem":
+    def reweighted(self, sigma: np.ndarray, encoder_sigma_rad: float) -> TrackerProblem:
         """The same readings whitened by other 1-sigma (n, 3) and encoder sigma (e.g. the
         simulation's own, for a bound): the start, its frame reference and the encoders' lever
         G are the same, so they are shared, not found again."""
         other = TrackerProblem(self.chain, self.q, self.meas, sigma, encoder_sigma_rad)
         self.start()
-        other._start, other.R_ref, other._G, other._last = self._start, self.R_ref, self._G, self._last
+        other._start, other.R_ref, other._G, other._last = (
+            self._start,
+            self.R_ref,
+            self._G,
+            self._last,
+        )
         return other
 
     def points(self, s: TrackerState) -> np.ndarray:
@@ -504,8 +567,7 @@ class TrackerProblem:
         return self._last[1]
 
     def residuals(self, s: TrackerState) -> np.ndarray:
-        """Residuals (3 n,) in spherical coordinates, whitened by each posture's covariance (instrument and encoders).
-"""
+        """Residuals (3 n,) in spherical coordinates, whitened by each posture's covariance (instrument and encoders)."""
         if self._W is None:
             self.start()
         d = spherical(self.points(s)) - self.meas
@@ -532,15 +594,19 @@ class TrackerProblem:
             self.start()
         Js = self._W @ spherical_jacobian(y)
         Jy = np.empty((len(y), 3, self.nk + 6))
-        Jy[:, :, :self.nk] = s.R @ jacobian(self.chain, P=P)
-        Jy[:, :, self.nk:self.nk + 3] = -skew(P.point @ s.R.T)  # left perturbation of R
-        Jy[:, :, self.nk + 3:] = np.eye(3)
+        Jy[:, :, : self.nk] = s.R @ jacobian(self.chain, P=P)
+        Jy[:, :, self.nk : self.nk + 3] = -skew(P.point @ s.R.T)  # left perturbation of R
+        Jy[:, :, self.nk + 3 :] = np.eye(3)
         return (Js @ Jy).reshape(len(y) * 3, -1)
 
     def update(self, s: TrackerState, step: np.ndarray) -> TrackerState:
         """The state moved by ``step``: additive for the errors, a left rotation for the tracker frame."""
         nk = self.nk
-        return TrackerState(s.delta + step[:nk], rotvec_to_matrix(step[nk:nk + 3]) @ s.R, s.t + step[nk + 3:nk + 6])
+        return TrackerState(
+            s.delta + step[:nk],
+            rotvec_to_matrix(step[nk : nk + 3]) @ s.R,
+            s.t + step[nk + 3 : nk + 6],
+        )
 
     def values(self, s: TrackerState) -> np.ndarray:
         """The state as one vector (len(names),)."""
@@ -557,10 +623,18 @@ class ConeState:
 class ConeProblem:
     """Tool points held in two kinematic cones and a length bar between them: the arm CMM's own artefacts, no external
     instrument."""
+
     NUISANCE = ("cone_a_x", "cone_a_y", "cone_a_z", "cone_b_x", "cone_b_y", "cone_b_z")
 
-    def __init__(self, chain: Chain, q_rad: np.ndarray, cone: np.ndarray, sigma_mm: float,
-                 bar_length_mm: float, bar_sigma_mm: float):
+    def __init__(
+        self,
+        chain: Chain,
+        q_rad: np.ndarray,
+        cone: np.ndarray,
+        sigma_mm: float,
+        bar_length_mm: float,
+        bar_sigma_mm: float,
+    ):
         """q (n, N) readings with the probe in cone ``cone`` (n,) of {0, 1}; sigma of a probe
         point; the bar's calibrated length and its uncertainty."""
         self.chain, self.q, self.cone = chain, np.asarray(q_rad, float), np.asarray(cone, int)
@@ -589,7 +663,9 @@ class ConeProblem:
     def start(self) -> ConeState:
         """The nominal chain and each cone's centre from the nominal points."""
         p = pose(self.chain, self.q).point
-        return ConeState(np.zeros(self.nk), np.stack([p[self.cone == k].mean(axis=0) for k in (0, 1)]))
+        return ConeState(
+            np.zeros(self.nk), np.stack([p[self.cone == k].mean(axis=0) for k in (0, 1)])
+        )
 
     def residuals(self, s: ConeState) -> np.ndarray:
         """Whitened residuals: each point from its cone's centre, then the bar's length."""
@@ -602,17 +678,17 @@ class ConeProblem:
         """d(residuals) / d(parameters), (3 n + 1, len(names))."""
         n, nk = len(self.q), self.nk
         J = np.zeros((3 * n + 1, nk + 6))
-        J[:3 * n, :nk] = jacobian(self.chain, self.q, s.delta).reshape(-1, nk) / self.sigma
+        J[: 3 * n, :nk] = jacobian(self.chain, self.q, s.delta).reshape(-1, nk) / self.sigma
         for k in (0, 1):
             rows = np.flatnonzero(np.repeat(self.cone == k, 3))
             J[rows, nk + 3 * k + np.tile(np.arange(3), n)[rows]] = -1 / self.sigma
         u = (s.cones[0] - s.cones[1]) / np.linalg.norm(s.cones[0] - s.cones[1])
-        J[-1, nk:nk + 3], J[-1, nk + 3:nk + 6] = u / self.sigma_L, -u / self.sigma_L
+        J[-1, nk : nk + 3], J[-1, nk + 3 : nk + 6] = u / self.sigma_L, -u / self.sigma_L
         return J
 
     def update(self, s: ConeState, step: np.ndarray) -> ConeState:
         """The state moved by ``step`` (additive)."""
-        return ConeState(s.delta + step[:self.nk], s.cones + step[self.nk:].reshape(2, 3))
+        return ConeState(s.delta + step[: self.nk], s.cones + step[self.nk :].reshape(2, 3))
 
     def values(self, s: ConeState) -> np.ndarray:
         """The state as one vector (len(names),)."""
@@ -693,7 +769,9 @@ def _grow_basis(Js: np.ndarray, always: np.ndarray, groups, skip: np.ndarray, to
     one dropped. Returns kept (k,) and dropped (d,) column indices, in the order found, Q (m, r),
     and whether the always-kept columns are independent (then r = k)."""
     Q, piv = _pivoted_qr(Js[:, always], tol)
-    always_independent = Q.shape[1] == len(always)  # else a degenerate set-up: they repeat each other
+    always_independent = Q.shape[1] == len(
+        always
+    )  # else a degenerate set-up: they repeat each other
     kept, dropped = [always], []
     is_kept = np.zeros(Js.shape[1], bool)
     is_kept[always] = True
@@ -703,18 +781,26 @@ def _grow_basis(Js: np.ndarray, always: np.ndarray, groups, skip: np.ndarray, to
         if len(cols) == 0:
             continue
         rest = Js[:, cols] - Q @ (Q.T @ Js[:, cols])
-        rest -= Q @ (Q.T @ rest)  # projected twice: a nearly dependent column keeps no trace of Q's span
+        rest -= Q @ (
+            Q.T @ rest
+        )  # projected twice: a nearly dependent column keeps no trace of Q's span
         Qr, piv = _pivoted_qr(rest, tol)
         rank = Qr.shape[1]
         kept.append(cols[piv[:rank]])
         is_kept[cols[piv[:rank]]] = True
         dropped.append(cols[piv[rank:]])
         Q = np.hstack([Q, Qr])  # rest is orthogonal to Q, so its own basis extends Q's
-    return np.concatenate(kept), np.concatenate(dropped or [np.empty(0, int)]), Q, always_independent
+    return (
+        np.concatenate(kept),
+        np.concatenate(dropped or [np.empty(0, int)]),
+        Q,
+        always_independent,
+    )
 
 
-def identifiable_basis(problem, state=None, rel_tol: float = 1e-4, parallel: list | None = None,
-                       explain: bool = True) -> Basis:
+def identifiable_basis(
+    problem, state=None, rel_tol: float = 1e-4, parallel: list | None = None, explain: bool = True
+) -> Basis:
     """Practical rank of the scaled, whitened Jacobian, group by group: ``problem.always`` (kept
     whatever the data), then each of ``problem.groups`` pivoted (QR) on what the kept columns
     cannot explain, so a later group's column that repeats an earlier one is the one dropped.
@@ -749,19 +835,25 @@ def identifiable_basis(problem, state=None, rel_tol: float = 1e-4, parallel: lis
     geometric = np.array([not n.startswith(("compliance", "tilt_compliance")) for n in names])
     top = norm[geometric].max(initial=0.0) if geometric.any() else norm.max(initial=0.0)
     zero = norm < 1e-9 * max(top, 1e-300)
-    kept, dropped, Q, always_independent = _grow_basis(Js, np.asarray(problem.always, int), problem.groups,
-                                                       zero, rel_tol * top)
+    kept, dropped, Q, always_independent = _grow_basis(
+        Js, np.asarray(problem.always, int), problem.groups, zero, rel_tol * top
+    )
     kept, dropped = np.sort(kept), np.sort(dropped)  # kept in Q's order for the partners below
     if not explain:
         return Basis(kept=kept, dropped={names[j]: "" for j in dropped})
-    reasons = {names[j]: "does not move the data at all" for j in np.flatnonzero(zero)
-               if j not in kept and any(j in g for g in problem.groups)}
+    reasons = {
+        names[j]: "does not move the data at all"
+        for j in np.flatnonzero(zero)
+        if j not in kept and any(j in g for g in problem.groups)
+    }
     if len(dropped) == 0:
         return Basis(kept=kept, dropped=reasons)
     coefs = _explained(Q if always_independent else None, Js[:, kept], Js[:, dropped])
     kept_names = [names[k] for k in kept]
     partners = {}
-    largest3 = np.argsort(-np.abs(coefs), axis=0)[:3].T.tolist()  # each dropped column's largest partners
+    largest3 = np.argsort(-np.abs(coefs), axis=0)[
+        :3
+    ].T.tolist()  # each dropped column's largest partners
     for j, coef, order in zip(dropped.tolist(), coefs.T.tolist(), largest3):
         big = [(kept_names[k], coef[k]) for k in order if abs(coef[k]) > 0.05 * abs(coef[order[0]])]
         text = "moves the data as " + " + ".join(f"{n} ({c:+.2f})" for n, c in big)
@@ -789,7 +881,9 @@ COST_ROUNDING = 1e-13
 MAX_VARIANCE_INFLATION = 1e12
 
 
-def identify(problem, basis: Basis, state=None, max_iter: int = 50, xtol: float = 1e-8) -> Identification:
+def identify(
+    problem, basis: Basis, state=None, max_iter: int = 50, xtol: float = 1e-8
+) -> Identification:
     """Levenberg-Marquardt over the kept parameters; std from the whitened normal matrix.
 
     Converged when the last accepted step moved no parameter by more than ``xtol`` of its std, or
@@ -803,7 +897,7 @@ def identify(problem, basis: Basis, state=None, max_iter: int = 50, xtol: float 
     r = problem.residuals(s)
     cost = r @ r
     it, converged = 0, False
-    for it in range(1, max_iter + 1):
+    for it in range(1, max_iter + 1):  # noqa: B007 - the count is reported after the loop
         J = problem.jacobian(s)[:, k]
         A, g = J.T @ J, J.T @ r
         # the most the linearised model promises is the undamped step's decrease, g' A^-1 g: a
@@ -838,7 +932,10 @@ def identify(problem, basis: Basis, state=None, max_iter: int = 50, xtol: float 
             continue
         # no step lowers the cost any more (the damped ones, however short): a minimum only if the
         # gradient says so too; a wrong model or Jacobian ends here unconverged
-        converged = bool(np.max(np.abs(g) / np.sqrt(np.maximum(np.diag(A), 1e-300))) < 1e-6 * max(np.sqrt(cost), 1.0))
+        converged = bool(
+            np.max(np.abs(g) / np.sqrt(np.maximum(np.diag(A), 1e-300)))
+            < 1e-6 * max(np.sqrt(cost), 1.0)
+        )
         break
     J = problem.jacobian(s)[:, k]
     dof = max(len(r) - len(k), 1)
@@ -854,13 +951,22 @@ def identify(problem, basis: Basis, state=None, max_iter: int = 50, xtol: float 
     # or a negative variance, or a NaN, whichever the rounding picks: all of them are singular.
     vif = np.diag(A_inv) * np.diag(A)
     if not np.all((vif >= 0.5) & (vif < MAX_VARIANCE_INFLATION)):
-        raise np.linalg.LinAlgError("the kept parameters' normal matrix is singular to working precision")
+        raise np.linalg.LinAlgError(
+            "the kept parameters' normal matrix is singular to working precision"
+        )
     cov = A_inv * s2
     names = problem.names
     values = problem.values(s)
-    return Identification(state=s, estimate={names[j]: float(values[j]) for j in k},
-                          std={names[j]: float(np.sqrt(cov[i, i])) for i, j in enumerate(k)},
-                          basis=basis, rms=float(np.sqrt(s2)), iterations=it, converged=converged, cov=cov)
+    return Identification(
+        state=s,
+        estimate={names[j]: float(values[j]) for j in k},
+        std={names[j]: float(np.sqrt(cov[i, i])) for i, j in enumerate(k)},
+        basis=basis,
+        rms=float(np.sqrt(s2)),
+        iterations=it,
+        converged=converged,
+        cov=cov,
+    )
 
 
 def identify_identifiable(problem, parallel: list | None = None) -> Identification:
@@ -892,10 +998,18 @@ def parameter_scales(names) -> np.ndarray:
 @functools.lru_cache(maxsize=64)
 def _scales(names: tuple) -> tuple:
     """The typical sizes of ``names``' errors, cached: a problem asks at every basis and bound."""
-    return tuple(1e-3 if n.startswith(("dalpha", "dtheta", "dbeta", "tracker_r", "base_r", "cone_r")) else
-                 1e-4 if n.startswith("angle_") else
-                 1e-5 if n.startswith("compliance") else 1e-6 if n.startswith("tilt_compliance") else 0.1
-                 for n in names)
+    return tuple(
+        1e-3
+        if n.startswith(("dalpha", "dtheta", "dbeta", "tracker_r", "base_r", "cone_r"))
+        else 1e-4
+        if n.startswith("angle_")
+        else 1e-5
+        if n.startswith("compliance")
+        else 1e-6
+        if n.startswith("tilt_compliance")
+        else 0.1
+        for n in names
+    )
 
 
 def _same(a: np.ndarray, b: np.ndarray) -> bool:

@@ -31,8 +31,20 @@ KINDS = ("da", "dd", "dalpha", "dtheta", "dbeta")
 _A, _D, _ALPHA, _THETA, _BETA = range(5)
 # each joint's elementary motions in order: (kind, axis index, which parameter)
 OPS = {
-    "dh": (("rot", 2, _THETA), ("trans", 2, _D), ("trans", 0, _A), ("rot", 0, _ALPHA), ("rot", 1, _BETA)),
-    "mdh": (("rot", 0, _ALPHA), ("rot", 1, _BETA), ("trans", 0, _A), ("rot", 2, _THETA), ("trans", 2, _D)),
+    "dh": (
+        ("rot", 2, _THETA),
+        ("trans", 2, _D),
+        ("trans", 0, _A),
+        ("rot", 0, _ALPHA),
+        ("rot", 1, _BETA),
+    ),
+    "mdh": (
+        ("rot", 0, _ALPHA),
+        ("rot", 1, _BETA),
+        ("trans", 0, _A),
+        ("rot", 2, _THETA),
+        ("trans", 2, _D),
+    ),
 }
 N_TOOL = 3
 
@@ -61,7 +73,9 @@ class Chain:
     mass_kg: np.ndarray | None = None
     com_mm: np.ndarray | None = None
     tool_mass_kg: float = 0.0
-    gravity_m_s2: np.ndarray = dataclasses.field(default_factory=lambda: np.array([0.0, 0.0, -9.81]))
+    gravity_m_s2: np.ndarray = dataclasses.field(
+        default_factory=lambda: np.array([0.0, 0.0, -9.81])
+    )
 
     def __post_init__(self):
         if self.convention not in OPS:
@@ -83,13 +97,19 @@ class Chain:
 
     @functools.cached_property
     def _nominal(self) -> np.ndarray:
-        return np.stack([self.a_mm, self.d_mm, self.alpha_rad, self.theta_rad, np.zeros(self.n_joints)], axis=1)
+        return np.stack(
+            [self.a_mm, self.d_mm, self.alpha_rad, self.theta_rad, np.zeros(self.n_joints)], axis=1
+        )
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def param_names(n_joints: int) -> tuple[str, ...]:
     """Names of the error parameters, in ``delta``'s order."""
-    return tuple(f"{k}{i}" for i in range(1, n_joints + 1) for k in KINDS) + ("tool_x", "tool_y", "tool_z")
+    return tuple(f"{k}{i}" for i in range(1, n_joints + 1) for k in KINDS) + (
+        "tool_x",
+        "tool_y",
+        "tool_z",
+    )
 
 
 def param_is_angle(names) -> np.ndarray:
@@ -119,8 +139,18 @@ class Pose:
     the motions too.
     """
 
-    def __init__(self, convention: str, link_R: np.ndarray, link_o: np.ndarray, point: np.ndarray,
-                 c: np.ndarray, s: np.ndarray, a: np.ndarray, d: np.ndarray, alpha: np.ndarray):
+    def __init__(
+        self,
+        convention: str,
+        link_R: np.ndarray,
+        link_o: np.ndarray,
+        point: np.ndarray,
+        c: np.ndarray,
+        s: np.ndarray,
+        a: np.ndarray,
+        d: np.ndarray,
+        alpha: np.ndarray,
+    ):
         self.link_R, self.link_o, self.point = link_R, link_o, point
         self._motions_of = (convention, c, s, a, d, alpha)
         self._motions = None
@@ -145,7 +175,9 @@ class Pose:
         n, N = c.shape
         R0, o0, R1, o1 = link_R[:, :-1], link_o[:, :-1], link_R[:, 1:], link_o[:, 1:]
         axis, origin = np.empty((n, N, 5, 3)), np.empty((n, N, 5, 3))
-        if convention == "dh":  # RotZ(theta + q), TransZ(d) about frame i-1's z; TransX(a), RotX(alpha) along the turned x
+        if (
+            convention == "dh"
+        ):  # RotZ(theta + q), TransZ(d) about frame i-1's z; TransX(a), RotX(alpha) along the turned x
             x1 = c[..., None] * R0[..., 0] + s[..., None] * R0[..., 1]
             axis[:, :, _THETA] = axis[:, :, _D] = R0[..., 2]
             origin[:, :, _THETA] = origin[:, :, _D] = o0
@@ -155,7 +187,9 @@ class Pose:
             axis[:, :, _BETA] = R1[..., 1]  # RotY keeps y: the turned frame's y is frame i's
         else:  # RotX(alpha), RotY(beta), TransX(a) at frame i-1's origin; RotZ(theta + q), TransZ(d) on frame i's z
             ca, sa = np.cos(alpha)[:, None], np.sin(alpha)[:, None]
-            xm = c[..., None] * R1[..., 0] - s[..., None] * R1[..., 1]  # frame i-1 turned by M: its x
+            xm = (
+                c[..., None] * R1[..., 0] - s[..., None] * R1[..., 1]
+            )  # frame i-1 turned by M: its x
             axis[:, :, _ALPHA] = R0[..., 0]
             axis[:, :, _BETA] = ca * R0[..., 1] + sa * R0[..., 2]
             axis[:, :, _A] = xm
@@ -188,7 +222,7 @@ def pose(chain: Chain, q_rad: np.ndarray, delta: np.ndarray | None = None) -> Po
     if q.shape[1] != N:
         raise ValueError(f"postures have {q.shape[1]} joints, the chain {N}")
     delta = np.zeros(n_params(N)) if delta is None else np.asarray(delta, float)
-    a, d, alpha, theta, beta = (chain.nominal() + delta[:5 * N].reshape(N, 5)).T
+    a, d, alpha, theta, beta = (chain.nominal() + delta[: 5 * N].reshape(N, 5)).T
     n = len(q)
     phi = q + theta  # (n, N)
     c, s = np.cos(phi), np.sin(phi)
@@ -199,9 +233,17 @@ def pose(chain: Chain, q_rad: np.ndarray, delta: np.ndarray | None = None) -> Po
     A = np.empty((n, N, 3, 3))
     c_, s_ = c[..., None], s[..., None]
     if dh:
-        A[..., 0, :], A[..., 1, :], A[..., 2, :] = c_ * M[:, 0] - s_ * M[:, 1], s_ * M[:, 0] + c_ * M[:, 1], M[:, 2]
+        A[..., 0, :], A[..., 1, :], A[..., 2, :] = (
+            c_ * M[:, 0] - s_ * M[:, 1],
+            s_ * M[:, 0] + c_ * M[:, 1],
+            M[:, 2],
+        )
     else:
-        A[..., 0], A[..., 1], A[..., 2] = c_ * M[..., 0] + s_ * M[..., 1], c_ * M[..., 1] - s_ * M[..., 0], M[..., 2]
+        A[..., 0], A[..., 1], A[..., 2] = (
+            c_ * M[..., 0] + s_ * M[..., 1],
+            c_ * M[..., 1] - s_ * M[..., 0],
+            M[..., 2],
+        )
     # each joint's shift in frame i-1: DH (a c, a s, d); MDH a along M's x, then d along A's z
     if dh:
         p = np.empty((n, N, 3))
@@ -214,8 +256,10 @@ def pose(chain: Chain, q_rad: np.ndarray, delta: np.ndarray | None = None) -> Po
         R = link_R[:, i]
         link_o[:, i + 1] = link_o[:, i] + (R @ p[:, i, :, None])[..., 0]
         link_R[:, i + 1] = R @ A[:, i]
-    tool = chain.tool_mm + delta[5 * N:]
-    return Pose(chain.convention, link_R, link_o, link_o[:, N] + link_R[:, N] @ tool, c, s, a, d, alpha)
+    tool = chain.tool_mm + delta[5 * N :]
+    return Pose(
+        chain.convention, link_R, link_o, link_o[:, N] + link_R[:, N] @ tool, c, s, a, d, alpha
+    )
 
 
 def cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -232,8 +276,12 @@ def point(chain: Chain, q_rad: np.ndarray, delta: np.ndarray | None = None) -> n
     return pose(chain, q_rad, delta).point
 
 
-def jacobian(chain: Chain, q_rad: np.ndarray | None = None, delta: np.ndarray | None = None,
-             P: Pose | None = None) -> np.ndarray:
+def jacobian(
+    chain: Chain,
+    q_rad: np.ndarray | None = None,
+    delta: np.ndarray | None = None,
+    P: Pose | None = None,
+) -> np.ndarray:
     """d(point) / d(delta), (n, 3, 5 N + 3), analytic.
 
     A turn about a unit axis w through o moves the point by w x (p - o); a shift along w by w;
@@ -250,13 +298,17 @@ def jacobian(chain: Chain, q_rad: np.ndarray | None = None, delta: np.ndarray | 
         rot[which::5] = kind == "rot"
     # every motion's turn made, the shifts' then discarded: one pass instead of a masked copy
     cols = np.where(rot[:, None], cross(P.axis, P.point[:, None] - P.origin), P.axis)
-    J[:, :, :5 * N] = cols.transpose(0, 2, 1)
-    J[:, :, 5 * N:] = P.link_R[:, N]
+    J[:, :, : 5 * N] = cols.transpose(0, 2, 1)
+    J[:, :, 5 * N :] = P.link_R[:, N]
     return J
 
 
-def gravity_moments(chain: Chain, q_rad: np.ndarray | None = None, delta: np.ndarray | None = None,
-                    P: Pose | None = None) -> np.ndarray:
+def gravity_moments(
+    chain: Chain,
+    q_rad: np.ndarray | None = None,
+    delta: np.ndarray | None = None,
+    P: Pose | None = None,
+) -> np.ndarray:
     """The moment of the weight each joint carries, about a point on its axis, (n, N, 3) N m in
     the base frame: M_i = sum over the links l >= i of (c_l - o_i) x (m_l g), c_l a centre of
     mass (the tool's mass sits at the tool point), o_i the joint's frame origin on its axis."""
@@ -265,10 +317,17 @@ def gravity_moments(chain: Chain, q_rad: np.ndarray | None = None, delta: np.nda
     P = pose(chain, q_rad, delta) if P is None else P
     N = chain.n_joints
     g = np.asarray(chain.gravity_m_s2, float)
-    com = P.link_o[:, 1:] + np.einsum("nlij,lj->nli", P.link_R[:, 1:], np.asarray(chain.com_mm, float))
+    com = P.link_o[:, 1:] + np.einsum(
+        "nlij,lj->nli", P.link_R[:, 1:], np.asarray(chain.com_mm, float)
+    )
     weights = np.asarray(chain.mass_kg, float)[None, :, None] * g  # (1, N, 3) N
-    f = np.concatenate([np.broadcast_to(weights, com.shape), (chain.tool_mass_kg * g)[None, None].repeat(len(com), 0)],
-                       axis=1)
+    f = np.concatenate(
+        [
+            np.broadcast_to(weights, com.shape),
+            (chain.tool_mass_kg * g)[None, None].repeat(len(com), 0),
+        ],
+        axis=1,
+    )
     x = np.concatenate([com, P.point[:, None]], axis=1) / 1000.0  # m
     # moments about the base origin and forces, summed from the tip inward: links l..N and the tool
     moment = np.cumsum(cross(x, f)[:, ::-1], axis=1)[:, ::-1]
@@ -282,8 +341,12 @@ def joint_axes(P: Pose) -> tuple[np.ndarray, np.ndarray]:
     return P.axis[:, _THETA::5], P.origin[:, _THETA::5]
 
 
-def gravity_torques(chain: Chain, q_rad: np.ndarray | None = None, delta: np.ndarray | None = None,
-                    P: Pose | None = None) -> np.ndarray:
+def gravity_torques(
+    chain: Chain,
+    q_rad: np.ndarray | None = None,
+    delta: np.ndarray | None = None,
+    P: Pose | None = None,
+) -> np.ndarray:
     """The torque gravity puts on each joint (the generalized gravity force), (n, N) N m.
 
     tau_i = w_i . M_i, w_i joint i's axis and M_i the moment of the weight it carries

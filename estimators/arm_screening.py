@@ -34,8 +34,13 @@ class Screening:
     n_repeats: int
 
 
-def screen(q_rad: np.ndarray, xyz_mm: np.ndarray, q_tol_deg: float = 0.05, factor: float = 10.0,
-           floor_mm: float = 0.1) -> Screening:
+def screen(
+    q_rad: np.ndarray,
+    xyz_mm: np.ndarray,
+    q_tol_deg: float = 0.05,
+    factor: float = 10.0,
+    floor_mm: float = 0.1,
+) -> Screening:
     """Stale rows and disagreeing repeats of a recording: q (n, N) rad, xyz (n, 3) mm.
 
     A repeat disagrees when its distance exceeds ``factor`` times the median repeat distance
@@ -45,7 +50,11 @@ def screen(q_rad: np.ndarray, xyz_mm: np.ndarray, q_tol_deg: float = 0.05, facto
     moved = np.any(np.abs(np.diff(q, axis=0)) > q_tol_deg, axis=1)
     same = np.all(np.diff(y, axis=0) == 0, axis=1)
     stale = np.flatnonzero(moved & same) + 1
-    pairs = cKDTree(q).query_pairs(q_tol_deg, p=np.inf, output_type="ndarray") if len(q) > 1 else np.zeros((0, 2), int)
+    pairs = (
+        cKDTree(q).query_pairs(q_tol_deg, p=np.inf, output_type="ndarray")
+        if len(q) > 1
+        else np.zeros((0, 2), int)
+    )
     if len(pairs) == 0:
         return Screening(stale, np.zeros((0, 2), int), np.zeros(0), None, 0)
     dist = np.linalg.norm(y[pairs[:, 0]] - y[pairs[:, 1]], axis=1)

@@ -54,13 +54,20 @@ def find_chessboard_corners(image: np.ndarray, cols: int, rows: int) -> np.ndarr
 def saddle_half_window(corners: np.ndarray, cols: int, rows: int) -> int:
     """Half window (px) that stays inside the four squares around each corner."""
     grid = corners.reshape(rows, cols, 2)
-    steps = np.r_[np.linalg.norm(np.diff(grid, axis=1), axis=2).ravel(),
-                  np.linalg.norm(np.diff(grid, axis=0), axis=2).ravel()]
+    steps = np.r_[
+        np.linalg.norm(np.diff(grid, axis=1), axis=2).ravel(),
+        np.linalg.norm(np.diff(grid, axis=0), axis=2).ravel(),
+    ]
     return int(np.clip(np.round(0.3 * np.percentile(steps, 10)), 2, 10))
 
 
-def refine_saddle(gray: np.ndarray, corners: np.ndarray, half_window: int,
-                  iterations: int = 20, tol_px: float = 1e-4) -> np.ndarray:
+def refine_saddle(
+    gray: np.ndarray,
+    corners: np.ndarray,
+    half_window: int,
+    iterations: int = 20,
+    tol_px: float = 1e-4,
+) -> np.ndarray:
     """Move corners to the saddle point of the smoothed image, (n, 2) -> (n, 2) px.
 
     Each iteration samples a (2r+1)^2 grid centred on the current estimate (bilinear), fits
@@ -76,7 +83,10 @@ def refine_saddle(gray: np.ndarray, corners: np.ndarray, half_window: int,
     h, w_img = gray.shape[:2]
     m = r + 1 + iterations + int(np.ceil(4 * sigma)) + 2
     x0, y0 = max(int(np.floor(c[:, 0].min())) - m, 0), max(int(np.floor(c[:, 1].min())) - m, 0)
-    x1, y1 = min(int(np.ceil(c[:, 0].max())) + m + 1, w_img), min(int(np.ceil(c[:, 1].max())) + m + 1, h)
+    x1, y1 = (
+        min(int(np.ceil(c[:, 0].max())) + m + 1, w_img),
+        min(int(np.ceil(c[:, 1].max())) + m + 1, h),
+    )
     img = cv2.GaussianBlur(gray[y0:y1, x0:x1].astype(np.float32), (0, 0), sigma).astype(np.float64)
     if x0 == 0 or y0 == 0 or x1 == w_img or y1 == h:
         # a board at the image's edge: the edge repeated, so that no window leaves the image
@@ -135,11 +145,12 @@ def canonical_order(gray: np.ndarray, corners: np.ndarray, cols: int, rows: int)
 
 def _sample(gray: np.ndarray, uv: np.ndarray) -> float:
     u, v = np.clip(np.rint(uv).astype(int), 0, [gray.shape[1] - 1, gray.shape[0] - 1])
-    return float(gray[max(v - 1, 0):v + 2, max(u - 1, 0):u + 2].mean())
+    return float(gray[max(v - 1, 0) : v + 2, max(u - 1, 0) : u + 2].mean())
 
 
-def grid_residuals(corners: np.ndarray, cols: int, rows: int, left_out: np.ndarray | None = None,
-                   half: int = 2) -> np.ndarray:
+def grid_residuals(
+    corners: np.ndarray, cols: int, rows: int, left_out: np.ndarray | None = None, half: int = 2
+) -> np.ndarray:
     """Each corner against where its grid neighbours put it, (cols * rows,) px.
 
     A quadratic in grid steps (the board's perspective and the lens's distortion to second
@@ -152,9 +163,13 @@ def grid_residuals(corners: np.ndarray, cols: int, rows: int, left_out: np.ndarr
     n = rows * cols
     out = np.zeros(n, bool) if left_out is None else np.asarray(left_out, bool)
     ii, jj = (a.ravel() for a in np.meshgrid(np.arange(rows), np.arange(cols), indexing="ij"))
-    offs = np.array([(a, b) for a in range(-half, half + 1) for b in range(-half, half + 1) if (a, b) != (0, 0)])
+    offs = np.array(
+        [(a, b) for a in range(-half, half + 1) for b in range(-half, half + 1) if (a, b) != (0, 0)]
+    )
     powers = [(p - q, q) for p in range(3) for q in range(p + 1)]
-    M = np.stack([offs[:, 1] ** i * offs[:, 0] ** j for i, j in powers], axis=1).astype(float)  # (m, 6)
+    M = np.stack([offs[:, 1] ** i * offs[:, 0] ** j for i, j in powers], axis=1).astype(
+        float
+    )  # (m, 6)
     ni, nj = ii[:, None] + offs[None, :, 0], jj[:, None] + offs[None, :, 1]
     inside = (ni >= 0) & (ni < rows) & (nj >= 0) & (nj < cols)
     ni, nj = np.clip(ni, 0, rows - 1), np.clip(nj, 0, cols - 1)
@@ -166,7 +181,9 @@ def grid_residuals(corners: np.ndarray, cols: int, rows: int, left_out: np.ndarr
     return np.where(w.sum(axis=1) >= 8, np.linalg.norm(offset, axis=1), np.nan)
 
 
-def gross_corners(corners: np.ndarray, cols: int, rows: int, limit_px: float = 1.5) -> list[tuple[int, float]]:
+def gross_corners(
+    corners: np.ndarray, cols: int, rows: int, limit_px: float = 1.5
+) -> list[tuple[int, float]]:
     """Corners that disagree with the board's grid: (index, residual px), in the order found.
 
     While some :func:`grid_residuals` exceed ``limit_px`` and 5 times the photo's median, the

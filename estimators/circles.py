@@ -28,8 +28,13 @@ class CircleFit:
     n_edge: int
 
 
-def find_dark_circle(gray: np.ndarray, near: np.ndarray | None = None, min_radius_px: float = 10.0,
-                     n_rays: int = 720, smooth_px: float = 1.0) -> CircleFit | None:
+def find_dark_circle(
+    gray: np.ndarray,
+    near: np.ndarray | None = None,
+    min_radius_px: float = 10.0,
+    n_rays: int = 720,
+    smooth_px: float = 1.0,
+) -> CircleFit | None:
     """The dark, whole (not cut by the border) circle whose centre is nearest ``near``.
 
     ``near`` defaults to the image centre. Returns None when no such circle is in the image.
@@ -47,7 +52,12 @@ def find_dark_circle(gray: np.ndarray, near: np.ndarray | None = None, min_radiu
         pts = c.reshape(-1, 2)
         if len(pts) < 20:
             continue
-        if pts[:, 0].min() <= 1 or pts[:, 1].min() <= 1 or pts[:, 0].max() >= w - 2 or pts[:, 1].max() >= h - 2:
+        if (
+            pts[:, 0].min() <= 1
+            or pts[:, 1].min() <= 1
+            or pts[:, 0].max() >= w - 2
+            or pts[:, 1].max() >= h - 2
+        ):
             continue  # cut by the border: its centre would be biased
         (cx, cy), r = cv2.minEnclosingCircle(c)
         area = cv2.contourArea(c)
@@ -70,8 +80,15 @@ def find_dark_circle(gray: np.ndarray, near: np.ndarray | None = None, min_radiu
     return CircleFit(centre=centre, radius_px=float(np.mean(axes)), rms_px=rms, n_edge=len(edge))
 
 
-def radial_edge_points(image: np.ndarray, centre: np.ndarray, radius: float, level: float,
-                       n_rays: int, half_width: float | None = None, step: float = 0.25) -> np.ndarray:
+def radial_edge_points(
+    image: np.ndarray,
+    centre: np.ndarray,
+    radius: float,
+    level: float,
+    n_rays: int,
+    half_width: float | None = None,
+    step: float = 0.25,
+) -> np.ndarray:
     """Where each radial ray crosses ``level`` near ``radius``, shape (n_found, 2) px.
 
     Profiles are sampled bilinearly every ``step`` px over +-``half_width`` around the radius;
@@ -82,8 +99,9 @@ def radial_edge_points(image: np.ndarray, centre: np.ndarray, radius: float, lev
     d = np.stack([np.cos(ang), np.sin(ang)], axis=1)  # (n_rays, 2)
     rr = np.arange(radius - hw, radius + hw + step / 2, step)  # (n_samples,)
     pts = centre + d[:, None, :] * rr[None, :, None]  # (n_rays, n_samples, 2)
-    prof = ndimage.map_coordinates(image, [pts[..., 1].ravel(), pts[..., 0].ravel()], order=1,
-                                   mode="nearest").reshape(pts.shape[:2])
+    prof = ndimage.map_coordinates(
+        image, [pts[..., 1].ravel(), pts[..., 0].ravel()], order=1, mode="nearest"
+    ).reshape(pts.shape[:2])
     above = prof >= level
     # first dark-to-bright transition going outwards
     trans = (~above[:, :-1]) & above[:, 1:]
@@ -112,8 +130,13 @@ def fit_conic_centre(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]
     M = np.array([[2 * a, b], [b, 2 * c]])
     centre_n = np.linalg.solve(M, [-d, -e])
     # semi-axes from the conic in centred form
-    k = 1 - (a * centre_n[0] ** 2 + b * centre_n[0] * centre_n[1] + c * centre_n[1] ** 2
-             + d * centre_n[0] + e * centre_n[1])
+    k = 1 - (
+        a * centre_n[0] ** 2
+        + b * centre_n[0] * centre_n[1]
+        + c * centre_n[1] ** 2
+        + d * centre_n[0]
+        + e * centre_n[1]
+    )
     ev = np.linalg.eigvalsh(np.array([[a, b / 2], [b / 2, c]]))
     axes = np.sqrt(k / ev) * s
     resid = A @ coef - 1
@@ -121,8 +144,9 @@ def fit_conic_centre(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]
     return m + s * centre_n, axes, rms
 
 
-def ellipse_centre_bias(K: np.ndarray, R_plane2cam: np.ndarray, t_centre_cam: np.ndarray,
-                        radius: float) -> np.ndarray:
+def ellipse_centre_bias(
+    K: np.ndarray, R_plane2cam: np.ndarray, t_centre_cam: np.ndarray, radius: float
+) -> np.ndarray:
     """Image of a circle's ellipse centre minus the image of its centre, (2,) px.
 
     The circle lies in the plane z = 0 of a frame whose origin is the circle's centre, placed by

@@ -27,8 +27,9 @@ def monomial_powers(degree: int) -> list[tuple[int, int]]:
     return [(d - j, j) for d in range(degree + 1) for j in range(d + 1)]
 
 
-def design(u: np.ndarray, v: np.ndarray, degree: int, period_mm: float | None = None,
-           along: int = 0) -> np.ndarray:
+def design(
+    u: np.ndarray, v: np.ndarray, degree: int, period_mm: float | None = None, along: int = 0
+) -> np.ndarray:
     """Monomials of (u, v) / 100 mm up to ``degree``, then (with ``period_mm``) sin and cos of
     2 pi w / period with w = u (``along`` 0) or v (1); shape (n, n_terms)."""
     a, b = np.asarray(u, float) / _SCALE, np.asarray(v, float) / _SCALE
@@ -74,7 +75,9 @@ class Polynomial:
         return sigma_um * np.sqrt(np.diag(np.linalg.inv(A.T @ A))) / self._scales()
 
 
-def least_squares(A: np.ndarray, e: np.ndarray, with_std: bool = True) -> tuple[np.ndarray, np.ndarray, float, float]:
+def least_squares(
+    A: np.ndarray, e: np.ndarray, with_std: bool = True
+) -> tuple[np.ndarray, np.ndarray, float, float]:
     """The one linear least-squares fitter of the error maps: coefficients c (p,) of
     A (n, p) @ c ~ e (n,) by QR, their 1-sigma (p,) from the residuals, the dof-adjusted RMSE
     sqrt(SSE / (n - p)) and the SSE. ValueError when n <= p or the columns are dependent.
@@ -102,8 +105,14 @@ def least_squares(A: np.ndarray, e: np.ndarray, with_std: bool = True) -> tuple[
     return c, std, rmse, sse
 
 
-def fit_polynomial(u: np.ndarray, v: np.ndarray, err_um: np.ndarray, degree: int = 3,
-                   period_mm: float | None = None, along: int = 0) -> Polynomial:
+def fit_polynomial(
+    u: np.ndarray,
+    v: np.ndarray,
+    err_um: np.ndarray,
+    degree: int = 3,
+    period_mm: float | None = None,
+    along: int = 0,
+) -> Polynomial:
     """Least-squares fit; (n,), (n,), (n,) -> Polynomial. Degree 3 alone is the seed's Eq. 5-9."""
     A = design(u, v, degree, period_mm, along)
     n, p = A.shape
@@ -132,8 +141,10 @@ def cv_rms(u, v, err_um, folds: int = 10, seed: int = 0, **model) -> tuple[float
     for k in range(folds):
         train, test = fold != k, fold == k
         if train.sum() <= A.shape[1]:
-            raise ValueError(f"{train.sum()} points cannot fit {A.shape[1]} coefficients of a degree-"
-                             f"{model.get('degree', 3)} polynomial")
+            raise ValueError(
+                f"{train.sum()} points cannot fit {A.shape[1]} coefficients of a degree-"
+                f"{model.get('degree', 3)} polynomial"
+            )
         try:
             c = least_squares(A[train], e[train], with_std=False)[0]
         except ValueError:
@@ -142,8 +153,9 @@ def cv_rms(u, v, err_um, folds: int = 10, seed: int = 0, **model) -> tuple[float
     return float(np.sqrt(mse.mean())), float(mse.std(ddof=1) / np.sqrt(folds))
 
 
-def cv_rms_periodic(u, v, err_um, periods_mm: np.ndarray, along: int, folds: int = 10,
-                    seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+def cv_rms_periodic(
+    u, v, err_um, periods_mm: np.ndarray, along: int, folds: int = 10, seed: int = 0
+) -> tuple[np.ndarray, np.ndarray]:
     """:func:`cv_rms` of the cubic plus a periodic term along ``along`` for every period (k,) at
     once: (rms (k,), standard error of the mean square (k,)). In each fold the cubic's columns
     are factored once and each period's sine and cosine are fitted to what the cubic leaves
@@ -160,7 +172,9 @@ def cv_rms_periodic(u, v, err_um, periods_mm: np.ndarray, along: int, folds: int
         tr, te = fold != f, fold == f
         Q, R = np.linalg.qr(A[tr])
         St = S[tr]
-        S_r = St - np.einsum("ni,ijk->njk", Q, np.einsum("ni,njk->ijk", Q, St))  # what the cubic leaves of each
+        S_r = St - np.einsum(
+            "ni,ijk->njk", Q, np.einsum("ni,njk->ijk", Q, St)
+        )  # what the cubic leaves of each
         e_r = e[tr] - Q @ (Q.T @ e[tr])
         G = np.einsum("njk,nlk->kjl", S_r, S_r)  # (k, 2, 2)
         b = np.linalg.solve(G, np.einsum("njk,n->kj", S_r, e_r)[..., None])[..., 0]  # (k, 2)
@@ -173,8 +187,15 @@ def cv_rms_periodic(u, v, err_um, periods_mm: np.ndarray, along: int, folds: int
 MODEL_DEGREES = range(1, 9)  # the polynomial degrees select_model tries by default
 
 
-def select_model(u: np.ndarray, v: np.ndarray, err_um: np.ndarray, along: int, degrees=MODEL_DEGREES,
-                 periods_mm: np.ndarray | None = None, folds: int = 10) -> tuple[Polynomial, dict[str, float]]:
+def select_model(
+    u: np.ndarray,
+    v: np.ndarray,
+    err_um: np.ndarray,
+    along: int,
+    degrees=MODEL_DEGREES,
+    periods_mm: np.ndarray | None = None,
+    folds: int = 10,
+) -> tuple[Polynomial, dict[str, float]]:
     """The simplest candidate within one standard error of the least cross-validated error
     (the one-standard-error rule: the minimum over many candidates, periods above all, is
     itself optimistic), refitted on all points.
@@ -189,8 +210,10 @@ def select_model(u: np.ndarray, v: np.ndarray, err_um: np.ndarray, along: int, d
     periods = np.geomspace(20.0, min(200.0, span), 60) if periods_mm is None else periods_mm
     scored = [(c, *cv_rms(u, v, err_um, folds, **c)) for c in cands]
     rms_p, se_p = cv_rms_periodic(u, v, err_um, periods, along, folds)
-    scored += [(dict(degree=3, period_mm=float(p), along=along), float(r), float(se))
-               for p, r, se in zip(periods, rms_p, se_p)]
+    scored += [
+        (dict(degree=3, period_mm=float(p), along=along), float(r), float(se))
+        for p, r, se in zip(periods, rms_p, se_p)
+    ]
     rms_min, se_min = min((rms, se) for _, rms, se in scored)
     within = [(_n_terms(c), rms, c) for c, rms, _ in scored if rms**2 <= rms_min**2 + se_min]
     best = min(within, key=lambda t: (t[0], t[1]))[2]
@@ -220,7 +243,7 @@ class LineRuler:
     err_um: np.ndarray
 
     @classmethod
-    def from_graduations(cls, readings_mm: np.ndarray, pitch_mm: float) -> "LineRuler":
+    def from_graduations(cls, readings_mm: np.ndarray, pitch_mm: float) -> LineRuler:
         """Eq. 3: e_k = k * pitch - (r_k - r_0)."""
         r = np.asarray(readings_mm, float)
         if len(r) < 2 or np.any(np.diff(r) <= 0):

@@ -89,9 +89,12 @@ class StationTable:
     def describe(self, coef, cov):
         """Where the table's largest values sit, in words."""
         k = int(np.argmax(np.abs(coef)))
-        return ({"where": self.where, "peak_mm": float(coef[k])}, {"peak_mm": float(np.sqrt(max(cov[k, k], 0)))},
-                f"a local error of the {self.axis.upper()} reading {self.where} that no candidate effect has "
-                f"(a damaged or dirty guide, a bump in a rail): modelled as a correction table there")
+        return (
+            {"where": self.where, "peak_mm": float(coef[k])},
+            {"peak_mm": float(np.sqrt(max(cov[k, k], 0)))},
+            f"a local error of the {self.axis.upper()} reading {self.where} that no candidate effect has "
+            f"(a damaged or dirty guide, a bump in a rail): modelled as a correction table there",
+        )
 
 
 # --- noise from repeats --------------------------------------------------------------------------
@@ -132,14 +135,18 @@ def _lstsq(X, r):
         return np.zeros(0)
     scale = np.linalg.norm(X, axis=0)
     scale[scale == 0] = 1.0
-    return linalg.lstsq(X / scale, r, cond=1e-12, lapack_driver="gelsy", check_finite=False)[0] / scale
+    return (
+        linalg.lstsq(X / scale, r, cond=1e-12, lapack_driver="gelsy", check_finite=False)[0] / scale
+    )
 
 
 def _term_columns(term, drivers, sig: Signal, others: np.ndarray, train: np.ndarray, cache: dict):
     """Columns (m, k) of one term, its shape fixed on the training rows where it has one."""
     if isinstance(term, PeriodSearch):
         P, _ = best_period(sig.u[train], sig.r[train], others[train], term.periods)
-        P, _ = refine_period(sig.u[train], sig.r[train], others[train], P, rel=_grid_rel(term.periods, P))
+        P, _ = refine_period(
+            sig.u[train], sig.r[train], others[train], P, rel=_grid_rel(term.periods, P)
+        )
         return Periodic(axis=term.axis, period_mm=P).columns({term.axis: sig.u})
     if hasattr(term, "fix"):  # a searched shape (a transmission's harmonic), on the training rows
         rows = np.ones(len(sig.r), bool) if train is None else train
@@ -149,7 +156,9 @@ def _term_columns(term, drivers, sig: Signal, others: np.ndarray, train: np.ndar
     return cache[term.key]
 
 
-def cv_residuals(sig: Signal, terms: list, drivers: dict, fold: np.ndarray, cache: dict) -> np.ndarray:
+def cv_residuals(
+    sig: Signal, terms: list, drivers: dict, fold: np.ndarray, cache: dict
+) -> np.ndarray:
     """Held-out residuals (m,): each fold predicted from a fit to the others (``fold`` per sample)."""
     rows_fold = fold[sig.sample]
     out = np.empty_like(sig.r)
@@ -209,13 +218,15 @@ def _grid_rel(periods: np.ndarray, P0: float) -> float:
 def refine_period(u, r, base, P0, rel: float = 0.03) -> tuple[float, float]:
     """The period minimising the residual (variable projection: amplitudes solved inside),
     within ``rel`` of P0; its std from the curvature of the sum of squares."""
+
     def sse(P):
         X = np.c_[base, np.sin(2 * np.pi * u / P), np.cos(2 * np.pi * u / P)]
         e = r - X @ _lstsq(X, r)
         return float(e @ e)
 
-    sol = optimize.minimize_scalar(sse, bounds=(P0 * (1 - rel), P0 * (1 + rel)), method="bounded",
-                                   options={"xatol": P0 * 1e-7})
+    sol = optimize.minimize_scalar(
+        sse, bounds=(P0 * (1 - rel), P0 * (1 + rel)), method="bounded", options={"xatol": P0 * 1e-7}
+    )
     P, f0 = float(sol.x), float(sol.fun)
     h = P * 1e-4
     curv = (sse(P + h) - 2 * f0 + sse(P - h)) / (h * h)
@@ -317,9 +328,11 @@ def _total_rms(cv_sq: dict, counts: dict) -> float:
 def _coef_z(sig, terms, drivers, cache, sigma, term_index) -> float:
     fixed, coef, cov, _ = fit_terms(sig, terms, drivers, cache, sigma)
     _, start, k = fixed[term_index]
-    c, C = coef[start:start + k], cov[start:start + k, start:start + k]
+    c, C = coef[start : start + k], cov[start : start + k, start : start + k]
     try:
-        return float(np.sqrt(c @ np.linalg.solve(C, c) / k) if k > 1 else abs(c[0]) / np.sqrt(C[0, 0]))
+        return float(
+            np.sqrt(c @ np.linalg.solve(C, c) / k) if k > 1 else abs(c[0]) / np.sqrt(C[0, 0])
+        )
     except np.linalg.LinAlgError:
         return 0.0
 
@@ -331,12 +344,21 @@ def helps_everywhere(sig, terms, drivers, cache, fold, parts: int = 4, need: int
     after = cv_residuals(sig, terms, drivers, fold, cache)
     edges = np.quantile(sig.u, np.linspace(0, 1, parts + 1))
     idx = np.clip(np.searchsorted(edges, sig.u, side="right") - 1, 0, parts - 1)
-    better = [np.sum(after[idx == k] ** 2) < 0.8 * np.sum(before[idx == k] ** 2) for k in range(parts)]
+    better = [
+        np.sum(after[idx == k] ** 2) < 0.8 * np.sum(before[idx == k] ** 2) for k in range(parts)
+    ]
     return sum(better) >= need
 
 
-def select(signals: list[Signal], candidates: list, drivers: dict, fold: np.ndarray,
-           noise: dict, floor: float = FLOOR, z_min: float = Z_MIN) -> tuple[Discovery, dict]:
+def select(
+    signals: list[Signal],
+    candidates: list,
+    drivers: dict,
+    fold: np.ndarray,
+    noise: dict,
+    floor: float = FLOOR,
+    z_min: float = Z_MIN,
+) -> tuple[Discovery, dict]:
     """Forward selection of candidate effects by held-out RMS (see the module's recipe).
 
     ``candidates``: Effects and PeriodSearches, each acting on the signal whose ``axis`` it
@@ -346,17 +368,26 @@ def select(signals: list[Signal], candidates: list, drivers: dict, fold: np.ndar
     caches = {a: {} for a in by_axis}
     terms = {a: [] for a in by_axis}
     counts = {a: len(s.r) for a, s in by_axis.items()}
-    cv_sq = {a: float(np.sum(cv_residuals(s, [], drivers, fold, caches[a]) ** 2)) for a, s in by_axis.items()}
+    cv_sq = {
+        a: float(np.sum(cv_residuals(s, [], drivers, fold, caches[a]) ** 2))
+        for a, s in by_axis.items()
+    }
     cv_nominal = _total_rms(cv_sq, counts)
-    rms_nominal = float(np.sqrt(sum(np.sum((s.r - s.base @ _lstsq(s.base, s.r)) ** 2) for s in signals)
-                                / sum(counts.values())))
+    rms_nominal = float(
+        np.sqrt(
+            sum(np.sum((s.r - s.base @ _lstsq(s.base, s.r)) ** 2) for s in signals)
+            / sum(counts.values())
+        )
+    )
     remaining = [c for c in candidates if c.axis in by_axis]
     rejected, steps = {}, []
     while remaining:
         trials = []
         for c in remaining:
             a = c.axis
-            sse = float(np.sum(cv_residuals(by_axis[a], terms[a] + [c], drivers, fold, caches[a]) ** 2))
+            sse = float(
+                np.sum(cv_residuals(by_axis[a], terms[a] + [c], drivers, fold, caches[a]) ** 2)
+            )
             gain = 1 - np.sqrt(sse / cv_sq[a])
             trials.append((gain, c, sse))
         trials.sort(key=lambda t: -t[0])
@@ -364,16 +395,20 @@ def select(signals: list[Signal], candidates: list, drivers: dict, fold: np.ndar
         for gain, c, sse in trials:
             a = c.axis
             if gain < floor:
-                rejected.setdefault(c.key, f"cuts the held-out RMS of {a} by {100 * max(gain, 0):.1f} % "
-                                           f"(< {100 * floor:.0f} %)")
+                rejected.setdefault(
+                    c.key,
+                    f"cuts the held-out RMS of {a} by {100 * max(gain, 0):.1f} % "
+                    f"(< {100 * floor:.0f} %)",
+                )
                 continue
             sig_a = noise[a].sigma_mm * noise[a].inflation if noise[a].sigma_mm else None
             z = _coef_z(by_axis[a], terms[a] + [c], drivers, caches[a], sig_a, len(terms[a]))
             if z < z_min:
                 rejected[c.key] = f"coefficients only {z:.1f} standard errors from zero"
                 continue
-            if isinstance(c, PeriodSearch) and not helps_everywhere(by_axis[a], terms[a] + [c], drivers,
-                                                                    caches[a], fold):
+            if isinstance(c, PeriodSearch) and not helps_everywhere(
+                by_axis[a], terms[a] + [c], drivers, caches[a], fold
+            ):
                 rejected[c.key] = "helps in one stretch of the travel only: not periodic"
                 continue
             accepted = (gain, c, sse)
@@ -388,23 +423,34 @@ def select(signals: list[Signal], candidates: list, drivers: dict, fold: np.ndar
         remaining = [r for r in remaining if r is not c and r.key not in rejected]
         rejected.pop(c.key, None)
     cv_by = {a: float(np.sqrt(cv_sq[a] / counts[a])) for a in by_axis}
-    return Discovery(steps, rejected, cv_nominal, _total_rms(cv_sq, counts), rms_nominal, cv_by), terms
+    return Discovery(
+        steps, rejected, cv_nominal, _total_rms(cv_sq, counts), rms_nominal, cv_by
+    ), terms
 
 
-def refine(sig: Signal, terms: list, index: int, richer, drivers: dict, fold: np.ndarray, noise,
-           floor: float = FLOOR, z_min: float = Z_MIN) -> tuple[bool, float, float]:
+def refine(
+    sig: Signal,
+    terms: list,
+    index: int,
+    richer,
+    drivers: dict,
+    fold: np.ndarray,
+    noise,
+    floor: float = FLOOR,
+    z_min: float = Z_MIN,
+) -> tuple[bool, float, float]:
     """Whether the accepted ``terms[index]`` should become ``richer`` (the same effect with more
     columns, its own first, e.g. lost motion that grows along the travel): the held-out RMS of
     the signal must fall by ``floor`` and the added coefficients stand ``z_min`` standard errors
     from zero. Returns (accepted, held-out RMS before, after)."""
-    trial = terms[:index] + [richer] + terms[index + 1:]
+    trial = terms[:index] + [richer] + terms[index + 1 :]
     before = float(np.sqrt(np.mean(cv_residuals(sig, terms, drivers, fold, {}) ** 2)))
     after = float(np.sqrt(np.mean(cv_residuals(sig, trial, drivers, fold, {}) ** 2)))
     sigma = noise.sigma_mm * noise.inflation if noise.sigma_mm else None
     fixed, coef, cov, _ = fit_terms(sig, trial, drivers, {}, sigma)
     _, start, k = fixed[index]
     k0 = terms[index].columns(drivers).shape[1]
-    c, C = coef[start + k0:start + k], cov[start + k0:start + k, start + k0:start + k]
+    c, C = coef[start + k0 : start + k], cov[start + k0 : start + k, start + k0 : start + k]
     try:
         z = float(np.sqrt(c @ np.linalg.solve(C, c) / len(c)))
     except np.linalg.LinAlgError:
@@ -412,8 +458,14 @@ def refine(sig: Signal, terms: list, index: int, richer, drivers: dict, fold: np
     return bool(after <= (1 - floor) * before and z >= z_min), before, after
 
 
-def prune(sig: Signal, found: Discovery, terms: dict, drivers: dict, fold: np.ndarray,
-          floor: float = FLOOR) -> None:
+def prune(
+    sig: Signal,
+    found: Discovery,
+    terms: dict,
+    drivers: dict,
+    fold: np.ndarray,
+    floor: float = FLOOR,
+) -> None:
     """Backward check after forward selection (one signal): an accepted effect that a later one
     made redundant (leaving it out now costs less than ``floor`` of the held-out RMS) goes, with
     the reason; the steps' held-out figures are then recomputed in order. In place."""
@@ -427,7 +479,7 @@ def prune(sig: Signal, found: Discovery, terms: dict, drivers: dict, fold: np.nd
             rest = [u for u in terms[a] if u is not t]
             without = float(np.sum(cv_residuals(sig, rest, drivers, fold, cache) ** 2))
             if 1 - np.sqrt(full / max(without, 1e-300)) < floor:
-                later = ", ".join(u.key for u in terms[a][terms[a].index(t) + 1:])
+                later = ", ".join(u.key for u in terms[a][terms[a].index(t) + 1 :])
                 found.rejected[t.key] = f"accepted first, then made redundant by {later}"
                 terms[a] = rest
                 changed = True
@@ -437,15 +489,25 @@ def prune(sig: Signal, found: Discovery, terms: dict, drivers: dict, fold: np.nd
     n = len(sig.r)
     prev = float(np.sqrt(np.sum(cv_residuals(sig, [], drivers, fold, cache) ** 2) / n))
     for i, st in enumerate(steps):
-        now = float(np.sqrt(np.sum(cv_residuals(sig, terms[a][:i + 1], drivers, fold, cache) ** 2) / n))
+        now = float(
+            np.sqrt(np.sum(cv_residuals(sig, terms[a][: i + 1], drivers, fold, cache) ** 2) / n)
+        )
         st.cv_before, st.cv_after, st.gain = prev, now, 1 - now / prev
         prev = now
     found.steps[:] = steps
     found.cv_final = prev
 
 
-def find_nonsmooth(sig: Signal, terms: list, drivers: dict, station: np.ndarray, positions: np.ndarray,
-                   noise: Noise, fold: np.ndarray, floor: float = FLOOR) -> StationTable | None:
+def find_nonsmooth(
+    sig: Signal,
+    terms: list,
+    drivers: dict,
+    station: np.ndarray,
+    positions: np.ndarray,
+    noise: Noise,
+    fold: np.ndarray,
+    floor: float = FLOOR,
+) -> StationTable | None:
     """Stations whose mean residual (over passes) stands out of the repeatability, grown to their
     neighbours; kept only if a correction table there helps held out. ``station`` (m,) ids per
     row, ``positions`` (n_stations, 2) their (x, y)."""
@@ -468,8 +530,10 @@ def find_nonsmooth(sig: Signal, terms: list, drivers: dict, station: np.ndarray,
     table_id[region] = np.arange(region.sum())
     reg = pos[region]
     peak = pos[np.argmax(np.abs(z))]
-    where = (f"at {where_text(reg[:, 0], 'x')}, {where_text(reg[:, 1], 'y')} "
-             f"(largest at x = {peak[0]:.0f} mm, y = {peak[1]:.0f} mm)")
+    where = (
+        f"at {where_text(reg[:, 0], 'x')}, {where_text(reg[:, 1], 'y')} "
+        f"(largest at x = {peak[0]:.0f} mm, y = {peak[1]:.0f} mm)"
+    )
     table = StationTable(axis=sig.axis, station=table_id[inv], n=int(region.sum()), where=where)
     cache = {}
     before = _rms(cv_residuals(sig, terms, drivers, fold, cache))
@@ -477,7 +541,9 @@ def find_nonsmooth(sig: Signal, terms: list, drivers: dict, station: np.ndarray,
     return table if after < (1 - floor) * before else None
 
 
-def confounded(sig: Signal, terms: list, candidate, drivers: dict, cache: dict, limit: float = 0.9) -> float:
+def confounded(
+    sig: Signal, terms: list, candidate, drivers: dict, cache: dict, limit: float = 0.9
+) -> float:
     """The fraction of a candidate's column(s) that the scene model and the accepted terms
     already span (1 = indistinguishable). Above ``limit`` the data cannot tell them apart."""
     X = sig.base
@@ -490,4 +556,3 @@ def confounded(sig: Signal, terms: list, candidate, drivers: dict, cache: dict, 
     Q, _ = np.linalg.qr(X)
     left = C - Q @ (Q.T @ C)
     return float(1 - np.sum(left**2) / np.sum(C**2))
-

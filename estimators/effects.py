@@ -40,7 +40,10 @@ class Effect:
 
     def applies(self, drivers: dict) -> bool:
         """Whether the recording carries what this effect needs (its drivers: directions, temperatures, ...)."""
-        return all(drivers.get(k) is not None and np.ptp(np.asarray(drivers[k], float)) > 0 for k in self.needs)
+        return all(
+            drivers.get(k) is not None and np.ptp(np.asarray(drivers[k], float)) > 0
+            for k in self.needs
+        )
 
     def columns(self, drivers: dict) -> np.ndarray:
         """The effect's design matrix on the recording's rows, (n, k): one column per parameter, in the signal's unit
@@ -73,7 +76,9 @@ class Backlash(Effect):
     span_mm: tuple[float, float] | None = None
 
     def __post_init__(self):
-        object.__setattr__(self, "needs", (f"dir_{self.axis}",) + ((self.axis,) if self.span_mm else ()))
+        object.__setattr__(
+            self, "needs", (f"dir_{self.axis}",) + ((self.axis,) if self.span_mm else ())
+        )
 
     @property
     def key(self) -> str:
@@ -89,22 +94,36 @@ class Backlash(Effect):
         a = self.axis.upper()
         if self.span_mm is None:
             B = float(coef[0])
-            return ({"reversal_mm": B}, {"reversal_mm": _std(cov, 0)},
-                    f"lost motion on reversal of the {a} drive: {B * 1000:+.1f} um between the two "
-                    f"directions of approach (+B/2 approaching forward, -B/2 backward)")
+            return (
+                {"reversal_mm": B},
+                {"reversal_mm": _std(cov, 0)},
+                f"lost motion on reversal of the {a} drive: {B * 1000:+.1f} um between the two "
+                f"directions of approach (+B/2 approaching forward, -B/2 backward)",
+            )
         lo, hi = self.span_mm
         mid = np.array([1.0, (lo + hi) / 2000])  # B at the middle of the measured travel
         B0, g = float(coef[0]), float(coef[1])
-        params = {"reversal_mm": float(mid @ coef[:2]), "reversal_at_home_mm": B0, "growth_mm_per_m": g,
-                  "reversal_at_start_mm": B0 + g * lo / 1000, "reversal_at_end_mm": B0 + g * hi / 1000}
-        stderr = {"reversal_mm": float(np.sqrt(max(mid @ cov[:2, :2] @ mid, 0.0))),
-                  "reversal_at_home_mm": _std(cov, 0), "growth_mm_per_m": _std(cov, 1)}
-        return (params, stderr,
-                f"lost motion on reversal of the {a} drive that grows along the travel: "
-                f"{params['reversal_at_start_mm'] * 1000:.1f} um at {self.axis} = {lo:.0f} mm to "
-                f"{params['reversal_at_end_mm'] * 1000:.1f} um at {self.axis} = {hi:.0f} mm "
-                f"({g * 100:+.1f} um per 100 mm): an elastic drive (a belt whose free span lengthens along the "
-                f"travel) against the carriage's friction")
+        params = {
+            "reversal_mm": float(mid @ coef[:2]),
+            "reversal_at_home_mm": B0,
+            "growth_mm_per_m": g,
+            "reversal_at_start_mm": B0 + g * lo / 1000,
+            "reversal_at_end_mm": B0 + g * hi / 1000,
+        }
+        stderr = {
+            "reversal_mm": float(np.sqrt(max(mid @ cov[:2, :2] @ mid, 0.0))),
+            "reversal_at_home_mm": _std(cov, 0),
+            "growth_mm_per_m": _std(cov, 1),
+        }
+        return (
+            params,
+            stderr,
+            f"lost motion on reversal of the {a} drive that grows along the travel: "
+            f"{params['reversal_at_start_mm'] * 1000:.1f} um at {self.axis} = {lo:.0f} mm to "
+            f"{params['reversal_at_end_mm'] * 1000:.1f} um at {self.axis} = {hi:.0f} mm "
+            f"({g * 100:+.1f} um per 100 mm): an elastic drive (a belt whose free span lengthens along the "
+            f"travel) against the carriage's friction",
+        )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -126,10 +145,13 @@ class Periodic(Effect):
         amp, amp_std, phase = _amplitude(*coef, cov)
         params = {"period_mm": self.period_mm, "amplitude_mm": amp, "phase_rad": phase}
         stderr = {"period_mm": self.period_std, "amplitude_mm": amp_std}
-        return (params, stderr,
-                f"a once-per-{self.period_mm:.1f} mm error of the {self.axis.upper()} axis, {amp * 1000:.1f} um "
-                f"amplitude: something in the drive turns once every {self.period_mm:.1f} mm of travel (a pulley's or "
-                f"screw's run-out, a belt's tooth pattern)")
+        return (
+            params,
+            stderr,
+            f"a once-per-{self.period_mm:.1f} mm error of the {self.axis.upper()} axis, {amp * 1000:.1f} um "
+            f"amplitude: something in the drive turns once every {self.period_mm:.1f} mm of travel (a pulley's or "
+            f"screw's run-out, a belt's tooth pattern)",
+        )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -147,9 +169,12 @@ class ThermalExpansion(Effect):
 
     def describe(self, coef, cov):
         k = float(coef[0])
-        return ({"ppm_per_k": k}, {"ppm_per_k": _std(cov, 0)},
-                f"the {self.axis.upper()} scale (or its reference) grows {k:.2f} ppm per kelvin of the logged "
-                f"temperature: thermal expansion the simulation does not have")
+        return (
+            {"ppm_per_k": k},
+            {"ppm_per_k": _std(cov, 0)},
+            f"the {self.axis.upper()} scale (or its reference) grows {k:.2f} ppm per kelvin of the logged "
+            f"temperature: thermal expansion the simulation does not have",
+        )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -175,9 +200,12 @@ class ThermalDrift(Effect):
     def describe(self, coef, cov):
         k = float(coef[0])
         per = "hour" if self.driver == "t_s" else "kelvin"
-        return ({self.unit: k}, {self.unit: _std(cov, 0)},
-                f"the whole {self.axis.upper()} axis shifts {k * 1000:+.2f} um per {per}, wherever it is: a drift "
-                f"of the reference, not of the scale")
+        return (
+            {self.unit: k},
+            {self.unit: _std(cov, 0)},
+            f"the whole {self.axis.upper()} axis shifts {k * 1000:+.2f} um per {per}, wherever it is: a drift "
+            f"of the reference, not of the scale",
+        )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -197,18 +225,25 @@ class Polynomial(Effect):
 
     def columns(self, d):
         x, y = np.asarray(d["x"], float), np.asarray(d["y"], float)
-        sx, sy = max(np.ptp(x), 1e-9), max(np.ptp(y), 1e-9)  # scaled: coefficients in mm at full travel
-        return np.stack([((x - x.min()) / sx) ** i * ((y - y.min()) / sy) ** j for i, j in self.powers], axis=1)
+        sx, sy = (
+            max(np.ptp(x), 1e-9),
+            max(np.ptp(y), 1e-9),
+        )  # scaled: coefficients in mm at full travel
+        return np.stack(
+            [((x - x.min()) / sx) ** i * ((y - y.min()) / sy) ** j for i, j in self.powers], axis=1
+        )
 
     def describe(self, coef, cov):
         params = {f"x{i}y{j}_mm": float(c) for (i, j), c in zip(self.powers, coef)}
         stderr = {f"x{i}y{j}_mm": _std(cov, k) for k, (i, j) in enumerate(self.powers)}
-        what = {"positioning": f"the {self.axis.upper()} axis's positioning error bends more than the scene's model "
-                               f"allows along its own travel",
-                "straightness": f"the {self.axis.upper()} reading follows the other axis's position beyond the "
-                                f"scene's model: that axis's travel is not straight",
-                "cross_coupling": f"the {self.axis.upper()} error depends on both positions together beyond the "
-                                  f"scene's model"}[self.name]
+        what = {
+            "positioning": f"the {self.axis.upper()} axis's positioning error bends more than the scene's model "
+            f"allows along its own travel",
+            "straightness": f"the {self.axis.upper()} reading follows the other axis's position beyond the "
+            f"scene's model: that axis's travel is not straight",
+            "cross_coupling": f"the {self.axis.upper()} error depends on both positions together beyond the "
+            f"scene's model",
+        }[self.name]
         return params, stderr, what + " (coefficients: mm at full travel)"
 
 
@@ -251,10 +286,16 @@ class Geometry(Effect):
         params = {n: float(c) for n, c in zip(self.names, coef)}
         stderr = {n: _std(cov, i) for i, n in enumerate(self.names)}
         big = sorted(params, key=lambda n: -abs(params[n]) / max(stderr[n], 1e-300))[:3]
-        return (params, stderr,
-                "the arm's link lengths, offsets and twists differ from the drawing (largest: "
-                + ", ".join(f"{n} {params[n] * (1e6 if angle[n] else 1000):+.0f} {'urad' if angle[n] else 'um'}"
-                            for n in big) + ")")
+        return (
+            params,
+            stderr,
+            "the arm's link lengths, offsets and twists differ from the drawing (largest: "
+            + ", ".join(
+                f"{n} {params[n] * (1e6 if angle[n] else 1000):+.0f} {'urad' if angle[n] else 'um'}"
+                for n in big
+            )
+            + ")",
+        )
 
 
 def _joint_column(d: dict, joint: int) -> np.ndarray:
@@ -288,14 +329,20 @@ class EncoderEccentricity(JointEffect):
         q = np.asarray(d["q"], float)[:, self.joint - 1]
         Jt = _joint_column(d, self.joint)
         # the true angle is the reading minus the error: p moves by -J dq
-        return -np.stack([(Jt * np.sin(q)[:, None]).ravel(), (Jt * np.cos(q)[:, None]).ravel()], axis=1)
+        return -np.stack(
+            [(Jt * np.sin(q)[:, None]).ravel(), (Jt * np.cos(q)[:, None]).ravel()], axis=1
+        )
 
     def describe(self, coef, cov):
-        amp, amp_std, phase = _amplitude(*coef, cov)  # A sin(q + ph) = A cos(ph) sin q + A sin(ph) cos q
-        return ({"joint": self.joint, "amplitude_urad": amp * 1e6, "phase_rad": phase},
-                {"amplitude_urad": amp_std * 1e6},
-                f"joint {self.joint}'s encoder reads {amp * 1e6:.0f} urad off once per turn: its disc is mounted "
-                f"off-centre (eccentricity)")
+        amp, amp_std, phase = _amplitude(
+            *coef, cov
+        )  # A sin(q + ph) = A cos(ph) sin q + A sin(ph) cos q
+        return (
+            {"joint": self.joint, "amplitude_urad": amp * 1e6, "phase_rad": phase},
+            {"amplitude_urad": amp_std * 1e6},
+            f"joint {self.joint}'s encoder reads {amp * 1e6:.0f} urad off once per turn: its disc is mounted "
+            f"off-centre (eccentricity)",
+        )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -310,17 +357,26 @@ class JointCompliance(JointEffect):
 
     def applies(self, drivers):
         tau = drivers.get("tau")
-        return drivers.get("Jq") is not None and tau is not None and np.ptp(np.asarray(tau)[:, self.joint - 1]) > 0
+        return (
+            drivers.get("Jq") is not None
+            and tau is not None
+            and np.ptp(np.asarray(tau)[:, self.joint - 1]) > 0
+        )
 
     def columns(self, d):
         tau = np.asarray(d["tau"], float)[:, self.joint - 1]
-        return (_joint_column(d, self.joint) * (tau * 1e-6)[:, None]).reshape(-1, 1)  # coefficient: urad / N m
+        return (_joint_column(d, self.joint) * (tau * 1e-6)[:, None]).reshape(
+            -1, 1
+        )  # coefficient: urad / N m
 
     def describe(self, coef, cov):
         c = float(coef[0])
         stiff = f" (a stiffness of {1e6 / c:.3g} N m / rad)" if c > 0 else ""
-        return ({"joint": self.joint, "urad_per_nm": c}, {"urad_per_nm": _std(cov, 0)},
-                f"joint {self.joint} gives way under the gravity torque it carries: {c:.3g} urad per N m{stiff}")
+        return (
+            {"joint": self.joint, "urad_per_nm": c},
+            {"urad_per_nm": _std(cov, 0)},
+            f"joint {self.joint} gives way under the gravity torque it carries: {c:.3g} urad per N m{stiff}",
+        )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -348,32 +404,52 @@ class Transmission(JointEffect):
         q = np.asarray(d["q"], float)[:, self.joint - 1]
         Jt = _joint_column(d, self.joint)
         h = self.harmonic * q
-        cols = -np.stack([(Jt * np.sin(h)[:, None]).ravel(), (Jt * np.cos(h)[:, None]).ravel()], axis=1)
+        cols = -np.stack(
+            [(Jt * np.sin(h)[:, None]).ravel(), (Jt * np.cos(h)[:, None]).ravel()], axis=1
+        )
         if not self.per_recording:
             return cols
         rec = np.repeat(np.asarray(d["rec"], int), Jt.shape[1])
-        return np.concatenate([cols * (rec == r)[:, None] for r in range(int(rec.max()) + 1)], axis=1)
+        return np.concatenate(
+            [cols * (rec == r)[:, None] for r in range(int(rec.max()) + 1)], axis=1
+        )
 
     def describe(self, coef, cov):
-        parts = [_amplitude(*coef[k:k + 2], cov[k:k + 2, k:k + 2]) for k in range(0, len(coef), 2)]
+        parts = [
+            _amplitude(*coef[k : k + 2], cov[k : k + 2, k : k + 2]) for k in range(0, len(coef), 2)
+        ]
         amp, amp_std, phase = parts[0]
-        params = {"joint": self.joint, "harmonics": [self.harmonic], "amplitude_urad": [amp * 1e6],
-                  "phase_rad": [phase]}
+        params = {
+            "joint": self.joint,
+            "harmonics": [self.harmonic],
+            "amplitude_urad": [amp * 1e6],
+            "phase_rad": [phase],
+        }
         stds = {"amplitude_urad": [amp_std * 1e6], "harmonics": [self.harmonic_std]}
-        words = (f"joint {self.joint}'s angle is {amp * 1e6:.0f} urad off {self.harmonic:.2f} times per turn: a "
-                 f"harmonic of its gear train or encoder")
+        words = (
+            f"joint {self.joint}'s angle is {amp * 1e6:.0f} urad off {self.harmonic:.2f} times per turn: a "
+            f"harmonic of its gear train or encoder"
+        )
         if self.per_recording:
             # amplitude_urad stays one per harmonic (the contract's): the recordings' RMS amplitude
             amps, amp_stds = [a * 1e6 for a, _, _ in parts], [a_std * 1e6 for _, a_std, _ in parts]
             del params["phase_rad"]  # no phase the recordings share
-            params.update(per_recording=True, amplitude_urad=[float(np.sqrt(np.mean(np.square(amps))))],
-                          amplitude_urad_by_recording=amps, phase_rad_by_recording=[ph for _, _, ph in parts])
+            params.update(
+                per_recording=True,
+                amplitude_urad=[float(np.sqrt(np.mean(np.square(amps))))],
+                amplitude_urad_by_recording=amps,
+                phase_rad_by_recording=[ph for _, _, ph in parts],
+            )
             # first order, amplitudes of about one size: the RMS of R independent ones
-            stds.update(amplitude_urad=[float(np.sqrt(np.mean(np.square(amp_stds)) / len(amps)))],
-                        amplitude_urad_by_recording=amp_stds)
-            words = (f"joint {self.joint}'s angle is {min(amps):.0f}-{max(amps):.0f} urad off {self.harmonic:.2f} "
-                     f"times per turn with a phase of its own in each recording: a harmonic of the motor's side of "
-                     f"its gear train, whose phase is set at power-up")
+            stds.update(
+                amplitude_urad=[float(np.sqrt(np.mean(np.square(amp_stds)) / len(amps)))],
+                amplitude_urad_by_recording=amp_stds,
+            )
+            words = (
+                f"joint {self.joint}'s angle is {min(amps):.0f}-{max(amps):.0f} urad off {self.harmonic:.2f} "
+                f"times per turn with a phase of its own in each recording: a harmonic of the motor's side of "
+                f"its gear train, whose phase is set at power-up"
+            )
         return params, stds, words
 
 
@@ -386,7 +462,9 @@ class TransmissionSearch:
     harmonics: np.ndarray
     axis: str = "xyz"
     name: str = "transmission"
-    per_recording: bool = False  # one harmonic, its amplitude and phase per recording (:class:`Transmission`)
+    per_recording: bool = (
+        False  # one harmonic, its amplitude and phase per recording (:class:`Transmission`)
+    )
 
     @property
     def key(self) -> str:
@@ -398,18 +476,29 @@ class TransmissionSearch:
         rec = drivers.get("rec")
         return not self.per_recording or (rec is not None and len(np.unique(rec)) > 1)
 
-    def fix(self, r: np.ndarray, others: np.ndarray, rows: np.ndarray, drivers: dict) -> Transmission:
+    def fix(
+        self, r: np.ndarray, others: np.ndarray, rows: np.ndarray, drivers: dict
+    ) -> Transmission:
         """The best harmonic on rows ``rows`` (bool over the signal's rows) beside ``others``."""
         q = np.asarray(drivers["q"], float)[:, self.joint - 1]
         Jt = _joint_column(drivers, self.joint)
         groups = np.asarray(drivers["rec"], int) if self.per_recording else None
         h, h_std = best_harmonic(q, Jt, r, others, self.harmonics, rows, groups=groups)
-        return Transmission(joint=self.joint, harmonic=h, harmonic_std=h_std, per_recording=self.per_recording)
+        return Transmission(
+            joint=self.joint, harmonic=h, harmonic_std=h_std, per_recording=self.per_recording
+        )
 
 
-def best_harmonic(q: np.ndarray, Jt: np.ndarray, r: np.ndarray, base: np.ndarray, harmonics: np.ndarray,
-                  rows: np.ndarray | None = None, n_peaks: int = 3, groups: np.ndarray | None = None
-                  ) -> tuple[float, float]:
+def best_harmonic(
+    q: np.ndarray,
+    Jt: np.ndarray,
+    r: np.ndarray,
+    base: np.ndarray,
+    harmonics: np.ndarray,
+    rows: np.ndarray | None = None,
+    n_peaks: int = 3,
+    groups: np.ndarray | None = None,
+) -> tuple[float, float]:
     """The harmonic h (cycles per turn) whose angle error a sin(h q) + b cos(h q), seen through
     ``Jt`` (n, 3), best explains ``r`` (3 n,) beside ``base`` (3 n, p), on ``rows`` (3 n,) bool.
     ``groups`` (n,) int: each group of postures (a recording) gets its own a and b, the harmonic
@@ -449,11 +538,16 @@ def best_harmonic(q: np.ndarray, Jt: np.ndarray, r: np.ndarray, base: np.ndarray
             ss, cc, sc = ss - (a_s * a_s).sum(0), cc - (a_c * a_c).sum(0), sc - (a_s * a_c).sum(0)
         det = ss * cc - sc * sc
         ok = det > 1e-9 * np.maximum(ss * cc, 1e-300)
-        return np.where(ok, (cc * sr * sr - 2 * sc * sr * cr + ss * cr * cr) / np.where(ok, det, 1), 0.0)
+        return np.where(
+            ok, (cc * sr * sr - 2 * sc * sr * cr + ss * cr * cr) / np.where(ok, det, 1), 0.0
+        )
 
     # a posture's sums belong to its group alone: each group's share is the sums masked to it
-    parts = [(w, l2, PQ)] if groups is None else [(w * m, l2 * m, PQ * m[:, None])
-                                                  for m in (groups == g for g in np.unique(groups))]
+    parts = (
+        [(w, l2, PQ)]
+        if groups is None
+        else [(w * m, l2 * m, PQ * m[:, None]) for m in (groups == g for g in np.unique(groups))]
+    )
 
     def explained(hs: np.ndarray, project: bool, trig=None) -> np.ndarray:
         return sum(explained_by(*part, hs, project, trig) for part in parts)
@@ -462,8 +556,14 @@ def best_harmonic(q: np.ndarray, Jt: np.ndarray, r: np.ndarray, base: np.ndarray
         return explained(hs, True)
 
     grid = np.asarray(harmonics, float)
-    score = explained(grid, False, _grid_trig(np.ascontiguousarray(q, float).tobytes(), grid.tobytes()))
-    peaks = [k for k in range(len(grid)) if score[k] >= score[max(k - 1, 0)] and score[k] >= score[min(k + 1, len(grid) - 1)]]
+    score = explained(
+        grid, False, _grid_trig(np.ascontiguousarray(q, float).tobytes(), grid.tobytes())
+    )
+    peaks = [
+        k
+        for k in range(len(grid))
+        if score[k] >= score[max(k - 1, 0)] and score[k] >= score[min(k + 1, len(grid) - 1)]
+    ]
     peaks = sorted(peaks, key=lambda k: -score[k])[:n_peaks] or [int(np.argmax(score))]
     step = float(np.median(np.diff(grid))) if len(grid) > 1 else 0.1
     g = (np.sqrt(5) - 1) / 2
@@ -524,7 +624,9 @@ class JointTable(JointEffect):
 
     def bands(self, q_joint: np.ndarray) -> np.ndarray:
         """Which band of the table each angle falls in, (n,) int, for the joint's angles ``q_joint`` (n,) rad."""
-        return np.clip(np.searchsorted(self.edges, q_joint, side="right") - 1, 0, len(self.edges) - 2)
+        return np.clip(
+            np.searchsorted(self.edges, q_joint, side="right") - 1, 0, len(self.edges) - 2
+        )
 
     def columns(self, d):
         q = np.asarray(d["q"], float)[:, self.joint - 1]
@@ -536,16 +638,25 @@ class JointTable(JointEffect):
     def describe(self, coef, cov):
         coef = coef - coef.mean()  # a common part is a zero offset, which the geometry has
         k = int(np.argmax(np.abs(coef)))
-        lo, hi = np.degrees(np.clip(self.edges[k:k + 2], *self.span))
+        lo, hi = np.degrees(np.clip(self.edges[k : k + 2], *self.span))
         where = f"as a function of q{self.joint}, largest at {lo:.0f} to {hi:.0f} deg"
         edges = [float(e) for e in np.degrees(self.edges[1:-1])]
-        return ({"joint": self.joint, "where": where, "peak_urad": float(coef[k]) * 1e6, "edges_deg": edges},
-                {"peak_urad": _std(cov, k) * 1e6},
-                f"joint {self.joint}'s angle error varies with its angle in a way no candidate explains ({where}, "
-                f"{coef[k] * 1e6:+.0f} urad): modelled as a table over its angle")
+        return (
+            {
+                "joint": self.joint,
+                "where": where,
+                "peak_urad": float(coef[k]) * 1e6,
+                "edges_deg": edges,
+            },
+            {"peak_urad": _std(cov, k) * 1e6},
+            f"joint {self.joint}'s angle error varies with its angle in a way no candidate explains ({where}, "
+            f"{coef[k] * 1e6:+.0f} urad): modelled as a table over its angle",
+        )
 
 
-def joint_table(q_joint: np.ndarray, joint: int, min_rows: int = 30, max_bands: int = 16) -> JointTable | None:
+def joint_table(
+    q_joint: np.ndarray, joint: int, min_rows: int = 30, max_bands: int = 16
+) -> JointTable | None:
     """Bands of equal counts over the joint's angles (at least ``min_rows`` each), or None."""
     k = min(max_bands, len(q_joint) // min_rows)
     if k < 3 or np.ptp(q_joint) < 1e-3:
@@ -571,17 +682,27 @@ class ArmThermalExpansion(Effect):
 
     def applies(self, drivers):
         T = drivers.get("temp_c")
-        return drivers.get("J") is not None and drivers.get("grow") is not None and T is not None and np.ptp(T) > 0
+        return (
+            drivers.get("J") is not None
+            and drivers.get("grow") is not None
+            and T is not None
+            and np.ptp(T) > 0
+        )
 
     def columns(self, d):
         J = np.asarray(d["J"], float)
         T = np.asarray(d["temp_c"], float)
-        return ((J @ np.asarray(d["grow"], float)) * ((T - T.mean()) * 1e-6)[:, None]).reshape(-1, 1)
+        return ((J @ np.asarray(d["grow"], float)) * ((T - T.mean()) * 1e-6)[:, None]).reshape(
+            -1, 1
+        )
 
     def describe(self, coef, cov):
         k = float(coef[0])
-        return ({"ppm_per_k": k}, {"ppm_per_k": _std(cov, 0)},
-                f"the links grow {k:.1f} ppm per kelvin of the logged temperature: thermal growth of the arm")
+        return (
+            {"ppm_per_k": k},
+            {"ppm_per_k": _std(cov, 0)},
+            f"the links grow {k:.1f} ppm per kelvin of the logged temperature: thermal growth of the arm",
+        )
 
 
 def stage_candidates(drivers: dict) -> list[Effect]:
@@ -595,7 +716,9 @@ def stage_candidates(drivers: dict) -> list[Effect]:
     return [e for e in out if e.applies(drivers)]
 
 
-def best_period(u: np.ndarray, r: np.ndarray, base: np.ndarray, periods: np.ndarray) -> tuple[float, float]:
+def best_period(
+    u: np.ndarray, r: np.ndarray, base: np.ndarray, periods: np.ndarray
+) -> tuple[float, float]:
     """The period (mm) whose sinusoid in ``u`` (n,) best explains ``r`` (n,) beside the columns
     ``base`` (n, p), and the fraction of r's variance it explains: a least-squares periodogram
     (Lomb-Scargle with the baseline floating), vectorised over ``periods`` (m,)."""
@@ -609,6 +732,8 @@ def best_period(u: np.ndarray, r: np.ndarray, base: np.ndarray, periods: np.ndar
     sr, cr = S.T @ r_perp, C.T @ r_perp
     det = ss * cc - sc * sc
     ok = det > 1e-9 * np.maximum(ss * cc, 1e-300)
-    explained = np.where(ok, (cc * sr * sr - 2 * sc * sr * cr + ss * cr * cr) / np.where(ok, det, 1), 0.0)
+    explained = np.where(
+        ok, (cc * sr * sr - 2 * sc * sr * cr + ss * cr * cr) / np.where(ok, det, 1), 0.0
+    )
     k = int(np.argmax(explained))
     return float(periods[k]), float(explained[k] / max(r_perp @ r_perp, 1e-300))

@@ -39,9 +39,14 @@ class QuadraticFit:
 
     def as_dict(self) -> dict:
         """The coefficients and fit figures as plain floats."""
-        return {"coef": dict(zip(COEF_NAMES, map(float, self.coef))),
-                "std": dict(zip(COEF_NAMES, map(float, self.std))),
-                "sse": self.sse, "r2": self.r2, "rmse": self.rmse, "n": self.n}
+        return {
+            "coef": dict(zip(COEF_NAMES, map(float, self.coef))),
+            "std": dict(zip(COEF_NAMES, map(float, self.std))),
+            "sse": self.sse,
+            "r2": self.r2,
+            "rmse": self.rmse,
+            "n": self.n,
+        }
 
 
 def fit_quadratic(x_mm: np.ndarray, y_mm: np.ndarray, err_mm: np.ndarray) -> QuadraticFit:
@@ -56,8 +61,14 @@ def fit_quadratic(x_mm: np.ndarray, y_mm: np.ndarray, err_mm: np.ndarray) -> Qua
         raise ValueError("degenerate stations: they do not span a quadratic in x and y") from None
     sst = float(np.sum((e - e.mean()) ** 2))
     unit = _SCALE_MM**-_POWERS  # from the design's (x / 100 mm)^k to mm^-k
-    return QuadraticFit(coef=c * unit, std=std * unit, sse=sse, r2=1 - sse / sst if sst > 0 else float("nan"),
-                        rmse=rmse, n=n)
+    return QuadraticFit(
+        coef=c * unit,
+        std=std * unit,
+        sse=sse,
+        r2=1 - sse / sst if sst > 0 else float("nan"),
+        rmse=rmse,
+        n=n,
+    )
 
 
 def quadratic_coefs(x_mm: np.ndarray, y_mm: np.ndarray, err_mm: np.ndarray) -> np.ndarray:
@@ -67,8 +78,9 @@ def quadratic_coefs(x_mm: np.ndarray, y_mm: np.ndarray, err_mm: np.ndarray) -> n
     return c * (_SCALE_MM**-_POWERS)[:, None]
 
 
-def compensated_command(x_target_mm, y_target_mm, fit_x: QuadraticFit, fit_y: QuadraticFit,
-                        iterations: int = 30) -> tuple[np.ndarray, np.ndarray]:
+def compensated_command(
+    x_target_mm, y_target_mm, fit_x: QuadraticFit, fit_y: QuadraticFit, iterations: int = 30
+) -> tuple[np.ndarray, np.ndarray]:
     """Commands that land on the targets under the fitted maps: cmd + err(cmd) = target.
 
     Fixed-point iteration cmd <- target - err(cmd); it contracts because the maps' slopes are

@@ -13,7 +13,20 @@ import dataclasses
 
 import numpy as np
 
-AXIS_FIGURES = ("B", "B_mean", "R_up", "R_down", "R", "E_up", "E_down", "E", "M", "A_up", "A_down", "A")
+AXIS_FIGURES = (
+    "B",
+    "B_mean",
+    "R_up",
+    "R_down",
+    "R",
+    "E_up",
+    "E_down",
+    "E",
+    "M",
+    "A_up",
+    "A_down",
+    "A",
+)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -58,8 +71,10 @@ def _check_inputs(targets, dev_up, dev_down) -> tuple[np.ndarray, np.ndarray, np
     up = np.asarray(dev_up, dtype=float)
     down = np.asarray(dev_down, dtype=float)
     if P.ndim != 1 or up.ndim != 2 or up.shape != down.shape or up.shape[0] != P.shape[0]:
-        raise ValueError(f"shape mismatch: targets {P.shape}, dev_up {up.shape} and dev_down {down.shape} "
-                         "must be (m,), (m, n) and (m, n)")
+        raise ValueError(
+            f"shape mismatch: targets {P.shape}, dev_up {up.shape} and dev_down {down.shape} "
+            "must be (m,), (m, n) and (m, n)"
+        )
     m, n = up.shape
     if m < 2:
         raise ValueError(f"{m} target position(s): the axis figures need at least 2")
@@ -110,8 +125,15 @@ def evaluate(targets, dev_up, dev_down) -> Iso2302Result:
     means = np.stack([mean_up, mean_down])
     two_s = 2 * np.stack([s_up, s_down])
     return Iso2302Result(
-        mean_up=mean_up, mean_down=mean_down, mean_bi=mean_bi, reversal_i=reversal_i,
-        s_up=s_up, s_down=s_down, R_up_i=R_up_i, R_down_i=R_down_i, R_i=R_i,
+        mean_up=mean_up,
+        mean_down=mean_down,
+        mean_bi=mean_bi,
+        reversal_i=reversal_i,
+        s_up=s_up,
+        s_down=s_down,
+        R_up_i=R_up_i,
+        R_down_i=R_down_i,
+        R_i=R_i,
         B=float(np.max(np.abs(reversal_i))),
         B_mean=float(np.mean(reversal_i)),
         R_up=float(np.max(R_up_i)),

@@ -74,7 +74,11 @@ def board2cam_from_homography(H: np.ndarray, K: np.ndarray) -> tuple[np.ndarray,
     a stack H (n, 3, 3) gives R (n, 3, 3), t (n, 3).
     """
     Hs = np.asarray(H, float)
-    A = np.linalg.solve(K, Hs.reshape(-1, 3, 3).transpose(1, 0, 2).reshape(3, -1)).reshape(3, -1, 3).transpose(1, 0, 2)
+    A = (
+        np.linalg.solve(K, Hs.reshape(-1, 3, 3).transpose(1, 0, 2).reshape(3, -1))
+        .reshape(3, -1, 3)
+        .transpose(1, 0, 2)
+    )
     lam = 1.0 / np.linalg.norm(A[:, :, 0], axis=1)
     lam = np.where(A[:, 2, 2] * lam < 0, -lam, lam)[:, None]
     r1, r2, t = lam * A[:, :, 0], lam * A[:, :, 1], lam * A[:, :, 2]
@@ -85,8 +89,13 @@ def board2cam_from_homography(H: np.ndarray, K: np.ndarray) -> tuple[np.ndarray,
     return (R[0], t[0]) if Hs.ndim == 2 else (R, t)
 
 
-def board2cam_pnp(board_points: np.ndarray, pixels: np.ndarray, K: np.ndarray, dist: np.ndarray,
-                  guess: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
+def board2cam_pnp(
+    board_points: np.ndarray,
+    pixels: np.ndarray,
+    K: np.ndarray,
+    dist: np.ndarray,
+    guess: tuple[np.ndarray, np.ndarray] | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
     """Maximum-likelihood pose (Levenberg-Marquardt on reprojection error), R (3, 3), t (3,);
     without a ``guess``, from OpenCV's iterative PnP's."""
     obj = np.asarray(board_points, np.float64)
@@ -96,15 +105,29 @@ def board2cam_pnp(board_points: np.ndarray, pixels: np.ndarray, K: np.ndarray, d
         if not ok:
             raise ValueError("PnP failed")
         guess = cv2.Rodrigues(rvec)[0], tvec.ravel()
-    R, t = board2cam_refine(obj, img[None], K, dist, np.asarray(guess[0], float)[None], np.asarray(guess[1], float)[None])
+    R, t = board2cam_refine(
+        obj,
+        img[None],
+        K,
+        dist,
+        np.asarray(guess[0], float)[None],
+        np.asarray(guess[1], float)[None],
+    )
     return R[0], t[0]
 
 
 XTOL = 1e-8  # a refinement's last step, in units of each pose parameter's std
 
 
-def board2cam_refine(board_points: np.ndarray, pixels: np.ndarray, K: np.ndarray, dist: np.ndarray,
-                     R: np.ndarray, t: np.ndarray, max_iter: int = 50) -> tuple[np.ndarray, np.ndarray]:
+def board2cam_refine(
+    board_points: np.ndarray,
+    pixels: np.ndarray,
+    K: np.ndarray,
+    dist: np.ndarray,
+    R: np.ndarray,
+    t: np.ndarray,
+    max_iter: int = 50,
+) -> tuple[np.ndarray, np.ndarray]:
     """Maximum-likelihood poses of several views at once, refined from R (n, 3, 3), t (n, 3).
 
     Levenberg-Marquardt on each view's reprojection error (pixels (n, m, 2) of board_points
@@ -141,14 +164,18 @@ def board2cam_refine(board_points: np.ndarray, pixels: np.ndarray, K: np.ndarray
         A = J.transpose(0, 2, 1) @ J
         g = (J.transpose(0, 2, 1) @ r[..., None])[..., 0]
         diag = np.diagonal(A, axis1=1, axis2=2)
-        step = np.linalg.solve(A + lam[:, None, None] * diag[:, :, None] * np.eye(6), g[..., None])[..., 0]
+        step = np.linalg.solve(A + lam[:, None, None] * diag[:, :, None] * np.eye(6), g[..., None])[
+            ..., 0
+        ]
         step[done] = 0.0
         R_new = Rotation.from_rotvec(step[:, :3]).as_matrix() @ R
         t_new = t + step[:, 3:]
         r_new, _ = residuals(R_new, t_new, False)
         cost_new = np.sum(r_new * r_new, axis=1)
         sigma = np.maximum(np.sqrt(cost / dof), 1e-9)
-        size = np.max(np.abs(step) * np.sqrt(diag), axis=1) / sigma  # in units of each parameter's std
+        size = (
+            np.max(np.abs(step) * np.sqrt(diag), axis=1) / sigma
+        )  # in units of each parameter's std
         # a step under 1e-3 std is taken whatever the cost says: the cost's own rounding (1e-12 of
         # it, the residuals being differences of pixel coordinates) hides a change that small
         better = ((cost_new < cost) | (size < 1e-3)) & ~done
@@ -157,23 +184,43 @@ def board2cam_refine(board_points: np.ndarray, pixels: np.ndarray, K: np.ndarray
         # at a minimum: a step below the tolerance, or no damping lowers the cost and the gradient vanishes
         small = size < XTOL
         stuck = ~better & (lam > 1e10)
-        flat = np.max(np.abs(g) / np.sqrt(np.maximum(diag, 1e-300)), axis=1) < XTOL * np.maximum(np.sqrt(cost), 1e-9)
+        flat = np.max(np.abs(g) / np.sqrt(np.maximum(diag, 1e-300)), axis=1) < XTOL * np.maximum(
+            np.sqrt(cost), 1e-9
+        )
         converged |= ~done & (small | (stuck & flat))
         done |= small | stuck
         if done.all():
             break
         r, J = residuals(R, t, True)
     if not converged.all():
-        raise ValueError(f"PnP did not converge for view(s) {np.flatnonzero(~converged)[:5].tolist()}")
+        raise ValueError(
+            f"PnP did not converge for view(s) {np.flatnonzero(~converged)[:5].tolist()}"
+        )
     return R, t
 
 
 # projectPoints' Jacobian columns after (rvec, tvec): fx, fy, cx, cy, then k1, k2, p1, p2, k3
-_INTRINSIC_COLUMN = {"fx": 6, "fy": 7, "cx": 8, "cy": 9, "k1": 10, "k2": 11, "p1": 12, "p2": 13, "k3": 14}
+_INTRINSIC_COLUMN = {
+    "fx": 6,
+    "fy": 7,
+    "cx": 8,
+    "cy": 9,
+    "k1": 10,
+    "k2": 11,
+    "p1": 12,
+    "p2": 13,
+    "k3": 14,
+}
 
 
-def pose_sensitivity(board_points: np.ndarray, R: np.ndarray, t: np.ndarray, K: np.ndarray, dist: np.ndarray,
-                     names: tuple[str, ...]) -> np.ndarray:
+def pose_sensitivity(
+    board_points: np.ndarray,
+    R: np.ndarray,
+    t: np.ndarray,
+    K: np.ndarray,
+    dist: np.ndarray,
+    names: tuple[str, ...],
+) -> np.ndarray:
     """How the PnP pose moves with the intrinsics ``names``, d(rvec, t) / d(intrinsics), (6, k).
 
     The implicit-function theorem at the reprojection minimum, J_pose^T r = 0: d pose / d theta
@@ -186,7 +233,12 @@ def pose_sensitivity(board_points: np.ndarray, R: np.ndarray, t: np.ndarray, K: 
     if R.ndim == 2:
         return pose_sensitivity(board_points, R[None], t[None], K, dist, names)[0]
     obj = np.asarray(board_points, np.float64)
-    jac = np.stack([cv2.projectPoints(obj, cv2.Rodrigues(Ri)[0], ti.reshape(3, 1), K, dist)[1] for Ri, ti in zip(R, t)])
+    jac = np.stack(
+        [
+            cv2.projectPoints(obj, cv2.Rodrigues(Ri)[0], ti.reshape(3, 1), K, dist)[1]
+            for Ri, ti in zip(R, t)
+        ]
+    )
     Jp = jac[:, :, :6]
     Jt = jac[:, :, [_INTRINSIC_COLUMN[n] for n in names]]
     JpT = Jp.transpose(0, 2, 1)
@@ -209,7 +261,7 @@ class Plane:
     basis: np.ndarray
     slope_cov: np.ndarray
 
-    def tilted(self, slopes: np.ndarray) -> "Plane":
+    def tilted(self, slopes: np.ndarray) -> Plane:
         """The plane through the same centroid with extra slopes (2,) along its basis."""
         n = self.normal - self.basis @ np.asarray(slopes, float)
         n /= np.linalg.norm(n)

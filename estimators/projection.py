@@ -36,8 +36,13 @@ class Projection:
     d_intrinsics: np.ndarray | None
 
 
-def project(intrinsics: np.ndarray, board2cam_R: np.ndarray, board2cam_t: np.ndarray,
-            points: np.ndarray, jacobians: bool = True) -> Projection:
+def project(
+    intrinsics: np.ndarray,
+    board2cam_R: np.ndarray,
+    board2cam_t: np.ndarray,
+    points: np.ndarray,
+    jacobians: bool = True,
+) -> Projection:
     """Project ``points`` (n_points, 3) through every view (R (n_views, 3, 3), t (n_views, 3)) of
     a camera with ``intrinsics`` (9,) in ``INTRINSICS`` order; without ``jacobians`` only ``uv``
     (the derivatives are None)."""

@@ -49,8 +49,9 @@ class ScannerCalibration:
     rms_mm: float | None = None
 
 
-def contour_points(theta_rad: np.ndarray, rho_mm: np.ndarray, d_mm: float, dL_mm: float,
-                   alpha0_rad: float) -> np.ndarray:
+def contour_points(
+    theta_rad: np.ndarray, rho_mm: np.ndarray, d_mm: float, dL_mm: float, alpha0_rad: float
+) -> np.ndarray:
     """Contact points P in the holder frame from samples (n,), (n,) -> (n, 2) mm."""
     a = alpha0_rad + np.asarray(theta_rad, float)
     u = np.stack([np.cos(a), np.sin(a)], axis=1)
@@ -58,8 +59,15 @@ def contour_points(theta_rad: np.ndarray, rho_mm: np.ndarray, d_mm: float, dL_mm
     return d_mm * n + (dL_mm + np.asarray(rho_mm, float))[:, None] * u
 
 
-def rounded_square_rho(theta_rad: np.ndarray, d_mm: float, dL_mm: float, alpha0_rad: float,
-                       centre_mm, half_side_mm: float, corner_radius_mm: float) -> np.ndarray:
+def rounded_square_rho(
+    theta_rad: np.ndarray,
+    d_mm: float,
+    dL_mm: float,
+    alpha0_rad: float,
+    centre_mm,
+    half_side_mm: float,
+    corner_radius_mm: float,
+) -> np.ndarray:
     """Exact reading rho (n,) in a rounded-square opening for samples at table angles theta (n,).
 
     The ray from Q along u leaves the opening where it leaves the square of half-side a, if that
@@ -98,7 +106,9 @@ class MinimumFit:
     curvature_mm: float  # d^2 rho / d theta^2 at the vertex, mm / rad^2
 
 
-def fit_minima(theta_rad: np.ndarray, rho_mm: np.ndarray, m: int, n_minima: int = 4) -> list[MinimumFit]:
+def fit_minima(
+    theta_rad: np.ndarray, rho_mm: np.ndarray, m: int, n_minima: int = 4
+) -> list[MinimumFit]:
     """Quadratic fits over ``m`` consecutive samples centred on each of the ``n_minima`` lowest
     local minima of a full turn (the samples wrap around)."""
     th, rho = np.asarray(theta_rad, float), np.asarray(rho_mm, float)
@@ -133,8 +143,10 @@ def _fits_at(th: np.ndarray, rho: np.ndarray, i0: np.ndarray, m: int) -> list[Mi
     with np.errstate(divide="ignore", invalid="ignore"):
         xv = np.where(vertex, -c1 / (2 * c2), 0.0)
         rv = np.where(vertex, c0 - c1 * c1 / (4 * c2), c0)
-    fits = [MinimumFit(theta_rad=float(th[i] + v), rho_mm=float(r), curvature_mm=float(2 * c))
-            for i, v, r, c in zip(i0, xv, rv, c2)]
+    fits = [
+        MinimumFit(theta_rad=float(th[i] + v), rho_mm=float(r), curvature_mm=float(2 * c))
+        for i, v, r, c in zip(i0, xv, rv, c2)
+    ]
     return sorted(fits, key=lambda f: f.theta_rad % (2 * np.pi))
 
 
@@ -151,7 +163,9 @@ def _quadratic(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return c / np.c_[s * s, s, np.ones_like(s)]
 
 
-def paper_sweep_d_mm(theta_rad: np.ndarray, rho_mm: np.ndarray, ms, half_side_mm: float) -> np.ndarray:
+def paper_sweep_d_mm(
+    theta_rad: np.ndarray, rho_mm: np.ndarray, ms, half_side_mm: float
+) -> np.ndarray:
     """The four-minima method's d (mm) for every window size in ``ms`` (M,) on one turn, (M,):
     :func:`calibrate_paper`'s d for each window size, all at once (the minima found once, each
     window padded to the largest, the padding weighted out of the quadratic's normal
@@ -160,13 +174,19 @@ def paper_sweep_d_mm(theta_rad: np.ndarray, rho_mm: np.ndarray, ms, half_side_mm
     N = len(rho)
     ms = np.asarray(ms, int)
     if ms.min() < 3 or ms.max() > N // 4:
-        raise ValueError(f"m from {ms.min()} to {ms.max()}: the quadratic needs 3 to {N // 4} samples")
+        raise ValueError(
+            f"m from {ms.min()} to {ms.max()}: the quadratic needs 3 to {N // 4} samples"
+        )
     i0 = minima_indices(rho)
     k = np.arange(ms.max())
     inside = (k[None, :] < ms[:, None])[:, None, :].astype(float)  # (M, 1, m_max)
-    win = (i0[None, :, None] + (k[None, :] - (ms[:, None] - 1) // 2)[:, None, :]) % N  # (M, 4, m_max)
+    win = (
+        i0[None, :, None] + (k[None, :] - (ms[:, None] - 1) // 2)[:, None, :]
+    ) % N  # (M, 4, m_max)
     x = (th[win] - th[i0][None, :, None] + np.pi) % (2 * np.pi) - np.pi
-    scale = np.maximum(np.max(np.abs(x) * inside, axis=2), 1e-300)[..., None]  # as _quadratic: t in [-1, 1]
+    scale = np.maximum(np.max(np.abs(x) * inside, axis=2), 1e-300)[
+        ..., None
+    ]  # as _quadratic: t in [-1, 1]
     t = x / scale
     V = np.stack([t * t, t, np.ones_like(t)], axis=3) * inside[..., None]  # (M, 4, m_max, 3)
     Vt = V.swapaxes(-1, -2)
@@ -178,21 +198,30 @@ def paper_sweep_d_mm(theta_rad: np.ndarray, rho_mm: np.ndarray, ms, half_side_mm
     return np.where(curvature > a, d, 0.0)
 
 
-def calibrate_paper(theta_rad: np.ndarray, rho_mm: np.ndarray, m: int, half_side_mm: float,
-                    alpha0_nominal_rad: float) -> ScannerCalibration:
+def calibrate_paper(
+    theta_rad: np.ndarray,
+    rho_mm: np.ndarray,
+    m: int,
+    half_side_mm: float,
+    alpha0_nominal_rad: float,
+) -> ScannerCalibration:
     """The four-minima method, in closed form for a centred opening of half-side a:
     C = a^2 / sqrt(a^2 - d^2) gives d, the depth sqrt(a^2 - d^2) - dL gives dL, and the
     vertex angles alpha0 + theta_k = psi_k - asin(d / a) give alpha0 (averaged over the four)."""
     return solve_four_minima(fit_minima(theta_rad, rho_mm, m), half_side_mm, alpha0_nominal_rad)
 
 
-def solve_four_minima(fits: list[MinimumFit], half_side_mm: float, alpha0_nominal_rad: float) -> ScannerCalibration:
+def solve_four_minima(
+    fits: list[MinimumFit], half_side_mm: float, alpha0_nominal_rad: float
+) -> ScannerCalibration:
     """(d, dL, alpha0) from the four minima of a centred opening, in closed form."""
     a = half_side_mm
     curv = float(np.mean([f.curvature_mm for f in fits]))
     d = float(np.sqrt(max(a * a - (a * a / curv) ** 2, 0.0))) if curv > a else 0.0
     dL = float(np.sqrt(a * a - d * d) - np.mean([f.rho_mm for f in fits]))
-    alpha0 = _alpha0_from_minima(np.array([f.theta_rad for f in fits]), -np.arcsin(d / a), alpha0_nominal_rad)
+    alpha0 = _alpha0_from_minima(
+        np.array([f.theta_rad for f in fits]), -np.arcsin(d / a), alpha0_nominal_rad
+    )
     return ScannerCalibration(d_mm=d, dL_mm=dL, alpha0_rad=alpha0, centre_mm=np.zeros(2))
 
 
@@ -207,8 +236,13 @@ def _alpha0_from_minima(theta_k: np.ndarray, phi: float, nominal: float) -> floa
 
 
 # --- the full-data method --------------------------------------------------------------------
-def calibrate_lsq(theta_rad: np.ndarray, rho_mm: np.ndarray, half_side_mm: float, corner_radius_mm: float,
-                  start: ScannerCalibration) -> ScannerCalibration:
+def calibrate_lsq(
+    theta_rad: np.ndarray,
+    rho_mm: np.ndarray,
+    half_side_mm: float,
+    corner_radius_mm: float,
+    start: ScannerCalibration,
+) -> ScannerCalibration:
     """Least squares of (d, dL, alpha0, cx, cy) against every sample's exact reading.
 
     Standard deviations from (J^T J)^-1 scaled by the residual variance (independent samples;
@@ -222,14 +256,20 @@ def calibrate_lsq(theta_rad: np.ndarray, rho_mm: np.ndarray, half_side_mm: float
         return np.where(np.isfinite(pred), pred - rho, 1e3)
 
     x0 = np.r_[start.d_mm, start.dL_mm, start.alpha0_rad, start.centre_mm]
-    sol = optimize.least_squares(resid, x0, jac="3-point", x_scale=[1, 1, 0.01, 1, 1], xtol=1e-12,
-                                 ftol=1e-12, gtol=1e-12)
+    sol = optimize.least_squares(
+        resid, x0, jac="3-point", x_scale=[1, 1, 0.01, 1, 1], xtol=1e-12, ftol=1e-12, gtol=1e-12
+    )
     J, res = sol.jac, sol.fun
     dof = len(res) - len(x0)
     s2 = float(res @ res) / dof
     cov = np.linalg.inv(J.T @ J) * s2
     std = dict(zip(("d_mm", "dL_mm", "alpha0_rad", "cx_mm", "cy_mm"), np.sqrt(np.diag(cov))))
     p = sol.x
-    return ScannerCalibration(d_mm=float(p[0]), dL_mm=float(p[1]),
-                              alpha0_rad=float(np.angle(np.exp(1j * p[2]))), centre_mm=p[3:5].copy(),
-                              std={k: float(v) for k, v in std.items()}, rms_mm=float(np.sqrt(s2)))
+    return ScannerCalibration(
+        d_mm=float(p[0]),
+        dL_mm=float(p[1]),
+        alpha0_rad=float(np.angle(np.exp(1j * p[2]))),
+        centre_mm=p[3:5].copy(),
+        std={k: float(v) for k, v in std.items()},
+        rms_mm=float(np.sqrt(s2)),
+    )

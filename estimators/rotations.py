@@ -31,7 +31,11 @@ def rotvecs_to_matrices(w: np.ndarray) -> np.ndarray:
     b = np.where(tiny, 0.5 - theta**2 / 24, 2 * (np.sin(half) / safe) ** 2)
     x, y, z = w.T
     R = np.empty((len(w), 3, 3))
-    R[:, 0, 0], R[:, 1, 1], R[:, 2, 2] = 1 - b * (y * y + z * z), 1 - b * (x * x + z * z), 1 - b * (x * x + y * y)
+    R[:, 0, 0], R[:, 1, 1], R[:, 2, 2] = (
+        1 - b * (y * y + z * z),
+        1 - b * (x * x + z * z),
+        1 - b * (x * x + y * y),
+    )
     R[:, 0, 1], R[:, 1, 0] = b * x * y - a * z, b * x * y + a * z
     R[:, 0, 2], R[:, 2, 0] = b * x * z + a * y, b * x * z - a * y
     R[:, 1, 2], R[:, 2, 1] = b * y * z - a * x, b * y * z + a * x
@@ -50,9 +54,13 @@ def rotvec_to_matrix(w: np.ndarray) -> np.ndarray:
         a, b = 1.0 - theta**2 / 6, 0.5 - theta**2 / 24
     else:
         a, b = math.sin(theta) / theta, 2 * (math.sin(0.5 * theta) / theta) ** 2
-    return np.array([[1 - b * (y * y + z * z), b * x * y - a * z, b * x * z + a * y],
-                     [b * x * y + a * z, 1 - b * (x * x + z * z), b * y * z - a * x],
-                     [b * x * z - a * y, b * y * z + a * x, 1 - b * (x * x + y * y)]])
+    return np.array(
+        [
+            [1 - b * (y * y + z * z), b * x * y - a * z, b * x * z + a * y],
+            [b * x * y + a * z, 1 - b * (x * x + z * z), b * y * z - a * x],
+            [b * x * z - a * y, b * y * z + a * x, 1 - b * (x * x + y * y)],
+        ]
+    )
 
 
 def matrix_to_rotvec(R: np.ndarray) -> np.ndarray:
@@ -62,7 +70,9 @@ def matrix_to_rotvec(R: np.ndarray) -> np.ndarray:
     near pi, as scipy's Rotation does, in a tenth of its time. A stack (..., 3, 3) -> (..., 3)."""
     if np.shape(R) != (3, 3):
         R = np.asarray(R, float)
-        return np.array([matrix_to_rotvec(r) for r in R.reshape(-1, 3, 3)]).reshape(R.shape[:-2] + (3,))
+        return np.array([matrix_to_rotvec(r) for r in R.reshape(-1, 3, 3)]).reshape(
+            R.shape[:-2] + (3,)
+        )
     (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = np.asarray(R, float).tolist()
     tr = r00 + r11 + r22
     k = max(range(4), key=(r00, r11, r22, tr).__getitem__)

@@ -42,9 +42,12 @@ class Runout(Effect):
 
     def describe(self, coef, cov):
         amp, amp_std, phase = _amplitude(*coef, cov)
-        return ({"harmonic": self.harmonic, "amplitude_mm": amp, "phase_rad": phase}, {"amplitude_mm": amp_std},
-                f"the rotary table runs out radially {amp * 1000:.1f} um {self.harmonic} times per turn (its "
-                f"bearing's error motion, along the rail)")
+        return (
+            {"harmonic": self.harmonic, "amplitude_mm": amp, "phase_rad": phase},
+            {"amplitude_mm": amp_std},
+            f"the rotary table runs out radially {amp * 1000:.1f} um {self.harmonic} times per turn (its "
+            f"bearing's error motion, along the rail)",
+        )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -53,7 +56,9 @@ class RunoutSearch:
     table) is found on the rows it is fitted to. ``rank`` tells the searches apart: the second
     finds the next harmonic beside the first."""
 
-    harmonics: tuple[int, ...] = tuple(range(1, 31))  # the caller leaves out what its artefact cannot show
+    harmonics: tuple[int, ...] = tuple(
+        range(1, 31)
+    )  # the caller leaves out what its artefact cannot show
     rank: int = 1
     axis: str = AXIS
     name: str = "runout"
@@ -98,8 +103,11 @@ class TableEccentricity(Effect):
 
     def describe(self, coef, cov):
         amp, amp_std, phase = _amplitude(*coef, cov)
-        return ({"amplitude_urad": amp * 1e6, "phase_rad": phase}, {"amplitude_urad": amp_std * 1e6},
-                f"the table's encoder reads {amp * 1e6:.0f} urad off once per turn: its disc is mounted off-centre")
+        return (
+            {"amplitude_urad": amp * 1e6, "phase_rad": phase},
+            {"amplitude_urad": amp_std * 1e6},
+            f"the table's encoder reads {amp * 1e6:.0f} urad off once per turn: its disc is mounted off-centre",
+        )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -117,8 +125,11 @@ class ProbeScale(Effect):
 
     def describe(self, coef, cov):
         s = float(coef[0])
-        return ({"ppm": s}, {"ppm": _std(cov, 0)},
-                f"the probe's linear encoder reads {s:+.0f} ppm long (its scale, or its lever's ratio)")
+        return (
+            {"ppm": s},
+            {"ppm": _std(cov, 0)},
+            f"the probe's linear encoder reads {s:+.0f} ppm long (its scale, or its lever's ratio)",
+        )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -132,8 +143,11 @@ class ProbeOffset(Effect):
         return np.ones((len(d["theta"]), 1))
 
     def describe(self, coef, cov):
-        return ({"offset_mm": float(coef[0])}, {"offset_mm": _std(cov, 0)},
-                f"the probe's zero is {coef[0] * 1000:+.1f} um off")
+        return (
+            {"offset_mm": float(coef[0])},
+            {"offset_mm": _std(cov, 0)},
+            f"the probe's zero is {coef[0] * 1000:+.1f} um off",
+        )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -163,9 +177,12 @@ class AngleTable(Effect):
 
     def describe(self, coef, cov):
         k = int(np.argmax(np.abs(coef)))
-        return ({"where": self.where, "theta_deg": self.peak_deg, "peak_mm": float(coef[k])}, {"peak_mm": _std(cov, k)},
-                f"a local error of the reading {self.where} that no candidate effect has (a nick or burr on the "
-                f"artefact's wall, dirt in the stylus's path): modelled as a correction table there")
+        return (
+            {"where": self.where, "theta_deg": self.peak_deg, "peak_mm": float(coef[k])},
+            {"peak_mm": _std(cov, k)},
+            f"a local error of the reading {self.where} that no candidate effect has (a nick or burr on the "
+            f"artefact's wall, dirt in the stylus's path): modelled as a correction table there",
+        )
 
 
 def scanner_candidates(symmetry: int = 4, top: int = 30, n_runout: int = 3) -> list:
@@ -174,5 +191,8 @@ def scanner_candidates(symmetry: int = 4, top: int = 30, n_runout: int = 3) -> l
     cannot be told from it), the encoder's eccentricity, the probe's scale and offset
     (``nonsmooth`` is looked for after them, on what they leave)."""
     harmonics = tuple(k for k in range(1, top + 1) if k % symmetry)
-    return ([RunoutSearch(harmonics=harmonics, rank=k) for k in range(1, n_runout + 1)]
-            + [TableEccentricity(), ProbeScale(), ProbeOffset()])
+    return [RunoutSearch(harmonics=harmonics, rank=k) for k in range(1, n_runout + 1)] + [
+        TableEccentricity(),
+        ProbeScale(),
+        ProbeOffset(),
+    ]

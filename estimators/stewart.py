@@ -20,10 +20,12 @@ import dataclasses
 
 import numpy as np
 
-from calibench.estimators.rotations import rigid_transform, rotvec_to_matrix, rotvecs_to_matrices
+from calibench.estimators.rotations import rotvec_to_matrix, rotvecs_to_matrices
 
 
-def trilaterate(known: np.ndarray, dist: np.ndarray, sigma: np.ndarray, above: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def trilaterate(
+    known: np.ndarray, dist: np.ndarray, sigma: np.ndarray, above: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """The point at distances ``dist`` (3,) from ``known`` (3, 3), on the side of their plane
     where ``above`` (3,) points; and its covariance (3, 3) from the distances' 1-sigma (3,).
 
@@ -60,8 +62,13 @@ def trilaterate(known: np.ndarray, dist: np.ndarray, sigma: np.ndarray, above: n
 CONVERGED_STEP = 1e-9
 
 
-def multilaterate(stations: np.ndarray, dist: np.ndarray, sigma: np.ndarray, start: np.ndarray,
-                  iterations: int = 20) -> tuple[np.ndarray, np.ndarray, bool]:
+def multilaterate(
+    stations: np.ndarray,
+    dist: np.ndarray,
+    sigma: np.ndarray,
+    start: np.ndarray,
+    iterations: int = 20,
+) -> tuple[np.ndarray, np.ndarray, bool]:
     """A point from distances (k,) to stations (k, 3), Gauss-Newton from ``start``; covariance
     (J^T W J)^-1 with W = diag(1 / sigma^2); and whether the iteration converged (False: the
     point is the last iterate, not an answer)."""
@@ -81,8 +88,13 @@ def multilaterate(stations: np.ndarray, dist: np.ndarray, sigma: np.ndarray, sta
     return p, np.linalg.inv(J.T @ (w[:, None] * J)), bool(np.max(np.abs(step)) < CONVERGED_STEP)
 
 
-def multilaterate_many(stations: np.ndarray, dist: np.ndarray, sigma: np.ndarray, start: np.ndarray,
-                       iterations: int = 20) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def multilaterate_many(
+    stations: np.ndarray,
+    dist: np.ndarray,
+    sigma: np.ndarray,
+    start: np.ndarray,
+    iterations: int = 20,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`multilaterate` for several points at once: distances (n, k) to the same stations
     (k, 3), their sigma (n, k), starts (n, 3) -> points (n, 3), covariances (n, 3, 3) and
     whether each converged (n,)."""
@@ -144,8 +156,16 @@ class LegCalibration:
     converged: bool = True  # False: Gauss-Newton ran out of iterations, this is its last iterate
 
 
-def calibrate_leg(R: np.ndarray, t: np.ndarray, readings: np.ndarray, r0: np.ndarray, B0: np.ndarray,
-                  l0: float, sigma: np.ndarray, iterations: int = 50) -> LegCalibration:
+def calibrate_leg(
+    R: np.ndarray,
+    t: np.ndarray,
+    readings: np.ndarray,
+    r0: np.ndarray,
+    B0: np.ndarray,
+    l0: float,
+    sigma: np.ndarray,
+    iterations: int = 50,
+) -> LegCalibration:
     """The one-step method for one leg: poses (n, 3, 3), (n, 3), readings (n,), sigma (n,) of
     each equation (length units); Gauss-Newton on |R r + t - B| - (l + reading) = 0."""
     x = np.r_[r0, B0, l0].astype(float)
@@ -170,8 +190,14 @@ def calibrate_leg(R: np.ndarray, t: np.ndarray, readings: np.ndarray, r0: np.nda
     dof = max(len(res) - 7, 1)
     s2 = res @ res / dof
     cov = np.linalg.inv(J.T @ J) * s2
-    return LegCalibration(r=x[:3], B=x[3:6], l=float(x[6]), std=np.sqrt(np.diag(cov)), rms=float(np.sqrt(s2)),
-                          converged=converged)
+    return LegCalibration(
+        r=x[:3],
+        B=x[3:6],
+        l=float(x[6]),
+        std=np.sqrt(np.diag(cov)),
+        rms=float(np.sqrt(s2)),
+        converged=converged,
+    )
 
 
 def leg_lengths(R: np.ndarray, t: np.ndarray, r: np.ndarray, B: np.ndarray) -> np.ndarray:
@@ -179,8 +205,14 @@ def leg_lengths(R: np.ndarray, t: np.ndarray, r: np.ndarray, B: np.ndarray) -> n
     return np.linalg.norm(r @ R.T + t - B, axis=1)
 
 
-def forward_kinematics(lengths: np.ndarray, r: np.ndarray, B: np.ndarray, R0: np.ndarray, t0: np.ndarray,
-                       iterations: int = 30) -> tuple[np.ndarray, np.ndarray, bool]:
+def forward_kinematics(
+    lengths: np.ndarray,
+    r: np.ndarray,
+    B: np.ndarray,
+    R0: np.ndarray,
+    t0: np.ndarray,
+    iterations: int = 30,
+) -> tuple[np.ndarray, np.ndarray, bool]:
     """The pose whose legs have ``lengths`` (6,), Newton from (R0, t0) (left rotation updates),
     and whether Newton converged."""
     R, t = np.array(R0, float), np.array(t0, float)
@@ -200,16 +232,27 @@ def forward_kinematics(lengths: np.ndarray, r: np.ndarray, B: np.ndarray, R0: np
     return R, t, bool(np.max(np.abs(step)) < CONVERGED_STEP)
 
 
-def forward_kinematics_many(lengths: np.ndarray, r: np.ndarray, B: np.ndarray, R0: np.ndarray, t0: np.ndarray,
-                            iterations: int = 30) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def forward_kinematics_many(
+    lengths: np.ndarray,
+    r: np.ndarray,
+    B: np.ndarray,
+    R0: np.ndarray,
+    t0: np.ndarray,
+    iterations: int = 30,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`forward_kinematics` for many leg-length sets (n, 6) at once, each from (R0, t0):
     poses R (n, 3, 3), t (n, 3) and whether each converged (n,). A set no pose can take (a
     negative length, a singularity on the way) is one that did not converge; the others go on."""
     lengths = np.asarray(lengths, float)
     n = len(lengths)
-    R, t = np.repeat(np.asarray(R0, float)[None], n, axis=0), np.repeat(np.asarray(t0, float)[None], n, axis=0)
+    R, t = (
+        np.repeat(np.asarray(R0, float)[None], n, axis=0),
+        np.repeat(np.asarray(t0, float)[None], n, axis=0),
+    )
     step = np.full((n, 6), np.inf)
-    lost = np.zeros(n, bool)  # poses whose iteration left the finite numbers: not converged, and frozen
+    lost = np.zeros(
+        n, bool
+    )  # poses whose iteration left the finite numbers: not converged, and frozen
     for _ in range(iterations):
         Rr = np.einsum("nij,kj->nki", R, r)  # (n, 6, 3)
         v = Rr + t[:, None] - B
@@ -253,8 +296,10 @@ class TrackerObservations:
     def sigma(self) -> np.ndarray:
         """The 1-sigma of every measured length, in the order of the residuals (mm)."""
         L = np.r_[self.nest_lengths.ravel(), self.reflector_lengths.ravel()]
-        return np.r_[self.length_sigma[0] + self.length_sigma[1] * L,
-                     np.full(self.readings.size, self.reading_sigma)]
+        return np.r_[
+            self.length_sigma[0] + self.length_sigma[1] * L,
+            np.full(self.readings.size, self.reading_sigma),
+        ]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -299,14 +344,18 @@ def _joint_blocks(obs: TrackerObservations, stations, R, t, r, B, l) -> _JointBl
     """The residuals and Jacobian of every measurement, pose by pose (:class:`_JointBlocks`)."""
     n, k = len(R), len(obs.reflectors)
     w = 1 / obs.sigma()
-    w_nest, w_refl, w_leg = w[:9], w[9:9 + 3 * n * k].reshape(n, 3 * k), w[9 + 3 * n * k:].reshape(n, 6)
+    w_nest, w_refl, w_leg = (
+        w[:9],
+        w[9 : 9 + 3 * n * k].reshape(n, 3 * k),
+        w[9 + 3 * n * k :].reshape(n, 6),
+    )
     # nests: |N_j - S_s|
     v = obs.nests[None, :, :] - stations[:, None, :]  # (3 s, 3 j, 3)
     Ln = np.linalg.norm(v, axis=2)
     J_nest = np.zeros((3, 3, 51))
     un = v / Ln[..., None]
     for s in range(3):
-        J_nest[s, :, 3 * s:3 * s + 3] = -un[s]
+        J_nest[s, :, 3 * s : 3 * s + 3] = -un[s]
     # reflectors: |R f + t - S_s|
     Rf = np.einsum("nij,kj->nki", R, obs.reflectors)  # (n, k, 3)
     v = (Rf + t[:, None, :])[:, :, None, :] - stations[None, None, :, :]  # (n, k, s, 3)
@@ -314,31 +363,41 @@ def _joint_blocks(obs: TrackerObservations, stations, R, t, r, B, l) -> _JointBl
     ur = v / Lr[..., None]
     J_pose = np.zeros((n, 3 * k + 6, 6))
     J_glob = np.zeros((n, 3 * k + 6, 51))
-    Jg = J_glob[:, :3 * k].reshape(n, k, 3, 51)
+    Jg = J_glob[:, : 3 * k].reshape(n, k, 3, 51)
     for s in range(3):
-        Jg[:, :, s, 3 * s:3 * s + 3] = -ur[:, :, s]
+        Jg[:, :, s, 3 * s : 3 * s + 3] = -ur[:, :, s]
     # u . (omega x Rf) = omega . (Rf x u)
-    J_pose[:, :3 * k, :3] = np.cross(Rf[:, :, None, :], ur).reshape(n, 3 * k, 3)
-    J_pose[:, :3 * k, 3:] = ur.reshape(n, 3 * k, 3)
+    J_pose[:, : 3 * k, :3] = np.cross(Rf[:, :, None, :], ur).reshape(n, 3 * k, 3)
+    J_pose[:, : 3 * k, 3:] = ur.reshape(n, 3 * k, 3)
     # legs: |R r_i + t - B_i| - l_i = reading
     Rr = np.einsum("nij,lj->nli", R, r)  # (n, 6, 3)
     v = Rr + t[:, None, :] - B[None]
     Ll = np.linalg.norm(v, axis=2)
     ul = v / Ll[..., None]
-    J_pose[:, 3 * k:, :3] = np.cross(Rr, ul)
-    J_pose[:, 3 * k:, 3:] = ul
+    J_pose[:, 3 * k :, :3] = np.cross(Rr, ul)
+    J_pose[:, 3 * k :, 3:] = ul
     legs = np.arange(6)
     uR = np.einsum("nli,nij->nlj", ul, R)  # d L / d r_i = u^T R
-    Jl = J_glob[:, 3 * k:]  # (n, 6, 51)
+    Jl = J_glob[:, 3 * k :]  # (n, 6, 51)
     for c in range(3):
         Jl[:, legs, 9 + 7 * legs + c] = uR[..., c]
         Jl[:, legs, 9 + 7 * legs + 3 + c] = -ul[..., c]
     Jl[:, legs, 9 + 7 * legs + 6] = -1.0
-    res_pose = np.concatenate([(Lr - obs.reflector_lengths).reshape(n, 3 * k) * w_refl,
-                               (Ll - l[None] - obs.readings) * w_leg], axis=1)
+    res_pose = np.concatenate(
+        [
+            (Lr - obs.reflector_lengths).reshape(n, 3 * k) * w_refl,
+            (Ll - l[None] - obs.readings) * w_leg,
+        ],
+        axis=1,
+    )
     w_pose = np.concatenate([w_refl, w_leg], axis=1)[..., None]
-    return _JointBlocks((Ln - obs.nest_lengths).ravel() * w_nest, J_nest.reshape(9, 51) * w_nest[:, None],
-                        res_pose, J_pose * w_pose, J_glob * w_pose)
+    return _JointBlocks(
+        (Ln - obs.nest_lengths).ravel() * w_nest,
+        J_nest.reshape(9, 51) * w_nest[:, None],
+        res_pose,
+        J_pose * w_pose,
+        J_glob * w_pose,
+    )
 
 
 def _joint_residuals(obs: TrackerObservations, stations, R, t, r, B, l):
@@ -355,7 +414,7 @@ def _joint_residuals(obs: TrackerObservations, stations, R, t, r, B, l):
     J = np.zeros((n, m, n_par))
     J[:, :, :9], J[:, :, -42:] = b.J_glob[..., :9], b.J_glob[..., 9:]
     for i in range(n):
-        J[i, :, 9 + 6 * i:15 + 6 * i] = b.J_pose[i]
+        J[i, :, 9 + 6 * i : 15 + 6 * i] = b.J_pose[i]
     nest = np.zeros((9, n_par))
     nest[:, :9] = b.J_nest[:, :9]
     res = np.r_[b.res_nest, b.res_pose[:, :k3].ravel(), b.res_pose[:, k3:].ravel()]
@@ -367,7 +426,7 @@ def _reduced_normal(b: _JointBlocks) -> tuple[np.ndarray, ...]:
     and rad mix): S (51, 51) and its right side (51,) on the scaled globals, with what it takes
     to recover the poses' steps and the scales: U^-1 (n, 6, 6), W (n, 6, 51), g_pose (n, 6),
     then the globals' and the poses' column scales (51,) and (n, 6)."""
-    sg = 1 / np.sqrt(np.sum(b.J_glob ** 2, axis=(0, 1)) + np.sum(b.J_nest ** 2, axis=0))
+    sg = 1 / np.sqrt(np.sum(b.J_glob**2, axis=(0, 1)) + np.sum(b.J_nest**2, axis=0))
     sp = 1 / np.linalg.norm(b.J_pose, axis=1)  # (n, 6)
     Jg, Jp, Jn = b.J_glob * sg, b.J_pose * sp[:, None, :], b.J_nest * sg
     JpT = Jp.transpose(0, 2, 1)
@@ -387,13 +446,22 @@ def joint_information(obs: TrackerObservations, stations, R, t, r, B, l) -> np.n
     """The legs' 42 x 42 covariance from the full Fisher information at the given values, with
     the stations and poses as nuisance parameters (Schur complement). At the truth this is the
     Cramer-Rao bound of any unbiased estimator of the legs from these measurements."""
-    b = _joint_blocks(obs, np.asarray(stations, float), np.asarray(R, float), np.asarray(t, float),
-                      np.asarray(r, float), np.asarray(B, float), np.asarray(l, float))
+    b = _joint_blocks(
+        obs,
+        np.asarray(stations, float),
+        np.asarray(R, float),
+        np.asarray(t, float),
+        np.asarray(r, float),
+        np.asarray(B, float),
+        np.asarray(l, float),
+    )
     S, _, _, _, _, sg, _ = _reduced_normal(b)
     return (np.linalg.inv(S) * np.outer(sg, sg))[9:, 9:]
 
 
-def adjust_jointly(obs: TrackerObservations, stations, R, t, r, B, l, iterations: int = 20) -> JointCalibration:
+def adjust_jointly(
+    obs: TrackerObservations, stations, R, t, r, B, l, iterations: int = 20
+) -> JointCalibration:
     """Maximum likelihood over stations, poses and legs together, Gauss-Newton from a start
     close enough (the one-step pipeline's): every length and reading weighted by its 1-sigma.
 
@@ -428,4 +496,3 @@ def adjust_jointly(obs: TrackerObservations, stations, R, t, r, B, l, iterations
     Sch, _, _, _, _, sg, _ = _reduced_normal(b)
     cov = (np.linalg.inv(Sch) * np.outer(sg, sg))[9:, 9:] * s2
     return JointCalibration(S, Rc, tc, rc, Bc, lc, cov, float(np.sqrt(s2)), converged)
-

@@ -17,7 +17,9 @@ import numpy as np
 from calibench.estimators.effects import Effect, _amplitude, _std
 
 AXIS = "legs"
-HINGE_NAMES = tuple(f"{p}{i}" for i in range(1, 7) for p in ("rx", "ry", "rz", "Bx", "By", "Bz", "l"))
+HINGE_NAMES = tuple(
+    f"{p}{i}" for i in range(1, 7) for p in ("rx", "ry", "rz", "Bx", "By", "Bz", "l")
+)
 
 
 def _on_leg(values: np.ndarray, leg: int) -> np.ndarray:
@@ -59,9 +61,14 @@ class HingeGeometry(Effect):
         params = {n: float(c) for n, c in zip(HINGE_NAMES, coef)}
         stderr = {n: _std(cov, i) for i, n in enumerate(HINGE_NAMES)}
         big = sorted(params, key=lambda n: -abs(params[n]))[:3]
-        return (params, stderr, "the hinges and initial leg lengths differ from the drawing (largest: "
-                + ", ".join(f"{n} {params[n] * 1000:+.0f} um" for n in big) + "; the base hinges only up to the "
-                "tracker's frame)")
+        return (
+            params,
+            stderr,
+            "the hinges and initial leg lengths differ from the drawing (largest: "
+            + ", ".join(f"{n} {params[n] * 1000:+.0f} um" for n in big)
+            + "; the base hinges only up to the "
+            "tracker's frame)",
+        )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -76,13 +83,18 @@ class LegThermal(LegEffect):
 
     def columns(self, d):
         T = np.asarray(d["temp_c"], float)
-        return _on_leg(-(T - T.mean()) * np.asarray(d["L"], float)[:, self.leg - 1] * 1e-6, self.leg)
+        return _on_leg(
+            -(T - T.mean()) * np.asarray(d["L"], float)[:, self.leg - 1] * 1e-6, self.leg
+        )
 
     def describe(self, coef, cov):
         k = float(coef[0])
-        return ({"leg": self.leg, "ppm_per_k": k}, {"ppm_per_k": _std(cov, 0)},
-                f"leg {self.leg} grows {k:.1f} ppm per kelvin of the logged temperature that its length sensor "
-                f"does not see")
+        return (
+            {"leg": self.leg, "ppm_per_k": k},
+            {"ppm_per_k": _std(cov, 0)},
+            f"leg {self.leg} grows {k:.1f} ppm per kelvin of the logged temperature that its length sensor "
+            f"does not see",
+        )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -104,8 +116,11 @@ class LegBacklash(LegEffect):
 
     def describe(self, coef, cov):
         B = float(coef[0])
-        return ({"leg": self.leg, "reversal_mm": B}, {"reversal_mm": _std(cov, 0)},
-                f"leg {self.leg}'s drive loses {B * 1000:+.1f} um on reversal (its nut or coupling's backlash)")
+        return (
+            {"leg": self.leg, "reversal_mm": B},
+            {"reversal_mm": _std(cov, 0)},
+            f"leg {self.leg}'s drive loses {B * 1000:+.1f} um on reversal (its nut or coupling's backlash)",
+        )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -125,10 +140,12 @@ class LegPitch(LegEffect):
 
     def describe(self, coef, cov):
         amp, amp_std, phase = _amplitude(*coef, cov)
-        return ({"leg": self.leg, "period_mm": self.period_mm, "amplitude_mm": amp, "phase_rad": phase},
-                {"period_mm": self.period_std, "amplitude_mm": amp_std},
-                f"leg {self.leg} reads {amp * 1000:.1f} um off once every {self.period_mm:.2f} mm of its length: its "
-                f"screw's periodic pitch error")
+        return (
+            {"leg": self.leg, "period_mm": self.period_mm, "amplitude_mm": amp, "phase_rad": phase},
+            {"period_mm": self.period_std, "amplitude_mm": amp_std},
+            f"leg {self.leg} reads {amp * 1000:.1f} um off once every {self.period_mm:.2f} mm of its length: its "
+            f"screw's periodic pitch error",
+        )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -159,7 +176,9 @@ class LegPitchSearch:
         u = np.asarray(drivers["L"], float)[:, self.leg - 1].repeat(6)[keep]
         P, _ = best_period(u, r[keep], base, self.periods)
         k = int(np.argmin(np.abs(self.periods - P)))
-        step = abs(self.periods[min(k + 1, len(self.periods) - 1)] - self.periods[max(k - 1, 0)]) / 2
+        step = (
+            abs(self.periods[min(k + 1, len(self.periods) - 1)] - self.periods[max(k - 1, 0)]) / 2
+        )
         P, P_std = refine_period(u, r[keep], base, P, rel=max(1.5 * step / P, 1e-3))
         return LegPitch(leg=self.leg, period_mm=P, period_std=P_std)
 
@@ -195,8 +214,11 @@ class LegCompliance(Effect):
         who = "every leg" if self.leg == 0 else f"leg {self.leg}"
         stiff = f" (a stiffness of {1 / c:.3g} N/um)" if c > 0 else ""
         params = {"um_per_n": c} if self.leg == 0 else {"leg": self.leg, "um_per_n": c}
-        return (params, {"um_per_n": _std(cov, 0)},
-                f"{who} gives {c:.3g} um per N of the axial load the platform's weight puts on it{stiff}")
+        return (
+            params,
+            {"um_per_n": _std(cov, 0)},
+            f"{who} gives {c:.3g} um per N of the axial load the platform's weight puts on it{stiff}",
+        )
 
 
 def stewart_candidates(drivers: dict) -> list:

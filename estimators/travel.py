@@ -15,8 +15,9 @@ def camera_centres(R_board2cam: np.ndarray, t_board2cam: np.ndarray) -> np.ndarr
     return -np.einsum("nji,nj->ni", R_board2cam, t_board2cam)
 
 
-def travel_from_camera_centres(R_board2cam: np.ndarray, t_board2cam: np.ndarray, ref: int,
-                               board_xy_to_axes: np.ndarray) -> np.ndarray:
+def travel_from_camera_centres(
+    R_board2cam: np.ndarray, t_board2cam: np.ndarray, ref: int, board_xy_to_axes: np.ndarray
+) -> np.ndarray:
     """The seed paper's travel: the difference of camera-centre positions in the board frame.
 
     The board moving by d moves the camera centre, seen from the board, by -d. The board is
@@ -27,7 +28,9 @@ def travel_from_camera_centres(R_board2cam: np.ndarray, t_board2cam: np.ndarray,
     return -(C[:, :2] - C[ref, :2]) @ np.asarray(board_xy_to_axes).T
 
 
-def machine_axes_on_plane(normal: np.ndarray, x_axis_cam: np.ndarray, y_axis_cam: np.ndarray) -> np.ndarray:
+def machine_axes_on_plane(
+    normal: np.ndarray, x_axis_cam: np.ndarray, y_axis_cam: np.ndarray
+) -> np.ndarray:
     """Unit machine X and Y directions in the camera frame, projected onto a plane.
 
     ``x_axis_cam``, ``y_axis_cam`` (3,) are the nominal directions of the machine axes as seen
@@ -42,8 +45,13 @@ def machine_axes_on_plane(normal: np.ndarray, x_axis_cam: np.ndarray, y_axis_cam
     return np.stack([X, Y])
 
 
-def travel_in_plane(points_cam: np.ndarray, ref: int, normal: np.ndarray, x_axis_cam: np.ndarray,
-                    y_axis_cam: np.ndarray) -> np.ndarray:
+def travel_in_plane(
+    points_cam: np.ndarray,
+    ref: int,
+    normal: np.ndarray,
+    x_axis_cam: np.ndarray,
+    y_axis_cam: np.ndarray,
+) -> np.ndarray:
     """Travel of a point carried by the stage, from its positions (n, 3) in the camera frame.
 
     The differences from station ``ref`` are resolved on the machine axes projected onto the
@@ -53,8 +61,13 @@ def travel_in_plane(points_cam: np.ndarray, ref: int, normal: np.ndarray, x_axis
     return (points_cam - points_cam[ref]) @ axes.T
 
 
-def board_yaw(R_board2cam: np.ndarray, normal: np.ndarray, x_axis_cam: np.ndarray, y_axis_cam: np.ndarray,
-              board_xy_to_axes: np.ndarray) -> float | np.ndarray:
+def board_yaw(
+    R_board2cam: np.ndarray,
+    normal: np.ndarray,
+    x_axis_cam: np.ndarray,
+    y_axis_cam: np.ndarray,
+    board_xy_to_axes: np.ndarray,
+) -> float | np.ndarray:
     """Angle (rad) of the board's nominal X direction from the machine X axis, about +Z.
 
     +Z = X cross Y of the machine. Zero when the board sits as ``board_xy_to_axes`` says.

@@ -45,7 +45,9 @@ class CameraCalibration:
     rvecs: np.ndarray
     tvecs: np.ndarray
     image_size: tuple[int, int]
-    cov: np.ndarray | None = None  # of the estimated intrinsics cov_names (k, k), the views' poses eliminated
+    cov: np.ndarray | None = (
+        None  # of the estimated intrinsics cov_names (k, k), the views' poses eliminated
+    )
     cov_names: tuple[str, ...] = ()
 
     def params(self) -> dict[str, float]:
@@ -54,9 +56,14 @@ class CameraCalibration:
         return dict(zip(INTRINSIC_NAMES, [K[0, 0], K[1, 1], K[0, 2], K[1, 2], *d[:5]]))
 
 
-def calibrate_camera(object_points: np.ndarray, image_points: list[np.ndarray],
-                     image_size: tuple[int, int], fix_aspect: bool = False,
-                     fix_k3: bool = True, tangential: bool = True) -> CameraCalibration:
+def calibrate_camera(
+    object_points: np.ndarray,
+    image_points: list[np.ndarray],
+    image_size: tuple[int, int],
+    fix_aspect: bool = False,
+    fix_k3: bool = True,
+    tangential: bool = True,
+) -> CameraCalibration:
     """Calibrate from views of one planar target.
 
     Zhang's closed form from the views' homographies (principal point at the image's centre,
@@ -81,7 +88,9 @@ def calibrate_camera(object_points: np.ndarray, image_points: list[np.ndarray],
         raise CalibrationError("object points must be (n, 3) on the plane z = 0")
     pixels = [np.asarray(p, float) for p in image_points]
     if any(p.shape != (len(obj), 2) or np.isinf(p).any() for p in pixels):
-        raise CalibrationError("every view needs one image point (or NaN: left out) per target point")
+        raise CalibrationError(
+            "every view needs one image point (or NaN: left out) per target point"
+        )
     # points rounded to float32 as OpenCV's calibrateCamera takes them, so every result stays
     # that of the OpenCV-based calibration this replaces (equal to 1e-11 px): a 640 px
     # coordinate moves by at most 3e-5 px, under 0.3 % of the 0.01 px corners' noise
@@ -96,8 +105,11 @@ def calibrate_camera(object_points: np.ndarray, image_points: list[np.ndarray],
     except ValueError as e:
         raise CalibrationError(str(e)) from None
     _check_not_degenerate(H, image_size)
-    estimated = {"fx", "fy", "cx", "cy", "k1", "k2"} | ({"p1", "p2"} if tangential else set()) | (
-        set() if fix_k3 else {"k3"})
+    estimated = (
+        {"fx", "fy", "cx", "cy", "k1", "k2"}
+        | ({"p1", "p2"} if tangential else set())
+        | (set() if fix_k3 else {"k3"})
+    )
     # under a fixed aspect ratio fx and fy are one parameter, named fx (fy = fx)
     names = tuple(n for n in INTRINSIC_NAMES if n in estimated and not (fix_aspect and n == "fy"))
     start = _initial_intrinsics(H, image_size, fix_aspect)
@@ -108,15 +120,24 @@ def calibrate_camera(object_points: np.ndarray, image_points: list[np.ndarray],
     views = _reprojections(fit.intrinsics, fit.R, fit.t, obj, measured)  # the corners as measured
     r = views[0][kept]
     calib = CameraCalibration(
-        K=_camera_matrix(fit.intrinsics), dist=fit.intrinsics[[4, 5, 6, 7, 8]].copy(), std={},
-        rms_px=float(np.sqrt(np.sum(r ** 2) / len(r))),
-        per_view_rms_px=np.sqrt(np.nanmean(np.sum(views[0] ** 2, axis=2), axis=1)),  # over each view's kept corners
-        rvecs=Rotation.from_matrix(fit.R).as_rotvec(), tvecs=fit.t, image_size=tuple(image_size))
+        K=_camera_matrix(fit.intrinsics),
+        dist=fit.intrinsics[[4, 5, 6, 7, 8]].copy(),
+        std={},
+        rms_px=float(np.sqrt(np.sum(r**2) / len(r))),
+        per_view_rms_px=np.sqrt(
+            np.nanmean(np.sum(views[0] ** 2, axis=2), axis=1)
+        ),  # over each view's kept corners
+        rvecs=Rotation.from_matrix(fit.R).as_rotvec(),
+        tvecs=fit.t,
+        image_size=tuple(image_size),
+    )
     cov = intrinsic_covariance(calib, obj, None, names, fix_aspect=fix_aspect, _views=views)
     std = {n: float(np.sqrt(cov[i, i])) for i, n in enumerate(names)}
     if fix_aspect:
         std["fy"] = std["fx"]  # fy = fx: the same parameter (OpenCV would report std(fx) = 0)
-    return dataclasses.replace(calib, std={n: std[n] for n in INTRINSIC_NAMES if n in std}, cov=cov, cov_names=names)
+    return dataclasses.replace(
+        calib, std={n: std[n] for n in INTRINSIC_NAMES if n in std}, cov=cov, cov_names=names
+    )
 
 
 def _check_not_degenerate(H: np.ndarray, image_size) -> None:
@@ -127,8 +148,10 @@ def _check_not_degenerate(H: np.ndarray, image_size) -> None:
     """
     scale = np.sqrt(np.abs(np.linalg.det(H[:, :2, :2])))
     if not np.any(np.linalg.norm(H[:, 2, :2], axis=1) * max(image_size) / scale >= 0.02):
-        raise CalibrationError("degenerate pose set: all views are parallel to the image plane, "
-                               "tilt the target between views")
+        raise CalibrationError(
+            "degenerate pose set: all views are parallel to the image plane, "
+            "tilt the target between views"
+        )
 
 
 def _camera_matrix(intrinsics: np.ndarray) -> np.ndarray:
@@ -149,8 +172,14 @@ def _initial_intrinsics(H: np.ndarray, image_size, fix_aspect: bool) -> np.ndarr
     Hc[:, 1] -= cy * H[:, 2]
     h1, h2 = Hc[:, :, 0], Hc[:, :, 1]
     d1, d2 = h1 + h2, h1 - h2
-    h1, h2 = h1 / np.linalg.norm(h1, axis=1, keepdims=True), h2 / np.linalg.norm(h2, axis=1, keepdims=True)
-    d1, d2 = d1 / np.linalg.norm(d1, axis=1, keepdims=True), d2 / np.linalg.norm(d2, axis=1, keepdims=True)
+    h1, h2 = (
+        h1 / np.linalg.norm(h1, axis=1, keepdims=True),
+        h2 / np.linalg.norm(h2, axis=1, keepdims=True),
+    )
+    d1, d2 = (
+        d1 / np.linalg.norm(d1, axis=1, keepdims=True),
+        d2 / np.linalg.norm(d2, axis=1, keepdims=True),
+    )
     # rows: h1 . B h2 = 0 and d1 . B d2 = 0 (|h1| = |h2| after the 45-degree turn), B = diag(a, b, 1)
     A = np.concatenate([h1[:, :2] * h2[:, :2], d1[:, :2] * d2[:, :2]])
     rhs = -np.concatenate([h1[:, 2] * h2[:, 2], d1[:, 2] * d2[:, 2]])
@@ -211,7 +240,7 @@ def _bundle_adjust(obj, pixels, intrinsics, R, t, names, fix_aspect, max_iter: i
     n_res, n_params = 2 * int(kept.sum()), len(cols) + 6 * len(R)
     lam = 1e-3
     converged, it = False, 0
-    for it in range(1, max_iter + 1):
+    for it in range(1, max_iter + 1):  # noqa: B007 - the count is reported after the loop
         Jv = np.concatenate([Je, Ji], axis=2)  # (v, 2 n, 6 + k)
         M = Jv.transpose(0, 2, 1) @ Jv  # each view's normal matrix
         g = (Jv.transpose(0, 2, 1) @ r[..., None])[..., 0]
@@ -220,7 +249,9 @@ def _bundle_adjust(obj, pixels, intrinsics, R, t, names, fix_aspect, max_iter: i
         diag_i, diag_e = np.diag(A).copy(), np.diagonal(C, axis1=1, axis2=2).copy()
         while True:
             Cd = C + lam * diag_e[:, :, None] * np.eye(6)
-            CinvBt = np.linalg.solve(Cd, np.concatenate([B.transpose(0, 2, 1), ge[..., None]], axis=2))
+            CinvBt = np.linalg.solve(
+                Cd, np.concatenate([B.transpose(0, 2, 1), ge[..., None]], axis=2)
+            )
             BCinv = B @ CinvBt  # (v, k, k + 1): B C^-1 B^T and B C^-1 g_e
             S = A + lam * np.diag(diag_i) - BCinv[..., :-1].sum(axis=0)
             di = np.linalg.solve(S, gi - BCinv[..., -1].sum(axis=0))
@@ -231,12 +262,17 @@ def _bundle_adjust(obj, pixels, intrinsics, R, t, names, fix_aspect, max_iter: i
                 x_new[1] = x_new[0]
             R_new = Rotation.from_rotvec(de[:, :3]).as_matrix() @ R
             t_new = t + de[:, 3:]
-            r_new, _, _ = _design(x_new, R_new, t_new, obj, pixels, kept, names, fix_aspect, jacobians=False)
+            r_new, _, _ = _design(
+                x_new, R_new, t_new, obj, pixels, kept, names, fix_aspect, jacobians=False
+            )
             cost_new = float(np.sum(r_new * r_new))
             # the step in units of each parameter's (conditional) std; the corners' rounding
             # sets the floor of the residual's scale
             sigma = max(np.sqrt(cost / max(n_res - n_params, 1)), 1e-9)
-            size = max(np.max(np.abs(di) * np.sqrt(diag_i)), np.max(np.abs(de) * np.sqrt(diag_e))) / sigma
+            size = (
+                max(np.max(np.abs(di) * np.sqrt(diag_i)), np.max(np.abs(de) * np.sqrt(diag_e)))
+                / sigma
+            )
             small = size < XTOL
             # a step under 1e-3 std is taken whatever the cost says: the cost's own rounding (1e-12
             # of it, the residuals being differences of pixel coordinates) hides a change that small
@@ -250,7 +286,10 @@ def _bundle_adjust(obj, pixels, intrinsics, R, t, names, fix_aspect, max_iter: i
             converged = True
             break
         if lam > 1e10:  # no damping lowers the cost: a minimum if the gradient vanishes there
-            grad = np.r_[gi / np.sqrt(np.maximum(diag_i, 1e-300)), (ge / np.sqrt(np.maximum(diag_e, 1e-300))).ravel()]
+            grad = np.r_[
+                gi / np.sqrt(np.maximum(diag_i, 1e-300)),
+                (ge / np.sqrt(np.maximum(diag_e, 1e-300))).ravel(),
+            ]
             converged = bool(np.max(np.abs(grad)) < XTOL * max(np.sqrt(cost), 1e-9))
             break
         r, Je, Ji = _design(x, R, t, obj, pixels, kept, names, fix_aspect)
@@ -265,8 +304,9 @@ def _state(calib: CameraCalibration) -> tuple[np.ndarray, np.ndarray, np.ndarray
     return intrinsics, Rotation.from_rotvec(calib.rvecs).as_matrix(), np.asarray(calib.tvecs, float)
 
 
-def _reprojections(intrinsics: np.ndarray, R: np.ndarray, t: np.ndarray, object_points: np.ndarray,
-                   image_points) -> tuple[np.ndarray, np.ndarray]:
+def _reprojections(
+    intrinsics: np.ndarray, R: np.ndarray, t: np.ndarray, object_points: np.ndarray, image_points
+) -> tuple[np.ndarray, np.ndarray]:
     """Each view's residuals, detected minus projected, (n_views, n_corners, 2) px (NaN where a
     corner was left out), and the Jacobian of its kept corners' projections (zero rows for the
     others), (n_views, 2 n_corners, 15): the pose's left rotation and shift, then fx, fy, cx, cy,
@@ -280,9 +320,14 @@ def _reprojections(intrinsics: np.ndarray, R: np.ndarray, t: np.ndarray, object_
     return res, J.reshape(len(R), 2 * len(obj), 15)
 
 
-def intrinsic_covariance(calib: CameraCalibration, object_points: np.ndarray,
-                         image_points: list[np.ndarray] | None, names: tuple[str, ...],
-                         fix_aspect: bool = False, _views=None) -> np.ndarray:
+def intrinsic_covariance(
+    calib: CameraCalibration,
+    object_points: np.ndarray,
+    image_points: list[np.ndarray] | None,
+    names: tuple[str, ...],
+    fix_aspect: bool = False,
+    _views=None,
+) -> np.ndarray:
     """Full covariance of the estimated intrinsics ``names``, shape (k, k).
 
     Gauss-Newton information of all views, with each view's pose eliminated (Schur complement),
@@ -291,7 +336,9 @@ def intrinsic_covariance(calib: CameraCalibration, object_points: np.ndarray,
     ``_views``: the views' :func:`_reprojections`, when the caller has them.
     """
     cols = {n: i for i, n in enumerate(("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3"))}
-    res, J = _reprojections(*_state(calib), object_points, image_points) if _views is None else _views
+    res, J = (
+        _reprojections(*_state(calib), object_points, image_points) if _views is None else _views
+    )
     aspect = calib.K[1, 1] / calib.K[0, 0]
     r = res[np.isfinite(res)]
     sse, n_res = float(r @ r), r.size

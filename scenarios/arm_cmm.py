@@ -30,11 +30,18 @@ from pathlib import Path
 
 import numpy as np
 
-from calibench.estimators.arm_identification import (ConeProblem, TrackerProblem, TrackerState, identifiable_basis,
-                                           identify_identifiable, observability_index, parameter_scales,
-                                           select_postures)
-from calibench.estimators.rotations import rigid_transform
+from calibench.estimators.arm_identification import (
+    ConeProblem,
+    TrackerProblem,
+    TrackerState,
+    identifiable_basis,
+    identify_identifiable,
+    observability_index,
+    parameter_scales,
+    select_postures,
+)
 from calibench.estimators.arm_kinematics import Chain, param_names, point
+from calibench.estimators.rotations import rigid_transform
 from calibench.scenarios.arms import chain_of
 from calibench.scenarios.report import BadInput, Check, Parameter, Report
 from calibench.sim.arm_cmm import ArmSim, ArmTruth
@@ -51,7 +58,9 @@ class ArmCmmConfig:
     n_candidates: int = 600
     n_holdout: int = 100
     n_per_cone: int = 40
-    cone_point_sigma_mm: float = 0.01  # encoders through the arm plus seating, as the user states it
+    cone_point_sigma_mm: float = (
+        0.01  # encoders through the arm plus seating, as the user states it
+    )
     bar_sigma_mm: float = 0.001
     after_limit_mm: float = 0.02  # the tracker's own noise is about 0.01 mm at 2.5 m
     # The instruments' 1-sigma as their datasheets state it, which is all the estimator is told
@@ -69,10 +78,16 @@ class ArmCmmConfig:
     @property
     def stated(self) -> tuple:
         """(range (a um, b um/m), angle urad, encoder urad): the datasheet's 1-sigma."""
-        return tuple(self.stated_range_sigma_um), self.stated_angle_sigma_urad, self.stated_encoder_sigma_urad
+        return (
+            tuple(self.stated_range_sigma_um),
+            self.stated_angle_sigma_urad,
+            self.stated_encoder_sigma_urad,
+        )
 
 
-def tracker_problem(sim: ArmSim, chain: Chain, q_true, q_read, rng, stated: tuple | None = None) -> TrackerProblem:
+def tracker_problem(
+    sim: ArmSim, chain: Chain, q_true, q_read, rng, stated: tuple | None = None
+) -> TrackerProblem:
     """The tracker's measurements at motor angles ``q_true`` (n, N) with encoder readings
     ``q_read``; exact (no noise, no encoder noise in the model) without ``rng``. ``stated``: the
     1-sigma the estimator is told (:attr:`ArmCmmConfig.stated`); None: the simulation's own noise
@@ -83,8 +98,14 @@ def tracker_problem(sim: ArmSim, chain: Chain, q_true, q_read, rng, stated: tupl
         enc = sim.truth.encoder_noise_urad * 1e-6
     else:
         (a, b), ang, enc = stated
-        sigma = np.stack([(a + b * meas[:, 0] / 1000) / 1000, np.full(len(meas), ang * 1e-6),
-                          np.full(len(meas), ang * 1e-6)], axis=1)
+        sigma = np.stack(
+            [
+                (a + b * meas[:, 0] / 1000) / 1000,
+                np.full(len(meas), ang * 1e-6),
+                np.full(len(meas), ang * 1e-6),
+            ],
+            axis=1,
+        )
         enc = enc * 1e-6
     return TrackerProblem(chain, q_read, meas, sigma, enc if rng is not None else 0.0)
 
@@ -161,7 +182,9 @@ def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool
     plan = tracker_problem(sim, chain, candidates, candidates, None)
     basis = identifiable_basis(plan)
     names = plan.names
-    J = plan.jacobian(plan.start())[:, basis.kept] * parameter_scales([names[k] for k in basis.kept])
+    J = plan.jacobian(plan.start())[:, basis.kept] * parameter_scales(
+        [names[k] for k in basis.kept]
+    )
     blocks = J.reshape(len(candidates), 3, -1)
     chosen_idx = select_postures(blocks, config.n_postures)
     random_idx = np.arange(config.n_postures)  # candidates are random: the first n
@@ -179,8 +202,10 @@ def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool
         try:
             ident = identify_identifiable(problem)
         except np.linalg.LinAlgError:
-            raise BadInput(f"the arm {sim.arm.name} leaves the identification singular: its links give the tool "
-                           "point too little motion to determine its parameters (an arm without length?)") from None
+            raise BadInput(
+                f"the arm {sim.arm.name} leaves the identification singular: its links give the tool "
+                "point too little motion to determine its parameters (an arm without length?)"
+            ) from None
         elapsed = time.perf_counter() - t0
         results[label] = (problem, ident, elapsed)
     problem, ident, ident_s = results["chosen"]
@@ -200,12 +225,20 @@ def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool
     cones = [np.asarray(truth.cone_a_mm), np.asarray(truth.cone_b_mm)]
     q_cone = np.vstack([sim.postures_in_cone(c, config.n_per_cone, rng) for c in cones])
     which = np.repeat([0, 1], config.n_per_cone)
-    cone_problem = ConeProblem(chain, sim.encoders(q_cone, rng), which, config.cone_point_sigma_mm,
-                               truth.bar_length_mm, config.bar_sigma_mm)
+    cone_problem = ConeProblem(
+        chain,
+        sim.encoders(q_cone, rng),
+        which,
+        config.cone_point_sigma_mm,
+        truth.bar_length_mm,
+        config.bar_sigma_mm,
+    )
     cone_ident = identify_identifiable(cone_problem)
     cone_basis = cone_ident.basis
     p_cone = point(chain, q_hold, cone_ident.state.delta)
-    R_c, t_c = rigid_transform(p_cone, sim.probe_mm(holdout))  # the cones fix no base frame: compare shapes
+    R_c, t_c = rigid_transform(
+        p_cone, sim.probe_mm(holdout)
+    )  # the cones fix no base frame: compare shapes
     rms["cone"] = _rms(p_cone @ R_c.T + t_c - sim.probe_mm(holdout))
 
     # no pixels here: the sensors are MuJoCo's geometry plus noise models, whatever was asked
@@ -215,29 +248,66 @@ def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool
         angle = _is_angle(name)
         f = 1e6 if angle else 1.0
         if name not in reference:
-            by_holdout[name] = {"unit": "urad" if angle else "mm", "estimate": ident.estimate[name] * f,
-                                "std": ident.std[name] * f}
+            by_holdout[name] = {
+                "unit": "urad" if angle else "mm",
+                "estimate": ident.estimate[name] * f,
+                "std": ident.std[name] * f,
+            }
             continue
-        report.parameters.append(Parameter(name, "urad" if angle else "mm", reference[name] * f,
-                                           ident.estimate[name] * f, ident.std[name] * f,
-                                           TOL_SIGMA * ident.std[name] * f))
+        report.parameters.append(
+            Parameter(
+                name,
+                "urad" if angle else "mm",
+                reference[name] * f,
+                ident.estimate[name] * f,
+                ident.std[name] * f,
+                TOL_SIGMA * ident.std[name] * f,
+            )
+        )
     report.checks += [
-        Check("probe_rms_before_mm", rms["before"], None, note=f"{config.n_holdout} held-out postures, nominal model"),
-        Check("probe_rms_after_mm", rms["chosen"], config.after_limit_mm,
-              note="held-out postures, identified from the tracker at the chosen postures"),
-        Check("probe_rms_after_random_mm", rms["random"], None, note="the same, from random postures"),
-        Check("probe_rms_after_cone_mm", rms["cone"], None,
-              note="identified from the cones and the bar alone; compared after a rigid fit (no base frame)"),
-        Check("observability_chosen", o1_chosen, None, note="O1 (Borm and Menq) of the chosen postures"),
+        Check(
+            "probe_rms_before_mm",
+            rms["before"],
+            None,
+            note=f"{config.n_holdout} held-out postures, nominal model",
+        ),
+        Check(
+            "probe_rms_after_mm",
+            rms["chosen"],
+            config.after_limit_mm,
+            note="held-out postures, identified from the tracker at the chosen postures",
+        ),
+        Check(
+            "probe_rms_after_random_mm", rms["random"], None, note="the same, from random postures"
+        ),
+        Check(
+            "probe_rms_after_cone_mm",
+            rms["cone"],
+            None,
+            note="identified from the cones and the bar alone; compared after a rigid fit (no base frame)",
+        ),
+        Check(
+            "observability_chosen",
+            o1_chosen,
+            None,
+            note="O1 (Borm and Menq) of the chosen postures",
+        ),
         Check("observability_random", o1_random, None, note="O1 of as many random postures"),
         Check("observability_gain", o1_chosen / o1_random, 1.0, op=">="),
-        Check("dropped_parameters", float(len(ident.basis.dropped)), None,
-              note="; ".join(f"{k}: {v}" for k, v in ident.basis.dropped.items())),
+        Check(
+            "dropped_parameters",
+            float(len(ident.basis.dropped)),
+            None,
+            note="; ".join(f"{k}: {v}" for k, v in ident.basis.dropped.items()),
+        ),
         Check("identification_s", ident_s, 1.0, note="one identification, 50 postures"),
         # a solve that ran out of iterations would report its last iterate as if it were the answer
-        Check("solves_not_converged", float(sum(not r[1].converged for r in results.values())
-                                            + (not cone_ident.converged)), 0.0,
-              note="tracker (chosen and random postures), cones"),
+        Check(
+            "solves_not_converged",
+            float(sum(not r[1].converged for r in results.values()) + (not cone_ident.converged)),
+            0.0,
+            note="tracker (chosen and random postures), cones",
+        ),
     ]
     report.info = {
         "dropped_tracker": ident.basis.dropped,
@@ -252,8 +322,19 @@ def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool
         "cone_estimates": {k: v for k, v in cone_ident.estimate.items()},
         "observability_index": "O1 = (prod sigma_i)^(1/L) / sqrt(rows), columns scaled 0.1 mm / 1 mrad",
     }
-    artifacts = dict(sim=sim, chain=chain, postures=candidates[chosen_idx], problem=problem, ident=ident,
-                     start=start, holdout=holdout, y_true=y_true, y_before=y_before, R_bt=R_bt, t_bt=t_bt)
+    artifacts = dict(
+        sim=sim,
+        chain=chain,
+        postures=candidates[chosen_idx],
+        problem=problem,
+        ident=ident,
+        start=start,
+        holdout=holdout,
+        y_true=y_true,
+        y_before=y_before,
+        R_bt=R_bt,
+        t_bt=t_bt,
+    )
     if out_dir is not None:  # a Monte-Carlo trial keeps only the numbers
         _write_figure(out_dir, artifacts)
     if rrd and out_dir is not None:
@@ -273,7 +354,10 @@ def posture_residuals(a: dict) -> tuple[np.ndarray, np.ndarray]:
     problem, st0, st = a["problem"], a["start"], a["ident"].state
     r, az, el = problem.meas.T
     y = np.stack([r * np.cos(el) * np.cos(az), r * np.cos(el) * np.sin(az), r * np.sin(el)], axis=1)
-    return (np.linalg.norm(problem.points(st0) - y, axis=1), np.linalg.norm(problem.points(st) - y, axis=1))
+    return (
+        np.linalg.norm(problem.points(st0) - y, axis=1),
+        np.linalg.norm(problem.points(st) - y, axis=1),
+    )
 
 
 def _write_figure(out_dir: Path, a: dict) -> None:
@@ -288,7 +372,9 @@ def _write_figure(out_dir: Path, a: dict) -> None:
     k = np.arange(1, len(before) + 1)
     ax.semilogy(k, before, "o", color="tab:red", label="nominal model")
     ax.semilogy(k, after, "o", color="tab:green", label="identified model")
-    ax.set(xlabel="posture", ylabel="|measured - modelled| (mm)", title="arm-cmm: residual per posture")
+    ax.set(
+        xlabel="posture", ylabel="|measured - modelled| (mm)", title="arm-cmm: residual per posture"
+    )
     ax.legend()
     fig.savefig(out_dir / "arm_cmm.png", dpi=90)
     plt.close(fig)
@@ -299,7 +385,9 @@ def trial_parameters(config: ArmCmmConfig, seed: int) -> list[Parameter]:
     parameter that has one against its independent reference (:func:`reference_values`; no
     planning, no cones, no figures)."""
     rng = np.random.default_rng(seed)
-    sim = ArmSim(config.arm, config.truth, reuse=True)  # the trial's alone: the last trial's model rewritten
+    sim = ArmSim(
+        config.arm, config.truth, reuse=True
+    )  # the trial's alone: the last trial's model rewritten
     chain = chain_of(sim.arm)
     q = sim.random_postures(config.n_postures, rng)
     q_read = sim.encoders(q, rng)
@@ -308,7 +396,9 @@ def trial_parameters(config: ArmCmmConfig, seed: int) -> list[Parameter]:
     # the Cramer-Rao bound: the Jacobian at the truth (the injected errors, the tracker's true
     # frame) whitened by the simulation's own noise (tracker and encoders), not the datasheet's,
     # unscaled by any residual; the dropped columns stay at their true values
-    true_noise = noisy.reweighted(sim.tracker_sigma(noisy.meas), sim.truth.encoder_noise_urad * 1e-6)
+    true_noise = noisy.reweighted(
+        sim.tracker_sigma(noisy.meas), sim.truth.encoder_noise_urad * 1e-6
+    )
     R_bt, t_bt = sim.base2tracker()
     J = true_noise.jacobian(TrackerState(sim.delta, R_bt, t_bt))[:, ident.basis.kept]
     crlb2 = np.diag(np.linalg.inv(J.T @ J))
@@ -323,8 +413,17 @@ def trial_parameters(config: ArmCmmConfig, seed: int) -> list[Parameter]:
         if name not in reference:
             continue
         f = 1e6 if _is_angle(name) else 1.0
-        out.append(Parameter(name, "urad" if f > 1 else "mm", reference[name] * f, ident.estimate[name] * f,
-                             ident.std[name] * f, TOL_SIGMA * ident.std[name] * f, crlb=bound[name] * f))
+        out.append(
+            Parameter(
+                name,
+                "urad" if f > 1 else "mm",
+                reference[name] * f,
+                ident.estimate[name] * f,
+                ident.std[name] * f,
+                TOL_SIGMA * ident.std[name] * f,
+                crlb=bound[name] * f,
+            )
+        )
     return out
 
 
@@ -337,5 +436,6 @@ def prior(config: ArmCmmConfig, rng: np.random.Generator) -> ArmCmmConfig:
     # the description read once, here, for the whole trial (not again by each simulator)
     arm = load_arm(config.arm) if isinstance(config.arm, str) else config.arm
     scale = np.abs(np.asarray(config.truth.delta or default_errors(arm), float))
-    return dataclasses.replace(config, arm=arm,
-                               truth=dataclasses.replace(config.truth, delta=tuple(rng.normal(0, scale))))
+    return dataclasses.replace(
+        config, arm=arm, truth=dataclasses.replace(config.truth, delta=tuple(rng.normal(0, scale)))
+    )

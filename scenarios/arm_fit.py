@@ -30,7 +30,13 @@ from pathlib import Path
 
 import numpy as np
 
-from calibench.estimators.arm_identification import AngleTerm, Basis, PointProblem, identifiable_basis, identify
+from calibench.estimators.arm_identification import (
+    AngleTerm,
+    Basis,
+    PointProblem,
+    identifiable_basis,
+    identify,
+)
 from calibench.estimators.arm_kinematics import gravity_torques, param_is_angle
 from calibench.estimators.arm_screening import screen
 from calibench.estimators.rotations import matrix_to_rotvec, rigid_transform
@@ -67,36 +73,60 @@ class ArmCalibration:
         return self.ident.state
 
 
-def calibrate(chain, q_rad: np.ndarray, xyz_mm: np.ndarray, recording: np.ndarray, sigma_mm: np.ndarray | None,
-              model: str, parallel=(), robust: bool = True, prior: float | None = PRIOR,
-              angle_terms=()) -> ArmCalibration:
+def calibrate(
+    chain,
+    q_rad: np.ndarray,
+    xyz_mm: np.ndarray,
+    recording: np.ndarray,
+    sigma_mm: np.ndarray | None,
+    model: str,
+    parallel=(),
+    robust: bool = True,
+    prior: float | None = PRIOR,
+    angle_terms=(),
+) -> ArmCalibration:
     """Steps 2-4 of the module's recipe on stacked rows (q (n, N), xyz (n, 3), recording (n,)).
     ``prior``: the kinematic errors' prior in units of their typical size (None: none);
     ``angle_terms``: joint-angle errors a discovery found (:func:`angle_terms_from_discovery`).
     A singular system (an arm whose links have no length, postures that never move the tool
     point) is bad input, said in one line."""
     try:
-        return _calibrate(chain, q_rad, xyz_mm, recording, sigma_mm, model, parallel, robust, prior, angle_terms)
+        return _calibrate(
+            chain, q_rad, xyz_mm, recording, sigma_mm, model, parallel, robust, prior, angle_terms
+        )
     except np.linalg.LinAlgError:
-        raise BadInput("the postures and the arm leave the fit singular: the measured points cannot determine "
-                       "even the base frame and the tool (an arm without length? postures that never move the "
-                       "tool point?)") from None
+        raise BadInput(
+            "the postures and the arm leave the fit singular: the measured points cannot determine "
+            "even the base frame and the tool (an arm without length? postures that never move the "
+            "tool point?)"
+        ) from None
 
 
-def _calibrate(chain, q_rad, xyz_mm, recording, sigma_mm, model, parallel, robust, prior, angle_terms) -> ArmCalibration:
+def _calibrate(
+    chain, q_rad, xyz_mm, recording, sigma_mm, model, parallel, robust, prior, angle_terms
+) -> ArmCalibration:
     """:func:`calibrate`, its singular systems not yet said."""
     joints, why = loaded_joints(chain, q_rad) if model == "physics" else ((), {})
     keep = np.ones(len(q_rad), bool)
     outliers = np.zeros(0, int)
     for _ in range(4):
-        problem = PointProblem(chain, q_rad[keep], xyz_mm[keep], recording[keep],
-                               None if sigma_mm is None else sigma_mm[keep], compliance_joints=joints, prior=prior,
-                               angle_terms=angle_terms)
+        problem = PointProblem(
+            chain,
+            q_rad[keep],
+            xyz_mm[keep],
+            recording[keep],
+            None if sigma_mm is None else sigma_mm[keep],
+            compliance_joints=joints,
+            prior=prior,
+            angle_terms=angle_terms,
+        )
         held = problem.held_tool()
         n_par = len(problem.names)
         if 3 * keep.sum() <= n_par + 3:
-            raise BadInput(f"{keep.sum()} postures for {n_par} parameters (base frames, tool, kinematics): "
-                           "far too few to calibrate")
+            raise BadInput(
+                f"{keep.sum()} postures for {n_par} parameters (base frames, tool, kinematics): "
+                "far too few to calibrate"
+            )
         reg = identify(problem, Basis(np.sort(problem.always), {}))
         # what the data determine, without the prior (which would make everything "identifiable")
         problem.prior = None
@@ -120,7 +150,9 @@ def _calibrate(chain, q_rad, xyz_mm, recording, sigma_mm, model, parallel, robus
         rows = np.flatnonzero(keep)
         outliers = np.r_[outliers, rows[bad]]
         keep[rows[bad]] = False
-    return ArmCalibration(problem, ident, model, {**why, **held}, np.sort(outliers), sigma, problem.names)
+    return ArmCalibration(
+        problem, ident, model, {**why, **held}, np.sort(outliers), sigma, problem.names
+    )
 
 
 def angle_terms_from_discovery(path, n_joints: int, n_recordings: int = 1) -> list[AngleTerm]:
@@ -140,7 +172,11 @@ def angle_terms_from_discovery(path, n_joints: int, n_recordings: int = 1) -> li
             raise BadInput(f"cannot read {path}: {e.strerror}") from None
         except (json.JSONDecodeError, UnicodeDecodeError):
             raise BadInput(f"{path} is not a discovery.json (not JSON)") from None
-    if not isinstance(d, dict) or d.get("scenario") != "arm-cmm" or not isinstance(d.get("effects"), list):
+    if (
+        not isinstance(d, dict)
+        or d.get("scenario") != "arm-cmm"
+        or not isinstance(d.get("effects"), list)
+    ):
         raise BadInput(f"{path} is not the discovery.json of an arm-cmm recording")
     terms = []
     for k, e in enumerate(d["effects"]):
@@ -148,40 +184,64 @@ def angle_terms_from_discovery(path, n_joints: int, n_recordings: int = 1) -> li
             raise BadInput(f"{path}: effect {k + 1} is not an object with a name and its params")
         name, p = e.get("name"), e.get("params", {})
         if name not in ARM_EFFECTS:
-            raise BadInput(f"{path}: effect {name!r} is not an arm's (the arm's effects: {', '.join(ARM_EFFECTS)})")
+            raise BadInput(
+                f"{path}: effect {name!r} is not an arm's (the arm's effects: {', '.join(ARM_EFFECTS)})"
+            )
         if name not in ("transmission", "encoder_eccentricity", "nonsmooth"):
             continue  # the model's own (geometry, compliance) or none the fit has a term for
         j = p.get("joint")
         if isinstance(j, bool) or not isinstance(j, int) or not 1 <= j <= n_joints:
-            raise BadInput(f"{path}: effect {name} names joint {j!r}; the arm has {n_joints} joints")
+            raise BadInput(
+                f"{path}: effect {name} names joint {j!r}; the arm has {n_joints} joints"
+            )
         if name == "transmission":
             if not isinstance(p.get("per_recording", False), bool):
-                raise BadInput(f"{path}: per_recording of joint {j}'s transmission is true or false, "
-                               f"not {p['per_recording']!r}")
+                raise BadInput(
+                    f"{path}: per_recording of joint {j}'s transmission is true or false, "
+                    f"not {p['per_recording']!r}"
+                )
             recs = range(n_recordings) if p.get("per_recording") else [None]
-            harmonics = _numbers(p.get("harmonics", []), f"{path}: joint {j}'s transmission harmonics", 0.0, 1e3)
-            terms += [AngleTerm(j, "harmonic", harmonic=h, label="transmission", recording=r)
-                      for h in harmonics for r in recs]
+            harmonics = _numbers(
+                p.get("harmonics", []), f"{path}: joint {j}'s transmission harmonics", 0.0, 1e3
+            )
+            terms += [
+                AngleTerm(j, "harmonic", harmonic=h, label="transmission", recording=r)
+                for h in harmonics
+                for r in recs
+            ]
         elif name == "encoder_eccentricity":
             terms.append(AngleTerm(j, "harmonic", harmonic=1.0, label="eccentricity"))
         elif "edges_deg" in p:
             edges_deg = _numbers(p["edges_deg"], f"{path}: joint {j}'s edges_deg", -3600.0, 3600.0)
             if np.any(np.diff(edges_deg) <= 0):
                 raise BadInput(f"{path}: joint {j}'s edges_deg must increase")
-            terms.append(AngleTerm(j, "table", edges_rad=tuple(np.r_[-np.inf, np.radians(edges_deg), np.inf]),
-                                   label="table"))
+            terms.append(
+                AngleTerm(
+                    j,
+                    "table",
+                    edges_rad=tuple(np.r_[-np.inf, np.radians(edges_deg), np.inf]),
+                    label="table",
+                )
+            )
     return terms
 
 
 # the effects a discover arm-cmm names (CONTRACT's effect names for an arm)
-ARM_EFFECTS = ("geometry", "joint_compliance", "encoder_eccentricity", "thermal_expansion", "transmission",
-               "nonsmooth")
+ARM_EFFECTS = (
+    "geometry",
+    "joint_compliance",
+    "encoder_eccentricity",
+    "thermal_expansion",
+    "transmission",
+    "nonsmooth",
+)
 
 
 def _numbers(values, what: str, lo: float, hi: float) -> list[float]:
     """A JSON list of plain numbers in (lo, hi], or one BadInput line saying what it holds."""
-    if not isinstance(values, list) or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
-                                               for v in values):
+    if not isinstance(values, list) or not all(
+        isinstance(v, (int, float)) and not isinstance(v, bool) for v in values
+    ):
         raise BadInput(f"{what}: a list of numbers, not {values!r}")
     out = [float(v) for v in values]
     if not all(lo < v <= hi for v in out):
@@ -201,8 +261,13 @@ def _unit_and_factor(name: str) -> tuple[str, float]:
 
 def _errors(e: np.ndarray) -> dict:
     d = np.linalg.norm(e, axis=1)
-    return {"samples": int(len(d)), "mean_mm": float(d.mean()), "rms_mm": float(np.sqrt(np.mean(d * d))),
-            "max_mm": float(d.max()), "p95_mm": float(np.percentile(d, 95))}
+    return {
+        "samples": int(len(d)),
+        "mean_mm": float(d.mean()),
+        "rms_mm": float(np.sqrt(np.mean(d * d))),
+        "max_mm": float(d.max()),
+        "p95_mm": float(np.percentile(d, 95)),
+    }
 
 
 def _arcs(q_deg: np.ndarray, bin_deg: float = 10.0) -> np.ndarray:
@@ -221,7 +286,9 @@ def _span_deg(q_deg: np.ndarray) -> float:
     return float(360.0 - gaps.max())
 
 
-def coverage_warnings(chain, q_train: np.ndarray, tests: dict[str, np.ndarray], compliance_joints) -> list[str]:
+def coverage_warnings(
+    chain, q_train: np.ndarray, tests: dict[str, np.ndarray], compliance_joints
+) -> list[str]:
     """Where the training postures leave out part of the workspace that a test visits, or that a
     model would need to see (one sign of a joint's gravity torque, a narrow band of a joint)."""
     out = []
@@ -235,8 +302,10 @@ def coverage_warnings(chain, q_train: np.ndarray, tests: dict[str, np.ndarray], 
         pos = float(np.mean(tau[:, j - 1] > 0))
         if pos < 0.02 or pos > 0.98:
             sign = "positive" if pos > 0.5 else "negative"
-            out.append(f"joint {j}'s gravity torque is {sign} in {100 * max(pos, 1 - pos):.0f} % of the training "
-                       "postures: the model has not seen it loaded the other way")
+            out.append(
+                f"joint {j}'s gravity torque is {sign} in {100 * max(pos, 1 - pos):.0f} % of the training "
+                "postures: the model has not seen it loaded the other way"
+            )
     arcs = _arcs(qd)
     for name, q in tests.items():
         qt = np.degrees(q)
@@ -244,7 +313,9 @@ def coverage_warnings(chain, q_train: np.ndarray, tests: dict[str, np.ndarray], 
         for j in range(qt.shape[1]):
             outside = float(np.mean(~arcs[j, b[:, j]]))
             if outside > 0.1:
-                out.append(f"{name}: {100 * outside:.0f} % of its postures put q{j + 1} where no training posture has it")
+                out.append(
+                    f"{name}: {100 * outside:.0f} % of its postures put q{j + 1} where no training posture has it"
+                )
         if tau is not None:
             tt = gravity_torques(chain, q)
             for j in compliance_joints:
@@ -252,7 +323,9 @@ def coverage_warnings(chain, q_train: np.ndarray, tests: dict[str, np.ndarray], 
                 if train_pos < 0.02 or train_pos > 0.98:
                     other = float(np.mean((tt[:, j - 1] > 0) != (train_pos > 0.5)))
                     if other > 0.1:
-                        out.append(f"{name}: {100 * other:.0f} % of its postures load joint {j} the other way")
+                        out.append(
+                            f"{name}: {100 * other:.0f} % of its postures load joint {j} the other way"
+                        )
     return out
 
 
@@ -285,7 +358,12 @@ def _screened(rec: ArmRecording) -> tuple[np.ndarray, list[dict], list[tuple[int
     flagged = []
     for r in s.stale:
         keep[r] = False
-        flagged.append({"row": int(r), "why": "stale: repeats the previous row's measurement while the arm moved"})
+        flagged.append(
+            {
+                "row": int(r),
+                "why": "stale: repeats the previous row's measurement while the arm moved",
+            }
+        )
     pairs = []
     for (a, b), d in zip(s.pairs, s.distance_mm):
         if keep[a] and keep[b]:
@@ -299,12 +377,25 @@ def _settle_pairs(keep, flagged, pairs, model_xyz, meas_xyz, repeat_mm):
         ea, eb = (np.linalg.norm(model_xyz[i] - meas_xyz[i]) for i in (a, b))
         bad, good = (a, b) if ea > eb else (b, a)
         keep[bad] = False
-        flagged.append({"row": bad, "why": f"the same posture as row {good}, measured {d:.2f} mm away from it "
-                                           f"(repeatability {repeat_mm:.3f} mm); this one is the farther from the model"})
+        flagged.append(
+            {
+                "row": bad,
+                "why": f"the same posture as row {good}, measured {d:.2f} mm away from it "
+                f"(repeatability {repeat_mm:.3f} mm); this one is the farther from the model",
+            }
+        )
 
 
-def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path], tests_new_frame: list[Path],
-                holdout: float | None, model: str | None, out_dir: Path, effects: Path | str | None = None) -> dict:
+def run_arm_fit(
+    paths: list[Path],
+    arm_spec: str | Path | None,
+    tests: list[Path],
+    tests_new_frame: list[Path],
+    holdout: float | None,
+    model: str | None,
+    out_dir: Path,
+    effects: Path | str | None = None,
+) -> dict:
     """The ``fit arm-cmm`` command: fit.json's content (also written to ``out_dir``). ``effects``:
     a discovery.json whose joint-angle effects join the model, or ``"discover"``: run the
     discovery here, on the training rows only (held-out rows never shape the model)."""
@@ -312,19 +403,25 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
         raise BadInput("--arm is empty: give an ARM.toml or a built-in arm's name (arm-cmm, ur10)")
     arm = load_arm(arm_spec or "arm-cmm")
     run_discovery = str(effects) == "discover"
-    terms = (angle_terms_from_discovery(effects, arm.n_joints, len(paths))
-             if effects is not None and not run_discovery else [])
+    terms = (
+        angle_terms_from_discovery(effects, arm.n_joints, len(paths))
+        if effects is not None and not run_discovery
+        else []
+    )
     if model is None:
         model = "physics" if arm.has_masses else "geometry"
     if model == "physics" and not arm.has_masses:
-        raise BadInput(f"--model physics needs the arm's masses (mass_kg and com_mm per joint in {arm.source})")
+        raise BadInput(
+            f"--model physics needs the arm's masses (mass_kg and com_mm per joint in {arm.source})"
+        )
     if holdout is not None and not 0.0 < holdout < 0.9:
         raise BadInput(f"--holdout {holdout}: a fraction between 0 and 0.9")
     label = _labels(paths + tests + tests_new_frame)
     chain = chain_of(arm)
-    N = arm.n_joints
     train = [_load(p, arm) for p in paths]
-    judged = {p: _load(p, arm) for p in tests + tests_new_frame}  # read now: a bad one is said before the fit
+    judged = {
+        p: _load(p, arm) for p in tests + tests_new_frame
+    }  # read now: a bad one is said before the fit
     rng = np.random.default_rng(SPLIT_SEED)
     flagged, pending, held, used = {}, {}, {}, []
     for p, rec in zip(paths, train):
@@ -333,13 +430,15 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
         if holdout:
             idx = rng.permutation(len(rec))
             out = np.zeros(len(rec), bool)
-            out[idx[:int(round(holdout * len(rec)))]] = True
+            out[idx[: int(round(holdout * len(rec)))]] = True
             if not (out & keep).any():
-                raise BadInput(f"--holdout {holdout:g} holds out no usable row of {p} ({len(rec)} rows)")
+                raise BadInput(
+                    f"--holdout {holdout:g} holds out no usable row of {p} ({len(rec)} rows)"
+                )
             held[label[p]] = out & keep
             keep &= ~out
         used.append(keep)
-    for p, rec, keep in zip(paths, train, used):
+    for p, keep in zip(paths, used):
         if keep.sum() < 3:
             raise BadInput(f"{p}: {keep.sum()} usable rows; a base registration needs at least 3")
     q = np.vstack([r.q_rad[k] for r, k in zip(train, used)])
@@ -363,8 +462,14 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
         for i, (p, rec) in enumerate(zip(paths, train)):
             pairs, rep = pending[label[p]]
             if pairs:
-                _settle_pairs(used[i], flagged[label[p]], pairs, cal.problem.model(cal.state, rec.q_rad, frame=i, session=i),
-                              rec.xyz_mm, rep)
+                _settle_pairs(
+                    used[i],
+                    flagged[label[p]],
+                    pairs,
+                    cal.problem.model(cal.state, rec.q_rad, frame=i, session=i),
+                    rec.xyz_mm,
+                    rep,
+                )
         q = np.vstack([r.q_rad[k] for r, k in zip(train, used)])
         y = np.vstack([r.xyz_mm[k] for r, k in zip(train, used)])
         rec_id = np.concatenate([np.full(k.sum(), i) for i, k in enumerate(used)])
@@ -374,29 +479,54 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
     # model-based outliers of the training rows, by file
     for i_row in cal.outliers:
         i_rec = int(rec_id[i_row])
-        flagged[label[paths[i_rec]]].append({"row": int(rows_of[i_row]),
-                                           "why": "its residual is beyond any Gaussian scatter of the fit's size "
-                                                  "(p < 1e-6): left out of the fit"})
+        flagged[label[paths[i_rec]]].append(
+            {
+                "row": int(rows_of[i_row]),
+                "why": "its residual is beyond any Gaussian scatter of the fit's size "
+                "(p < 1e-6): left out of the fit",
+            }
+        )
     s = cal.state
     prob = cal.problem
     e_fit = prob.y - prob.model(s)
-    result = {"scenario": "arm-cmm", "arm": arm.name, "model": model, "samples": int(len(prob.y)),
-              "parameters": [], "dropped": [], "converged": bool(cal.ident.converged)}
+    result = {
+        "scenario": "arm-cmm",
+        "arm": arm.name,
+        "model": model,
+        "samples": int(len(prob.y)),
+        "parameters": [],
+        "dropped": [],
+        "converged": bool(cal.ident.converged),
+    }
     if effects is not None:
-        result["effects_from"] = {"file": "discovery on the training rows" if run_discovery else str(effects),
-                                  "terms": [t.names[0].rsplit("_", 1)[0] for t in terms]}
+        result["effects_from"] = {
+            "file": "discovery on the training rows" if run_discovery else str(effects),
+            "terms": [t.names[0].rsplit("_", 1)[0] for t in terms],
+        }
         if discovery is not None:
             result["effects_from"]["summary"] = discovery["summary"]
     for name in (prob.names[k] for k in cal.ident.basis.kept):
         if name.startswith("base_"):
             continue
         unit, f = _unit_and_factor(name)
-        result["parameters"].append({"name": name, "unit": unit, "estimate": cal.ident.estimate[name] * f,
-                                     "std": cal.ident.std[name] * f})
-    result["dropped"] = [{"name": k, "why": v} for k, v in {**cal.ident.basis.dropped, **cal.compliance_dropped}.items()]
+        result["parameters"].append(
+            {
+                "name": name,
+                "unit": unit,
+                "estimate": cal.ident.estimate[name] * f,
+                "std": cal.ident.std[name] * f,
+            }
+        )
+    result["dropped"] = [
+        {"name": k, "why": v}
+        for k, v in {**cal.ident.basis.dropped, **cal.compliance_dropped}.items()
+    ]
     bases = {}
     for i, p in enumerate(paths):
-        bases[label[p]] = {"translation_mm": s.t[i].tolist(), "rotvec_rad": matrix_to_rotvec(s.R[i]).tolist()}
+        bases[label[p]] = {
+            "translation_mm": s.t[i].tolist(),
+            "rotvec_rad": matrix_to_rotvec(s.R[i]).tolist(),
+        }
     result["base"] = bases[label[paths[0]]]
     result["bases"] = bases
     result["tool_mm"] = (np.asarray(chain.tool_mm) + s.delta[-3:]).tolist()
@@ -404,7 +534,9 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
     result["fit"] = {k: fit_fig[k] for k in ("mean_mm", "rms_mm", "max_mm")}
     result["sigma_model_mm"] = cal.sigma_model_mm
     extra = np.broadcast_to(np.asarray(prob.extra_var, float), (len(paths),))
-    result["sigma_model_mm_by_recording"] = {label[p]: float(np.sqrt(v)) for p, v in zip(paths, extra)}
+    result["sigma_model_mm_by_recording"] = {
+        label[p]: float(np.sqrt(v)) for p, v in zip(paths, extra)
+    }
     figures = {"training": np.linalg.norm(e_fit, axis=1)}
     residuals = []  # (file, row, role, measured - modelled (n, 3))
     outlier_rows = np.zeros(len(q), bool)
@@ -415,8 +547,14 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
         residuals.append((label[p], rows_of[kept], "train", None))
         if outlier_rows[mine].any():
             rows = rows_of[mine & outlier_rows]
-            residuals.append((label[p], rows, "left_out",
-                              train[i].xyz_mm[rows] - prob.model(s, train[i].q_rad[rows], frame=i, session=i)))
+            residuals.append(
+                (
+                    label[p],
+                    rows,
+                    "left_out",
+                    train[i].xyz_mm[rows] - prob.model(s, train[i].q_rad[rows], frame=i, session=i),
+                )
+            )
     if holdout:
         result["holdout"] = {}
         for i, (p, rec) in enumerate(zip(paths, train)):
@@ -452,45 +590,69 @@ def run_arm_fit(paths: list[Path], arm_spec: str | Path | None, tests: list[Path
         k_reg = max(int(round(REGISTER_FRACTION * len(order))), 3)
         reg_rows, eval_rows = order[:k_reg], np.sort(order[k_reg:])
         if len(eval_rows) == 0:
-            raise BadInput(f"{p}: {len(order)} usable rows; a new frame needs rows to register on and rows to judge")
-        sv = np.linalg.svd(rec.xyz_mm[reg_rows] - rec.xyz_mm[reg_rows].mean(axis=0), compute_uv=False)
+            raise BadInput(
+                f"{p}: {len(order)} usable rows; a new frame needs rows to register on and rows to judge"
+            )
+        sv = np.linalg.svd(
+            rec.xyz_mm[reg_rows] - rec.xyz_mm[reg_rows].mean(axis=0), compute_uv=False
+        )
         if sv[1] < max(1e-3 * sv[0], 1.0):
-            raise BadInput(f"{p}: the {len(reg_rows)} rows a new frame is registered on measure points on one line "
-                           "(or one point): they cannot fix the frame's rotation")
+            raise BadInput(
+                f"{p}: the {len(reg_rows)} rows a new frame is registered on measure points on one line "
+                "(or one point): they cannot fix the frame's rotation"
+            )
         R, t = rigid_transform(base_pts[reg_rows], rec.xyz_mm[reg_rows])
         model_xyz = base_pts @ R.T + t
         ev = np.zeros(len(rec), bool)
         ev[eval_rows] = True
-        _settle_pairs(ev, fl, [pr for pr in pairs if ev[pr[0]] and ev[pr[1]]], model_xyz, rec.xyz_mm, rep)
+        _settle_pairs(
+            ev, fl, [pr for pr in pairs if ev[pr[0]] and ev[pr[1]]], model_xyz, rec.xyz_mm, rep
+        )
         e = model_xyz[ev] - rec.xyz_mm[ev]
-        residuals.append((label[p], reg_rows, "register", rec.xyz_mm[reg_rows] - model_xyz[reg_rows]))
+        residuals.append(
+            (label[p], reg_rows, "register", rec.xyz_mm[reg_rows] - model_xyz[reg_rows])
+        )
         residuals.append((label[p], np.flatnonzero(ev), "test", -e))
-        result["test"][label[p]] = {**_errors(e), "frame": f"registered on {len(reg_rows)} rows ({100 * REGISTER_FRACTION:.0f} %, "
-                                                          f"seed {SPLIT_SEED}), figures on the other {ev.sum()}"}
+        result["test"][label[p]] = {
+            **_errors(e),
+            "frame": f"registered on {len(reg_rows)} rows ({100 * REGISTER_FRACTION:.0f} %, "
+            f"seed {SPLIT_SEED}), figures on the other {ev.sum()}",
+        }
         flagged[label[p]] = fl
         figures[label[p]] = np.linalg.norm(e, axis=1)
         tested[label[p]] = rec.q_rad
     result["flagged"] = {k: v for k, v in flagged.items() if v}
-    comp_joints = [int(n[len("compliance"):]) for n in prob.names if n.startswith("compliance")]
+    comp_joints = [int(n[len("compliance") :]) for n in prob.names if n.startswith("compliance")]
     result["coverage"] = {"warnings": coverage_warnings(chain, q, tested, comp_joints)}
     stated = [label[p] for p, r in zip(paths, train) if r.xyz_std_mm is not None]
-    if stated and len(stated) < len(paths):  # one weighting for all, or the recordings' weights would not compare
+    if stated and len(stated) < len(
+        paths
+    ):  # one weighting for all, or the recordings' weights would not compare
         result["coverage"]["warnings"].append(
             f"{', '.join(stated)} state{'s' if len(stated) == 1 else ''} a std per value, "
             f"{', '.join(label[p] for p in paths if label[p] not in stated)} not: the stated std are not used, every row "
-            "is weighted by the fitted scatter of its recording")
+            "is weighted by the fitted scatter of its recording"
+        )
     if result["fit"]["rms_mm"] > PLAUSIBLE_RMS_MM:
-        result["coverage"]["warnings"].insert(0, (
-            f"the fit leaves {result['fit']['rms_mm']:.3g} mm RMS, far beyond any arm's or instrument's error: is "
-            f"the arm description right (--arm; this fit used {arm.name}) and are the columns in degrees and mm?"))
+        result["coverage"]["warnings"].insert(
+            0,
+            (
+                f"the fit leaves {result['fit']['rms_mm']:.3g} mm RMS, far beyond any arm's or instrument's error: is "
+                f"the arm description right (--arm; this fit used {arm.name}) and are the columns in degrees and mm?"
+            ),
+        )
     elif tests:
         # a plausible fit and a same-frame test hundreds of times off it: the test's tracker stood elsewhere
         for p in tests:
             got = result["test"][label[p]]["rms_mm"]
             if got > PLAUSIBLE_RMS_MM and got > 100 * result["fit"]["rms_mm"]:
-                result["coverage"]["warnings"].insert(0, (
-                    f"{label[p]}: {got:.4g} mm RMS off the fitted arm in {label[paths[0]]}'s frame: is it from another "
-                    "setup? (--test-new-frame registers its own frame)"))
+                result["coverage"]["warnings"].insert(
+                    0,
+                    (
+                        f"{label[p]}: {got:.4g} mm RMS off the fitted arm in {label[paths[0]]}'s frame: is it from another "
+                        "setup? (--test-new-frame registers its own frame)"
+                    ),
+                )
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "fit.json").write_text(json.dumps(result, indent=2) + "\n")
     _write_residuals(out_dir / "residuals.csv", residuals, e_fit)
@@ -508,27 +670,33 @@ def _write_residuals(path: Path, parts: list, e_train: np.ndarray) -> None:
     at = 0
     for name, rows, role, e in parts:
         if e is None:  # the training rows, in the order the fit stacked them
-            e, at = e_train[at:at + len(rows)], at + len(rows)
+            e, at = e_train[at : at + len(rows)], at + len(rows)
         lines += [f"{name},{r},{role},{x:.6f},{y:.6f},{z:.6f}" for r, (x, y, z) in zip(rows, e)]
     path.write_text("\n".join(lines) + "\n")
 
 
-PLAUSIBLE_RMS_MM = 10.0  # a calibrated arm's fit beyond this is a wrong description or wrong columns
+PLAUSIBLE_RMS_MM = (
+    10.0  # a calibrated arm's fit beyond this is a wrong description or wrong columns
+)
 
 
 def _enough_to_judge(path: Path, keep: np.ndarray) -> None:
     """A test recording needs rows left to judge the fit on once its stale readings are out."""
     if keep.sum() < 3:
-        raise BadInput(f"{path}: {keep.sum()} usable rows of {len(keep)} once the stale readings (a measurement "
-                       "repeated while the arm moved) are left out: too few to judge the fit on")
+        raise BadInput(
+            f"{path}: {keep.sum()} usable rows of {len(keep)} once the stale readings (a measurement "
+            "repeated while the arm moved) are left out: too few to judge the fit on"
+        )
 
 
 def check_postures(q: np.ndarray, n_recordings: int) -> None:
     """Degenerate posture sets are bad input: too few distinct postures, or one repeated."""
     distinct = len(np.unique(np.round(np.degrees(q), 2), axis=0))
     if distinct < 0.1 * len(q) and distinct < 50:
-        raise BadInput(f"{len(q)} rows but only {distinct} distinct postures: repeats carry no new information "
-                       "for calibration")
+        raise BadInput(
+            f"{len(q)} rows but only {distinct} distinct postures: repeats carry no new information "
+            "for calibration"
+        )
     if distinct < 10 + 6 * n_recordings:
         raise BadInput(f"{distinct} distinct postures: too few to calibrate the arm")
 
@@ -542,9 +710,16 @@ def _figure(path: Path, result: dict, figures: dict) -> None:
     fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
     for label, d in figures.items():
         x = np.sort(d)
-        ax.plot(x, np.arange(1, len(x) + 1) / len(x), label=f"{label}: mean {d.mean():.3f}, max {d.max():.2f} mm")
-    ax.set(xlabel="3-D error |measured - modelled| (mm)", ylabel="fraction of postures",
-           title=f"fit arm-cmm, {result['arm']}, model {result['model']}")
+        ax.plot(
+            x,
+            np.arange(1, len(x) + 1) / len(x),
+            label=f"{label}: mean {d.mean():.3f}, max {d.max():.2f} mm",
+        )
+    ax.set(
+        xlabel="3-D error |measured - modelled| (mm)",
+        ylabel="fraction of postures",
+        title=f"fit arm-cmm, {result['arm']}, model {result['model']}",
+    )
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.savefig(path, dpi=90)

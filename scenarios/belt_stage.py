@@ -25,19 +25,37 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from calibench.errors import BadInput
 from calibench.estimators.chessboard import find_chessboard_corners
-from calibench.estimators.error_map import COEF_NAMES, compensated_command, fit_quadratic, quadratic_coefs
-from calibench.estimators.pose import (Plane, board2cam_from_homography, board2cam_refine, fit_plane, homographies,
-                                      mean_rotation, pose_sensitivity, undistort_pixels)
+from calibench.estimators.error_map import (
+    COEF_NAMES,
+    compensated_command,
+    fit_quadratic,
+    quadratic_coefs,
+)
+from calibench.estimators.pose import (
+    Plane,
+    board2cam_from_homography,
+    board2cam_refine,
+    fit_plane,
+    homographies,
+    mean_rotation,
+    pose_sensitivity,
+    undistort_pixels,
+)
 from calibench.estimators.travel import board_yaw, travel_from_camera_centres, travel_in_plane
 from calibench.estimators.zhang import calibrate_camera, intrinsic_covariance
+from calibench.recordings import CameraViews
 from calibench.scenarios.report import Check, Parameter, Report, progress
 from calibench.scenes.belt_stage import BeltStageGeometry
 from calibench.scenes.checkerboard import TEXTURE_PX_PER_SQUARE
-from calibench.sim.belt_stage import (INTRINSIC_VIEW_DEPTH_MM, PULSES_PER_MM, BeltStageSim, BeltStageTruth,
-                                     intrinsic_view_poses)
-from calibench.recordings import CameraViews
-from calibench.errors import BadInput
+from calibench.sim.belt_stage import (
+    INTRINSIC_VIEW_DEPTH_MM,
+    PULSES_PER_MM,
+    BeltStageSim,
+    BeltStageTruth,
+    intrinsic_view_poses,
+)
 
 NAME = "belt-stage"
 
@@ -97,19 +115,29 @@ def check_config(c: BeltStageConfig) -> None:
     share = max(w_mm * cam.fx / far / cam.width, h_mm * cam.fy / far / cam.height)
     if share > MAX_BOARD_FRACTION:
         # the board is (cols + 1, rows + 1) squares and two margins: the largest square that fits
-        most = min((MAX_BOARD_FRACTION * far * size / f - 2 * board.margin_mm) / (n + 1)
-                   for size, f, n in ((cam.width, cam.fx, board.cols), (cam.height, cam.fy, board.rows)))
-        raise bad(f"{where}.board.square_mm", board.square_mm,
-                  f"the {w_mm:g} x {h_mm:g} mm board spans {share:.3g} times the image at {far:g} mm, the far end of "
-                  f"the tilted calibration views: at most {MAX_BOARD_FRACTION:g}, square_mm up to "
-                  f"{max(most, 0.0):.3g} with this board and camera")
+        most = min(
+            (MAX_BOARD_FRACTION * far * size / f - 2 * board.margin_mm) / (n + 1)
+            for size, f, n in ((cam.width, cam.fx, board.cols), (cam.height, cam.fy, board.rows))
+        )
+        raise bad(
+            f"{where}.board.square_mm",
+            board.square_mm,
+            f"the {w_mm:g} x {h_mm:g} mm board spans {share:.3g} times the image at {far:g} mm, the far end of "
+            f"the tilted calibration views: at most {MAX_BOARD_FRACTION:g}, square_mm up to "
+            f"{max(most, 0.0):.3g} with this board and camera",
+        )
     # the board's texture: whole texture pixels in the margin, as Chessboard.texture needs
     m = board.margin_mm / board.square_mm * TEXTURE_PX_PER_SQUARE
     if abs(m - round(m)) > 1e-9:
-        near = sorted({board.margin_mm * TEXTURE_PX_PER_SQUARE / k for k in (max(1, int(m)), int(m) + 1)})
-        raise bad(f"{where}.board.square_mm", board.square_mm,
-                  f"the margin ({board.margin_mm:g} mm) must be a whole number of 1/{TEXTURE_PX_PER_SQUARE} squares "
-                  f"(the board's texture pixels): e.g. square_mm = {' or '.join(f'{q:.6g}' for q in near)}")
+        near = sorted(
+            {board.margin_mm * TEXTURE_PX_PER_SQUARE / k for k in (max(1, int(m)), int(m) + 1)}
+        )
+        raise bad(
+            f"{where}.board.square_mm",
+            board.square_mm,
+            f"the margin ({board.margin_mm:g} mm) must be a whole number of 1/{TEXTURE_PX_PER_SQUARE} squares "
+            f"(the board's texture pixels): e.g. square_mm = {' or '.join(f'{q:.6g}' for q in near)}",
+        )
     # the board in view over the whole travel (the camera hangs above its middle)
     tx, ty = g.travel_mm
     depth = g.camera_height_mm - g.board_top_mm
@@ -117,23 +145,37 @@ def check_config(c: BeltStageConfig) -> None:
     def in_view(ex: float, ey: float) -> bool:
         """Whether the board's corners stay in the image over the travel widened by ex, ey mm."""
         xs, ys = np.array([-ex, tx + ex]), np.array([-ey, ty + ey])
-        px, py = np.meshgrid(np.r_[xs - w_mm / 2, xs + w_mm / 2], np.r_[ys - h_mm / 2, ys + h_mm / 2])
-        pts = np.stack([px.ravel() - tx / 2, -(py.ravel() - ty / 2), np.full(px.size, depth)], axis=1)
+        px, py = np.meshgrid(
+            np.r_[xs - w_mm / 2, xs + w_mm / 2], np.r_[ys - h_mm / 2, ys + h_mm / 2]
+        )
+        pts = np.stack(
+            [px.ravel() - tx / 2, -(py.ravel() - ty / 2), np.full(px.size, depth)], axis=1
+        )
         with np.errstate(all="ignore"):
             uv = cam.project(pts)
         return bool(np.all(np.isfinite(uv) & (uv >= 0) & (uv <= [cam.width - 1, cam.height - 1])))
 
-    need = g.board_top_mm + max((span / 2 + side / 2) * f / min(cc, size - 1 - cc)
-                                for span, side, f, cc, size in ((tx, w_mm, cam.fx, cam.cx, cam.width),
-                                                                (ty, h_mm, cam.fy, cam.cy, cam.height)))
-    what = (f"camera_height_mm = {show(g.camera_height_mm)} with travel_mm = {show(g.travel_mm)}: the camera above "
-            f"the middle of the travel must see the {w_mm:g} x {h_mm:g} mm board anywhere in the travel")
+    need = g.board_top_mm + max(
+        (span / 2 + side / 2) * f / min(cc, size - 1 - cc)
+        for span, side, f, cc, size in (
+            (tx, w_mm, cam.fx, cam.cx, cam.width),
+            (ty, h_mm, cam.fy, cam.cy, cam.height),
+        )
+    )
+    what = (
+        f"camera_height_mm = {show(g.camera_height_mm)} with travel_mm = {show(g.travel_mm)}: the camera above "
+        f"the middle of the travel must see the {w_mm:g} x {h_mm:g} mm board anywhere in the travel"
+    )
     if depth <= 0:
-        raise BadInput(f"config: {where}: {what}; it hangs below the board's face (board_top_mm = "
-                       f"{g.board_top_mm:g}): camera_height_mm at least about {need:.4g}")
+        raise BadInput(
+            f"config: {where}: {what}; it hangs below the board's face (board_top_mm = "
+            f"{g.board_top_mm:g}): camera_height_mm at least about {need:.4g}"
+        )
     if not in_view(0.0, 0.0):
-        raise BadInput(f"config: {where}: {what}; the board leaves the {cam.width} x {cam.height} image: "
-                       f"camera_height_mm at least about {need:.4g} for this travel, or a shorter travel")
+        raise BadInput(
+            f"config: {where}: {what}; the board leaves the {cam.width} x {cam.height} image: "
+            f"camera_height_mm at least about {need:.4g} for this travel, or a shorter travel"
+        )
     # the injected error maps: errors, not a different machine, that keep the board in view
     t = c.truth
     gx, gy = np.meshgrid(np.linspace(0, tx, 5), np.linspace(0, ty, 5))
@@ -141,36 +183,61 @@ def check_config(c: BeltStageConfig) -> None:
     for k, key in enumerate(("error_x", "error_y")):
         limit = MAX_ERROR_FRACTION * (tx, ty)[k]
         if not err[k] <= limit:
-            raise bad(f"{NAME}.truth.{key}", getattr(t, key),
-                      f"the map reaches {err[k]:.4g} mm in the travel: a positioning error is at most "
-                      f"{MAX_ERROR_FRACTION:.0%} of the travel ({limit:g} mm)")
+            raise bad(
+                f"{NAME}.truth.{key}",
+                getattr(t, key),
+                f"the map reaches {err[k]:.4g} mm in the travel: a positioning error is at most "
+                f"{MAX_ERROR_FRACTION:.0%} of the travel ({limit:g} mm)",
+            )
     if not in_view(*err):
         key = "error_x" if not in_view(err[0], 0.0) else "error_y"
-        raise bad(f"{NAME}.truth.{key}", getattr(t, key),
-                  f"the map moves the board up to {err[int(key == 'error_y')]:.4g} mm, out of the camera's view at the "
-                  f"edge of the travel (camera_height_mm = {g.camera_height_mm:g})")
+        raise bad(
+            f"{NAME}.truth.{key}",
+            getattr(t, key),
+            f"the map moves the board up to {err[int(key == 'error_y')]:.4g} mm, out of the camera's view at the "
+            f"edge of the travel (camera_height_mm = {g.camera_height_mm:g})",
+        )
     if board.square_mm * min(cam.fx, cam.fy) / depth < MIN_SQUARE_PX:
-        raise bad(f"{where}.board.square_mm", board.square_mm,
-                  f"a square spans {board.square_mm * min(cam.fx, cam.fy) / depth:.3g} px in the station views "
-                  f"({depth:g} mm from the camera): the corner detector needs {MIN_SQUARE_PX:g} px or more")
+        raise bad(
+            f"{where}.board.square_mm",
+            board.square_mm,
+            f"a square spans {board.square_mm * min(cam.fx, cam.fy) / depth:.3g} px in the station views "
+            f"({depth:g} mm from the camera): the corner detector needs {MIN_SQUARE_PX:g} px or more",
+        )
     # stations: inside the travel, home once, enough distinct ones for the quadratic maps
     n_min = 3  # a quadratic in x (1, x, x^2) needs three distinct x, and so in y; 3 x 3 > 6 coefficients
-    for axis, (key, stations, travel) in enumerate((("stations_x_mm", c.stations_x_mm, tx),
-                                                    ("stations_y_mm", c.stations_y_mm, ty))):
+    for axis, (key, stations, travel) in enumerate(
+        (("stations_x_mm", c.stations_x_mm, tx), ("stations_y_mm", c.stations_y_mm, ty))
+    ):
         s = np.asarray(stations, float)
         pulses = np.rint(s * PULSES_PER_MM)
         if len(s) and not np.all((s >= 0) & (s <= travel)):
-            raise bad(f"{NAME}.{key}", stations, f"stations lie within the {'XY'[axis]} travel: from 0 to "
-                                                 f"{travel:g} mm (travel_mm)")
+            raise bad(
+                f"{NAME}.{key}",
+                stations,
+                f"stations lie within the {'XY'[axis]} travel: from 0 to {travel:g} mm (travel_mm)",
+            )
         if np.count_nonzero(pulses == 0) != 1:
-            raise bad(f"{NAME}.{key}", stations, "the stations hold the home station 0 once (the stage is homed "
-                                                 "there, the errors are measured from it)")
+            raise bad(
+                f"{NAME}.{key}",
+                stations,
+                "the stations hold the home station 0 once (the stage is homed "
+                "there, the errors are measured from it)",
+            )
         if len(np.unique(pulses)) != len(pulses):
-            raise bad(f"{NAME}.{key}", stations, f"each station once (to the {1 / PULSES_PER_MM:g} mm of a pulse)")
+            raise bad(
+                f"{NAME}.{key}",
+                stations,
+                f"each station once (to the {1 / PULSES_PER_MM:g} mm of a pulse)",
+            )
         if len(s) < n_min:
-            raise bad(f"{NAME}.{key}", stations, f"at least {n_min} distinct stations: the quadratic error map "
-                                                 f"(c0 + c1 x + c2 y + c3 x^2 + c4 x y + c5 y^2) needs {n_min} along "
-                                                 f"each axis")
+            raise bad(
+                f"{NAME}.{key}",
+                stations,
+                f"at least {n_min} distinct stations: the quadratic error map "
+                f"(c0 + c1 x + c2 y + c3 x^2 + c4 x y + c5 y^2) needs {n_min} along "
+                f"each axis",
+            )
 
 
 @dataclasses.dataclass
@@ -197,8 +264,9 @@ def run(config: BeltStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: b
     try:
         # 1. intrinsic views ------------------------------------------------------------------
         poses = intrinsic_view_poses(g, config.n_intrinsic_views, rng)
-        calib_views, calib_true = _record(sim, fidelity, config, rng, size,
-                                          [("calib", R, t) for R, t in poses])
+        calib_views, calib_true = _record(
+            sim, fidelity, config, rng, size, [("calib", R, t) for R, t in poses]
+        )
         sim.park_calib_board()
         used = np.isfinite(calib_views.corners_px).all(axis=(1, 2))
 
@@ -210,11 +278,19 @@ def run(config: BeltStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: b
         if len(home) != 1:
             raise BadInput("the station grid must contain the home station (0, 0) once")
         ref = int(home[0])
-        station_views, station_true = _record(sim, fidelity, config, rng, size,
-                                              [("station", xp, yp) for xp, yp in zip(x_pulses, y_pulses)])
+        station_views, station_true = _record(
+            sim,
+            fidelity,
+            config,
+            rng,
+            size,
+            [("station", xp, yp) for xp, yp in zip(x_pulses, y_pulses)],
+        )
         if not np.isfinite(station_views.corners_px).all():
-            missed = [station_views.names[i] for i in np.flatnonzero(
-                ~np.isfinite(station_views.corners_px).all(axis=(1, 2)))]
+            missed = [
+                station_views.names[i]
+                for i in np.flatnonzero(~np.isfinite(station_views.corners_px).all(axis=(1, 2)))
+            ]
             raise ValueError(f"board not detected at station(s) {', '.join(missed[:5])}")
 
         # Zhang on the tilted views; the station views join them: fronto-parallel, they say
@@ -226,8 +302,11 @@ def run(config: BeltStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: b
         cmd = np.stack([x_pulses, y_pulses], axis=1) / PULSES_PER_MM
         m = measure_maps(board_pts, station_views.corners_px, calib.K, calib.dist, cmd, ref)
         intr_names = ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2")
-        cov_intr = (calib.cov if calib.cov_names == intr_names else
-                    intrinsic_covariance(calib, board_pts, calib_points, intr_names))
+        cov_intr = (
+            calib.cov
+            if calib.cov_names == intr_names
+            else intrinsic_covariance(calib, board_pts, calib_points, intr_names)
+        )
         std_map = propagated_std(m, board_pts, calib, cmd, ref, intr_names, cov_intr)
         fit_x, fit_y, yaw, err = m.fit_x, m.fit_y, m.yaw_rad, m.err
         gx, gy = np.meshgrid(*(np.linspace(0, t, 41) for t in g.travel_mm))
@@ -260,40 +339,87 @@ def run(config: BeltStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: b
         report.parameters += _intrinsic_parameters(g.camera, calib)
         report.parameters += _map_parameters("ex", truth.error_x, fit_x.coef, std_map[:6])
         report.parameters += _map_parameters("ey", truth.error_y, fit_y.coef, std_map[6:12])
-        report.parameters.append(Parameter("board_yaw_mrad", "mrad", truth.board_yaw_rad * 1e3, yaw * 1e3,
-                                           std_map[12] * 1e3, tolerance=TOL_SIGMA * std_map[12] * 1e3))
+        report.parameters.append(
+            Parameter(
+                "board_yaw_mrad",
+                "mrad",
+                truth.board_yaw_rad * 1e3,
+                yaw * 1e3,
+                std_map[12] * 1e3,
+                tolerance=TOL_SIGMA * std_map[12] * 1e3,
+            )
+        )
         report.checks += [
-            Check("corner_rms_px", corner_rms, config.corner_limit_px,
-                  note="stations: detected corners vs exact projection of the true corners"),
-            Check("map_rms_mm", map_rms, config.map_limit_mm,
-                  note="estimated vs true error map, vector RMS over a 41 x 41 grid of the travel"),
-            Check("check_rms_before_mm", _vector_rms(before), None,
-                  note=f"{config.n_check} check points, no compensation"),
-            Check("check_rms_after_mm", _vector_rms(after), config.map_limit_mm,
-                  note=f"{config.n_check} check points, commands compensated by the fitted maps"),
-            Check("pose_crosscheck_mm", pose_gap, 3.0,
-                  note="largest in-plane gap between closed-form (Eq. 13-18) and PnP station poses; "
-                       "the closed form takes its scale from one column of H, so it scatters more"),
+            Check(
+                "corner_rms_px",
+                corner_rms,
+                config.corner_limit_px,
+                note="stations: detected corners vs exact projection of the true corners",
+            ),
+            Check(
+                "map_rms_mm",
+                map_rms,
+                config.map_limit_mm,
+                note="estimated vs true error map, vector RMS over a 41 x 41 grid of the travel",
+            ),
+            Check(
+                "check_rms_before_mm",
+                _vector_rms(before),
+                None,
+                note=f"{config.n_check} check points, no compensation",
+            ),
+            Check(
+                "check_rms_after_mm",
+                _vector_rms(after),
+                config.map_limit_mm,
+                note=f"{config.n_check} check points, commands compensated by the fitted maps",
+            ),
+            Check(
+                "pose_crosscheck_mm",
+                pose_gap,
+                3.0,
+                note="largest in-plane gap between closed-form (Eq. 13-18) and PnP station poses; "
+                "the closed form takes its scale from one column of H, so it scatters more",
+            ),
         ]
         report.info = {
             "intrinsic_views_used": int(used.sum()),
             "intrinsic_views_rejected": [calib_views.names[i] for i in np.flatnonzero(~used)],
             "calibration_rms_px": calib.rms_px,
             "corner_rms_calib_views_px": corner_rms_calib,
-            "fit": {"x": fit_x.as_dict(), "y": fit_y.as_dict(),
-                    "note": "std in report parameters adds the intrinsics' covariance to the fit's own"},
+            "fit": {
+                "x": fit_x.as_dict(),
+                "y": fit_y.as_dict(),
+                "note": "std in report parameters adds the intrinsics' covariance to the fit's own",
+            },
             "paper_method": {
                 "note": "camera-centre differences, board assumed square to the axes",
                 "map_rms_mm": map_rms_paper,
-                "fit": {"x": pfit_x.as_dict(), "y": pfit_y.as_dict()}},
+                "fit": {"x": pfit_x.as_dict(), "y": pfit_y.as_dict()},
+            },
             "stations": len(cmd),
         }
         report.rrd = None
-        artifacts = {"sim": sim, "calib": calib, "calib_views": calib_views, "calib_true": calib_true,
-                     "station_views": station_views, "station_true": station_true, "cmd": cmd,
-                     "err": err, "fits": (fit_x, fit_y), "targets": targets, "before": before,
-                     "after": after, "travel": m.travel, "truth": truth, "geometry": g,
-                     "x_pulses": x_pulses, "y_pulses": y_pulses, "limit_mm": config.map_limit_mm}
+        artifacts = {
+            "sim": sim,
+            "calib": calib,
+            "calib_views": calib_views,
+            "calib_true": calib_true,
+            "station_views": station_views,
+            "station_true": station_true,
+            "cmd": cmd,
+            "err": err,
+            "fits": (fit_x, fit_y),
+            "targets": targets,
+            "before": before,
+            "after": after,
+            "travel": m.travel,
+            "truth": truth,
+            "geometry": g,
+            "x_pulses": x_pulses,
+            "y_pulses": y_pulses,
+            "limit_mm": config.map_limit_mm,
+        }
         if out_dir is not None:  # a Monte-Carlo trial keeps only the numbers
             _write_figure(out_dir, artifacts)
         if rrd and out_dir is not None:
@@ -329,8 +455,15 @@ class StageMaps:
         return np.r_[self.fit_x.coef, self.fit_y.coef, self.yaw_rad]
 
 
-def measure_maps(board_pts: np.ndarray, corners_px: np.ndarray, K: np.ndarray, dist: np.ndarray,
-                 cmd: np.ndarray, ref: int, slopes: np.ndarray | None = None) -> StageMaps:
+def measure_maps(
+    board_pts: np.ndarray,
+    corners_px: np.ndarray,
+    K: np.ndarray,
+    dist: np.ndarray,
+    cmd: np.ndarray,
+    ref: int,
+    slopes: np.ndarray | None = None,
+) -> StageMaps:
     """Stations' corners (n, n_corners, 2) and commands (n, 2) mm to the two error maps.
 
     The tracked point is the board's centroid, where a pose's tilt and translation errors
@@ -339,11 +472,19 @@ def measure_maps(board_pts: np.ndarray, corners_px: np.ndarray, K: np.ndarray, d
     along its viewing ray onto the plane fitted through all of them. ``slopes`` (2,) tilts that
     plane, for propagating its uncertainty.
     """
-    return maps_from_poses(station_poses(board_pts, corners_px, K, dist), board_pts, cmd, ref, slopes)
+    return maps_from_poses(
+        station_poses(board_pts, corners_px, K, dist), board_pts, cmd, ref, slopes
+    )
 
 
-def maps_from_poses(st: StationPoses, board_pts: np.ndarray, cmd: np.ndarray, ref: int,
-                    slopes: np.ndarray | None = None, paper: bool = True) -> StageMaps:
+def maps_from_poses(
+    st: StationPoses,
+    board_pts: np.ndarray,
+    cmd: np.ndarray,
+    ref: int,
+    slopes: np.ndarray | None = None,
+    paper: bool = True,
+) -> StageMaps:
     """:func:`measure_maps` from the stations' poses on: plane, travel, errors, maps (``paper``:
     the seed paper's maps too, else None)."""
     plane, travel, err, yaw = _travel_errors(st, board_pts, cmd, ref, slopes)
@@ -352,17 +493,34 @@ def maps_from_poses(st: StationPoses, board_pts: np.ndarray, cmd: np.ndarray, re
     x, y = cmd[:, 0], cmd[:, 1]
     paper_x = paper_y = None
     if paper:
-        err_paper = travel_from_camera_centres(st.R_closed, st.t_closed, ref, BOARD_XY_TO_AXES) - rel
-        paper_x, paper_y = fit_quadratic(x, y, err_paper[:, 0]), fit_quadratic(x, y, err_paper[:, 1])
+        err_paper = (
+            travel_from_camera_centres(st.R_closed, st.t_closed, ref, BOARD_XY_TO_AXES) - rel
+        )
+        paper_x, paper_y = (
+            fit_quadratic(x, y, err_paper[:, 0]),
+            fit_quadratic(x, y, err_paper[:, 1]),
+        )
     return StageMaps(
-        poses=st, plane=plane, travel=travel, err=err, yaw_rad=yaw,
+        poses=st,
+        plane=plane,
+        travel=travel,
+        err=err,
+        yaw_rad=yaw,
         yaw_std_rad=float(np.std(yaws, ddof=1) / np.sqrt(len(yaws))),
-        fit_x=fit_quadratic(x, y, err[:, 0]), fit_y=fit_quadratic(x, y, err[:, 1]),
-        paper_fit_x=paper_x, paper_fit_y=paper_y)
+        fit_x=fit_quadratic(x, y, err[:, 0]),
+        fit_y=fit_quadratic(x, y, err[:, 1]),
+        paper_fit_x=paper_x,
+        paper_fit_y=paper_y,
+    )
 
 
-def _travel_errors(st: StationPoses, board_pts: np.ndarray, cmd: np.ndarray, ref: int,
-                   slopes: np.ndarray | None = None) -> tuple[Plane, np.ndarray, np.ndarray, float]:
+def _travel_errors(
+    st: StationPoses,
+    board_pts: np.ndarray,
+    cmd: np.ndarray,
+    ref: int,
+    slopes: np.ndarray | None = None,
+) -> tuple[Plane, np.ndarray, np.ndarray, float]:
     """The plane of motion, each station's travel and error (n, 2) mm, and the board's yaw."""
     centroid = board_pts.mean(axis=0)
     p = np.einsum("nij,j->ni", st.R_pnp, centroid) + st.t_pnp
@@ -393,8 +551,11 @@ def propagated_std(m: StageMaps, board_pts, calib, cmd, ref, names, cov_intr) ->
         poses = st
         if d_intr is not None:
             d = S @ d_intr  # (n, 6): each station's (rvec, t) moved
-            poses = dataclasses.replace(st, R_pnp=Rotation.from_rotvec(rvecs + d[:, :3]).as_matrix(),
-                                        t_pnp=st.t_pnp + d[:, 3:])
+            poses = dataclasses.replace(
+                st,
+                R_pnp=Rotation.from_rotvec(rvecs + d[:, :3]).as_matrix(),
+                t_pnp=st.t_pnp + d[:, 3:],
+            )
         _, _, err, yaw = _travel_errors(poses, board_pts, cmd, ref, slopes)
         return np.r_[err[:, 0], err[:, 1], yaw]
 
@@ -411,29 +572,36 @@ def propagated_std(m: StageMaps, board_pts, calib, cmd, ref, names, cov_intr) ->
     D = np.stack(D, axis=1)  # (2 n + 1, k)
     n = len(cmd)
     x, y = cmd[:, 0], cmd[:, 1]
-    coef = quadratic_coefs(x, y, np.concatenate([D[:n], D[n:2 * n]], axis=1))  # (6, 2 k)
+    coef = quadratic_coefs(x, y, np.concatenate([D[:n], D[n : 2 * n]], axis=1))  # (6, 2 k)
     k = D.shape[1]
-    JJ = np.concatenate([coef[:, :k], coef[:, k:], D[2 * n:]], axis=0)  # (13, k)
-    J, Js = JJ[:, :len(names)], JJ[:, len(names):]
+    JJ = np.concatenate([coef[:, :k], coef[:, k:], D[2 * n :]], axis=0)  # (13, k)
+    J, Js = JJ[:, : len(names)], JJ[:, len(names) :]
     own = np.r_[m.fit_x.std, m.fit_y.std, m.yaw_std_rad]
     # errors are measured from the home station, whose own scatter (the per-station RMSE) moves
     # every error alike: a common offset the residuals cannot show, so it joins c0's variance
     own[0] = np.hypot(own[0], m.fit_x.rmse)
     own[6] = np.hypot(own[6], m.fit_y.rmse)
-    common = np.einsum("ij,jk,ik->i", J, cov_intr, J) + np.einsum("ij,jk,ik->i", Js, m.plane.slope_cov, Js)
+    common = np.einsum("ij,jk,ik->i", J, cov_intr, J) + np.einsum(
+        "ij,jk,ik->i", Js, m.plane.slope_cov, Js
+    )
     return np.sqrt(own**2 + common)
 
 
-def station_poses(board_pts: np.ndarray, corners_px: np.ndarray, K: np.ndarray, dist: np.ndarray) -> StationPoses:
+def station_poses(
+    board_pts: np.ndarray, corners_px: np.ndarray, K: np.ndarray, dist: np.ndarray
+) -> StationPoses:
     """Closed-form and PnP board2cam poses of every station, (n_stations, n_corners, 2) in."""
-    ideal = undistort_pixels(np.asarray(corners_px, float).reshape(-1, 2), K, dist).reshape(np.shape(corners_px))
+    ideal = undistort_pixels(np.asarray(corners_px, float).reshape(-1, 2), K, dist).reshape(
+        np.shape(corners_px)
+    )
     R0, t0 = board2cam_from_homography(homographies(board_pts[:, :2], ideal), K)
     R, t = board2cam_refine(board_pts, corners_px, K, dist, R0, t0)
     return StationPoses(R0, t0, R, t)
 
 
-def _record(sim: BeltStageSim, fidelity: str, config: BeltStageConfig, rng: np.random.Generator,
-            size, steps) -> tuple[CameraViews, np.ndarray]:
+def _record(
+    sim: BeltStageSim, fidelity: str, config: BeltStageConfig, rng: np.random.Generator, size, steps
+) -> tuple[CameraViews, np.ndarray]:
     """Drive the sim through ``steps`` and record what the camera gives the estimators.
 
     Returns the views (images and detected corners, NaN where undetected) and the true
@@ -451,15 +619,18 @@ def _record(sim: BeltStageSim, fidelity: str, config: BeltStageConfig, rng: np.r
             names.append(f"x{a / PULSES_PER_MM:g}_y{b / PULSES_PER_MM:g}")
         frames.append(sim.view_frame(calib=kind == "calib"))
         if fidelity == "render":
-            img = sim.render(calib=kind == "calib", rng=rng, noise_dn=config.pixel_noise_dn,
-                             psf_px=config.psf_px)
+            img = sim.render(
+                calib=kind == "calib", rng=rng, noise_dn=config.pixel_noise_dn, psf_px=config.psf_px
+            )
             images.append(img)
             c = find_chessboard_corners(img, board.cols, board.rows)
             corners.append(np.full((board.n_corners, 2), np.nan) if c is None else c)
     true = sim.corners_px(frames)
     if fidelity != "render":  # every view's noise at once: the same draws as view by view
         corners = true + rng.normal(0, config.corner_noise_px, true.shape)
-    views = CameraViews(image_size=size, names=names, images=images or None, corners_px=np.array(corners))
+    views = CameraViews(
+        image_size=size, names=names, images=images or None, corners_px=np.array(corners)
+    )
     return views, true
 
 
@@ -477,14 +648,20 @@ def _intrinsic_parameters(camera, calib) -> list[Parameter]:
         # the estimator's own std, with a floor for renders whose corner noise is not quite
         # independent
         floor = 0.5 if unit == "px" else 2e-3
-        out.append(Parameter(name, unit, truth[name], est[name], std, tolerance=max(TOL_SIGMA * std, floor)))
+        out.append(
+            Parameter(
+                name, unit, truth[name], est[name], std, tolerance=max(TOL_SIGMA * std, floor)
+            )
+        )
     return out
 
 
 def _map_parameters(prefix: str, truth_coef, coef, std) -> list[Parameter]:
     units = ("mm", "mm/mm", "mm/mm", "mm/mm^2", "mm/mm^2", "mm/mm^2")
-    return [Parameter(f"{prefix}_{n}", u, float(t), float(e), float(s), tolerance=TOL_SIGMA * float(s))
-            for n, u, t, e, s in zip(COEF_NAMES, units, truth_coef, coef, std)]
+    return [
+        Parameter(f"{prefix}_{n}", u, float(t), float(e), float(s), tolerance=TOL_SIGMA * float(s))
+        for n, u, t, e, s in zip(COEF_NAMES, units, truth_coef, coef, std)
+    ]
 
 
 def _write_figure(out_dir: Path, a: dict) -> None:
@@ -503,17 +680,27 @@ def _write_figure(out_dir: Path, a: dict) -> None:
     for ax, k, fit, label in ((axes[0], 0, fx, "X"), (axes[1], 1, fy, "Y")):
         cs = ax.contourf(gx, gy, true[:, k].reshape(gx.shape), 20, cmap="viridis")
         ax.contour(gx, gy, fit(gx, gy), cs.levels[::2], colors="w", linewidths=0.7, linestyles="--")
-        ax.scatter(cmd[:, 0], cmd[:, 1], c=err[:, k], cmap="viridis", norm=cs.norm, edgecolors="k", s=28)
+        ax.scatter(
+            cmd[:, 0], cmd[:, 1], c=err[:, k], cmap="viridis", norm=cs.norm, edgecolors="k", s=28
+        )
         fig.colorbar(cs, ax=ax, label=f"{label} error (mm)")
-        ax.set(title=f"{label} error: truth (fill), fit (dashed), stations (dots)",
-               xlabel="X command (mm)", ylabel="Y command (mm)", aspect="equal")
+        ax.set(
+            title=f"{label} error: truth (fill), fit (dashed), stations (dots)",
+            xlabel="X command (mm)",
+            ylabel="Y command (mm)",
+            aspect="equal",
+        )
     b, af = np.linalg.norm(a["before"], axis=1), np.linalg.norm(a["after"], axis=1)
     ax = axes[2]
     k = np.arange(1, len(b) + 1)
     ax.semilogy(k, b, "o", color="tab:red", label="before compensation")
     ax.semilogy(k, af, "o", color="tab:green", label="after compensation")
     ax.axhline(a["limit_mm"], color="k", ls=":", label=f"limit {a['limit_mm']:g} mm")
-    ax.set(title="check points (unseen by the fit)", xlabel="check point", ylabel="|position error| (mm)")
+    ax.set(
+        title="check points (unseen by the fit)",
+        xlabel="check point",
+        ylabel="|position error| (mm)",
+    )
     ax.legend(loc="center right")
     fig.savefig(out_dir / "error_map.png", dpi=90)
     plt.close(fig)
@@ -525,5 +712,7 @@ def prior(config: BeltStageConfig, rng: np.random.Generator) -> BeltStageConfig:
     t = config.truth
     ex = (0.0,) + tuple(np.array(t.error_x[1:]) * (1 + 0.2 * rng.standard_normal(5)))
     ey = (0.0,) + tuple(np.array(t.error_y[1:]) * (1 + 0.2 * rng.standard_normal(5)))
-    truth = dataclasses.replace(t, error_x=ex, error_y=ey, board_yaw_rad=float(rng.uniform(-5e-3, 5e-3)))
+    truth = dataclasses.replace(
+        t, error_x=ex, error_y=ey, board_yaw_rad=float(rng.uniform(-5e-3, 5e-3))
+    )
     return dataclasses.replace(config, truth=truth)

@@ -24,20 +24,40 @@ def log_run(path: Path, report, a: dict) -> None:
         sim, g = a["sim"], a["geometry"]
         model = sim.model
         texture = g.board.texture(16)
-        paths = rrlog.log_mujoco_bodies(rec, model, textures={"board": texture, "calib_board": texture})
+        paths = rrlog.log_mujoco_bodies(
+            rec, model, textures={"board": texture, "calib_board": texture}
+        )
         V = rrlog.View
-        rrlog.send_layout(rec, [
-            [V("3d", "world", "the stage", eye=rrlog.eye_on(model)),
-             V("3d", "error_map", f"error map (arrows x{ARROW_GAIN:g}): true red, measured green, fitted blue")],
-            [V("2d", "world/overhead", "overhead camera: detected green, true red"),
-             V("2d", "calibration", "calibration views")],
-            [V("plot", "error_map/station_error_mm", "station error (mm) by station"),
-             V("text", "report", "truth against estimate"), V("2d", "figures", "error maps")]], "station")
+        rrlog.send_layout(
+            rec,
+            [
+                [
+                    V("3d", "world", "the stage", eye=rrlog.eye_on(model)),
+                    V(
+                        "3d",
+                        "error_map",
+                        f"error map (arrows x{ARROW_GAIN:g}): true red, measured green, fitted blue",
+                    ),
+                ],
+                [
+                    V("2d", "world/overhead", "overhead camera: detected green, true red"),
+                    V("2d", "calibration", "calibration views"),
+                ],
+                [
+                    V("plot", "error_map/station_error_mm", "station error (mm) by station"),
+                    V("text", "report", "truth against estimate"),
+                    V("2d", "figures", "error maps"),
+                ],
+            ],
+            "station",
+        )
         R_c2w, p_c2w = sim.cam2world()
         cam = g.camera
         rrlog.log_camera(rec, "world/overhead", cam.K, (cam.width, cam.height), R_c2w, p_c2w)
         calib = a["calib"]
-        rrlog.log_camera(rec, "calibration", calib.K, (cam.width, cam.height), np.eye(3), np.zeros(3))
+        rrlog.log_camera(
+            rec, "calibration", calib.K, (cam.width, cam.height), np.eye(3), np.zeros(3)
+        )
 
         # calibration views: images with detected (green) and true (red) corners
         views, true = a["calib_views"], a["calib_true"]
@@ -46,7 +66,9 @@ def log_run(path: Path, report, a: dict) -> None:
             if views.images is not None:
                 rrlog.log_image(rec, "calibration/image", views.images[i])
             rrlog.log_points2d(rec, "calibration/image/true", true[i], rrlog.RED, 2.0)
-            rrlog.log_points2d(rec, "calibration/image/detected", views.corners_px[i], rrlog.GREEN, 1.2)
+            rrlog.log_points2d(
+                rec, "calibration/image/detected", views.corners_px[i], rrlog.GREEN, 1.2
+            )
 
         # stations: stage pose, image, corners, measured error
         st, st_true = a["station_views"], a["station_true"]
@@ -57,7 +79,9 @@ def log_run(path: Path, report, a: dict) -> None:
             if st.images is not None:
                 rrlog.log_image(rec, "world/overhead/image", st.images[i])
             rrlog.log_points2d(rec, "world/overhead/image/true", st_true[i], rrlog.RED, 2.0)
-            rrlog.log_points2d(rec, "world/overhead/image/detected", st.corners_px[i], rrlog.GREEN, 1.2)
+            rrlog.log_points2d(
+                rec, "world/overhead/image/detected", st.corners_px[i], rrlog.GREEN, 1.2
+            )
             rrlog.log_scalar(rec, "error_map/station_error_mm/x", a["err"][i, 0])
             rrlog.log_scalar(rec, "error_map/station_error_mm/y", a["err"][i, 1])
 
@@ -75,9 +99,13 @@ def log_run(path: Path, report, a: dict) -> None:
         t_org = np.c_[t / 1000, np.full(len(t), z)]
         rrlog.log_arrows3d(rec, "error_map/check_before", t_org, _vec(a["before"]), rrlog.ORANGE)
         rrlog.log_arrows3d(rec, "error_map/check_after", t_org, _vec(a["after"]) * 10, rrlog.GREEN)
-        rrlog.log_text(rec, "report", f"# belt-stage, seed {report.seed}, {report.fidelity}\n\n"
-                       f"Error arrows x{ARROW_GAIN:g} (check_after x{10 * ARROW_GAIN:g}); stage "
-                       f"commands in pulses ({PULSES_PER_MM:g} per mm).\n\n" + report.table())
+        rrlog.log_text(
+            rec,
+            "report",
+            f"# belt-stage, seed {report.seed}, {report.fidelity}\n\n"
+            f"Error arrows x{ARROW_GAIN:g} (check_after x{10 * ARROW_GAIN:g}); stage "
+            f"commands in pulses ({PULSES_PER_MM:g} per mm).\n\n" + report.table(),
+        )
         png = path.parent / "error_map.png"
         if png.exists():
             rrlog.log_figure(rec, "figures/error_map", png)

@@ -10,13 +10,20 @@ import numpy as np
 
 from calibench.estimators.chessboard import find_chessboard_corners, gross_corners
 from calibench.estimators.zhang import CalibrationError, calibrate_camera
-from calibench.scenarios.report import BadInput
 from calibench.recordings import same_file
+from calibench.scenarios.report import BadInput
 from calibench.scenes.checkerboard import Chessboard
 
 
-def calibrate_photos(paths: list[Path], cols: int, rows: int, square_mm: float, fix_aspect: bool = False,
-                     radial: int = 3, tangential: bool = True) -> dict:
+def calibrate_photos(
+    paths: list[Path],
+    cols: int,
+    rows: int,
+    square_mm: float,
+    fix_aspect: bool = False,
+    radial: int = 3,
+    tangential: bool = True,
+) -> dict:
     """Detect the board in every photo, calibrate on those where it is found."""
     if cols < 2 or rows < 2 or square_mm <= 0:
         raise BadInput("camera: --cols and --rows must be >= 2 and --square-mm > 0")
@@ -42,7 +49,9 @@ def calibrate_photos(paths: list[Path], cols: int, rows: int, square_mm: float, 
     used, points, left_out = [], [], {}
     for p, img in images.items():
         if img.shape[::-1] != size:
-            rejected[names[p]] = f"size {img.shape[1]}x{img.shape[0]} differs from the others' {size[0]}x{size[1]}"
+            rejected[names[p]] = (
+                f"size {img.shape[1]}x{img.shape[0]} differs from the others' {size[0]}x{size[1]}"
+            )
             continue
         corners = find_chessboard_corners(img, cols, rows)
         if corners is None:
@@ -65,17 +74,27 @@ def calibrate_photos(paths: list[Path], cols: int, rows: int, square_mm: float, 
     if len(used) < 3:
         why = "; ".join(f"{k}: {v}" for k, v in list(rejected.items())[:3])
         more = f" and {len(rejected) - 3} more" if len(rejected) > 3 else ""
-        raise BadInput(f"camera: {len(used)} usable view(s) of the {cols}x{rows} board among {len(paths)} image(s), "
-                       f"a calibration needs at least 3 distinct ones" + (f" ({why}{more})" if why else ""))
+        raise BadInput(
+            f"camera: {len(used)} usable view(s) of the {cols}x{rows} board among {len(paths)} image(s), "
+            f"a calibration needs at least 3 distinct ones" + (f" ({why}{more})" if why else "")
+        )
     board = Chessboard(cols=cols, rows=rows, square_mm=square_mm)
     try:
-        calib = calibrate_camera(board.corners_mm(), points, size, fix_aspect=fix_aspect,
-                                 fix_k3=radial < 3, tangential=tangential)
+        calib = calibrate_camera(
+            board.corners_mm(),
+            points,
+            size,
+            fix_aspect=fix_aspect,
+            fix_k3=radial < 3,
+            tangential=tangential,
+        )
     except CalibrationError as e:
         raise BadInput(f"camera: {e}") from None
     except cv2.error as e:  # OpenCV's own assertions on degenerate view sets
-        raise BadInput(f"camera: the views are degenerate for calibration (OpenCV: "
-                       f"{str(e).strip().splitlines()[-1][:120]}): tilt the board differently in each photo") from None
+        raise BadInput(
+            f"camera: the views are degenerate for calibration (OpenCV: "
+            f"{str(e).strip().splitlines()[-1][:120]}): tilt the board differently in each photo"
+        ) from None
     return {
         "image_size": list(size),
         "K": calib.K.tolist(),
@@ -111,8 +130,16 @@ def _read_gray(path: Path) -> tuple[np.ndarray | None, str]:
     return img, ""
 
 
-def run_camera(paths: list[Path], cols: int, rows: int, square_mm: float, fix_aspect: bool, radial: int,
-               tangential: bool, out_dir: Path) -> dict:
+def run_camera(
+    paths: list[Path],
+    cols: int,
+    rows: int,
+    square_mm: float,
+    fix_aspect: bool,
+    radial: int,
+    tangential: bool,
+    out_dir: Path,
+) -> dict:
     """The ``camera`` command: calibrate from photos of a chessboard and write ``intrinsics.json``.
 
     paths : the photos; cols, rows : inner corners per row and per column; square_mm : a

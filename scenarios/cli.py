@@ -38,12 +38,21 @@ def _ranged(kind: type, ok, rule: str):
 
 # more local processes than a few per core only compete (and each holds a scenario in memory)
 MAX_WORKERS = 4 * (os.cpu_count() or 1)
-_workers = _ranged(int, lambda v: 1 <= v <= MAX_WORKERS,
-                   f"from 1 to {MAX_WORKERS} local workers on this machine ({os.cpu_count()} cores)")
+_workers = _ranged(
+    int,
+    lambda v: 1 <= v <= MAX_WORKERS,
+    f"from 1 to {MAX_WORKERS} local workers on this machine ({os.cpu_count()} cores)",
+)
 _seed = _ranged(int, lambda v: 0 <= v < 2**63, "a seed is a whole number from 0 to 2^63 - 1")
-_trials = _ranged(int, lambda v: 1 <= v <= MAX_TRIALS, f"from 1 to {MAX_TRIALS} trials a study (run several studies)")
+_trials = _ranged(
+    int,
+    lambda v: 1 <= v <= MAX_TRIALS,
+    f"from 1 to {MAX_TRIALS} trials a study (run several studies)",
+)
 _fraction = _ranged(float, lambda v: 0 < v < 0.9, "a fraction between 0 and 0.9")
-_square_mm = _ranged(float, lambda v: 0.001 <= v <= 10_000, "a square's side from 0.001 to 10000 mm")
+_square_mm = _ranged(
+    float, lambda v: 0.001 <= v <= 10_000, "a square's side from 0.001 to 10000 mm"
+)
 _board_count = _ranged(int, lambda v: v >= 2, "a board has at least 2 inner corners each way")
 
 
@@ -51,97 +60,192 @@ def _parser() -> argparse.ArgumentParser:
     from calibench.scenarios.registry import FIT_MODELS, NAMES, PLANNED
 
     names = ", ".join(NAMES)
-    p = _Parser(prog="calibench", description="Simulation-first test bench for calibrating measuring machines.")
+    p = _Parser(
+        prog="calibench",
+        description="Simulation-first test bench for calibrating measuring machines.",
+    )
     from calibench import __version__
 
     p.add_argument("--version", action="version", version=f"calibench {__version__}")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
-    r = sub.add_parser("run", help="simulate a scenario, calibrate, compare with the truth",
-                       description=f"Run a scenario ({names}) or all of them; writes DIR/report.json and DIR/run.rrd.")
+    r = sub.add_parser(
+        "run",
+        help="simulate a scenario, calibrate, compare with the truth",
+        description=f"Run a scenario ({names}) or all of them; writes DIR/report.json and DIR/run.rrd.",
+    )
     r.add_argument("scenario", help=f"one of: {names}; or 'all'")
     r.add_argument("--seed", type=_seed, default=0, help="random seed (default 0)")
     r.add_argument("--out", type=_folder, help="output folder (default ./calibench-out/<scenario>)")
-    r.add_argument("--fidelity", choices=("render", "analytic"), default="render",
-                   help="render: pixels through MuJoCo's renderer and the real detector; "
-                        "analytic: exact projection plus detector noise (default render)")
-    r.add_argument("--config", type=Path, help="TOML file with one table per scenario overriding its defaults")
+    r.add_argument(
+        "--fidelity",
+        choices=("render", "analytic"),
+        default="render",
+        help="render: pixels through MuJoCo's renderer and the real detector; "
+        "analytic: exact projection plus detector noise (default render)",
+    )
+    r.add_argument(
+        "--config", type=Path, help="TOML file with one table per scenario overriding its defaults"
+    )
     r.add_argument("--no-rrd", action="store_true", help="do not write the rerun recording")
-    r.add_argument("--arm", help="arm-cmm: ARM.toml or a built-in arm (arm-cmm, ur10) instead of the seed's arm")
+    r.add_argument(
+        "--arm",
+        help="arm-cmm: ARM.toml or a built-in arm (arm-cmm, ur10) instead of the seed's arm",
+    )
 
     fit_names = ", ".join(list(FIT_MODELS) + ["arm-cmm"])
-    f = sub.add_parser("fit", help="fit the scenario's error model to real recordings (CSV)",
-                       description="Fit the scenario's calibration model to recordings; writes DIR/fit.json. "
-                                   "Stages: one recording (x_cmd_mm, y_cmd_mm, x_meas_mm, y_meas_mm). arm-cmm: "
-                                   "one or more training recordings (q1_deg.., x_mm, y_mm, z_mm), each with its "
-                                   "own base frame, and recordings to test the result on.")
+    f = sub.add_parser(
+        "fit",
+        help="fit the scenario's error model to real recordings (CSV)",
+        description="Fit the scenario's calibration model to recordings; writes DIR/fit.json. "
+        "Stages: one recording (x_cmd_mm, y_cmd_mm, x_meas_mm, y_meas_mm). arm-cmm: "
+        "one or more training recordings (q1_deg.., x_mm, y_mm, z_mm), each with its "
+        "own base frame, and recordings to test the result on.",
+    )
     f.add_argument("scenario", help=f"one of: {fit_names}")
     f.add_argument("recordings", type=Path, nargs="+", metavar="RECORDING", help="CSV recording(s)")
     f.add_argument("--out", type=_folder, help="output folder (default ./calibench-out/<scenario>)")
-    f.add_argument("--arm", help="arm-cmm: ARM.toml or a built-in arm (arm-cmm, ur10); default the seed's arm")
-    f.add_argument("--test", type=Path, action="append", default=[], metavar="CSV",
-                   help="arm-cmm: a recording in the first training recording's frame to test on (repeatable)")
-    f.add_argument("--test-new-frame", type=Path, action="append", default=[], metavar="CSV",
-                   help="arm-cmm: a recording from another setup: registered on 20 %% of its rows, tested on "
-                        "the rest (repeatable)")
-    f.add_argument("--holdout", type=_fraction, metavar="F",
-                   help="arm-cmm: keep a fraction F of every training recording out of the fit (fixed seed)")
-    f.add_argument("--model", choices=("geometry", "physics"),
-                   help="arm-cmm: geometry (kinematics, base, tool) or physics (and the joints' compliance "
-                        "under gravity); default physics when the arm has masses")
-    f.add_argument("--effects", metavar="DISCOVERY.json|discover",
-                   help="arm-cmm: add the joint-angle effects a discover run found (transmission, eccentricity, "
-                        "a nonsmooth table) to the model; 'discover' runs the discovery here on the training rows")
+    f.add_argument(
+        "--arm", help="arm-cmm: ARM.toml or a built-in arm (arm-cmm, ur10); default the seed's arm"
+    )
+    f.add_argument(
+        "--test",
+        type=Path,
+        action="append",
+        default=[],
+        metavar="CSV",
+        help="arm-cmm: a recording in the first training recording's frame to test on (repeatable)",
+    )
+    f.add_argument(
+        "--test-new-frame",
+        type=Path,
+        action="append",
+        default=[],
+        metavar="CSV",
+        help="arm-cmm: a recording from another setup: registered on 20 %% of its rows, tested on "
+        "the rest (repeatable)",
+    )
+    f.add_argument(
+        "--holdout",
+        type=_fraction,
+        metavar="F",
+        help="arm-cmm: keep a fraction F of every training recording out of the fit (fixed seed)",
+    )
+    f.add_argument(
+        "--model",
+        choices=("geometry", "physics"),
+        help="arm-cmm: geometry (kinematics, base, tool) or physics (and the joints' compliance "
+        "under gravity); default physics when the arm has masses",
+    )
+    f.add_argument(
+        "--effects",
+        metavar="DISCOVERY.json|discover",
+        help="arm-cmm: add the joint-angle effects a discover run found (transmission, eccentricity, "
+        "a nonsmooth table) to the model; 'discover' runs the discovery here on the training rows",
+    )
 
-    mc = sub.add_parser("montecarlo", help="an accuracy study: many trials, truth drawn from the prior",
-                        description="Run N trials of a scenario (truth from its prior, noise from its sensors); "
-                                    "writes DIR/trials.parquet, DIR/summary.json, DIR/study.png. "
-                                    "Rerunning the same command resumes: finished trials are kept.")
+    mc = sub.add_parser(
+        "montecarlo",
+        help="an accuracy study: many trials, truth drawn from the prior",
+        description="Run N trials of a scenario (truth from its prior, noise from its sensors); "
+        "writes DIR/trials.parquet, DIR/summary.json, DIR/study.png. "
+        "Rerunning the same command resumes: finished trials are kept.",
+    )
     mc.add_argument("scenario", help=f"one of: {names}")
     mc.add_argument("--trials", type=_trials, required=True, help="number of trials")
     mc.add_argument("--workers", type=_workers, help="local worker processes (default: all cores)")
-    mc.add_argument("--scheduler", help="address of a Dask scheduler (tcp://host:8786) instead of local workers")
+    mc.add_argument(
+        "--scheduler", help="address of a Dask scheduler (tcp://host:8786) instead of local workers"
+    )
     mc.add_argument("--seed", type=_seed, default=0, help="study seed (default 0)")
-    mc.add_argument("--out", type=_folder, help="output folder (default ./calibench-out/<scenario>-montecarlo)")
-    mc.add_argument("--fidelity", choices=("render", "analytic"), default="analytic",
-                    help="sensor fidelity of each trial (default analytic)")
+    mc.add_argument(
+        "--out", type=_folder, help="output folder (default ./calibench-out/<scenario>-montecarlo)"
+    )
+    mc.add_argument(
+        "--fidelity",
+        choices=("render", "analytic"),
+        default="analytic",
+        help="sensor fidelity of each trial (default analytic)",
+    )
     mc.add_argument("--arm", help="arm-cmm: ARM.toml or a built-in arm (arm-cmm, ur10)")
-    mc.add_argument("--config", type=Path, help="TOML overriding the scenario's defaults, as for run (its "
-                                                "[scenario] table); the prior then draws around them")
+    mc.add_argument(
+        "--config",
+        type=Path,
+        help="TOML overriding the scenario's defaults, as for run (its "
+        "[scenario] table); the prior then draws around them",
+    )
 
-    d = sub.add_parser("discover", help="where a recording disagrees with the twin, and which physics is missing",
-                       description="Compare a recording with the twin replaying its commands; locate the "
-                                   "mismatch, name and fit the missing effects, show the held-out fit improve. "
-                                   "Writes DIR/discovery.json and DIR/discovery.png.")
-    d.add_argument("scenario", help="one of: belt-stage, vision-stage, probe-scanner, arm-cmm, stewart")
-    d.add_argument("recording", type=Path, nargs="+", help="CSV in the CONTRACT's format for the scenario (arm-cmm: "
-                                                           "one or more, each with its own base frame)")
-    d.add_argument("--out", type=_folder, help="output folder (default ./calibench-out/<scenario>-discover)")
-    d.add_argument("--seed", type=_seed, default=0, help="seed of the permutation tests (default 0)")
-    d.add_argument("--arm", help="arm-cmm: ARM.toml or a built-in arm (arm-cmm, ur10); default the seed's arm")
-    d.add_argument("--config", type=Path, help="a run --config file whose twin replays the recording (e.g. one "
-                                                "--twin wrote)")
-    d.add_argument("--twin", type=Path, help="write the twin updated with what was found, as a run --config file")
-    d.add_argument("--holdout", choices=("pass", "rows", "columns", "blocks"),
-                   help="what cross-validation holds out (default: passes if the recording has several, "
-                        "else whole rows of a grid, else contiguous blocks)")
+    d = sub.add_parser(
+        "discover",
+        help="where a recording disagrees with the twin, and which physics is missing",
+        description="Compare a recording with the twin replaying its commands; locate the "
+        "mismatch, name and fit the missing effects, show the held-out fit improve. "
+        "Writes DIR/discovery.json and DIR/discovery.png.",
+    )
+    d.add_argument(
+        "scenario", help="one of: belt-stage, vision-stage, probe-scanner, arm-cmm, stewart"
+    )
+    d.add_argument(
+        "recording",
+        type=Path,
+        nargs="+",
+        help="CSV in the CONTRACT's format for the scenario (arm-cmm: "
+        "one or more, each with its own base frame)",
+    )
+    d.add_argument(
+        "--out", type=_folder, help="output folder (default ./calibench-out/<scenario>-discover)"
+    )
+    d.add_argument(
+        "--seed", type=_seed, default=0, help="seed of the permutation tests (default 0)"
+    )
+    d.add_argument(
+        "--arm", help="arm-cmm: ARM.toml or a built-in arm (arm-cmm, ur10); default the seed's arm"
+    )
+    d.add_argument(
+        "--config",
+        type=Path,
+        help="a run --config file whose twin replays the recording (e.g. one --twin wrote)",
+    )
+    d.add_argument(
+        "--twin",
+        type=Path,
+        help="write the twin updated with what was found, as a run --config file",
+    )
+    d.add_argument(
+        "--holdout",
+        choices=("pass", "rows", "columns", "blocks"),
+        help="what cross-validation holds out (default: passes if the recording has several, "
+        "else whole rows of a grid, else contiguous blocks)",
+    )
 
-    c = sub.add_parser("camera", help="calibrate a camera from chessboard photos",
-                       description="Calibrate a camera from real chessboard photos; writes DIR/intrinsics.json.")
+    c = sub.add_parser(
+        "camera",
+        help="calibrate a camera from chessboard photos",
+        description="Calibrate a camera from real chessboard photos; writes DIR/intrinsics.json.",
+    )
     c.add_argument("images", nargs="+", type=Path, help="photos of the chessboard")
     c.add_argument("--cols", type=_board_count, required=True, help="inner corners per row")
     c.add_argument("--rows", type=_board_count, required=True, help="inner corners per column")
     c.add_argument("--square-mm", type=_square_mm, required=True, help="side of a square, mm")
     c.add_argument("--fix-aspect", action="store_true", help="keep fx = fy")
-    c.add_argument("--radial", type=int, choices=(2, 3), default=3, help="radial terms k1..k3 (default 3)")
+    c.add_argument(
+        "--radial", type=int, choices=(2, 3), default=3, help="radial terms k1..k3 (default 3)"
+    )
     c.add_argument("--no-tangential", action="store_true", help="no tangential terms p1, p2")
-    c.add_argument("--out", type=_folder, default=Path("calibench-out/camera"), help="output folder")
-    i = sub.add_parser("iso230", help="ISO 230-2 evaluation of a real bidirectional run of one axis",
-                       description="Evaluate a bidirectional positioning run (target_mm, run, direction, and "
-                                   "deviation_um or actual_mm) as ISO 230-2:2014; writes DIR/iso230.json and "
-                                   "DIR/iso230.png.")
+    c.add_argument(
+        "--out", type=_folder, default=Path("calibench-out/camera"), help="output folder"
+    )
+    i = sub.add_parser(
+        "iso230",
+        help="ISO 230-2 evaluation of a real bidirectional run of one axis",
+        description="Evaluate a bidirectional positioning run (target_mm, run, direction, and "
+        "deviation_um or actual_mm) as ISO 230-2:2014; writes DIR/iso230.json and "
+        "DIR/iso230.png.",
+    )
     i.add_argument("run", type=Path, metavar="RUN.csv", help="the run, one row per reading")
-    i.add_argument("--out", type=_folder, default=Path("calibench-out/iso230"), help="output folder")
+    i.add_argument(
+        "--out", type=_folder, default=Path("calibench-out/iso230"), help="output folder"
+    )
     if PLANNED:
         p.epilog = f"Scenarios planned but not built yet: {', '.join(PLANNED)}."
     return p
@@ -153,7 +257,9 @@ def main(argv: list[str] | None = None) -> int:
     interrupted). ``argv``: the arguments (default ``sys.argv[1:]``)."""
     import os
 
-    os.environ.setdefault("MUJOCO_GL", "egl")  # before MuJoCo's first import: renders without a display
+    os.environ.setdefault(
+        "MUJOCO_GL", "egl"
+    )  # before MuJoCo's first import: renders without a display
     try:
         args = _parser().parse_args(argv)
     except SystemExit as e:  # usage errors (status 2) and --help (0), as a return value
@@ -164,13 +270,23 @@ def main(argv: list[str] | None = None) -> int:
     created = None
     try:
         created = _check_out(getattr(args, "out", None))
-        return {"run": _run, "fit": _fit, "camera": _camera, "montecarlo": _montecarlo,
-                "discover": _discover, "iso230": _iso230}[args.command](args)
+        return {
+            "run": _run,
+            "fit": _fit,
+            "camera": _camera,
+            "montecarlo": _montecarlo,
+            "discover": _discover,
+            "iso230": _iso230,
+        }[args.command](args)
     except BrokenPipeError:  # the reader went away (| head): nothing to say
         sys.stderr.close()
         return EXIT_OK
     except KeyboardInterrupt:
-        kept = "; finished trials are kept, rerun the same command to resume" if args.command == "montecarlo" else ""
+        kept = (
+            "; finished trials are kept, rerun the same command to resume"
+            if args.command == "montecarlo"
+            else ""
+        )
         print(f"calibench: interrupted{kept}", file=sys.stderr)
         return 130
     except Exception as e:  # noqa: BLE001 - bad input is reported in one line
@@ -205,8 +321,10 @@ def _check_out(out: Path | None) -> Path | None:
                 raise BadInput(f"--out {out}: {parent} is a file, not a folder")
         created = None if out.exists() else out
     except OSError as e:  # a name too long for the file system, a folder that cannot be read
-        raise BadInput(f"--out {str(out)[:80]}{'...' if len(str(out)) > 80 else ''}: cannot write there "
-                       f"({e.strerror})") from None
+        raise BadInput(
+            f"--out {str(out)[:80]}{'...' if len(str(out)) > 80 else ''}: cannot write there "
+            f"({e.strerror})"
+        ) from None
     try:
         out.mkdir(parents=True, exist_ok=True)
         probe = out / ".calibench-write-test"
@@ -232,8 +350,11 @@ def _internal_error(e: Exception, out: Path | None) -> int:
         said = f"the traceback is in {where / 'error.log'}"
     except OSError:
         said = "the traceback could not be written"
-    print(f"calibench: internal error ({type(e).__name__}: {str(e).splitlines()[0] if str(e) else ''}); this is a "
-          f"defect of calibench, please report it; {said}", file=sys.stderr)
+    print(
+        f"calibench: internal error ({type(e).__name__}: {str(e).splitlines()[0] if str(e) else ''}); this is a "
+        f"defect of calibench, please report it; {said}",
+        file=sys.stderr,
+    )
     return EXIT_INTERNAL
 
 
@@ -273,9 +394,8 @@ def _run(args) -> int:
             raise BadInput(f"--arm applies to arm-cmm, not {args.scenario}")
         configs["arm-cmm"] = override(configs["arm-cmm"], {"arm": args.arm}, "arm-cmm")
     if "arm-cmm" in configs:
-        from calibench.scenes.arm_cmm import load_arm
-
         from calibench.scenarios.arm_cmm import check_cones
+        from calibench.scenes.arm_cmm import load_arm
 
         load_arm(configs["arm-cmm"].arm)  # a bad arm is said before anything runs
         check_cones(configs["arm-cmm"])  # and cones it cannot reach
@@ -295,7 +415,9 @@ def _run(args) -> int:
         report.elapsed_s = time.perf_counter() - t0
         path = report.write(out)
         print(report.table())
-        print(f"\n{s.name}: {'ok' if report.ok else 'FAILED'} in {report.elapsed_s:.1f} s -> {path}")
+        print(
+            f"\n{s.name}: {'ok' if report.ok else 'FAILED'} in {report.elapsed_s:.1f} s -> {path}"
+        )
         if not report.ok:
             status = EXIT_CHECK_FAILED
     return status
@@ -308,8 +430,18 @@ def _fit(args) -> int:
     out = args.out or Path("calibench-out") / s.name
     if s.name == "arm-cmm":
         return _fit_arm(args, out)
-    arm_only = [o for o, v in (("--arm", args.arm), ("--test", args.test), ("--test-new-frame", args.test_new_frame),
-                               ("--holdout", args.holdout), ("--model", args.model), ("--effects", args.effects)) if v]
+    arm_only = [
+        o
+        for o, v in (
+            ("--arm", args.arm),
+            ("--test", args.test),
+            ("--test-new-frame", args.test_new_frame),
+            ("--holdout", args.holdout),
+            ("--model", args.model),
+            ("--effects", args.effects),
+        )
+        if v
+    ]
     if arm_only:
         raise BadInput(f"fit {s.name}: {', '.join(arm_only)} apply to arm-cmm only")
     if s.fit_model is None:
@@ -320,7 +452,9 @@ def _fit(args) -> int:
 
     result = run_fit(s.name, s.fit_model, args.recordings[0], out)
     for axis, a in result["axes"].items():
-        print(f"{axis}: SSE {a['sse']:.4g} mm^2  R^2 {a['r2']:.4f}  RMSE {a['rmse']:.4f} mm  (n = {a['n']})")
+        print(
+            f"{axis}: SSE {a['sse']:.4g} mm^2  R^2 {a['r2']:.4f}  RMSE {a['rmse']:.4f} mm  (n = {a['n']})"
+        )
     print(f"-> {out / 'fit.json'}")
     return EXIT_OK
 
@@ -328,16 +462,28 @@ def _fit(args) -> int:
 def _fit_arm(args, out: Path) -> int:
     from calibench.scenarios.arm_fit import run_arm_fit
 
-    r = run_arm_fit(args.recordings, args.arm, args.test, args.test_new_frame, args.holdout, args.model, out,
-                    args.effects)
+    r = run_arm_fit(
+        args.recordings,
+        args.arm,
+        args.test,
+        args.test_new_frame,
+        args.holdout,
+        args.model,
+        out,
+        args.effects,
+    )
     f = r["fit"]
-    print(f"{r['arm']}, model {r['model']}: {r['samples']} training rows, {len(r['parameters'])} parameters "
-          f"({len(r['dropped'])} dropped); fit mean {f['mean_mm']:.3f} mm, rms {f['rms_mm']:.3f} mm, "
-          f"max {f['max_mm']:.3f} mm")
+    print(
+        f"{r['arm']}, model {r['model']}: {r['samples']} training rows, {len(r['parameters'])} parameters "
+        f"({len(r['dropped'])} dropped); fit mean {f['mean_mm']:.3f} mm, rms {f['rms_mm']:.3f} mm, "
+        f"max {f['max_mm']:.3f} mm"
+    )
     for title, block in (("held out", r.get("holdout", {})), ("test", r.get("test", {}))):
         for name, e in block.items():
-            print(f"  {title} {name}: mean {e['mean_mm']:.3f}  rms {e['rms_mm']:.3f}  p95 {e['p95_mm']:.3f}  "
-                  f"max {e['max_mm']:.3f} mm  (n = {e['samples']})")
+            print(
+                f"  {title} {name}: mean {e['mean_mm']:.3f}  rms {e['rms_mm']:.3f}  p95 {e['p95_mm']:.3f}  "
+                f"max {e['max_mm']:.3f} mm  (n = {e['samples']})"
+            )
     for name, rows in r.get("flagged", {}).items():
         print(f"  left out of {name}: rows {', '.join(str(x['row']) for x in rows)} (see fit.json)")
     for w in r["coverage"]["warnings"]:
@@ -370,20 +516,36 @@ def _montecarlo(args) -> int:
         doc = load_toml(args.config)
         other = [k for k in doc if k != args.scenario]
         if other:
-            raise BadInput(f"config {args.config}: a study of {args.scenario} takes only its [{args.scenario}] table "
-                           f"(found {', '.join(other)})")
+            raise BadInput(
+                f"config {args.config}: a study of {args.scenario} takes only its [{args.scenario}] table "
+                f"(found {', '.join(other)})"
+            )
         table = doc.get(args.scenario, {})
-    s = run_study(args.scenario, args.trials, args.seed, args.fidelity, out, args.workers, args.scheduler, arm=arm,
-                  table=table)
-    print(f"{s['scenario']}: {s['trials']} trials ({s['resumed']} kept from an earlier run, {s['failed']} failed); "
-          f"this run took {s['elapsed_s']:.1f} s")
+    s = run_study(
+        args.scenario,
+        args.trials,
+        args.seed,
+        args.fidelity,
+        out,
+        args.workers,
+        args.scheduler,
+        arm=arm,
+        table=table,
+    )
+    print(
+        f"{s['scenario']}: {s['trials']} trials ({s['resumed']} kept from an earlier run, {s['failed']} failed); "
+        f"this run took {s['elapsed_s']:.1f} s"
+    )
     print(summary_table(s))
     if checks_table(s):
         print("\n" + checks_table(s))
     print(f"-> {out / 'summary.json'}")
     if s["failed"]:
-        print(f"calibench: {s['failed']} of {s['trials']} trials failed, e.g. {s['errors'][0]} (every error and its "
-              f"trials: {out / 'trials.parquet'})", file=sys.stderr)
+        print(
+            f"calibench: {s['failed']} of {s['trials']} trials failed, e.g. {s['errors'][0]} (every error and its "
+            f"trials: {out / 'trials.parquet'})",
+            file=sys.stderr,
+        )
     return EXIT_OK if s["failed"] == 0 else EXIT_CHECK_FAILED
 
 
@@ -395,15 +557,30 @@ def _discover(args) -> int:
         from calibench.scenarios.report import BadInput
 
         raise BadInput(f"--arm applies to arm-cmm, not {args.scenario}")
-    d = run_discover(args.scenario, args.recording, out, args.seed, args.holdout, args.arm, args.config, args.twin)
+    d = run_discover(
+        args.scenario,
+        args.recording,
+        out,
+        args.seed,
+        args.holdout,
+        args.arm,
+        args.config,
+        args.twin,
+    )
     f = d["fit"]
-    print(f"{d['scenario']}: {d['samples']} samples; held-out RMS {f['cv_rms_nominal'] * 1000:.2f} um with the "
-          f"scene model, {f['cv_rms_final'] * 1000:.2f} um with what was found ({d['holdout']})")
+    print(
+        f"{d['scenario']}: {d['samples']} samples; held-out RMS {f['cv_rms_nominal'] * 1000:.2f} um with the "
+        f"scene model, {f['cv_rms_final'] * 1000:.2f} um with what was found ({d['holdout']})"
+    )
     for e in d["effects"]:
-        print(f"- {e['name']} ({e['axis']}): {e['physics']}; held-out RMS {e['cv_rms_before'] * 1000:.2f} -> "
-              f"{e['cv_rms_after'] * 1000:.2f} um")
+        print(
+            f"- {e['name']} ({e['axis']}): {e['physics']}; held-out RMS {e['cv_rms_before'] * 1000:.2f} -> "
+            f"{e['cv_rms_after'] * 1000:.2f} um"
+        )
     for c in d["confounded"]:
-        print(f"- cannot separate {c['effect']} ({c['axis']}): {c['why']}; to separate: {c['experiment']}")
+        print(
+            f"- cannot separate {c['effect']} ({c['axis']}): {c['why']}; to separate: {c['experiment']}"
+        )
     if d.get("verdict"):
         print(d["verdict"])
     elif not d["effects"]:
@@ -411,8 +588,10 @@ def _discover(args) -> int:
     if d.get("summary"):
         print(d["summary"])
     if args.twin is not None:
-        print(f"-> {args.twin} (the twin with what was found: calibench discover {args.scenario} ... --config "
-              f"{args.twin} replays it)")
+        print(
+            f"-> {args.twin} (the twin with what was found: calibench discover {args.scenario} ... --config "
+            f"{args.twin} replays it)"
+        )
     print(f"-> {out / 'discovery.json'}")
     return EXIT_OK
 
@@ -422,8 +601,10 @@ def _iso230(args) -> int:
 
     r = run_iso230(args.run, args.out)
     a = r["axis"]
-    print(f"ISO 230-2, {r['targets']} targets, {r['runs']} runs each way (um): A {a['A']:.3f}  E {a['E']:.3f}  "
-          f"M {a['M']:.3f}  R {a['R']:.3f}  B {a['B']:.3f}  (A up {a['A_up']:.3f}, down {a['A_down']:.3f})")
+    print(
+        f"ISO 230-2, {r['targets']} targets, {r['runs']} runs each way (um): A {a['A']:.3f}  E {a['E']:.3f}  "
+        f"M {a['M']:.3f}  R {a['R']:.3f}  B {a['B']:.3f}  (A up {a['A_up']:.3f}, down {a['A_down']:.3f})"
+    )
     print(f"-> {args.out / 'iso230.json'}")
     return EXIT_OK
 
@@ -431,14 +612,26 @@ def _iso230(args) -> int:
 def _camera(args) -> int:
     from calibench.scenarios.camera_calibration import run_camera
 
-    r = run_camera(args.images, args.cols, args.rows, args.square_mm, args.fix_aspect, args.radial,
-                   not args.no_tangential, args.out)
+    r = run_camera(
+        args.images,
+        args.cols,
+        args.rows,
+        args.square_mm,
+        args.fix_aspect,
+        args.radial,
+        not args.no_tangential,
+        args.out,
+    )
     K = r["K"]
-    print(f"fx {K[0][0]:.3f}  fy {K[1][1]:.3f}  cx {K[0][2]:.3f}  cy {K[1][2]:.3f}  "
-          f"rms {r['rms_px']:.3f} px  ({len(r['used'])} used, {len(r['rejected'])} rejected)")
+    print(
+        f"fx {K[0][0]:.3f}  fy {K[1][1]:.3f}  cx {K[0][2]:.3f}  cy {K[1][2]:.3f}  "
+        f"rms {r['rms_px']:.3f} px  ({len(r['used'])} used, {len(r['rejected'])} rejected)"
+    )
     for photo, corners in r["corners_left_out"].items():
-        print(f"  {photo}: left out corner(s) " + ", ".join(f"{c['corner']} ({c['off_grid_px']} px off the grid)"
-                                                           for c in corners))
+        print(
+            f"  {photo}: left out corner(s) "
+            + ", ".join(f"{c['corner']} ({c['off_grid_px']} px off the grid)" for c in corners)
+        )
     print(f"-> {args.out / 'intrinsics.json'}")
     return EXIT_OK
 

@@ -25,24 +25,86 @@ from calibench.scenarios.report import BadInput
 # Ranges by what a key names, so that every scenario's config is checked the same way.
 # Counts (int): at least 1, at most MAX_COUNT (a typo of 1e9 postures is refused before any work).
 MAX_COUNT = 100_000
-MIN_COUNT = {"cols": 2, "rows": 2, "n": 3, "runs": 2, "targets_per_line": 2, "samples_per_turn": 8,
-             "width": 16, "height": 16, "align_max_turns": 0}
+MIN_COUNT = {
+    "cols": 2,
+    "rows": 2,
+    "n": 3,
+    "runs": 2,
+    "targets_per_line": 2,
+    "samples_per_turn": 8,
+    "width": 16,
+    "height": 16,
+    "align_max_turns": 0,
+}
 MAX_PIXELS = 8192  # a camera side
 # Lists that are a point, a pair or a model's coefficients (other lists: as long as you like)
-FIXED_LENGTH = {"travel_mm", "error_x", "error_y", "centre_mm", "plate_centre_mm", "tracker_pos_mm",
-                "tracker_tilt_rad", "cone_a_mm", "cone_b_mm", "range_noise_um", "reversal_um", "length_noise_um",
-                "plate_origin_reading_mm", "x_guide_ref_mm", "y_guide_ref_mm", "grid", "m_sweep",
-                "stated_range_sigma_um", "stated_length_sigma_um"}
+FIXED_LENGTH = {
+    "travel_mm",
+    "error_x",
+    "error_y",
+    "centre_mm",
+    "plate_centre_mm",
+    "tracker_pos_mm",
+    "tracker_tilt_rad",
+    "cone_a_mm",
+    "cone_b_mm",
+    "range_noise_um",
+    "reversal_um",
+    "length_noise_um",
+    "plate_origin_reading_mm",
+    "x_guide_ref_mm",
+    "y_guide_ref_mm",
+    "grid",
+    "m_sweep",
+    "stated_range_sigma_um",
+    "stated_length_sigma_um",
+}
 # Floats that are scatters, limits or sizes: a negative one is a typo, not a physics.
-NONNEGATIVE = ("noise", "sigma", "jitter", "limit", "tolerance", "repeatability", "quantum", "psf", "seat",
-               "error_um", "aim_um", "reversal_um", "contour_quanta", "requirement",
-               # physics MuJoCo refuses negative (masses, inertias, densities) and a leg that would
-               # shorten under load, or a radius below zero
-               "mass", "inertia", "density", "compliance", "radius")
-POSITIVE = ("square_mm", "pitch_mm", "diameter_mm", "fx", "fy", "working_distance_mm", "camera_height_mm",
-            "period", "half_side_mm", "rail_length_mm", "A_mm", "B_mm", "travel_mm", "home_height_mm",
-            "translation_mm", "rotation_deg", "p", "reading_sigma_um", "angle_sigma_urad",
-            "kg")  # a moving body's mass: MuJoCo needs it above zero
+NONNEGATIVE = (
+    "noise",
+    "sigma",
+    "jitter",
+    "limit",
+    "tolerance",
+    "repeatability",
+    "quantum",
+    "psf",
+    "seat",
+    "error_um",
+    "aim_um",
+    "reversal_um",
+    "contour_quanta",
+    "requirement",
+    # physics MuJoCo refuses negative (masses, inertias, densities) and a leg that would
+    # shorten under load, or a radius below zero
+    "mass",
+    "inertia",
+    "density",
+    "compliance",
+    "radius",
+)
+POSITIVE = (
+    "square_mm",
+    "pitch_mm",
+    "diameter_mm",
+    "fx",
+    "fy",
+    "working_distance_mm",
+    "camera_height_mm",
+    "period",
+    "half_side_mm",
+    "rail_length_mm",
+    "A_mm",
+    "B_mm",
+    "travel_mm",
+    "home_height_mm",
+    "translation_mm",
+    "rotation_deg",
+    "p",
+    "reading_sigma_um",
+    "angle_sigma_urad",
+    "kg",
+)  # a moving body's mass: MuJoCo needs it above zero
 
 
 def load_toml(path: str | Path) -> dict:
@@ -126,7 +188,11 @@ def _coerce(current: Any, value: Any, where: str) -> Any:
                 raise BadInput(f"config: {where}: rows of different lengths")
             _number(x, where)
             _check_range(key, float(x), where)
-        if isinstance(current, tuple) and current and all(isinstance(c, int) and not isinstance(c, bool) for c in current):
+        if (
+            isinstance(current, tuple)
+            and current
+            and all(isinstance(c, int) and not isinstance(c, bool) for c in current)
+        ):
             if not all(float(x).is_integer() for x in flat):
                 raise BadInput(f"config: {where} takes whole numbers")
             value = [int(x) for x in value]
@@ -151,8 +217,13 @@ def show(value: Any) -> str:
     if isinstance(value, (int, float, np.integer, np.floating)):
         return f"{float(value):g}" if isinstance(value, (float, np.floating)) else str(int(value))
     arr = np.asarray(value, dtype=float)
-    text = np.array2string(arr, separator=", ", formatter={"float_kind": lambda x: f"{x:g}"}, threshold=12,
-                           max_line_width=10_000).replace("\n", "")
+    text = np.array2string(
+        arr,
+        separator=", ",
+        formatter={"float_kind": lambda x: f"{x:g}"},
+        threshold=12,
+        max_line_width=10_000,
+    ).replace("\n", "")
     return text if len(text) <= 80 else text[:77] + "..."
 
 
@@ -174,8 +245,12 @@ def check_camera(cam, where: str) -> None:
     for name, c, size in (("cx", cam.cx, cam.width), ("cy", cam.cy, cam.height)):
         lo, hi = (size - 1) / 2 - size / 4, (size - 1) / 2 + size / 4
         if not lo <= c <= hi:
-            raise bad(f"{where}.{name}", c, f"the principal point lies near the middle of the {size} px image: "
-                                            f"{name} from {lo:g} to {hi:g}")
+            raise bad(
+                f"{where}.{name}",
+                c,
+                f"the principal point lies near the middle of the {size} px image: "
+                f"{name} from {lo:g} to {hi:g}",
+            )
     # the image's extent in normalised coordinates, a grid over it (corners included)
     u = np.linspace(-cam.cx / cam.fx, (cam.width - 1 - cam.cx) / cam.fx, 33)
     v = np.linspace(-cam.cy / cam.fy, (cam.height - 1 - cam.cy) / cam.fy, 33)
@@ -190,7 +265,12 @@ def check_camera(cam, where: str) -> None:
         det = jx[:, 0] * jy[:, 1] - jx[:, 1] * jy[:, 0]
     if not (np.isfinite(bend) and bend <= MAX_LENS_BEND and np.all(det > 0)):
         lens = ", ".join(f"{k} = {getattr(cam, k):g}" for k in ("k1", "k2", "p1", "p2", "k3"))
-        how = (f"moves the image's points by up to {bend:.3g} of their distance from the principal point"
-               if np.isfinite(bend) else "is not finite over the image")
-        raise BadInput(f"config: {where}: the lens {lens} {how}{'' if np.all(det > 0) else ' and folds the image'}"
-                       f": a calibratable lens bends them by at most {MAX_LENS_BEND:.0%}, one-to-one")
+        how = (
+            f"moves the image's points by up to {bend:.3g} of their distance from the principal point"
+            if np.isfinite(bend)
+            else "is not finite over the image"
+        )
+        raise BadInput(
+            f"config: {where}: the lens {lens} {how}{'' if np.all(det > 0) else ' and folds the image'}"
+            f": a calibratable lens bends them by at most {MAX_LENS_BEND:.0%}, one-to-one"
+        )

@@ -17,13 +17,19 @@ from __future__ import annotations
 import numpy as np
 
 from calibench.estimators import discovery as dsc
-from calibench.estimators.scanner_effects import AXIS, AngleTable, ProbeOffset, Runout, scanner_candidates
+from calibench.estimators.scanner_effects import (
+    AXIS,
+    AngleTable,
+    ProbeOffset,
+    Runout,
+    scanner_candidates,
+)
 from calibench.scenarios.report import BadInput
 
 BIN_DEG = 1.0  # the nonsmooth table's bands of the table's angle
 EXPERIMENTS = {
     "offset": "measure a gauge of known size (a ring): the probe's zero and the rail's dL are one column on one "
-              "artefact",
+    "artefact",
     "scale": "measure two artefacts of different size",
     "encoder_eccentricity": "turn the artefact in its holder by 90 deg and measure again",
     "runout": "measure more turns",
@@ -36,8 +42,13 @@ def _twin(config, cal):
 
     from calibench.sim.probe_scanner import ProbeScannerSim
 
-    truth = dataclasses.replace(config.truth, d_mm=cal.d_mm, dL_mm=cal.dL_mm, alpha0_rad=cal.alpha0_rad,
-                                plate_centre_mm=tuple(float(c) for c in cal.centre_mm))
+    truth = dataclasses.replace(
+        config.truth,
+        d_mm=cal.d_mm,
+        dL_mm=cal.dL_mm,
+        alpha0_rad=cal.alpha0_rad,
+        plate_centre_mm=tuple(float(c) for c in cal.centre_mm),
+    )
     return ProbeScannerSim(config.geometry, truth)
 
 
@@ -62,7 +73,11 @@ def twin_table(out: dict) -> dict:
 def scene_model(rec, config) -> tuple[object, np.ndarray, np.ndarray, np.ndarray]:
     """The calibrated rail and plate, the twin's reading at each encoder angle (n,) mm, the
     model's columns d rho / d(d, dL, alpha0, cx, cy) (n, 5) and d rho / d theta (n,)."""
-    from calibench.estimators.rotary_probe import ScannerCalibration, calibrate_lsq, rounded_square_rho
+    from calibench.estimators.rotary_probe import (
+        ScannerCalibration,
+        calibrate_lsq,
+        rounded_square_rho,
+    )
 
     g, nom = config.geometry, config.nominal
     a, rc = g.plate.half_side_mm, g.plate.corner_radius_mm
@@ -74,9 +89,11 @@ def scene_model(rec, config) -> tuple[object, np.ndarray, np.ndarray, np.ndarray
         cal = None
     if cal is None or not np.isfinite(cal.rms_mm) or cal.rms_mm > 1.0:
         rms = "no fit" if cal is None else f"rms {cal.rms_mm:.3g} mm"
-        raise BadInput(f"the recording does not fit the calibration plate ({2 * a:g} mm square, r = {rc:g} mm) with "
-                       f"any rail ({rms}): another artefact, a wrong unit (the format: mm and degrees), or not a "
-                       "probe-scanner recording?")
+        raise BadInput(
+            f"the recording does not fit the calibration plate ({2 * a:g} mm square, r = {rc:g} mm) with "
+            f"any rail ({rms}): another artefact, a wrong unit (the format: mm and degrees), or not a "
+            "probe-scanner recording?"
+        )
     p = np.r_[cal.d_mm, cal.dL_mm, cal.alpha0_rad, cal.centre_mm]
     steps = np.array([1e-4, 1e-4, 1e-6, 1e-4, 1e-4])
     cols = np.empty((len(th), 5))
@@ -87,14 +104,17 @@ def scene_model(rec, config) -> tuple[object, np.ndarray, np.ndarray, np.ndarray
         f = [rounded_square_rho(th, v[0], v[1], v[2], v[3:5], a, rc) for v in (hi, lo)]
         cols[:, k] = (f[0] - f[1]) / (2 * steps[k])
     if not np.all(np.isfinite(cols)):
-        raise BadInput(f"the recording does not fit the calibration plate ({2 * a:g} mm square, r = {rc:g} mm): "
-                       "its rail's model has no slope there")
+        raise BadInput(
+            f"the recording does not fit the calibration plate ({2 * a:g} mm square, r = {rc:g} mm): "
+            "its rail's model has no slope there"
+        )
     rho_twin = _twin(config, cal).reading_mm("plate", th)
     return cal, rho_twin, cols, cols[:, 2]
 
 
-def find_angle_table(sig: dsc.Signal, terms: list, drivers: dict, noise: dsc.Noise, fold: np.ndarray,
-                     floor: float) -> AngleTable | None:
+def find_angle_table(
+    sig: dsc.Signal, terms: list, drivers: dict, noise: dsc.Noise, fold: np.ndarray, floor: float
+) -> AngleTable | None:
     """Bands of the angle whose mean residual (over turns) stands out of the repeatability,
     grown to their neighbours (|z| > 2, within 3 bands, around the turn); kept only if a
     correction there helps held out."""
@@ -118,9 +138,13 @@ def find_angle_table(sig: dsc.Signal, terms: list, drivers: dict, noise: dsc.Noi
     table_id[region] = np.arange(region.sum())
     peak = int(np.argmax(np.abs(z)))
     bands = np.flatnonzero(region)
-    where = (f"at table angles {', '.join(_runs(bands))} deg (largest at {(peak + 0.5) * BIN_DEG:.1f} deg, "
-             f"{means[peak] * 1000:+.1f} um)")
-    table = AngleTable(band=table_id[band], n=int(region.sum()), where=where, peak_deg=(peak + 0.5) * BIN_DEG)
+    where = (
+        f"at table angles {', '.join(_runs(bands))} deg (largest at {(peak + 0.5) * BIN_DEG:.1f} deg, "
+        f"{means[peak] * 1000:+.1f} um)"
+    )
+    table = AngleTable(
+        band=table_id[band], n=int(region.sum()), where=where, peak_deg=(peak + 0.5) * BIN_DEG
+    )
     # judged where it acts: a nick a degree wide barely moves the whole turn's RMS
     inside = table.band >= 0
     cache = {}
@@ -140,7 +164,9 @@ def _runs(bands: np.ndarray) -> list[str]:
     return out
 
 
-def discover_scanner(rec, seed: int = 0, floor: float = dsc.FLOOR, config=None) -> tuple[dict, dict]:
+def discover_scanner(
+    rec, seed: int = 0, floor: float = dsc.FLOOR, config=None
+) -> tuple[dict, dict]:
     """discovery.json's content for a probe-scanner recording, and what the figure needs."""
     from calibench.scenarios.discover import _describe, one_axis_fit, verdict
     from calibench.scenarios.probe_scanner import ProbeScannerConfig
@@ -151,16 +177,27 @@ def discover_scanner(rec, seed: int = 0, floor: float = dsc.FLOOR, config=None) 
     if n < 200:
         raise BadInput(f"{n} samples: discover probe-scanner needs at least 200 (a turn)")
     if np.ptp(np.mod(rec.theta_rad, 2 * np.pi)) < np.deg2rad(300):
-        raise BadInput("the samples cover less than 300 deg of the table: discover needs whole turns")
+        raise BadInput(
+            "the samples cover less than 300 deg of the table: discover needs whole turns"
+        )
     cal, rho_twin, geo, slope = scene_model(rec, config)
     th = rec.theta_rad
-    drivers = {"theta": th, "rho": rho_twin, "drho": slope, "turn": rec.turn, "t_s": rec.t_s, "temp_c": rec.temp_c}
+    drivers = {
+        "theta": th,
+        "rho": rho_twin,
+        "drho": slope,
+        "turn": rec.turn,
+        "t_s": rec.t_s,
+        "temp_c": rec.temp_c,
+    }
     sig = dsc.Signal("rho_meas - rho_sim", AXIS, rec.rho_mm - rho_twin, geo, np.arange(n), th)
     if len(turns) >= 2:
         fold, scheme = np.searchsorted(turns, rec.turn), "leave one turn out"
     else:
         fold, scheme = np.arange(n) % 5, "five interleaved folds of the samples (one turn)"
-    station = np.unique(np.round(np.degrees(np.mod(th, 2 * np.pi)), 6), return_inverse=True)[1].ravel()
+    station = np.unique(np.round(np.degrees(np.mod(th, 2 * np.pi)), 6), return_inverse=True)[
+        1
+    ].ravel()
     order = rec.t_s if rec.t_s is not None else np.arange(n, dtype=float)
     first = sig.r - geo @ dsc._lstsq(geo, sig.r)
     noise = {AXIS: dsc.repeatability(first, station, order)}
@@ -178,31 +215,60 @@ def discover_scanner(rec, seed: int = 0, floor: float = dsc.FLOOR, config=None) 
     confounded = []
     symmetric = Runout(harmonic=4)
     frac = dsc.confounded(sig, terms[AXIS], symmetric, drivers, {})
-    confounded.append({"effect": "runout", "axis": AXIS, "with": "the square's form",
-                       "why": "a runout 4, 8, ... times a turn repeats with the square plate's sides: it cannot be "
-                              f"told from the plate's form error ({100 * frac:.0f} % of a fourfold runout is what the "
-                              "calibrated rail already does), so those harmonics are not searched",
-                       "experiment": "measure a round artefact (a ring gauge) to see the table's runout at every "
-                                     "harmonic"})
+    confounded.append(
+        {
+            "effect": "runout",
+            "axis": AXIS,
+            "with": "the square's form",
+            "why": "a runout 4, 8, ... times a turn repeats with the square plate's sides: it cannot be "
+            f"told from the plate's form error ({100 * frac:.0f} % of a fourfold runout is what the "
+            "calibrated rail already does), so those harmonics are not searched",
+            "experiment": "measure a round artefact (a ring gauge) to see the table's runout at every "
+            "harmonic",
+        }
+    )
     frac = dsc.confounded(sig, terms[AXIS], ProbeOffset(), drivers, {})
     if frac > 0.9:
-        confounded.append({"effect": "offset", "axis": AXIS, "with": "the rail's dL",
-                           "why": f"{100 * frac:.0f} % of a probe offset is what the rail's dL already does: on one "
-                                  "artefact the two are one number", "experiment": EXPERIMENTS["offset"]})
+        confounded.append(
+            {
+                "effect": "offset",
+                "axis": AXIS,
+                "with": "the rail's dL",
+                "why": f"{100 * frac:.0f} % of a probe offset is what the rail's dL already does: on one "
+                "artefact the two are one number",
+                "experiment": EXPERIMENTS["offset"],
+            }
+        )
     located = _locate(sig, drivers, rec, seed)
-    out = {"scenario": "probe-scanner", "samples": n, "unit": "mm", "located": located, "effects": effects,
-           **one_axis_fit(AXIS, np.sqrt(np.mean(first ** 2)), found, noise, after_noise),
-           "holdout": scheme,
-           "scene_model": (f"the twin (MuJoCo's ray on the {2 * config.geometry.plate.half_side_mm:g} mm plate) with "
-                           f"its rail calibrated: d {cal.d_mm:.4f} mm, dL {cal.dL_mm:.4f} mm, alpha0 "
-                           f"{np.degrees(cal.alpha0_rad):.4f} deg, plate centre ({cal.centre_mm[0]:.4f}, "
-                           f"{cal.centre_mm[1]:.4f}) mm"),
-           "twin_rail": {"d_mm": cal.d_mm, "dL_mm": cal.dL_mm, "alpha0_rad": cal.alpha0_rad,
-                         "plate_centre_mm": [float(c) for c in cal.centre_mm]},
-           "not_accepted": found.rejected, "confounded": confounded,
-           "verdict": verdict(found.cv_final, after_noise, bool(effects))}
-    return out, {"signals": [sig], "fitted": fitted, "abscissa": (np.degrees(np.mod(th, 2 * np.pi)),
-                                                                   "table angle (deg)")}
+    out = {
+        "scenario": "probe-scanner",
+        "samples": n,
+        "unit": "mm",
+        "located": located,
+        "effects": effects,
+        **one_axis_fit(AXIS, np.sqrt(np.mean(first**2)), found, noise, after_noise),
+        "holdout": scheme,
+        "scene_model": (
+            f"the twin (MuJoCo's ray on the {2 * config.geometry.plate.half_side_mm:g} mm plate) with "
+            f"its rail calibrated: d {cal.d_mm:.4f} mm, dL {cal.dL_mm:.4f} mm, alpha0 "
+            f"{np.degrees(cal.alpha0_rad):.4f} deg, plate centre ({cal.centre_mm[0]:.4f}, "
+            f"{cal.centre_mm[1]:.4f}) mm"
+        ),
+        "twin_rail": {
+            "d_mm": cal.d_mm,
+            "dL_mm": cal.dL_mm,
+            "alpha0_rad": cal.alpha0_rad,
+            "plate_centre_mm": [float(c) for c in cal.centre_mm],
+        },
+        "not_accepted": found.rejected,
+        "confounded": confounded,
+        "verdict": verdict(found.cv_final, after_noise, bool(effects)),
+    }
+    return out, {
+        "signals": [sig],
+        "fitted": fitted,
+        "abscissa": (np.degrees(np.mod(th, 2 * np.pi)), "table angle (deg)"),
+    }
 
 
 def _locate(sig, drivers, rec, seed) -> list[dict]:
@@ -211,12 +277,24 @@ def _locate(sig, drivers, rec, seed) -> list[dict]:
     rng = np.random.default_rng(seed)
     r = sig.r - sig.base @ dsc._lstsq(sig.base, sig.r)
     out = []
-    for name, v in (("theta_deg", np.degrees(np.mod(rec.theta_rad, 2 * np.pi))), ("t_s", rec.t_s),
-                    ("temp_c", rec.temp_c)):
+    for name, v in (
+        ("theta_deg", np.degrees(np.mod(rec.theta_rad, 2 * np.pi))),
+        ("t_s", rec.t_s),
+        ("temp_c", rec.temp_c),
+    ):
         if v is None or np.ptp(v) == 0:
             continue
-        score, p = dsc.permutation_p(r, np.asarray(v, float), rec.turn, name != "theta_deg", rng, 99)
+        score, p = dsc.permutation_p(
+            r, np.asarray(v, float), rec.turn, name != "theta_deg", rng, 99
+        )
         if p <= 0.01 and score >= 0.02:
-            out.append({"signal": sig.name, "driver": name, "score": score, "p_value": p,
-                        "where": "over the whole turn" if name == "theta_deg" else f"follows {name}"})
+            out.append(
+                {
+                    "signal": sig.name,
+                    "driver": name,
+                    "score": score,
+                    "p_value": p,
+                    "where": "over the whole turn" if name == "theta_deg" else f"follows {name}",
+                }
+            )
     return sorted(out, key=lambda d: -d["score"])

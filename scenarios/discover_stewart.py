@@ -24,7 +24,9 @@ STEWART_FLOOR = 0.04
 # A pose whose leg disagrees with the nominal platform by more than this is no calibration error:
 # the hinges' errors are tenths of a millimetre, the legs' compliance and growth micrometres.
 MAX_LEG_RESIDUAL_MM = 10.0
-MIN_DISTINCT_POSES = 20  # 42 hinge parameters and the frame's 6 from 6 readings a pose, with room for the folds
+MIN_DISTINCT_POSES = (
+    20  # 42 hinge parameters and the frame's 6 from 6 readings a pose, with room for the folds
+)
 EXPERIMENTS = {
     "leg_compliance": "add a known payload to the platform, or hold poses that load the legs differently",
     "thermal_expansion": "let the machine's temperature change by several K during the recording",
@@ -49,10 +51,14 @@ def register(rec, geometry, iterations: int = 10) -> tuple[np.ndarray, np.ndarra
     home = np.array([0.0, 0.0, g.home_height_mm])
     Rb, tb, ok = forward_kinematics_many(rec.readings_mm + l0, r0, B0, np.eye(3), home)
     if ok.mean() < 0.5:
-        raise BadInput("the legs' readings give no pose of the nominal platform for most rows: not this machine's "
-                       "recording, or not readings relative to the initial lengths")
-    Rf, tf = rigid_transform(_hinge_points(rec.R, rec.t_mm, r0)[ok].reshape(-1, 3),
-                             _hinge_points(Rb, tb, r0)[ok].reshape(-1, 3))
+        raise BadInput(
+            "the legs' readings give no pose of the nominal platform for most rows: not this machine's "
+            "recording, or not readings relative to the initial lengths"
+        )
+    Rf, tf = rigid_transform(
+        _hinge_points(rec.R, rec.t_mm, r0)[ok].reshape(-1, 3),
+        _hinge_points(Rb, tb, r0)[ok].reshape(-1, 3),
+    )
     for _ in range(iterations):
         res, cols, _ = _frame_model(rec, geometry, Rf, tf)
         step = np.linalg.lstsq(cols, res, rcond=None)[0]  # res falls by cols @ step
@@ -69,15 +75,19 @@ def _check_registered(rec, g, Rf, tf) -> None:
     worst = np.abs(res).max(axis=1)
     far = worst > MAX_LEG_RESIDUAL_MM
     if far.mean() > 0.5:
-        raise BadInput(f"the legs' readings disagree with the tracker's poses on the nominal platform by "
-                       f"{np.median(worst):.3g} mm (median): a wrong unit (the format: mm and degrees), readings "
-                       "not relative to the initial lengths, or another platform (--config)")
+        raise BadInput(
+            f"the legs' readings disagree with the tracker's poses on the nominal platform by "
+            f"{np.median(worst):.3g} mm (median): a wrong unit (the format: mm and degrees), readings "
+            "not relative to the initial lengths, or another platform (--config)"
+        )
     if far.any():
         rows = np.flatnonzero(far)
         listed = ", ".join(str(int(k) + 1) for k in rows[:5]) + (" ..." if len(rows) > 5 else "")
-        raise BadInput(f"data row(s) {listed}: the legs' readings disagree with the tracker's pose by up to "
-                       f"{worst[far].max():.3g} mm, where the other rows agree within {worst[~far].max():.3g} mm: "
-                       "corrupt rows (leave them out)")
+        raise BadInput(
+            f"data row(s) {listed}: the legs' readings disagree with the tracker's pose by up to "
+            f"{worst[far].max():.3g} mm, where the other rows agree within {worst[~far].max():.3g} mm: "
+            "corrupt rows (leave them out)"
+        )
 
 
 def _frame_model(rec, g, Rf, tf):
@@ -95,7 +105,9 @@ def _frame_model(rec, g, Rf, tf):
     return res, cols, (R, t)
 
 
-def twin_drivers(rec, geometry, Rf, tf, load=None, truth=None) -> tuple[dict, np.ndarray, np.ndarray]:
+def twin_drivers(
+    rec, geometry, Rf, tf, load=None, truth=None
+) -> tuple[dict, np.ndarray, np.ndarray]:
     """The candidates' drivers at the registered poses, the residual (6 n,) and the frame's
     columns (6 n, 6); the legs' axial forces from MuJoCo's statics of the twin (``geometry``,
     rigid legs). With ``truth`` (a twin updated by ``discover --twin``) its leg physics is part
@@ -106,13 +118,23 @@ def twin_drivers(rec, geometry, Rf, tf, load=None, truth=None) -> tuple[dict, np
     res, frame, (R, t) = _frame_model(rec, g, Rf, tf)
     J, L, _ = _geometry_columns(rec, g, R, t)
     n = len(rec)
-    twin = StewartSim(g, StewartTruth(hinge_error_mm=0.0, length_error_mm=0.0, station_offset_mm=0.0),
-                      np.random.default_rng(0))
+    twin = StewartSim(
+        g,
+        StewartTruth(hinge_error_mm=0.0, length_error_mm=0.0, station_offset_mm=0.0),
+        np.random.default_rng(0),
+    )
     loads = np.zeros(n) if load is None else load
     force = np.array([twin.leg_forces_n(R[k], t[k], loads[k]) for k in range(n)])
     if truth is not None and truth.has_leg_physics:
         res = res - leg_effects_mm(truth, L, force, rec.direction, rec.temp_c).ravel()
-    drivers = {"L": L, "J_geo": J, "dir": rec.direction, "temp_c": rec.temp_c, "t_s": rec.t_s, "force": force}
+    drivers = {
+        "L": L,
+        "J_geo": J,
+        "dir": rec.direction,
+        "temp_c": rec.temp_c,
+        "t_s": rec.t_s,
+        "force": force,
+    }
     return drivers, res, frame
 
 
@@ -149,9 +171,12 @@ def geometry_residual(rec, geometry, Rf, tf, iterations: int = 5) -> np.ndarray:
         turn = rotvec_to_matrix(step[:3])
         Rf, tf = turn @ Rf, turn @ tf + step[3:6]
         p = step[6:].reshape(6, 7)
-        g = dataclasses.replace(g, platform_hinges_mm=np.asarray(g.platform_hinges_mm) + p[:, :3],
-                                base_hinges_mm=np.asarray(g.base_hinges_mm) + p[:, 3:6],
-                                initial_lengths_mm=np.asarray(g.initial_lengths_mm) + p[:, 6])
+        g = dataclasses.replace(
+            g,
+            platform_hinges_mm=np.asarray(g.platform_hinges_mm) + p[:, :3],
+            base_hinges_mm=np.asarray(g.base_hinges_mm) + p[:, 3:6],
+            initial_lengths_mm=np.asarray(g.initial_lengths_mm) + p[:, 6],
+        )
         if np.max(np.abs(step)) < 1e-9:
             break
     return _frame_model(rec, g, Rf, tf)[0].reshape(-1, 6)
@@ -166,8 +191,8 @@ def _geometry_columns(rec, g, R, t):
     u = v / L[..., None]
     J = np.zeros((len(R), 6, 42))
     for i in range(6):  # reading_i = |R r_i + t - B_i| - l_i
-        J[:, i, 7 * i:7 * i + 3] = np.einsum("nj,njk->nk", u[:, i], R)
-        J[:, i, 7 * i + 3:7 * i + 6] = -u[:, i]
+        J[:, i, 7 * i : 7 * i + 3] = np.einsum("nj,njk->nk", u[:, i], R)
+        J[:, i, 7 * i + 3 : 7 * i + 6] = -u[:, i]
         J[:, i, 7 * i + 6] = -1.0
     return J, L, u
 
@@ -188,7 +213,9 @@ def _p_along(r, v, rng, n_perm):
     return score, (hits + 1) / (n_perm + 1)
 
 
-def locate(res: np.ndarray, drivers: dict, seed: int, n_perm: int = 499, alpha: float = 0.002) -> list[dict]:
+def locate(
+    res: np.ndarray, drivers: dict, seed: int, n_perm: int = 499, alpha: float = 0.002
+) -> list[dict]:
     """Which leg disagrees with the twin, and where: each leg's residual after the hinge geometry
     (res (n_poses, 6) mm) against its own length, direction of approach and axial force, and
     against time and temperature. The null: for time and temperature the poses' order permuted;
@@ -202,45 +229,71 @@ def locate(res: np.ndarray, drivers: dict, seed: int, n_perm: int = 499, alpha: 
     for i in range(6):
         r = res[:, i]
         direction = None if drivers["dir"] is None else drivers["dir"][:, i]
-        tests = [("length", drivers["L"][:, i]), ("direction", direction), ("axial_force", drivers["force"][:, i]),
-                 ("temp_c", drivers["temp_c"]), ("t_s", drivers["t_s"])]
+        tests = [
+            ("length", drivers["L"][:, i]),
+            ("direction", direction),
+            ("axial_force", drivers["force"][:, i]),
+            ("temp_c", drivers["temp_c"]),
+            ("t_s", drivers["t_s"]),
+        ]
         for name, v in tests:
             if v is None or np.ptp(v) == 0:
                 continue
             v = np.asarray(v, float)
             if name == "length":
                 score, p = _p_along(r, v, rng, n_perm)
-            elif name in ("temp_c", "t_s"):  # the poses come in random order: time itself is what is tested
+            elif name in (
+                "temp_c",
+                "t_s",
+            ):  # the poses come in random order: time itself is what is tested
                 score = dsc.binned_r2(r, v)
-                p = (sum(dsc.binned_r2(r, rng.permutation(v)) >= score for _ in range(n_perm)) + 1) / (n_perm + 1)
+                p = (
+                    sum(dsc.binned_r2(r, rng.permutation(v)) >= score for _ in range(n_perm)) + 1
+                ) / (n_perm + 1)
             else:
                 score, p = dsc.permutation_p(r, v, zero, False, rng, n_perm)
             if p <= alpha and score >= 0.05:
-                out.append({"signal": f"leg {i + 1} reading - twin (after geometry)", "driver": name, "leg": i + 1,
-                            "score": score, "p_value": p, "where": _where(r, v, name, i + 1)})
+                out.append(
+                    {
+                        "signal": f"leg {i + 1} reading - twin (after geometry)",
+                        "driver": name,
+                        "leg": i + 1,
+                        "score": score,
+                        "p_value": p,
+                        "where": _where(r, v, name, i + 1),
+                    }
+                )
     return sorted(out, key=lambda d: -d["score"])
 
 
 def _where(r, v, name, leg) -> str:
     if name == "direction":
-        return (f"leg {leg}: extending minus retracting {1000 * (r[v > 0].mean() - r[v < 0].mean()):+.1f} um "
-                f"at the same poses")
+        return (
+            f"leg {leg}: extending minus retracting {1000 * (r[v > 0].mean() - r[v < 0].mean()):+.1f} um "
+            f"at the same poses"
+        )
     if name in ("temp_c", "t_s"):
         slope = np.polyfit(v, r, 1)[0]
         unit = "K" if name == "temp_c" else "h"
         return f"leg {leg} follows {name}: {1000 * slope * (1 if name == 'temp_c' else 3600):+.2f} um per {unit}"
     if name == "axial_force":
-        return (f"leg {leg} reads more the more it carries: {1000 * np.polyfit(v, r, 1)[0]:+.4f} um per N of axial "
-                "load, beyond what the hinge geometry absorbed")
+        return (
+            f"leg {leg} reads more the more it carries: {1000 * np.polyfit(v, r, 1)[0]:+.4f} um per N of axial "
+            "load, beyond what the hinge geometry absorbed"
+        )
     edges = np.quantile(v, np.linspace(0, 1, 9))
     idx = np.clip(np.searchsorted(edges, v, side="right") - 1, 0, 7)
     amp = np.array([np.ptp(r[idx == k]) if np.sum(idx == k) > 1 else 0.0 for k in range(8)])
     k = int(np.argmax(amp))
-    return (f"leg {leg} along its length {v.min():.0f}-{v.max():.0f} mm, widest at {edges[k]:.0f}-"
-            f"{edges[k + 1]:.0f} mm ({1000 * amp[k]:.1f} um peak to peak)")
+    return (
+        f"leg {leg} along its length {v.min():.0f}-{v.max():.0f} mm, widest at {edges[k]:.0f}-"
+        f"{edges[k + 1]:.0f} mm ({1000 * amp[k]:.1f} um peak to peak)"
+    )
 
 
-def discover_stewart(rec, seed: int = 0, floor: float = STEWART_FLOOR, config=None) -> tuple[dict, dict]:
+def discover_stewart(
+    rec, seed: int = 0, floor: float = STEWART_FLOOR, config=None
+) -> tuple[dict, dict]:
     """discovery.json's content for a Stewart recording, and what the figure needs."""
     from calibench.scenarios.discover import _describe, one_axis_fit, verdict
     from calibench.scenarios.stewart import StewartConfig
@@ -250,11 +303,15 @@ def discover_stewart(rec, seed: int = 0, floor: float = STEWART_FLOOR, config=No
     g = config.geometry
     n = len(rec)
     if n < 60:
-        raise BadInput(f"{n} poses: discover stewart needs at least 60 (42 hinge parameters and the tracker's frame)")
+        raise BadInput(
+            f"{n} poses: discover stewart needs at least 60 (42 hinge parameters and the tracker's frame)"
+        )
     distinct = len(np.unique(stations(rec)))
     if distinct < MIN_DISTINCT_POSES:
-        raise BadInput(f"{distinct} distinct poses among {n}: the hinges need at least {MIN_DISTINCT_POSES} poses "
-                       "spread over the workspace")
+        raise BadInput(
+            f"{distinct} distinct poses among {n}: the hinges need at least {MIN_DISTINCT_POSES} poses "
+            "spread over the workspace"
+        )
     Rf, tf = register(rec, g)
     _check_registered(rec, g, Rf, tf)
     truth = config.truth if config.truth.has_leg_physics else None
@@ -268,10 +325,15 @@ def discover_stewart(rec, seed: int = 0, floor: float = STEWART_FLOOR, config=No
     sig = dsc.Signal("reading - twin", AXIS, r, frame, np.repeat(np.arange(n), 6))
     fold = np.minimum(np.arange(n) * 5 // n, 4)
     station = np.repeat(stations(rec), 6) * 6 + np.tile(np.arange(6), n)
-    order = np.repeat(rec.t_s if rec.t_s is not None else np.arange(n, dtype=float), 6) + np.tile(np.arange(6), n) * 1e-3
+    order = (
+        np.repeat(rec.t_s if rec.t_s is not None else np.arange(n, dtype=float), 6)
+        + np.tile(np.arange(6), n) * 1e-3
+    )
     candidates = stewart_candidates(drivers)
     geo = next(c for c in candidates if c.name == "geometry")
-    first = r - np.c_[frame, geo.columns(drivers)] @ dsc._lstsq(np.c_[frame, geo.columns(drivers)], r)
+    first = r - np.c_[frame, geo.columns(drivers)] @ dsc._lstsq(
+        np.c_[frame, geo.columns(drivers)], r
+    )
     noise = {AXIS: dsc.repeatability(first, station, order)}
     found, terms = dsc.select([sig], candidates, drivers, fold, noise, floor=floor)
     dsc.prune(sig, found, terms, drivers, fold, floor)
@@ -284,18 +346,36 @@ def discover_stewart(rec, seed: int = 0, floor: float = STEWART_FLOOR, config=No
             continue
         frac = dsc.confounded(sig, terms[AXIS], c, drivers, {})
         if frac > 0.9:
-            confounded.append({"effect": c.name, "axis": AXIS, "with": "the hinge geometry and the accepted effects",
-                               "why": f"{100 * frac:.0f} % of {c.key}'s effect on the readings is what the model "
-                                      "already has", "experiment": EXPERIMENTS.get(c.name, "vary its driver")})
+            confounded.append(
+                {
+                    "effect": c.name,
+                    "axis": AXIS,
+                    "with": "the hinge geometry and the accepted effects",
+                    "why": f"{100 * frac:.0f} % of {c.key}'s effect on the readings is what the model "
+                    "already has",
+                    "experiment": EXPERIMENTS.get(c.name, "vary its driver"),
+                }
+            )
     names = [e["name"] for e in effects if e["name"] != "geometry"]
     located = locate(geometry_residual(rec, g, Rf, tf), drivers, seed)
-    out = {"scenario": "stewart", "samples": n, "unit": "mm", "located": located, "effects": effects,
-           **one_axis_fit(AXIS, np.sqrt(np.mean(r ** 2)), found, noise, after_noise),
-           "holdout": "five contiguous blocks of poses",
-           "scene_model": "the nominal platform (drawing hinges, rigid legs) at the tracker's poses, the tracker's "
-                          "frame registered",
-           "tracker_frame": {"R": Rf.tolist(), "t_mm": tf.tolist()},
-           "temp_mean_c": None if rec.temp_c is None else float(np.mean(rec.temp_c)),
-           "not_accepted": found.rejected, "confounded": confounded,
-           "verdict": verdict(found.cv_final, after_noise, bool(names))}
-    return out, {"signals": [sig], "fitted": fitted, "abscissa": (np.arange(len(r)) / 6, "pose (legs 1-6 each)")}
+    out = {
+        "scenario": "stewart",
+        "samples": n,
+        "unit": "mm",
+        "located": located,
+        "effects": effects,
+        **one_axis_fit(AXIS, np.sqrt(np.mean(r**2)), found, noise, after_noise),
+        "holdout": "five contiguous blocks of poses",
+        "scene_model": "the nominal platform (drawing hinges, rigid legs) at the tracker's poses, the tracker's "
+        "frame registered",
+        "tracker_frame": {"R": Rf.tolist(), "t_mm": tf.tolist()},
+        "temp_mean_c": None if rec.temp_c is None else float(np.mean(rec.temp_c)),
+        "not_accepted": found.rejected,
+        "confounded": confounded,
+        "verdict": verdict(found.cv_final, after_noise, bool(names)),
+    }
+    return out, {
+        "signals": [sig],
+        "fitted": fitted,
+        "abscissa": (np.arange(len(r)) / 6, "pose (legs 1-6 each)"),
+    }

@@ -17,26 +17,77 @@ from __future__ import annotations
 
 import dataclasses
 
-import numpy as np
-
 from calibench.scenarios.discover import discover_arm, discover_stage
 from calibench.scenarios.discover_scanner import discover_scanner
 from calibench.scenarios.discover_stewart import discover_stewart
-from calibench.sim.concealed import arm_recording, scanner_recording, stage_recording, stewart_recording
+from calibench.sim.concealed import (
+    arm_recording,
+    scanner_recording,
+    stage_recording,
+    stewart_recording,
+)
 
 SUITE = (
-    [("belt-stage", k, s) for k, seeds in (("null", 4), ("backlash", 2), ("periodic", 2), ("thermal", 2),
-                                           ("combined", 2), ("bump", 2), ("mixed", 1), ("elastic", 2))
-     for s in range(seeds)]
-    + [("vision-stage", k, s) for k, seeds in (("null", 4), ("backlash", 2), ("periodic", 2), ("thermal", 1),
-                                               ("combined", 1), ("bump", 2), ("mixed", 1)) for s in range(seeds)]
-    + [("arm-cmm", k, s) for k, seeds in (("null", 3), ("eccentricity", 3), ("thermal", 2), ("compliance", 2))
-       for s in range(seeds)]
-    + [("arm-cmm:ur10", k, s) for k, seeds in (("null", 2), ("eccentricity", 1), ("compliance", 2)) for s in range(seeds)]
-    + [("probe-scanner", k, s) for k, seeds in (("null", 3), ("runout", 2), ("eccentricity", 1), ("scale", 1),
-                                                ("bump", 2), ("combined", 1)) for s in range(seeds)]
-    + [("stewart", k, s) for k, seeds in (("null", 3), ("thermal", 1), ("backlash", 2), ("pitch", 2),
-                                          ("compliance", 2)) for s in range(seeds)]
+    [
+        ("belt-stage", k, s)
+        for k, seeds in (
+            ("null", 4),
+            ("backlash", 2),
+            ("periodic", 2),
+            ("thermal", 2),
+            ("combined", 2),
+            ("bump", 2),
+            ("mixed", 1),
+            ("elastic", 2),
+        )
+        for s in range(seeds)
+    ]
+    + [
+        ("vision-stage", k, s)
+        for k, seeds in (
+            ("null", 4),
+            ("backlash", 2),
+            ("periodic", 2),
+            ("thermal", 1),
+            ("combined", 1),
+            ("bump", 2),
+            ("mixed", 1),
+        )
+        for s in range(seeds)
+    ]
+    + [
+        ("arm-cmm", k, s)
+        for k, seeds in (("null", 3), ("eccentricity", 3), ("thermal", 2), ("compliance", 2))
+        for s in range(seeds)
+    ]
+    + [
+        ("arm-cmm:ur10", k, s)
+        for k, seeds in (("null", 2), ("eccentricity", 1), ("compliance", 2))
+        for s in range(seeds)
+    ]
+    + [
+        ("probe-scanner", k, s)
+        for k, seeds in (
+            ("null", 3),
+            ("runout", 2),
+            ("eccentricity", 1),
+            ("scale", 1),
+            ("bump", 2),
+            ("combined", 1),
+        )
+        for s in range(seeds)
+    ]
+    + [
+        ("stewart", k, s)
+        for k, seeds in (
+            ("null", 3),
+            ("thermal", 1),
+            ("backlash", 2),
+            ("pitch", 2),
+            ("compliance", 2),
+        )
+        for s in range(seeds)
+    ]
 )
 NOT_CONCEALED = ("geometry",)
 
@@ -58,11 +109,26 @@ class CaseResult:
 def _match(t, f) -> bool:
     if t["name"] != f["name"] or t["axis"] != f["axis"]:
         return False
-    return all(k not in t["params"] or t["params"][k] == f["params"].get(k) for k in ("joint", "leg"))
+    return all(
+        k not in t["params"] or t["params"][k] == f["params"].get(k) for k in ("joint", "leg")
+    )
 
 
-KINDS = ("null", "backlash", "periodic", "thermal", "combined", "bump", "eccentricity", "compliance", "runout",
-         "scale", "pitch", "mixed", "elastic")
+KINDS = (
+    "null",
+    "backlash",
+    "periodic",
+    "thermal",
+    "combined",
+    "bump",
+    "eccentricity",
+    "compliance",
+    "runout",
+    "scale",
+    "pitch",
+    "mixed",
+    "elastic",
+)
 
 
 def case_seed(kind: str, seed: int) -> int:
@@ -70,7 +136,9 @@ def case_seed(kind: str, seed: int) -> int:
     return 1000 * seed + 17 + KINDS.index(kind)
 
 
-NULL_SEED = 5000  # the null calibration's recordings: seeds 5000, 5001, ... (apart from the suite's)
+NULL_SEED = (
+    5000  # the null calibration's recordings: seeds 5000, 5001, ... (apart from the suite's)
+)
 
 
 def null_claims(scenario: str, k: int, floors) -> list[bool]:
@@ -105,7 +173,9 @@ def concealed_discovery(scenario: str, kind: str, seed: int) -> tuple[dict, dict
         rec, manifest = stewart_recording(kind, rec_seed)
         out, fig = discover_stewart(rec, seed)
     elif scenario.startswith("arm-cmm"):
-        arm = scenario.partition(":")[2] or "arm-cmm"  # arm-cmm:ur10 is the arm-cmm scenario with the UR10
+        arm = (
+            scenario.partition(":")[2] or "arm-cmm"
+        )  # arm-cmm:ur10 is the arm-cmm scenario with the UR10
         rec, manifest = arm_recording(kind, rec_seed, arm=arm)
         out, fig = discover_arm(rec, seed, arm=arm)
     else:
@@ -137,7 +207,9 @@ def run_case(scenario: str, kind: str, seed: int) -> CaseResult:
             errors.append(("period", abs(q["period_mm"] / p["period_mm"] - 1), 0.05))
             errors.append(("amplitude", abs(q["amplitude_mm"] / p["amplitude_mm"] - 1), 0.25))
         elif t["name"] == "runout":
-            errors.append(("harmonic", abs(q["harmonic"] - p["harmonic"]), 0.5))  # the very harmonic
+            errors.append(
+                ("harmonic", abs(q["harmonic"] - p["harmonic"]), 0.5)
+            )  # the very harmonic
             errors.append(("amplitude", abs(q["amplitude_mm"] / p["amplitude_mm"] - 1), 0.25))
         elif t["name"] == "scale":
             errors.append(("ppm", abs(q["ppm"] / p["ppm"] - 1), 0.25))
@@ -147,7 +219,9 @@ def run_case(scenario: str, kind: str, seed: int) -> CaseResult:
             errors.append(("ppm_per_k", abs(q["ppm_per_k"] / p["ppm_per_k"] - 1), 0.25))
         elif t["name"] == "encoder_eccentricity":
             errors.append(("amplitude", abs(q["amplitude_urad"] / p["amplitude_urad"] - 1), 0.25))
-        elif t["name"] == "joint_compliance":  # in standard errors, not relative: the acceptance's 3 std
+        elif (
+            t["name"] == "joint_compliance"
+        ):  # in standard errors, not relative: the acceptance's 3 std
             z = abs(q["urad_per_nm"] - p["urad_per_nm"]) / max(hit["stderr"]["urad_per_nm"], 1e-300)
             errors.append((f"compliance{p['joint']} (std)", z, 3.0))
         elif t["name"] == "nonsmooth" and "theta_deg" in p:  # a nick in the scanner's plate
@@ -165,7 +239,9 @@ def run_case(scenario: str, kind: str, seed: int) -> CaseResult:
         before = geo[-1]["cv_rms_after"]
     noise = manifest["noise_um"] / 1000
     ratio = fit["cv_rms_final"] / before if truth and before >= 2.5 * noise else None
-    return CaseResult(scenario, kind, seed, truth, found, detected, len(truth), false, errors, ratio)
+    return CaseResult(
+        scenario, kind, seed, truth, found, detected, len(truth), false, errors, ratio
+    )
 
 
 def score(results: list[CaseResult]) -> dict:
@@ -189,12 +265,16 @@ def score(results: list[CaseResult]) -> dict:
 
 def table(results: list[CaseResult]) -> str:
     """The suite's results as a Markdown table."""
-    lines = ["| scenario | kind | seed | concealed | found | params (rel. error) | cv after/before |",
-             "|---|---|---|---|---|---|---|"]
+    lines = [
+        "| scenario | kind | seed | concealed | found | params (rel. error) | cv after/before |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for r in results:
         found = ", ".join(f"{f['name']}({f['axis']})" for f in r.found) or "-"
         truth = ", ".join(f"{t['name']}({t['axis']})" for t in r.truth) or "-"
         par = ", ".join(f"{w} {e:.3f}" for w, e, _ in r.param_errors) or "-"
         ratio = "" if r.ratio is None else f"{r.ratio:.2f}"
-        lines.append(f"| {r.scenario} | {r.kind} | {r.seed} | {truth} | {found} | {par} | {ratio} |")
+        lines.append(
+            f"| {r.scenario} | {r.kind} | {r.seed} | {truth} | {found} | {par} | {ratio} |"
+        )
     return "\n".join(lines)

@@ -17,7 +17,17 @@ from calibench.estimators import iso230_2
 from calibench.recordings import RecordingError, load_axis_run
 from calibench.scenarios.report import BadInput
 
-PER_TARGET = ("mean_up", "mean_down", "mean_bi", "reversal_i", "s_up", "s_down", "R_up_i", "R_down_i", "R_i")
+PER_TARGET = (
+    "mean_up",
+    "mean_down",
+    "mean_bi",
+    "reversal_i",
+    "s_up",
+    "s_down",
+    "R_up_i",
+    "R_down_i",
+    "R_i",
+)
 
 
 def evaluate_run(path: Path) -> dict:
@@ -30,8 +40,10 @@ def evaluate_run(path: Path) -> dict:
         raise BadInput(f"{path}: {e}") from None
     if not (np.any(res.s_up > 0) or np.any(res.s_down > 0)):
         # identical runs carry no repeatability: say so rather than report R = 0
-        raise BadInput(f"{path}: every run repeats the first one exactly: the repeatability (R, s) cannot be "
-                       "evaluated from copies")
+        raise BadInput(
+            f"{path}: every run repeats the first one exactly: the repeatability (R, s) cannot be "
+            "evaluated from copies"
+        )
     return {
         "standard": "ISO 230-2:2014",
         "file": str(path),
@@ -39,8 +51,10 @@ def evaluate_run(path: Path) -> dict:
         "targets": int(len(targets)),
         "runs": int(up.shape[1]),
         "axis": res.as_dict(),
-        "per_target": [{"target_mm": float(t), **{k: float(getattr(res, k)[i]) for k in PER_TARGET}}
-                       for i, t in enumerate(targets)],
+        "per_target": [
+            {"target_mm": float(t), **{k: float(getattr(res, k)[i]) for k in PER_TARGET}}
+            for i, t in enumerate(targets)
+        ],
     }
 
 
@@ -67,17 +81,22 @@ def figure(path: Path, result: dict) -> None:
     rows = result["per_target"]
     t = np.array([r["target_mm"] for r in rows])
     fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
-    for key, s_key, label, color, marker in (("mean_up", "s_up", "approach +", "tab:blue", "^"),
-                                             ("mean_down", "s_down", "approach -", "tab:red", "v")):
+    for key, s_key, label, color, marker in (
+        ("mean_up", "s_up", "approach +", "tab:blue", "^"),
+        ("mean_down", "s_down", "approach -", "tab:red", "v"),
+    ):
         m = np.array([r[key] for r in rows])
         s = np.array([r[s_key] for r in rows])
         ax.plot(t, m, marker=marker, color=color, label=f"mean deviation, {label}")
         ax.fill_between(t, m - 2 * s, m + 2 * s, color=color, alpha=0.15, label=f"+-2s, {label}")
     ax.axhline(0, color="k", lw=0.6)
     a = result["axis"]
-    ax.set(xlabel="target position (mm)", ylabel="deviation, actual - target (um)",
-           title=f"ISO 230-2: A {a['A']:.2f}  E {a['E']:.2f}  M {a['M']:.2f}  R {a['R']:.2f}  B {a['B']:.2f} um "
-                 f"({result['targets']} targets, {result['runs']} runs each way)")
+    ax.set(
+        xlabel="target position (mm)",
+        ylabel="deviation, actual - target (um)",
+        title=f"ISO 230-2: A {a['A']:.2f}  E {a['E']:.2f}  M {a['M']:.2f}  R {a['R']:.2f}  B {a['B']:.2f} um "
+        f"({result['targets']} targets, {result['runs']} runs each way)",
+    )
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.savefig(path, dpi=90)

@@ -41,7 +41,9 @@ def trial_seed(study_seed: int, index: int) -> int:
     return int(np.random.SeedSequence([int(study_seed), int(index)]).generate_state(1)[0])
 
 
-def study_config(scenario: str, table: dict | None = None, arm: str | None = None, checked_only: bool = False):
+def study_config(
+    scenario: str, table: dict | None = None, arm: str | None = None, checked_only: bool = False
+):
     """The scenario's config for a study: its defaults, overridden by ``table`` (the scenario's
     table of a ``--config`` TOML, checked as ``run`` checks it), then ``arm``. ``checked_only``:
     None once the config holds (raises :class:`BadInput` when it does not), for another process."""
@@ -53,8 +55,14 @@ def study_config(scenario: str, table: dict | None = None, arm: str | None = Non
     return None if checked_only else config
 
 
-def run_trial(scenario: str, study_seed: int, index: int, fidelity: str, arm: str | None = None,
-              table: dict | None = None) -> dict:
+def run_trial(
+    scenario: str,
+    study_seed: int,
+    index: int,
+    fidelity: str,
+    arm: str | None = None,
+    table: dict | None = None,
+) -> dict:
     """One trial, in a worker process; never raises (a failure is a row with its error).
     ``table``: the study's config overrides (:func:`study_config`)."""
     os.environ.setdefault("MUJOCO_GL", "egl")  # a worker renders without a display
@@ -92,8 +100,14 @@ def run_trial(scenario: str, study_seed: int, index: int, fidelity: str, arm: st
     return row
 
 
-def run_trials(scenario: str, study_seed: int, indices: list[int], fidelity: str, arm: str | None = None,
-               table: dict | None = None) -> list[dict]:
+def run_trials(
+    scenario: str,
+    study_seed: int,
+    indices: list[int],
+    fidelity: str,
+    arm: str | None = None,
+    table: dict | None = None,
+) -> list[dict]:
     """Several trials in one task: millisecond trials would otherwise spend more time in
     inter-process traffic than in the estimator. One BLAS thread: a worker already has its core,
     and threaded BLAS on small matrices (the arm's QR at 200 postures) runs several times slower."""
@@ -119,7 +133,9 @@ def load_journal(out_dir: Path) -> dict[int, dict]:
     try:
         text = path.read_text()
     except (OSError, UnicodeDecodeError):
-        raise BadInput(f"{path} cannot be read as a journal of trials: remove it or use another --out") from None
+        raise BadInput(
+            f"{path} cannot be read as a journal of trials: remove it or use another --out"
+        ) from None
     lines = text.splitlines()
     for k, line in enumerate(lines):
         if not line.strip():
@@ -130,10 +146,17 @@ def load_journal(out_dir: Path) -> dict[int, dict]:
             if line.startswith('{"trial": '):
                 continue  # a row torn by an interruption (a resume starts a fresh line after it)
             row = None
-        if not (isinstance(row, dict) and isinstance(row.get("trial"), int) and row["trial"] >= 0
-                and isinstance(row.get("ok"), bool) and "seed" in row):
-            raise BadInput(f"{path} line {k + 1} is not a finished trial of calibench's: the journal is corrupt or "
-                           "another program's; remove it or use another --out")
+        if not (
+            isinstance(row, dict)
+            and isinstance(row.get("trial"), int)
+            and row["trial"] >= 0
+            and isinstance(row.get("ok"), bool)
+            and "seed" in row
+        ):
+            raise BadInput(
+                f"{path} line {k + 1} is not a finished trial of calibench's: the journal is corrupt or "
+                "another program's; remove it or use another --out"
+            )
         done[row["trial"]] = row
     return done
 
@@ -165,20 +188,29 @@ def _interrupt_flag():
 def make_executor(workers: int | None, scheduler: str | None):
     """(executor, closer): a spawn process pool, or a Dask cluster's executor."""
     if scheduler:
-        if not re.fullmatch(r"(tcp|tls|ucx|inproc|ws|wss)://[^\s/:]+(:\d+)?|[^\s/:]+:\d+", scheduler):
+        if not re.fullmatch(
+            r"(tcp|tls|ucx|inproc|ws|wss)://[^\s/:]+(:\d+)?|[^\s/:]+:\d+", scheduler
+        ):
             raise BadInput(f"--scheduler {scheduler}: not a scheduler's address (tcp://host:8786)")
         try:
             from distributed import Client
         except ImportError:
-            raise BadInput("--scheduler needs Dask distributed: pip install 'calibench[cluster]'") from None
+            raise BadInput(
+                "--scheduler needs Dask distributed: pip install 'calibench[cluster]'"
+            ) from None
         try:
             client = Client(scheduler, timeout="10s")
         except (OSError, ValueError, TimeoutError) as e:
-            raise BadInput(f"--scheduler {scheduler}: cannot reach the Dask scheduler ({e})") from None
+            raise BadInput(
+                f"--scheduler {scheduler}: cannot reach the Dask scheduler ({e})"
+            ) from None
         return client.get_executor(), lambda interrupted=False: client.close()
     n = workers or os.cpu_count() or 1
-    ex = cf.ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context("spawn"),
-                                initializer=_ignore_interrupts)
+    ex = cf.ProcessPoolExecutor(
+        max_workers=n,
+        mp_context=multiprocessing.get_context("spawn"),
+        initializer=_ignore_interrupts,
+    )
 
     def close(interrupted: bool = False) -> None:
         if not interrupted:
@@ -200,9 +232,19 @@ def make_executor(workers: int | None, scheduler: str | None):
     return ex, close
 
 
-def run_study(scenario: str, trials: int, seed: int, fidelity: str, out_dir: Path, workers: int | None = None,
-              scheduler: str | None = None, executor: cf.Executor | None = None, progress: bool | None = None,
-              arm: str | None = None, table: dict | None = None) -> dict:
+def run_study(
+    scenario: str,
+    trials: int,
+    seed: int,
+    fidelity: str,
+    out_dir: Path,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    executor: cf.Executor | None = None,
+    progress: bool | None = None,
+    arm: str | None = None,
+    table: dict | None = None,
+) -> dict:
     """Run the missing trials of a study, journal them as they finish, write the outputs.
     ``table``: config overrides of the scenario (a ``--config`` file's table), the same for every
     trial and recorded in study.json, so a resumed study cannot mix two configs."""
@@ -234,8 +276,20 @@ def run_study(scenario: str, trials: int, seed: int, fidelity: str, out_dir: Pat
         if todo:
             if executor is None:
                 executor, close = make_executor(workers, scheduler)
-            _run_todo(executor, scenario, seed, fidelity, out_dir, arm, table, trials, done, todo, progress,
-                      preload=close is not None and scheduler is None)
+            _run_todo(
+                executor,
+                scenario,
+                seed,
+                fidelity,
+                out_dir,
+                arm,
+                table,
+                trials,
+                done,
+                todo,
+                progress,
+                preload=close is not None and scheduler is None,
+            )
     except (KeyboardInterrupt, BadInput):
         failed = True  # the workers' trials are not kept: stop them rather than wait for them
         raise
@@ -245,17 +299,24 @@ def run_study(scenario: str, trials: int, seed: int, fidelity: str, out_dir: Pat
     rows = [done[i] for i in sorted(done) if i < trials]
     summary = summarise(scenario, rows, time.perf_counter() - t0)
     if rows and all(not r["ok"] and r["error"].startswith("LinAlgError") for r in rows):
-        raise BadInput(f"every trial's estimate is singular: the {scenario} set-up cannot determine its parameters"
-                       + (" (is the arm degenerate: planar, or without length?)" if arm else "")
-                       + f"; e.g. {rows[0]['error']}")
+        raise BadInput(
+            f"every trial's estimate is singular: the {scenario} set-up cannot determine its parameters"
+            + (" (is the arm degenerate: planar, or without length?)" if arm else "")
+            + f"; e.g. {rows[0]['error']}"
+        )
     if table and rows and not any(r["ok"] for r in rows):
-        raise BadInput(f"every trial failed with the config's values (e.g. {rows[0]['error']}): the {scenario} "
-                       "set-up they describe cannot be calibrated")
+        raise BadInput(
+            f"every trial failed with the config's values (e.g. {rows[0]['error']}): the {scenario} "
+            "set-up they describe cannot be calibrated"
+        )
     if not summary["parameters"] and any(r["ok"] for r in rows):
         # an empty table is no result: the set-up leaves nothing to estimate (an arm of one joint,
         # whose every error the tracker's frame and the tool absorb); the journal stays
-        raise BadInput(f"no trial estimated a parameter it could compare with the truth: the {scenario} set-up "
-                       "leaves nothing identifiable beside its frames" + (" (is the arm degenerate?)" if arm else ""))
+        raise BadInput(
+            f"no trial estimated a parameter it could compare with the truth: the {scenario} set-up "
+            "leaves nothing identifiable beside its frames"
+            + (" (is the arm degenerate?)" if arm else "")
+        )
     summary["resumed"] = len(rows) - sum(1 for i in todo if i in done)
     write_outputs(out_dir, rows, summary)
     return summary
@@ -281,7 +342,9 @@ def _load_scenario(scenario: str) -> None:
     get(scenario)
 
 
-def _prepare(scenario: str, seed: int, fidelity: str, out_dir: Path, arm, table, checked=None) -> None:
+def _prepare(
+    scenario: str, seed: int, fidelity: str, out_dir: Path, arm, table, checked=None
+) -> None:
     """Check the config and the output folder (one study per folder), and record the study.
     ``checked``: the future of the config's check in a worker (:func:`study_config`), if any."""
     # a bad config is said once, before any trial
@@ -301,15 +364,31 @@ def _prepare(scenario: str, seed: int, fidelity: str, out_dir: Path, arm, table,
         try:
             old = json.loads(meta_path.read_text())
         except (OSError, UnicodeDecodeError, json.JSONDecodeError):
-            raise BadInput(f"{meta_path} is not a study's description (corrupt?): remove it or use another "
-                           "--out") from None
+            raise BadInput(
+                f"{meta_path} is not a study's description (corrupt?): remove it or use another "
+                "--out"
+            ) from None
     if old is not None and old != meta:
-        raise BadInput(f"{out_dir} holds a different study ({meta_path.read_text().strip()}); use another --out")
+        raise BadInput(
+            f"{out_dir} holds a different study ({meta_path.read_text().strip()}); use another --out"
+        )
     meta_path.write_text(json.dumps(meta) + "\n")
 
 
-def _run_todo(executor, scenario, seed, fidelity, out_dir, arm, table, trials, done, todo, progress,
-              preload: bool = False) -> None:
+def _run_todo(
+    executor,
+    scenario,
+    seed,
+    fidelity,
+    out_dir,
+    arm,
+    table,
+    trials,
+    done,
+    todo,
+    progress,
+    preload: bool = False,
+) -> None:
     """Run the trials ``todo`` on ``executor``, appending each finished one to the journal and to ``done``.
     ``preload``: the trials run in other processes, so this one is idle and may import the writers' modules."""
     bar = _progress(len(todo), trials - len(todo), progress)
@@ -322,14 +401,18 @@ def _run_todo(executor, scenario, seed, fidelity, out_dir, arm, table, trials, d
             if torn:  # an interruption cut the last line: start a fresh one
                 journal.write("\n")
             k = chunk_size(len(todo), fidelity)
-            futures = [executor.submit(run_trials, scenario, seed, todo[j:j + k], fidelity, arm, table)
-                       for j in range(0, len(todo), k)]
+            futures = [
+                executor.submit(run_trials, scenario, seed, todo[j : j + k], fidelity, arm, table)
+                for j in range(0, len(todo), k)
+            ]
             with _interrupt_flag() as stop:
                 pending = set(futures)
                 while pending:
                     if stop.is_set():
                         raise KeyboardInterrupt
-                    finished, pending = cf.wait(pending, timeout=0.2, return_when=cf.FIRST_COMPLETED)
+                    finished, pending = cf.wait(
+                        pending, timeout=0.2, return_when=cf.FIRST_COMPLETED
+                    )
                     for fut in sorted(finished, key=futures.index):
                         for row in fut.result():
                             journal.write(json.dumps(row) + "\n")
@@ -346,7 +429,9 @@ def _progress(total: int, initial: int, enabled: bool | None):
 
     if enabled is None:
         enabled = sys.stderr.isatty() and not os.environ.get("CI")
-    return tqdm(total=total + initial, initial=initial, unit="trial", disable=not enabled, file=sys.stderr)
+    return tqdm(
+        total=total + initial, initial=initial, unit="trial", disable=not enabled, file=sys.stderr
+    )
 
 
 def chi2_ppf(p: np.ndarray, df: int) -> np.ndarray:
@@ -371,7 +456,7 @@ def binom_ppf(p: np.ndarray, n: int, prob: float) -> np.ndarray:
 def summarise(scenario: str, rows: list[dict], elapsed_s: float) -> dict:
     """Bias, RMSE, mean reported std and 95 % coverage of every parameter over the good trials."""
     good = [r for r in rows if r["ok"]]
-    names = sorted({k[:-len(".estimate")] for r in good for k in r if k.endswith(".estimate")})
+    names = sorted({k[: -len(".estimate")] for r in good for k in r if k.endswith(".estimate")})
     params = []
     for n in names:
         err = np.array([r[f"{n}.estimate"] - r[f"{n}.truth"] for r in good if f"{n}.estimate" in r])
@@ -389,33 +474,65 @@ def summarise(scenario: str, rows: list[dict], elapsed_s: float) -> dict:
             extra["crlb_std"] = float(np.sqrt(np.mean(crlb**2)))
             extra["efficiency"] = eff
             extra["efficiency_ci95"] = [eff * lo, eff * hi]
-        params.append({
-            "name": n, "unit": unit, "n": int(len(err)),
-            "bias": float(np.mean(err)), "rmse": float(np.sqrt(np.mean(err**2))),
-            "mean_std": float(np.mean(std)) if has_std else None,
-            "coverage_95": float(np.mean(np.abs(err) <= 1.96 * std)) if has_std else None,
-            # where an honest coverage of 0.95 lands 95 % of the time with this many trials
-            "coverage_95_expected": list(binom_ppf(np.array([0.025, 0.975]), len(err), 0.95) / len(err))
-            if has_std else None,
-            **extra,
-        })
-    return {"scenario": scenario, "trials": len(rows), "failed": len(rows) - len(good),
-            "elapsed_s": round(elapsed_s, 3), "parameters": params, "checks": _check_summary(good),
-            "errors": sorted({r["error"] for r in rows if not r["ok"]})[:10]}
+        params.append(
+            {
+                "name": n,
+                "unit": unit,
+                "n": int(len(err)),
+                "bias": float(np.mean(err)),
+                "rmse": float(np.sqrt(np.mean(err**2))),
+                "mean_std": float(np.mean(std)) if has_std else None,
+                "coverage_95": float(np.mean(np.abs(err) <= 1.96 * std)) if has_std else None,
+                # where an honest coverage of 0.95 lands 95 % of the time with this many trials
+                "coverage_95_expected": list(
+                    binom_ppf(np.array([0.025, 0.975]), len(err), 0.95) / len(err)
+                )
+                if has_std
+                else None,
+                **extra,
+            }
+        )
+    return {
+        "scenario": scenario,
+        "trials": len(rows),
+        "failed": len(rows) - len(good),
+        "elapsed_s": round(elapsed_s, 3),
+        "parameters": params,
+        "checks": _check_summary(good),
+        "errors": sorted({r["error"] for r in rows if not r["ok"]})[:10],
+    }
 
 
 def _check_summary(good: list[dict]) -> list[dict]:
     """Each check's median, 95th percentile and worst value over the good trials, and the
     fraction of trials that failed it."""
-    names = sorted({k[len("check."):] for r in good for k in r if k.startswith("check.") and not k.endswith(".ok")})
+    names = sorted(
+        {
+            k[len("check.") :]
+            for r in good
+            for k in r
+            if k.startswith("check.") and not k.endswith(".ok")
+        }
+    )
     out = []
     for n in names:
         v = np.array([r[f"check.{n}"] for r in good if f"check.{n}" in r], float)
         ok = np.array([r[f"check.{n}.ok"] for r in good if f"check.{n}.ok" in r], bool)
         f = v[np.isfinite(v)]  # a value that is not a number failed its check, and is counted there
-        stats = [float(g(f)) if len(f) else None for g in (np.median, lambda a: np.percentile(a, 95), np.max)]
-        out.append({"name": n, "n": int(len(v)), "median": stats[0], "p95": stats[1], "max": stats[2],
-                    "failed_fraction": float(1 - ok.mean())})
+        stats = [
+            float(g(f)) if len(f) else None
+            for g in (np.median, lambda a: np.percentile(a, 95), np.max)
+        ]
+        out.append(
+            {
+                "name": n,
+                "n": int(len(v)),
+                "median": stats[0],
+                "p95": stats[1],
+                "max": stats[2],
+                "failed_fraction": float(1 - ok.mean()),
+            }
+        )
     return out
 
 
@@ -426,21 +543,30 @@ def checks_table(summary: dict) -> str:
     lines = ["| check | median | 95 % | worst | trials failing it |", "|---|---|---|---|---|"]
     f = lambda v: "-" if v is None else f"{v:.4g}"  # noqa: E731
     for c in summary["checks"]:
-        lines.append(f"| {c['name']} | {f(c['median'])} | {f(c['p95'])} | {f(c['max'])} | {c['failed_fraction']:.1%} |")
+        lines.append(
+            f"| {c['name']} | {f(c['median'])} | {f(c['p95'])} | {f(c['max'])} | {c['failed_fraction']:.1%} |"
+        )
     return "\n".join(lines)
 
 
 def summary_table(summary: dict) -> str:
     """The coverage table as markdown; efficiency with its 95 % interval where a CRLB exists."""
     f = lambda v: "" if v is None else f"{v:.4g}"  # noqa: E731
-    lines = ["| parameter | unit | bias | rmse | mean std | coverage 95 % | efficiency (95 % CI) |",
-             "|---|---|---|---|---|---|---|"]
+    lines = [
+        "| parameter | unit | bias | rmse | mean std | coverage 95 % | efficiency (95 % CI) |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for p in summary["parameters"]:
-        eff = "" if p.get("efficiency") is None else \
-            f"{p['efficiency']:.3f} ({p['efficiency_ci95'][0]:.2f}-{p['efficiency_ci95'][1]:.2f})"
+        eff = (
+            ""
+            if p.get("efficiency") is None
+            else f"{p['efficiency']:.3f} ({p['efficiency_ci95'][0]:.2f}-{p['efficiency_ci95'][1]:.2f})"
+        )
         cov = "" if p["coverage_95"] is None else f"{p['coverage_95']:.3f}"
-        lines.append(f"| {p['name']} | {p['unit']} | {f(p['bias'])} | {f(p['rmse'])} | {f(p['mean_std'])} | "
-                     f"{cov} | {eff} |")
+        lines.append(
+            f"| {p['name']} | {p['unit']} | {f(p['bias'])} | {f(p['rmse'])} | {f(p['mean_std'])} | "
+            f"{cov} | {eff} |"
+        )
     return "\n".join(lines)
 
 
@@ -450,7 +576,14 @@ def write_outputs(out_dir: Path, rows: list[dict], summary: dict) -> None:
     import pyarrow.parquet as pq
 
     keys = ["trial", "seed", "ok", "error", "elapsed_s"]
-    cols = sorted({k for r in rows for k in r if k not in keys and k != "traceback" and not k.endswith(".unit")})
+    cols = sorted(
+        {
+            k
+            for r in rows
+            for k in r
+            if k not in keys and k != "traceback" and not k.endswith(".unit")
+        }
+    )
     table = {k: [r.get(k) for r in rows] for k in keys + cols}
     pq.write_table(pa.table(table), out_dir / "trials.parquet")
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
@@ -465,8 +598,10 @@ def _log(out_dir: Path, summary: dict) -> None:
 
     rec = rrlog.open_recording(out_dir / "study.rrd", f"calibench-{summary['scenario']}-study")
     try:
-        text = (f"# {summary['scenario']}: {summary['trials']} trials\n\n{summary_table(summary)}\n\n"
-                f"{checks_table(summary)}")
+        text = (
+            f"# {summary['scenario']}: {summary['trials']} trials\n\n{summary_table(summary)}\n\n"
+            f"{checks_table(summary)}"
+        )
         rrlog.log_text(rec, "study/summary", text)
         rrlog.log_figure(rec, "study/figure", out_dir / "study.png")
     finally:
@@ -486,10 +621,21 @@ def _figure(out_dir: Path, rows: list[dict], summary: dict) -> None:
     fig, axes = plt.subplots(1, 2, figsize=(14, 4.5))
     fig.subplots_adjust(left=0.05, right=0.99, top=0.93, bottom=0.25, wspace=0.15)
     ax = axes[0]
-    z = [(r[f"{p['name']}.estimate"] - r[f"{p['name']}.truth"]) / r[f"{p['name']}.std"]
-         for p in with_std for r in good if r.get(f"{p['name']}.std")]
+    z = [
+        (r[f"{p['name']}.estimate"] - r[f"{p['name']}.truth"]) / r[f"{p['name']}.std"]
+        for p in with_std
+        for r in good
+        if r.get(f"{p['name']}.std")
+    ]
     if z:
-        ax.hist(np.clip(z, -6, 6), bins=60, density=True, color="tab:blue", alpha=0.6, label="(estimate - truth) / std")
+        ax.hist(
+            np.clip(z, -6, 6),
+            bins=60,
+            density=True,
+            color="tab:blue",
+            alpha=0.6,
+            label="(estimate - truth) / std",
+        )
         x = np.linspace(-6, 6, 200)
         ax.plot(x, np.exp(-x * x / 2) / math.sqrt(2 * math.pi), "k", label="N(0, 1): an honest std")
         ax.legend()

@@ -16,8 +16,13 @@ from pathlib import Path
 
 import numpy as np
 
-from calibench.estimators.rotary_probe import (calibrate_lsq, calibrate_paper, contour_points, fit_minima,
-                                              paper_sweep_d_mm)
+from calibench.estimators.rotary_probe import (
+    calibrate_lsq,
+    calibrate_paper,
+    contour_points,
+    fit_minima,
+    paper_sweep_d_mm,
+)
 from calibench.scenarios.report import Check, Parameter, Report
 from calibench.scenes.probe_scanner import ProbeScannerGeometry, ProbeScannerNominal
 from calibench.sim.probe_scanner import ProbeScannerSim, ProbeScannerTruth
@@ -52,37 +57,56 @@ def check_config(c: ProbeScannerConfig) -> None:
     a, r = g.plate.half_side_mm, g.plate.corner_radius_mm
     # the estimators' convention (rotary_probe): d > 0 by the mechanism's construction
     if not t.d_mm > 0:
-        raise bad(f"{NAME}.truth.d_mm", t.d_mm, "the rail's offset from the table's axis is positive by the "
-                                                "mechanism's construction (the estimators take that branch)")
+        raise bad(
+            f"{NAME}.truth.d_mm",
+            t.d_mm,
+            "the rail's offset from the table's axis is positive by the "
+            "mechanism's construction (the estimators take that branch)",
+        )
     # the stylus starts at Q, hypot(d, dL) from the table's axis, and must find a wall all round
     q = float(np.hypot(t.d_mm, t.dL_mm))
     plate_room = a - float(np.hypot(*t.plate_centre_mm))
     rim_room = float(np.min(np.linalg.norm(g.lens.outline(n=4000), axis=1)))
     if not q < min(plate_room, rim_room):
-        raise BadInput(f"config: {NAME}.truth.d_mm = {show(t.d_mm)} (with dL_mm = {show(t.dL_mm)}): the stylus starts "
-                       f"{q:.4g} mm from the table's axis and must start inside both openings all round: "
-                       f"hypot(d_mm, dL_mm) below {min(plate_room, rim_room):.4g} mm (the plate's opening leaves "
-                       f"{plate_room:.4g} mm, the rim's {rim_room:.4g} mm)")
+        raise BadInput(
+            f"config: {NAME}.truth.d_mm = {show(t.d_mm)} (with dL_mm = {show(t.dL_mm)}): the stylus starts "
+            f"{q:.4g} mm from the table's axis and must start inside both openings all round: "
+            f"hypot(d_mm, dL_mm) below {min(plate_room, rim_room):.4g} mm (the plate's opening leaves "
+            f"{plate_room:.4g} mm, the rim's {rim_room:.4g} mm)"
+        )
     # the quadratic fits around the four minima: 3 to a quarter turn of samples (fit_minima)
     n = g.samples_per_turn
     ms = np.arange(*c.m_sweep)
     if len(ms) == 0 or ms.min() < 3 or ms.max() > n // 4:
-        raise bad(f"{NAME}.m_sweep", c.m_sweep, f"range(start, stop, step) of window sizes m from 3 to {n // 4} "
-                                                f"(a quarter of the {n} samples of a turn), not empty")
+        raise bad(
+            f"{NAME}.m_sweep",
+            c.m_sweep,
+            f"range(start, stop, step) of window sizes m from 3 to {n // 4} "
+            f"(a quarter of the {n} samples of a turn), not empty",
+        )
     if not 3 <= c.paper_m <= n // 4:
-        raise bad(f"{NAME}.paper_m", c.paper_m, f"from 3 to {n // 4} samples (a quarter of the {n} of a turn)")
+        raise bad(
+            f"{NAME}.paper_m",
+            c.paper_m,
+            f"from 3 to {n // 4} samples (a quarter of the {n} of a turn)",
+        )
     # each side's minimum lies at its middle; the widest window reaches along the side to
     # (d + a sin phi) / cos phi at phi* +- its half-width (sin phi* = -d / a): the side must be
     # flat there, or the paper's fits see the corner (and a radius of a or more is no square)
     if t.d_mm < a:
         half = (max(int(ms.max()), c.paper_m) / 2) / n * 2 * np.pi
         phi = np.arcsin(-t.d_mm / a) + np.array([-half, half])
-        reach = float(np.max(np.abs((t.d_mm + a * np.sin(phi)) / np.cos(phi)))) + float(np.hypot(*t.plate_centre_mm))
+        reach = float(np.max(np.abs((t.d_mm + a * np.sin(phi)) / np.cos(phi)))) + float(
+            np.hypot(*t.plate_centre_mm)
+        )
         if not r < a - reach:
-            raise bad(f"{NAME}.geometry.plate.corner_radius_mm", r,
-                      f"the plate's sides must be flat where the fits around their middles look ({reach:.3g} mm each "
-                      f"side of the middle): corner_radius_mm from 0 to below {a - reach:.4g} mm with half_side_mm "
-                      f"= {a:g}")
+            raise bad(
+                f"{NAME}.geometry.plate.corner_radius_mm",
+                r,
+                f"the plate's sides must be flat where the fits around their middles look ({reach:.3g} mm each "
+                f"side of the middle): corner_radius_mm from 0 to below {a - reach:.4g} mm with half_side_mm "
+                f"= {a:g}",
+            )
 
 
 def run(config: ProbeScannerConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool) -> Report:
@@ -113,10 +137,15 @@ def run(config: ProbeScannerConfig, seed: int, fidelity: str, out_dir: Path, rrd
     outline = sim.true_outline_mm("lens")
     contours = {
         "before": contour_points(lens.theta_rad, lens.rho_mm, nom.d_mm, nom.dL_mm, nom.alpha0_rad),
-        "paper": contour_points(lens.theta_rad, lens.rho_mm, paper.d_mm, paper.dL_mm, paper.alpha0_rad),
+        "paper": contour_points(
+            lens.theta_rad, lens.rho_mm, paper.d_mm, paper.dL_mm, paper.alpha0_rad
+        ),
         "after": contour_points(lens.theta_rad, lens.rho_mm, lsq.d_mm, lsq.dL_mm, lsq.alpha0_rad),
     }
-    rms = {k: float(np.sqrt(np.mean(sim.distance_to_outline_mm("lens", p) ** 2))) for k, p in contours.items()}
+    rms = {
+        k: float(np.sqrt(np.mean(sim.distance_to_outline_mm("lens", p) ** 2)))
+        for k, p in contours.items()
+    }
 
     # no pixels here: the sensors are MuJoCo's geometry plus noise models, whatever was asked
     report = Report(scenario=NAME, seed=seed, fidelity="analytic")
@@ -127,23 +156,56 @@ def run(config: ProbeScannerConfig, seed: int, fidelity: str, out_dir: Path, rrd
     report.parameters += [
         Parameter("d_paper", "mm", truth.d_mm, paper.d_mm, None, req),
         Parameter("dL_paper", "mm", truth.dL_mm, paper.dL_mm, None, req),
-        Parameter("alpha0_paper", "mrad", truth.alpha0_rad * 1e3, paper.alpha0_rad * 1e3, None, areq),
+        Parameter(
+            "alpha0_paper", "mrad", truth.alpha0_rad * 1e3, paper.alpha0_rad * 1e3, None, areq
+        ),
     ]
     s = lsq.std
     report.parameters += [
         Parameter("d_lsq", "mm", truth.d_mm, lsq.d_mm, s["d_mm"], TOL_SIGMA * s["d_mm"]),
         Parameter("dL_lsq", "mm", truth.dL_mm, lsq.dL_mm, s["dL_mm"], TOL_SIGMA * s["dL_mm"]),
-        Parameter("alpha0_lsq", "mrad", truth.alpha0_rad * 1e3, lsq.alpha0_rad * 1e3, s["alpha0_rad"] * 1e3,
-                  TOL_SIGMA * s["alpha0_rad"] * 1e3),
-        Parameter("plate_cx_lsq", "mm", truth.plate_centre_mm[0], lsq.centre_mm[0], s["cx_mm"], TOL_SIGMA * s["cx_mm"]),
-        Parameter("plate_cy_lsq", "mm", truth.plate_centre_mm[1], lsq.centre_mm[1], s["cy_mm"], TOL_SIGMA * s["cy_mm"]),
+        Parameter(
+            "alpha0_lsq",
+            "mrad",
+            truth.alpha0_rad * 1e3,
+            lsq.alpha0_rad * 1e3,
+            s["alpha0_rad"] * 1e3,
+            TOL_SIGMA * s["alpha0_rad"] * 1e3,
+        ),
+        Parameter(
+            "plate_cx_lsq",
+            "mm",
+            truth.plate_centre_mm[0],
+            lsq.centre_mm[0],
+            s["cx_mm"],
+            TOL_SIGMA * s["cx_mm"],
+        ),
+        Parameter(
+            "plate_cy_lsq",
+            "mm",
+            truth.plate_centre_mm[1],
+            lsq.centre_mm[1],
+            s["cy_mm"],
+            TOL_SIGMA * s["cy_mm"],
+        ),
     ]
     quantum = truth.quantum_um / 1000
     report.checks += [
-        Check("contour_rms_before_mm", rms["before"], None, note="rim traced with the design values"),
-        Check("contour_rms_after_mm", rms["after"], config.contour_quanta * quantum,
-              note=f"rim traced with the full-data calibration; limit {config.contour_quanta:g} encoder quanta"),
-        Check("contour_rms_paper_mm", rms["paper"], None, note=f"rim traced with the paper's method, m = {config.paper_m}"),
+        Check(
+            "contour_rms_before_mm", rms["before"], None, note="rim traced with the design values"
+        ),
+        Check(
+            "contour_rms_after_mm",
+            rms["after"],
+            config.contour_quanta * quantum,
+            note=f"rim traced with the full-data calibration; limit {config.contour_quanta:g} encoder quanta",
+        ),
+        Check(
+            "contour_rms_paper_mm",
+            rms["paper"],
+            None,
+            note=f"rim traced with the paper's method, m = {config.paper_m}",
+        ),
         Check("paper_m", float(config.paper_m), None, note="the m used for the *_paper parameters"),
     ]
     report.info = {
@@ -154,10 +216,24 @@ def run(config: ProbeScannerConfig, seed: int, fidelity: str, out_dir: Path, rrd
         "lsq_rms_residual_mm": lsq.rms_mm,
         "minima": [dataclasses.asdict(f) for f in minima],
     }
-    artifacts = dict(sim=sim, plate=plate, lens=lens,
-                     contours_plate=contour_points(plate.theta_rad, plate.rho_mm, lsq.d_mm, lsq.dL_mm, lsq.alpha0_rad), ms=ms, sweep=sweep, rms_m=rms_m, minima=minima,
-                     contours=contours, outline=outline, config=config, paper=paper, lsq=lsq,
-                     plate_outline=sim.true_outline_mm("plate"))
+    artifacts = dict(
+        sim=sim,
+        plate=plate,
+        lens=lens,
+        contours_plate=contour_points(
+            plate.theta_rad, plate.rho_mm, lsq.d_mm, lsq.dL_mm, lsq.alpha0_rad
+        ),
+        ms=ms,
+        sweep=sweep,
+        rms_m=rms_m,
+        minima=minima,
+        contours=contours,
+        outline=outline,
+        config=config,
+        paper=paper,
+        lsq=lsq,
+        plate_outline=sim.true_outline_mm("plate"),
+    )
     if out_dir is not None:  # a Monte-Carlo trial keeps only the numbers
         _write_figure(out_dir, artifacts)
     if rrd and out_dir is not None:
@@ -191,27 +267,53 @@ def _write_figure(out_dir: Path, a: dict) -> None:
     d_true, req = cfg.truth.d_mm, cfg.d_requirement_mm
     fig, axes = plt.subplots(1, 3, figsize=(16, 4.8), constrained_layout=True)
     ax = axes[0]
-    ax.axhspan(d_true - req, d_true + req, color="tab:green", alpha=0.15, label=f"requirement +-{req:g} mm")
+    ax.axhspan(
+        d_true - req, d_true + req, color="tab:green", alpha=0.15, label=f"requirement +-{req:g} mm"
+    )
     ax.axhline(d_true, color="k", lw=1, label="truth")
     ax.plot(a["ms"], a["sweep"], ".-", color="tab:blue", ms=3, label="this turn")
-    ax.plot(a["ms"], d_true + a["rms_m"], "--", color="tab:red", label=f"truth + RMS error over {cfg.sweep_turns} turns")
-    ax.set(xlabel="samples per quadratic fit, m", ylabel="recovered d (mm)",
-           ylim=(d_true - 4 * req, d_true + 4 * req), title="the paper's method: d against m")
+    ax.plot(
+        a["ms"],
+        d_true + a["rms_m"],
+        "--",
+        color="tab:red",
+        label=f"truth + RMS error over {cfg.sweep_turns} turns",
+    )
+    ax.set(
+        xlabel="samples per quadratic fit, m",
+        ylabel="recovered d (mm)",
+        ylim=(d_true - 4 * req, d_true + 4 * req),
+        title="the paper's method: d against m",
+    )
     ax.legend(fontsize=8)
     ax = axes[1]
     p = a["plate"]
     ax.plot(np.rad2deg(p.theta_rad), p.rho_mm, lw=0.8, color="tab:gray", label="rho")
     for f in a["minima"]:
         x = np.linspace(-0.25, 0.25, 50)
-        ax.plot(np.rad2deg(f.theta_rad + x), f.rho_mm + 0.5 * f.curvature_mm * x * x, color="tab:orange", lw=1)
+        ax.plot(
+            np.rad2deg(f.theta_rad + x),
+            f.rho_mm + 0.5 * f.curvature_mm * x * x,
+            color="tab:orange",
+            lw=1,
+        )
         ax.plot(np.rad2deg(f.theta_rad), f.rho_mm, "o", color="tab:orange", ms=4)
-    ax.set(xlabel="table angle (deg)", ylabel="rho (mm)", title=f"one turn over the plate; fits at m = {cfg.paper_m}")
+    ax.set(
+        xlabel="table angle (deg)",
+        ylabel="rho (mm)",
+        title=f"one turn over the plate; fits at m = {cfg.paper_m}",
+    )
     ax = axes[2]
     o = a["outline"]
     ax.plot(o[:, 0], o[:, 1], color="k", lw=0.8, label="true rim")
     for k, c in (("before", "tab:red"), ("after", "tab:green")):
         ax.plot(*a["contours"][k].T, ".", ms=1, color=c, label=f"traced, {k}")
-    ax.set(aspect="equal", xlabel="x (mm)", ylabel="y (mm)", title="the rim, before and after calibration")
+    ax.set(
+        aspect="equal",
+        xlabel="x (mm)",
+        ylabel="y (mm)",
+        title="the rim, before and after calibration",
+    )
     ax.legend(fontsize=8, loc="upper right")
     fig.savefig(out_dir / "probe_scanner.png", dpi=90)
     plt.close(fig)
@@ -219,7 +321,11 @@ def _write_figure(out_dir: Path, a: dict) -> None:
 
 def prior(config: ProbeScannerConfig, rng: np.random.Generator) -> ProbeScannerConfig:
     """d uniform 6-10 mm, dL 2-4 mm, alpha0 0.25-0.45 rad, plate centre N(0, 0.15 mm) each axis."""
-    truth = dataclasses.replace(config.truth, d_mm=float(rng.uniform(6, 10)), dL_mm=float(rng.uniform(2, 4)),
-                                alpha0_rad=float(rng.uniform(0.25, 0.45)),
-                                plate_centre_mm=tuple(rng.normal(0, 0.15, 2)))
+    truth = dataclasses.replace(
+        config.truth,
+        d_mm=float(rng.uniform(6, 10)),
+        dL_mm=float(rng.uniform(2, 4)),
+        alpha0_rad=float(rng.uniform(0.25, 0.45)),
+        plate_centre_mm=tuple(rng.normal(0, 0.15, 2)),
+    )
     return dataclasses.replace(config, truth=truth)

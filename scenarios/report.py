@@ -44,9 +44,15 @@ class Parameter:
 
     def as_dict(self) -> dict:
         """The parameter as report.json writes it."""
-        out = {"name": self.name, "unit": self.unit, "truth": _num(self.truth),
-               "estimate": _num(self.estimate), "std": _num(self.std),
-               "tolerance": _num(self.tolerance), "ok": self.ok}
+        out = {
+            "name": self.name,
+            "unit": self.unit,
+            "truth": _num(self.truth),
+            "estimate": _num(self.estimate),
+            "std": _num(self.std),
+            "tolerance": _num(self.tolerance),
+            "ok": self.ok,
+        }
         if self.crlb is not None:
             out["crlb"] = _num(self.crlb)
         return out
@@ -76,8 +82,13 @@ class Check:
 
     def as_dict(self) -> dict:
         """The check as report.json writes it."""
-        d = {"name": self.name, "value": _num(self.value), "limit": _num(self.limit),
-             "op": self.op, "ok": self.ok}
+        d = {
+            "name": self.name,
+            "value": _num(self.value),
+            "limit": _num(self.limit),
+            "op": self.op,
+            "ok": self.ok,
+        }
         if self.note:
             d["note"] = self.note
         return d
@@ -105,10 +116,14 @@ class Report:
 
     def as_dict(self) -> dict:
         """report.json's content (CONTRACT)."""
-        d = {"scenario": self.scenario, "seed": self.seed, "fidelity": self.fidelity,
-             "parameters": [p.as_dict() for p in self.parameters],
-             "checks": [c.as_dict() for c in self.checks],
-             "ok": self.ok}
+        d = {
+            "scenario": self.scenario,
+            "seed": self.seed,
+            "fidelity": self.fidelity,
+            "parameters": [p.as_dict() for p in self.parameters],
+            "checks": [c.as_dict() for c in self.checks],
+            "ok": self.ok,
+        }
         if self.rrd is not None:
             d["rrd"] = self.rrd
         d["elapsed_s"] = round(self.elapsed_s, 3)
@@ -125,11 +140,16 @@ class Report:
 
     def table(self) -> str:
         """Truth-versus-estimate table in Markdown (for the terminal and the rerun text panel)."""
-        lines = ["| parameter | unit | truth | estimate | std | tol | ok |", "|---|---|---|---|---|---|---|"]
+        lines = [
+            "| parameter | unit | truth | estimate | std | tol | ok |",
+            "|---|---|---|---|---|---|---|",
+        ]
         for p in self.parameters:
             std = "" if p.std is None else f"{p.std:.4g}"
-            lines.append(f"| {p.name} | {p.unit} | {p.truth:.6g} | {p.estimate:.6g} | {std} | "
-                         f"{p.tolerance:.3g} | {'yes' if p.ok else 'NO'} |")
+            lines.append(
+                f"| {p.name} | {p.unit} | {p.truth:.6g} | {p.estimate:.6g} | {std} | "
+                f"{p.tolerance:.3g} | {'yes' if p.ok else 'NO'} |"
+            )
         lines += ["", "| check | value | limit | ok |", "|---|---|---|---|"]
         for c in self.checks:
             limit = "" if c.limit is None else f"{c.op} {c.limit:.4g}"

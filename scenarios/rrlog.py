@@ -68,7 +68,7 @@ def eye_on(model, direction=(1.0, -1.4, 0.8)) -> tuple:
     return tuple(centre + 1.8 * size * d), tuple(centre)
 
 
-def blueprint(columns: list[list[View]], timeline: str) -> "rr.blueprint.Blueprint":
+def blueprint(columns: list[list[View]], timeline: str) -> rr.blueprint.Blueprint:
     """Columns of views side by side (each column's views stacked), on ``timeline``."""
     import rerun.blueprint as rrb
 
@@ -78,7 +78,9 @@ def blueprint(columns: list[list[View]], timeline: str) -> "rr.blueprint.Bluepri
             kw["contents"] = list(v.contents)
         if v.kind == "3d":
             if v.eye is not None:
-                kw["eye_controls"] = rrb.EyeControls3D(position=v.eye[0], look_target=v.eye[1], eye_up=(0, 0, 1))
+                kw["eye_controls"] = rrb.EyeControls3D(
+                    position=v.eye[0], look_target=v.eye[1], eye_up=(0, 0, 1)
+                )
             return rrb.Spatial3DView(**kw)
         if v.kind == "2d":
             return rrb.Spatial2DView(**kw)
@@ -88,9 +90,15 @@ def blueprint(columns: list[list[View]], timeline: str) -> "rr.blueprint.Bluepri
             return rrb.TextDocumentView(**kw)
         raise ValueError(f"unknown view kind {v.kind!r}")
 
-    cols = [rrb.Vertical(*[make(v) for v in col]) if len(col) > 1 else make(col[0]) for col in columns]
-    return rrb.Blueprint(rrb.Horizontal(*cols), rrb.TimePanel(timeline=timeline), rrb.BlueprintPanel(expanded=False),
-                         rrb.SelectionPanel(expanded=False))
+    cols = [
+        rrb.Vertical(*[make(v) for v in col]) if len(col) > 1 else make(col[0]) for col in columns
+    ]
+    return rrb.Blueprint(
+        rrb.Horizontal(*cols),
+        rrb.TimePanel(timeline=timeline),
+        rrb.BlueprintPanel(expanded=False),
+        rrb.SelectionPanel(expanded=False),
+    )
 
 
 def send_layout(rec: rr.RecordingStream, columns: list[list[View]], timeline: str) -> None:
@@ -146,8 +154,13 @@ def _geom_mesh(model, g: int) -> trimesh.Trimesh | None:
     return mesh
 
 
-def log_mujoco_bodies(rec: rr.RecordingStream, model, root: str = "world",
-                      textures: dict[str, np.ndarray] | None = None, skip=lambda name: False) -> dict[int, str]:
+def log_mujoco_bodies(
+    rec: rr.RecordingStream,
+    model,
+    root: str = "world",
+    textures: dict[str, np.ndarray] | None = None,
+    skip=lambda name: False,
+) -> dict[int, str]:
     """Log every body's geoms once (static, in the body frame). Returns body id -> entity path.
 
     ``textures`` maps a box geom's name to an image (h, w, 3) drawn on its +z face as MuJoCo
@@ -173,7 +186,11 @@ def log_mujoco_bodies(rec: rr.RecordingStream, model, root: str = "world",
         if mesh is None:
             continue
         mat = model.geom_matid[g]
-        rgba = tuple((np.asarray(model.mat_rgba[mat] if mat >= 0 else model.geom_rgba[g]) * 255).astype(np.uint8))
+        rgba = tuple(
+            (np.asarray(model.mat_rgba[mat] if mat >= 0 else model.geom_rgba[g]) * 255).astype(
+                np.uint8
+            )
+        )
         if per_body[b] > MERGE_ABOVE:  # e.g. the probe scanner's walls: one entity, not thousands
             merged.setdefault((parent, rgba), []).append(mesh)
             continue
@@ -187,9 +204,16 @@ MERGE_ABOVE = 20  # a body with more geoms than this is logged as one mesh per c
 
 
 def _log_mesh(rec, path: str, mesh: trimesh.Trimesh, rgba) -> None:
-    rec.log(path, rr.Mesh3D(vertex_positions=mesh.vertices, triangle_indices=mesh.faces,
-                            vertex_normals=mesh.vertex_normals, albedo_factor=np.asarray(rgba, np.uint8)),
-            static=True)
+    rec.log(
+        path,
+        rr.Mesh3D(
+            vertex_positions=mesh.vertices,
+            triangle_indices=mesh.faces,
+            vertex_normals=mesh.vertex_normals,
+            albedo_factor=np.asarray(rgba, np.uint8),
+        ),
+        static=True,
+    )
 
 
 def _log_textured_top(rec, path, model, g, image):
@@ -197,23 +221,41 @@ def _log_textured_top(rec, path, model, g, image):
 
     hx, hy, hz = model.geom_size[g]
     R = trimesh.transformations.quaternion_matrix(model.geom_quat[g])[:3, :3]
-    corners = np.array([[-hx, -hy, hz], [hx, -hy, hz], [hx, hy, hz], [-hx, hy, hz]]) @ R.T + model.geom_pos[g]
+    corners = (
+        np.array([[-hx, -hy, hz], [hx, -hy, hz], [hx, hy, hz], [-hx, hy, hz]]) @ R.T
+        + model.geom_pos[g]
+    )
     log_textured_quad(rec, path, corners, image)
 
 
-def log_textured_quad(rec: rr.RecordingStream, path: str, corners: np.ndarray, image: np.ndarray) -> None:
+def log_textured_quad(
+    rec: rr.RecordingStream, path: str, corners: np.ndarray, image: np.ndarray
+) -> None:
     """A flat quad (corners (4, 3): -x-y, +x-y, +x+y, -x+y of its own frame) showing ``image``
     with row 0 along its +y edge, as MuJoCo draws a 2-D texture on a box face."""
     uv = np.array([[0, 1], [1, 1], [1, 0], [0, 0]], float)  # rerun's texcoord v = 0 is row 0
     normal = np.cross(corners[1] - corners[0], corners[3] - corners[0])
     normal /= np.linalg.norm(normal)
-    rec.log(path, rr.Mesh3D(vertex_positions=corners, triangle_indices=[[0, 1, 2], [0, 2, 3]],
-                            vertex_normals=np.tile(normal, (4, 1)), vertex_texcoords=uv,
-                            albedo_texture=image), static=True)
+    rec.log(
+        path,
+        rr.Mesh3D(
+            vertex_positions=corners,
+            triangle_indices=[[0, 1, 2], [0, 2, 3]],
+            vertex_normals=np.tile(normal, (4, 1)),
+            vertex_texcoords=uv,
+            albedo_texture=image,
+        ),
+        static=True,
+    )
 
 
-def log_body_poses(rec: rr.RecordingStream, paths: dict[int, str], xpos: np.ndarray,
-                   xquat: np.ndarray, parent_of: np.ndarray) -> None:
+def log_body_poses(
+    rec: rr.RecordingStream,
+    paths: dict[int, str],
+    xpos: np.ndarray,
+    xquat: np.ndarray,
+    parent_of: np.ndarray,
+) -> None:
     """Body poses relative to their parents (MuJoCo ``xpos``/``xquat`` are world poses)."""
     import trimesh
 
@@ -239,12 +281,27 @@ def nested_paths(model, root: str = "world") -> dict[int, str]:
 
 
 # --- cameras and images --------------------------------------------------------------------
-def log_camera(rec: rr.RecordingStream, path: str, K: np.ndarray, size: tuple[int, int],
-               cam2world_R: np.ndarray, cam2world_t: np.ndarray, static: bool = True) -> None:
+def log_camera(
+    rec: rr.RecordingStream,
+    path: str,
+    K: np.ndarray,
+    size: tuple[int, int],
+    cam2world_R: np.ndarray,
+    cam2world_t: np.ndarray,
+    static: bool = True,
+) -> None:
     """Pinhole (OpenCV frame: x right, y down, z forward) at a pose in its parent."""
     rec.log(path, rr.Transform3D(translation=cam2world_t, mat3x3=cam2world_R), static=static)
-    rec.log(path, rr.Pinhole(image_from_camera=K, resolution=list(size),
-                             camera_xyz=rr.ViewCoordinates.RDF, image_plane_distance=0.3), static=static)
+    rec.log(
+        path,
+        rr.Pinhole(
+            image_from_camera=K,
+            resolution=list(size),
+            camera_xyz=rr.ViewCoordinates.RDF,
+            image_plane_distance=0.3,
+        ),
+        static=static,
+    )
 
 
 def log_image(rec: rr.RecordingStream, path: str, image: np.ndarray) -> None:
@@ -255,34 +312,62 @@ def log_image(rec: rr.RecordingStream, path: str, image: np.ndarray) -> None:
     rec.log(path, rr.EncodedImage(contents=buf.tobytes(), media_type="image/png"))
 
 
-def log_points2d(rec: rr.RecordingStream, path: str, pts: np.ndarray, color, radius: float = 1.5) -> None:
+def log_points2d(
+    rec: rr.RecordingStream, path: str, pts: np.ndarray, color, radius: float = 1.5
+) -> None:
     """2-D points (n, 2) px under an image."""
     pts = np.asarray(pts, float).reshape(-1, 2)
     pts = pts[np.isfinite(pts).all(axis=1)]
     rec.log(path, rr.Points2D(pts, colors=color, radii=radius))
 
 
-def log_points3d(rec: rr.RecordingStream, path: str, pts: np.ndarray, color, radius: float = 0.004,
-                 static: bool = False) -> None:
+def log_points3d(
+    rec: rr.RecordingStream,
+    path: str,
+    pts: np.ndarray,
+    color,
+    radius: float = 0.004,
+    static: bool = False,
+) -> None:
     """3-D points (n, 3) m."""
-    rec.log(path, rr.Points3D(np.asarray(pts, float).reshape(-1, 3), colors=color, radii=radius), static=static)
+    rec.log(
+        path,
+        rr.Points3D(np.asarray(pts, float).reshape(-1, 3), colors=color, radii=radius),
+        static=static,
+    )
 
 
-def log_arrows3d(rec: rr.RecordingStream, path: str, origins: np.ndarray, vectors: np.ndarray,
-                 color, static: bool = True, radius: float = 0.002) -> None:
+def log_arrows3d(
+    rec: rr.RecordingStream,
+    path: str,
+    origins: np.ndarray,
+    vectors: np.ndarray,
+    color,
+    static: bool = True,
+    radius: float = 0.002,
+) -> None:
     """Arrows from ``origins`` (n, 3) along ``vectors`` (n, 3), m."""
-    rec.log(path, rr.Arrows3D(origins=origins, vectors=vectors, colors=color, radii=radius), static=static)
+    rec.log(
+        path,
+        rr.Arrows3D(origins=origins, vectors=vectors, colors=color, radii=radius),
+        static=static,
+    )
 
 
 def log_line_strips2d(rec: rr.RecordingStream, path: str, strips: list[np.ndarray], color) -> None:
     """2-D polylines, each (k, 2)."""
-    rec.log(path, rr.LineStrips2D([np.asarray(s, float) for s in strips], colors=color), static=True)
+    rec.log(
+        path, rr.LineStrips2D([np.asarray(s, float) for s in strips], colors=color), static=True
+    )
 
 
-def log_line_strips3d(rec: rr.RecordingStream, path: str, strips: list[np.ndarray], color,
-                      static: bool = True) -> None:
+def log_line_strips3d(
+    rec: rr.RecordingStream, path: str, strips: list[np.ndarray], color, static: bool = True
+) -> None:
     """3-D polylines, each (k, 3) m."""
-    rec.log(path, rr.LineStrips3D([np.asarray(s, float) for s in strips], colors=color), static=static)
+    rec.log(
+        path, rr.LineStrips3D([np.asarray(s, float) for s in strips], colors=color), static=static
+    )
 
 
 def log_scalar(rec: rr.RecordingStream, path: str, value: float) -> None:
@@ -333,10 +418,18 @@ def layout_views(rrd: Path) -> list[dict]:
             names = rb.schema.names
             if "ViewBlueprint:class_identifier" not in names:
                 continue
-            col = {k: rb.column(f"ViewBlueprint:{k}").to_pylist()[-1] for k in
-                   ("class_identifier", "display_name", "space_origin") if f"ViewBlueprint:{k}" in names}
-            views.append({"kind": col["class_identifier"][0], "name": (col.get("display_name") or [""])[0],
-                          "origin": (col.get("space_origin") or [""])[0]})
+            col = {
+                k: rb.column(f"ViewBlueprint:{k}").to_pylist()[-1]
+                for k in ("class_identifier", "display_name", "space_origin")
+                if f"ViewBlueprint:{k}" in names
+            }
+            views.append(
+                {
+                    "kind": col["class_identifier"][0],
+                    "name": (col.get("display_name") or [""])[0],
+                    "origin": (col.get("space_origin") or [""])[0],
+                }
+            )
     return views
 
 

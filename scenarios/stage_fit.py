@@ -9,8 +9,8 @@ import numpy as np
 
 from calibench.estimators.compensation import fit_polynomial
 from calibench.estimators.error_map import fit_quadratic
-from calibench.scenarios.report import BadInput
 from calibench.recordings import StageRecording, load_stage_csv
+from calibench.scenarios.report import BadInput
 
 N_COEF = {"quadratic": 6, "cubic": 10}
 
@@ -34,8 +34,13 @@ def fit_recording(scenario: str, model: str, recording: StageRecording) -> dict:
         except ValueError as e:
             raise BadInput(f"fit: axis {axis}: {e}") from None
     p = N_COEF[model]
-    return {"scenario": scenario, "model": model, "axes": axes, "unit": "mm",
-            "note": f"rmse = sqrt(sse / (n - {p})); std are 1-sigma from the residuals"}
+    return {
+        "scenario": scenario,
+        "model": model,
+        "axes": axes,
+        "unit": "mm",
+        "note": f"rmse = sqrt(sse / (n - {p})); std are 1-sigma from the residuals",
+    }
 
 
 def _cubic(x, y, err) -> dict:
@@ -44,9 +49,14 @@ def _cubic(x, y, err) -> dict:
     sse = float(r @ r)
     sst = float(np.sum((err - err.mean()) ** 2))
     names = [f"a{k}" for k in range(10)]
-    return {"coef": dict(zip(names, map(float, f.coef))),
-            "std": dict(zip(names, map(float, f.coef_std(x, y, f.rmse)))),
-            "sse": sse, "r2": 1 - sse / sst if sst > 0 else None, "rmse": f.rmse, "n": len(err)}
+    return {
+        "coef": dict(zip(names, map(float, f.coef))),
+        "std": dict(zip(names, map(float, f.coef_std(x, y, f.rmse)))),
+        "sse": sse,
+        "r2": 1 - sse / sst if sst > 0 else None,
+        "rmse": f.rmse,
+        "n": len(err),
+    }
 
 
 def run_fit(scenario: str, model: str, csv_path: Path, out_dir: Path) -> dict:

@@ -24,10 +24,18 @@ from pathlib import Path
 import numpy as np
 
 from calibench.estimators.pose import mean_rotation
-from calibench.estimators.rotations import rotvec_to_matrix
-from calibench.estimators.stewart import (LegCalibration, TrackerObservations, adjust_jointly, calibrate_leg,
-                                          fit_sphere, forward_kinematics_many, joint_information, multilaterate_many,
-                                          rigid_transform, trilaterate)
+from calibench.estimators.rotations import rigid_transform, rotvec_to_matrix
+from calibench.estimators.stewart import (
+    LegCalibration,
+    TrackerObservations,
+    adjust_jointly,
+    calibrate_leg,
+    fit_sphere,
+    forward_kinematics_many,
+    joint_information,
+    multilaterate_many,
+    trilaterate,
+)
 from calibench.scenarios.report import Check, Parameter, Report
 from calibench.scenes.stewart import LEG_STROKE_MM, PLATFORM_KG, StewartGeometry
 from calibench.sim.stewart import StewartSim, StewartTruth
@@ -56,7 +64,9 @@ class StewartConfig:
 
     def __post_init__(self):
         if max(self.stated_length_sigma_um) <= 0:
-            raise ValueError("stated_length_sigma_um: the tracker's stated sigma a + b L needs a or b positive")
+            raise ValueError(
+                "stated_length_sigma_um: the tracker's stated sigma a + b L needs a or b positive"
+            )
         check_config(self)
 
     def length_sigma_mm(self, L_mm) -> np.ndarray:
@@ -66,13 +76,21 @@ class StewartConfig:
 
 
 # What the config's checks hold the set-up to (see check_config).
-MAX_ERROR_FRACTION = 0.1  # a 1-sigma geometric error over 10 % of the platform's size is not a calibration error
-MAX_GIVE_FRACTION = 0.01  # a leg's give under the load, of its length: beyond it the legs are springs
+MAX_ERROR_FRACTION = (
+    0.1  # a 1-sigma geometric error over 10 % of the platform's size is not a calibration error
+)
+MAX_GIVE_FRACTION = (
+    0.01  # a leg's give under the load, of its length: beyond it the legs are springs
+)
 MAX_ROTATION_DEG = 90.0  # the poses' turn about each axis: beyond it the platform lies on its side
-MAX_CONDITION = 1000.0  # the legs' Jacobian (rotations over the platform's radius): beyond it, near-singular
+MAX_CONDITION = (
+    1000.0  # the legs' Jacobian (rotations over the platform's radius): beyond it, near-singular
+)
 
 
-def _legs(r: np.ndarray, B: np.ndarray, R: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _legs(
+    r: np.ndarray, B: np.ndarray, R: np.ndarray, t: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """The nominal legs' lengths (n, 6) mm and the condition numbers (n,) of their Jacobian at
     poses R (n, 3, 3), t (n, 3), for platform hinges r (6, 3) and base hinges B (6, 3): rows
     (u, (R r) x u / rho), u the leg's unit vector, rho the platform's hinge radius (so turns and
@@ -90,7 +108,9 @@ def _legs(r: np.ndarray, B: np.ndarray, R: np.ndarray, t: np.ndarray) -> tuple[n
 
 
 @functools.lru_cache(maxsize=16)
-def _workspace(r: tuple, B: tuple, home_height_mm: float, translation_mm: float, rotation_deg: float) -> tuple:
+def _workspace(
+    r: tuple, B: tuple, home_height_mm: float, translation_mm: float, rotation_deg: float
+) -> tuple:
     """The legs at home (6,) and their Jacobian's condition there; the legs' shortest and longest
     and the largest condition over the poses' range (home +- translation along, +- rotation about
     each axis: the 3^6 corners and mid-points). Cached: a study's trials share their geometry, and
@@ -114,45 +134,72 @@ def check_config(c: StewartConfig) -> None:
     g, t = c.geometry, c.truth
     need = len(LEG_PARAMS) + 1
     if c.n_poses < need:
-        raise bad(f"{NAME}.n_poses", c.n_poses,
-                  f"at least {need}: each leg's one-step calibration solves {len(LEG_PARAMS)} unknowns (r, B, l) by "
-                  f"least squares and scales their covariance by the residuals' variance, which needs one pose more")
+        raise bad(
+            f"{NAME}.n_poses",
+            c.n_poses,
+            f"at least {need}: each leg's one-step calibration solves {len(LEG_PARAMS)} unknowns (r, B, l) by "
+            f"least squares and scales their covariance by the residuals' variance, which needs one pose more",
+        )
     if not c.rotation_deg <= MAX_ROTATION_DEG:
-        raise bad(f"{NAME}.rotation_deg", c.rotation_deg,
-                  f"the poses turn by up to this about each axis: from 0 to {MAX_ROTATION_DEG:g} degrees")
+        raise bad(
+            f"{NAME}.rotation_deg",
+            c.rotation_deg,
+            f"the poses turn by up to this about each axis: from 0 to {MAX_ROTATION_DEG:g} degrees",
+        )
     # the platform at home: not singular, the legs within their stroke
     r, B = np.asarray(g.platform_hinges_mm, float), np.asarray(g.base_hinges_mm, float)
-    size_p, size_b = float(np.max(np.linalg.norm(r, axis=1))), float(np.max(np.linalg.norm(B, axis=1)))
-    L_home, cond_home, L_min, L_max, cond_max = _workspace(tuple(r.ravel()), tuple(B.ravel()),
-                                                           float(g.home_height_mm), float(c.translation_mm),
-                                                           float(c.rotation_deg))
+    size_p, size_b = (
+        float(np.max(np.linalg.norm(r, axis=1))),
+        float(np.max(np.linalg.norm(B, axis=1))),
+    )
+    L_home, cond_home, L_min, L_max, cond_max = _workspace(
+        tuple(r.ravel()),
+        tuple(B.ravel()),
+        float(g.home_height_mm),
+        float(c.translation_mm),
+        float(c.rotation_deg),
+    )
     lo, hi = LEG_STROKE_MM
     if not np.all((L_home >= lo) & (L_home <= hi)):
-        raise bad(f"{NAME}.geometry.home_height_mm", g.home_height_mm,
-                  f"at home the legs are {L_home.min():.4g} to {L_home.max():.4g} mm long: the legs' stroke is {lo:g} "
-                  f"to {hi:g} mm (the scene's slides)")
+        raise bad(
+            f"{NAME}.geometry.home_height_mm",
+            g.home_height_mm,
+            f"at home the legs are {L_home.min():.4g} to {L_home.max():.4g} mm long: the legs' stroke is {lo:g} "
+            f"to {hi:g} mm (the scene's slides)",
+        )
     if not cond_home <= MAX_CONDITION:
-        raise BadInput(f"config: {NAME}.geometry: platform_hinges_mm and base_hinges_mm leave the platform singular at "
-                       f"home (the legs' Jacobian has condition number {cond_home:.3g}, at most {MAX_CONDITION:g}): "
-                       f"six legs pin its six degrees of freedom only from hinges spread around platform and base "
-                       f"(now out to {size_p:.4g} mm and {size_b:.4g} mm from their centres)")
+        raise BadInput(
+            f"config: {NAME}.geometry: platform_hinges_mm and base_hinges_mm leave the platform singular at "
+            f"home (the legs' Jacobian has condition number {cond_home:.3g}, at most {MAX_CONDITION:g}): "
+            f"six legs pin its six degrees of freedom only from hinges spread around platform and base "
+            f"(now out to {size_p:.4g} mm and {size_b:.4g} mm from their centres)"
+        )
     # the poses' range: home +- translation_mm, +- rotation_deg about each axis
-    what = (f"the poses (home_height_mm = {show(g.home_height_mm)}, +- translation_mm = {show(c.translation_mm)} "
-            f"along and +- rotation_deg = {show(c.rotation_deg)} about each axis)")
+    what = (
+        f"the poses (home_height_mm = {show(g.home_height_mm)}, +- translation_mm = {show(c.translation_mm)} "
+        f"along and +- rotation_deg = {show(c.rotation_deg)} about each axis)"
+    )
     if not lo <= L_min <= L_max <= hi:
-        raise BadInput(f"config: {NAME}: {what} take the legs from {L_min:.4g} to {L_max:.4g} mm: their stroke is "
-                       f"{lo:g} to {hi:g} mm (the scene's slides); a smaller translation_mm or rotation_deg")
+        raise BadInput(
+            f"config: {NAME}: {what} take the legs from {L_min:.4g} to {L_max:.4g} mm: their stroke is "
+            f"{lo:g} to {hi:g} mm (the scene's slides); a smaller translation_mm or rotation_deg"
+        )
     if not cond_max <= MAX_CONDITION:
-        raise BadInput(f"config: {NAME}: {what} come near a singularity (the legs' Jacobian's condition number "
-                       f"{cond_max:.3g}, at most {MAX_CONDITION:g}); a smaller translation_mm or rotation_deg")
+        raise BadInput(
+            f"config: {NAME}: {what} come near a singularity (the legs' Jacobian's condition number "
+            f"{cond_max:.3g}, at most {MAX_CONDITION:g}); a smaller translation_mm or rotation_deg"
+        )
     # the injected geometric errors: errors, not a different machine
     size = min(size_p, size_b)
     for key in ("hinge_error_mm", "length_error_mm", "station_offset_mm"):
         v = getattr(t, key)
         if not v <= MAX_ERROR_FRACTION * size:
-            raise bad(f"{NAME}.truth.{key}", v,
-                      f"a 1-sigma geometric error is at most {MAX_ERROR_FRACTION:.0%} of the platform's size (its "
-                      f"hinges {size:g} mm from the centre): from 0 to {MAX_ERROR_FRACTION * size:g} mm")
+            raise bad(
+                f"{NAME}.truth.{key}",
+                v,
+                f"a 1-sigma geometric error is at most {MAX_ERROR_FRACTION:.0%} of the platform's size (its "
+                f"hinges {size:g} mm from the centre): from 0 to {MAX_ERROR_FRACTION * size:g} mm",
+            )
     # the legs' give under the load (the payload and the platform's weight, shared by six legs
     # leaning as they do at home): a small error, not a spring
     v = r + [0.0, 0.0, g.home_height_mm] - B
@@ -161,17 +208,26 @@ def check_config(c: StewartConfig) -> None:
     give = np.abs(np.asarray(t.leg_compliance_um_per_n, float)) * force / 1000
     if not np.all(give <= MAX_GIVE_FRACTION * L_home):
         most = MAX_GIVE_FRACTION * float(L_home.min()) * 1000 / force
-        raise bad(f"{NAME}.truth.leg_compliance_um_per_n", t.leg_compliance_um_per_n,
-                  f"a leg would give {give.max():.4g} mm under the load (payload_n = {t.payload_n:g} and the "
-                  f"platform's weight, about {force:.4g} N a leg): at most {MAX_GIVE_FRACTION:.0%} of its length, "
-                  f"compliance from 0 to {most:.3g} um/N")
+        raise bad(
+            f"{NAME}.truth.leg_compliance_um_per_n",
+            t.leg_compliance_um_per_n,
+            f"a leg would give {give.max():.4g} mm under the load (payload_n = {t.payload_n:g} and the "
+            f"platform's weight, about {force:.4g} N a leg): at most {MAX_GIVE_FRACTION:.0%} of its length, "
+            f"compliance from 0 to {most:.3g} um/N",
+        )
 
 
 def random_poses(n, rng, config):
     """``n`` random poses (R (3, 3), t (3,) mm) within the config's translation and rotation ranges."""
     home = np.array([0, 0, config.geometry.home_height_mm])
     rot = np.deg2rad(config.rotation_deg)
-    return [(rotvec_to_matrix(rng.uniform(-rot, rot, 3)), home + rng.uniform(-1, 1, 3) * config.translation_mm) for _ in range(n)]
+    return [
+        (
+            rotvec_to_matrix(rng.uniform(-rot, rot, 3)),
+            home + rng.uniform(-1, 1, 3) * config.translation_mm,
+        )
+        for _ in range(n)
+    ]
 
 
 def locate_stations(sim: StewartSim, sigma_mm):
@@ -186,8 +242,14 @@ def locate_stations(sim: StewartSim, sigma_mm):
     return np.array([p for p, _ in out]), [c for _, c in out], np.array(lengths)
 
 
-def poses_from_lengths(sim: StewartSim, stations: np.ndarray, d: np.ndarray, R_guess: np.ndarray,
-                       t_guess: np.ndarray, sigma_mm):
+def poses_from_lengths(
+    sim: StewartSim,
+    stations: np.ndarray,
+    d: np.ndarray,
+    R_guess: np.ndarray,
+    t_guess: np.ndarray,
+    sigma_mm,
+):
     """The platform's poses (R (n, 3, 3), t (n, 3) mm) from the tracker's distances ``d`` (n, 3
     reflectors, 3 stations): each reflector multilaterated from the stations (weighted by the
     stated ``sigma_mm(L)``), then a rigid fit, from the guesses (R_guess (n, 3, 3), t_guess (n, 3));
@@ -195,8 +257,13 @@ def poses_from_lengths(sim: StewartSim, stations: np.ndarray, d: np.ndarray, R_g
     g = sim.geometry
     d = np.asarray(d, float)
     n = len(d)
-    start = np.einsum("kj,nij->nki", g.reflectors_mm[:3], np.asarray(R_guess)) + np.asarray(t_guess)[:, None]
-    pts, _, ok = multilaterate_many(stations, d.reshape(-1, 3), sigma_mm(d.reshape(-1, 3)), start.reshape(-1, 3))
+    start = (
+        np.einsum("kj,nij->nki", g.reflectors_mm[:3], np.asarray(R_guess))
+        + np.asarray(t_guess)[:, None]
+    )
+    pts, _, ok = multilaterate_many(
+        stations, d.reshape(-1, 3), sigma_mm(d.reshape(-1, 3)), start.reshape(-1, 3)
+    )
     R, t = rigid_transform(g.reflectors_mm[:3], pts.reshape(n, 3, 3))
     return R, t, ok.reshape(n, 3).all(axis=1)
 
@@ -221,35 +288,82 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
         sim.set_pose(R, t)
         readings.append(sim.readings_mm())
         lengths.append(sim.distances_many_mm(sim.reflectors_mm()[:3]))
-    meas_R, meas_t, ok = poses_from_lengths(sim, stations, np.array(lengths), np.array([R for R, _ in poses]),
-                                            np.array([t for _, t in poses]), config.length_sigma_mm)
+    meas_R, meas_t, ok = poses_from_lengths(
+        sim,
+        stations,
+        np.array(lengths),
+        np.array([R for R, _ in poses]),
+        np.array([t for _, t in poses]),
+        config.length_sigma_mm,
+    )
     unconverged += int(np.sum(~ok))
     readings = np.array(readings)
     # each equation's sigma: the reading plus what the pose's error does at the hinge (~1 um)
     sigma = np.full(len(poses), np.hypot(config.stated_reading_sigma_um, 1.0) / 1000)
 
     def solve_legs(R_all, t_all):
-        return [calibrate_leg(R_all, t_all, readings[:, i], g.platform_hinges_mm[i], g.base_hinges_mm[i],
-                              g.initial_lengths_mm[i], sigma) for i in range(6)]
+        return [
+            calibrate_leg(
+                R_all,
+                t_all,
+                readings[:, i],
+                g.platform_hinges_mm[i],
+                g.base_hinges_mm[i],
+                g.initial_lengths_mm[i],
+                sigma,
+            )
+            for i in range(6)
+        ]
 
     pipeline = solve_legs(meas_R, meas_t)
     # The sequential pipeline leaves information unused (the legs' readings say where the
     # platform is too, and every pose says where the stations are): finish with the joint
     # maximum likelihood over stations, poses and legs, whose covariance reaches the CRLB.
     a_um, b_um_per_m = config.stated_length_sigma_um
-    obs = TrackerObservations(g.reference_nests_mm, nest_lengths, g.reflectors_mm, np.array(lengths), readings,
-                              (a_um / 1000, b_um_per_m / 1e6),
-                              config.stated_reading_sigma_um / 1000)
-    joint = adjust_jointly(obs, stations, meas_R, meas_t, np.array([c.r for c in pipeline]),
-                           np.array([c.B for c in pipeline]), np.array([c.l for c in pipeline]))
+    obs = TrackerObservations(
+        g.reference_nests_mm,
+        nest_lengths,
+        g.reflectors_mm,
+        np.array(lengths),
+        readings,
+        (a_um / 1000, b_um_per_m / 1e6),
+        config.stated_reading_sigma_um / 1000,
+    )
+    joint = adjust_jointly(
+        obs,
+        stations,
+        meas_R,
+        meas_t,
+        np.array([c.r for c in pipeline]),
+        np.array([c.B for c in pipeline]),
+        np.array([c.l for c in pipeline]),
+    )
     # the Cramer-Rao bound at the truth, from the simulation's own noise (not the datasheet's)
     a_um, b_um_per_m = config.truth.length_noise_um
-    true_noise = dataclasses.replace(obs, length_sigma=(a_um / 1000, b_um_per_m / 1e6),
-                                     reading_sigma=config.truth.reading_noise_um / 1000)
-    bound = np.sqrt(np.diag(joint_information(true_noise, sim.stations, np.array([R for R, _ in poses]),
-                                              np.array([t for _, t in poses]), sim.r, sim.B, sim.l0)))
-    legs = [LegCalibration(joint.r[i], joint.B[i], float(joint.l[i]), joint.std[7 * i:7 * i + 7], joint.rms)
-            for i in range(6)]
+    true_noise = dataclasses.replace(
+        obs,
+        length_sigma=(a_um / 1000, b_um_per_m / 1e6),
+        reading_sigma=config.truth.reading_noise_um / 1000,
+    )
+    bound = np.sqrt(
+        np.diag(
+            joint_information(
+                true_noise,
+                sim.stations,
+                np.array([R for R, _ in poses]),
+                np.array([t for _, t in poses]),
+                sim.r,
+                sim.B,
+                sim.l0,
+            )
+        )
+    )
+    legs = [
+        LegCalibration(
+            joint.r[i], joint.B[i], float(joint.l[i]), joint.std[7 * i : 7 * i + 7], joint.rms
+        )
+        for i in range(6)
+    ]
 
     # two-step
     two_step, spheres = [], []
@@ -263,8 +377,16 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
     hold = random_poses(config.n_holdout, rng, config)
     err = {"before": [], "after": [], "two_step": []}
     nominal = (g.platform_hinges_mm, g.base_hinges_mm, g.initial_lengths_mm)
-    one = (np.array([c.r for c in legs]), np.array([c.B for c in legs]), np.array([c.l for c in legs]))
-    two = (np.array([c[0] for c in two_step]), np.array([c[1] for c in two_step]), np.array([c[2] for c in two_step]))
+    one = (
+        np.array([c.r for c in legs]),
+        np.array([c.B for c in legs]),
+        np.array([c.l for c in legs]),
+    )
+    two = (
+        np.array([c[0] for c in two_step]),
+        np.array([c[1] for c in two_step]),
+        np.array([c[2] for c in two_step]),
+    )
     home = (np.eye(3), np.array([0, 0, g.home_height_mm]))
     reads = []
     for R, t in hold:
@@ -285,35 +407,79 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
     for i, c in enumerate(legs):
         est = np.r_[c.r, c.B, c.l]
         for k, name in enumerate(LEG_PARAMS):
-            report.parameters.append(Parameter(f"leg{i + 1}_{name}", "mm", float(truth_vals[i][k]), float(est[k]),
-                                               float(c.std[k]), TOL_SIGMA * float(c.std[k]),
-                                               crlb=float(bound[7 * i + k])))
+            report.parameters.append(
+                Parameter(
+                    f"leg{i + 1}_{name}",
+                    "mm",
+                    float(truth_vals[i][k]),
+                    float(est[k]),
+                    float(c.std[k]),
+                    TOL_SIGMA * float(c.std[k]),
+                    crlb=float(bound[7 * i + k]),
+                )
+            )
     predicted = np.array([np.sqrt(np.diag(c)) for c in station_cov]) * 1000
     report.checks += [
-        Check("loop_closure_um", sim.max_closure_um, config.closure_limit_um,
-              note="largest gap between a leg's end and its platform hinge over every pose set"),
-        Check("station_error_um", float(station_err.max() * 1000), float(5 * predicted.max() * np.sqrt(3)),
-              note="largest station position error; limit 5 x its propagated 1-sigma (Eq. 4-5)"),
-        Check("pose_rms_before_um", rms["before"], None, note=f"{config.n_holdout} held-out poses, nominal parameters"),
-        Check("pose_rms_after_um", rms["after"], config.after_limit_um, note="held-out poses, one-step calibration"),
-        Check("pose_rms_after_two_step_um", rms["two_step"], None, note="held-out poses, two-step calibration"),
+        Check(
+            "loop_closure_um",
+            sim.max_closure_um,
+            config.closure_limit_um,
+            note="largest gap between a leg's end and its platform hinge over every pose set",
+        ),
+        Check(
+            "station_error_um",
+            float(station_err.max() * 1000),
+            float(5 * predicted.max() * np.sqrt(3)),
+            note="largest station position error; limit 5 x its propagated 1-sigma (Eq. 4-5)",
+        ),
+        Check(
+            "pose_rms_before_um",
+            rms["before"],
+            None,
+            note=f"{config.n_holdout} held-out poses, nominal parameters",
+        ),
+        Check(
+            "pose_rms_after_um",
+            rms["after"],
+            config.after_limit_um,
+            note="held-out poses, one-step calibration",
+        ),
+        Check(
+            "pose_rms_after_two_step_um",
+            rms["two_step"],
+            None,
+            note="held-out poses, two-step calibration",
+        ),
         # a solve that ran out of iterations would report its last iterate as if it were the answer
-        Check("solves_not_converged", float(sum(not c.converged for c in pipeline) + (not joint.converged)
-                                            + unconverged), 0.0,
-              note="the six legs' one-step Gauss-Newton, the joint adjustment, the multilaterations, the "
-                   "two-step spheres and the held-out poses' forward kinematics"),
+        Check(
+            "solves_not_converged",
+            float(sum(not c.converged for c in pipeline) + (not joint.converged) + unconverged),
+            0.0,
+            note="the six legs' one-step Gauss-Newton, the joint adjustment, the multilaterations, the "
+            "two-step spheres and the held-out poses' forward kinematics",
+        ),
     ]
     two_err = np.array([np.r_[c[0], c[1], c[2]] for c in two_step]) - np.array(truth_vals)
     one_err = np.array([np.r_[c.r, c.B, c.l] for c in legs]) - np.array(truth_vals)
     report.info = {
-        "compare_rms_error_mm": {"one_step": float(np.sqrt(np.mean(one_err**2))),
-                                 "two_step": float(np.sqrt(np.mean(two_err**2)))},
-        "two_step": {f"leg{i + 1}": dict(zip(LEG_PARAMS, map(float, np.r_[c[0], c[1], c[2]]))) for i, c in enumerate(two_step)},
+        "compare_rms_error_mm": {
+            "one_step": float(np.sqrt(np.mean(one_err**2))),
+            "two_step": float(np.sqrt(np.mean(two_err**2))),
+        },
+        "two_step": {
+            f"leg{i + 1}": dict(zip(LEG_PARAMS, map(float, np.r_[c[0], c[1], c[2]])))
+            for i, c in enumerate(two_step)
+        },
         "station_error_um": (station_err * 1000).tolist(),
         "station_sigma_um": predicted.tolist(),
         "whitened_rms": joint.rms,
-        "pipeline_rms_error_mm": float(np.sqrt(np.mean((np.array([np.r_[c.r, c.B, c.l] for c in pipeline])
-                                                        - np.array(truth_vals))**2))),
+        "pipeline_rms_error_mm": float(
+            np.sqrt(
+                np.mean(
+                    (np.array([np.r_[c.r, c.B, c.l] for c in pipeline]) - np.array(truth_vals)) ** 2
+                )
+            )
+        ),
     }
     artifacts = dict(sim=sim, poses=poses, stations=stations, spheres=spheres, config=config)
     if out_dir is not None:  # a Monte-Carlo trial keeps only the numbers
@@ -330,7 +496,9 @@ def directions_across(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Two unit directions a, b (3,) across the unit vector ``u`` (3,), with a x b = u, by a
     formula: the null space of a rank-one matrix from an SVD is a basis LAPACK picks freely, and
     its pick differs between CPUs (the two-step's poses, hence its figures, moved by 10 %)."""
-    e = np.eye(3)[np.argmin(np.abs(u))]  # the axis farthest from u: the cross product is well scaled
+    e = np.eye(3)[
+        np.argmin(np.abs(u))
+    ]  # the axis farthest from u: the cross product is well scaled
     a = np.cross(u, e)
     a /= np.linalg.norm(a)
     return a, np.cross(u, a)
@@ -344,7 +512,11 @@ def two_step_leg(sim: StewartSim, stations: np.ndarray, i: int, rng, sigma_mm):
     home_t = np.array([0, 0, g.home_height_mm])
     # the sphere's centre lies along the leg: a wide cap pins it, and wide turns between the
     # three orientations keep r from amplifying the centres' errors (by 1 / turn)
-    orientations = [np.eye(3), rotvec_to_matrix(np.deg2rad([10.0, 0, 0])), rotvec_to_matrix(np.deg2rad([0, 10.0, 0]))]
+    orientations = [
+        np.eye(3),
+        rotvec_to_matrix(np.deg2rad([10.0, 0, 0])),
+        rotvec_to_matrix(np.deg2rad([0, 10.0, 0])),
+    ]
     sim.set_pose(np.eye(3), home_t)
     locked = sim.readings_mm()[i]
     L = sim.leg_lengths_mm()[i]
@@ -354,14 +526,23 @@ def two_step_leg(sim: StewartSim, stations: np.ndarray, i: int, rng, sigma_mm):
         c_true = sim.B[i] - R0 @ sim.r[i]  # the platform origin's sphere (truth drives the motion)
         u0 = (home_t - c_true) / np.linalg.norm(home_t - c_true)
         a, b = directions_across(u0)
-        dirs = [u0] + [np.cos(cap) * u0 + np.sin(cap) * (np.cos(k) * a + np.sin(k) * b)
-                       for cap in (0.12, 0.24) for k in np.deg2rad([0, 90, 180, 270])]
+        dirs = [u0] + [
+            np.cos(cap) * u0 + np.sin(cap) * (np.cos(k) * a + np.sin(k) * b)
+            for cap in (0.12, 0.24)
+            for k in np.deg2rad([0, 90, 180, 270])
+        ]
         targets, d = [c_true + L * dvec for dvec in dirs], []
         for t in targets:
             sim.set_pose(R0, t)
             d.append(sim.distances_many_mm(sim.reflectors_mm()[:3]))
-        Rm, ts, ok = poses_from_lengths(sim, stations, np.array(d), np.repeat(R0[None], len(targets), axis=0),
-                                        np.array(targets), sigma_mm)
+        Rm, ts, ok = poses_from_lengths(
+            sim,
+            stations,
+            np.array(d),
+            np.repeat(R0[None], len(targets), axis=0),
+            np.array(targets),
+            sigma_mm,
+        )
         bad += int(np.sum(~ok))
         Rs.extend(Rm)
         c, rad, ok = fit_sphere(ts)
@@ -372,9 +553,8 @@ def two_step_leg(sim: StewartSim, stations: np.ndarray, i: int, rng, sigma_mm):
     # centres C_o = B - R_o r: differences give r; then B and l. The orientations are the
     # measured ones (mean of each group of five), not what was commanded.
 
-
     n = len(Rs) // 3
-    measured = [mean_rotation(np.array(Rs[n * k:n * (k + 1)])) for k in range(3)]
+    measured = [mean_rotation(np.array(Rs[n * k : n * (k + 1)])) for k in range(3)]
     orientations = measured
     A = np.vstack([orientations[0] - orientations[k] for k in (1, 2)])
     y = np.r_[centres[1] - centres[0], centres[2] - centres[0]]
@@ -401,16 +581,28 @@ def _write_figure(out_dir: Path, report: Report, err: dict) -> None:
     out_dir.mkdir(parents=True, exist_ok=True)
     fig, (a, b) = plt.subplots(1, 2, figsize=(12, 4.2), constrained_layout=True)
     k = np.arange(1, len(err["before"]) + 1)
-    for key, color, label in (("before", "tab:red", "nominal"), ("after", "tab:green", "one-step calibration"),
-                              ("two_step", "tab:blue", "two-step calibration")):
+    for key, color, label in (
+        ("before", "tab:red", "nominal"),
+        ("after", "tab:green", "one-step calibration"),
+        ("two_step", "tab:blue", "two-step calibration"),
+    ):
         rms_um = np.sqrt(np.mean(np.square(err[key]), axis=1)) * 1000
-        a.semilogy(k, rms_um, "o", color=color, label=f"{label}: rms {np.sqrt(np.mean(rms_um**2)):.3g} um")
-    a.set(xlabel="held-out pose", ylabel="hinge-point error, rms over the six (um)", title="stewart: held-out poses")
+        a.semilogy(
+            k, rms_um, "o", color=color, label=f"{label}: rms {np.sqrt(np.mean(rms_um**2)):.3g} um"
+        )
+    a.set(
+        xlabel="held-out pose",
+        ylabel="hinge-point error, rms over the six (um)",
+        title="stewart: held-out poses",
+    )
     a.legend(fontsize=8)
     z = np.array([(p.estimate - p.truth) / p.std for p in report.parameters])
     b.bar(np.arange(len(z)), z, color=np.where(np.abs(z) <= 3, "tab:green", "tab:red"))
     b.axhspan(-3, 3, color="0.9", zorder=0)
-    b.set(xlabel="leg parameter (7 per leg: r, B, l)", ylabel="(estimate - truth) / std",
-          title="one-step calibration: error in units of its std")
+    b.set(
+        xlabel="leg parameter (7 per leg: r, B, l)",
+        ylabel="(estimate - truth) / std",
+        title="one-step calibration: error in units of its std",
+    )
     fig.savefig(out_dir / "stewart.png", dpi=90)
     plt.close(fig)

@@ -24,8 +24,10 @@ from pathlib import Path
 
 from calibench.scenarios.report import BadInput
 
-STAGE_CONFIGS = {"belt-stage": ("calibench.scenarios.belt_stage", "BeltStageConfig"),
-                 "vision-stage": ("calibench.scenarios.vision_stage", "VisionStageConfig")}
+STAGE_CONFIGS = {
+    "belt-stage": ("calibench.scenarios.belt_stage", "BeltStageConfig"),
+    "vision-stage": ("calibench.scenarios.vision_stage", "VisionStageConfig"),
+}
 
 
 def _config(scenario: str, path: Path | None):
@@ -55,15 +57,25 @@ def _stage_drives(out: dict, truth) -> tuple[dict, list[str]]:
             p = e["params"]
             if e["name"] == "backlash":
                 home = p.get("reversal_at_home_mm", p["reversal_mm"])
-                d = dataclasses.replace(d, reversal_at_home_um=d.reversal_at_home_um + home * 1000,
-                                        reversal_growth_um_per_m=d.reversal_growth_um_per_m
-                                        + p.get("growth_mm_per_m", 0.0) * 1000)
+                d = dataclasses.replace(
+                    d,
+                    reversal_at_home_um=d.reversal_at_home_um + home * 1000,
+                    reversal_growth_um_per_m=d.reversal_growth_um_per_m
+                    + p.get("growth_mm_per_m", 0.0) * 1000,
+                )
             elif e["name"] == "periodic":
-                d = dataclasses.replace(d, periodic_um=p["amplitude_mm"] * 1000, period_mm=p["period_mm"],
-                                        periodic_phase_rad=p["phase_rad"])
+                d = dataclasses.replace(
+                    d,
+                    periodic_um=p["amplitude_mm"] * 1000,
+                    period_mm=p["period_mm"],
+                    periodic_phase_rad=p["phase_rad"],
+                )
             elif e["name"] == "thermal_expansion" and out.get("temp_mean_c") is not None:
-                d = dataclasses.replace(d, thermal_ppm_per_k=d.thermal_ppm_per_k + p["ppm_per_k"],
-                                        reference_temp_c=out["temp_mean_c"])
+                d = dataclasses.replace(
+                    d,
+                    thermal_ppm_per_k=d.thermal_ppm_per_k + p["ppm_per_k"],
+                    reference_temp_c=out["temp_mean_c"],
+                )
             else:
                 left.append(f"{e['name']} ({a})")
         drives[f"drive_{a}"] = dataclasses.asdict(d)
@@ -81,9 +93,20 @@ def _stewart(out: dict, config: Path | None) -> tuple[dict, list[str]]:
     if config is not None:
         cfg = override(cfg, load_toml(config).get("stewart", {}), "stewart")
     g, t = cfg.geometry, cfg.truth
-    r, B, l0 = (np.array(a, float) for a in (g.platform_hinges_mm, g.base_hinges_mm, g.initial_lengths_mm))
-    leg = {k: list(getattr(t, k)) for k in ("leg_compliance_um_per_n", "leg_thermal_ppm_per_k", "leg_reversal_um",
-                                            "leg_pitch_um", "leg_pitch_lead_mm", "leg_pitch_phase_rad")}
+    r, B, l0 = (
+        np.array(a, float) for a in (g.platform_hinges_mm, g.base_hinges_mm, g.initial_lengths_mm)
+    )
+    leg = {
+        k: list(getattr(t, k))
+        for k in (
+            "leg_compliance_um_per_n",
+            "leg_thermal_ppm_per_k",
+            "leg_reversal_um",
+            "leg_pitch_um",
+            "leg_pitch_lead_mm",
+            "leg_pitch_phase_rad",
+        )
+    }
     ref, left = t.reference_temp_c, []
     for e in out["effects"]:
         p = e["params"]
@@ -108,7 +131,11 @@ def _stewart(out: dict, config: Path | None) -> tuple[dict, list[str]]:
         else:
             left.append(e["name"])
     truth = {**leg, "reference_temp_c": ref}
-    geometry = {"platform_hinges_mm": r.tolist(), "base_hinges_mm": B.tolist(), "initial_lengths_mm": l0.tolist()}
+    geometry = {
+        "platform_hinges_mm": r.tolist(),
+        "base_hinges_mm": B.tolist(),
+        "initial_lengths_mm": l0.tolist(),
+    }
     return {"stewart": {"geometry": geometry, "truth": truth}}, left
 
 
@@ -120,8 +147,11 @@ def arm_truth(description, path: Path | None):
     from calibench.scenarios.config import load_toml, override
     from calibench.sim.arm_cmm import ArmTruth
 
-    t = override(ArmTruth(delta=(0.0,) * (5 * description.n_joints + 3)),
-                 load_toml(path).get("arm-cmm", {}).get("truth", {}), "arm-cmm.truth")
+    t = override(
+        ArmTruth(delta=(0.0,) * (5 * description.n_joints + 3)),
+        load_toml(path).get("arm-cmm", {}).get("truth", {}),
+        "arm-cmm.truth",
+    )
     return t
 
 
@@ -137,8 +167,11 @@ def _arm(out: dict, config: Path | None, arm) -> tuple[dict, list[str]]:
     N = description.n_joints
     base = arm_truth(description, config)
     delta = list(base.delta) if base is not None and base.delta else [0.0] * (5 * N + 3)
-    stiffness = (list(base.stiffness_nm_per_rad) if base is not None and base.stiffness_nm_per_rad
-                 else [math.inf] * N)
+    stiffness = (
+        list(base.stiffness_nm_per_rad)
+        if base is not None and base.stiffness_nm_per_rad
+        else [math.inf] * N
+    )
     names, left = param_names(N), []
     for e in out["effects"]:
         p = e["params"]
@@ -165,7 +198,11 @@ def twin_tables(scenario: str, out: dict, config: Path | None, arm=None) -> tupl
     if scenario == "probe-scanner":
         from calibench.scenarios.discover_scanner import twin_table
 
-        left = [e["name"] for e in out["effects"] if e["name"] not in ("runout", "encoder_eccentricity", "scale")]
+        left = [
+            e["name"]
+            for e in out["effects"]
+            if e["name"] not in ("runout", "encoder_eccentricity", "scale")
+        ]
         return twin_table(out), left
     if scenario == "stewart":
         return _stewart(out, config)

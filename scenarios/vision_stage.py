@@ -26,8 +26,13 @@ import numpy as np
 
 from calibench.estimators import iso230_2
 from calibench.estimators.circles import find_dark_circle
-from calibench.estimators.compensation import (MODEL_DEGREES, LineRuler, compensated_command, fit_polynomial,
-                                              select_model)
+from calibench.estimators.compensation import (
+    MODEL_DEGREES,
+    LineRuler,
+    compensated_command,
+    fit_polynomial,
+    select_model,
+)
 from calibench.scenarios.report import Check, Parameter, Report, progress
 from calibench.scenes.vision_stage import VisionStageGeometry
 from calibench.sim.vision_stage import LineRuler as RulerArtefact
@@ -43,7 +48,9 @@ class VisionStageConfig:
     truth: VisionStageTruth = VisionStageTruth()
     pixel_noise_dn: float = 2.0  # sensor noise, grey levels
     psf_px: float = 1.0  # optics' blur, 1-sigma px
-    centre_noise_px: float = 0.0013  # analytic fidelity: detector noise per axis (renders: 0.0018 px RMS 2-D)
+    centre_noise_px: float = (
+        0.0013  # analytic fidelity: detector noise per axis (renders: 0.0018 px RMS 2-D)
+    )
     grid: tuple[int, int] = (20, 13)  # circles measured along X and Y
     servo_tolerance_px: float = 0.5
     align_tolerance_urad: float = 4.0
@@ -69,11 +76,21 @@ class VisionStageConfig:
 
 
 # What the config's checks hold the set-up to (see check_config).
-MAX_SQUARENESS_RAD = 0.01  # 10 mm per metre: beyond it the axes are not square, not slightly out of square
-MAX_TURN_ERROR = 0.5  # the operator's turn off by half of it at 1 sigma: the rotate-and-check loop still closes
-MIN_RULER_PITCH_MM = 1.0  # graduations far apart beside the aim's scatter (um), so their readings increase
-RULER_SHORTER_BY_MM = 10.0  # measure_rulers lays each ruler over the travel less this (its ends clear)
-MAX_RULER_SCATTER = 0.1  # the aim's and the graduations' 1-sigma, of the pitch: the readings stay in order
+MAX_SQUARENESS_RAD = (
+    0.01  # 10 mm per metre: beyond it the axes are not square, not slightly out of square
+)
+MAX_TURN_ERROR = (
+    0.5  # the operator's turn off by half of it at 1 sigma: the rotate-and-check loop still closes
+)
+MIN_RULER_PITCH_MM = (
+    1.0  # graduations far apart beside the aim's scatter (um), so their readings increase
+)
+RULER_SHORTER_BY_MM = (
+    10.0  # measure_rulers lays each ruler over the travel less this (its ends clear)
+)
+MAX_RULER_SCATTER = (
+    0.1  # the aim's and the graduations' 1-sigma, of the pitch: the readings stay in order
+)
 
 
 def check_config(c: VisionStageConfig) -> None:
@@ -91,13 +108,19 @@ def check_config(c: VisionStageConfig) -> None:
     lo = plate.diameter_mm / min(cam.width / cam.fx, cam.height / cam.fy)
     hi = (plate.pitch_mm + plate.diameter_mm) / max(cam.width / cam.fx, cam.height / cam.fy)
     if not lo < g.working_distance_mm < hi:
-        raise bad(f"{NAME}.geometry.working_distance_mm", g.working_distance_mm,
-                  f"the microscope sees {field[0]:.3g} x {field[1]:.3g} mm; its field must hold one whole "
-                  f"{plate.diameter_mm:g} mm circle and not two ({plate.pitch_mm:g} mm pitch): working_distance_mm "
-                  f"from {lo:.4g} to {hi:.4g} with this camera")
+        raise bad(
+            f"{NAME}.geometry.working_distance_mm",
+            g.working_distance_mm,
+            f"the microscope sees {field[0]:.3g} x {field[1]:.3g} mm; its field must hold one whole "
+            f"{plate.diameter_mm:g} mm circle and not two ({plate.pitch_mm:g} mm pitch): working_distance_mm "
+            f"from {lo:.4g} to {hi:.4g} with this camera",
+        )
     if plate.diameter_mm >= plate.pitch_mm:
-        raise bad(f"{NAME}.geometry.plate.diameter_mm", plate.diameter_mm,
-                  f"the circles must stand apart: a diameter below the pitch ({plate.pitch_mm:g} mm)")
+        raise bad(
+            f"{NAME}.geometry.plate.diameter_mm",
+            plate.diameter_mm,
+            f"the circles must stand apart: a diameter below the pitch ({plate.pitch_mm:g} mm)",
+        )
     # the grid: on the plate, in the travel, and enough circles along each axis for every model
     # the scenario fits (select_model's polynomial degrees up to its largest need one circle more)
     need = max(max(MODEL_DEGREES), 3) + 1
@@ -105,40 +128,58 @@ def check_config(c: VisionStageConfig) -> None:
         room = int((g.travel_mm[axis] - g.plate_origin_reading_mm[axis]) // plate.pitch_mm) + 1
         most = min(plate.n, room)
         if not need <= n <= most:
-            raise bad(f"{NAME}.grid", c.grid,
-                      f"from {need} to {most} circles along {'XY'[axis]} ({need}: the model selection fits "
-                      f"polynomials up to degree {need - 1}, which need {need} along each axis; {most}: the plate's "
-                      f"{plate.n} x {plate.n} circles at {plate.pitch_mm:g} mm within the {g.travel_mm[axis]:g} mm "
-                      f"travel)")
+            raise bad(
+                f"{NAME}.grid",
+                c.grid,
+                f"from {need} to {most} circles along {'XY'[axis]} ({need}: the model selection fits "
+                f"polynomials up to degree {need - 1}, which need {need} along each axis; {most}: the plate's "
+                f"{plate.n} x {plate.n} circles at {plate.pitch_mm:g} mm within the {g.travel_mm[axis]:g} mm "
+                f"travel)",
+            )
     # interferometer lines: at least one each way, over the range the plate calibrated
     for axis, key in ((1, "x_lines_at_y_mm"), (0, "y_lines_at_x_mm")):
         at = np.asarray(getattr(c, key), float)
         lo = g.plate_origin_reading_mm[axis]
         hi = lo + (c.grid[axis] - 1) * plate.pitch_mm
         if len(at) == 0 or not np.all((at >= lo) & (at <= hi)):
-            raise bad(f"{NAME}.{key}", getattr(c, key),
-                      f"one line or more, each over the range the grid calibrates: {'XY'[axis]} from {lo:g} to "
-                      f"{hi:g} mm (a model is not tested where it extrapolates)")
+            raise bad(
+                f"{NAME}.{key}",
+                getattr(c, key),
+                f"one line or more, each over the range the grid calibrates: {'XY'[axis]} from {lo:g} to "
+                f"{hi:g} mm (a model is not tested where it extrapolates)",
+            )
     # the line rulers: graduations far enough apart to read in order, two or more on each axis
     longest = min(g.travel_mm) - RULER_SHORTER_BY_MM
     if not MIN_RULER_PITCH_MM <= c.ruler_pitch_mm <= longest:
-        raise bad(f"{NAME}.ruler_pitch_mm", c.ruler_pitch_mm,
-                  f"from {MIN_RULER_PITCH_MM:g} mm (graduations read in order through the aim's scatter) to "
-                  f"{longest:g} mm (two graduations on the {longest:g} mm ruler of the shorter axis)")
+        raise bad(
+            f"{NAME}.ruler_pitch_mm",
+            c.ruler_pitch_mm,
+            f"from {MIN_RULER_PITCH_MM:g} mm (graduations read in order through the aim's scatter) to "
+            f"{longest:g} mm (two graduations on the {longest:g} mm ruler of the shorter axis)",
+        )
     for key in ("ruler_aim_um", "ruler_error_um"):
         if getattr(c, key) / 1000 > MAX_RULER_SCATTER * c.ruler_pitch_mm:
-            raise bad(f"{NAME}.{key}", getattr(c, key),
-                      f"a graduation's scatter is a small part of the pitch: at most {MAX_RULER_SCATTER:.0%} of "
-                      f"ruler_pitch_mm = {c.ruler_pitch_mm:g}, {MAX_RULER_SCATTER * c.ruler_pitch_mm * 1000:g} um")
+            raise bad(
+                f"{NAME}.{key}",
+                getattr(c, key),
+                f"a graduation's scatter is a small part of the pitch: at most {MAX_RULER_SCATTER:.0%} of "
+                f"ruler_pitch_mm = {c.ruler_pitch_mm:g}, {MAX_RULER_SCATTER * c.ruler_pitch_mm * 1000:g} um",
+            )
     if not 0 <= c.turn_error <= MAX_TURN_ERROR:
-        raise bad(f"{NAME}.turn_error", c.turn_error,
-                  f"the fraction the operator's turn is off by: from 0 to {MAX_TURN_ERROR:g} (at 1 or more the "
-                  f"rotate-and-check loop does not converge)")
+        raise bad(
+            f"{NAME}.turn_error",
+            c.turn_error,
+            f"the fraction the operator's turn is off by: from 0 to {MAX_TURN_ERROR:g} (at 1 or more the "
+            f"rotate-and-check loop does not converge)",
+        )
     s = c.truth.squareness_rad
     if not abs(s) <= MAX_SQUARENESS_RAD:
-        raise bad(f"{NAME}.truth.squareness_rad", s,
-                  f"a squareness error is a small angle: from -{MAX_SQUARENESS_RAD:g} to {MAX_SQUARENESS_RAD:g} rad "
-                  f"({MAX_SQUARENESS_RAD * 1000:g} mm per metre)")
+        raise bad(
+            f"{NAME}.truth.squareness_rad",
+            s,
+            f"a squareness error is a small angle: from -{MAX_SQUARENESS_RAD:g} to {MAX_SQUARENESS_RAD:g} rad "
+            f"({MAX_SQUARENESS_RAD * 1000:g} mm per metre)",
+        )
 
 
 class Microscope:
@@ -161,7 +202,9 @@ class Microscope:
             img = self.sim.render(self.config.pixel_noise_dn, self.config.psf_px)
             fit = find_dark_circle(img)
             if fit is None:
-                raise ValueError(f"no whole circle in the microscope's view at reading {self.sim.reading_mm}")
+                raise ValueError(
+                    f"no whole circle in the microscope's view at reading {self.sim.reading_mm}"
+                )
             found = fit.centre
             self.last_image = img
         else:
@@ -184,7 +227,9 @@ def approach(sim: VisionStageSim, reading: np.ndarray) -> None:
     sim.move_path(np.array([reading - 0.02, reading], float))
 
 
-def servo(sim: VisionStageSim, scope: Microscope, reading: np.ndarray, tol_px: float) -> tuple[np.ndarray, int]:
+def servo(
+    sim: VisionStageSim, scope: Microscope, reading: np.ndarray, tol_px: float
+) -> tuple[np.ndarray, int]:
     """Move until the nearest circle is within ``tol_px`` of the image centre.
 
     Returns the reading at which the circle's centre is on the optical axis (the final reading
@@ -211,12 +256,19 @@ def align_plate(sim, scope, config, rng):
         # a near circle first, so the far one can be found even when phi is large
         s_near, _ = servo(sim, scope, s00 + [4 * pitch, 0], config.servo_tolerance_px)
         coarse = np.arctan2(*(s_near - s00)[::-1])
-        s_far, _ = servo(sim, scope, s00 + far * np.array([np.cos(coarse), np.sin(coarse)]),
-                         config.servo_tolerance_px)
+        s_far, _ = servo(
+            sim,
+            scope,
+            s00 + far * np.array([np.cos(coarse), np.sin(coarse)]),
+            config.servo_tolerance_px,
+        )
         d = s_far - s00
         estimates.append(float(np.arctan2(d[1], d[0])))
         truths.append(true_phi(sim, s00, s00 + [far, 0.0]))
-        if abs(estimates[-1]) * 1e6 <= config.align_tolerance_urad or turns >= config.align_max_turns:
+        if (
+            abs(estimates[-1]) * 1e6 <= config.align_tolerance_urad
+            or turns >= config.align_max_turns
+        ):
             return estimates, truths, s00
         # the operator turns the plate about circle (0, 0), imperfectly
         turn = -estimates[-1] * (1 + config.turn_error * rng.standard_normal())
@@ -240,7 +292,9 @@ def run(config: VisionStageConfig, seed: int, fidelity: str, out_dir: Path, rrd:
     """
     rng = np.random.default_rng(seed)
     g = config.geometry
-    sim = VisionStageSim(g, config.truth, np.random.default_rng(rng.integers(2**63)), render=fidelity == "render")
+    sim = VisionStageSim(
+        g, config.truth, np.random.default_rng(rng.integers(2**63)), render=fidelity == "render"
+    )
     scope = Microscope(sim, config, fidelity)
     try:
         # 1. alignment ---------------------------------------------------------------------------
@@ -282,16 +336,44 @@ def run(config: VisionStageConfig, seed: int, fidelity: str, out_dir: Path, rrd:
         models = {
             "uncompensated": lambda r: np.zeros_like(r),
             "lineruler": lambda r: np.stack([rulers[0](r[:, 0]), rulers[1](r[:, 1])], axis=1),
-            "polynomial": lambda r: np.stack([cubic[a](*(r - readings[0]).T) for a in range(2)], axis=1),
+            "polynomial": lambda r: np.stack(
+                [cubic[a](*(r - readings[0]).T) for a in range(2)], axis=1
+            ),
             "best": lambda r: np.stack([best[a](*(r - readings[0]).T) for a in range(2)], axis=1),
         }
         lines = interferometer_lines(config, rng)
-        verification = {name: interferometer_test(sim, config, lines, model) for name, model in models.items()}
+        verification = {
+            name: interferometer_test(sim, config, lines, model) for name, model in models.items()
+        }
 
-        report = build_report(config, seed, fidelity, scope, phi_est, phi_true, phi_residual, sigma_phi,
-                              cubic, cubic_true, u, v, sigma_um, verification, selected)
-        artifacts = dict(sim=sim, readings=readings, err_um=err_um, true_err=true_err, models=models,
-                         verification=verification, images=images, s00=s00, geometry=g)
+        report = build_report(
+            config,
+            seed,
+            fidelity,
+            scope,
+            phi_est,
+            phi_true,
+            phi_residual,
+            sigma_phi,
+            cubic,
+            cubic_true,
+            u,
+            v,
+            sigma_um,
+            verification,
+            selected,
+        )
+        artifacts = dict(
+            sim=sim,
+            readings=readings,
+            err_um=err_um,
+            true_err=true_err,
+            models=models,
+            verification=verification,
+            images=images,
+            s00=s00,
+            geometry=g,
+        )
         if out_dir is not None:  # a Monte-Carlo trial keeps only the numbers
             _write_figure(out_dir, artifacts, config)
         if rrd and out_dir is not None:
@@ -325,8 +407,12 @@ def measure_rulers(sim: VisionStageSim, config: VisionStageConfig, rng, s00) -> 
         origin = np.zeros(2)
         origin[axis], origin[other] = 4.0, mid
         angle = (0.0 if axis == 0 else np.pi / 2) + config.ruler_parallelism_urad * 1e-6
-        ruler = RulerArtefact(origin_mm=origin, angle_rad=angle, pitch_mm=config.ruler_pitch_mm,
-                              graduation_errors_mm=rng.normal(0, config.ruler_error_um / 1000, n))
+        ruler = RulerArtefact(
+            origin_mm=origin,
+            angle_rad=angle,
+            pitch_mm=config.ruler_pitch_mm,
+            graduation_errors_mm=rng.normal(0, config.ruler_error_um / 1000, n),
+        )
         readings = [sim.ruler_reading(ruler, k, axis, mid, config.ruler_aim_um) for k in range(n)]
         out.append(LineRuler.from_graduations(np.array(readings), config.ruler_pitch_mm))
     return out
@@ -356,29 +442,65 @@ def interferometer_test(sim, config, lines, model) -> list[dict]:
     for axis, other, targets in lines:
         m, n = len(targets), config.runs
         # every position's compensated command, the same in every run: solved once, all at once
-        along = np.r_[targets, targets[0] - 2.0, targets[-1] + 2.0]  # the targets, then both overruns
+        along = np.r_[
+            targets, targets[0] - 2.0, targets[-1] + 2.0
+        ]  # the targets, then both overruns
         points = np.empty((m + 2, 2))
         points[:, axis], points[:, 1 - axis] = along, other
         commands = compensated_command(points, model)
         # each run: the overrun below, the targets up, the overrun above, the targets down
-        up, down = np.r_[m, 0:m], np.r_[m + 1, m - 1:-1:-1]
+        up, down = np.r_[m, 0:m], np.r_[m + 1, m - 1 : -1 : -1]
         path = np.tile(np.r_[up, down], n)
         readings = sim.move_path(commands[path], path < m, axis, config.interferometer_noise_um)
         readings = readings.reshape(n, 2, m)  # run, direction (up, down), in the order of travel
         zero = readings[0, 0, 0] - targets[0]  # zeroed at the first target of the first run
-        dev = {+1: ((readings[:, 0] - zero - targets) * 1000).T, -1: ((readings[:, 1, ::-1] - zero - targets) * 1000).T}
+        dev = {
+            +1: ((readings[:, 0] - zero - targets) * 1000).T,
+            -1: ((readings[:, 1, ::-1] - zero - targets) * 1000).T,
+        }
         res = iso230_2.evaluate(targets, dev[+1], dev[-1])
-        out.append({"axis": "xy"[axis], "at_mm": other, "targets_mm": targets, "dev_up_um": dev[+1],
-                    "dev_down_um": dev[-1], "iso": res})
+        out.append(
+            {
+                "axis": "xy"[axis],
+                "at_mm": other,
+                "targets_mm": targets,
+                "dev_up_um": dev[+1],
+                "dev_down_um": dev[-1],
+                "iso": res,
+            }
+        )
     return out
 
 
-def build_report(config, seed, fidelity, scope, phi_est, phi_true, phi_residual, sigma_phi, cubic, cubic_true,
-                 u, v, sigma_um, verification, selected) -> Report:
+def build_report(
+    config,
+    seed,
+    fidelity,
+    scope,
+    phi_est,
+    phi_true,
+    phi_residual,
+    sigma_phi,
+    cubic,
+    cubic_true,
+    u,
+    v,
+    sigma_um,
+    verification,
+    selected,
+) -> Report:
     """The vision stage's Report: phi, the cubic's coefficients against the truth, the ISO 230-2 checks."""
     report = Report(scenario=NAME, seed=seed, fidelity=fidelity)
-    report.parameters.append(Parameter("phi_urad", "urad", phi_true[0] * 1e6, phi_est[0] * 1e6, sigma_phi * 1e6,
-                                       tolerance=TOL_SIGMA * sigma_phi * 1e6))
+    report.parameters.append(
+        Parameter(
+            "phi_urad",
+            "urad",
+            phi_true[0] * 1e6,
+            phi_est[0] * 1e6,
+            sigma_phi * 1e6,
+            tolerance=TOL_SIGMA * sigma_phi * 1e6,
+        )
+    )
     for a, axis in enumerate("xy"):
         std = cubic[a].coef_std(u, v, sigma_um)
         # the alignment's own error turns the reference frame: it enters the cross slopes
@@ -386,40 +508,80 @@ def build_report(config, seed, fidelity, scope, phi_est, phi_true, phi_residual,
         std[slope] = np.hypot(std[slope], sigma_phi * 1000)
         for k in range(10):
             unit = "um" if k == 0 else f"um/mm^{[0, 1, 1, 2, 2, 2, 3, 3, 3, 3][k]}"
-            report.parameters.append(Parameter(f"e{axis}_a{k}", unit, float(cubic_true[a].coef[k]),
-                                               float(cubic[a].coef[k]), float(std[k]),
-                                               tolerance=TOL_SIGMA * float(std[k])))
+            report.parameters.append(
+                Parameter(
+                    f"e{axis}_a{k}",
+                    unit,
+                    float(cubic_true[a].coef[k]),
+                    float(cubic[a].coef[k]),
+                    float(std[k]),
+                    tolerance=TOL_SIGMA * float(std[k]),
+                )
+            )
     errs = np.array(scope.errors_px)
-    worst = {name: max(float(np.max(np.abs(np.r_[ln["dev_up_um"].ravel(), ln["dev_down_um"].ravel()])))
-                       for ln in lines) for name, lines in verification.items()}
+    worst = {
+        name: max(
+            float(np.max(np.abs(np.r_[ln["dev_up_um"].ravel(), ln["dev_down_um"].ravel()])))
+            for ln in lines
+        )
+        for name, lines in verification.items()
+    }
     report.checks += [
-        Check("circle_centre_rms_px", float(np.sqrt(np.mean(np.sum(errs**2, axis=1)))), config.centre_limit_px,
-              note="detected vs exact image of the circle's centre, every measurement"),
-        Check("phi_residual_urad", abs(phi_residual) * 1e6, config.phi_limit_urad,
-              note=f"plate's true angle to the X motion after {len(phi_est) - 1} turn(s)"),
-        Check("pos_error_uncompensated_um", worst["uncompensated"], None,
-              note="largest |positioning deviation|, interferometer, both axes, all lines and runs"),
+        Check(
+            "circle_centre_rms_px",
+            float(np.sqrt(np.mean(np.sum(errs**2, axis=1)))),
+            config.centre_limit_px,
+            note="detected vs exact image of the circle's centre, every measurement",
+        ),
+        Check(
+            "phi_residual_urad",
+            abs(phi_residual) * 1e6,
+            config.phi_limit_urad,
+            note=f"plate's true angle to the X motion after {len(phi_est) - 1} turn(s)",
+        ),
+        Check(
+            "pos_error_uncompensated_um",
+            worst["uncompensated"],
+            None,
+            note="largest |positioning deviation|, interferometer, both axes, all lines and runs",
+        ),
         Check("pos_error_lineruler_um", worst["lineruler"], config.lineruler_limit_um),
         Check("pos_error_polynomial_um", worst["polynomial"], config.polynomial_limit_um),
-        Check("pos_error_best_um", worst["best"], config.polynomial_limit_um,
-              note=f"X: {selected[0][0].name}; Y: {selected[1][0].name}; chosen by 10-fold CV"),
+        Check(
+            "pos_error_best_um",
+            worst["best"],
+            config.polynomial_limit_um,
+            note=f"X: {selected[0][0].name}; Y: {selected[1][0].name}; chosen by 10-fold CV",
+        ),
     ]
-    for a, axis in enumerate("xy"):
+    for axis in "xy":
         lines = [ln for ln in verification["polynomial"] if ln["axis"] == axis]
         for fig in ("A", "B"):
             value = max(ln["iso"].as_dict()[fig] for ln in lines)
-            report.checks.append(Check(f"iso_{fig}_{axis}_um", value, None,
-                                       note="ISO 230-2, polynomial compensation, worst line"))
+            report.checks.append(
+                Check(
+                    f"iso_{fig}_{axis}_um",
+                    value,
+                    None,
+                    note="ISO 230-2, polynomial compensation, worst line",
+                )
+            )
     report.info = {
         "phi_estimates_urad": [p * 1e6 for p in phi_est],
         "phi_truths_urad": [p * 1e6 for p in phi_true],
         "point_scatter_um": sigma_um,
         "best_model": {axis: selected[a][0].name for a, axis in enumerate("xy")},
-        "cv_rms_um": {axis: {k: v for k, v in selected[a][1].items() if "period" not in k}
-                      | {"best periodic": min(v for k, v in selected[a][1].items() if "period" in k)}
-                      for a, axis in enumerate("xy")},
-        "iso230_2": {name: [{"axis": ln["axis"], "at_mm": ln["at_mm"], **ln["iso"].as_dict()} for ln in lines]
-                     for name, lines in verification.items()},
+        "cv_rms_um": {
+            axis: {k: v for k, v in selected[a][1].items() if "period" not in k}
+            | {"best periodic": min(v for k, v in selected[a][1].items() if "period" in k)}
+            for a, axis in enumerate("xy")
+        },
+        "iso230_2": {
+            name: [
+                {"axis": ln["axis"], "at_mm": ln["at_mm"], **ln["iso"].as_dict()} for ln in lines
+            ]
+            for name, lines in verification.items()
+        },
         "worst_deviation_um": worst,
     }
     return report
@@ -436,10 +598,21 @@ def _write_figure(out_dir: Path, a: dict, config) -> None:
     r, e = a["readings"], a["err_um"]
     fig, axes = plt.subplots(1, 3, figsize=(16, 4.8), constrained_layout=True)
     after = e - a["models"]["polynomial"](r)
-    for ax, field, title, scale in ((axes[0], e, "error field before (um)", 0.5),
-                                    (axes[1], after, "after the cubic (um, x10)", 5.0)):
-        q = ax.quiver(r[:, 0], r[:, 1], field[:, 0], field[:, 1], np.hypot(*field.T), angles="xy",
-                      scale_units="xy", scale=1 / scale, cmap="viridis")
+    for ax, field, title, scale in (
+        (axes[0], e, "error field before (um)", 0.5),
+        (axes[1], after, "after the cubic (um, x10)", 5.0),
+    ):
+        q = ax.quiver(
+            r[:, 0],
+            r[:, 1],
+            field[:, 0],
+            field[:, 1],
+            np.hypot(*field.T),
+            angles="xy",
+            scale_units="xy",
+            scale=1 / scale,
+            cmap="viridis",
+        )
         fig.colorbar(q, ax=ax, label="|error| (um)")
         ax.set(title=title, xlabel="X reading (mm)", ylabel="Y reading (mm)", aspect="equal")
     ax = axes[2]
@@ -451,10 +624,22 @@ def _write_figure(out_dir: Path, a: dict, config) -> None:
             if ln["axis"] != "x":
                 continue
             mean = (ln["iso"].mean_up + ln["iso"].mean_down) / 2
-            ax.plot(ln["targets_mm"], mean, "-o", ms=3, color=colors[name], label=name if k == 0 else None)
-    worst = max(float(np.max(np.abs(ln["iso"].mean_bi))) for ln in a["verification"]["uncompensated"])
-    ax.set(title=f"interferometer, X lines (uncompensated {worst:.0f} um)", xlabel="X target (mm)",
-           ylabel="mean bidirectional deviation (um)")
+            ax.plot(
+                ln["targets_mm"],
+                mean,
+                "-o",
+                ms=3,
+                color=colors[name],
+                label=name if k == 0 else None,
+            )
+    worst = max(
+        float(np.max(np.abs(ln["iso"].mean_bi))) for ln in a["verification"]["uncompensated"]
+    )
+    ax.set(
+        title=f"interferometer, X lines (uncompensated {worst:.0f} um)",
+        xlabel="X target (mm)",
+        ylabel="mean bidirectional deviation (um)",
+    )
     ax.legend()
     fig.savefig(out_dir / "vision_stage.png", dpi=90)
     plt.close(fig)

@@ -22,7 +22,9 @@ def _probe_scanner_default():
     from calibench.scenes import probe_scanner
 
     n = probe_scanner.ProbeScannerNominal()
-    return probe_scanner.build_mjcf(probe_scanner.ProbeScannerGeometry(), n.d_mm, n.dL_mm, n.alpha0_rad), {}
+    return probe_scanner.build_mjcf(
+        probe_scanner.ProbeScannerGeometry(), n.d_mm, n.dL_mm, n.alpha0_rad
+    ), {}
 
 
 def _arm(name: str, stiffness_nm_per_rad: float):
@@ -32,15 +34,24 @@ def _arm(name: str, stiffness_nm_per_rad: float):
 
     arm = arm_cmm.load_arm(name)
     k = [stiffness_nm_per_rad] * arm.n_joints
-    return arm_cmm.build_mjcf(arm, None, None, k, (2.2, -0.9, 0.35), (1, 0, 0, 0),
-                              ((0.45, 0.25, -0.15), (0.45, -0.35, -0.15))), {}
+    return arm_cmm.build_mjcf(
+        arm,
+        None,
+        None,
+        k,
+        (2.2, -0.9, 0.35),
+        (1, 0, 0, 0),
+        ((0.45, 0.25, -0.15), (0.45, -0.35, -0.15)),
+    ), {}
 
 
 def _stewart_default():
     from calibench.scenes import stewart
 
     g = stewart.StewartGeometry()
-    return stewart.build_mjcf(g, g.base_hinges_mm, g.platform_hinges_mm, g.reflectors_mm, g.station_holes_mm), {}
+    return stewart.build_mjcf(
+        g, g.base_hinges_mm, g.platform_hinges_mm, g.reflectors_mm, g.station_holes_mm
+    ), {}
 
 
 SCENES = {

@@ -75,12 +75,16 @@ class ArmDescription:
 
     def nominal(self) -> np.ndarray:
         """(N, 5) the drawing's a, d (mm), alpha, theta, beta (rad) per joint (beta = 0)."""
-        return np.stack([self.a_mm, self.d_mm, self.alpha_rad, self.theta_rad, np.zeros(self.n_joints)], axis=1)
+        return np.stack(
+            [self.a_mm, self.d_mm, self.alpha_rad, self.theta_rad, np.zeros(self.n_joints)], axis=1
+        )
 
     @property
     def reach_mm(self) -> float:
         """An upper bound of the tool point's distance from the first joint's axis."""
-        return float(np.sum(np.abs(self.a_mm)) + np.sum(np.abs(self.d_mm[1:])) + np.linalg.norm(self.tool_mm))
+        return float(
+            np.sum(np.abs(self.a_mm)) + np.sum(np.abs(self.d_mm[1:])) + np.linalg.norm(self.tool_mm)
+        )
 
     def parallel_pairs(self, tol_rad: float = math.radians(5)) -> list[tuple[int, int]]:
         """Consecutive joints (1-based) whose axes are (nearly) parallel, nominally."""
@@ -94,7 +98,9 @@ class ArmDescription:
         return pairs
 
 
-_LOADED: dict[tuple, ArmDescription] = {}  # by (path as given, mtime, size): a study's trials read it once
+_LOADED: dict[
+    tuple, ArmDescription
+] = {}  # by (path as given, mtime, size): a study's trials read it once
 
 
 def load_arm(spec: str | Path) -> ArmDescription:
@@ -103,7 +109,11 @@ def load_arm(spec: str | Path) -> ArmDescription:
     try:
         st = path.stat()
         # the path as given, where it was given (resolving it costs more than a trial's prior)
-        key = (str(path) if path.is_absolute() else (os.getcwd(), str(path)), st.st_mtime_ns, st.st_size)
+        key = (
+            str(path) if path.is_absolute() else (os.getcwd(), str(path)),
+            st.st_mtime_ns,
+            st.st_size,
+        )
         if key in _LOADED:
             return _LOADED[key]
         with open(path, "rb") as f:
@@ -116,7 +126,7 @@ def load_arm(spec: str | Path) -> ArmDescription:
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
         raise ArmFileError(f"arm {path} is not valid TOML: {e}") from None
     if not table:
-        raise ArmFileError(f"arm {path} is empty: it describes no arm (see CONTRACT.md, \"Arms\")")
+        raise ArmFileError(f'arm {path} is empty: it describes no arm (see CONTRACT.md, "Arms")')
     _LOADED[key] = arm = arm_from_table(table, str(path))
     return arm
 
@@ -134,14 +144,21 @@ def _number(table: dict, key: str, where: str, default=None, lo=-math.inf, hi=ma
     return float(v)
 
 
-def _vector(table: dict, key: str, where: str, n: int, default=None, bound: float = math.inf) -> tuple:
+def _vector(
+    table: dict, key: str, where: str, n: int, default=None, bound: float = math.inf
+) -> tuple:
     if key not in table:
         if default is None:
             raise ArmFileError(f"{where}: missing field {key}")
         return tuple(default)
     v = table[key]
-    if (not isinstance(v, list) or len(v) != n
-            or not all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in v)):
+    if (
+        not isinstance(v, list)
+        or len(v) != n
+        or not all(
+            isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in v
+        )
+    ):
         raise ArmFileError(f"{where}: {key} must be a list of {n} finite numbers, not {v!r}")
     if any(abs(x) > bound for x in v):
         raise ArmFileError(f"{where}: {key} = {v} is out of range (each within +-{bound:g})")
@@ -153,15 +170,21 @@ def arm_from_table(t: dict, where: str = "arm") -> ArmDescription:
     known = {"name", "convention", "gravity_m_s2", "joint", "tool"}
     extra = set(t) - known
     if extra:
-        raise ArmFileError(f"{where}: unknown field(s) {', '.join(sorted(extra))} (known: {', '.join(sorted(known))})")
+        raise ArmFileError(
+            f"{where}: unknown field(s) {', '.join(sorted(extra))} (known: {', '.join(sorted(known))})"
+        )
     name = t.get("name", Path(where).stem)
     if not isinstance(name, str) or not name.strip():
         raise ArmFileError(f"{where}: name must be a text")
-    if not name.isprintable():  # a newline or a tab would split or shift every line that names the arm
-        raise ArmFileError(f"{where}: name {name!r} holds a control character (a newline, a tab): one printable line")
+    if (
+        not name.isprintable()
+    ):  # a newline or a tab would split or shift every line that names the arm
+        raise ArmFileError(
+            f"{where}: name {name!r} holds a control character (a newline, a tab): one printable line"
+        )
     conv = t.get("convention")
     if conv not in ("dh", "mdh"):
-        raise ArmFileError(f"{where}: convention must be \"dh\" or \"mdh\", not {conv!r}")
+        raise ArmFileError(f'{where}: convention must be "dh" or "mdh", not {conv!r}')
     joints = t.get("joint")
     if not isinstance(joints, list) or not joints or not all(isinstance(j, dict) for j in joints):
         raise ArmFileError(f"{where}: no [[joint]] tables (one per joint, base to flange)")
@@ -173,7 +196,9 @@ def arm_from_table(t: dict, where: str = "arm") -> ArmDescription:
         w = f"{where}: joint {i}"
         extra = set(j) - jkeys
         if extra:
-            raise ArmFileError(f"{w}: unknown field(s) {', '.join(sorted(extra))} (known: {', '.join(sorted(jkeys))})")
+            raise ArmFileError(
+                f"{w}: unknown field(s) {', '.join(sorted(extra))} (known: {', '.join(sorted(jkeys))})"
+            )
         a.append(_number(j, "a_mm", w, lo=-1e5, hi=1e5))
         d.append(_number(j, "d_mm", w, lo=-1e5, hi=1e5))
         al.append(math.radians(_number(j, "alpha_deg", w, lo=-360, hi=360)))
@@ -184,32 +209,51 @@ def arm_from_table(t: dict, where: str = "arm") -> ArmDescription:
         rng.append((math.radians(lo), math.radians(hi)))
         has_m, has_c = "mass_kg" in j, "com_mm" in j
         if has_m != has_c:
-            raise ArmFileError(f"{w}: mass_kg and com_mm go together (the gravity model needs both)")
+            raise ArmFileError(
+                f"{w}: mass_kg and com_mm go together (the gravity model needs both)"
+            )
         if has_m:
             mass.append(_number(j, "mass_kg", w, lo=0.0, hi=1e4))
             com.append(_vector(j, "com_mm", w, 3, bound=1e5))
     if mass and len(mass) != len(joints):
-        raise ArmFileError(f"{where}: mass_kg and com_mm on {len(mass)} of {len(joints)} joints: give them for "
-                           "every joint or none")
+        raise ArmFileError(
+            f"{where}: mass_kg and com_mm on {len(mass)} of {len(joints)} joints: give them for "
+            "every joint or none"
+        )
     tool = t.get("tool", {})
     if not isinstance(tool, dict):
         raise ArmFileError(f"{where}: [tool] must be a table")
     extra = set(tool) - {"offset_mm", "mass_kg"}
     if extra:
-        raise ArmFileError(f"{where}: [tool]: unknown field(s) {', '.join(sorted(extra))} (known: mass_kg, offset_mm)")
+        raise ArmFileError(
+            f"{where}: [tool]: unknown field(s) {', '.join(sorted(extra))} (known: mass_kg, offset_mm)"
+        )
     tool_mm = _vector(tool, "offset_mm", f"{where}: [tool]", 3, default=(0.0, 0.0, 0.0), bound=1e5)
     if sum(abs(x) for x in a + d) + np.linalg.norm(tool_mm) < 1.0:
-        raise ArmFileError(f"{where}: every a_mm, d_mm and the tool's offset_mm are zero: the arm has no length, "
-                           "its tool point never moves")
+        raise ArmFileError(
+            f"{where}: every a_mm, d_mm and the tool's offset_mm are zero: the arm has no length, "
+            "its tool point never moves"
+        )
     g = _vector(t, "gravity_m_s2", where, 3, default=(0.0, 0.0, -9.81))
     if mass and not 1.0 < np.linalg.norm(g) < 100.0:
-        raise ArmFileError(f"{where}: gravity_m_s2 has magnitude {np.linalg.norm(g):.3g}: expected about 9.81")
+        raise ArmFileError(
+            f"{where}: gravity_m_s2 has magnitude {np.linalg.norm(g):.3g}: expected about 9.81"
+        )
     return ArmDescription(
-        name=name, convention=conv, a_mm=tuple(a), d_mm=tuple(d), alpha_rad=tuple(al), theta_rad=tuple(th),
-        range_rad=tuple(rng), tool_mm=tool_mm,
-        mass_kg=tuple(mass) if mass else None, com_mm=tuple(com) if com else None,
+        name=name,
+        convention=conv,
+        a_mm=tuple(a),
+        d_mm=tuple(d),
+        alpha_rad=tuple(al),
+        theta_rad=tuple(th),
+        range_rad=tuple(rng),
+        tool_mm=tool_mm,
+        mass_kg=tuple(mass) if mass else None,
+        com_mm=tuple(com) if com else None,
         tool_mass_kg=_number(tool, "mass_kg", f"{where}: [tool]", default=0.0, lo=0.0, hi=1e4),
-        gravity_m_s2=g, source=where)
+        gravity_m_s2=g,
+        source=where,
+    )
 
 
 # --- MJCF ---------------------------------------------------------------------------------------
@@ -245,11 +289,15 @@ def _qmul(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     return out
 
 
-def joint_frames(convention: str, a, d, alpha, theta, beta) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def joint_frames(
+    convention: str, a, d, alpha, theta, beta
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Each joint's two rigid pieces around its hinge, for (N,) values (metres as given):
     (pre_R (N, 3, 3), pre_t (N, 3)) the hinge frame in the previous link frame, (post_R, post_t)
     the link frame in the hinge frame."""
-    a, d, alpha, theta, beta = (np.atleast_1d(np.asarray(v, float)) for v in (a, d, alpha, theta, beta))
+    a, d, alpha, theta, beta = (
+        np.atleast_1d(np.asarray(v, float)) for v in (a, d, alpha, theta, beta)
+    )
     zero, eye = np.zeros(len(a)), np.broadcast_to(np.eye(3), (len(a), 3, 3))
     M = _rot("x", alpha) @ _rot("y", beta)
     if convention == "dh":  # RotZ(theta + q) | TransZ(d) TransX(a) RotX(alpha) RotY(beta)
@@ -302,8 +350,17 @@ def _links(arm: ArmDescription, values: np.ndarray | None, tool_mm) -> _Links:
     else:
         mass, com, inertia = np.full(N, 0.1), post_t / 2, np.full(N, 1e-3)
     tool = np.asarray(arm.tool_mm if tool_mm is None else tool_mm, float) / 1000
-    return _Links(pre_t, pre_quat, post_t, post_quat, mass, com, inertia,
-                  tuple(bool(x) for x in np.linalg.norm(post_t, axis=1) > 1e-6), tool)
+    return _Links(
+        pre_t,
+        pre_quat,
+        post_t,
+        post_quat,
+        mass,
+        com,
+        inertia,
+        tuple(bool(x) for x in np.linalg.norm(post_t, axis=1) > 1e-6),
+        tool,
+    )
 
 
 def _g(v) -> str:
@@ -311,20 +368,34 @@ def _g(v) -> str:
     return " ".join(f"{x:.17g}" for x in np.atleast_1d(v))
 
 
-def build_mjcf(arm: ArmDescription, values: np.ndarray | None = None, tool_mm=None, stiffness_nm_per_rad=None,
-               tracker_pos_m=None, tracker_quat=None, cones_m=None) -> str:
+def build_mjcf(
+    arm: ArmDescription,
+    values: np.ndarray | None = None,
+    tool_mm=None,
+    stiffness_nm_per_rad=None,
+    tracker_pos_m=None,
+    tracker_quat=None,
+    cones_m=None,
+) -> str:
     """MJCF of ``arm`` built with as-built ``values`` (N, 5): a, d (mm), alpha, theta, beta (rad)
     per joint (nominal when None), the tool point ``tool_mm`` (3,), each hinge's spring
     ``stiffness_nm_per_rad`` (N,) (none when None or inf), the tracker's pose and the cones."""
     N = arm.n_joints
-    k = np.full(N, np.inf) if stiffness_nm_per_rad is None else np.asarray(stiffness_nm_per_rad, float)
+    k = (
+        np.full(N, np.inf)
+        if stiffness_nm_per_rad is None
+        else np.asarray(stiffness_nm_per_rad, float)
+    )
     g = arm.gravity_m_s2
     L = _links(arm, values, tool_mm)
     body, close = "", ""
     for i in range(N):
         spring = f' stiffness="{k[i]:.17g}"' if np.isfinite(k[i]) else ""
-        geom = (f'<geom type="capsule" fromto="0 0 0 {_g(L.post_t[i])}" size="0.03" rgba="0.75 0.75 0.78 1"/>'
-                if L.capsule[i] else '<geom type="sphere" size="0.035" rgba="0.75 0.75 0.78 1"/>')
+        geom = (
+            f'<geom type="capsule" fromto="0 0 0 {_g(L.post_t[i])}" size="0.03" rgba="0.75 0.75 0.78 1"/>'
+            if L.capsule[i]
+            else '<geom type="sphere" size="0.035" rgba="0.75 0.75 0.78 1"/>'
+        )
         # armature 0.1 kg m^2: a geared motor's rotor seen through its reduction; with the 0.5 ms
         # step it keeps a stiff joint's spring stable when the model is stepped
         body += f"""
@@ -344,9 +415,11 @@ def build_mjcf(arm: ArmDescription, values: np.ndarray | None = None, tool_mm=No
     world = ""
     if tracker_pos_m is not None:
         tp = np.asarray(tracker_pos_m, float)
-        world += (f'\n    <body name="tracker" pos="{tp[0]:.17g} {tp[1]:.17g} {tp[2]:.17g}" '
-                  f'quat="{" ".join(f"{v:.17g}" for v in tracker_quat)}">'
-                  '<geom name="tracker_head" type="box" size="0.08 0.06 0.1" rgba="0.85 0.85 0.8 1"/></body>')
+        world += (
+            f'\n    <body name="tracker" pos="{tp[0]:.17g} {tp[1]:.17g} {tp[2]:.17g}" '
+            f'quat="{" ".join(f"{v:.17g}" for v in tracker_quat)}">'
+            '<geom name="tracker_head" type="box" size="0.08 0.06 0.1" rgba="0.85 0.85 0.8 1"/></body>'
+        )
     if cones_m is not None:
         ca, cb = (np.asarray(c, float) for c in cones_m)
         world += f"""
@@ -376,7 +449,9 @@ def _key(v) -> tuple | None:
     return None if v is None else tuple(np.ravel(np.asarray(v, float)).tolist())
 
 
-_SPEC_LOCK = threading.Lock()  # a Dask worker may run trials in threads: one edits the spec at a time
+_SPEC_LOCK = (
+    threading.Lock()
+)  # a Dask worker may run trials in threads: one edits the spec at a time
 
 
 @functools.lru_cache(maxsize=8)
@@ -389,8 +464,15 @@ def _spec(arm: ArmDescription, stiffness, tracker_pos, tracker_quat, cones):
     return mujoco.MjSpec.from_string(xml), _links(arm, None, None).capsule
 
 
-def as_built_model(arm: ArmDescription, values: np.ndarray, tool_mm, stiffness_nm_per_rad=None,
-                   tracker_pos_m=None, tracker_quat=None, cones_m=None):
+def as_built_model(
+    arm: ArmDescription,
+    values: np.ndarray,
+    tool_mm,
+    stiffness_nm_per_rad=None,
+    tracker_pos_m=None,
+    tracker_quat=None,
+    cones_m=None,
+):
     """The MjModel of :func:`build_mjcf` with the same arguments, without writing and parsing the
     MJCF each time: the nominal arm's MJCF is parsed once per arm and setup, and each as-built
     arm writes its frames, centres of mass and tool into that spec before compiling (a Monte-Carlo
@@ -398,10 +480,15 @@ def as_built_model(arm: ArmDescription, values: np.ndarray, tool_mm, stiffness_n
     import mujoco
 
     L = _links(arm, values, tool_mm)
-    spec, capsule = _spec(arm, _key(stiffness_nm_per_rad), _key(tracker_pos_m), _key(tracker_quat), _key(cones_m))
+    spec, capsule = _spec(
+        arm, _key(stiffness_nm_per_rad), _key(tracker_pos_m), _key(tracker_quat), _key(cones_m)
+    )
     if L.capsule != capsule:  # a link's capsule became a sphere or back: another MJCF
-        return mujoco.MjModel.from_xml_string(build_mjcf(arm, values, tool_mm, stiffness_nm_per_rad, tracker_pos_m,
-                                                         tracker_quat, cones_m))
+        return mujoco.MjModel.from_xml_string(
+            build_mjcf(
+                arm, values, tool_mm, stiffness_nm_per_rad, tracker_pos_m, tracker_quat, cones_m
+            )
+        )
     with _SPEC_LOCK:
         for i in range(arm.n_joints):
             hinge, link = spec.body(f"joint{i + 1}"), spec.body(f"link{i + 1}")
@@ -435,7 +522,11 @@ def write_as_built(model, arm: ArmDescription, values: np.ndarray, tool_mm) -> b
     if tuple(bool(t) for t in model.geom_type[geom] == mujoco.mjtGeom.mjGEOM_CAPSULE) != L.capsule:
         return False
     link = [model.body(f"link{i + 1}").id for i in range(N)]
-    model.body_pos[hinge], model.body_quat[hinge], model.body_ipos[hinge] = L.pre_t, L.pre_quat, L.com
+    model.body_pos[hinge], model.body_quat[hinge], model.body_ipos[hinge] = (
+        L.pre_t,
+        L.pre_quat,
+        L.com,
+    )
     model.body_inertia[hinge] = L.inertia[:, None]
     model.body_pos[link], model.body_quat[link] = L.post_t, L.post_quat
     caps = np.flatnonzero(L.capsule)
@@ -451,4 +542,3 @@ def write_as_built(model, arm: ArmDescription, values: np.ndarray, tool_mm) -> b
     model.site_pos[model.site("probe").id] = L.tool
     model.body_pos[model.body("tool").id] = L.tool
     return True
-

@@ -16,8 +16,8 @@ import dataclasses
 
 import numpy as np
 
-from calibench.scenes.checkerboard import Chessboard
 from calibench.scenes.camera import PinholeCamera
+from calibench.scenes.checkerboard import Chessboard
 
 STAGE_BOARD_GROUP = 2
 CALIB_BOARD_GROUP = 3
@@ -40,8 +40,9 @@ class BeltStageGeometry:
         return np.array([self.travel_mm[0] / 2, self.travel_mm[1] / 2, self.camera_height_mm])
 
 
-def build_mjcf(geometry: BeltStageGeometry, render_pad_px: int = 0,
-               supersample: int = 1) -> tuple[str, dict[str, bytes]]:
+def build_mjcf(
+    geometry: BeltStageGeometry, render_pad_px: int = 0, supersample: int = 1
+) -> tuple[str, dict[str, bytes]]:
     """MJCF text and its assets (the board texture PNG).
 
     ``render_pad_px`` widens the render buffer so a padded ideal image can be rendered for the

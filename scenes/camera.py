@@ -47,7 +47,9 @@ class PinholeCamera:
         """(k1, k2, p1, p2, k3), shape (5,)."""
         return np.array([self.k1, self.k2, self.p1, self.p2, self.k3])
 
-    def mjcf_attributes(self, width: int | None = None, height: int | None = None) -> dict[str, str]:
+    def mjcf_attributes(
+        self, width: int | None = None, height: int | None = None
+    ) -> dict[str, str]:
         """``<camera>`` attributes that give these intrinsics for a render of width x height.
 
         A larger render (padding) keeps fx, fy and the principal point's offset from the
@@ -87,8 +89,12 @@ class PinholeCamera:
         for _ in range(iterations):
             f = self.distort_normalized(xy) - xy_d
             # 2x2 Jacobian by central differences: cheap, exact enough for a contraction.
-            jx = (self.distort_normalized(xy + [eps, 0]) - self.distort_normalized(xy - [eps, 0])) / (2 * eps)
-            jy = (self.distort_normalized(xy + [0, eps]) - self.distort_normalized(xy - [0, eps])) / (2 * eps)
+            jx = (
+                self.distort_normalized(xy + [eps, 0]) - self.distort_normalized(xy - [eps, 0])
+            ) / (2 * eps)
+            jy = (
+                self.distort_normalized(xy + [0, eps]) - self.distort_normalized(xy - [0, eps])
+            ) / (2 * eps)
             det = jx[..., 0] * jy[..., 1] - jy[..., 0] * jx[..., 1]
             dx = (jy[..., 1] * f[..., 0] - jy[..., 0] * f[..., 1]) / det
             dy = (-jx[..., 1] * f[..., 0] + jx[..., 0] * f[..., 1]) / det
@@ -107,13 +113,26 @@ class PinholeCamera:
 
     def padding_px(self) -> int:
         """Border an ideal render needs so that every distorted pixel samples inside it."""
-        u = np.r_[np.linspace(0, self.width - 1, 64), np.full(64, self.width - 1),
-                  np.linspace(0, self.width - 1, 64), np.zeros(64)]
-        v = np.r_[np.zeros(64), np.linspace(0, self.height - 1, 64),
-                  np.full(64, self.height - 1), np.linspace(0, self.height - 1, 64)]
+        u = np.r_[
+            np.linspace(0, self.width - 1, 64),
+            np.full(64, self.width - 1),
+            np.linspace(0, self.width - 1, 64),
+            np.zeros(64),
+        ]
+        v = np.r_[
+            np.zeros(64),
+            np.linspace(0, self.height - 1, 64),
+            np.full(64, self.height - 1),
+            np.linspace(0, self.height - 1, 64),
+        ]
         ideal = self._ideal_pixels(u, v)
-        over = max(0.0, -ideal[:, 0].min(), ideal[:, 0].max() - (self.width - 1),
-                   -ideal[:, 1].min(), ideal[:, 1].max() - (self.height - 1))
+        over = max(
+            0.0,
+            -ideal[:, 0].min(),
+            ideal[:, 0].max() - (self.width - 1),
+            -ideal[:, 1].min(),
+            ideal[:, 1].max() - (self.height - 1),
+        )
         return int(np.ceil(over)) + 4
 
     def _ideal_pixels(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -126,12 +145,14 @@ class PinholeCamera:
 
         Returns map_x, map_y of shape (height, width), float32.
         """
-        v, u = np.mgrid[0:self.height, 0:self.width].astype(float)
+        v, u = np.mgrid[0 : self.height, 0 : self.width].astype(float)
         ideal = self._ideal_pixels(u, v) + pad
         return ideal[..., 0].astype(np.float32), ideal[..., 1].astype(np.float32)
 
 
-def world_to_cv_camera(points_world: np.ndarray, cam_pos: np.ndarray, cam_xmat: np.ndarray) -> np.ndarray:
+def world_to_cv_camera(
+    points_world: np.ndarray, cam_pos: np.ndarray, cam_xmat: np.ndarray
+) -> np.ndarray:
     """World points to the OpenCV camera frame of a MuJoCo camera, shape (n, 3) -> (n, 3).
 
     ``cam_xmat`` is MuJoCo's camera orientation (columns = camera axes in world), (3, 3).

@@ -14,8 +14,9 @@ import dataclasses
 import cv2
 import numpy as np
 
-
-TEXTURE_PX_PER_SQUARE = 64  # the texture's resolution the scenes use: the margin a whole number of its pixels
+TEXTURE_PX_PER_SQUARE = (
+    64  # the texture's resolution the scenes use: the margin a whole number of its pixels
+)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -45,8 +46,10 @@ class Chessboard:
     @property
     def size_mm(self) -> tuple[float, float]:
         """Outer size of the plate (width along x, height along y), margins included."""
-        return ((self.cols + 1) * self.square_mm + 2 * self.margin_mm,
-                (self.rows + 1) * self.square_mm + 2 * self.margin_mm)
+        return (
+            (self.cols + 1) * self.square_mm + 2 * self.margin_mm,
+            (self.rows + 1) * self.square_mm + 2 * self.margin_mm,
+        )
 
     @property
     def origin_in_plate_mm(self) -> np.ndarray:
@@ -56,11 +59,13 @@ class Chessboard:
     @property
     def centre_mm(self) -> np.ndarray:
         """Centre of the plate in the board frame, shape (2,)."""
-        return np.array([(self.cols - 1) * self.square_mm / 2, (self.rows - 1) * self.square_mm / 2])
+        return np.array(
+            [(self.cols - 1) * self.square_mm / 2, (self.rows - 1) * self.square_mm / 2]
+        )
 
     def corners_mm(self) -> np.ndarray:
         """Inner corners in the board frame, shape (n_corners, 3), OpenCV order."""
-        j, i = np.mgrid[0:self.rows, 0:self.cols]
+        j, i = np.mgrid[0 : self.rows, 0 : self.cols]
         xy = np.stack([i.ravel(), j.ravel()], axis=1) * self.square_mm
         return np.hstack([xy, np.zeros((self.n_corners, 1))])
 
@@ -82,7 +87,7 @@ class Chessboard:
         b = np.arange(ny * s) // s
         black = ((a[None, :] + b[:, None]) % 2) == 0
         img = np.full((ny * s + 2 * m, nx * s + 2 * m), 255, np.uint8)
-        img[m:m + ny * s, m:m + nx * s][black] = 0
+        img[m : m + ny * s, m : m + nx * s][black] = 0
         return np.repeat(img[:, :, None], 3, axis=2)
 
     def texture_png(self, px_per_square: int = TEXTURE_PX_PER_SQUARE) -> bytes:

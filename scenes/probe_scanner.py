@@ -93,9 +93,11 @@ def wall_geoms(outline_mm: np.ndarray, group: int, prefix: str, material: str) -
         normal = np.array([t[1], -t[0]])  # outward for a counter-clockwise outline
         c = m + normal * WALL_HALF_THICKNESS_M
         yaw = np.arctan2(t[1], t[0])
-        out.append(f'<geom name="{prefix}{k}" type="box" size="{L / 2 + 1e-5:.9f} {WALL_HALF_THICKNESS_M} '
-                   f'{WALL_HALF_HEIGHT_M}" pos="{c[0]:.9f} {c[1]:.9f} {WALL_HALF_HEIGHT_M}" '
-                   f'euler="0 0 {yaw:.12f}" group="{group}" material="{material}" contype="0" conaffinity="0"/>')
+        out.append(
+            f'<geom name="{prefix}{k}" type="box" size="{L / 2 + 1e-5:.9f} {WALL_HALF_THICKNESS_M} '
+            f'{WALL_HALF_HEIGHT_M}" pos="{c[0]:.9f} {c[1]:.9f} {WALL_HALF_HEIGHT_M}" '
+            f'euler="0 0 {yaw:.12f}" group="{group}" material="{material}" contype="0" conaffinity="0"/>'
+        )
     return "\n        ".join(out)
 
 
@@ -103,8 +105,10 @@ def wall_geoms(outline_mm: np.ndarray, group: int, prefix: str, material: str) -
 def _walls_xml(g: ProbeScannerGeometry) -> tuple[str, str]:
     """The plate's and the lens's wall geoms (the same in every as-built twin of a geometry:
     a Monte-Carlo study builds them once per worker)."""
-    return (wall_geoms(g.plate.outline(n_per_corner=200), PLATE_GROUP, "plate_wall", "plate"),
-            wall_geoms(g.lens.outline(n=1440), LENS_GROUP, "lens_wall", "lens"))
+    return (
+        wall_geoms(g.plate.outline(n_per_corner=200), PLATE_GROUP, "plate_wall", "plate"),
+        wall_geoms(g.lens.outline(n=1440), LENS_GROUP, "lens_wall", "lens"),
+    )
 
 
 def walls_mjcf(g: ProbeScannerGeometry, part: str) -> str:
@@ -112,7 +116,9 @@ def walls_mjcf(g: ProbeScannerGeometry, part: str) -> str:
     :func:`build_mjcf` has them, the part's body at the origin (the twin puts it where the part
     is clamped): what the probe's rays are cast against, without the other part's geoms."""
     plate_walls, lens_walls = _walls_xml(g)
-    walls, rgba = (plate_walls, "0.7 0.72 0.75 1") if part == "plate" else (lens_walls, "0.55 0.25 0.2 1")
+    walls, rgba = (
+        (plate_walls, "0.7 0.72 0.75 1") if part == "plate" else (lens_walls, "0.55 0.25 0.2 1")
+    )
     return f"""
 <mujoco model="probe-scanner-{part}-walls">
   <compiler angle="radian"/>
@@ -128,8 +134,13 @@ def walls_mjcf(g: ProbeScannerGeometry, part: str) -> str:
 """
 
 
-def build_mjcf(g: ProbeScannerGeometry, d_mm: float, dL_mm: float, alpha0_rad: float,
-               plate_centre_mm=(0.0, 0.0)) -> str:
+def build_mjcf(
+    g: ProbeScannerGeometry,
+    d_mm: float,
+    dL_mm: float,
+    alpha0_rad: float,
+    plate_centre_mm=(0.0, 0.0),
+) -> str:
     """MJCF of the tracer with the rail at (d, dL, alpha0) and the plate centred as given."""
     plate_walls, lens_walls = _walls_xml(g)
     u = np.array([np.cos(alpha0_rad), np.sin(alpha0_rad)])

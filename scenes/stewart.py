@@ -28,30 +28,47 @@ class StewartGeometry:
     """Nominal geometry, mm."""
 
     base_hinges_mm: np.ndarray = dataclasses.field(
-        default_factory=lambda: _ring(500.0, [-15, 15, 105, 135, 225, 255]))
+        default_factory=lambda: _ring(500.0, [-15, 15, 105, 135, 225, 255])
+    )
     platform_hinges_mm: np.ndarray = dataclasses.field(
-        default_factory=lambda: _ring(300.0, [-45, 45, 75, 165, 195, 285]))
+        default_factory=lambda: _ring(300.0, [-45, 45, 75, 165, 195, 285])
+    )
     initial_lengths_mm: np.ndarray = dataclasses.field(default_factory=lambda: np.full(6, 650.0))
     home_height_mm: float = 750.0
-    reflectors_mm: np.ndarray = dataclasses.field(  # on the platform, platform frame (a CMM gave them)
-        default_factory=lambda: _ring(200.0, [30, 150, 270], z=40.0))
+    reflectors_mm: np.ndarray = (
+        dataclasses.field(  # on the platform, platform frame (a CMM gave them)
+            default_factory=lambda: _ring(200.0, [30, 150, 270], z=40.0)
+        )
+    )
     # known points on the base and on two columns: spread in height, so that trilateration
     # pins the stations' heights too
     reference_nests_mm: np.ndarray = dataclasses.field(
-        default_factory=lambda: np.array([[700.0, -500.0, 0.0], [800.0, 500.0, 700.0], [-700.0, 700.0, 1300.0]]))
+        default_factory=lambda: np.array(
+            [[700.0, -500.0, 0.0], [800.0, 500.0, 700.0], [-700.0, 700.0, 1300.0]]
+        )
+    )
     # the measuring plate's holes M1-M3, on an upright plate beside the machine
     station_holes_mm: np.ndarray = dataclasses.field(
-        default_factory=lambda: np.array([[1500.0, -500.0, 300.0], [1600.0, 500.0, 900.0], [1400.0, -100.0, 1500.0]]))
+        default_factory=lambda: np.array(
+            [[1500.0, -500.0, 300.0], [1600.0, 500.0, 900.0], [1400.0, -100.0, 1500.0]]
+        )
+    )
 
 
-
-
-LEG_STROKE_MM = (400.0, 1200.0)  # the legs' slides' range: the pin-to-pin lengths the platform can take
+LEG_STROKE_MM = (
+    400.0,
+    1200.0,
+)  # the legs' slides' range: the pin-to-pin lengths the platform can take
 PLATFORM_KG = 20.0
 
 
-def build_mjcf(g: StewartGeometry, B_mm: np.ndarray, r_mm: np.ndarray, reflectors_mm: np.ndarray,
-               stations_mm: np.ndarray) -> str:
+def build_mjcf(
+    g: StewartGeometry,
+    B_mm: np.ndarray,
+    r_mm: np.ndarray,
+    reflectors_mm: np.ndarray,
+    stations_mm: np.ndarray,
+) -> str:
     """The platform's MJCF: base, platform and six legs (a slide between two universal joints)."""
     B, r = np.asarray(B_mm) / 1000, np.asarray(r_mm) / 1000
     legs, sites, eqs = "", "", ""
@@ -69,12 +86,18 @@ def build_mjcf(g: StewartGeometry, B_mm: np.ndarray, r_mm: np.ndarray, reflector
     </body>"""
         sites += f'\n      <site name="plat{i}" pos="{r[i, 0]} {r[i, 1]} {r[i, 2]}" size="0.012" rgba="0.9 0.3 0.2 1"/>'
         eqs += f'\n    <connect site1="leg{i}_end" site2="plat{i}"/>'
-    refl = "".join(f'\n      <site name="reflector{k}" pos="{p[0] / 1000} {p[1] / 1000} {p[2] / 1000}" size="0.01" rgba="0.9 0.9 0.2 1"/>'
-                   for k, p in enumerate(reflectors_mm))
-    nests = "".join(f'\n    <site name="nest{k}" pos="{p[0] / 1000} {p[1] / 1000} {p[2] / 1000}" size="0.012" rgba="0.2 0.6 0.9 1"/>'
-                    for k, p in enumerate(g.reference_nests_mm))
-    stations = "".join(f'\n    <site name="station{k}" pos="{p[0] / 1000} {p[1] / 1000} {p[2] / 1000}" size="0.02" rgba="0.9 0.9 0.9 1"/>'
-                       for k, p in enumerate(stations_mm))
+    refl = "".join(
+        f'\n      <site name="reflector{k}" pos="{p[0] / 1000} {p[1] / 1000} {p[2] / 1000}" size="0.01" rgba="0.9 0.9 0.2 1"/>'
+        for k, p in enumerate(reflectors_mm)
+    )
+    nests = "".join(
+        f'\n    <site name="nest{k}" pos="{p[0] / 1000} {p[1] / 1000} {p[2] / 1000}" size="0.012" rgba="0.2 0.6 0.9 1"/>'
+        for k, p in enumerate(g.reference_nests_mm)
+    )
+    stations = "".join(
+        f'\n    <site name="station{k}" pos="{p[0] / 1000} {p[1] / 1000} {p[2] / 1000}" size="0.02" rgba="0.9 0.9 0.9 1"/>'
+        for k, p in enumerate(stations_mm)
+    )
     h = g.home_height_mm / 1000
     return f"""
 <mujoco model="stewart">

@@ -39,10 +39,12 @@ class CirclePlate:
 
     def centres_mm(self) -> np.ndarray:
         """Nominal circle centres in the plate frame, shape (n * n, 2), index = j * n + i."""
-        j, i = np.mgrid[0:self.n, 0:self.n]
+        j, i = np.mgrid[0 : self.n, 0 : self.n]
         return np.stack([i.ravel(), j.ravel()], axis=1) * self.pitch_mm
 
-    def tile_texture(self, px: int = 1024, dark: int = 25, bright: int = 235, supersample: int = 4) -> np.ndarray:
+    def tile_texture(
+        self, px: int = 1024, dark: int = 25, bright: int = 235, supersample: int = 4
+    ) -> np.ndarray:
         """One tile's texture: a centred disc, area-sampled, (px, px, 3) uint8."""
         s = supersample
         c = (np.arange(px * s) + 0.5) / (px * s) * self.pitch_mm - self.pitch_mm / 2  # mm
@@ -55,8 +57,19 @@ class CirclePlate:
 def microscope() -> PinholeCamera:
     """768 x 576 px over 7.99 x 5.99 mm at a 150 mm working distance (10.4 um/px), no distortion."""
     f_px = 150.0 / 0.0104
-    return PinholeCamera(width=768, height=576, fx=f_px, fy=f_px, cx=383.5, cy=287.5,
-                         k1=0.0, k2=0.0, p1=0.0, p2=0.0, k3=0.0)
+    return PinholeCamera(
+        width=768,
+        height=576,
+        fx=f_px,
+        fy=f_px,
+        cx=383.5,
+        cy=287.5,
+        k1=0.0,
+        k2=0.0,
+        p1=0.0,
+        p2=0.0,
+        k3=0.0,
+    )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -76,7 +89,9 @@ class VisionStageGeometry:
     y_guide_ref_mm: tuple[float, float, float] = (-120.0, -100.0, 70.0)
 
 
-def build_mjcf(g: VisionStageGeometry, tile_offsets_mm: np.ndarray | None = None) -> tuple[str, dict[str, bytes]]:
+def build_mjcf(
+    g: VisionStageGeometry, tile_offsets_mm: np.ndarray | None = None
+) -> tuple[str, dict[str, bytes]]:
     """MJCF text and assets. ``tile_offsets_mm`` (n*n, 2) moves each circle off its nominal
     place (the plate's manufacturing error); the sim passes it, nominal is zero."""
     cam = g.camera
@@ -88,23 +103,32 @@ def build_mjcf(g: VisionStageGeometry, tile_offsets_mm: np.ndarray | None = None
     yg = np.array(g.y_guide_ref_mm) / 1000
     ox, oy = (v / 1000 for v in g.plate_origin_reading_mm)
     n = g.plate.n
-    offsets = np.zeros((n * n, 2)) if tile_offsets_mm is None else np.asarray(tile_offsets_mm, float)
+    offsets = (
+        np.zeros((n * n, 2)) if tile_offsets_mm is None else np.asarray(tile_offsets_mm, float)
+    )
     centres = (g.plate.centres_mm() + offsets) / 1000
     half = TILE_MM / 2000
     tiles = "\n".join(
         f'            <geom name="tile{k}" type="box" size="{half} {half} {TILE_HALF_THICKNESS_M}" '
         f'pos="{cx:.9f} {cy:.9f} {-TILE_HALF_THICKNESS_M}" material="circle" contype="0" conaffinity="0" mass="0.001"/>'
-        for k, (cx, cy) in enumerate(centres))
+        for k, (cx, cy) in enumerate(centres)
+    )
+
     # Body positions are chosen so that, with every error zero, the table frame's origin sits
     # under the microscope at readings (0, 0) and the plate frame's origin (circle 0, 0) at the
     # plate origin reading.
-    error_joints = lambda p: "\n".join([  # noqa: E731
-        f'<joint name="{p}x" type="slide" axis="-1 0 0" range="-0.01 0.01" class="error"/>',
-        f'<joint name="{p}y" type="slide" axis="0 -1 0" range="-0.01 0.01" class="error"/>',
-        f'<joint name="{p}z" type="slide" axis="0 0 1" range="-0.01 0.01" class="error"/>',
-        f'<joint name="{p}a" type="hinge" axis="-1 0 0" range="-0.01 0.01" class="error"/>',
-        f'<joint name="{p}b" type="hinge" axis="0 -1 0" range="-0.01 0.01" class="error"/>',
-        f'<joint name="{p}c" type="hinge" axis="0 0 1" range="-0.01 0.01" class="error"/>'])
+    def error_joints(p: str) -> str:
+        return "\n".join(
+            [
+                f'<joint name="{p}x" type="slide" axis="-1 0 0" range="-0.01 0.01" class="error"/>',
+                f'<joint name="{p}y" type="slide" axis="0 -1 0" range="-0.01 0.01" class="error"/>',
+                f'<joint name="{p}z" type="slide" axis="0 0 1" range="-0.01 0.01" class="error"/>',
+                f'<joint name="{p}a" type="hinge" axis="-1 0 0" range="-0.01 0.01" class="error"/>',
+                f'<joint name="{p}b" type="hinge" axis="0 -1 0" range="-0.01 0.01" class="error"/>',
+                f'<joint name="{p}c" type="hinge" axis="0 0 1" range="-0.01 0.01" class="error"/>',
+            ]
+        )
+
     xml = f"""
 <mujoco model="vision-stage">
   <compiler angle="radian"/>

@@ -31,8 +31,33 @@ from calibench.scenes.arm_cmm import ArmDescription, as_built_model, load_arm, w
 
 # The seed's Table 1 errors: (da, dd, dalpha, dtheta) of links 1-6 (mm, mm, rad, rad), then dd7,
 # the stylus length (mm): the tool point's z in the flange frame.
-TABLE1_DELTA = (0.10, -0.05, 0.0010, 0.0014, -0.08, 0.11, 0.0014, -0.0023, -0.12, 0.06, -0.0012, 0.0017,
-                0.03, 0.13, 0.0017, 0.0010, 0.07, -0.04, 0.0010, -0.0014, -0.14, 0.05, -0.0010, 0.0010, -0.03)
+TABLE1_DELTA = (
+    0.10,
+    -0.05,
+    0.0010,
+    0.0014,
+    -0.08,
+    0.11,
+    0.0014,
+    -0.0023,
+    -0.12,
+    0.06,
+    -0.0012,
+    0.0017,
+    0.03,
+    0.13,
+    0.0017,
+    0.0010,
+    0.07,
+    -0.04,
+    0.0010,
+    -0.0014,
+    -0.14,
+    0.05,
+    -0.0010,
+    0.0010,
+    -0.03,
+)
 
 
 @functools.lru_cache(maxsize=1)
@@ -79,9 +104,13 @@ class ArmTruth:
     cone_seat_um: float = 2.0
 
     def __post_init__(self):
-        if self.bar_length_mm < 1.0:  # the bar's MJCF capsule, and its length's information, need one
-            raise ValueError("cone_a_mm and cone_b_mm coincide (within 1 mm): the length bar between the cones "
-                             "has no length")
+        if (
+            self.bar_length_mm < 1.0
+        ):  # the bar's MJCF capsule, and its length's information, need one
+            raise ValueError(
+                "cone_a_mm and cone_b_mm coincide (within 1 mm): the length bar between the cones "
+                "has no length"
+            )
 
     @property
     def bar_length_mm(self) -> float:
@@ -116,7 +145,9 @@ def _reused_twin(arm: ArmDescription, values: np.ndarray, tool_mm: np.ndarray, *
     """This thread's (model, data) of ``arm`` in ``setup`` (stiffness, tracker pose, cones), the
     as-built ``values`` and ``tool_mm`` written into the model in place (:func:`write_as_built`);
     compiled once per setup, again only when a link's capsule becomes a sphere or back."""
-    key = (arm,) + tuple(None if v is None else tuple(np.ravel(np.asarray(v, float)).tolist()) for v in setup)
+    key = (arm,) + tuple(
+        None if v is None else tuple(np.ravel(np.asarray(v, float)).tolist()) for v in setup
+    )
     cache = getattr(_TWINS, "cache", None)
     if cache is None:
         cache = _TWINS.cache = {}
@@ -142,24 +173,40 @@ class ArmSim:
     its time). The model is then shared: the next ``reuse`` sim of that setup overwrites it,
     so a reused sim is for one piece of work at a time, not to keep beside another."""
 
-    def __init__(self, arm: ArmDescription | str, truth: ArmTruth = ArmTruth(), reuse: bool = False):
+    def __init__(
+        self, arm: ArmDescription | str, truth: ArmTruth = ArmTruth(), reuse: bool = False
+    ):
         self.arm = load_arm(arm) if isinstance(arm, str) else arm
         self.truth = truth
         N = self.arm.n_joints
         delta = np.asarray(truth.delta if truth.delta else default_errors(self.arm), float)
         if len(delta) != 5 * N + 3:
-            raise BadInput(f"truth.delta has {len(delta)} values; the arm {self.arm.name} needs 5 x {N} + 3")
+            raise BadInput(
+                f"truth.delta has {len(delta)} values; the arm {self.arm.name} needs 5 x {N} + 3"
+            )
         self.delta = delta
-        k = np.asarray(truth.stiffness_nm_per_rad, float) if len(truth.stiffness_nm_per_rad) else np.full(N, np.inf)
+        k = (
+            np.asarray(truth.stiffness_nm_per_rad, float)
+            if len(truth.stiffness_nm_per_rad)
+            else np.full(N, np.inf)
+        )
         if len(k) != N or np.any(k <= 0):
-            raise BadInput(f"truth.stiffness_nm_per_rad: {N} positive values (inf for a rigid joint)")
+            raise BadInput(
+                f"truth.stiffness_nm_per_rad: {N} positive values (inf for a rigid joint)"
+            )
         self.stiffness = k
         R, p = truth.tracker2base()
         q = np.empty(4)
         mujoco.mju_mat2Quat(q, R.ravel())
-        args = (self.arm, self.arm.nominal() + delta[:5 * N].reshape(N, 5),
-                np.asarray(self.arm.tool_mm) + delta[5 * N:], k, p / 1000, q,
-                (np.asarray(truth.cone_a_mm) / 1000, np.asarray(truth.cone_b_mm) / 1000))
+        args = (
+            self.arm,
+            self.arm.nominal() + delta[: 5 * N].reshape(N, 5),
+            np.asarray(self.arm.tool_mm) + delta[5 * N :],
+            k,
+            p / 1000,
+            q,
+            (np.asarray(truth.cone_a_mm) / 1000, np.asarray(truth.cone_b_mm) / 1000),
+        )
         if reuse:
             self.model, self.data = _reused_twin(*args)
         else:
@@ -203,7 +250,9 @@ class ArmSim:
             self._rne_buf = np.zeros(self.model.nv)
         return self._rne_buf
 
-    def link_angles(self, q_motor: np.ndarray, tol_rad: float = 1e-13, max_iter: int = 50) -> np.ndarray:
+    def link_angles(
+        self, q_motor: np.ndarray, tol_rad: float = 1e-13, max_iter: int = 50
+    ) -> np.ndarray:
         """Where the links settle for motor angles (n, N): k (q - q_motor) = tau_gravity(q).
 
         Fixed-point iteration on MuJoCo's gravity torques; rigid joints stay at the motor angle.
@@ -218,7 +267,9 @@ class ArmSim:
             if np.max(np.abs(q_new - q)) < tol_rad:
                 return q_new
             q = q_new
-        raise RuntimeError("the arm's static equilibrium did not converge (stiffness too low for its weight?)")
+        raise RuntimeError(
+            "the arm's static equilibrium did not converge (stiffness too low for its weight?)"
+        )
 
     def settle_by_stepping(self, q_motor: np.ndarray, seconds: float = 10.0) -> np.ndarray:
         """The same equilibrium reached the long way: the model stepped to rest from the motor
@@ -266,7 +317,9 @@ class ArmSim:
         return self.point_mm(self.link_angles(q_motor))
 
     # --- postures and instruments ------------------------------------------------------------------
-    def random_postures(self, n: int, rng: np.random.Generator, min_z_mm: float | None = None) -> np.ndarray:
+    def random_postures(
+        self, n: int, rng: np.random.Generator, min_z_mm: float | None = None
+    ) -> np.ndarray:
         """Motor angles within the description's ranges whose tool point stays above ``min_z_mm``
         (default: 0.3 of the reach below the base), (n, N)."""
         lim = np.array(self.arm.range_rad)
@@ -291,8 +344,10 @@ class ArmSim:
         while len(out) < n:
             tries += 1
             if tries > 50 * n:
-                raise BadInput(f"the cone at ({', '.join(f'{v:g}' for v in np.asarray(cone_mm, float))}) mm is out of "
-                               f"the arm {self.arm.name}'s reach")
+                raise BadInput(
+                    f"the cone at ({', '.join(f'{v:g}' for v in np.asarray(cone_mm, float))}) mm is out of "
+                    f"the arm {self.arm.name}'s reach"
+                )
             q = rng.uniform(lim[:, 0], lim[:, 1])
             target = cone + rng.normal(0, self.truth.cone_seat_um * 1e-6, 3)
             for _ in range(100):
@@ -324,9 +379,14 @@ class ArmSim:
         sph = np.stack([rng_mm, np.arctan2(y[:, 1], y[:, 0]), np.arcsin(y[:, 2] / rng_mm)], axis=1)
         if rng is None:
             return sph
-        noise = np.stack([rng.normal(0, (a + b * rng_mm / 1000) / 1000),
-                          rng.normal(0, self.truth.angle_noise_urad * 1e-6, len(y)),
-                          rng.normal(0, self.truth.angle_noise_urad * 1e-6, len(y))], axis=1)
+        noise = np.stack(
+            [
+                rng.normal(0, (a + b * rng_mm / 1000) / 1000),
+                rng.normal(0, self.truth.angle_noise_urad * 1e-6, len(y)),
+                rng.normal(0, self.truth.angle_noise_urad * 1e-6, len(y)),
+            ],
+            axis=1,
+        )
         return sph + noise
 
     def tracker_sigma(self, measured: np.ndarray) -> np.ndarray:

@@ -15,12 +15,18 @@ import mujoco
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from calibench.scenes.belt_stage import (CALIB_BOARD_GROUP, CALIB_BOARD_PARK, STAGE_BOARD_GROUP,
-                               BeltStageGeometry, board_to_body, build_mjcf)
+from calibench.errors import BadInput
+from calibench.scenes.belt_stage import (
+    CALIB_BOARD_GROUP,
+    CALIB_BOARD_PARK,
+    STAGE_BOARD_GROUP,
+    BeltStageGeometry,
+    board_to_body,
+    build_mjcf,
+)
 from calibench.scenes.camera import MJ_TO_CV, world_to_cv_camera
 from calibench.sim.renderer import LensRenderer
 from calibench.sim.stage_drive import BeltDrive, DriveErrors, ElasticBelt, travel_direction
-from calibench.errors import BadInput
 
 PULSES_PER_MM = 250.0  # 25,000 pulses = 100 mm
 
@@ -70,8 +76,13 @@ class BeltStageTruth:
 class BeltStageSim:
     """The stage in MuJoCo: move by pulses, read true board poses, render the camera."""
 
-    def __init__(self, geometry: BeltStageGeometry, truth: BeltStageTruth, render: bool = True,
-                 supersample: int = 2):
+    def __init__(
+        self,
+        geometry: BeltStageGeometry,
+        truth: BeltStageTruth,
+        render: bool = True,
+        supersample: int = 2,
+    ):
         self.geometry = geometry
         self.truth = truth
         pad = geometry.camera.padding_px()
@@ -84,10 +95,13 @@ class BeltStageSim:
         half = truth.board_yaw_rad / 2
         self.model.body_quat[self._board] = [np.cos(half), 0, 0, np.sin(half)]
         self._b2body_R, self._b2body_t = board_to_body(geometry)
-        self.renderer = (LensRenderer(self.model, "overhead", geometry.camera, supersample)
-                         if render else None)
-        self._belts = [ElasticBelt(travel, belt) if belt.ea_n > 0 else None
-                       for travel, belt in zip(geometry.travel_mm, (truth.belt_x, truth.belt_y))]
+        self.renderer = (
+            LensRenderer(self.model, "overhead", geometry.camera, supersample) if render else None
+        )
+        self._belts = [
+            ElasticBelt(travel, belt) if belt.ea_n > 0 else None
+            for travel, belt in zip(geometry.travel_mm, (truth.belt_x, truth.belt_y))
+        ]
         self._dir = np.array([1.0, 1.0])  # homed from below
         self._cmd = np.zeros(2)
         for belt in self._belts:
@@ -104,9 +118,11 @@ class BeltStageSim:
         self._cmd = cmd
         true_mm = cmd + self.truth.error_mm(cmd[:1], cmd[1:])[0]
         T = None if temp_c is None else np.array([temp_c])
-        for k, (drive, belt) in enumerate(zip((self.truth.drive_x, self.truth.drive_y), self._belts)):
+        for k, (drive, belt) in enumerate(
+            zip((self.truth.drive_x, self.truth.drive_y), self._belts)
+        ):
             if not drive.perfect:
-                true_mm[k] += drive.error_mm(cmd[k:k + 1], self._dir[k:k + 1], T)[0]
+                true_mm[k] += drive.error_mm(cmd[k : k + 1], self._dir[k : k + 1], T)[0]
             if belt is not None:
                 true_mm[k] += belt.move(cmd[k]) - cmd[k]
         self.data.qpos[:2] = true_mm / 1000
@@ -140,12 +156,19 @@ class BeltStageSim:
         """Exact (distorted) projection of the board's inner corners, shape (n, 2) px."""
         return self.corners_px([self.view_frame(calib)])[0]
 
-    def view_frame(self, calib: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def view_frame(
+        self, calib: bool = False
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """What a view's exact corners depend on, now: the board's (stage's, or with ``calib``
         the free one's) rotation (3, 3) and position (3,) m in the world, and MuJoCo's camera
         orientation (3, 3) and position (3,) m."""
         Rb, pb = self.board2world(self._calib if calib else None)
-        return Rb, pb, self.data.cam_xmat[self._cam].reshape(3, 3).copy(), self.data.cam_xpos[self._cam].copy()
+        return (
+            Rb,
+            pb,
+            self.data.cam_xmat[self._cam].reshape(3, 3).copy(),
+            self.data.cam_xpos[self._cam].copy(),
+        )
 
     def corners_px(self, frames: list) -> np.ndarray:
         """Exact (distorted) projections of the board's inner corners in several views, each
@@ -153,7 +176,9 @@ class BeltStageSim:
         Rb, pb, cam_xmat, cam_pos = (np.array(f) for f in zip(*frames))
         world = pb[:, None] + (self.geometry.board.corners_mm() / 1000) @ Rb.transpose(0, 2, 1)
         cam = world_to_cv_camera(world, cam_pos[:, None], cam_xmat)
-        return self.geometry.camera.project(cam.reshape(-1, 3)).reshape(cam.shape[0], cam.shape[1], 2)
+        return self.geometry.camera.project(cam.reshape(-1, 3)).reshape(
+            cam.shape[0], cam.shape[1], 2
+        )
 
     # --- the calibration board, held in front of the camera -----------------------------------
     def place_calib_board(self, R_board2cam: np.ndarray, t_board2cam_mm: np.ndarray) -> None:
@@ -178,8 +203,13 @@ class BeltStageSim:
         mujoco.mj_kinematics(self.model, self.data)
 
     # --- the camera --------------------------------------------------------------------------
-    def render(self, calib: bool = False, rng: np.random.Generator | None = None,
-               noise_dn: float = 0.0, psf_px: float = 0.0) -> np.ndarray:
+    def render(
+        self,
+        calib: bool = False,
+        rng: np.random.Generator | None = None,
+        noise_dn: float = 0.0,
+        psf_px: float = 0.0,
+    ) -> np.ndarray:
         """What the camera sees, through its lens: (height, width, 3) uint8.
 
         ``calib`` shows the free calibration board and hides the stage's, so each image holds
@@ -213,7 +243,9 @@ def _view_attempts(draw, fu, fv, cam, corners, centre, half, outer, edge_px):
     t = c_cam - R @ centre
     k = len(draw)
     uv = cam.project((corners @ R.transpose(0, 2, 1) + t[:, None]).reshape(-1, 3)).reshape(k, -1, 2)
-    uv_plate = cam.project(((outer + centre) @ R.transpose(0, 2, 1) + t[:, None]).reshape(-1, 3)).reshape(k, -1, 2)
+    uv_plate = cam.project(
+        ((outer + centre) @ R.transpose(0, 2, 1) + t[:, None]).reshape(-1, 3)
+    ).reshape(k, -1, 2)
     inside = ((uv > edge_px) & (uv < [cam.width - edge_px, cam.height - edge_px])).all(axis=(1, 2))
     plate_in = ((uv_plate > 0) & (uv_plate < [cam.width, cam.height])).all(axis=(1, 2))
     # the printed face must face the camera (board z, into the plate, points away)
@@ -223,9 +255,14 @@ def _view_attempts(draw, fu, fv, cam, corners, centre, half, outer, edge_px):
 INTRINSIC_VIEW_DEPTH_MM = (750.0, 1150.0)  # the calibration views' board distances from the camera
 
 
-def intrinsic_view_poses(geometry: BeltStageGeometry, n_views: int, rng: np.random.Generator,
-                         depth_mm: tuple[float, float] = INTRINSIC_VIEW_DEPTH_MM,
-                         max_tilt_rad: float = 0.6, edge_px: float = 12.0):
+def intrinsic_view_poses(
+    geometry: BeltStageGeometry,
+    n_views: int,
+    rng: np.random.Generator,
+    depth_mm: tuple[float, float] = INTRINSIC_VIEW_DEPTH_MM,
+    max_tilt_rad: float = 0.6,
+    edge_px: float = 12.0,
+):
     """Board poses in the camera frame for intrinsic calibration, spread over the image.
 
     Board centres are aimed at a jittered grid of image points (corners included, where the
@@ -240,7 +277,9 @@ def intrinsic_view_poses(geometry: BeltStageGeometry, n_views: int, rng: np.rand
     nx = int(np.ceil(np.sqrt(n_views * 4 / 3)))
     ny = int(np.ceil(n_views / nx))
     # grid fractions 0..1 of the feasible range of the board centre: 0 and 1 touch the edges
-    targets = [(i / max(nx - 1, 1), j / max(ny - 1, 1)) for j in range(ny) for i in range(nx)][:n_views]
+    targets = [(i / max(nx - 1, 1), j / max(ny - 1, 1)) for j in range(ny) for i in range(nx)][
+        :n_views
+    ]
     outer = np.array([[sx * half[0], sy * half[1], 0] for sx in (-1, 1) for sy in (-1, 1)])
     # one attempt's six draws: two tilts, the spin, the depth, the aim's jitter in u and v
     lo = np.array([-max_tilt_rad, -max_tilt_rad, -0.4, depth_mm[0], -0.1, -0.1])

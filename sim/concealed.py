@@ -26,10 +26,10 @@ from pathlib import Path
 
 import numpy as np
 
+from calibench.errors import BadInput
 from calibench.recordings import ArmRecording, ScannerRecording, StageRecording, StewartRecording
 from calibench.sim.replay import replay_stage
 from calibench.sim.stage_drive import travel_direction
-from calibench.errors import BadInput
 
 SCANNER_KINDS = ("null", "runout", "eccentricity", "scale", "bump", "combined")
 STEWART_KINDS = ("null", "thermal", "backlash", "pitch", "compliance")
@@ -50,7 +50,10 @@ class StagePlan:
     seconds_per_station: float = 3.0
 
 
-PLANS = {"belt-stage": StagePlan((500.0, 400.0), 6.5), "vision-stage": StagePlan((300.0, 200.0), 4.5)}
+PLANS = {
+    "belt-stage": StagePlan((500.0, 400.0), 6.5),
+    "vision-stage": StagePlan((300.0, 200.0), 4.5),
+}
 
 
 def stage_commands(plan: StagePlan) -> dict:
@@ -71,8 +74,14 @@ def stage_commands(plan: StagePlan) -> dict:
     for i, pos in enumerate(c[:, :2]):
         last = travel_direction(prev, pos, last)
         dirs[i], prev = last, pos
-    return {"x": x, "y": y, "run": c[:, 2], "dir_x": dirs[:, 0], "dir_y": dirs[:, 1],
-            "t_s": np.arange(len(c)) * plan.seconds_per_station}
+    return {
+        "x": x,
+        "y": y,
+        "run": c[:, 2],
+        "dir_x": dirs[:, 0],
+        "dir_y": dirs[:, 1],
+        "t_s": np.arange(len(c)) * plan.seconds_per_station,
+    }
 
 
 def stage_recording(scenario: str, kind: str, seed: int) -> tuple[StageRecording, dict]:
@@ -98,8 +107,10 @@ def stage_recording(scenario: str, kind: str, seed: int) -> tuple[StageRecording
     for k in range(2):
         err[:, k] += rng.normal(0, 0.02, 6) @ np.stack([np.ones(n), u, v, u * u, u * v, v * v])
     T = 20.0 + np.cumsum(rng.normal(0, 0.002, n))  # a quiet room: the logged temperature wanders
-    wanted = {"combined": ("backlash", "periodic", "thermal"), "mixed": ("backlash", "periodic", "thermal")
-              }.get(kind, (kind,))
+    wanted = {
+        "combined": ("backlash", "periodic", "thermal"),
+        "mixed": ("backlash", "periodic", "thermal"),
+    }.get(kind, (kind,))
     axis_of = {"x": 0, "y": 1}
     pick = [str(a) for a in rng.permutation(["x", "y"])]
     if "backlash" in wanted:
@@ -112,7 +123,9 @@ def stage_recording(scenario: str, kind: str, seed: int) -> tuple[StageRecording
         P, A, ph = rng.uniform(30, 100), rng.uniform(4, 10) / 1000, rng.uniform(0, 2 * np.pi)
         pos_a = x if a == "x" else y
         err[:, axis_of[a]] += A * np.sin(2 * np.pi * pos_a / P + ph)
-        effects.append({"name": "periodic", "axis": a, "params": {"period_mm": P, "amplitude_mm": A}})
+        effects.append(
+            {"name": "periodic", "axis": a, "params": {"period_mm": P, "amplitude_mm": A}}
+        )
     if "thermal" in wanted:
         rise, tau = rng.uniform(2, 5), c["t_s"][-1] / rng.uniform(1.5, 3)
         T = T + rise * (1 - np.exp(-c["t_s"] / tau))
@@ -121,31 +134,65 @@ def stage_recording(scenario: str, kind: str, seed: int) -> tuple[StageRecording
             if kind == "mixed" and a != pick[0]:  # all three on one axis
                 continue
             err[:, axis_of[a]] += k * 1e-6 * (T - T[0]) * u_a
-            effects.append({"name": "thermal_expansion", "axis": a, "params": {"ppm_per_k": k},
-                            "temperature_rise_k": rise})
+            effects.append(
+                {
+                    "name": "thermal_expansion",
+                    "axis": a,
+                    "params": {"ppm_per_k": k},
+                    "temperature_rise_k": rise,
+                }
+            )
     if kind == "bump":
-        x0, w, h = rng.uniform(0.2, 0.8) * plan.travel_mm[0], rng.uniform(8, 15), rng.uniform(8, 15) / 1000
-        err[:, 1] += h * np.exp(-0.5 * ((x - x0) / w) ** 2)  # the X rail's bump lifts the carriage sideways
-        effects.append({"name": "nonsmooth", "axis": "y", "params": {"x_mm": x0, "width_mm": w, "height_mm": h}})
+        x0, w, h = (
+            rng.uniform(0.2, 0.8) * plan.travel_mm[0],
+            rng.uniform(8, 15),
+            rng.uniform(8, 15) / 1000,
+        )
+        err[:, 1] += h * np.exp(
+            -0.5 * ((x - x0) / w) ** 2
+        )  # the X rail's bump lifts the carriage sideways
+        effects.append(
+            {
+                "name": "nonsmooth",
+                "axis": "y",
+                "params": {"x_mm": x0, "width_mm": w, "height_mm": h},
+            }
+        )
     run = c["run"].astype(int)
     err += rng.normal(0, PASS_OFFSET_UM / 1000, (plan.passes, 2))[run]
     err += rng.normal(0, REFERENCE_NOISE_UM / 1000, (n, 2))
     meas = pos + err
-    rec = StageRecording(x_cmd_mm=x, y_cmd_mm=y, x_meas_mm=meas[:, 0], y_meas_mm=meas[:, 1], t_s=c["t_s"],
-                         dir_x=c["dir_x"], dir_y=c["dir_y"], temp_c=np.round(T, 3), run=run.astype(float))
-    return rec, {"scenario": scenario, "kind": kind, "seed": seed, "effects": effects,
-                 "noise_um": REFERENCE_NOISE_UM}
+    rec = StageRecording(
+        x_cmd_mm=x,
+        y_cmd_mm=y,
+        x_meas_mm=meas[:, 0],
+        y_meas_mm=meas[:, 1],
+        t_s=c["t_s"],
+        dir_x=c["dir_x"],
+        dir_y=c["dir_y"],
+        temp_c=np.round(T, 3),
+        run=run.astype(float),
+    )
+    return rec, {
+        "scenario": scenario,
+        "kind": kind,
+        "seed": seed,
+        "effects": effects,
+        "noise_um": REFERENCE_NOISE_UM,
+    }
 
 
-def _elastic_belt(axis: str, rng: np.random.Generator, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, dict]:
+def _elastic_belt(
+    axis: str, rng: np.random.Generator, x: np.ndarray, y: np.ndarray
+) -> tuple[np.ndarray, dict]:
     """The belt stage's twin with ``axis``'s belt elastic (EA 25-50 kN against 2-5 N of carriage
     friction) at the commands, (n, 2) mm, and the effect's truth: the reversal measured on the
     elastic belt itself (MuJoCo), approached from either side at the ends and middle of the travel."""
     import dataclasses as dc
 
+    from calibench.scenes.belt_stage import BeltStageGeometry
     from calibench.sim.belt_stage import BeltStageTruth
     from calibench.sim.stage_drive import BeltDrive, ElasticBelt
-    from calibench.scenes.belt_stage import BeltStageGeometry
 
     belt = BeltDrive(ea_n=rng.uniform(25e3, 50e3), friction_n=rng.uniform(2.0, 5.0))
     truth = dc.replace(BeltStageTruth(), **{f"belt_{axis}": belt})
@@ -162,15 +209,30 @@ def _elastic_belt(axis: str, rng: np.random.Generator, x: np.ndarray, y: np.ndar
 
     lo, hi = float(u.min()), float(u.max())
     start, mid, end = reversal(lo), reversal((lo + hi) / 2), reversal(hi)
-    return pos, {"name": "backlash", "axis": axis,
-                 "params": {"reversal_mm": mid, "reversal_at_start_mm": start, "reversal_at_end_mm": end,
-                            "growth_mm_per_m": (end - start) / (hi - lo) * 1000},
-                 "physics": {"belt_ea_n": belt.ea_n, "carriage_friction_n": belt.friction_n}}
+    return pos, {
+        "name": "backlash",
+        "axis": axis,
+        "params": {
+            "reversal_mm": mid,
+            "reversal_at_start_mm": start,
+            "reversal_at_end_mm": end,
+            "growth_mm_per_m": (end - start) / (hi - lo) * 1000,
+        },
+        "physics": {"belt_ea_n": belt.ea_n, "carriage_friction_n": belt.friction_n},
+    }
 
 
-def arm_recording(kind: str, seed: int, n: int = 300, noise_um: float = 10.0,
-                  arm: str = "arm-cmm", joint: int | None = None, harmonic: float | None = None,
-                  phase_rad: float | None = None, amplitude_urad: float | None = None) -> tuple[ArmRecording, dict]:
+def arm_recording(
+    kind: str,
+    seed: int,
+    n: int = 300,
+    noise_um: float = 10.0,
+    arm: str = "arm-cmm",
+    joint: int | None = None,
+    harmonic: float | None = None,
+    phase_rad: float | None = None,
+    amplitude_urad: float | None = None,
+) -> tuple[ArmRecording, dict]:
     """A blinded arm recording: the twin with its default as-built errors (Table 1 for the seed's
     arm), probed at ``n`` postures by a reference of ``noise_um`` 1-sigma per coordinate that
     reports in its own frame (a tracker's), with the concealed effect of ``kind``:
@@ -201,11 +263,20 @@ def arm_recording(kind: str, seed: int, n: int = 300, noise_um: float = 10.0,
     q_read = q + rng.normal(0, truth.encoder_noise_urad * 1e-6, q.shape)
     effects = []
     if kind == "eccentricity":
-        j, A, ph = int(rng.integers(1, N + 1)), rng.uniform(300, 600) * 1e-6, rng.uniform(0, 2 * np.pi)
+        j, A, ph = (
+            int(rng.integers(1, N + 1)),
+            rng.uniform(300, 600) * 1e-6,
+            rng.uniform(0, 2 * np.pi),
+        )
         j = joint or j
         q_read[:, j - 1] += A * np.sin(q[:, j - 1] + ph)
-        effects.append({"name": "encoder_eccentricity", "axis": "xyz",
-                        "params": {"joint": j, "amplitude_urad": A * 1e6, "phase_rad": ph}})
+        effects.append(
+            {
+                "name": "encoder_eccentricity",
+                "axis": "xyz",
+                "params": {"joint": j, "amplitude_urad": A * 1e6, "phase_rad": ph},
+            }
+        )
     if kind == "transmission":
         j = joint or int(rng.integers(1, N + 1))
         h, A, ph = rng.uniform(8, 40), rng.uniform(150, 300) * 1e-6, rng.uniform(0, 2 * np.pi)
@@ -213,22 +284,40 @@ def arm_recording(kind: str, seed: int, n: int = 300, noise_um: float = 10.0,
         ph = ph if phase_rad is None else phase_rad
         A = A if amplitude_urad is None else amplitude_urad * 1e-6
         q_read[:, j - 1] += A * np.sin(h * q[:, j - 1] + ph)
-        effects.append({"name": "transmission", "axis": "xyz",
-                        "params": {"joint": j, "harmonics": [h], "amplitude_urad": [A * 1e6], "phase_rad": ph}})
+        effects.append(
+            {
+                "name": "transmission",
+                "axis": "xyz",
+                "params": {
+                    "joint": j,
+                    "harmonics": [h],
+                    "amplitude_urad": [A * 1e6],
+                    "phase_rad": ph,
+                },
+            }
+        )
     if kind == "thermal":
         rise, k = rng.uniform(2, 5), rng.uniform(10, 25)
         T = T + rise * (1 - np.exp(-t / (t[-1] / 2)))
-        effects.append({"name": "thermal_expansion", "axis": "xyz", "params": {"ppm_per_k": k},
-                        "temperature_rise_k": rise})
+        effects.append(
+            {
+                "name": "thermal_expansion",
+                "axis": "xyz",
+                "params": {"ppm_per_k": k},
+                "temperature_rise_k": rise,
+            }
+        )
         xyz = np.empty((n, 3))
         base = sim.delta
         lengths = np.zeros(5 * N + 3)
-        lengths[0:5 * N:5] = np.asarray(description.a_mm) + base[0:5 * N:5]
-        lengths[1:5 * N:5] = np.asarray(description.d_mm) + base[1:5 * N:5]
-        lengths[5 * N:] = np.asarray(description.tool_mm) + base[5 * N:]
+        lengths[0 : 5 * N : 5] = np.asarray(description.a_mm) + base[0 : 5 * N : 5]
+        lengths[1 : 5 * N : 5] = np.asarray(description.d_mm) + base[1 : 5 * N : 5]
+        lengths[5 * N :] = np.asarray(description.tool_mm) + base[5 * N :]
         for i in range(n):  # each posture on the arm as long as it then was
             delta = base + k * 1e-6 * (T[i] - T[0]) * lengths
-            xyz[i] = ArmSim(description, dataclasses.replace(truth, delta=tuple(delta))).probe_mm(q[i:i + 1])[0]
+            xyz[i] = ArmSim(description, dataclasses.replace(truth, delta=tuple(delta))).probe_mm(
+                q[i : i + 1]
+            )[0]
     elif kind == "compliance":
         if not description.has_masses:
             raise BadInput(f"the arm {description.name} has no masses: no compliance under gravity")
@@ -237,8 +326,13 @@ def arm_recording(kind: str, seed: int, n: int = 300, noise_um: float = 10.0,
         k = np.full(N, np.inf)
         for j in joints:
             k[j - 1] = tau[j - 1] / (rng.uniform(100, 300) * 1e-6)
-            effects.append({"name": "joint_compliance", "axis": "xyz",
-                            "params": {"joint": int(j), "urad_per_nm": 1e6 / k[j - 1]}})
+            effects.append(
+                {
+                    "name": "joint_compliance",
+                    "axis": "xyz",
+                    "params": {"joint": int(j), "urad_per_nm": 1e6 / k[j - 1]},
+                }
+            )
         sim = ArmSim(description, dataclasses.replace(truth, stiffness_nm_per_rad=tuple(k)))
         xyz = sim.probe_mm(q)  # MuJoCo's gravity torques, the links at their equilibrium
     else:
@@ -246,9 +340,17 @@ def arm_recording(kind: str, seed: int, n: int = 300, noise_um: float = 10.0,
     R, p = truth.tracker2base()
     xyz = (xyz - p) @ R  # the instrument reports in its own frame
     xyz = xyz + rng.normal(0, noise_um / 1000, xyz.shape)
-    return (ArmRecording(q_read, xyz, t, np.round(T, 3)),
-            {"scenario": "arm-cmm", "arm": description.name, "kind": kind, "seed": seed, "effects": effects,
-             "noise_um": noise_um})
+    return (
+        ArmRecording(q_read, xyz, t, np.round(T, 3)),
+        {
+            "scenario": "arm-cmm",
+            "arm": description.name,
+            "kind": kind,
+            "seed": seed,
+            "effects": effects,
+            "noise_um": noise_um,
+        },
+    )
 
 
 def scanner_recording(kind: str, seed: int, turns: int = 4) -> tuple[ScannerRecording, dict]:
@@ -271,9 +373,12 @@ def scanner_recording(kind: str, seed: int, turns: int = 4) -> tuple[ScannerReco
         raise ValueError(f"unknown kind {kind!r} (known: {', '.join(SCANNER_KINDS)})")
     rng = np.random.default_rng(seed)
     g = ProbeScannerGeometry()
-    truth = ProbeScannerTruth(d_mm=rng.uniform(7.6, 8.4), dL_mm=rng.uniform(2.7, 3.3),
-                              alpha0_rad=rng.uniform(0.30, 0.40),
-                              plate_centre_mm=tuple(float(v) for v in rng.normal(0, 0.1, 2)))
+    truth = ProbeScannerTruth(
+        d_mm=rng.uniform(7.6, 8.4),
+        dL_mm=rng.uniform(2.7, 3.3),
+        alpha0_rad=rng.uniform(0.30, 0.40),
+        plate_centre_mm=tuple(float(v) for v in rng.normal(0, 0.1, 2)),
+    )
     sim = ProbeScannerSim(g, truth)
     m = g.samples_per_turn
     nominal = np.tile(np.arange(m) * 2 * np.pi / m, turns)
@@ -284,19 +389,32 @@ def scanner_recording(kind: str, seed: int, turns: int = 4) -> tuple[ScannerReco
     if "eccentricity" in wanted:
         A, ph = rng.uniform(150, 400) * 1e-6, rng.uniform(0, 2 * np.pi)
         true_theta -= A * np.sin(nominal + ph)  # the encoder reads A sin ahead of the table
-        effects.append({"name": "encoder_eccentricity", "axis": "rho", "params": {"amplitude_urad": A * 1e6}})
+        effects.append(
+            {"name": "encoder_eccentricity", "axis": "rho", "params": {"amplitude_urad": A * 1e6}}
+        )
     rho = sim.exact_rho("plate", true_theta)
     if "runout" in wanted:
         # not 4 or 8: a square artefact cannot show a fourfold runout (discover says so)
-        k, A, ph = int(rng.choice([2, 3, 5, 6, 7, 9])), rng.uniform(3, 8) / 1000, rng.uniform(0, 2 * np.pi)
+        k, A, ph = (
+            int(rng.choice([2, 3, 5, 6, 7, 9])),
+            rng.uniform(3, 8) / 1000,
+            rng.uniform(0, 2 * np.pi),
+        )
         rho -= A * np.sin(k * true_theta + ph)
-        effects.append({"name": "runout", "axis": "rho", "params": {"harmonic": k, "amplitude_mm": A}})
+        effects.append(
+            {"name": "runout", "axis": "rho", "params": {"harmonic": k, "amplitude_mm": A}}
+        )
     if kind == "bump":
         th0, w, h = rng.uniform(0, 360), rng.uniform(0.5, 1.5), rng.uniform(10, 25) / 1000
         dist = (np.degrees(nominal) - th0 + 180) % 360 - 180
         rho += h * np.exp(-0.5 * (dist / w) ** 2)  # the stylus drops into the nick
-        effects.append({"name": "nonsmooth", "axis": "rho", "params": {"theta_deg": th0, "width_deg": w,
-                                                                       "depth_mm": h}})
+        effects.append(
+            {
+                "name": "nonsmooth",
+                "axis": "rho",
+                "params": {"theta_deg": th0, "width_deg": w, "depth_mm": h},
+            }
+        )
     if "scale" in wanted:
         s = rng.uniform(1000, 3000)
         rho *= 1 + s * 1e-6
@@ -304,9 +422,17 @@ def scanner_recording(kind: str, seed: int, turns: int = 4) -> tuple[ScannerReco
     q = truth.quantum_um / 1000
     rho = np.round((rho + rng.normal(0, truth.probe_noise_um / 1000, len(rho))) / q) * q
     t = np.arange(len(rho)) * 10.0 / m  # ten seconds a turn
-    rec = ScannerRecording(turn, nominal, rho, t, np.round(20.0 + np.cumsum(rng.normal(0, 1e-3, len(rho))), 3))
+    rec = ScannerRecording(
+        turn, nominal, rho, t, np.round(20.0 + np.cumsum(rng.normal(0, 1e-3, len(rho))), 3)
+    )
     noise = float(np.hypot(truth.probe_noise_um, truth.quantum_um / np.sqrt(12)))
-    return rec, {"scenario": "probe-scanner", "kind": kind, "seed": seed, "effects": effects, "noise_um": noise}
+    return rec, {
+        "scenario": "probe-scanner",
+        "kind": kind,
+        "seed": seed,
+        "effects": effects,
+        "noise_um": noise,
+    }
 
 
 def stewart_recording(kind: str, seed: int, n_poses: int = 100) -> tuple[StewartRecording, dict]:
@@ -355,22 +481,36 @@ def stewart_recording(kind: str, seed: int, n_poses: int = 100) -> tuple[Stewart
         rise, k = rng.uniform(2, 5), rng.uniform(10, 25)
         T = T + rise * (1 - np.exp(-t_s / (t_s[-1] / 2)))
         readings[:, leg - 1] -= k * 1e-6 * (T - T[0]) * L[:, leg - 1]
-        effects.append({"name": "thermal_expansion", "axis": "legs", "params": {"leg": leg, "ppm_per_k": k}})
+        effects.append(
+            {"name": "thermal_expansion", "axis": "legs", "params": {"leg": leg, "ppm_per_k": k}}
+        )
     if kind == "backlash":
         B = rng.uniform(5, 15) / 1000
         readings[:, leg - 1] += B / 2 * direction[:, leg - 1]
-        effects.append({"name": "backlash", "axis": "legs", "params": {"leg": leg, "reversal_mm": B}})
+        effects.append(
+            {"name": "backlash", "axis": "legs", "params": {"leg": leg, "reversal_mm": B}}
+        )
     if kind == "pitch":
         P, A, ph = rng.uniform(4, 12), rng.uniform(3, 8) / 1000, rng.uniform(0, 2 * np.pi)
         readings[:, leg - 1] += A * np.sin(2 * np.pi * L[:, leg - 1] / P + ph)
-        effects.append({"name": "periodic", "axis": "legs", "params": {"leg": leg, "period_mm": P, "amplitude_mm": A}})
+        effects.append(
+            {
+                "name": "periodic",
+                "axis": "legs",
+                "params": {"leg": leg, "period_mm": P, "amplitude_mm": A},
+            }
+        )
     if kind == "compliance":
         c = rng.uniform(0.02, 0.05)
-        readings += c * (1 + 0.05 * rng.standard_normal(6)) * 1e-3 * force  # the screw reads what the leg gave
+        readings += (
+            c * (1 + 0.05 * rng.standard_normal(6)) * 1e-3 * force
+        )  # the screw reads what the leg gave
         effects.append({"name": "leg_compliance", "axis": "legs", "params": {"um_per_n": c}})
     readings += rng.normal(0, 1e-3, readings.shape)
     # the tracker's frame: turned about the vertical and set beside the machine
-    R_tr = Rotation.from_rotvec(np.r_[rng.normal(0, 0.01, 2), rng.uniform(-np.pi, np.pi)]).as_matrix()
+    R_tr = Rotation.from_rotvec(
+        np.r_[rng.normal(0, 0.01, 2), rng.uniform(-np.pi, np.pi)]
+    ).as_matrix()
     t_tr = np.r_[rng.uniform(1500, 3000), rng.uniform(-1000, 1000), rng.uniform(-800, 0)]
     R_meas, t_meas = np.empty((n, 3, 3)), np.empty((n, 3))
     for k, (R, t) in enumerate(poses):
@@ -380,10 +520,18 @@ def stewart_recording(kind: str, seed: int, n_poses: int = 100) -> tuple[Stewart
         c_seen, c_refl = seen.mean(axis=0), g.reflectors_mm.mean(axis=0)
         R_meas[k] = Rotation.align_vectors(seen - c_seen, g.reflectors_mm - c_refl)[0].as_matrix()
         t_meas[k] = c_seen - R_meas[k] @ c_refl
-    rec = StewartRecording(np.round(readings, 6), R_meas, t_meas, t_s, np.round(T, 3), direction, load)
+    rec = StewartRecording(
+        np.round(readings, 6), R_meas, t_meas, t_s, np.round(T, 3), direction, load
+    )
     # per leg: the reading's 1 um and the tracker's pose (its reflectors' 2 um, levered out to the
     # hinges) together, as the repeats show it
-    return rec, {"scenario": "stewart", "kind": kind, "seed": seed, "effects": effects, "noise_um": 2.3}
+    return rec, {
+        "scenario": "stewart",
+        "kind": kind,
+        "seed": seed,
+        "effects": effects,
+        "noise_um": 2.3,
+    }
 
 
 def write_blinded(out_dir: Path, name: str, recording, manifest: dict) -> Path:

@@ -15,7 +15,13 @@ import functools
 import mujoco
 import numpy as np
 
-from calibench.scenes.probe_scanner import LENS_GROUP, PLATE_GROUP, ProbeScannerGeometry, build_mjcf, walls_mjcf
+from calibench.scenes.probe_scanner import (
+    LENS_GROUP,
+    PLATE_GROUP,
+    ProbeScannerGeometry,
+    build_mjcf,
+    walls_mjcf,
+)
 
 N_SECTORS = 24  # ray directions per 15 degrees
 
@@ -42,10 +48,14 @@ class ProbeScannerTruth:
 
     def __post_init__(self):
         if not len(self.runout_harmonics) == len(self.runout_mm) == len(self.runout_phase_rad):
-            raise ValueError("runout_harmonics, runout_mm and runout_phase_rad need one value each per harmonic")
+            raise ValueError(
+                "runout_harmonics, runout_mm and runout_phase_rad need one value each per harmonic"
+            )
         if any(not (float(k).is_integer() and k >= 1) for k in self.runout_harmonics):
-            raise ValueError(f"runout_harmonics = {list(self.runout_harmonics)}: a run-out repeats a whole number of "
-                             "times per turn, 1 or more")
+            raise ValueError(
+                f"runout_harmonics = {list(self.runout_harmonics)}: a run-out repeats a whole number of "
+                "times per turn, 1 or more"
+            )
 
 
 @dataclasses.dataclass
@@ -58,6 +68,7 @@ class Scan:
 
 class ProbeScannerSim:
     """The scanner's twin: a rotary table, a rail and a spring-loaded stylus whose contact is MuJoCo's ray cast."""
+
     def __init__(self, geometry: ProbeScannerGeometry, truth: ProbeScannerTruth):
         self.geometry, self.truth = geometry, truth
         xml = build_mjcf(geometry, truth.d_mm, truth.dL_mm, truth.alpha0_rad, truth.plate_centre_mm)
@@ -83,7 +94,9 @@ class ProbeScannerSim:
         u /= np.linalg.norm(u)
         dist = mujoco.mj_ray(self.model, self.data, q, u, group, 1, -1, self._geomid)
         if dist < 0:
-            raise RuntimeError(f"the stylus found no wall of the {part} at angle {self.data.qpos[self._theta]:.4f}")
+            raise RuntimeError(
+                f"the stylus found no wall of the {part} at angle {self.data.qpos[self._theta]:.4f}"
+            )
         return dist * 1000
 
     def exact_rho(self, part: str, theta_rad: np.ndarray) -> np.ndarray:
@@ -109,7 +122,9 @@ class ProbeScannerSim:
         group = np.zeros(6, np.uint8)
         group[PLATE_GROUP if part == "plate" else LENS_GROUP] = 1
         out = np.empty(len(q))
-        sector = np.floor((np.arctan2(u[:, 1], u[:, 0]) + np.pi) / (2 * np.pi) * len(sectors)).astype(int) % len(sectors)
+        sector = np.floor(
+            (np.arctan2(u[:, 1], u[:, 0]) + np.pi) / (2 * np.pi) * len(sectors)
+        ).astype(int) % len(sectors)
         # mj_ray skips an invisible geom (no material, alpha 0) at its second test: a sector's
         # out-of-reach walls are hidden while its rays are cast
         matid, alpha = model.geom_matid.copy(), model.geom_rgba[:, 3].copy()
@@ -118,8 +133,10 @@ class ProbeScannerSim:
                 model.geom_matid[:], model.geom_rgba[:, 3] = -1, 0.0
                 model.geom_matid[sectors[k]] = matid[sectors[k]]
                 rays = np.flatnonzero(sector == k)
-                out[rays] = [mujoco.mj_ray(model, data, qi, ui, group, 1, -1, self._geomid)
-                             for qi, ui in zip(q[rays], u[rays])]
+                out[rays] = [
+                    mujoco.mj_ray(model, data, qi, ui, group, 1, -1, self._geomid)
+                    for qi, ui in zip(q[rays], u[rays])
+                ]
         finally:
             model.geom_matid[:], model.geom_rgba[:, 3] = matid, alpha
         if np.any(out < 0):
@@ -134,21 +151,37 @@ class ProbeScannerSim:
             model = copy.copy(_walls_model(self.geometry, part))
             for body in ("holder", part):
                 model.body_pos[model.body(body).id] = self.model.body_pos[self.model.body(body).id]
-                model.body_quat[model.body(body).id] = self.model.body_quat[self.model.body(body).id]
+                model.body_quat[model.body(body).id] = self.model.body_quat[
+                    self.model.body(body).id
+                ]
             data = mujoco.MjData(model)
             mujoco.mj_kinematics(model, data)
-            walls = np.flatnonzero(self.model.geom_group == (PLATE_GROUP if part == "plate" else LENS_GROUP))
-            if not (np.array_equal(data.geom_xpos, self.data.geom_xpos[walls])
-                    and np.array_equal(data.geom_xmat, self.data.geom_xmat[walls])):
-                raise RuntimeError(f"the {part}'s ray model does not place its walls as the twin does")
+            walls = np.flatnonzero(
+                self.model.geom_group == (PLATE_GROUP if part == "plate" else LENS_GROUP)
+            )
+            if not (
+                np.array_equal(data.geom_xpos, self.data.geom_xpos[walls])
+                and np.array_equal(data.geom_xmat, self.data.geom_xmat[walls])
+            ):
+                raise RuntimeError(
+                    f"the {part}'s ray model does not place its walls as the twin does"
+                )
             self.turn_to(0.0)
             j = self.model.joint("theta").id
             axis_xy = self.data.xanchor[j][:2]
             q0 = self.data.site_xpos[self._q] - self.data.xanchor[j]
             u0 = self.data.site_xpos[self._dir] - self.data.site_xpos[self._q]
-            corners = box_corners_xy(data.geom_xpos, data.geom_xmat.reshape(-1, 3, 3), model.geom_size) - axis_xy
-            if np.allclose(self.data.xaxis[j], [0, 0, 1], rtol=0, atol=1e-12) and abs(u0[2]) < 1e-12 * np.linalg.norm(u0):
-                sectors = [np.flatnonzero(m) for m in ray_sectors(corners, q0[:2], u0[:2] / np.linalg.norm(u0[:2]))]
+            corners = (
+                box_corners_xy(data.geom_xpos, data.geom_xmat.reshape(-1, 3, 3), model.geom_size)
+                - axis_xy
+            )
+            if np.allclose(self.data.xaxis[j], [0, 0, 1], rtol=0, atol=1e-12) and abs(
+                u0[2]
+            ) < 1e-12 * np.linalg.norm(u0):
+                sectors = [
+                    np.flatnonzero(m)
+                    for m in ray_sectors(corners, q0[:2], u0[:2] / np.linalg.norm(u0[:2]))
+                ]
             else:  # rays out of the xy plane: every wall for every ray
                 sectors = [np.arange(model.ngeom)] * N_SECTORS
             self._ray_cache[part] = (model, data, sectors)
@@ -159,9 +192,13 @@ class ProbeScannerSim:
         eccentricity."""
         t = self.truth
         e = t.encoder_eccentricity_urad * 1e-6
-        return np.asarray(encoder_rad, float) - e * np.sin(np.asarray(encoder_rad, float) + t.encoder_eccentricity_phase_rad)
+        return np.asarray(encoder_rad, float) - e * np.sin(
+            np.asarray(encoder_rad, float) + t.encoder_eccentricity_phase_rad
+        )
 
-    def reading_mm(self, part: str, encoder_rad: np.ndarray, jitter_rad: np.ndarray | float = 0.0) -> np.ndarray:
+    def reading_mm(
+        self, part: str, encoder_rad: np.ndarray, jitter_rad: np.ndarray | float = 0.0
+    ) -> np.ndarray:
         """Noise-free readings (n,) at encoder angles (n,): MuJoCo's ray at the table's true
         angle, the table's runout, the probe's scale."""
         t = self.truth
@@ -176,7 +213,9 @@ class ProbeScannerSim:
         n = self.geometry.samples_per_turn
         nominal = np.arange(n) * 2 * np.pi / n
         jitter = rng.normal(0, np.deg2rad(self.truth.angle_jitter_deg), n)
-        return self.record(self.reading_mm(part, nominal, jitter), rng), self.table_angle(nominal) + jitter
+        return self.record(self.reading_mm(part, nominal, jitter), rng), self.table_angle(
+            nominal
+        ) + jitter
 
     def record(self, exact_rho_mm: np.ndarray, rng: np.random.Generator) -> Scan:
         """The probe's noise and the encoder's quantisation on exact readings."""
@@ -190,7 +229,9 @@ class ProbeScannerSim:
         """The part's exact outline in the holder frame, dense, (n, 2) mm."""
         g = self.geometry
         if part == "plate":
-            return densify(g.plate.outline(n_per_corner=4000), 0.001) + np.asarray(self.truth.plate_centre_mm)
+            return densify(g.plate.outline(n_per_corner=4000), 0.001) + np.asarray(
+                self.truth.plate_centre_mm
+            )
         return _lens_outline_tree(g.lens).data.copy()
 
     def distance_to_outline_mm(self, part: str, points_mm: np.ndarray) -> np.ndarray:
@@ -214,12 +255,15 @@ def densify(outline_mm: np.ndarray, step_mm: float) -> np.ndarray:
 def box_corners_xy(pos: np.ndarray, mat: np.ndarray, size: np.ndarray) -> np.ndarray:
     """The xy of each box's eight corners, (n, 8, 2): boxes at ``pos`` (n, 3), turned by ``mat``
     (n, 3, 3), half-sizes ``size`` (n, 3)."""
-    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], float)  # (8, 3)
+    signs = np.array(
+        [[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], float
+    )  # (8, 3)
     return (pos[:, None, :] + (signs[None] * size[:, None, :]) @ mat.transpose(0, 2, 1))[..., :2]
 
 
-def ray_sectors(corners_xy: np.ndarray, q0_xy: np.ndarray, u0_xy: np.ndarray,
-                n_sectors: int = N_SECTORS) -> list[np.ndarray]:
+def ray_sectors(
+    corners_xy: np.ndarray, q0_xy: np.ndarray, u0_xy: np.ndarray, n_sectors: int = N_SECTORS
+) -> list[np.ndarray]:
     """Which boxes a ray can hit, by the sector of its direction, [(mask (n,)) per sector].
 
     The rays are one ray turned about the axis (the origin of ``corners_xy``, the boxes'
@@ -238,7 +282,9 @@ def ray_sectors(corners_xy: np.ndarray, q0_xy: np.ndarray, u0_xy: np.ndarray,
         return [np.zeros(0, bool)] * n_sectors
     # polar extent of each box (the corners' convex hull, which does not surround the axis)
     mid = np.arctan2(corners_xy[..., 1].mean(axis=1), corners_xy[..., 0].mean(axis=1))
-    rel = (np.arctan2(corners_xy[..., 1], corners_xy[..., 0]) - mid[:, None] + np.pi) % (2 * np.pi) - np.pi
+    rel = (np.arctan2(corners_xy[..., 1], corners_xy[..., 0]) - mid[:, None] + np.pi) % (
+        2 * np.pi
+    ) - np.pi
     a_lo, a_hi = mid + rel.min(axis=1), mid + rel.max(axis=1)
     # radial extent: the nearest point over every segment between two corners, the farthest corner
     i, j = np.triu_indices(8, 1)
@@ -246,7 +292,7 @@ def ray_sectors(corners_xy: np.ndarray, q0_xy: np.ndarray, u0_xy: np.ndarray,
     dx, dy = corners_xy[:, j, 0] - x0, corners_xy[:, j, 1] - y0
     t = np.clip(-(x0 * dx + y0 * dy) / np.maximum(dx * dx + dy * dy, 1e-300), 0.0, 1.0)
     rho_lo = np.sqrt(np.min((x0 + t * dx) ** 2 + (y0 + t * dy) ** 2, axis=1))
-    rho_hi = np.sqrt(np.max(np.sum(corners_xy ** 2, axis=2), axis=1))
+    rho_hi = np.sqrt(np.max(np.sum(corners_xy**2, axis=2), axis=1))
     q0, u0 = np.asarray(q0_xy, float), np.asarray(u0_xy, float)
     near = rho_lo <= np.linalg.norm(q0) * (1 + 1e-9)
     phi0 = np.arctan2(u0[1], u0[0])
@@ -279,4 +325,3 @@ def _lens_outline_tree(lens):
     from scipy.spatial import cKDTree
 
     return cKDTree(lens.outline(n=200000))
-

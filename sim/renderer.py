@@ -19,7 +19,9 @@ class LensRenderer:
     widened by a border so that every distorted pixel samples inside the ideal image.
     """
 
-    def __init__(self, model: mujoco.MjModel, camera: str, lens: PinholeCamera, supersample: int = 1):
+    def __init__(
+        self, model: mujoco.MjModel, camera: str, lens: PinholeCamera, supersample: int = 1
+    ):
         self.model = model
         self.camera_id = model.camera(camera).id
         self.lens = lens
@@ -44,8 +46,13 @@ class LensRenderer:
         for g, on in groups.items():
             self.option.geomgroup[g] = int(on)
 
-    def render(self, data: mujoco.MjData, rng: np.random.Generator | None = None,
-               noise_dn: float = 0.0, psf_px: float = 0.0) -> np.ndarray:
+    def render(
+        self,
+        data: mujoco.MjData,
+        rng: np.random.Generator | None = None,
+        noise_dn: float = 0.0,
+        psf_px: float = 0.0,
+    ) -> np.ndarray:
         """Distorted RGB image, shape (height, width, 3), uint8.
 
         ``psf_px`` blurs with the optics' point-spread function (Gaussian, 1-sigma in pixels);
@@ -63,7 +70,7 @@ class LensRenderer:
             ideal = cv2.resize(ideal, self._size, interpolation=cv2.INTER_AREA)
         if not self.lens.dist.any():
             p = self.pad
-            img = ideal[p:p + self.lens.height, p:p + self.lens.width].astype(np.float32)
+            img = ideal[p : p + self.lens.height, p : p + self.lens.width].astype(np.float32)
         else:
             # Float bilinear sampling (cv2.remap quantises positions to 1/32 px) as one sparse
             # product: map_coordinates' order-1 sums, weights computed once per camera

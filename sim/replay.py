@@ -23,8 +23,9 @@ def stage_travel_mm(scenario: str) -> tuple[float, float]:
     raise ValueError(f"no stage twin for {scenario!r}")
 
 
-def replay_stage(scenario: str, x: np.ndarray, y: np.ndarray, temp_c: np.ndarray | None = None,
-                 truth=None) -> np.ndarray:
+def replay_stage(
+    scenario: str, x: np.ndarray, y: np.ndarray, temp_c: np.ndarray | None = None, truth=None
+) -> np.ndarray:
     """Where the twin's carriage / table really is for each command in turn, (n, 2) mm from
     where it was homed. ``truth``: the twin's as-built parameters (default: the scenario's
     defaults, without random positioning); ``temp_c`` (n,): the room's temperature at each
@@ -63,4 +64,6 @@ def replay_arm(q_rad: np.ndarray, arm: str = "arm-cmm") -> np.ndarray:
     from calibench.sim.arm_cmm import ArmSim, ArmTruth
 
     description = load_arm(arm)
-    return ArmSim(description, ArmTruth(delta=(0.0,) * (5 * description.n_joints + 3))).point_mm(q_rad)
+    return ArmSim(description, ArmTruth(delta=(0.0,) * (5 * description.n_joints + 3))).point_mm(
+        q_rad
+    )

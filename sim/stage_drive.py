@@ -26,8 +26,12 @@ def travel_direction(before: np.ndarray, after: np.ndarray, last: np.ndarray) ->
     """Each axis's direction of travel (+1 or -1) for a move from ``before`` to ``after`` (k,);
     an axis that does not move keeps its ``last`` direction. Plain floats: a move's few axes
     cost less in Python than in numpy calls."""
-    return np.array([1.0 if b > a else -1.0 if b < a else d
-                     for a, b, d in zip(before.tolist(), after.tolist(), last.tolist())])
+    return np.array(
+        [
+            1.0 if b > a else -1.0 if b < a else d
+            for a, b, d in zip(before.tolist(), after.tolist(), last.tolist())
+        ]
+    )
 
 
 def travel_directions(before: np.ndarray, path: np.ndarray, last: np.ndarray) -> np.ndarray:
@@ -64,18 +68,37 @@ class DriveErrors:
     @property
     def perfect(self) -> bool:
         """No error at all (every move can skip it)."""
-        return not (self.reversal_at_home_um or self.reversal_growth_um_per_m or self.periodic_um
-                    or self.thermal_ppm_per_k)
+        return not (
+            self.reversal_at_home_um
+            or self.reversal_growth_um_per_m
+            or self.periodic_um
+            or self.thermal_ppm_per_k
+        )
 
-    def error_mm(self, u_mm: np.ndarray, direction: np.ndarray, temp_c: np.ndarray | None = None) -> np.ndarray:
+    def error_mm(
+        self, u_mm: np.ndarray, direction: np.ndarray, temp_c: np.ndarray | None = None
+    ) -> np.ndarray:
         """The drive's error at commanded positions ``u_mm`` (n,), approached in ``direction``
         (n,) of +1 / -1, at room temperatures ``temp_c`` (n,) (None: the reference): (n,) mm."""
         u = np.asarray(u_mm, float)
-        e = np.asarray(direction, float) / 2 * (self.reversal_at_home_um + self.reversal_growth_um_per_m * u / 1000) / 1000
+        e = (
+            np.asarray(direction, float)
+            / 2
+            * (self.reversal_at_home_um + self.reversal_growth_um_per_m * u / 1000)
+            / 1000
+        )
         if self.periodic_um and self.period_mm > 0:
-            e = e + self.periodic_um / 1000 * np.sin(2 * np.pi * u / self.period_mm + self.periodic_phase_rad)
+            e = e + self.periodic_um / 1000 * np.sin(
+                2 * np.pi * u / self.period_mm + self.periodic_phase_rad
+            )
         if self.thermal_ppm_per_k and temp_c is not None:
-            e = e + self.thermal_ppm_per_k * 1e-6 * (np.asarray(temp_c, float) - self.reference_temp_c) * u
+            e = (
+                e
+                + self.thermal_ppm_per_k
+                * 1e-6
+                * (np.asarray(temp_c, float) - self.reference_temp_c)
+                * u
+            )
         return e
 
 

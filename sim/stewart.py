@@ -38,20 +38,36 @@ class StewartTruth:
     leg_pitch_phase_rad: tuple = (0.0,) * 6
 
     def __post_init__(self):
-        pitched = (np.asarray(self.leg_pitch_um, float) != 0) & ~(np.asarray(self.leg_pitch_lead_mm, float) > 0)
+        pitched = (np.asarray(self.leg_pitch_um, float) != 0) & ~(
+            np.asarray(self.leg_pitch_lead_mm, float) > 0
+        )
         if pitched.any():  # leg_effects_mm would leave the error out without a word
-            raise ValueError(f"leg {int(np.argmax(pitched)) + 1} has a pitch error (leg_pitch_um) but no screw lead: "
-                             "leg_pitch_lead_mm must be positive there")
+            raise ValueError(
+                f"leg {int(np.argmax(pitched)) + 1} has a pitch error (leg_pitch_um) but no screw lead: "
+                "leg_pitch_lead_mm must be positive there"
+            )
 
     @property
     def has_leg_physics(self) -> bool:
         """Whether any leg effect is switched on."""
-        return any(np.any(np.asarray(v) != 0) for v in (self.leg_compliance_um_per_n, self.leg_thermal_ppm_per_k,
-                                                        self.leg_reversal_um, self.leg_pitch_um))
+        return any(
+            np.any(np.asarray(v) != 0)
+            for v in (
+                self.leg_compliance_um_per_n,
+                self.leg_thermal_ppm_per_k,
+                self.leg_reversal_um,
+                self.leg_pitch_um,
+            )
+        )
 
 
-def leg_effects_mm(truth: StewartTruth, L_mm: np.ndarray, force_n: np.ndarray | None,
-                   direction: np.ndarray | None, temp_c: np.ndarray | None) -> np.ndarray:
+def leg_effects_mm(
+    truth: StewartTruth,
+    L_mm: np.ndarray,
+    force_n: np.ndarray | None,
+    direction: np.ndarray | None,
+    temp_c: np.ndarray | None,
+) -> np.ndarray:
     """What the legs' readings carry beyond ``L - l0``, (n, 6) mm, at true lengths ``L_mm``
     (n, 6), axial forces ``force_n`` (n, 6) N (positive: compression), the drives' last motion
     ``direction`` (n, 6) of +1 / -1 and the room's ``temp_c`` (n,); a None driver leaves its
@@ -76,6 +92,7 @@ def leg_effects_mm(truth: StewartTruth, L_mm: np.ndarray, force_n: np.ndarray | 
 class StewartSim:
     """The platform's twin: six legs between ball joints, the truth's hinge errors, a tracker's reflectors on the
     platform."""
+
     def __init__(self, geometry: StewartGeometry, truth: StewartTruth, rng: np.random.Generator):
         g = geometry
         self.geometry, self.truth, self.rng = g, truth, rng
@@ -83,7 +100,9 @@ class StewartSim:
         self.r = g.platform_hinges_mm + rng.normal(0, truth.hinge_error_mm, (6, 3))
         self.l0 = g.initial_lengths_mm + rng.normal(0, truth.length_error_mm, 6)
         self.stations = g.station_holes_mm + rng.normal(0, truth.station_offset_mm, (3, 3))
-        self.model = mujoco.MjModel.from_xml_string(build_mjcf(g, self.B, self.r, g.reflectors_mm, self.stations))
+        self.model = mujoco.MjModel.from_xml_string(
+            build_mjcf(g, self.B, self.r, g.reflectors_mm, self.stations)
+        )
         self.data = mujoco.MjData(self.model)
         m = self.model
         self._ux = [m.jnt_qposadr[m.joint(f"leg{i}_ux").id] for i in range(6)]
@@ -102,10 +121,10 @@ class StewartSim:
         """Put the platform at pose (R, t) and every leg where it must be; record loop closure."""
         q = self.data.qpos
         self._pose = (np.array(R, float), np.array(t_mm, float))
-        q[self._free:self._free + 3] = np.asarray(t_mm) / 1000
+        q[self._free : self._free + 3] = np.asarray(t_mm) / 1000
         quat = np.empty(4)
         mujoco.mju_mat2Quat(quat, np.asarray(R, float).ravel())
-        q[self._free + 3:self._free + 7] = quat
+        q[self._free + 3 : self._free + 7] = quat
         v = self.r @ R.T + t_mm - self.B
         L = np.linalg.norm(v, axis=1)
         u = v / L[:, None]
@@ -132,9 +151,14 @@ class StewartSim:
             before = self._last_L if self._last_L is not None else L - 1.0  # homed from below
             self._dir = travel_direction(before, L, self._dir)
             self._last_L = L
-            force = (self.leg_forces_n(*self._pose, self.truth.payload_n)
-                     if np.any(np.asarray(self.truth.leg_compliance_um_per_n) != 0) else None)
-            out += leg_effects_mm(self.truth, L, force, self._dir, None if temp_c is None else [temp_c])[0]
+            force = (
+                self.leg_forces_n(*self._pose, self.truth.payload_n)
+                if np.any(np.asarray(self.truth.leg_compliance_um_per_n) != 0)
+                else None
+            )
+            out += leg_effects_mm(
+                self.truth, L, force, self._dir, None if temp_c is None else [temp_c]
+            )[0]
         return out
 
     def reflectors_mm(self) -> np.ndarray:
@@ -177,7 +201,9 @@ class StewartSim:
         if load_n:
             ext = np.zeros(m.nv)
             body = m.body("platform").id
-            mujoco.mj_applyFT(m, d, np.array([0.0, 0.0, -float(load_n)]), np.zeros(3), d.xpos[body], body, ext)
+            mujoco.mj_applyFT(
+                m, d, np.array([0.0, 0.0, -float(load_n)]), np.zeros(3), d.xpos[body], body, ext
+            )
             need -= ext
         eq = d.efc_type == mujoco.mjtConstraint.mjCNSTR_EQUALITY
         Jc = d.efc_J.reshape(d.nefc, m.nv)[eq] if not mujoco.mj_isSparse(m) else None

@@ -20,8 +20,8 @@ import functools
 import mujoco
 import numpy as np
 
-from calibench.scenes.vision_stage import VisionStageGeometry, build_mjcf
 from calibench.scenes.camera import MJ_TO_CV, world_to_cv_camera
+from calibench.scenes.vision_stage import VisionStageGeometry, build_mjcf
 from calibench.sim.renderer import LensRenderer
 from calibench.sim.stage_drive import DriveErrors, travel_directions
 
@@ -39,7 +39,11 @@ class Smooth:
     def __call__(self, u, travel: float):
         u = np.asarray(u, float)
         s = u / travel
-        return self.linear * u + self.bow * 4 * s * (1 - s) + self.amp * np.sin(2 * np.pi * u / self.period + self.phase)
+        return (
+            self.linear * u
+            + self.bow * 4 * s * (1 - s)
+            + self.amp * np.sin(2 * np.pi * u / self.period + self.phase)
+        )
 
     def coefficients(self) -> np.ndarray:
         """(linear, bow, amp, period, phase), (5,)."""
@@ -62,11 +66,14 @@ class AxisErrors:
     @functools.cached_property
     def _table(self) -> np.ndarray:
         """The six components' (linear, bow, amp, period, phase), (5, 6)."""
-        return np.stack([getattr(self, f.name).coefficients() for f in dataclasses.fields(self)], axis=1)
+        return np.stack(
+            [getattr(self, f.name).coefficients() for f in dataclasses.fields(self)], axis=1
+        )
 
 
-
-def axes_errors(x: AxisErrors, y: AxisErrors, u_mm: np.ndarray, travel_mm: np.ndarray) -> np.ndarray:
+def axes_errors(
+    x: AxisErrors, y: AxisErrors, u_mm: np.ndarray, travel_mm: np.ndarray
+) -> np.ndarray:
     """Both axes' six errors at their positions ``u_mm`` (2,) over their ``travel_mm`` (2,),
     (2, 6): rows X then Y, columns in AxisErrors' field order; one evaluation for the twelve,
     bit-equal to each Smooth's own."""
@@ -96,14 +103,16 @@ DEFAULT_X = AxisErrors(
     straight_2=Smooth(bow=-2.0e-3),
     roll=Smooth(bow=8e-6),
     pitch=Smooth(bow=12e-6, amp=3e-6, period=150.0),
-    yaw=Smooth(linear=4e-8, bow=-14e-6, amp=2e-6, period=120.0, phase=1.0))
+    yaw=Smooth(linear=4e-8, bow=-14e-6, amp=2e-6, period=120.0, phase=1.0),
+)
 DEFAULT_Y = AxisErrors(
     pos=Smooth(linear=-140e-6, bow=-1.5e-3, amp=0.5e-3, period=70.0, phase=2.0),
     straight_1=Smooth(bow=2.5e-3),
     straight_2=Smooth(bow=1.5e-3),
     roll=Smooth(bow=-6e-6),
     pitch=Smooth(bow=9e-6),
-    yaw=Smooth(linear=6e-8, bow=8e-6))
+    yaw=Smooth(linear=6e-8, bow=8e-6),
+)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -144,23 +153,49 @@ class LineRuler:
 class VisionStageSim:
     """Move by scale readings, read the true plate point under the microscope, render."""
 
-    def __init__(self, geometry: VisionStageGeometry, truth: VisionStageTruth, rng: np.random.Generator,
-                 render: bool = True):
+    def __init__(
+        self,
+        geometry: VisionStageGeometry,
+        truth: VisionStageTruth,
+        rng: np.random.Generator,
+        render: bool = True,
+    ):
         self.geometry = geometry
         self.truth = truth
         self.rng = rng
         n = geometry.plate.n
         self.plate_errors_mm = rng.normal(0, truth.plate_error_um / 1000, (n * n, 2))
         # every circle's true centre in the plate's frame, (n * n, 3) m
-        self._circles_m = np.c_[(geometry.plate.centres_mm() + self.plate_errors_mm) / 1000, np.zeros(n * n)]
+        self._circles_m = np.c_[
+            (geometry.plate.centres_mm() + self.plate_errors_mm) / 1000, np.zeros(n * n)
+        ]
         xml, assets = build_mjcf(geometry, self.plate_errors_mm)
         self.model = mujoco.MjModel.from_xml_string(xml, assets)
         self.data = mujoco.MjData(self.model)
         m = self.model
-        self._q = {name: m.jnt_qposadr[m.joint(name).id] for name in
-                   ["x", "y"] + [f"{p}{c}" for p in ("ex", "ey") for c in "xyzabc"]}
-        self._move_q = [self._q[n] for n in ("x", "exx", "exy", "exz", "exa", "exb", "exc",
-                                             "y", "eyx", "eyy", "eyz", "eya", "eyb", "eyc")]
+        self._q = {
+            name: m.jnt_qposadr[m.joint(name).id]
+            for name in ["x", "y"] + [f"{p}{c}" for p in ("ex", "ey") for c in "xyzabc"]
+        }
+        self._move_q = [
+            self._q[n]
+            for n in (
+                "x",
+                "exx",
+                "exy",
+                "exz",
+                "exa",
+                "exb",
+                "exc",
+                "y",
+                "eyx",
+                "eyy",
+                "eyz",
+                "eya",
+                "eyb",
+                "eyc",
+            )
+        ]
         s = truth.squareness_rad
         m.jnt_axis[m.joint("y").id] = [-np.sin(s), -np.cos(s), 0.0]  # Y_m leaning towards X_m
         self._plate = m.body("plate").id
@@ -180,8 +215,9 @@ class VisionStageSim:
         drives' reference temperature)."""
         self.move_path(np.array([[x_mm, y_mm]], float), temp_c=temp_c)
 
-    def _joint_positions(self, target: np.ndarray, direction: np.ndarray, noise_mm: np.ndarray,
-                         temp_c: float | None) -> np.ndarray:
+    def _joint_positions(
+        self, target: np.ndarray, direction: np.ndarray, noise_mm: np.ndarray, temp_c: float | None
+    ) -> np.ndarray:
         """The slides' and error joints' positions (m, 14) (``_move_q``'s order) after moves to
         the scale readings ``target`` (m, 2) made in ``direction`` (m, 2), with the drives'
         random scatter ``noise_mm`` (m, 2)."""
@@ -189,22 +225,49 @@ class VisionStageSim:
         lost = 0.5 * np.array(t.reversal_um) / 1000 * direction
         if not (t.drive_x.perfect and t.drive_y.perfect):
             T = None if temp_c is None else np.full(len(target), float(temp_c))
-            lost = lost + np.stack([np.zeros(len(target)) if d.perfect else d.error_mm(target[:, k], direction[:, k], T)
-                                    for k, d in enumerate((t.drive_x, t.drive_y))], axis=1)
-        if self._tables[0] is not t.x or self._tables[1] is not t.y:  # the truth's axes: tabled once
+            lost = lost + np.stack(
+                [
+                    np.zeros(len(target))
+                    if d.perfect
+                    else d.error_mm(target[:, k], direction[:, k], T)
+                    for k, d in enumerate((t.drive_x, t.drive_y))
+                ],
+                axis=1,
+            )
+        if (
+            self._tables[0] is not t.x or self._tables[1] is not t.y
+        ):  # the truth's axes: tabled once
             self._tables = (t.x, t.y, np.concatenate([t.x._table, t.y._table], axis=1))
-        e = _axes_errors(self._tables[2], target, g.travel_mm)  # (m, axis, pos s1 s2 roll pitch yaw)
+        e = _axes_errors(
+            self._tables[2], target, g.travel_mm
+        )  # (m, axis, pos s1 s2 roll pitch yaw)
         along = e[:, :, 0] + (lost + noise_mm)
         # straight_1 of X is along Y_m, of Y along X_m; the joints a, b turn about X_m, Y_m: the X
         # carriage's roll and pitch, the Y carriage's pitch and roll
         q = np.empty((len(target), 14))
-        q[:, 0], q[:, 1], q[:, 2:4], q[:, 4:7] = target[:, 0] / 1000, along[:, 0] / 1000, e[:, 0, 1:3] / 1000, e[:, 0, 3:]
-        q[:, 7], q[:, 8], q[:, 9], q[:, 10] = target[:, 1] / 1000, e[:, 1, 1] / 1000, along[:, 1] / 1000, e[:, 1, 2] / 1000
+        q[:, 0], q[:, 1], q[:, 2:4], q[:, 4:7] = (
+            target[:, 0] / 1000,
+            along[:, 0] / 1000,
+            e[:, 0, 1:3] / 1000,
+            e[:, 0, 3:],
+        )
+        q[:, 7], q[:, 8], q[:, 9], q[:, 10] = (
+            target[:, 1] / 1000,
+            e[:, 1, 1] / 1000,
+            along[:, 1] / 1000,
+            e[:, 1, 2] / 1000,
+        )
         q[:, 11:] = e[:, 1, [4, 3, 5]]
         return q
 
-    def move_path(self, targets: np.ndarray, read: np.ndarray | None = None, axis: int = 0,
-                  noise_um: float = 0.05, temp_c: float | None = None) -> np.ndarray:
+    def move_path(
+        self,
+        targets: np.ndarray,
+        read: np.ndarray | None = None,
+        axis: int = 0,
+        noise_um: float = 0.05,
+        temp_c: float | None = None,
+    ) -> np.ndarray:
         """:meth:`move` through the scale readings ``targets`` (m, 2) in order, and read the
         interferometer (:meth:`interferometer_mm`) along ``axis`` after each move where ``read``
         (m,) is true: the readings, (read.sum(),) mm. The same as those moves and readings one
@@ -274,15 +337,18 @@ class VisionStageSim:
         c = self._circles_m[k]
         R = self.data.xmat[self._plate].reshape(3, 3)
         world = self.data.xpos[self._plate] + R @ c
-        cam = world_to_cv_camera(world[None], self.data.cam_xpos[self._cam],
-                                 self.data.cam_xmat[self._cam].reshape(3, 3))
+        cam = world_to_cv_camera(
+            world[None], self.data.cam_xpos[self._cam], self.data.cam_xmat[self._cam].reshape(3, 3)
+        )
         return self.geometry.camera.project(cam, distort=False)[0]
 
     def plate2cam(self) -> tuple[np.ndarray, np.ndarray]:
         """The plate frame in the OpenCV camera frame: R (3, 3), t (3,) mm."""
         Rc = self.data.cam_xmat[self._cam].reshape(3, 3) @ MJ_TO_CV
         Rp = self.data.xmat[self._plate].reshape(3, 3)
-        return Rc.T @ Rp, Rc.T @ (self.data.xpos[self._plate] - self.data.cam_xpos[self._cam]) * 1000
+        return Rc.T @ Rp, Rc.T @ (
+            self.data.xpos[self._plate] - self.data.cam_xpos[self._cam]
+        ) * 1000
 
     # --- instruments ------------------------------------------------------------------------------
     def render(self, noise_dn: float = 0.0, psf_px: float = 0.0) -> np.ndarray:
@@ -296,8 +362,9 @@ class VisionStageSim:
         table's displacement at the microscope's axis, mm (zeroing is the user's)."""
         return float(self.point_in_body_mm("table")[axis] + self.rng.normal(0, noise_um / 1000))
 
-    def ruler_reading(self, ruler: LineRuler, k: int, axis: int, other_reading_mm: float,
-                      aim_um: float = 0.3) -> float:
+    def ruler_reading(
+        self, ruler: LineRuler, k: int, axis: int, other_reading_mm: float, aim_um: float = 0.3
+    ) -> float:
         """Scale reading of ``axis`` at which graduation k of the ruler crosses the optical axis,
         the other axis held at ``other_reading_mm``; the operator's aim scatters by ``aim_um``.
 

@@ -19,7 +19,9 @@ SHARED_DATA = REPO.parent / "shared" / "data"
 @pytest.fixture(scope="session")
 def shared_data() -> Path:
     if not SHARED_DATA.is_dir():
-        pytest.fail(f"shared data not found at {SHARED_DATA} (a clone of main needs shared/ beside it)")
+        pytest.fail(
+            f"shared data not found at {SHARED_DATA} (a clone of main needs shared/ beside it)"
+        )
     return SHARED_DATA
 
 
@@ -37,7 +39,9 @@ def pytest_collection_modifyitems(session, config, items):
         from tests.test_readme_figures import figures_check_command
 
         log = tempfile.TemporaryFile("w+")
-        proc = subprocess.Popen(figures_check_command(), cwd=REPO, stdout=log, stderr=subprocess.STDOUT, text=True)
+        proc = subprocess.Popen(
+            figures_check_command(), cwd=REPO, stdout=log, stderr=subprocess.STDOUT, text=True
+        )
         config.stash[FIGURES_CHECK] = (proc, log)
 
 

@@ -23,7 +23,7 @@ import functools
 import importlib
 import os
 import sys
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -58,8 +58,11 @@ def _replace(mp: pytest.MonkeyPatch, module: str, name: str, new) -> None:
     old = getattr(mod, name)
     mp.setattr(mod, name, new)
     for other in list(sys.modules.values()):
-        if (other is not mod and getattr(other, "__name__", "").startswith("calibench.")
-                and getattr(other, name, None) is old):
+        if (
+            other is not mod
+            and getattr(other, "__name__", "").startswith("calibench.")
+            and getattr(other, name, None) is old
+        ):
             mp.setattr(other, name, new)
 
 
@@ -84,6 +87,7 @@ def _wrap(mp: pytest.MonkeyPatch, module: str, name: str, change: Callable) -> N
 def _arm_nominal(joint: int, column: int, error_rad: float) -> Callable[[pytest.MonkeyPatch], None]:
     """A fault adding ``error_rad`` to one joint's nominal angle in the estimators' chain only
     (``Chain.nominal``: the MuJoCo twin builds its bodies from the arm description, untouched)."""
+
     def apply(mp):
         from calibench.estimators import arm_kinematics as ak
 
@@ -96,36 +100,52 @@ def _arm_nominal(joint: int, column: int, error_rad: float) -> Callable[[pytest.
             return values
 
         mp.setattr(ak.Chain, "nominal", nominal)
+
     return apply
 
 
 # --- 2. the rotary probe's reading model -----------------------------------------------------------
 def _probe_model_1pct(mp):
     """Every reading the model predicts 1 % long."""
-    _wrap(mp, "calibench.estimators.rotary_probe", "rounded_square_rho", lambda rho, *a, **k: 1.01 * rho)
+    _wrap(
+        mp,
+        "calibench.estimators.rotary_probe",
+        "rounded_square_rho",
+        lambda rho, *a, **k: 1.01 * rho,
+    )
 
 
 # --- 3. the chessboard detector --------------------------------------------------------------------
 def _chessboard_bias(mp):
     """+0.03 px in x on every corner of every detected board."""
-    _wrap(mp, "calibench.estimators.chessboard", "find_chessboard_corners",
-          lambda c, *a, **k: None if c is None else c + np.array([0.03, 0.0]))
+    _wrap(
+        mp,
+        "calibench.estimators.chessboard",
+        "find_chessboard_corners",
+        lambda c, *a, **k: None if c is None else c + np.array([0.03, 0.0]),
+    )
 
 
 # --- 4. the belt stage's map std -------------------------------------------------------------------
 def _belt_map_std_1p6x(mp):
     """The 12 map coefficients' reported 1-sigma 1.6 x (the std the report carries)."""
+
     def inflate(std, *a, **k):
         std = np.array(std, float)
         std[:12] *= 1.6  # ex c0..c5, ey c0..c5; the board's yaw (13th) untouched
         return std
+
     _wrap(mp, "calibench.scenarios.belt_stage", "propagated_std", inflate)
 
 
 def _error_map_std_1p6x(mp):
     """Every coefficient std of the quadratic map fit 1.6 x."""
-    _wrap(mp, "calibench.estimators.error_map", "fit_quadratic",
-          lambda fit, *a, **k: dataclasses.replace(fit, std=1.6 * fit.std))
+    _wrap(
+        mp,
+        "calibench.estimators.error_map",
+        "fit_quadratic",
+        lambda fit, *a, **k: dataclasses.replace(fit, std=1.6 * fit.std),
+    )
 
 
 # --- 5. a dropped term -----------------------------------------------------------------------------
@@ -161,85 +181,129 @@ def _gravity_tool_term_dropped(mp):
 # --- 6. one parameter's std ------------------------------------------------------------------------
 def _stewart_leg_std_1p3x(mp):
     """One of the one-step leg calibration's seven std 1.3 x."""
+
     def scale(cal, *a, **k):
         std = cal.std.copy()
         std[6] *= 1.3  # the leg's initial length l, of (a, b, c, m, n, q, l)
         return dataclasses.replace(cal, std=std)
+
     _wrap(mp, "calibench.estimators.stewart", "calibrate_leg", scale)
 
 
 def _stewart_joint_std_1p3x(mp):
     """One of the joint adjustment's 42 leg parameters' std 1.3 x (its covariance row and column)."""
+
     def scale(cal, *a, **k):
         f = np.ones(len(cal.cov))
         f[6] = 1.3  # leg 1's l
         return dataclasses.replace(cal, cov=cal.cov * np.outer(f, f))
+
     _wrap(mp, "calibench.estimators.stewart", "adjust_jointly", scale)
 
 
 def _arm_std_1p3x(mp):
     """The arm identification's std of one parameter 1.3 x."""
+
     def scale(ident, *a, **k):
         name = next(iter(ident.std))  # the first kept parameter
         return dataclasses.replace(ident, std={**ident.std, name: 1.3 * ident.std[name]})
+
     _wrap(mp, "calibench.estimators.arm_identification", "identify", scale)
 
 
 def _arm_always_converged(mp):
     """The arm's Levenberg-Marquardt says converged whatever its last iterate (a silent last iterate)."""
-    _wrap(mp, "calibench.estimators.arm_identification", "identify",
-          lambda ident, *a, **k: dataclasses.replace(ident, converged=True))
+    _wrap(
+        mp,
+        "calibench.estimators.arm_identification",
+        "identify",
+        lambda ident, *a, **k: dataclasses.replace(ident, converged=True),
+    )
 
 
 KIN = "tests/estimators/test_arm_kinematics.py"
 FAULTS: dict[str, Fault] = {
     "arm_dh_alpha_100urad": Fault(
         "joint 3's nominal alpha 100 urad off in the estimators' chain",
-        _arm_nominal(3, 2, 100e-6), (f"{KIN}::test_chain_is_mujocos_arm_with_errors",)),
+        _arm_nominal(3, 2, 100e-6),
+        (f"{KIN}::test_chain_is_mujocos_arm_with_errors",),
+    ),
     "arm_dh_alpha_100urad_in_the_run": Fault(
         "the same, seen by the arm-cmm run: its parameters are judged against the injected errors",
-        _arm_nominal(3, 2, 100e-6), ("tests/scenarios/test_arm_cmm.py::test_run_meets_the_acceptance",)),
+        _arm_nominal(3, 2, 100e-6),
+        ("tests/scenarios/test_arm_cmm.py::test_run_meets_the_acceptance",),
+    ),
     "arm_dh_theta_100urad": Fault(
         "joint 2's nominal theta 100 urad off in the estimators' chain",
-        _arm_nominal(2, 3, 100e-6), (f"{KIN}::test_chain_is_mujocos_arm_with_errors",)),
+        _arm_nominal(2, 3, 100e-6),
+        (f"{KIN}::test_chain_is_mujocos_arm_with_errors",),
+    ),
     "probe_model_1pct": Fault(
         "the rotary probe's model of the reading (rounded_square_rho) 1 % long",
         _probe_model_1pct,
-        ("tests/estimators/test_rotary_probe.py::test_lsq_recovers_the_truth_and_its_std_is_honest",)),
+        (
+            "tests/estimators/test_rotary_probe.py::test_lsq_recovers_the_truth_and_its_std_is_honest",
+        ),
+    ),
     "chessboard_bias_0p03px": Fault(
         "+0.03 px in x on every corner the chessboard detector returns",
         _chessboard_bias,
-        ("tests/estimators/test_chessboard.py::test_corners_are_found_to_a_twentieth_of_a_pixel",
-         "tests/sim/test_camera.py::test_saddle_refinement_beats_cornersubpix_on_renders")),
+        (
+            "tests/estimators/test_chessboard.py::test_corners_are_found_to_a_twentieth_of_a_pixel",
+            "tests/sim/test_camera.py::test_saddle_refinement_beats_cornersubpix_on_renders",
+        ),
+    ),
     "belt_map_std_1p6x": Fault(
         "the belt stage's reported error-map std (propagated_std, c0..c5 of both axes) 1.6 x",
-        _belt_map_std_1p6x, ("tests/scenarios/test_belt_stage.py::test_reported_std_is_honest_over_seeds",)),
+        _belt_map_std_1p6x,
+        ("tests/scenarios/test_belt_stage.py::test_reported_std_is_honest_over_seeds",),
+    ),
     "error_map_std_1p6x": Fault(
         "the quadratic map fit's own coefficient std (fit_quadratic) 1.6 x",
         _error_map_std_1p6x,
-        ("tests/estimators/test_error_map.py::test_recovers_coefficients_within_their_std_and_the_std_is_honest",)),
+        (
+            "tests/estimators/test_error_map.py::test_recovers_coefficients_within_their_std_and_the_std_is_honest",
+        ),
+    ),
     "map_xy_term_dropped": Fault(
         "the fitted error map evaluated without its x y term (c4 silently zeroed)",
-        _map_xy_term_dropped, ("tests/estimators/test_error_map.py::test_fitted_map_is_the_truth_between_the_stations",
-                               "tests/estimators/test_error_map.py::test_compensated_command_lands_on_target")),
+        _map_xy_term_dropped,
+        (
+            "tests/estimators/test_error_map.py::test_fitted_map_is_the_truth_between_the_stations",
+            "tests/estimators/test_error_map.py::test_compensated_command_lands_on_target",
+        ),
+    ),
     "gravity_tool_term_dropped": Fault(
         "the tool's weight dropped from the gravity moments the compliance model uses",
-        _gravity_tool_term_dropped, (f"{KIN}::test_gravity_torques_are_mujocos_inverse_dynamics",)),
+        _gravity_tool_term_dropped,
+        (f"{KIN}::test_gravity_torques_are_mujocos_inverse_dynamics",),
+    ),
     "stewart_leg_std_1p3x": Fault(
         "the one-step leg calibration's std of l (one of 7 parameters) 1.3 x",
-        _stewart_leg_std_1p3x, ("tests/estimators/test_stewart.py::test_one_step_std_is_honest_per_parameter",)),
+        _stewart_leg_std_1p3x,
+        ("tests/estimators/test_stewart.py::test_one_step_std_is_honest_per_parameter",),
+    ),
     "stewart_joint_std_1p3x": Fault(
         "the joint adjustment's std of leg 1's l (one of 42 parameters) 1.3 x",
         _stewart_joint_std_1p3x,
-        ("tests/estimators/test_stewart.py::test_joint_adjustment_recovers_the_legs_and_its_std_is_the_bound",)),
+        (
+            "tests/estimators/test_stewart.py::test_joint_adjustment_recovers_the_legs_and_its_std_is_the_bound",
+        ),
+    ),
     "arm_std_1p3x": Fault(
         "the arm identification's std of its first kept parameter 1.3 x",
         _arm_std_1p3x,
-        ("tests/estimators/test_arm_identification.py::test_identification_std_is_honest_per_parameter",)),
+        (
+            "tests/estimators/test_arm_identification.py::test_identification_std_is_honest_per_parameter",
+        ),
+    ),
     "arm_always_converged": Fault(
         "the arm's Levenberg-Marquardt reports converged whatever its last iterate",
         _arm_always_converged,
-        ("tests/estimators/test_arm_identification.py::test_a_solve_that_cannot_descend_is_not_called_converged",)),
+        (
+            "tests/estimators/test_arm_identification.py::test_a_solve_that_cannot_descend_is_not_called_converged",
+        ),
+    ),
 }
 
 _state: dict = {"name": None, "mp": None, "caught": []}
@@ -268,8 +332,12 @@ def pytest_unconfigure(config):
 def pytest_runtest_makereport(item, call):
     """Note the tests an assertion failed in: a fault must be caught by a check, not by a crash."""
     report = yield
-    if (call.when == "call" and report.failed and call.excinfo is not None
-            and call.excinfo.errisinstance(AssertionError)):
+    if (
+        call.when == "call"
+        and report.failed
+        and call.excinfo is not None
+        and call.excinfo.errisinstance(AssertionError)
+    ):
         _state["caught"].append(item.nodeid)
     return report
 

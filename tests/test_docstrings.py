@@ -22,10 +22,17 @@ def _public(room: str):
                     if isinstance(mobj, property):
                         yield f"{mod.__name__}.{name}.{mn}", mobj
                     elif inspect.isfunction(mobj):
-                        yield f"{mod.__name__}.{name}.{mn}", getattr(obj, mn)  # inherits the base's doc
+                        yield (
+                            f"{mod.__name__}.{name}.{mn}",
+                            getattr(obj, mn),
+                        )  # inherits the base's doc
 
 
 def test_every_public_name_has_a_docstring():
-    missing = [name for room in ("estimators", "scenes", "sim", "scenarios") for name, obj in _public(room)
-               if not inspect.getdoc(obj)]
+    missing = [
+        name
+        for room in ("estimators", "scenes", "sim", "scenarios")
+        for name, obj in _public(room)
+        if not inspect.getdoc(obj)
+    ]
     assert not missing, missing

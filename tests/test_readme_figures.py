@@ -39,7 +39,12 @@ def test_the_docstring_names_every_block_the_test_leaves_out(figures):
 
 
 def test_numbers_are_read_as_printed(figures):
-    got = [tok for _, tok in figures.numbers("B 1.0-1.8 mm, ur10_C row 2,773; fx -0.34 %, 3e-10 um, joint-6 +- 0.05")]
+    got = [
+        tok
+        for _, tok in figures.numbers(
+            "B 1.0-1.8 mm, ur10_C row 2,773; fx -0.34 %, 3e-10 um, joint-6 +- 0.05"
+        )
+    ]
     assert got == ["1.0", "1.8", "2,773", "-0.34", "3e-10", "6", "0.05"]
 
 
@@ -54,8 +59,10 @@ def test_a_changed_digit_is_a_disagreement_and_a_band_is_not(figures):
 
 
 def test_a_rewrite_keeps_the_markers_and_reads_back(figures):
-    text = "intro\n\n<!-- figures:t -->\nold 1\n<!-- /figures:t -->\n\n- item\n  <!-- figures:u -->\n  old 2\n" \
-           "  <!-- /figures:u -->\n"
+    text = (
+        "intro\n\n<!-- figures:t -->\nold 1\n<!-- /figures:t -->\n\n- item\n  <!-- figures:u -->\n  old 2\n"
+        "  <!-- /figures:u -->\n"
+    )
     new = figures.replace(text, {"t": "| a | 3 |", "u": "new 4 " + "word " * 30})
     assert figures.current(new, "t") == "| a | 3 |"
     assert figures.numbers(figures.current(new, "u"))[0][0] == 4
@@ -69,7 +76,12 @@ def figures_check_command() -> list[str]:
     module = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = module
     spec.loader.exec_module(module)
-    return [sys.executable, str(FIGURES), "--check", *[name for name, b in module.BLOCKS.items() if b.ci]]
+    return [
+        sys.executable,
+        str(FIGURES),
+        "--check",
+        *[name for name, b in module.BLOCKS.items() if b.ci],
+    ]
 
 
 def test_the_readme_agrees_with_the_code(shared_data, request):

@@ -8,9 +8,14 @@ from calibench.recordings import RecordingError, StageRecording, load_stage_csv
 
 def test_csv_round_trip_keeps_optional_columns(tmp_path):
     rng = np.random.default_rng(9)
-    rec = StageRecording(x_cmd_mm=rng.uniform(0, 900, 30), y_cmd_mm=rng.uniform(0, 900, 30),
-                         x_meas_mm=rng.uniform(0, 900, 30), y_meas_mm=rng.uniform(0, 900, 30),
-                         dir_x=np.sign(rng.normal(size=30)), run=np.repeat([0, 1, 2], 10))
+    rec = StageRecording(
+        x_cmd_mm=rng.uniform(0, 900, 30),
+        y_cmd_mm=rng.uniform(0, 900, 30),
+        x_meas_mm=rng.uniform(0, 900, 30),
+        y_meas_mm=rng.uniform(0, 900, 30),
+        dir_x=np.sign(rng.normal(size=30)),
+        run=np.repeat([0, 1, 2], 10),
+    )
     rec.to_csv(tmp_path / "r.csv")
     back = load_stage_csv(tmp_path / "r.csv")
     for name in StageRecording.REQUIRED + ("dir_x", "run"):
@@ -19,15 +24,21 @@ def test_csv_round_trip_keeps_optional_columns(tmp_path):
     np.testing.assert_allclose(back.x_err_mm, rec.x_meas_mm - rec.x_cmd_mm, rtol=1e-7)
 
 
-@pytest.mark.parametrize("text,message", [
-    ("", "empty"),
-    ("x_cmd_mm,y_cmd_mm,x_meas_mm,y_meas_mm\n", "no data rows"),
-    ("x_cmd_mm,y_cmd_mm,x_meas_mm,y_meas_mm\n1,2,3,abc\n", "not a number"),
-    ("x_cmd_mm,y_cmd_mm,x_meas_mm,y_meas_mm\n1,2,3\n", "not a number"),
-    ("x_cmd_mm,y_cmd_mm,x_meas_mm,y_meas_mm\n1,2,3,inf\n", "not finite"),
-    # a decimal comma in one cell: every value after it would move one column along
-    ("x_cmd_mm,y_cmd_mm,x_meas_mm,y_meas_mm\n1,2,3,4\n1,2,3,4,5\n", "line 3: 5 values, the header names 4"),
-])
+@pytest.mark.parametrize(
+    "text,message",
+    [
+        ("", "empty"),
+        ("x_cmd_mm,y_cmd_mm,x_meas_mm,y_meas_mm\n", "no data rows"),
+        ("x_cmd_mm,y_cmd_mm,x_meas_mm,y_meas_mm\n1,2,3,abc\n", "not a number"),
+        ("x_cmd_mm,y_cmd_mm,x_meas_mm,y_meas_mm\n1,2,3\n", "not a number"),
+        ("x_cmd_mm,y_cmd_mm,x_meas_mm,y_meas_mm\n1,2,3,inf\n", "not finite"),
+        # a decimal comma in one cell: every value after it would move one column along
+        (
+            "x_cmd_mm,y_cmd_mm,x_meas_mm,y_meas_mm\n1,2,3,4\n1,2,3,4,5\n",
+            "line 3: 5 values, the header names 4",
+        ),
+    ],
+)
 def test_defects_are_named(tmp_path, text, message):
     (tmp_path / "r.csv").write_text(text)
     with pytest.raises(RecordingError, match=message):
@@ -52,7 +63,9 @@ def test_the_shipped_sample_is_the_papers_two_tables_joined(shared_data):
     ey = np.loadtxt(d / "y_axis_error_mm.csv", delimiter=",", skiprows=1)
     rec = load_stage_csv(Path(__file__).resolve().parents[1] / "examples" / "belt_stage_paper.csv")
     assert np.array_equal(rec.x_cmd_mm, ex[:, 0]) and np.array_equal(rec.y_cmd_mm, ex[:, 1])
-    assert np.allclose(rec.x_err_mm, ex[:, 2], atol=5e-5) and np.allclose(rec.y_err_mm, ey[:, 2], atol=5e-5)
+    assert np.allclose(rec.x_err_mm, ex[:, 2], atol=5e-5) and np.allclose(
+        rec.y_err_mm, ey[:, 2], atol=5e-5
+    )
 
 
 def test_an_arm_whose_joints_stay_within_six_degrees_is_read_in_degrees(tmp_path):

@@ -38,15 +38,31 @@ def _pytest(fault: str | None, targets) -> subprocess.CompletedProcess:
     if fault is not None:
         env[ENV] = fault
     # no cache: the deliberate failures must not become the next --lf's "last failed"
-    cmd = [sys.executable, "-m", "pytest", "-q", "-x", "--tb=short", "-p", "no:cacheprovider", "-p", "tests.sabotage",
-           *targets]
+    cmd = [
+        sys.executable,
+        "-m",
+        "pytest",
+        "-q",
+        "-x",
+        "--tb=short",
+        "-p",
+        "no:cacheprovider",
+        "-p",
+        "tests.sabotage",
+        *targets,
+    ]
     return subprocess.run(cmd, cwd=REPO, env=env, capture_output=True, text=True, timeout=600)
 
 
 # a fault no test catches yet is expected to pass unseen; once a test catches it, strict turns it red
-PARAMS = [pytest.param(name, id=name,
-                       marks=[pytest.mark.xfail(strict=True, reason=f.uncaught)] if f.uncaught else [])
-          for name, f in FAULTS.items()]
+PARAMS = [
+    pytest.param(
+        name,
+        id=name,
+        marks=[pytest.mark.xfail(strict=True, reason=f.uncaught)] if f.uncaught else [],
+    )
+    for name, f in FAULTS.items()
+]
 
 
 @pytest.mark.parametrize("name", PARAMS)

@@ -6,7 +6,9 @@ import numpy as np
 from calibench.scenes.checkerboard import Chessboard
 
 
-def area_sample(K: np.ndarray, R: np.ndarray, t: np.ndarray, shade, size, supersample: int) -> np.ndarray:
+def area_sample(
+    K: np.ndarray, R: np.ndarray, t: np.ndarray, shade, size, supersample: int
+) -> np.ndarray:
     """Float image of a plane at pose (R, t) through an ideal pinhole: each pixel averages
     supersample^2 samples mapped back onto the plane by the inverse homography, where
     ``shade(X, Y)`` gives the grey level (exact area sampling up to the supersampling)."""
@@ -22,15 +24,27 @@ def area_sample(K: np.ndarray, R: np.ndarray, t: np.ndarray, shade, size, supers
     return acc / supersample**2
 
 
-def raster_chessboard(board: Chessboard, K: np.ndarray, R: np.ndarray, t: np.ndarray,
-                      size=(640, 480), supersample: int = 8, background: float = 90.0) -> np.ndarray:
+def raster_chessboard(
+    board: Chessboard,
+    K: np.ndarray,
+    R: np.ndarray,
+    t: np.ndarray,
+    size=(640, 480),
+    supersample: int = 8,
+    background: float = 90.0,
+) -> np.ndarray:
     """uint8 image of a board at pose (R, t) (board2cam, mm)."""
     sq, m = board.square_mm, board.margin_mm
 
     def shade(X, Y):
         a, b = np.floor(X / sq) + 1, np.floor(Y / sq) + 1
         squares = (a >= 0) & (a <= board.cols) & (b >= 0) & (b <= board.rows)
-        plate = (X >= -sq - m) & (X <= board.cols * sq + m) & (Y >= -sq - m) & (Y <= board.rows * sq + m)
+        plate = (
+            (X >= -sq - m)
+            & (X <= board.cols * sq + m)
+            & (Y >= -sq - m)
+            & (Y <= board.rows * sq + m)
+        )
         return np.where(squares & ((a + b) % 2 == 0), 0.0, np.where(plate, 255.0, background))
 
     return np.clip(np.rint(area_sample(K, R, t, shade, size, supersample)), 0, 255).astype(np.uint8)
@@ -38,12 +52,19 @@ def raster_chessboard(board: Chessboard, K: np.ndarray, R: np.ndarray, t: np.nda
 
 def project(board_pts, K, R, t, dist=None):
     rvec = cv2.Rodrigues(R)[0]
-    p, _ = cv2.projectPoints(np.asarray(board_pts, float), rvec, np.asarray(t, float), K,
-                             np.zeros(5) if dist is None else dist)
+    p, _ = cv2.projectPoints(
+        np.asarray(board_pts, float),
+        rvec,
+        np.asarray(t, float),
+        K,
+        np.zeros(5) if dist is None else dist,
+    )
     return p.reshape(-1, 2)
 
 
-def random_views(rng, board_pts, K, n_views, size=(640, 480), depth=(500.0, 900.0), tilt=0.5, dist=None):
+def random_views(
+    rng, board_pts, K, n_views, size=(640, 480), depth=(500.0, 900.0), tilt=0.5, dist=None
+):
     """Poses whose corners all land inside the image; returns [(R, t)], [(n, 2) pixels]."""
     poses, pix = [], []
     centre = board_pts.mean(axis=0)
@@ -59,8 +80,22 @@ def random_views(rng, board_pts, K, n_views, size=(640, 480), depth=(500.0, 900.
     return poses, pix
 
 
-def raster_disc(K: np.ndarray, R: np.ndarray, t: np.ndarray, radius: float, size=(768, 576),
-                supersample: int = 4, dark: float = 20.0, bright: float = 230.0) -> np.ndarray:
+def raster_disc(
+    K: np.ndarray,
+    R: np.ndarray,
+    t: np.ndarray,
+    radius: float,
+    size=(768, 576),
+    supersample: int = 4,
+    dark: float = 20.0,
+    bright: float = 230.0,
+) -> np.ndarray:
     """Float image of a dark disc of ``radius`` centred at the origin of the plane (R, t)."""
-    return area_sample(K, R, t, lambda X, Y: np.where(X * X + Y * Y <= radius * radius, dark, bright),
-                       size, supersample)
+    return area_sample(
+        K,
+        R,
+        t,
+        lambda X, Y: np.where(X * X + Y * Y <= radius * radius, dark, bright),
+        size,
+        supersample,
+    )

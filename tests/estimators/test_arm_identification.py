@@ -8,10 +8,18 @@ implementation independent of the estimator's kinematics and gravity model.
 import numpy as np
 import pytest
 
-from calibench.estimators.arm_identification import (AngleTerm, ConeProblem, PointProblem, TrackerProblem,
-                                                     identifiable_basis, identify,
-                                                     identify_identifiable, observability_index, parameter_scales,
-                                                     select_postures)
+from calibench.estimators.arm_identification import (
+    AngleTerm,
+    ConeProblem,
+    PointProblem,
+    TrackerProblem,
+    identifiable_basis,
+    identify,
+    identify_identifiable,
+    observability_index,
+    parameter_scales,
+    select_postures,
+)
 from calibench.estimators.arm_kinematics import param_is_angle, point
 from calibench.scenarios.arm_cmm import reference_values, tracker_problem
 from calibench.scenarios.arms import chain_of
@@ -27,7 +35,9 @@ def arm():
 def test_mujoco_arm_is_the_estimators_arm_with_table_1(arm):
     sim, chain = arm
     q = sim.random_postures(30, np.random.default_rng(0))
-    np.testing.assert_allclose(sim.probe_mm(q), point(chain, q, np.array(table1_errors())), atol=1e-9)
+    np.testing.assert_allclose(
+        sim.probe_mm(q), point(chain, q, np.array(table1_errors())), atol=1e-9
+    )
 
 
 def test_tracker_jacobian_matches_differences(arm):
@@ -38,14 +48,15 @@ def test_tracker_jacobian_matches_differences(arm):
     s = p.start()
     s.delta = np.array(table1_errors()) * 0.5
     J = p.jacobian(s)
-    angle = np.r_[param_is_angle(p.names[:p.nk]), [True] * 3, [False] * 3]
+    angle = np.r_[param_is_angle(p.names[: p.nk]), [True] * 3, [False] * 3]
     for k in range(len(p.names)):
         h = 1e-7 if angle[k] else 1e-5
         e = np.zeros(len(p.names))
         e[k] = h
         fd = (p.residuals(p.update(s, e)) - p.residuals(p.update(s, -e))) / (2 * h)
-        np.testing.assert_allclose(J[:, k], fd, rtol=1e-4, atol=1e-3 * np.abs(J[:, k]).max() + 1e-9,
-                                   err_msg=p.names[k])
+        np.testing.assert_allclose(
+            J[:, k], fd, rtol=1e-4, atol=1e-3 * np.abs(J[:, k]).max() + 1e-9, err_msg=p.names[k]
+        )
 
 
 def test_a_reweighted_problem_is_a_fresh_one_with_those_sigma(arm):
@@ -74,13 +85,24 @@ def test_point_jacobian_matches_differences_with_compliance_and_two_frames(tilt)
     rng = np.random.default_rng(5)
     q = sim.random_postures(12, rng)
     rec = np.repeat([0, 1], 6)
-    terms = (AngleTerm(2, "harmonic", harmonic=17.5), AngleTerm(1, "table", edges_rad=(-np.inf, -1.0, 0.5, np.inf)),
-             AngleTerm(3, "harmonic", harmonic=12.0, recording=1))
-    p = PointProblem(chain, q, sim.point_mm(q) + rng.normal(0, 1, (12, 3)), rec, compliance_joints=(2, 3),
-                     tilt_joints=tilt, prior=1.0, angle_terms=terms)
+    terms = (
+        AngleTerm(2, "harmonic", harmonic=17.5),
+        AngleTerm(1, "table", edges_rad=(-np.inf, -1.0, 0.5, np.inf)),
+        AngleTerm(3, "harmonic", harmonic=12.0, recording=1),
+    )
+    p = PointProblem(
+        chain,
+        q,
+        sim.point_mm(q) + rng.normal(0, 1, (12, 3)),
+        rec,
+        compliance_joints=(2, 3),
+        tilt_joints=tilt,
+        prior=1.0,
+        angle_terms=terms,
+    )
     s = p.start()
     s.delta = rng.normal(0, 1e-3, p.nk)
-    s.comp = np.r_[[2e-6, 3e-6, 1e-6][:2 + len(tilt)], rng.normal(0, 1e-4, 7)]
+    s.comp = np.r_[[2e-6, 3e-6, 1e-6][: 2 + len(tilt)], rng.normal(0, 1e-4, 7)]
     J = p.jacobian(s)
     scales = parameter_scales(p.names) * 1e-3
     rel = 1e-3 if tilt else 1e-6
@@ -88,8 +110,9 @@ def test_point_jacobian_matches_differences_with_compliance_and_two_frames(tilt)
         e = np.zeros(len(p.names))
         e[k] = scales[k]
         fd = (p.residuals(p.update(s, e)) - p.residuals(p.update(s, -e))) / (2 * scales[k])
-        np.testing.assert_allclose(J[:, k], fd, rtol=1e-4, atol=rel * np.abs(J[:, k]).max() + 1e-12,
-                                   err_msg=p.names[k])
+        np.testing.assert_allclose(
+            J[:, k], fd, rtol=1e-4, atol=rel * np.abs(J[:, k]).max() + 1e-12, err_msg=p.names[k]
+        )
 
 
 def test_dropped_parameters_are_named_with_their_partners(arm):
@@ -117,18 +140,24 @@ def test_partners_are_the_least_squares_coefficients(arm):
     q = sim.random_postures(50, np.random.default_rng(2))
     ur10 = ArmSim("ur10", ArmTruth())
     q10 = ur10.random_postures(60, np.random.default_rng(3))
-    for problem in (tracker_problem(sim, chain, q, q, None), PointProblem(chain_of(ur10.arm), q10, ur10.point_mm(q10))):
+    for problem in (
+        tracker_problem(sim, chain, q, q, None),
+        PointProblem(chain_of(ur10.arm), q10, ur10.point_mm(q10)),
+    ):
         basis = identifiable_basis(problem)
         expected = _partners_by_lstsq(problem, basis)
         assert len(expected) >= 6
         for name, coef in expected.items():
             got = np.array(list(basis.partners[name].values()))
-            np.testing.assert_allclose(got, coef, rtol=0, atol=1e-9 * np.abs(coef).max(), err_msg=name)
+            np.testing.assert_allclose(
+                got, coef, rtol=0, atol=1e-9 * np.abs(coef).max(), err_msg=name
+            )
 
 
 class _Columns:
     """A problem that is only its Jacobian (n, 5): two always-kept columns that repeat each other
     (a degenerate set-up), then a group whose last column is the sum of the two before."""
+
     names = ("a0", "a1", "dd1", "dd2", "dd3")
     always, groups = np.array([0, 1]), [np.array([2, 3, 4])]
 
@@ -148,9 +177,13 @@ class _Columns:
 def test_partners_of_a_degenerate_set_up_are_lstsqs_minimum_norm_answer():
     problem = _Columns()
     basis = identifiable_basis(problem)
-    assert len(basis.kept) == 4 and len(basis.dropped) == 1  # both a's kept (always), one of the three d's dropped
-    (name, coef), = _partners_by_lstsq(problem, basis).items()
-    np.testing.assert_allclose(list(basis.partners[name].values()), coef, rtol=0, atol=1e-9 * np.abs(coef).max())
+    assert (
+        len(basis.kept) == 4 and len(basis.dropped) == 1
+    )  # both a's kept (always), one of the three d's dropped
+    ((name, coef),) = _partners_by_lstsq(problem, basis).items()
+    np.testing.assert_allclose(
+        list(basis.partners[name].values()), coef, rtol=0, atol=1e-9 * np.abs(coef).max()
+    )
 
 
 def test_a_degenerate_set_up_keeps_a_column_its_repeated_columns_do_not_explain():
@@ -164,8 +197,9 @@ def test_a_degenerate_set_up_keeps_a_column_its_repeated_columns_do_not_explain(
     problem.J[:, 4] = problem.J[:, 2] / 4 + 1e-12  # the one to drop: dd1 again
     basis = identifiable_basis(problem)
     assert "dd2" not in basis.dropped and list(basis.dropped) == ["dd3"]
-    assert basis.partners["dd3"]["dd1"] == pytest.approx(0.25 * parameter_scales(("dd1",))[0]
-                                                         / parameter_scales(("dd3",))[0], rel=1e-6)
+    assert basis.partners["dd3"]["dd1"] == pytest.approx(
+        0.25 * parameter_scales(("dd1",))[0] / parameter_scales(("dd3",))[0], rel=1e-6
+    )
 
 
 def test_dropped_parameters_come_in_column_order(arm):
@@ -323,7 +357,12 @@ def test_several_recordings_each_get_their_base():
     rec = np.repeat([0, 1], 60)
     from calibench.estimators.rotations import rotvec_to_matrix
 
-    R = np.stack([rotvec_to_matrix(np.array([0.1, -0.2, 2.5])), rotvec_to_matrix(np.array([0.0, 0.05, -1.0]))])
+    R = np.stack(
+        [
+            rotvec_to_matrix(np.array([0.1, -0.2, 2.5])),
+            rotvec_to_matrix(np.array([0.0, 0.05, -1.0])),
+        ]
+    )
     t = np.array([[2000.0, -500.0, 300.0], [-1500.0, 800.0, -100.0]])
     y = np.einsum("nij,nj->ni", R[rec], sim.probe_mm(q)) + t[rec] + rng.normal(0, 0.005, (120, 3))
     p = PointProblem(chain, q, y, rec, sigma_mm=np.full_like(y, 0.005))
@@ -367,7 +406,9 @@ def test_a_harmonic_whose_phase_each_session_sets_is_recovered_per_session():
         std = np.array([fit.std[k] for k in per[r].names])
         assert std.max() < 10e-6
         np.testing.assert_array_less(np.abs(est - truth[r]), 3 * std, err_msg=f"session {r}")
-    p_shared = PointProblem(chain, q, y, rec, sigma_mm=sig, angle_terms=[AngleTerm(2, "harmonic", harmonic=17.0)])
+    p_shared = PointProblem(
+        chain, q, y, rec, sigma_mm=sig, angle_terms=[AngleTerm(2, "harmonic", harmonic=17.0)]
+    )
     shared = identify_identifiable(p_shared)
     for r in (0, 1):
         q_new, p_new = session(r, 100)
@@ -384,8 +425,12 @@ def test_cone_problem_drops_what_free_cones_absorb(arm):
     sim, chain = arm
     rng = np.random.default_rng(3)
     truth = sim.truth
-    q = np.vstack([sim.postures_in_cone(np.asarray(c), 30, rng) for c in (truth.cone_a_mm, truth.cone_b_mm)])
-    p = ConeProblem(chain, sim.encoders(q, rng), np.repeat([0, 1], 30), 0.01, truth.bar_length_mm, 0.001)
+    q = np.vstack(
+        [sim.postures_in_cone(np.asarray(c), 30, rng) for c in (truth.cone_a_mm, truth.cone_b_mm)]
+    )
+    p = ConeProblem(
+        chain, sim.encoders(q, rng), np.repeat([0, 1], 30), 0.01, truth.bar_length_mm, 0.001
+    )
     ident = identify_identifiable(p)
     assert {"dtheta1", "dd1"} <= set(ident.basis.dropped)
 
@@ -395,7 +440,9 @@ def test_chosen_postures_are_more_observable_than_random_ones(arm):
     cand = sim.random_postures(300, np.random.default_rng(4))
     plan = tracker_problem(sim, chain, cand, cand, None)
     basis = identifiable_basis(plan)
-    J = plan.jacobian(plan.start())[:, basis.kept] * parameter_scales([plan.names[k] for k in basis.kept])
+    J = plan.jacobian(plan.start())[:, basis.kept] * parameter_scales(
+        [plan.names[k] for k in basis.kept]
+    )
     blocks = J.reshape(len(cand), 3, -1)
     chosen = select_postures(blocks, 30)
     assert len(set(chosen)) == 30
@@ -417,7 +464,9 @@ def test_bad_rows_are_found_without_a_model():
     s = screen(q, y)
     assert list(s.stale) == [57]
     assert [sorted(p) for p in s.pairs.tolist()] == [[5, 205]]
-    assert s.repeatability_mm == pytest.approx(0.02 * np.sqrt(2) * 1.538, rel=0.3)  # median of chi(3)
+    assert s.repeatability_mm == pytest.approx(
+        0.02 * np.sqrt(2) * 1.538, rel=0.3
+    )  # median of chi(3)
 
 
 def test_identification_std_is_honest_per_parameter():

@@ -5,8 +5,15 @@ gravity torques against MuJoCo's inverse dynamics."""
 import numpy as np
 import pytest
 
-from calibench.estimators.arm_kinematics import (Chain, gravity_torques, jacobian, n_params, param_names, point,
-                                                 theta_index)
+from calibench.estimators.arm_kinematics import (
+    Chain,
+    gravity_torques,
+    jacobian,
+    n_params,
+    param_names,
+    point,
+    theta_index,
+)
 from calibench.scenarios.arms import chain_of
 from calibench.scenes.arm_cmm import arm_from_table, load_arm
 from calibench.sim.arm_cmm import ArmSim, ArmTruth
@@ -16,9 +23,24 @@ def _seed_chain(path) -> tuple[Chain, np.ndarray]:
     """The seed's Table 1, read here from the paper's CSV (not from our ARM.toml): link 7 is the
     stylus, our tool point (0, 0, d7)."""
     t = np.genfromtxt(path, delimiter=",", names=True)
-    chain = Chain("dh", t["a_mm"][:6], t["d_mm"][:6], t["alpha_rad"][:6], np.zeros(6),
-                  tool_mm=np.array([0.0, 0.0, t["d_mm"][6]]))
-    per = np.stack([t["delta_a_mm"], t["delta_d_mm"], t["delta_alpha_rad"], t["delta_theta_rad"], 0 * t["a_mm"]], 1)
+    chain = Chain(
+        "dh",
+        t["a_mm"][:6],
+        t["d_mm"][:6],
+        t["alpha_rad"][:6],
+        np.zeros(6),
+        tool_mm=np.array([0.0, 0.0, t["d_mm"][6]]),
+    )
+    per = np.stack(
+        [
+            t["delta_a_mm"],
+            t["delta_d_mm"],
+            t["delta_alpha_rad"],
+            t["delta_theta_rad"],
+            0 * t["a_mm"],
+        ],
+        1,
+    )
     return chain, np.r_[per[:6].ravel(), 0.0, 0.0, t["delta_d_mm"][6]]
 
 
@@ -29,14 +51,39 @@ def seed(shared_data):
 
 def _seven_joint_mdh() -> dict:
     """A made-up 7-joint arm in modified DH with a parallel pair, masses and a tool mass."""
-    rows = [(0, 310, 0), (0, 0, -90), (0, 400, 90), (0, 0, 90), (380, 0, 0), (300, 120, 0), (0, 0, -90)]
-    joints = [{"a_mm": a, "d_mm": d, "alpha_deg": al, "theta_deg": 5.0 * i, "mass_kg": 4.0 - 0.4 * i,
-               "com_mm": [10.0 * i, -5.0, 20.0]} for i, (a, d, al) in enumerate(rows)]
-    return {"name": "seven", "convention": "mdh", "joint": joints, "tool": {"offset_mm": [5, -3, 90], "mass_kg": 2}}
+    rows = [
+        (0, 310, 0),
+        (0, 0, -90),
+        (0, 400, 90),
+        (0, 0, 90),
+        (380, 0, 0),
+        (300, 120, 0),
+        (0, 0, -90),
+    ]
+    joints = [
+        {
+            "a_mm": a,
+            "d_mm": d,
+            "alpha_deg": al,
+            "theta_deg": 5.0 * i,
+            "mass_kg": 4.0 - 0.4 * i,
+            "com_mm": [10.0 * i, -5.0, 20.0],
+        }
+        for i, (a, d, al) in enumerate(rows)
+    ]
+    return {
+        "name": "seven",
+        "convention": "mdh",
+        "joint": joints,
+        "tool": {"offset_mm": [5, -3, 90], "mass_kg": 2},
+    }
 
 
-ARMS = {"arm-cmm": lambda: load_arm("arm-cmm"), "ur10": lambda: load_arm("ur10"),
-        "seven-mdh": lambda: arm_from_table(_seven_joint_mdh(), "seven")}
+ARMS = {
+    "arm-cmm": lambda: load_arm("arm-cmm"),
+    "ur10": lambda: load_arm("ur10"),
+    "seven-mdh": lambda: arm_from_table(_seven_joint_mdh(), "seven"),
+}
 
 
 def test_our_seed_arm_is_the_papers_table_1(seed):
@@ -55,7 +102,9 @@ def test_papers_table_2_row_by_row(seed, shared_data):
     are lost: see the data README), actual error norms within 0.1 mm of the printed ones, and the
     linear model J delta within 0.05 mm of the actual error."""
     ch, delta = seed
-    rows = np.genfromtxt(shared_data / "seed_arm_cmm" / "table2_simulation.csv", delimiter=",", names=True)
+    rows = np.genfromtxt(
+        shared_data / "seed_arm_cmm" / "table2_simulation.csv", delimiter=",", names=True
+    )
     checked = 0
     for r in rows:
         if np.isnan(r["q1_deg"]):
@@ -127,6 +176,9 @@ def test_gravity_torques_are_mujocos_inverse_dynamics(name):
     assert np.abs(mj).max() > 1.0  # the arms carry real torques
     np.testing.assert_allclose(ours, mj, atol=1e-9 * np.abs(mj).max())
     # at rest whatever the twin did before: a step leaves the bodies' velocities behind
-    sprung = ArmSim(arm, ArmTruth(delta=(0.0,) * n_params(arm.n_joints), stiffness_nm_per_rad=(1e5,) * arm.n_joints))
+    sprung = ArmSim(
+        arm,
+        ArmTruth(delta=(0.0,) * n_params(arm.n_joints), stiffness_nm_per_rad=(1e5,) * arm.n_joints),
+    )
     sprung.settle_by_stepping(q[0], seconds=0.01)
     np.testing.assert_allclose(sprung.gravity_torques(q), mj, rtol=0, atol=1e-12 * np.abs(mj).max())

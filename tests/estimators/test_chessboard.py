@@ -63,12 +63,19 @@ def test_saddle_refinement_beats_cornersubpix_on_the_same_images():
         truth = project(BOARD.corners_mm(), K, R, t)
         ok, c = cv2.findChessboardCorners(img, (BOARD.cols, BOARD.rows))
         assert ok
-        c = cv2.cornerSubPix(img, c, (5, 5), (-1, -1),
-                             (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 100, 1e-4)).reshape(-1, 2)
+        c = cv2.cornerSubPix(
+            img,
+            c,
+            (5, 5),
+            (-1, -1),
+            (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 100, 1e-4),
+        ).reshape(-1, 2)
         nearest = np.argmin(np.linalg.norm(c[:, None] - truth[None], axis=2), axis=1)
         assert len(set(nearest)) == len(truth)
         theirs.append(np.linalg.norm(c - truth[nearest], axis=1))
-        ours.append(np.linalg.norm(find_chessboard_corners(img, BOARD.cols, BOARD.rows) - truth, axis=1))
+        ours.append(
+            np.linalg.norm(find_chessboard_corners(img, BOARD.cols, BOARD.rows) - truth, axis=1)
+        )
     rms_ours, rms_theirs = (float(np.sqrt(np.mean(np.concatenate(e) ** 2))) for e in (ours, theirs))
     assert rms_ours < 0.02 and rms_ours < 0.5 * rms_theirs, (rms_ours, rms_theirs)
 

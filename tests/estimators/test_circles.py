@@ -12,7 +12,9 @@ K = np.array([[F, 0, 383.5], [0, F, 287.5], [0, 0, 1]])
 
 
 def _image(R, t, rng, noise=2.0, blur=0.8):
-    img = cv2.GaussianBlur(raster_disc(K, R, t, 2.5), (0, 0), blur) + rng.normal(0, noise, (576, 768))
+    img = cv2.GaussianBlur(raster_disc(K, R, t, 2.5), (0, 0), blur) + rng.normal(
+        0, noise, (576, 768)
+    )
     return np.clip(np.rint(img), 0, 255).astype(np.uint8)
 
 
@@ -21,7 +23,9 @@ def test_fronto_parallel_centres_within_a_hundredth_of_a_pixel():
     errs = []
     for _ in range(6):
         t = np.array([rng.uniform(-0.4, 0.4), rng.uniform(-0.3, 0.3), 150.0])
-        fit = find_dark_circle(_image(np.eye(3), t, rng), )
+        fit = find_dark_circle(
+            _image(np.eye(3), t, rng),
+        )
         truth = (K @ t)[:2] / t[2]
         errs.append(fit.centre - truth)
         assert fit.radius_px == pytest.approx(2.5 * F / 150, rel=2e-3)

@@ -3,8 +3,15 @@
 import numpy as np
 import pytest
 
-from calibench.estimators.compensation import (LineRuler, compensated_command, cv_rms, cv_rms_periodic,
-                                               fit_polynomial, monomial_powers, select_model)
+from calibench.estimators.compensation import (
+    LineRuler,
+    compensated_command,
+    cv_rms,
+    cv_rms_periodic,
+    fit_polynomial,
+    monomial_powers,
+    select_model,
+)
 
 TRUE = np.array([0.3, 0.19, 0.08, 1.5e-4, -2e-5, -1.1e-4, -3.9e-7, 2e-8, 6e-8, -8e-7])  # um / mm^k
 
@@ -19,14 +26,27 @@ def _cubic(u, v):
 
 
 def test_cubic_has_the_papers_ten_terms_in_order():
-    assert monomial_powers(3) == [(0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2), (3, 0), (2, 1), (1, 2), (0, 3)]
+    assert monomial_powers(3) == [
+        (0, 0),
+        (1, 0),
+        (0, 1),
+        (2, 0),
+        (1, 1),
+        (0, 2),
+        (3, 0),
+        (2, 1),
+        (1, 2),
+        (0, 3),
+    ]
 
 
 def test_cubic_recovers_coefficients_and_its_std_is_honest():
     u, v = _grid()
     rng = np.random.default_rng(13)
     sigma = 0.5
-    est = np.array([fit_polynomial(u, v, _cubic(u, v) + rng.normal(0, sigma, u.size)).coef for _ in range(300)])
+    est = np.array(
+        [fit_polynomial(u, v, _cubic(u, v) + rng.normal(0, sigma, u.size)).coef for _ in range(300)]
+    )
     std = fit_polynomial(u, v, _cubic(u, v)).coef_std(u, v, sigma)
     z = (est - TRUE) / std
     assert np.all(np.abs(z.mean(axis=0)) < 4 / np.sqrt(300))
@@ -67,14 +87,22 @@ def test_cross_validation_is_a_fit_per_fold_to_the_last_bit():
     folds = 10
     fold = np.empty(u.size, int)
     fold[np.random.default_rng(0).permutation(u.size)] = np.arange(u.size) % folds
-    for model in (dict(degree=1), dict(degree=3), dict(degree=6), dict(degree=3, period_mm=80.0, along=0)):
+    for model in (
+        dict(degree=1),
+        dict(degree=3),
+        dict(degree=6),
+        dict(degree=3, period_mm=80.0, along=0),
+    ):
         mse = []
         for k in range(folds):
             tr, te = fold != k, fold == k
             m = fit_polynomial(u[tr], v[tr], err[tr], **model)
             mse.append(float(np.mean((err[te] - m(u[te], v[te])) ** 2)))
         mse = np.array(mse)
-        assert cv_rms(u, v, err, folds, **model) == (float(np.sqrt(mse.mean())), float(mse.std(ddof=1) / np.sqrt(folds)))
+        assert cv_rms(u, v, err, folds, **model) == (
+            float(np.sqrt(mse.mean())),
+            float(mse.std(ddof=1) / np.sqrt(folds)),
+        )
     with pytest.raises(ValueError, match="cannot fit"):
         cv_rms(u[:40], v[:40], err[:40], degree=8)
 

@@ -5,8 +5,15 @@ import pytest
 
 from calibench.estimators import discovery as dsc
 from calibench.estimators.arm_kinematics import Chain, jacobian, point, theta_index
-from calibench.estimators.effects import (Backlash, EncoderEccentricity, JointCompliance, TransmissionSearch,
-                                          best_harmonic, best_period, harmonic_grid)
+from calibench.estimators.effects import (
+    Backlash,
+    EncoderEccentricity,
+    JointCompliance,
+    TransmissionSearch,
+    best_harmonic,
+    best_period,
+    harmonic_grid,
+)
 
 
 def test_periodogram_and_refinement_find_the_period():
@@ -15,7 +22,12 @@ def test_periodogram_and_refinement_find_the_period():
     rng = np.random.default_rng(40)
     u = rng.uniform(0, 400, 800)
     base = np.c_[np.ones_like(u), u / 400]
-    r = 0.01 + 0.02 * u / 400 + 0.004 * np.sin(2 * np.pi * u / 47.3 + 1.0) + rng.normal(0, 0.001, 800)
+    r = (
+        0.01
+        + 0.02 * u / 400
+        + 0.004 * np.sin(2 * np.pi * u / 47.3 + 1.0)
+        + rng.normal(0, 0.001, 800)
+    )
     f = np.arange(1 / 200, 1 / 10, 1 / 2000)
     P0, frac = best_period(u, r, base, 1 / f)
     P, P_std = dsc.refine_period(u, r, base, P0, rel=dsc._grid_rel(1 / f, P0))
@@ -41,8 +53,12 @@ def test_selection_takes_backlash_and_leaves_noise_alone():
     d = np.tile(np.r_[np.ones(150), -np.ones(150)], 4)
     drivers = {"x": x, "dir_x": d, "run": run}
     base = np.c_[np.ones(n), x / 300]
-    sig = dsc.Signal("x", "x", 0.004 * d + 0.001 * x / 300 + rng.normal(0, 0.001, n), base, np.arange(n), x)
-    noise = {"x": dsc.repeatability(sig.r, np.round(x * 10).astype(int) * 2 + (d > 0), np.arange(n))}
+    sig = dsc.Signal(
+        "x", "x", 0.004 * d + 0.001 * x / 300 + rng.normal(0, 0.001, n), base, np.arange(n), x
+    )
+    noise = {
+        "x": dsc.repeatability(sig.r, np.round(x * 10).astype(int) * 2 + (d > 0), np.arange(n))
+    }
     found, terms = dsc.select([sig], [Backlash(axis="x")], drivers, run, noise)
     assert [s.term.name for s in found.steps] == ["backlash"]
     fixed, coef, cov, _ = dsc.fit_terms(sig, terms["x"], drivers, {}, noise["x"].sigma_mm)
@@ -58,9 +74,14 @@ def _drivers(chain, q):
 
 
 def _chain():
-    return Chain("dh", np.array([0, 300, 20, 0, 0, 0.0]), np.array([150, 0, 0, 280, 0, 120.0]),
-                 np.array([np.pi / 2, 0, np.pi / 2, -np.pi / 2, np.pi / 2, 0]), np.zeros(6),
-                 tool_mm=np.array([0.0, 0.0, 60.0]))
+    return Chain(
+        "dh",
+        np.array([0, 300, 20, 0, 0, 0.0]),
+        np.array([150, 0, 0, 280, 0, 120.0]),
+        np.array([np.pi / 2, 0, np.pi / 2, -np.pi / 2, np.pi / 2, 0]),
+        np.zeros(6),
+        tool_mm=np.array([0.0, 0.0, 60.0]),
+    )
 
 
 def test_eccentricity_columns_match_the_chain():
@@ -88,8 +109,9 @@ def test_transmission_harmonic_is_found_between_whole_numbers():
     q_true[:, 1] -= 80e-6 * np.sin(17.5 * q_read[:, 1] + 0.3)
     r = (point(chain, q_true) - point(chain, q_read) + rng.normal(0, 0.002, (400, 3))).ravel()
     d = _drivers(chain, q_read)
-    t = TransmissionSearch(joint=2, harmonics=harmonic_grid(q_read[:, 1])).fix(r, np.zeros((1200, 0)),
-                                                                              np.ones(1200, bool), d)
+    t = TransmissionSearch(joint=2, harmonics=harmonic_grid(q_read[:, 1])).fix(
+        r, np.zeros((1200, 0)), np.ones(1200, bool), d
+    )
     assert t.harmonic == pytest.approx(17.5, abs=0.01)
     coef = np.linalg.lstsq(t.columns(d), r, rcond=None)[0]
     assert np.hypot(*coef) == pytest.approx(80e-6, rel=0.05)
@@ -104,14 +126,21 @@ def test_harmonic_search_beside_other_columns_is_the_least_squares_optimum():
     q = rng.uniform(-np.pi, np.pi, (300, 6))
     J = jacobian(chain, q)
     Jt = J[:, :, theta_index(3)]
-    base = J[:, :, :12].reshape(-1, 12)  # joints 1-2's parameters: partly like the harmonic's columns
-    r = (Jt * (60e-6 * np.sin(13.3 * q[:, 2:3] - 1.0))).ravel() + base @ rng.normal(0, 1e-3, 12) \
+    base = J[:, :, :12].reshape(
+        -1, 12
+    )  # joints 1-2's parameters: partly like the harmonic's columns
+    r = (
+        (Jt * (60e-6 * np.sin(13.3 * q[:, 2:3] - 1.0))).ravel()
+        + base @ rng.normal(0, 1e-3, 12)
         + rng.normal(0, 0.002, 900)
+    )
     rows = rng.random(900) > 0.1
     h, _ = best_harmonic(q[:, 2], Jt, r, base, harmonic_grid(q[:, 2]), rows)
 
     def explained(hh):
-        cols = np.c_[base, (Jt * np.sin(hh * q[:, 2:3])).ravel(), (Jt * np.cos(hh * q[:, 2:3])).ravel()][rows]
+        cols = np.c_[
+            base, (Jt * np.sin(hh * q[:, 2:3])).ravel(), (Jt * np.cos(hh * q[:, 2:3])).ravel()
+        ][rows]
         return -np.sum((r[rows] - cols @ np.linalg.lstsq(cols, r[rows], rcond=None)[0]) ** 2)
 
     fine = np.arange(12.8, 13.8, 1e-4)

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from calibench.estimators.error_map import compensated_command, fit_quadratic, quadratic_coefs
-from calibench.scenarios.stage_fit import fit_recording
 from calibench.recordings import StageRecording
+from calibench.scenarios.stage_fit import fit_recording
 
 TRUE = np.array([0.05, 5.9e-3, 1.7e-3, 4.8e-6, -1.26e-6, 3.2e-8])
 
@@ -98,8 +98,12 @@ def test_paper_table_3(shared_data):
     ex = np.loadtxt(d / "x_axis_error_mm.csv", delimiter=",", skiprows=1)
     ey = np.loadtxt(d / "y_axis_error_mm.csv", delimiter=",", skiprows=1)
     assert np.array_equal(ex[:, :2], ey[:, :2])
-    rec = StageRecording(x_cmd_mm=ex[:, 0], y_cmd_mm=ex[:, 1], x_meas_mm=ex[:, 0] + ex[:, 2],
-                         y_meas_mm=ex[:, 1] + ey[:, 2])
+    rec = StageRecording(
+        x_cmd_mm=ex[:, 0],
+        y_cmd_mm=ex[:, 1],
+        x_meas_mm=ex[:, 0] + ex[:, 2],
+        y_meas_mm=ex[:, 1] + ey[:, 2],
+    )
     fit = fit_recording("belt-stage", "quadratic", rec)["axes"]
     for axis, sse, r2, rmse in (("x", 31.96, 0.9749, 0.5272), ("y", 24.08, 0.9833, 0.4576)):
         assert round(fit[axis]["sse"], 2) == sse

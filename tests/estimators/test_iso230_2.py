@@ -7,12 +7,8 @@ from calibench.estimators.iso230_2 import AXIS_FIGURES, evaluate
 
 # --- hand-worked example: m = 3 targets, n = 3 runs per direction, deviations in um ----------
 TARGETS = np.array([0.0, 250.0, 500.0])  # mm; they enter only the validation
-UP = np.array([[1.0, 2.0, 3.0],
-               [0.0, 4.0, 8.0],
-               [-2.0, -2.0, -2.0]])
-DOWN = np.array([[-1.0, -1.0, -1.0],
-                 [10.0, 10.0, 10.0],
-                 [-4.0, -1.0, 2.0]])
+UP = np.array([[1.0, 2.0, 3.0], [0.0, 4.0, 8.0], [-2.0, -2.0, -2.0]])
+DOWN = np.array([[-1.0, -1.0, -1.0], [10.0, 10.0, 10.0], [-4.0, -1.0, 2.0]])
 
 # Per target, worked by hand (s = sqrt(sum of squared residuals / (n - 1)), n - 1 = 2):
 #   target 1  up   [1, 2, 3]    mean 2   residuals -1, 0, 1  -> s = sqrt(2/2)  = 1
@@ -49,8 +45,20 @@ PER_TARGET = {
 #   A↑: mean↑ + 2s↑ = [4, 12, -2], mean↑ - 2s↑ = [0, -4, -2]      -> 12 - (-4) = 16
 #   A↓: mean↓ + 2s↓ = [-1, 10, 5], mean↓ - 2s↓ = [-1, 10, -7]     -> 10 - (-7) = 17
 #   A : max(12, 10) - min(-4, -7)                                 -> 12 - (-7) = 19
-AXIS = {"B": 6, "B_mean": -4 / 3, "R_up": 16, "R_down": 12, "R": 16, "E_up": 6, "E_down": 11, "E": 12,
-        "M": 8.5, "A_up": 16, "A_down": 17, "A": 19}
+AXIS = {
+    "B": 6,
+    "B_mean": -4 / 3,
+    "R_up": 16,
+    "R_down": 12,
+    "R": 16,
+    "E_up": 6,
+    "E_down": 11,
+    "E": 12,
+    "M": 8.5,
+    "A_up": 16,
+    "A_down": 17,
+    "A": 19,
+}
 
 
 def test_hand_worked_example_per_target():
@@ -80,7 +88,11 @@ def _random_axis(seed, m=7, n=5):
     rng = np.random.default_rng(seed)
     targets = np.linspace(0.0, 600.0, m)
     trend = rng.normal(0.0, 5.0, (m, 1))
-    return targets, trend + 1.5 + rng.normal(0.0, 0.8, (m, n)), trend - 1.5 + rng.normal(0.0, 0.8, (m, n))
+    return (
+        targets,
+        trend + 1.5 + rng.normal(0.0, 0.8, (m, n)),
+        trend - 1.5 + rng.normal(0.0, 0.8, (m, n)),
+    )
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -131,16 +143,19 @@ def test_known_reversal_and_scatter_are_recovered_from_many_runs():
 
 
 # --- input checks -----------------------------------------------------------------------------
-@pytest.mark.parametrize("targets, up, down, match", [
-    (TARGETS, UP[:, :1], DOWN[:, :1], "at least 2"),                  # n = 1 run
-    (TARGETS, UP, DOWN[:, :2], "shape mismatch"),                     # up and down differ
-    (TARGETS[:2], UP, DOWN, "shape mismatch"),                        # targets vs rows
-    (TARGETS, UP[0], DOWN[0], "shape mismatch"),                      # deviations not 2-D
-    (TARGETS[:1], UP[:1], DOWN[:1], "at least 2"),                    # m = 1 target
-    (TARGETS, np.where(UP == 4.0, np.nan, UP), DOWN, "finite"),       # NaN deviation
-    (TARGETS, UP, np.where(DOWN == 10.0, np.inf, DOWN), "finite"),    # inf deviation
-    (np.array([0.0, np.nan, 500.0]), UP, DOWN, "finite"),             # NaN target
-])
+@pytest.mark.parametrize(
+    "targets, up, down, match",
+    [
+        (TARGETS, UP[:, :1], DOWN[:, :1], "at least 2"),  # n = 1 run
+        (TARGETS, UP, DOWN[:, :2], "shape mismatch"),  # up and down differ
+        (TARGETS[:2], UP, DOWN, "shape mismatch"),  # targets vs rows
+        (TARGETS, UP[0], DOWN[0], "shape mismatch"),  # deviations not 2-D
+        (TARGETS[:1], UP[:1], DOWN[:1], "at least 2"),  # m = 1 target
+        (TARGETS, np.where(UP == 4.0, np.nan, UP), DOWN, "finite"),  # NaN deviation
+        (TARGETS, UP, np.where(DOWN == 10.0, np.inf, DOWN), "finite"),  # inf deviation
+        (np.array([0.0, np.nan, 500.0]), UP, DOWN, "finite"),  # NaN target
+    ],
+)
 def test_invalid_input_raises_value_error(targets, up, down, match):
     with pytest.raises(ValueError, match=match):
         evaluate(targets, up, down)

@@ -4,8 +4,14 @@ import cv2
 import numpy as np
 import pytest
 
-from calibench.estimators.pose import (board2cam_from_homography, board2cam_pnp, fit_plane, homography,
-                             mean_rotation, undistort_pixels)
+from calibench.estimators.pose import (
+    board2cam_from_homography,
+    board2cam_pnp,
+    fit_plane,
+    homography,
+    mean_rotation,
+    undistort_pixels,
+)
 from calibench.scenes.checkerboard import Chessboard
 from tests.estimators.synthetic import project
 
@@ -18,8 +24,9 @@ def _pose(rotvec, t):
     return cv2.Rodrigues(np.array(rotvec, float))[0], np.array(t, float)
 
 
-@pytest.mark.parametrize("rotvec,t", [((0.0, 0.0, 0.01), (-200, -120, 1800)),
-                                      ((0.4, -0.3, 1.0), (-50, 20, 900))])
+@pytest.mark.parametrize(
+    "rotvec,t", [((0.0, 0.0, 0.01), (-200, -120, 1800)), ((0.4, -0.3, 1.0), (-50, 20, 900))]
+)
 def test_closed_form_is_exact_on_noiseless_points(rotvec, t):
     R, t = _pose(rotvec, t)
     pix = project(BOARD.corners_mm(), K, R, t, DIST)
@@ -38,7 +45,9 @@ def test_pnp_within_its_noise_and_closed_form_close_to_it():
     gaps, errs = [], []
     for _ in range(50):
         pix = project(obj, K, R, t, DIST) + rng.normal(0, sigma, (len(obj), 2))
-        R0, t0 = board2cam_from_homography(homography(obj[:, :2], undistort_pixels(pix, K, DIST)), K)
+        R0, t0 = board2cam_from_homography(
+            homography(obj[:, :2], undistort_pixels(pix, K, DIST)), K
+        )
         R1, t1 = board2cam_pnp(obj, pix, K, DIST, guess=(R0, t0))
         c = obj.mean(axis=0)
         errs.append((R1 @ c + t1) - (R @ c + t))  # the board centroid, where tilt decouples
@@ -72,7 +81,9 @@ def test_plane_fit_and_its_slope_covariance():
         slopes.append(-n[:2] / n[2])
         covs.append(pl.slope_cov)
     slopes = np.array(slopes)
-    np.testing.assert_allclose(slopes.mean(axis=0), [2e-3, -1e-3], atol=4 * 0.2 / 290 / np.sqrt(121 * 300))
+    np.testing.assert_allclose(
+        slopes.mean(axis=0), [2e-3, -1e-3], atol=4 * 0.2 / 290 / np.sqrt(121 * 300)
+    )
     # the basis is x, then y, projected (the axes least along the normal): slope j is along axis j
     predicted = np.sqrt(np.diag(np.mean(covs, axis=0)))
     np.testing.assert_allclose(np.std(slopes, axis=0), predicted, rtol=0.15)
@@ -120,7 +131,16 @@ def test_pose_sensitivity_is_what_pnp_does_when_the_intrinsics_move():
     px += np.random.default_rng(4).normal(0, 0.02, px.shape)
     R, t = board2cam_pnp(obj, px, K, dist, guess=(cv2.Rodrigues(rvec)[0], tvec))
     S = pose_sensitivity(obj, R, t, K, dist, names)
-    steps = {"fx": 0.5, "fy": 0.5, "cx": 0.5, "cy": 0.5, "k1": 1e-3, "k2": 1e-3, "p1": 1e-5, "p2": 1e-5}
+    steps = {
+        "fx": 0.5,
+        "fy": 0.5,
+        "cx": 0.5,
+        "cy": 0.5,
+        "k1": 1e-3,
+        "k2": 1e-3,
+        "p1": 1e-5,
+        "p2": 1e-5,
+    }
     for j, n in enumerate(names):
         out = []
         for sgn in (1, -1):
@@ -144,8 +164,13 @@ def test_refined_poses_are_the_reprojection_minimum():
 
     rng = np.random.default_rng(7)
     obj = BOARD.corners_mm()
-    truth = [_pose((0.05, -0.04, 0.02), (-220, -130, 1780)), _pose((0.3, 0.2, -0.4), (-100, -50, 1500))]
-    pix = np.stack([project(obj, K, R, t, DIST) + rng.normal(0, 0.05, (len(obj), 2)) for R, t in truth])
+    truth = [
+        _pose((0.05, -0.04, 0.02), (-220, -130, 1780)),
+        _pose((0.3, 0.2, -0.4), (-100, -50, 1500)),
+    ]
+    pix = np.stack(
+        [project(obj, K, R, t, DIST) + rng.normal(0, 0.05, (len(obj), 2)) for R, t in truth]
+    )
     pix[1, 5] = np.nan
     R0 = np.stack([cv2.Rodrigues(np.array([3e-3, -2e-3, 1e-3]))[0] @ R for R, _ in truth])
     t0 = np.stack([t + [2.0, -3.0, 5.0] for _, t in truth])
@@ -155,6 +180,8 @@ def test_refined_poses_are_the_reprojection_minimum():
         kept = np.isfinite(pix[v]).all(axis=1)
         rvec, tvec = cv2.Rodrigues(R0[v])[0], t0[v].reshape(3, 1).copy()
         for _ in range(3):
-            rvec, tvec = cv2.solvePnPRefineLM(obj[kept], pix[v][kept], K, DIST, rvec, tvec, criteria=crit)
+            rvec, tvec = cv2.solvePnPRefineLM(
+                obj[kept], pix[v][kept], K, DIST, rvec, tvec, criteria=crit
+            )
         np.testing.assert_allclose(cv2.Rodrigues(R1[v])[0].ravel(), rvec.ravel(), atol=2e-9)
         np.testing.assert_allclose(t1[v], tvec.ravel(), atol=2e-6)  # mm, at 1.5-1.8 m

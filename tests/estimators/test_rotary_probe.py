@@ -4,9 +4,17 @@ the rail on the opening's distance function, independent of the estimator's clos
 import numpy as np
 import pytest
 
-from calibench.estimators.rotary_probe import (MinimumFit, ScannerCalibration, calibrate_lsq, calibrate_paper,
-                                               contour_points, fit_minima, paper_sweep_d_mm, rounded_square_rho,
-                                               solve_four_minima)
+from calibench.estimators.rotary_probe import (
+    MinimumFit,
+    ScannerCalibration,
+    calibrate_lsq,
+    calibrate_paper,
+    contour_points,
+    fit_minima,
+    paper_sweep_d_mm,
+    rounded_square_rho,
+    solve_four_minima,
+)
 
 A, R = 22.5, 5.0
 TRUE = dict(d=8.0, dL=3.0, alpha0=0.35, c=np.array([0.12, -0.08]))
@@ -65,7 +73,9 @@ def test_model_reading_is_the_ray_to_the_wall():
     the opening's distance function, off-centre, over a full turn: equal to 1e-9 mm (the
     bisection is exact to ~1e-14 mm)."""
     rho = rounded_square_rho(TH, TRUE["d"], TRUE["dL"], TRUE["alpha0"], TRUE["c"], A, R)
-    np.testing.assert_allclose(rho, _ray_rho(TH, TRUE["d"], TRUE["dL"], TRUE["alpha0"], TRUE["c"]), atol=1e-9)
+    np.testing.assert_allclose(
+        rho, _ray_rho(TH, TRUE["d"], TRUE["dL"], TRUE["alpha0"], TRUE["c"]), atol=1e-9
+    )
 
 
 def test_contour_points_lie_on_the_opening():
@@ -92,8 +102,14 @@ def test_minima_are_the_sides_feet():
 def test_closed_form_is_exact_on_exact_minima():
     d, dL, alpha0, a = 8.0, 3.0, 0.35, A
     phi = -np.arcsin(d / a)
-    fits = [MinimumFit(theta_rad=float((psi + phi - alpha0) % (2 * np.pi)), rho_mm=np.sqrt(a * a - d * d) - dL,
-                       curvature_mm=a * a / np.sqrt(a * a - d * d)) for psi in np.deg2rad([0, 90, 180, 270])]
+    fits = [
+        MinimumFit(
+            theta_rad=float((psi + phi - alpha0) % (2 * np.pi)),
+            rho_mm=np.sqrt(a * a - d * d) - dL,
+            curvature_mm=a * a / np.sqrt(a * a - d * d),
+        )
+        for psi in np.deg2rad([0, 90, 180, 270])
+    ]
     cal = solve_four_minima(fits, a, alpha0_nominal_rad=0.3)
     assert (cal.d_mm, cal.dL_mm, cal.alpha0_rad) == pytest.approx((d, dL, alpha0), abs=1e-9)
 

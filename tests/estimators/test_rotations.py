@@ -4,8 +4,13 @@ tiny rotations (an arccos of the trace keeps half the digits) and rotations near
 import numpy as np
 import pytest
 
-from calibench.estimators.rotations import (matrix_to_rotvec, rigid_transform, rotvec_to_matrix,
-                                             rotvecs_to_matrices, skew)
+from calibench.estimators.rotations import (
+    matrix_to_rotvec,
+    rigid_transform,
+    rotvec_to_matrix,
+    rotvecs_to_matrices,
+    skew,
+)
 
 
 def _rot_z(a):
@@ -37,7 +42,9 @@ def test_rotvec_round_trip_and_batch_agree():
     np.testing.assert_allclose(rotvec_to_matrix(small), np.eye(3) + skew(small), atol=1e-16)
 
 
-@pytest.mark.parametrize("angle", [0.0, 1e-12, 1e-9, 1e-8, 1.1e-8, 1e-7, 1e-3, 1.0, 3.0, np.pi - 1e-9])
+@pytest.mark.parametrize(
+    "angle", [0.0, 1e-12, 1e-9, 1e-8, 1.1e-8, 1e-7, 1e-3, 1.0, 3.0, np.pi - 1e-9]
+)
 def test_rotvecs_to_matrices_equal_scipy_s_at_every_angle(angle):
     """Rodrigues' formula written with half angles against scipy's quaternion route, to 1e-15 (a
     few rounding units of 1), across the switch to the series at 1e-8 rad, over random axes; the
@@ -46,13 +53,23 @@ def test_rotvecs_to_matrices_equal_scipy_s_at_every_angle(angle):
 
     axes = np.random.default_rng(1).normal(size=(50, 3))
     w = angle * axes / np.linalg.norm(axes, axis=1, keepdims=True)
-    np.testing.assert_allclose(rotvecs_to_matrices(w), Rotation.from_rotvec(w).as_matrix(), rtol=0, atol=1e-15)
-    np.testing.assert_array_equal(np.array([rotvec_to_matrix(v) for v in w]), rotvecs_to_matrices(w))
-    np.testing.assert_array_equal(rotvec_to_matrix(w.reshape(5, 10, 3)), rotvecs_to_matrices(w).reshape(5, 10, 3, 3))
+    np.testing.assert_allclose(
+        rotvecs_to_matrices(w), Rotation.from_rotvec(w).as_matrix(), rtol=0, atol=1e-15
+    )
+    np.testing.assert_array_equal(
+        np.array([rotvec_to_matrix(v) for v in w]), rotvecs_to_matrices(w)
+    )
+    np.testing.assert_array_equal(
+        rotvec_to_matrix(w.reshape(5, 10, 3)), rotvecs_to_matrices(w).reshape(5, 10, 3, 3)
+    )
     # and back, as scipy's quaternion route does it (each of Shepperd's four branches is taken)
     back = np.array([matrix_to_rotvec(R) for R in rotvecs_to_matrices(w)])
-    np.testing.assert_allclose(back, Rotation.from_matrix(rotvecs_to_matrices(w)).as_rotvec(), rtol=0, atol=2e-15)
-    np.testing.assert_array_equal(matrix_to_rotvec(rotvecs_to_matrices(w).reshape(5, 10, 3, 3)), back.reshape(5, 10, 3))
+    np.testing.assert_allclose(
+        back, Rotation.from_matrix(rotvecs_to_matrices(w)).as_rotvec(), rtol=0, atol=2e-15
+    )
+    np.testing.assert_array_equal(
+        matrix_to_rotvec(rotvecs_to_matrices(w).reshape(5, 10, 3, 3)), back.reshape(5, 10, 3)
+    )
 
 
 def test_rigid_transform_recovers_a_known_pose():

@@ -4,10 +4,21 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from calibench.estimators.rotations import rotvec_to_matrix
-from calibench.estimators.stewart import (TrackerObservations, _joint_residuals, adjust_jointly, calibrate_leg, fit_sphere,
-                                          forward_kinematics, forward_kinematics_many, joint_information, leg_lengths,
-                                          multilaterate, multilaterate_many, rigid_transform, trilaterate)
+from calibench.estimators.rotations import rigid_transform, rotvec_to_matrix
+from calibench.estimators.stewart import (
+    TrackerObservations,
+    _joint_residuals,
+    adjust_jointly,
+    calibrate_leg,
+    fit_sphere,
+    forward_kinematics,
+    forward_kinematics_many,
+    joint_information,
+    leg_lengths,
+    multilaterate,
+    multilaterate_many,
+    trilaterate,
+)
 
 NESTS = np.array([[700.0, -500.0, 0.0], [800.0, 500.0, 700.0], [-700.0, 700.0, 1300.0]])
 STATION = np.array([1500.0, -500.0, 300.0])
@@ -35,8 +46,12 @@ def test_station_uncertainty_propagation_matches_monte_carlo():
     d = np.linalg.norm(NESTS - STATION, axis=1)
     sigma = (0.3 + 0.3 * d / 1000) / 1000
     _, cov = trilaterate(NESTS, d, sigma, above=np.array([1.0, 0, 0]))
-    sols = np.array([trilaterate(NESTS, d + rng.normal(0, sigma), sigma, above=np.array([1.0, 0, 0]))[0]
-                     for _ in range(4000)])
+    sols = np.array(
+        [
+            trilaterate(NESTS, d + rng.normal(0, sigma), sigma, above=np.array([1.0, 0, 0]))[0]
+            for _ in range(4000)
+        ]
+    )
     np.testing.assert_allclose(np.std(sols, axis=0) / np.sqrt(np.diag(cov)), 1.0, atol=0.2)
     np.testing.assert_allclose(np.cov(sols.T), cov, atol=0.25 * np.max(np.abs(cov)))
 
@@ -46,7 +61,10 @@ def test_multilateration_and_rigid_transform_recover_a_pose():
     refl = np.array([[173.2, 100.0, 40.0], [-173.2, 100.0, 40.0], [0.0, -200.0, 40.0]])
     R, t = _rot(np.array([0.05, -0.08, 0.3])), np.array([20.0, -35.0, 760.0])
     world = refl @ R.T + t
-    sols = [multilaterate(stations, np.linalg.norm(stations - w, axis=1), np.full(3, 1e-3), w + 5.0) for w in world]
+    sols = [
+        multilaterate(stations, np.linalg.norm(stations - w, axis=1), np.full(3, 1e-3), w + 5.0)
+        for w in world
+    ]
     assert all(ok for _, _, ok in sols)
     found = np.array([p for p, _, _ in sols])
     Rf, tf = rigid_transform(refl, found)
@@ -71,7 +89,7 @@ def test_one_step_recovers_a_leg_within_its_std():
     rng = np.random.default_rng(22)
     r, B, l = np.array([212.0, 212.3, 0.4]), np.array([483.0, -129.0, -0.3]), 650.4
     z = []
-    for trial in range(40):
+    for _ in range(40):
         Rs = np.array([_rot(rng.uniform(-0.17, 0.17, 3) + 1e-9) for _ in range(60)])
         ts = np.array([0, 0, 750.0]) + rng.uniform(-150, 150, (60, 3))
         L = np.linalg.norm(np.einsum("nij,j->ni", Rs, r) + ts - B, axis=1)
@@ -103,7 +121,9 @@ def test_one_step_std_is_honest_per_parameter():
         cal = calibrate_leg(Rs, ts, readings, r + 0.5, B - 0.5, 650.0, np.full(n, sigma))
         z.append((np.r_[cal.r, cal.B, cal.l] - np.r_[r, B, l]) / cal.std)
     rms = np.sqrt(np.mean(np.square(z), axis=0))
-    assert np.all((rms > 0.85) & (rms < 1.2)), ", ".join(f"{k} {v:.3f}" for k, v in zip("abcmnql", rms))
+    assert np.all((rms > 0.85) & (rms < 1.2)), ", ".join(
+        f"{k} {v:.3f}" for k, v in zip("abcmnql", rms)
+    )
 
 
 def test_forward_kinematics_inverts_the_leg_lengths():
@@ -112,7 +132,9 @@ def test_forward_kinematics_inverts_the_leg_lengths():
     b = np.deg2rad([-45, 45, 75, 165, 195, 285])
     r = np.c_[300 * np.cos(b), 300 * np.sin(b), np.zeros(6)]
     R, t = _rot(np.array([0.1, -0.05, 0.12])), np.array([40.0, -60.0, 820.0])
-    Rf, tf, ok = forward_kinematics(leg_lengths(R, t, r, B), r, B, np.eye(3), np.array([0, 0, 750.0]))
+    Rf, tf, ok = forward_kinematics(
+        leg_lengths(R, t, r, B), r, B, np.eye(3), np.array([0, 0, 750.0])
+    )
     assert ok
     np.testing.assert_allclose(Rf, R, atol=1e-10)
     np.testing.assert_allclose(tf, t, atol=1e-8)
@@ -156,11 +178,12 @@ def test_joint_jacobian_matches_finite_differences():
     x0 = np.zeros(J.shape[1])
 
     def f(x):
-        Rx = np.array([rotvec_to_matrix(x[9 + 6 * i:12 + 6 * i]) @ R[i] for i in range(n)])
-        tx = t + x[9:9 + 6 * n].reshape(n, 6)[:, 3:]
-        legs = x[9 + 6 * n:].reshape(6, 7)
-        return _joint_residuals(obs, S + x[:9].reshape(3, 3), Rx, tx, r + legs[:, :3], B + legs[:, 3:6],
-                                l + legs[:, 6])[0]
+        Rx = np.array([rotvec_to_matrix(x[9 + 6 * i : 12 + 6 * i]) @ R[i] for i in range(n)])
+        tx = t + x[9 : 9 + 6 * n].reshape(n, 6)[:, 3:]
+        legs = x[9 + 6 * n :].reshape(6, 7)
+        return _joint_residuals(
+            obs, S + x[:9].reshape(3, 3), Rx, tx, r + legs[:, :3], B + legs[:, 3:6], l + legs[:, 6]
+        )[0]
 
     Jn = np.array([(f(x0 + h * e) - f(x0 - h * e)) / (2 * h) for e in np.eye(len(x0))]).T
     np.testing.assert_allclose(J, Jn, atol=1e-6 * np.abs(J).max())
@@ -173,8 +196,9 @@ def test_joint_information_with_the_poses_eliminated_is_the_dense_inverse():
     obs, (S, R, t, r, B, l) = _joint_problem(rng, n=12)
     _, J = _joint_residuals(obs, S, R, t, r, B, l)
     dense = np.linalg.inv(J.T @ J)[-42:, -42:]
-    np.testing.assert_allclose(joint_information(obs, S, R, t, r, B, l), dense, rtol=1e-7,
-                               atol=1e-9 * np.abs(dense).max())
+    np.testing.assert_allclose(
+        joint_information(obs, S, R, t, r, B, l), dense, rtol=1e-7, atol=1e-9 * np.abs(dense).max()
+    )
 
 
 def test_joint_adjustment_recovers_the_legs_and_its_std_is_the_bound():
@@ -205,13 +229,16 @@ def test_newton_loops_cut_short_say_they_did_not_converge():
     instead of handing back its last iterate as an answer."""
     stations = np.array([[1500.0, -500.0, 300.0], [1600.0, 500.0, 900.0], [1400.0, -100.0, 1500.0]])
     w = np.array([20.0, -35.0, 760.0])
-    assert not multilaterate(stations, np.linalg.norm(stations - w, axis=1), np.full(3, 1e-3), w + 50.0,
-                             iterations=1)[2]
+    assert not multilaterate(
+        stations, np.linalg.norm(stations - w, axis=1), np.full(3, 1e-3), w + 50.0, iterations=1
+    )[2]
     a, b = np.deg2rad([-15, 15, 105, 135, 225, 255]), np.deg2rad([-45, 45, 75, 165, 195, 285])
     B = np.c_[500 * np.cos(a), 500 * np.sin(a), np.zeros(6)]
     r = np.c_[300 * np.cos(b), 300 * np.sin(b), np.zeros(6)]
     R, t = _rot(np.array([0.1, -0.05, 0.12])), np.array([40.0, -60.0, 820.0])
-    assert not forward_kinematics(leg_lengths(R, t, r, B), r, B, np.eye(3), np.array([0, 0, 750.0]), iterations=1)[2]
+    assert not forward_kinematics(
+        leg_lengths(R, t, r, B), r, B, np.eye(3), np.array([0, 0, 750.0]), iterations=1
+    )[2]
 
 
 def test_many_points_multilaterated_at_once_are_each_one_alone():
@@ -237,7 +264,10 @@ def _platform_and_poses(n: int):
     a, b = np.deg2rad([-15, 15, 105, 135, 225, 255]), np.deg2rad([-45, 45, 75, 165, 195, 285])
     B = np.c_[500 * np.cos(a), 500 * np.sin(a), np.zeros(6)]
     r = np.c_[300 * np.cos(b), 300 * np.sin(b), np.zeros(6)]
-    poses = [(_rot(rng.normal(0, 0.08, 3)), np.array([0, 0, 800.0]) + rng.normal(0, 50, 3)) for _ in range(n)]
+    poses = [
+        (_rot(rng.normal(0, 0.08, 3)), np.array([0, 0, 800.0]) + rng.normal(0, 50, 3))
+        for _ in range(n)
+    ]
     return r, B, poses, np.array([leg_lengths(R, t, r, B) for R, t in poses])
 
 

@@ -27,7 +27,9 @@ def test_travel_in_plane_and_yaw_are_exact():
     R, t, d = _stations(yaw=4e-3)
     np.testing.assert_allclose(travel_in_plane(t, 0, R[0][:, 2], X_CAM, Y_CAM), d, atol=1e-9)
     assert abs(board_yaw(R[0], R[0][:, 2], X_CAM, Y_CAM, BOARD_TO_AXES) - 4e-3) < 1e-12
-    np.testing.assert_allclose(board_yaw(R, R[0][:, 2], X_CAM, Y_CAM, BOARD_TO_AXES), 4e-3, atol=1e-12)  # per pose
+    np.testing.assert_allclose(
+        board_yaw(R, R[0][:, 2], X_CAM, Y_CAM, BOARD_TO_AXES), 4e-3, atol=1e-12
+    )  # per pose
 
 
 def test_paper_travel_exact_when_board_is_square_and_wrong_by_the_yaw_otherwise():
@@ -36,5 +38,9 @@ def test_paper_travel_exact_when_board_is_square_and_wrong_by_the_yaw_otherwise(
     R, t, d = _stations(yaw=4e-3)
     err = travel_from_camera_centres(R, t, 0, BOARD_TO_AXES) - d
     # assuming the board square to the axes turns the travel by the yaw: |R d - d| = 2 sin(yaw/2)|d|
-    np.testing.assert_allclose(np.linalg.norm(err, axis=1), 2 * np.sin(2e-3) * np.linalg.norm(d, axis=1),
-                               rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(
+        np.linalg.norm(err, axis=1),
+        2 * np.sin(2e-3) * np.linalg.norm(d, axis=1),
+        rtol=1e-6,
+        atol=1e-9,
+    )

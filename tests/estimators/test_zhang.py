@@ -41,7 +41,11 @@ def _opencv(obj, views, flags, K0=None):
     imgs = [p[k].astype(np.float32).reshape(-1, 1, 2) for p, k in zip(views, keep)]
     crit = (cv2.TERM_CRITERIA_COUNT + cv2.TERM_CRITERIA_EPS, 200, 1e-12)
     out = cv2.calibrateCameraExtended(objs, imgs, (640, 480), K0, None, flags=flags, criteria=crit)
-    return out[1], out[2].ravel(), out[5].ravel()  # K, dist, std of fx, fy, cx, cy, k1, k2, p1, p2, k3, ...
+    return (
+        out[1],
+        out[2].ravel(),
+        out[5].ravel(),
+    )  # K, dist, std of fx, fy, cx, cy, k1, k2, p1, p2, k3, ...
 
 
 @pytest.mark.parametrize("fix_aspect", [False, True])
@@ -57,14 +61,20 @@ def test_the_fit_is_opencvs_calibrate_camera(fix_aspect):
     K0 = None
     if fix_aspect:
         keep = [np.isfinite(p).all(axis=1) for p in pts]
-        K0 = cv2.initCameraMatrix2D([obj[k].astype(np.float32) for k in keep],
-                                    [p[k].astype(np.float32) for p, k in zip(pts, keep)], (640, 480), 1.0)
+        K0 = cv2.initCameraMatrix2D(
+            [obj[k].astype(np.float32) for k in keep],
+            [p[k].astype(np.float32) for p, k in zip(pts, keep)],
+            (640, 480),
+            1.0,
+        )
         K0[1, 1] = K0[0, 0]
     K_cv, dist_cv, std_cv = _opencv(obj, pts, flags, K0)
     np.testing.assert_allclose(calib.K, K_cv, atol=1e-7)
     np.testing.assert_allclose(calib.dist, dist_cv[:5], atol=1e-10)
     names = NAMES[1:] if fix_aspect else NAMES
-    np.testing.assert_allclose([calib.std[n] for n in names], [std_cv[NAMES.index(n)] for n in names], rtol=1e-4)
+    np.testing.assert_allclose(
+        [calib.std[n] for n in names], [std_cv[NAMES.index(n)] for n in names], rtol=1e-4
+    )
 
 
 def test_full_covariance_diagonal_is_the_reported_std():
@@ -111,8 +121,9 @@ def test_fixed_aspect_reports_the_real_std_of_fx():
     for seed in range(40):
         rng = np.random.default_rng(200 + seed)
         _, pix = random_views(rng, obj, K_sq, 15, dist=DIST)
-        calib = calibrate_camera(obj, [p + rng.normal(0, SIGMA_PX, p.shape) for p in pix], (640, 480),
-                                 fix_aspect=True)
+        calib = calibrate_camera(
+            obj, [p + rng.normal(0, SIGMA_PX, p.shape) for p in pix], (640, 480), fix_aspect=True
+        )
         assert calib.K[0, 0] == calib.K[1, 1] and calib.std["fy"] == pytest.approx(calib.std["fx"])
         est.append(calib.K[0, 0])
         std.append(calib.std["fx"])

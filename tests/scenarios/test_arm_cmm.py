@@ -28,8 +28,13 @@ def test_run_meets_the_acceptance(tmp_path):
     assert "dtheta1" in c["dropped_parameters"]["note"]
     assert c["identification_s"]["value"] < 1.0
     paths = entity_paths(tmp_path / "run.rrd")
-    expected = {"/world/base/joint1/link1/joint2", "/probe/measured", "/probe/modelled_after",
-                "/residual_mm/before", "/residual_mm/after"}
+    expected = {
+        "/world/base/joint1/link1/joint2",
+        "/probe/measured",
+        "/probe/modelled_after",
+        "/residual_mm/before",
+        "/residual_mm/after",
+    }
     assert expected <= paths, expected - paths
 
 
@@ -37,24 +42,66 @@ def test_any_arm_by_name_and_a_compliant_one_by_config(tmp_path):
     """--arm ur10 runs the same scenario on the UR10 (its parallel axes keep Hayati's beta); a
     UR10 whose shoulder and elbow give way under MuJoCo's gravity, calibrated for geometry only,
     misses the held-out limit by far: the check fails (exit 1), it does not hide it."""
-    assert main(["run", "arm-cmm", "--arm", "ur10", "--no-rrd", "--out", str(tmp_path / "rigid")]) == 0
+    assert (
+        main(["run", "arm-cmm", "--arm", "ur10", "--no-rrd", "--out", str(tmp_path / "rigid")]) == 0
+    )
     rep = json.loads((tmp_path / "rigid" / "report.json").read_text())
     assert {"dbeta2", "dbeta3"} <= {p["name"] for p in rep["parameters"]}
     assert rep["info"]["arm"] == "UR10"
     config = tmp_path / "compliant.toml"
-    config.write_text('[arm-cmm]\narm = "ur10"\n[arm-cmm.truth]\nstiffness_nm_per_rad = [inf, 2e5, 1.5e5, inf, inf, inf]\n')
-    assert main(["run", "arm-cmm", "--config", str(config), "--no-rrd", "--out", str(tmp_path / "soft")]) == 1
-    c = {ch["name"]: ch for ch in json.loads((tmp_path / "soft" / "report.json").read_text())["checks"]}
+    config.write_text(
+        '[arm-cmm]\narm = "ur10"\n[arm-cmm.truth]\nstiffness_nm_per_rad = [inf, 2e5, 1.5e5, inf, inf, inf]\n'
+    )
+    assert (
+        main(
+            ["run", "arm-cmm", "--config", str(config), "--no-rrd", "--out", str(tmp_path / "soft")]
+        )
+        == 1
+    )
+    c = {
+        ch["name"]: ch
+        for ch in json.loads((tmp_path / "soft" / "report.json").read_text())["checks"]
+    }
     assert c["probe_rms_after_mm"]["value"] > 0.1
 
 
 def test_montecarlo_takes_an_arm(tmp_path):
-    assert main(["montecarlo", "arm-cmm", "--arm", "ur10", "--trials", "2", "--workers", "1",
-                 "--out", str(tmp_path)]) == 0
+    assert (
+        main(
+            [
+                "montecarlo",
+                "arm-cmm",
+                "--arm",
+                "ur10",
+                "--trials",
+                "2",
+                "--workers",
+                "1",
+                "--out",
+                str(tmp_path),
+            ]
+        )
+        == 0
+    )
     summary = json.loads((tmp_path / "summary.json").read_text())
-    assert summary["failed"] == 0 and any(p.startswith("dbeta2") for p in json.dumps(summary).split('"'))
-    assert main(["montecarlo", "arm-cmm", "--arm", str(tmp_path / "none.toml"), "--trials", "2",
-                 "--out", str(tmp_path / "x")]) == 2
+    assert summary["failed"] == 0 and any(
+        p.startswith("dbeta2") for p in json.dumps(summary).split('"')
+    )
+    assert (
+        main(
+            [
+                "montecarlo",
+                "arm-cmm",
+                "--arm",
+                str(tmp_path / "none.toml"),
+                "--trials",
+                "2",
+                "--out",
+                str(tmp_path / "x"),
+            ]
+        )
+        == 2
+    )
 
 
 def test_a_solve_that_runs_out_of_iterations_fails_the_run(tmp_path, monkeypatch):
@@ -78,9 +125,12 @@ def test_reported_std_stay_honest_when_the_datasheet_is_off(factor):
     +-0.02 is about 3 binomial std of 1,000 independent draws. Without the variance factor the
     coverage would be 0.997 (1.5x) or 0.81 (1 / 1.5x)."""
     base = ArmCmmConfig()
-    stated = dataclasses.replace(base, stated_range_sigma_um=tuple(factor * x for x in base.stated_range_sigma_um),
-                                 stated_angle_sigma_urad=factor * base.stated_angle_sigma_urad,
-                                 stated_encoder_sigma_urad=factor * base.stated_encoder_sigma_urad)
+    stated = dataclasses.replace(
+        base,
+        stated_range_sigma_um=tuple(factor * x for x in base.stated_range_sigma_um),
+        stated_angle_sigma_urad=factor * base.stated_angle_sigma_urad,
+        stated_encoder_sigma_urad=factor * base.stated_encoder_sigma_urad,
+    )
     z = []
     for seed in range(200):
         config = prior(stated, np.random.default_rng(10_000 + seed))
@@ -96,7 +146,11 @@ def test_the_reference_is_what_the_reduced_model_fits_to_mujocos_arm(arm):
     parameters' typical sizes (0.5 um, 5 urad; the relations are first order, what is left is
     second order in the 0.1 mm / 1 mrad errors), and the seed's arm's reference covers every
     kinematic error it keeps, the UR10's all but a few wrist ones."""
-    from calibench.estimators.arm_identification import identify, identify_identifiable, parameter_scales
+    from calibench.estimators.arm_identification import (
+        identify,
+        identify_identifiable,
+        parameter_scales,
+    )
     from calibench.scenarios.arm_cmm import reference_values, tracker_problem
     from calibench.scenarios.arms import chain_of
     from calibench.sim.arm_cmm import ArmSim
@@ -117,4 +171,7 @@ def test_the_reference_is_what_the_reduced_model_fits_to_mujocos_arm(arm):
         kinematic = [n for n in ident.estimate if not n.startswith(("tool_", "tracker_"))]
         assert len(ref) >= (len(kinematic) if arm == "arm-cmm" else len(kinematic) - 3)
         for name, value in ref.items():
-            assert abs(value - fitted.estimate[name]) < 5e-3 * parameter_scales([name])[0], (k, name)
+            assert abs(value - fitted.estimate[name]) < 5e-3 * parameter_scales([name])[0], (
+                k,
+                name,
+            )

@@ -22,8 +22,10 @@ def series(tmp_path_factory):
     d = tmp_path_factory.mktemp("ur10")
     sim = ArmSim("ur10", ArmTruth(stiffness_nm_per_rad=STIFFNESS))
     rng = np.random.default_rng(0)
-    frames = {"same": (rotvec_to_matrix(np.array([0.01, -0.02, 2.2])), np.array([2100.0, 400.0, -250.0])),
-              "new": (rotvec_to_matrix(np.array([-0.03, 0.01, -0.8])), np.array([-900.0, 1800.0, 100.0]))}
+    frames = {
+        "same": (rotvec_to_matrix(np.array([0.01, -0.02, 2.2])), np.array([2100.0, 400.0, -250.0])),
+        "new": (rotvec_to_matrix(np.array([-0.03, 0.01, -0.8])), np.array([-900.0, 1800.0, 100.0])),
+    }
     paths = {}
     for name, n, frame in (("train", 600, "same"), ("test", 300, "same"), ("other", 300, "new")):
         q = sim.random_postures(n, rng)
@@ -31,7 +33,9 @@ def series(tmp_path_factory):
         y = sim.probe_mm(q) @ R.T + t + rng.normal(0, NOISE_MM, (n, 3))
         q_read = q + rng.normal(0, 2e-6, q.shape)
         if name == "train":
-            q_read[500:520] = q_read[:20]  # twenty postures visited twice: the recording's repeatability
+            q_read[500:520] = q_read[
+                :20
+            ]  # twenty postures visited twice: the recording's repeatability
             y[500:520] = y[:20] + rng.normal(0, NOISE_MM, (20, 3))
             y[101] = y[100]  # a stale reading
             q_read[450] = q_read[200]  # a repeat of row 200's posture ...
@@ -43,8 +47,24 @@ def series(tmp_path_factory):
 
 def _fit(paths, tmp_path, model, *extra):
     out = tmp_path / model
-    code = main(["fit", "arm-cmm", str(paths["train"]), "--test", str(paths["test"]), "--test-new-frame",
-                 str(paths["other"]), "--arm", "ur10", "--model", model, "--out", str(out), *extra])
+    code = main(
+        [
+            "fit",
+            "arm-cmm",
+            str(paths["train"]),
+            "--test",
+            str(paths["test"]),
+            "--test-new-frame",
+            str(paths["other"]),
+            "--arm",
+            "ur10",
+            "--model",
+            model,
+            "--out",
+            str(out),
+            *extra,
+        ]
+    )
     return code, json.loads((out / "fit.json").read_text()) if code == 0 else None
 
 
@@ -63,14 +83,20 @@ def test_physics_recovers_the_twins_stiffness_and_carries_to_other_frames(series
     assert "registered on" in phys["test"]["other.csv"]["frame"]
     res = _residuals(tmp_path / "physics")
     for name in ("test.csv", "other.csv"):
-        tested = [np.linalg.norm(e) for (f, _), (role, e) in res.items() if f == name and role == "test"]
+        tested = [
+            np.linalg.norm(e) for (f, _), (role, e) in res.items() if f == name and role == "test"
+        ]
         assert len(tested) == phys["test"][name]["samples"]
         assert np.mean(tested) == pytest.approx(phys["test"][name]["mean_mm"], abs=2e-6)
     registered = sum(role == "register" for (f, _), (role, _) in res.items() if f == "other.csv")
-    assert registered + phys["test"]["other.csv"]["samples"] <= 300 and registered == pytest.approx(60, abs=2)
+    assert registered + phys["test"]["other.csv"]["samples"] <= 300 and registered == pytest.approx(
+        60, abs=2
+    )
     # the training rows in the fit: measured minus modelled whitens to the injected noise
-    train = np.array([e for (f, _), (role, e) in res.items() if f == "train.csv" and role == "train"])
-    assert np.sqrt(np.mean(train ** 2)) == pytest.approx(NOISE_MM, rel=0.15)
+    train = np.array(
+        [e for (f, _), (role, e) in res.items() if f == "train.csv" and role == "train"]
+    )
+    assert np.sqrt(np.mean(train**2)) == pytest.approx(NOISE_MM, rel=0.15)
     code, geo = _fit(paths, tmp_path, "geometry")
     assert code == 0
     assert not any(p["name"].startswith("compliance") for p in geo["parameters"])
@@ -88,8 +114,23 @@ def test_physics_recovers_the_twins_stiffness_and_carries_to_other_frames(series
 def test_holdout_keeps_rows_out_and_reports_them(series, tmp_path):
     _, paths = series
     out = tmp_path / "holdout"
-    assert main(["fit", "arm-cmm", str(paths["train"]), str(paths["test"]), "--arm", "ur10", "--holdout", "0.3",
-                 "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "fit",
+                "arm-cmm",
+                str(paths["train"]),
+                str(paths["test"]),
+                "--arm",
+                "ur10",
+                "--holdout",
+                "0.3",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     r = json.loads((out / "fit.json").read_text())
     assert r["model"] == "physics"  # the default when the arm has masses
     assert set(r["holdout"]) == {"train.csv", "test.csv"}
@@ -115,14 +156,19 @@ def test_a_held_out_row_that_disagrees_with_its_repeat_is_flagged_not_judged(ser
 
     _, paths = series
     rec = load_arm_csv(paths["train"], 6)
-    held = np.random.default_rng(0).permutation(len(rec))[:round(0.3 * len(rec))]  # fit's split (SPLIT_SEED)
+    held = np.random.default_rng(0).permutation(len(rec))[
+        : round(0.3 * len(rec))
+    ]  # fit's split (SPLIT_SEED)
     a, b = (int(i) for i in held[:2])
     q, y = rec.q_rad.copy(), rec.xyz_mm.copy()
     q[b], y[b] = q[a], y[a] + [0.0, 1.2, 0.0]  # row b: row a's posture, measured 1.2 mm away
     path = tmp_path / "pair.csv"
     ArmRecording(q, y).to_csv(path)
     out = tmp_path / "pair"
-    assert main(["fit", "arm-cmm", str(path), "--arm", "ur10", "--holdout", "0.3", "--out", str(out)]) == 0
+    assert (
+        main(["fit", "arm-cmm", str(path), "--arm", "ur10", "--holdout", "0.3", "--out", str(out)])
+        == 0
+    )
     r = json.loads((out / "fit.json").read_text())
     assert b in {f["row"] for f in r["flagged"]["pair.csv"]}
     res = _residuals(out)
@@ -147,11 +193,39 @@ def test_per_recording_harmonics_get_a_phase_in_each_training_recording(series, 
     such error, so each pair comes out at zero within 3 std and the held-out figures hold."""
     _, paths = series
     eff = tmp_path / "e.json"
-    eff.write_text(json.dumps({"scenario": "arm-cmm", "effects": [
-        {"name": "transmission", "params": {"joint": 2, "harmonics": [17], "per_recording": True}}]}))
+    eff.write_text(
+        json.dumps(
+            {
+                "scenario": "arm-cmm",
+                "effects": [
+                    {
+                        "name": "transmission",
+                        "params": {"joint": 2, "harmonics": [17], "per_recording": True},
+                    }
+                ],
+            }
+        )
+    )
     out = tmp_path / "per"
-    assert main(["fit", "arm-cmm", str(paths["train"]), str(paths["test"]), "--arm", "ur10", "--holdout", "0.3",
-                 "--effects", str(eff), "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "fit",
+                "arm-cmm",
+                str(paths["train"]),
+                str(paths["test"]),
+                "--arm",
+                "ur10",
+                "--holdout",
+                "0.3",
+                "--effects",
+                str(eff),
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     r = json.loads((out / "fit.json").read_text())
     terms = {p["name"]: p for p in r["parameters"] if p["name"].startswith("angle_")}
     assert set(terms) == {f"angle_transmission2_rec{k}_{f}" for k in (1, 2) for f in ("sin", "cos")}
@@ -170,7 +244,22 @@ def test_training_on_half_the_workspace_warns(series, tmp_path):
     path = tmp_path / "narrow.csv"
     half.to_csv(path)
     out = tmp_path / "narrow"
-    assert main(["fit", "arm-cmm", str(path), "--test", str(paths["test"]), "--arm", "ur10", "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "fit",
+                "arm-cmm",
+                str(path),
+                "--test",
+                str(paths["test"]),
+                "--arm",
+                "ur10",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     warnings = json.loads((out / "fit.json").read_text())["coverage"]["warnings"]
     assert any("q2 spans only" in w for w in warnings), warnings
     assert any("test.csv" in w and "q2" in w for w in warnings), warnings
@@ -183,12 +272,30 @@ def test_a_same_frame_test_from_another_setup_is_said(series, tmp_path):
     same recording as --test-new-frame, and the right --test, are not."""
     sim, paths = series
     out = tmp_path / "swapped"
-    assert main(["fit", "arm-cmm", str(paths["train"]), "--test", str(paths["other"]), "--test-new-frame",
-                 str(paths["test"]), "--arm", "ur10", "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "fit",
+                "arm-cmm",
+                str(paths["train"]),
+                "--test",
+                str(paths["other"]),
+                "--test-new-frame",
+                str(paths["test"]),
+                "--arm",
+                "ur10",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     warnings = json.loads((out / "fit.json").read_text())["coverage"]["warnings"]
     assert any(w.startswith("other.csv:") and "--test-new-frame" in w for w in warnings), warnings
     _, right = _fit(paths, tmp_path, "physics")
-    assert not any("--test-new-frame" in w for w in right["coverage"]["warnings"]), right["coverage"]["warnings"]
+    assert not any("--test-new-frame" in w for w in right["coverage"]["warnings"]), right[
+        "coverage"
+    ]["warnings"]
 
 
 def test_stated_std_in_some_recordings_only_are_said_unused(series, tmp_path):
@@ -198,9 +305,16 @@ def test_stated_std_in_some_recordings_only_are_said_unused(series, tmp_path):
 
     rec = load_arm_csv(paths["train"], 6)
     stated = tmp_path / "stated.csv"
-    ArmRecording(rec.q_rad, rec.xyz_mm, xyz_std_mm=np.full(rec.xyz_mm.shape, NOISE_MM)).to_csv(stated)
+    ArmRecording(rec.q_rad, rec.xyz_mm, xyz_std_mm=np.full(rec.xyz_mm.shape, NOISE_MM)).to_csv(
+        stated
+    )
     out = tmp_path / "mixed"
-    assert main(["fit", "arm-cmm", str(stated), str(paths["other"]), "--arm", "ur10", "--out", str(out)]) == 0
+    assert (
+        main(
+            ["fit", "arm-cmm", str(stated), str(paths["other"]), "--arm", "ur10", "--out", str(out)]
+        )
+        == 0
+    )
     warnings = json.loads((out / "fit.json").read_text())["coverage"]["warnings"]
     assert any("stated.csv states a std per value, other.csv not" in w for w in warnings), warnings
 
@@ -214,9 +328,26 @@ def test_recordings_of_one_name_in_two_folders_are_told_apart(series, tmp_path):
         (tmp_path / folder).mkdir()
         shutil.copy(paths[which], tmp_path / folder / "data.csv")
     out = tmp_path / "out"
-    assert main(["fit", "arm-cmm", str(paths["train"]), "--test", str(tmp_path / "setup1" / "data.csv"),
-                 "--test-new-frame", str(tmp_path / "setup2" / "data.csv"), "--arm", "ur10", "--model", "geometry",
-                 "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "fit",
+                "arm-cmm",
+                str(paths["train"]),
+                "--test",
+                str(tmp_path / "setup1" / "data.csv"),
+                "--test-new-frame",
+                str(tmp_path / "setup2" / "data.csv"),
+                "--arm",
+                "ur10",
+                "--model",
+                "geometry",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     fit = json.loads((out / "fit.json").read_text())
     assert set(fit["test"]) == {"setup1/data.csv", "setup2/data.csv"}
     assert fit["test"]["setup2/data.csv"]["frame"].startswith("registered")
@@ -242,20 +373,24 @@ offset_mm = [60.0, 0.0, -100.0]
 
 
 # A KR 210's proportions, 900 kg: a_mm, d_mm, alpha_deg, theta_deg, range_deg, mass_kg, com_mm per joint
-HEAVY_JOINTS = [(350.0, 675.0, -90.0, 0.0, (-170, 170), 400.0, (-150.0, 100.0, 0.0)),
-                (1150.0, 0.0, 0.0, -90.0, (-60, 60), 200.0, (-600.0, 0.0, 150.0)),
-                (41.0, 0.0, -90.0, 0.0, (-120, 120), 180.0, (0.0, 0.0, 150.0)),
-                (0.0, 1200.0, 90.0, 0.0, (-170, 170), 60.0, (0.0, 300.0, 0.0)),
-                (0.0, 0.0, -90.0, 0.0, (-120, 120), 20.0, (0.0, 0.0, 30.0)),
-                (0.0, 215.0, 0.0, 0.0, (-170, 170), 5.0, (0.0, 0.0, -20.0))]
+HEAVY_JOINTS = [
+    (350.0, 675.0, -90.0, 0.0, (-170, 170), 400.0, (-150.0, 100.0, 0.0)),
+    (1150.0, 0.0, 0.0, -90.0, (-60, 60), 200.0, (-600.0, 0.0, 150.0)),
+    (41.0, 0.0, -90.0, 0.0, (-120, 120), 180.0, (0.0, 0.0, 150.0)),
+    (0.0, 1200.0, 90.0, 0.0, (-170, 170), 60.0, (0.0, 300.0, 0.0)),
+    (0.0, 0.0, -90.0, 0.0, (-120, 120), 20.0, (0.0, 0.0, 30.0)),
+    (0.0, 215.0, 0.0, 0.0, (-170, 170), 5.0, (0.0, 0.0, -20.0)),
+]
 
 
 def _arm_toml(name: str, joints, tool_mm, tool_kg: float) -> str:
     """An ARM.toml (CONTRACT, "Arms") from one row per joint, as :data:`HEAVY_JOINTS`."""
     text = f'name = "{name}"\nconvention = "dh"\n'
     for a, d, alpha, theta, (lo, hi), m, com in joints:
-        text += (f"[[joint]]\na_mm = {a}\nd_mm = {d}\nalpha_deg = {alpha}\ntheta_deg = {theta}\n"
-                 f"range_deg = [{lo}.0, {hi}.0]\nmass_kg = {m}\ncom_mm = {list(com)}\n")
+        text += (
+            f"[[joint]]\na_mm = {a}\nd_mm = {d}\nalpha_deg = {alpha}\ntheta_deg = {theta}\n"
+            f"range_deg = [{lo}.0, {hi}.0]\nmass_kg = {m}\ncom_mm = {list(com)}\n"
+        )
     return text + f"[tool]\noffset_mm = {list(tool_mm)}\nmass_kg = {tool_kg}\n"
 
 
@@ -266,16 +401,35 @@ def test_a_heavy_arms_compliance_does_not_crowd_out_its_geometry(tmp_path):
     --model geometry determines (da5 and dd5 here, with the wrist's ranges of a KR 210). Now the
     tolerance is measured against the largest geometric column, and both keep the same geometry."""
     (tmp_path / "heavy.toml").write_text(_arm_toml("heavy", HEAVY_JOINTS, (12.5, -8.3, 135.2), 8.0))
-    sim = ArmSim(str(tmp_path / "heavy.toml"), ArmTruth(stiffness_nm_per_rad=(np.inf, 5e7, 3e7, np.inf, np.inf, np.inf)))
+    sim = ArmSim(
+        str(tmp_path / "heavy.toml"),
+        ArmTruth(stiffness_nm_per_rad=(np.inf, 5e7, 3e7, np.inf, np.inf, np.inf)),
+    )
     rng = np.random.default_rng(5)
     q = sim.random_postures(600, rng)
     R, t = rotvec_to_matrix(np.array([0.01, 0.02, 2.0])), np.array([3000.0, -1500.0, 200.0])
-    ArmRecording(q, sim.probe_mm(q) @ R.T + t + rng.normal(0, NOISE_MM, (600, 3))).to_csv(tmp_path / "h.csv")
+    ArmRecording(q, sim.probe_mm(q) @ R.T + t + rng.normal(0, NOISE_MM, (600, 3))).to_csv(
+        tmp_path / "h.csv"
+    )
     kept = {}
     for model in ("geometry", "physics"):
         out = tmp_path / model
-        assert main(["fit", "arm-cmm", str(tmp_path / "h.csv"), "--arm", str(tmp_path / "heavy.toml"), "--model",
-                     model, "--out", str(out)]) == 0
+        assert (
+            main(
+                [
+                    "fit",
+                    "arm-cmm",
+                    str(tmp_path / "h.csv"),
+                    "--arm",
+                    str(tmp_path / "heavy.toml"),
+                    "--model",
+                    model,
+                    "--out",
+                    str(out),
+                ]
+            )
+            == 0
+        )
         names = [p["name"] for p in json.loads((out / "fit.json").read_text())["parameters"]]
         kept[model] = {n for n in names if not n.startswith("compliance")}
     assert kept["physics"] == kept["geometry"], kept
@@ -290,10 +444,24 @@ def test_an_arm_whose_axes_are_all_parallel_holds_its_tools_height(tmp_path):
     rng = np.random.default_rng(4)
     q = sim.random_postures(300, rng)
     R, t = rotvec_to_matrix(np.array([0.002, -0.001, 0.7])), np.array([1500.0, -300.0, 80.0])
-    ArmRecording(q, sim.probe_mm(q) @ R.T + t + rng.normal(0, NOISE_MM, (300, 3))).to_csv(tmp_path / "s.csv")
+    ArmRecording(q, sim.probe_mm(q) @ R.T + t + rng.normal(0, NOISE_MM, (300, 3))).to_csv(
+        tmp_path / "s.csv"
+    )
     out = tmp_path / "out"
-    assert main(["fit", "arm-cmm", str(tmp_path / "s.csv"), "--arm", str(tmp_path / "scara.toml"), "--out",
-                 str(out)]) == 0
+    assert (
+        main(
+            [
+                "fit",
+                "arm-cmm",
+                str(tmp_path / "s.csv"),
+                "--arm",
+                str(tmp_path / "scara.toml"),
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     fit = json.loads((out / "fit.json").read_text())
     held = {d["name"]: d["why"] for d in fit["dropped"]}
     assert "base_z" in held["tool_z"] and "held at the drawing" in held["tool_z"]
@@ -307,8 +475,18 @@ def _write(tmp_path, name, q_deg, xyz):
     return path
 
 
-@pytest.mark.parametrize("case", ["missing_field", "joint_count", "nan", "few_postures", "one_posture_repeated",
-                                  "radians", "unknown_arm"])
+@pytest.mark.parametrize(
+    "case",
+    [
+        "missing_field",
+        "joint_count",
+        "nan",
+        "few_postures",
+        "one_posture_repeated",
+        "radians",
+        "unknown_arm",
+    ],
+)
 def test_bad_input_is_one_line_and_exit_2(series, tmp_path, capsys, case):
     sim, paths = series
     from calibench.recordings import load_arm_csv
@@ -329,11 +507,17 @@ def test_bad_input_is_one_line_and_exit_2(series, tmp_path, capsys, case):
     elif case == "few_postures":
         csv = _write(tmp_path, "few.csv", np.degrees(rec.q_rad[:12]), rec.xyz_mm[:12])
     elif case == "one_posture_repeated":
-        csv = _write(tmp_path, "same.csv", np.degrees(np.repeat(rec.q_rad[:1], 300, 0)),
-                     np.repeat(rec.xyz_mm[:1], 300, 0) + np.random.default_rng(0).normal(0, 0.01, (300, 3)))
+        csv = _write(
+            tmp_path,
+            "same.csv",
+            np.degrees(np.repeat(rec.q_rad[:1], 300, 0)),
+            np.repeat(rec.xyz_mm[:1], 300, 0) + np.random.default_rng(0).normal(0, 0.01, (300, 3)),
+        )
     elif case == "radians":
         path = tmp_path / "radians.csv"
-        ArmRecording(np.radians(rec.q_rad), rec.xyz_mm).to_csv(path)  # degrees columns holding radians
+        ArmRecording(np.radians(rec.q_rad), rec.xyz_mm).to_csv(
+            path
+        )  # degrees columns holding radians
         csv = path
     elif case == "unknown_arm":
         arm = tmp_path / "nothing.toml"
@@ -341,7 +525,13 @@ def test_bad_input_is_one_line_and_exit_2(series, tmp_path, capsys, case):
     err = capsys.readouterr().err.strip()
     assert code == 2, err
     assert len(err.splitlines()) == 1 and "Traceback" not in err, err
-    expect = {"missing_field": "d_mm", "joint_count": "joint", "nan": "nan", "few_postures": "postures",
-              "one_posture_repeated": "distinct postures", "radians": "radian", "unknown_arm": "no such file"}[case]
+    expect = {
+        "missing_field": "d_mm",
+        "joint_count": "joint",
+        "nan": "nan",
+        "few_postures": "postures",
+        "one_posture_repeated": "distinct postures",
+        "radians": "radian",
+        "unknown_arm": "no such file",
+    }[case]
     assert expect in err.lower(), err
-

@@ -20,7 +20,11 @@ def _bad(capsys, argv, fragment):
 def test_bad_input_exits_2_with_one_line(capsys, tmp_path):
     _bad(capsys, ["run", "no-such-scenario"], "unknown scenario")
     _bad(capsys, ["fit", "belt-stage", str(tmp_path / "missing.csv")], "cannot read")
-    _bad(capsys, ["run", "belt-stage", "--config", str(tmp_path / "missing.toml")], "cannot read config")
+    _bad(
+        capsys,
+        ["run", "belt-stage", "--config", str(tmp_path / "missing.toml")],
+        "cannot read config",
+    )
     (tmp_path / "bad.toml").write_text("this is = = not toml")
     _bad(capsys, ["run", "belt-stage", "--config", str(tmp_path / "bad.toml")], "not valid TOML")
     (tmp_path / "key.toml").write_text("[belt-stage]\nno_such_key = 3\n")
@@ -33,21 +37,37 @@ def test_bad_input_exits_2_with_one_line(capsys, tmp_path):
     _bad(capsys, ["fit", "belt-stage", str(tmp_path / "nocol.csv")], "missing column(s) y_meas_mm")
     (tmp_path / "nan.csv").write_text("x_cmd_mm,y_cmd_mm,x_meas_mm,y_meas_mm\n1,2,3,nan\n")
     _bad(capsys, ["fit", "belt-stage", str(tmp_path / "nan.csv")], "not finite")
-    (tmp_path / "line.csv").write_text("x_cmd_mm,y_cmd_mm,x_meas_mm,y_meas_mm\n"
-                                       + "".join(f"{x},0,{x},0\n" for x in range(20)))
+    (tmp_path / "line.csv").write_text(
+        "x_cmd_mm,y_cmd_mm,x_meas_mm,y_meas_mm\n" + "".join(f"{x},0,{x},0\n" for x in range(20))
+    )
     _bad(capsys, ["fit", "belt-stage", str(tmp_path / "line.csv")], "degenerate")
-    _bad(capsys, ["camera", str(tmp_path / "none.jpg"), "--cols", "9", "--rows", "6", "--square-mm", "25"],
-         "no such image")
+    _bad(
+        capsys,
+        ["camera", str(tmp_path / "none.jpg"), "--cols", "9", "--rows", "6", "--square-mm", "25"],
+        "no such image",
+    )
     assert main(["run"]) == 2  # argparse, in one line
     assert "\n" not in capsys.readouterr().err.strip()
 
 
 def test_config_overrides_reach_the_run(tmp_path):
-    (tmp_path / "c.toml").write_text("[belt-stage]\nn_intrinsic_views = 15\n"
-                                     "[belt-stage.truth]\nboard_yaw_rad = -0.002\n")
+    (tmp_path / "c.toml").write_text(
+        "[belt-stage]\nn_intrinsic_views = 15\n[belt-stage.truth]\nboard_yaw_rad = -0.002\n"
+    )
     out = tmp_path / "out"
-    status = main(["run", "all", "--fidelity", "analytic", "--no-rrd", "--config", str(tmp_path / "c.toml"),
-                   "--out", str(out)])
+    status = main(
+        [
+            "run",
+            "all",
+            "--fidelity",
+            "analytic",
+            "--no-rrd",
+            "--config",
+            str(tmp_path / "c.toml"),
+            "--out",
+            str(out),
+        ]
+    )
     rep = json.loads((out / "belt-stage" / "report.json").read_text())
     assert status == 0 and "rrd" not in rep
     yaw = next(p for p in rep["parameters"] if p["name"] == "board_yaw_mrad")
@@ -78,8 +98,24 @@ def test_camera_on_opencv_left_meets_the_reference(shared_data, tmp_path):
     # a photo without this board is listed as rejected, not fatal
     shutil.copy(shared_data / "boofcv_circles" / "image00000.jpg", tmp_path / "circles.jpg")
     argv = [str(p) for p in images + [tmp_path / "circles.jpg"]]
-    assert main(["camera", *argv, "--cols", "9", "--rows", "6", "--square-mm", "25", "--fix-aspect",
-                 "--out", str(tmp_path)]) == 0
+    assert (
+        main(
+            [
+                "camera",
+                *argv,
+                "--cols",
+                "9",
+                "--rows",
+                "6",
+                "--square-mm",
+                "25",
+                "--fix-aspect",
+                "--out",
+                str(tmp_path),
+            ]
+        )
+        == 0
+    )
     r = json.loads((tmp_path / "intrinsics.json").read_text())
     K = np.array(r["K"])
     assert abs(K[0, 0] / 535.916 - 1) < 0.01 and K[0, 0] == pytest.approx(K[1, 1])
@@ -110,7 +146,17 @@ def test_camera_leaves_out_a_gross_corner_and_says_which(shared_data, tmp_path, 
     images = sorted((shared_data / "opencv_left").glob("*.jpg"))
     first = real(__import__("cv2").imread(str(images[0]), 0), 9, 6)[0]
     monkeypatch.setattr(cam, "find_chessboard_corners", one_gross)
-    args = ["camera", *map(str, images), "--cols", "9", "--rows", "6", "--square-mm", "25", "--fix-aspect"]
+    args = [
+        "camera",
+        *map(str, images),
+        "--cols",
+        "9",
+        "--rows",
+        "6",
+        "--square-mm",
+        "25",
+        "--fix-aspect",
+    ]
     assert main(args + ["--out", str(tmp_path)]) == 0
     r = json.loads((tmp_path / "intrinsics.json").read_text())
     assert [c["corner"] for c in r["corners_left_out"][images[0].name]] == [20]
@@ -126,8 +172,26 @@ def test_camera_on_boofcv_chess_meets_the_reference(shared_data, tmp_path):
     """BoofCV's own result (its model: 2 radial terms, no tangential): fx 701.01, fy 698.65,
     cx 308.46, cy 246.84."""
     images = sorted((shared_data / "boofcv_chess").glob("*.jpg"))
-    assert main(["camera", *map(str, images), "--cols", "4", "--rows", "6", "--square-mm", "30",
-                 "--radial", "2", "--no-tangential", "--out", str(tmp_path)]) == 0
+    assert (
+        main(
+            [
+                "camera",
+                *map(str, images),
+                "--cols",
+                "4",
+                "--rows",
+                "6",
+                "--square-mm",
+                "30",
+                "--radial",
+                "2",
+                "--no-tangential",
+                "--out",
+                str(tmp_path),
+            ]
+        )
+        == 0
+    )
     r = json.loads((tmp_path / "intrinsics.json").read_text())
     K = np.array(r["K"])
     assert abs(K[0, 0] / 701.01 - 1) < 0.01 and abs(K[1, 1] / 698.65 - 1) < 0.01

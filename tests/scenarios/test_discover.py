@@ -2,7 +2,6 @@
 
 import json
 
-
 from calibench.scenarios.cli import main
 from calibench.sim.concealed import arm_recording, stage_recording, write_blinded
 
@@ -15,11 +14,16 @@ def test_stage_discovery_json_follows_the_contract(tmp_path):
     assert d["scenario"] == "vision-stage" and d["unit"] == "mm" and d["samples"] == len(rec)
     assert set(d["fit"]) == {"rms_nominal", "cv_rms_nominal", "cv_rms_final"}
     e = d["effects"][0]
-    assert {"name", "axis", "params", "stderr", "physics", "cv_rms_before", "cv_rms_after"} <= set(e)
+    assert {"name", "axis", "params", "stderr", "physics", "cv_rms_before", "cv_rms_after"} <= set(
+        e
+    )
     truth = manifest["effects"][0]
     assert (e["name"], e["axis"]) == ("backlash", truth["axis"])
     # the reversal within 5 standard errors of the truth (stderr from the repeatability)
-    assert abs(e["params"]["reversal_mm"] - truth["params"]["reversal_mm"]) < 5 * e["stderr"]["reversal_mm"]
+    assert (
+        abs(e["params"]["reversal_mm"] - truth["params"]["reversal_mm"])
+        < 5 * e["stderr"]["reversal_mm"]
+    )
     assert d["located"][0]["driver"] == f"dir_{truth['axis']}"
     assert (tmp_path / "out" / "discovery.png").stat().st_size > 10_000
 
@@ -58,7 +62,9 @@ def test_a_gear_harmonic_is_found_and_fit_uses_what_discovery_found(tmp_path):
     rec, manifest = arm_recording("transmission", 8, n=600, arm="ur10", joint=3)
     truth = manifest["effects"][0]["params"]
     path = write_blinded(tmp_path, "gear", rec, manifest)
-    assert main(["discover", "arm-cmm", str(path), "--arm", "ur10", "--out", str(tmp_path / "d")]) == 0
+    assert (
+        main(["discover", "arm-cmm", str(path), "--arm", "ur10", "--out", str(tmp_path / "d")]) == 0
+    )
     d = json.loads((tmp_path / "d" / "discovery.json").read_text())
     tr = [e for e in d["effects"] if e["name"] == "transmission"]
     assert len(tr) == 1 and tr[0]["params"]["joint"] == 3
@@ -67,10 +73,29 @@ def test_a_gear_harmonic_is_found_and_fit_uses_what_discovery_found(tmp_path):
     held = {}
     for label, extra in (("plain", []), ("found", ["--effects", "discover"])):
         out = tmp_path / label
-        assert main(["fit", "arm-cmm", str(path), "--arm", "ur10", "--model", "geometry", "--holdout", "0.3",
-                     "--out", str(out), *extra]) == 0
+        assert (
+            main(
+                [
+                    "fit",
+                    "arm-cmm",
+                    str(path),
+                    "--arm",
+                    "ur10",
+                    "--model",
+                    "geometry",
+                    "--holdout",
+                    "0.3",
+                    "--out",
+                    str(out),
+                    *extra,
+                ]
+            )
+            == 0
+        )
         held[label] = json.loads((out / "fit.json").read_text())["holdout"]["gear.csv"]["mean_mm"]
-    assert held["found"] < 0.03 < held["plain"], held  # the reference's 10 um noise: 0.016 mm in 3-D
+    assert held["found"] < 0.03 < held["plain"], (
+        held
+    )  # the reference's 10 um noise: 0.016 mm in 3-D
 
 
 def test_a_gear_harmonic_whose_phase_each_session_sets_is_found_per_recording(tmp_path):
@@ -81,11 +106,17 @@ def test_a_gear_harmonic_whose_phase_each_session_sets_is_found_per_recording(tm
     10 um reference: 0.016 mm in 3-D), which a shared phase cannot."""
     paths, amps = [], []
     for seed, phase in ((21, 0.3), (22, 2.4)):
-        rec, manifest = arm_recording("transmission", seed, n=500, arm="ur10", joint=2, harmonic=17.3,
-                                      phase_rad=phase)
+        rec, manifest = arm_recording(
+            "transmission", seed, n=500, arm="ur10", joint=2, harmonic=17.3, phase_rad=phase
+        )
         paths.append(write_blinded(tmp_path, f"s{seed}", rec, manifest))
         amps.append(manifest["effects"][0]["params"]["amplitude_urad"][0])
-    assert main(["discover", "arm-cmm", *map(str, paths), "--arm", "ur10", "--out", str(tmp_path / "d")]) == 0
+    assert (
+        main(
+            ["discover", "arm-cmm", *map(str, paths), "--arm", "ur10", "--out", str(tmp_path / "d")]
+        )
+        == 0
+    )
     d = json.loads((tmp_path / "d" / "discovery.json").read_text())
     tr = [e for e in d["effects"] if e["name"] == "transmission"]
     assert [(e["params"]["joint"], e["params"].get("per_recording")) for e in tr] == [(2, True)], tr
@@ -93,8 +124,26 @@ def test_a_gear_harmonic_whose_phase_each_session_sets_is_found_per_recording(tm
     for found, truth in zip(tr[0]["params"]["amplitude_urad_by_recording"], amps, strict=True):
         assert abs(found / truth - 1) < 0.25, (found, truth)
     out = tmp_path / "fit"
-    assert main(["fit", "arm-cmm", *map(str, paths), "--arm", "ur10", "--model", "geometry", "--holdout", "0.3",
-                 "--effects", "discover", "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "fit",
+                "arm-cmm",
+                *map(str, paths),
+                "--arm",
+                "ur10",
+                "--model",
+                "geometry",
+                "--holdout",
+                "0.3",
+                "--effects",
+                "discover",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     fit = json.loads((out / "fit.json").read_text())
     assert "transmission2_rec2" in " ".join(fit["effects_from"]["terms"])
     assert all(h["mean_mm"] < 0.03 for h in fit["holdout"].values()), fit["holdout"]
@@ -105,8 +154,19 @@ def test_a_gear_harmonic_the_sessions_share_is_not_split_per_recording():
     phase per recording would fit noise)."""
     from calibench.scenarios.discover import discover_arm
 
-    recs = [arm_recording("transmission", seed, n=500, arm="ur10", joint=2, harmonic=17.3, phase_rad=1.0,
-                          amplitude_urad=220.0)[0] for seed in (21, 22)]
+    recs = [
+        arm_recording(
+            "transmission",
+            seed,
+            n=500,
+            arm="ur10",
+            joint=2,
+            harmonic=17.3,
+            phase_rad=1.0,
+            amplitude_urad=220.0,
+        )[0]
+        for seed in (21, 22)
+    ]
     d, _ = discover_arm(recs, arm="ur10")
     tr = [e for e in d["effects"] if e["name"] == "transmission"]
     assert [(e["params"]["joint"], e["params"].get("per_recording")) for e in tr] == [(2, None)], tr
@@ -171,7 +231,9 @@ def test_an_eccentric_shoulder_encoder_is_not_called_compliance():
     for arm in ("arm-cmm", "ur10"):
         rec, manifest = arm_recording("eccentricity", 6, arm=arm, joint=2)
         d, _ = discover_arm(rec, arm=arm)
-        names = [(e["name"], e["params"].get("joint")) for e in d["effects"] if e["name"] != "geometry"]
+        names = [
+            (e["name"], e["params"].get("joint")) for e in d["effects"] if e["name"] != "geometry"
+        ]
         assert names == [("encoder_eccentricity", 2)], (arm, names)
 
 
@@ -180,7 +242,10 @@ def test_thermal_expansion_without_a_temperature_change_is_called_confounded(tmp
     from calibench.scenarios.discover import discover_stage
 
     d, _ = discover_stage("belt-stage", rec)
-    assert any(c["effect"] == "thermal_expansion" and "several K" in c["experiment"] for c in d["confounded"])
+    assert any(
+        c["effect"] == "thermal_expansion" and "several K" in c["experiment"]
+        for c in d["confounded"]
+    )
 
 
 def test_bad_recordings_get_one_line(tmp_path, capsys):
@@ -189,11 +254,15 @@ def test_bad_recordings_get_one_line(tmp_path, capsys):
     assert main(["discover", "belt-stage", str(bad), "--out", str(tmp_path)]) == 2
     assert "missing column(s) y_meas_mm" in capsys.readouterr().err
     nan = tmp_path / "nan.csv"
-    nan.write_text("x_cmd_mm,y_cmd_mm,x_meas_mm,y_meas_mm\n" + "\n".join(f"{i},0,{i},nan" for i in range(30)))
+    nan.write_text(
+        "x_cmd_mm,y_cmd_mm,x_meas_mm,y_meas_mm\n" + "\n".join(f"{i},0,{i},nan" for i in range(30))
+    )
     assert main(["discover", "belt-stage", str(nan), "--out", str(tmp_path)]) == 2
     assert main(["discover", "stewart", str(nan), "--out", str(tmp_path)]) == 2
     line = tmp_path / "line.csv"  # every station on one line: the error map is not determined
-    line.write_text("x_cmd_mm,y_cmd_mm,x_meas_mm,y_meas_mm\n" + "\n".join(f"{i},0,{i},0" for i in range(30)))
+    line.write_text(
+        "x_cmd_mm,y_cmd_mm,x_meas_mm,y_meas_mm\n" + "\n".join(f"{i},0,{i},0" for i in range(30))
+    )
     assert main(["discover", "belt-stage", str(line), "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 3 and all(e.startswith("calibench: ") for e in err)
@@ -205,7 +274,9 @@ def test_paper_belt_stage_residual_is_table_3_and_lives_in_y(shared_data):
     structure is the Y error against y."""
     from calibench.scenarios.discover import discover_stage, paper_belt_recording
 
-    d, _ = discover_stage("belt-stage", paper_belt_recording(shared_data / "seed_belt_stage"), 0, "columns")
+    d, _ = discover_stage(
+        "belt-stage", paper_belt_recording(shared_data / "seed_belt_stage"), 0, "columns"
+    )
     assert abs(d["fit"]["rms_nominal"] - (31.96 + 24.08) ** 0.5 / 242**0.5) < 2e-4
     top = d["located"][0]
     assert (top["signal"], top["driver"]) == ("y_meas - y_sim", "y")

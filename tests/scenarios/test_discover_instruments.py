@@ -22,7 +22,9 @@ def test_scanner_csv_round_trip(tmp_path):
     rec, manifest = scanner_recording("null", 3, turns=2)
     back = load_scanner_csv(write_blinded(tmp_path, "s", rec, manifest))
     assert np.array_equal(back.turn, rec.turn)
-    assert np.allclose(back.theta_rad, rec.theta_rad, atol=1e-12) and np.allclose(back.rho_mm, rec.rho_mm, atol=1e-9)
+    assert np.allclose(back.theta_rad, rec.theta_rad, atol=1e-12) and np.allclose(
+        back.rho_mm, rec.rho_mm, atol=1e-9
+    )
 
 
 def test_stewart_csv_round_trip(tmp_path):
@@ -40,11 +42,20 @@ def test_scanner_eccentricity_and_runout_named_with_their_sizes(tmp_path):
     assert set(found) == set(truth)
     ecc, run, sc = found["encoder_eccentricity"], found["runout"], found["scale"]
     # each within 5 of its standard errors, plus the quantised probe's 2 % of model error
-    assert abs(ecc["params"]["amplitude_urad"] - truth["encoder_eccentricity"]["amplitude_urad"]) < (
-        5 * ecc["stderr"]["amplitude_urad"] + 0.02 * truth["encoder_eccentricity"]["amplitude_urad"])
+    assert abs(
+        ecc["params"]["amplitude_urad"] - truth["encoder_eccentricity"]["amplitude_urad"]
+    ) < (
+        5 * ecc["stderr"]["amplitude_urad"] + 0.02 * truth["encoder_eccentricity"]["amplitude_urad"]
+    )
     assert run["params"]["harmonic"] == truth["runout"]["harmonic"]
-    assert abs(run["params"]["amplitude_mm"] - truth["runout"]["amplitude_mm"]) < 5 * run["stderr"]["amplitude_mm"]
-    assert abs(sc["params"]["ppm"] - truth["scale"]["ppm"]) < 5 * sc["stderr"]["ppm"] + 0.02 * truth["scale"]["ppm"]
+    assert (
+        abs(run["params"]["amplitude_mm"] - truth["runout"]["amplitude_mm"])
+        < 5 * run["stderr"]["amplitude_mm"]
+    )
+    assert (
+        abs(sc["params"]["ppm"] - truth["scale"]["ppm"])
+        < 5 * sc["stderr"]["ppm"] + 0.02 * truth["scale"]["ppm"]
+    )
     assert d["fit"]["cv_rms_final"] < 0.5 * d["fit"]["cv_rms_nominal"]
     assert d["verdict"].startswith("the accepted effects explain")
     # a fourfold runout cannot be seen on a square: discover says so rather than search it
@@ -57,7 +68,9 @@ def test_scanner_nick_is_nonsmooth_where_it_is(tmp_path):
     (e,) = d["effects"]
     t = manifest["effects"][0]["params"]
     assert e["name"] == "nonsmooth"
-    assert abs((e["params"]["theta_deg"] - t["theta_deg"] + 180) % 360 - 180) < 3 * max(t["width_deg"], 1.0)
+    assert abs((e["params"]["theta_deg"] - t["theta_deg"] + 180) % 360 - 180) < 3 * max(
+        t["width_deg"], 1.0
+    )
 
 
 def test_scanner_null_names_nothing(tmp_path):
@@ -98,9 +111,15 @@ def test_stewart_thermal_growth_raises_the_repeatability_until_found(tmp_path):
     e = d["effects"][1]
     assert (e["name"], e["params"]["leg"]) == ("thermal_expansion", t["leg"])
     assert abs(e["params"]["ppm_per_k"] - t["ppm_per_k"]) < 5 * e["stderr"]["ppm_per_k"]
-    before, after = d["noise"]["legs"]["repeatability_mm"], d["noise_after_effects"]["legs"]["repeatability_mm"]
+    before, after = (
+        d["noise"]["legs"]["repeatability_mm"],
+        d["noise_after_effects"]["legs"]["repeatability_mm"],
+    )
     assert before > 1.5 * after and after < 0.003
-    assert {(x["leg"], x["driver"]) for x in d["located"]} == {(t["leg"], "temp_c"), (t["leg"], "t_s")}
+    assert {(x["leg"], x["driver"]) for x in d["located"]} == {
+        (t["leg"], "temp_c"),
+        (t["leg"], "t_s"),
+    }
 
 
 def test_stewart_pitch_located_along_its_leg(tmp_path):
@@ -109,7 +128,10 @@ def test_stewart_pitch_located_along_its_leg(tmp_path):
     d = _discover(tmp_path, "stewart", rec, manifest)
     t = manifest["effects"][0]["params"]
     assert {(x["leg"], x["driver"]) for x in d["located"]} == {(t["leg"], "length")}
-    assert [(e["name"], e["params"].get("leg")) for e in d["effects"]] == [("geometry", None), ("periodic", t["leg"])]
+    assert [(e["name"], e["params"].get("leg")) for e in d["effects"]] == [
+        ("geometry", None),
+        ("periodic", t["leg"]),
+    ]
 
 
 def test_stewart_null_names_and_locates_nothing(tmp_path):
@@ -125,21 +147,54 @@ def test_scanner_twin_updated_and_replayed(tmp_path):
     rec, manifest = scanner_recording("combined", 1017)
     path = write_blinded(tmp_path, "rec", rec, manifest)
     twin = tmp_path / "twin.toml"
-    assert main(["discover", "probe-scanner", str(path), "--twin", str(twin), "--out", str(tmp_path / "a")]) == 0
+    assert (
+        main(
+            [
+                "discover",
+                "probe-scanner",
+                str(path),
+                "--twin",
+                str(twin),
+                "--out",
+                str(tmp_path / "a"),
+            ]
+        )
+        == 0
+    )
     found = json.loads((tmp_path / "a" / "discovery.json").read_text())
     assert "runout_harmonics" in twin.read_text() and "probe_scale_ppm" in twin.read_text()
-    assert main(["discover", "probe-scanner", str(path), "--config", str(twin), "--out", str(tmp_path / "b")]) == 0
+    assert (
+        main(
+            [
+                "discover",
+                "probe-scanner",
+                str(path),
+                "--config",
+                str(twin),
+                "--out",
+                str(tmp_path / "b"),
+            ]
+        )
+        == 0
+    )
     replayed = json.loads((tmp_path / "b" / "discovery.json").read_text())
     assert replayed["effects"] == []
     assert abs(replayed["fit"]["cv_rms_nominal"] / found["fit"]["cv_rms_final"] - 1) < 0.2
-    assert found["fit"]["cv_rms_nominal"] > 2 * found["fit"]["cv_rms_final"]  # the twin alone was far off
+    assert (
+        found["fit"]["cv_rms_nominal"] > 2 * found["fit"]["cv_rms_final"]
+    )  # the twin alone was far off
     # the same file drives a run: the scanner simulated with what was found
-    assert main(["run", "probe-scanner", "--config", str(twin), "--no-rrd", "--out", str(tmp_path / "r")]) in (0, 1)
+    assert main(
+        ["run", "probe-scanner", "--config", str(twin), "--no-rrd", "--out", str(tmp_path / "r")]
+    ) in (0, 1)
 
 
 def test_a_twin_that_cannot_be_written_is_one_line(tmp_path, capsys):
     rec, manifest = stewart_recording("null", 3, n_poses=30)
     path = write_blinded(tmp_path, "p", rec, manifest)
-    assert main(["discover", "stewart", str(path), "--twin", str(tmp_path / "no" / "such" / "t.toml")]) == 2
+    assert (
+        main(["discover", "stewart", str(path), "--twin", str(tmp_path / "no" / "such" / "t.toml")])
+        == 2
+    )
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "cannot write the twin" in err[0]

@@ -15,8 +15,14 @@ def _found_and_replayed(tmp_path, scenario, rec, manifest):
     """discover --twin, then discover --config with that twin: (found, replayed, twin path, recording path)."""
     path = write_blinded(tmp_path, "rec", rec, manifest)
     twin = tmp_path / "twin.toml"
-    assert main(["discover", scenario, str(path), "--twin", str(twin), "--out", str(tmp_path / "a")]) == 0
-    assert main(["discover", scenario, str(path), "--config", str(twin), "--out", str(tmp_path / "b")]) == 0
+    assert (
+        main(["discover", scenario, str(path), "--twin", str(twin), "--out", str(tmp_path / "a")])
+        == 0
+    )
+    assert (
+        main(["discover", scenario, str(path), "--config", str(twin), "--out", str(tmp_path / "b")])
+        == 0
+    )
     found = json.loads((tmp_path / "a" / "discovery.json").read_text())
     replayed = json.loads((tmp_path / "b" / "discovery.json").read_text())
     return found, replayed, twin, path
@@ -37,7 +43,9 @@ def test_elastic_belt_is_lost_motion_growing_along_the_travel(tmp_path, capsys):
     # the growth against MuJoCo's belt measured at the travel's ends: 5 standard errors, and the
     # straight line's own bias (the belt's stiffness is 1 / (1/L1 + 1/L2), slightly curved) within 3 %
     g, g_std = e["params"]["growth_mm_per_m"], e["stderr"]["growth_mm_per_m"]
-    assert abs(g - truth["params"]["growth_mm_per_m"]) < 5 * g_std + 0.03 * abs(truth["params"]["growth_mm_per_m"])
+    assert abs(g - truth["params"]["growth_mm_per_m"]) < 5 * g_std + 0.03 * abs(
+        truth["params"]["growth_mm_per_m"]
+    )
     assert e["cv_rms_growing_reversal"] < 0.5 * e["cv_rms_constant_reversal"]
     assert "reversal_growth_um_per_m" in twin.read_text()
     assert replayed["effects"] == []
@@ -50,7 +58,11 @@ def test_a_constant_reversal_is_not_said_to_grow(tmp_path):
     path = write_blinded(tmp_path, "rec", rec, manifest)
     assert main(["discover", "belt-stage", str(path), "--out", str(tmp_path / "a")]) == 0
     (e,) = json.loads((tmp_path / "a" / "discovery.json").read_text())["effects"]
-    assert e["name"] == "backlash" and "grows_along_travel" not in e and "growth_mm_per_m" not in e["params"]
+    assert (
+        e["name"] == "backlash"
+        and "grows_along_travel" not in e
+        and "growth_mm_per_m" not in e["params"]
+    )
 
 
 @pytest.mark.parametrize("scenario, seed", [("belt-stage", 4), ("vision-stage", 4)])
@@ -59,9 +71,12 @@ def test_mixed_effects_on_one_axis_found_and_carried_by_the_twin(tmp_path, scena
     passes: all three named on that axis; the twin with them replays to the held-out level."""
     manifest, found, replayed, twin = _twice(tmp_path, scenario, "mixed", seed)
     axis = manifest["effects"][0]["axis"]
-    assert {(t["name"], t["axis"]) for t in manifest["effects"]} == {(n, axis) for n in
-                                                                      ("backlash", "periodic", "thermal_expansion")}
-    assert {(e["name"], e["axis"]) for e in found["effects"]} == {(t["name"], t["axis"]) for t in manifest["effects"]}
+    assert {(t["name"], t["axis"]) for t in manifest["effects"]} == {
+        (n, axis) for n in ("backlash", "periodic", "thermal_expansion")
+    }
+    assert {(e["name"], e["axis"]) for e in found["effects"]} == {
+        (t["name"], t["axis"]) for t in manifest["effects"]
+    }
     for t in manifest["effects"]:
         (e,) = [e for e in found["effects"] if e["name"] == t["name"]]
         for k, v in t["params"].items():  # within 5 standard errors of what was concealed
@@ -69,8 +84,19 @@ def test_mixed_effects_on_one_axis_found_and_carried_by_the_twin(tmp_path, scena
     assert replayed["effects"] == []
     assert abs(replayed["fit"]["cv_rms_nominal"] / found["fit"]["cv_rms_final"] - 1) < 0.2
     # the same file runs the stage simulated with what was found
-    assert main(["run", scenario, "--config", str(twin), "--fidelity", "analytic", "--no-rrd",
-                 "--out", str(tmp_path / "r")]) in (0, 1)
+    assert main(
+        [
+            "run",
+            scenario,
+            "--config",
+            str(twin),
+            "--fidelity",
+            "analytic",
+            "--no-rrd",
+            "--out",
+            str(tmp_path / "r"),
+        ]
+    ) in (0, 1)
 
 
 def test_stewart_twin_carries_leg_compliance(tmp_path):
@@ -81,16 +107,33 @@ def test_stewart_twin_carries_leg_compliance(tmp_path):
     rec, manifest = stewart_recording("compliance", 5)
     found, replayed, twin, path = _found_and_replayed(tmp_path, "stewart", rec, manifest)
     (c,) = [e for e in found["effects"] if e["name"] == "leg_compliance"]
-    assert abs(c["params"]["um_per_n"] - manifest["effects"][0]["params"]["um_per_n"]) < 0.25 * c["params"]["um_per_n"]
+    assert (
+        abs(c["params"]["um_per_n"] - manifest["effects"][0]["params"]["um_per_n"])
+        < 0.25 * c["params"]["um_per_n"]
+    )
     assert "leg_compliance_um_per_n" in twin.read_text() and "base_hinges_mm" in twin.read_text()
     assert replayed["effects"] == []
     assert abs(replayed["fit"]["cv_rms_nominal"] / found["fit"]["cv_rms_final"] - 1) < 0.2
     # without the twin's compliance, the same hinges leave the compliance's share unexplained
-    text = twin.read_text().replace("leg_compliance_um_per_n = [", "leg_compliance_um_per_n = [0.0, 0.0, 0.0, 0.0, "
-                                                                   "0.0, 0.0]\n# was [")
+    text = twin.read_text().replace(
+        "leg_compliance_um_per_n = [",
+        "leg_compliance_um_per_n = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]\n# was [",
+    )
     (tmp_path / "rigid.toml").write_text(text)
-    assert main(["discover", "stewart", str(path), "--config", str(tmp_path / "rigid.toml"),
-                 "--out", str(tmp_path / "c")]) == 0
+    assert (
+        main(
+            [
+                "discover",
+                "stewart",
+                str(path),
+                "--config",
+                str(tmp_path / "rigid.toml"),
+                "--out",
+                str(tmp_path / "c"),
+            ]
+        )
+        == 0
+    )
     rigid = json.loads((tmp_path / "c" / "discovery.json").read_text())
     assert rigid["fit"]["cv_rms_nominal"] > 1.5 * replayed["fit"]["cv_rms_nominal"]
 
@@ -108,7 +151,9 @@ def test_arm_twin_carries_joint_compliance(tmp_path):
     k = tomllib.loads(twin.read_text())["arm-cmm"]["truth"]["stiffness_nm_per_rad"]
     soft = {t["params"]["joint"] for t in manifest["effects"]}
     assert {j + 1 for j, v in enumerate(k) if v != float("inf")} == soft
-    for t in manifest["effects"]:  # the stiffness written is 1 / the compliance concealed, within 25 %
+    for t in manifest[
+        "effects"
+    ]:  # the stiffness written is 1 / the compliance concealed, within 25 %
         assert abs(1e6 / k[t["params"]["joint"] - 1] / t["params"]["urad_per_nm"] - 1) < 0.25
     assert replayed["effects"] == []
     assert abs(replayed["fit"]["cv_rms_nominal"] / found["fit"]["cv_rms_final"] - 1) < 0.2

@@ -29,7 +29,11 @@ def _table(scenario: str) -> dict:
     for i in TRIALS:
         row = run_trial(scenario, 0, i, "analytic")
         assert row["ok"], row.get("error")
-        out[str(i)] = {k: v for k, v in row.items() if k.endswith((".estimate", ".std", ".truth")) and v is not None}
+        out[str(i)] = {
+            k: v
+            for k, v in row.items()
+            if k.endswith((".estimate", ".std", ".truth")) and v is not None
+        }
     return out
 
 
@@ -41,8 +45,13 @@ def test_trials_are_what_they_were(scenario):
     for i in golden:
         assert now[i].keys() == golden[i].keys(), f"trial {i}: other parameters"
         names = sorted(golden[i])
-        np.testing.assert_allclose([now[i][k] for k in names], [golden[i][k] for k in names], rtol=1e-7, atol=1e-12,
-                                   err_msg=f"{scenario} trial {i}")
+        np.testing.assert_allclose(
+            [now[i][k] for k in names],
+            [golden[i][k] for k in names],
+            rtol=1e-7,
+            atol=1e-12,
+            err_msg=f"{scenario} trial {i}",
+        )
 
 
 if __name__ == "__main__" and "--write" in sys.argv:

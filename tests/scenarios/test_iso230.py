@@ -41,7 +41,10 @@ def _write(path, column="deviation_um", seed=0):
 def test_iso230_finds_the_known_axis(tmp_path, column):
     up, down, reversal = _axis()
     s_up, s_down = K_UP * np.sqrt(2.5), K_DOWN * np.sqrt(2.5)
-    assert main(["iso230", str(_write(tmp_path / "run.csv", column)), "--out", str(tmp_path / "out")]) == 0
+    assert (
+        main(["iso230", str(_write(tmp_path / "run.csv", column)), "--out", str(tmp_path / "out")])
+        == 0
+    )
     r = json.loads((tmp_path / "out" / "iso230.json").read_text())
     a = r["axis"]
     tol = 1e-6 if column == "deviation_um" else 1e-3  # actual_mm is written to 1 nm
@@ -52,8 +55,11 @@ def test_iso230_finds_the_known_axis(tmp_path, column):
     assert a["M"] == pytest.approx(np.ptp((up + down) / 2), abs=tol)
     assert a["R_up"] == pytest.approx(4 * s_up, abs=tol)
     assert a["R"] == pytest.approx(np.max(2 * s_up + 2 * s_down + np.abs(reversal)), abs=tol)
-    assert a["A"] == pytest.approx(max((up + 2 * s_up).max(), (down + 2 * s_down).max())
-                                   - min((up - 2 * s_up).min(), (down - 2 * s_down).min()), abs=tol)
+    assert a["A"] == pytest.approx(
+        max((up + 2 * s_up).max(), (down + 2 * s_down).max())
+        - min((up - 2 * s_up).min(), (down - 2 * s_down).min()),
+        abs=tol,
+    )
     assert [row["target_mm"] for row in r["per_target"]] == pytest.approx(TARGETS)
     assert (tmp_path / "out" / "iso230.png").stat().st_size > 10_000
 

@@ -12,8 +12,15 @@ import pyarrow.parquet as pq
 import pytest
 
 from calibench.scenarios.cli import main
-from calibench.scenarios.montecarlo import (JOURNAL, binom_ppf, chi2_ppf, load_journal, run_study, summarise,
-                                           trial_seed)
+from calibench.scenarios.montecarlo import (
+    JOURNAL,
+    binom_ppf,
+    chi2_ppf,
+    load_journal,
+    run_study,
+    summarise,
+    trial_seed,
+)
 
 
 def _estimates(out):
@@ -44,8 +51,18 @@ def test_dask_cluster_gives_the_pool_s_results(tmp_path):
     distributed = pytest.importorskip("distributed")
     pool_dir, dask_dir = tmp_path / "pool", tmp_path / "dask"
     run_study("arm-cmm", 4, 11, "analytic", pool_dir, workers=2, progress=False)
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        run_study("arm-cmm", 4, 11, "analytic", dask_dir, scheduler=cluster.scheduler_address, progress=False)
+    with distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+    ) as cluster:
+        run_study(
+            "arm-cmm",
+            4,
+            11,
+            "analytic",
+            dask_dir,
+            scheduler=cluster.scheduler_address,
+            progress=False,
+        )
     a, ta = _estimates(pool_dir)
     b, tb = _estimates(dask_dir)
     assert ta == tb
@@ -64,7 +81,9 @@ def test_a_finished_study_needs_no_workers(tmp_path, monkeypatch):
         raise AssertionError("a finished study started workers")
 
     monkeypatch.setattr(mc, "make_executor", no_executor)
-    again = run_study("arm-cmm", 3, 5, "analytic", tmp_path, scheduler="tcp://127.0.0.1:9", progress=False)
+    again = run_study(
+        "arm-cmm", 3, 5, "analytic", tmp_path, scheduler="tcp://127.0.0.1:9", progress=False
+    )
     assert again["resumed"] == 3 and again["trials"] == first["trials"] == 3
     assert again["parameters"] == first["parameters"]
 
@@ -85,10 +104,17 @@ except BadInput as e:
     print("BadInput:", e)
 print(sorted(m for m in sys.modules if m.startswith(("calibench.estimators", "calibench.sim", "calibench.scenarios.arm"))))
 """
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
-                         env={**os.environ, "MUJOCO_GL": "egl"})
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={**os.environ, "MUJOCO_GL": "egl"},
+    )
     said, imported = out.stdout.strip().splitlines()
-    assert said.startswith("BadInput:") and "constant term must be positive" in said, out.stdout + out.stderr
+    assert said.startswith("BadInput:") and "constant term must be positive" in said, (
+        out.stdout + out.stderr
+    )
     assert imported == "[]", imported
     assert not (tmp_path / JOURNAL).exists() and not (tmp_path / "study.json").exists()
 
@@ -106,12 +132,27 @@ def test_a_config_under_which_every_trial_fails_is_bad_input(tmp_path, monkeypat
 
     monkeypatch.setattr(arm_cmm, "prior", no_prior)
     table = {"stated_angle_sigma_urad": 6.0}
-    with cf.ThreadPoolExecutor(1) as ex, pytest.raises(BadInput, match="every trial failed with the config's "
-                                                                       "values .*cannot seat a cone"):
-        run_study("arm-cmm", 3, 0, "analytic", tmp_path / "config", executor=ex, progress=False, table=table)
+    with (
+        cf.ThreadPoolExecutor(1) as ex,
+        pytest.raises(
+            BadInput, match="every trial failed with the config's values .*cannot seat a cone"
+        ),
+    ):
+        run_study(
+            "arm-cmm",
+            3,
+            0,
+            "analytic",
+            tmp_path / "config",
+            executor=ex,
+            progress=False,
+            table=table,
+        )
     assert len(load_journal(tmp_path / "config")) == 3
     with cf.ThreadPoolExecutor(1) as ex:
-        summary = run_study("arm-cmm", 3, 0, "analytic", tmp_path / "plain", executor=ex, progress=False)
+        summary = run_study(
+            "arm-cmm", 3, 0, "analytic", tmp_path / "plain", executor=ex, progress=False
+        )
     assert summary["failed"] == 3
 
 
@@ -122,22 +163,31 @@ def test_a_study_whose_trials_compare_nothing_is_bad_input(tmp_path, monkeypatch
     from calibench.scenarios import arm_cmm
 
     monkeypatch.setattr(arm_cmm, "trial_parameters", lambda config, seed: [])
-    with cf.ThreadPoolExecutor(1) as ex, pytest.raises(BadInput, match="no trial estimated a parameter"):
+    with (
+        cf.ThreadPoolExecutor(1) as ex,
+        pytest.raises(BadInput, match="no trial estimated a parameter"),
+    ):
         run_study("arm-cmm", 3, 0, "analytic", tmp_path, executor=ex, progress=False)
 
 
 def test_trials_are_reproducible_and_independent():
     assert trial_seed(0, 5) == trial_seed(0, 5)
-    assert len({trial_seed(0, i) for i in range(100)} | {trial_seed(1, i) for i in range(100)}) == 200
+    assert (
+        len({trial_seed(0, i) for i in range(100)} | {trial_seed(1, i) for i in range(100)}) == 200
+    )
 
 
 def test_summary_statistics():
-    rows = [{"trial": i, "ok": True, "p.truth": 0.0, "p.estimate": e, "p.std": 1.0, "p.unit": "mm"}
-            for i, e in enumerate([0.5, -1.0, 2.5, 0.0])] + [{"trial": 4, "ok": False, "error": "boom"}]
+    rows = [
+        {"trial": i, "ok": True, "p.truth": 0.0, "p.estimate": e, "p.std": 1.0, "p.unit": "mm"}
+        for i, e in enumerate([0.5, -1.0, 2.5, 0.0])
+    ] + [{"trial": 4, "ok": False, "error": "boom"}]
     s = summarise("x", rows, 1.0)
     (p,) = s["parameters"]
     assert s["trials"] == 5 and s["failed"] == 1
-    assert p["bias"] == pytest.approx(0.5) and p["rmse"] == pytest.approx(np.sqrt((0.25 + 1 + 6.25) / 4))
+    assert p["bias"] == pytest.approx(0.5) and p["rmse"] == pytest.approx(
+        np.sqrt((0.25 + 1 + 6.25) / 4)
+    )
     assert p["mean_std"] == 1.0 and p["coverage_95"] == pytest.approx(0.75)
 
 
@@ -154,7 +204,10 @@ def test_quantiles_equal_scipy_stats(n):
 
 def test_check_summary():
     values = [0.01, 0.02, 0.03, 0.2]
-    rows = [{"trial": i, "ok": True, "check.c_mm": v, "check.c_mm.ok": v <= 0.1} for i, v in enumerate(values)]
+    rows = [
+        {"trial": i, "ok": True, "check.c_mm": v, "check.c_mm.ok": v <= 0.1}
+        for i, v in enumerate(values)
+    ]
     (c,) = summarise("x", rows + [{"trial": 4, "ok": False, "error": "boom"}], 1.0)["checks"]
     assert c["name"] == "c_mm" and c["n"] == 4 and c["failed_fraction"] == 0.25
     assert c["median"] == pytest.approx(0.025) and c["max"] == 0.2
@@ -168,20 +221,45 @@ def test_check_summary():
 def test_bad_input(tmp_path, capsys):
     assert main(["montecarlo", "nope", "--trials", "3"]) == 2
     assert main(["montecarlo", "arm-cmm", "--trials", "0", "--out", str(tmp_path)]) == 2
-    (tmp_path / "study.json").write_text(json.dumps({"scenario": "stewart", "seed": 0, "fidelity": "analytic"}))
+    (tmp_path / "study.json").write_text(
+        json.dumps({"scenario": "stewart", "seed": 0, "fidelity": "analytic"})
+    )
     assert main(["montecarlo", "arm-cmm", "--trials", "2", "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert "Traceback" not in err and "different study" in err
 
 
 def test_cli_study_writes_the_contract_files(tmp_path):
-    assert main(["montecarlo", "probe-scanner", "--trials", "2", "--workers", "1", "--out", str(tmp_path)]) == 0
+    assert (
+        main(
+            [
+                "montecarlo",
+                "probe-scanner",
+                "--trials",
+                "2",
+                "--workers",
+                "1",
+                "--out",
+                str(tmp_path),
+            ]
+        )
+        == 0
+    )
     s = json.loads((tmp_path / "summary.json").read_text())
     assert s["scenario"] == "probe-scanner" and s["trials"] == 2
     assert {"name", "unit", "bias", "rmse", "mean_std", "coverage_95"} <= set(s["parameters"][0])
     assert s["checks"] and all(c["n"] == 2 for c in s["checks"])  # each trial's checks, summarised
     t = pq.read_table(tmp_path / "trials.parquet").to_pydict()
-    assert {"trial", "seed", "ok", "error", "elapsed_s", "d_lsq.truth", "d_lsq.estimate", "d_lsq.std"} <= set(t)
+    assert {
+        "trial",
+        "seed",
+        "ok",
+        "error",
+        "elapsed_s",
+        "d_lsq.truth",
+        "d_lsq.estimate",
+        "d_lsq.std",
+    } <= set(t)
     assert (tmp_path / "study.png").is_file()
     from calibench.scenarios.rrlog import entity_paths
 
@@ -194,15 +272,21 @@ def test_a_study_takes_a_config_and_keeps_it(tmp_path):
     study.json, and a resume with another config is refused."""
     plain, scaled = tmp_path / "plain", tmp_path / "scaled"
     config = tmp_path / "c.toml"
-    config.write_text("[arm-cmm]\nstated_range_sigma_um = [7.5, 1.5]\nstated_angle_sigma_urad = 6.0\n"
-                      "stated_encoder_sigma_urad = 7.5\n")
+    config.write_text(
+        "[arm-cmm]\nstated_range_sigma_um = [7.5, 1.5]\nstated_angle_sigma_urad = 6.0\n"
+        "stated_encoder_sigma_urad = 7.5\n"
+    )
     args = ["montecarlo", "arm-cmm", "--trials", "3", "--workers", "1"]
     assert main(args + ["--out", str(plain)]) == 0
     assert main(args + ["--config", str(config), "--out", str(scaled)]) == 0
-    assert json.loads((scaled / "study.json").read_text())["config"]["stated_angle_sigma_urad"] == 6.0
+    assert (
+        json.loads((scaled / "study.json").read_text())["config"]["stated_angle_sigma_urad"] == 6.0
+    )
     a, _ = _estimates(plain)
     b, _ = _estimates(scaled)
     np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-9)
-    assert main(args + ["--out", str(scaled)]) == 2  # the same folder without the config: another study
+    assert (
+        main(args + ["--out", str(scaled)]) == 2
+    )  # the same folder without the config: another study
     config.write_text("[stewart]\nn_poses = 20\n")
     assert main(args + ["--config", str(config), "--out", str(tmp_path / "x")]) == 2

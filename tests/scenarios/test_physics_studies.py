@@ -25,15 +25,21 @@ def _approach(u: np.ndarray) -> np.ndarray:
 def test_geometry_only_map_absorbs_the_elastic_belt_as_the_closed_form_predicts(tmp_path):
     base = BeltStageConfig()
     belt = BeltDrive(ea_n=35e3, friction_n=4.0)
-    elastic = dataclasses.replace(base, truth=dataclasses.replace(base.truth, belt_x=belt, belt_y=belt))
+    elastic = dataclasses.replace(
+        base, truth=dataclasses.replace(base.truth, belt_x=belt, belt_y=belt)
+    )
     # the same seed: the same noise, so the difference is the belt's alone (common random numbers)
     rigid_r, elastic_r = (run(c, 11, "analytic", tmp_path, False) for c in (base, elastic))
     est = [{p.name: p for p in r.parameters} for r in (rigid_r, elastic_r)]
 
-    xs, ys = np.meshgrid(base.stations_x_mm, base.stations_y_mm)  # visited row by row, as run() does
+    xs, ys = np.meshgrid(
+        base.stations_x_mm, base.stations_y_mm
+    )  # visited row by row, as run() does
     basis = lambda x, y: np.c_[np.ones_like(x), x, y, x * x, x * y, y * y]  # noqa: E731 (error_map's terms)
-    for axis, u, travel in (("ex", xs.ravel(), base.geometry.travel_mm[0]),
-                            ("ey", ys.ravel(), base.geometry.travel_mm[1])):
+    for axis, u, travel in (
+        ("ex", xs.ravel(), base.geometry.travel_mm[0]),
+        ("ey", ys.ravel(), base.geometry.travel_mm[1]),
+    ):
         lag = np.array([-d * closed_form_lag_mm(v, travel, belt) for v, d in zip(u, _approach(u))])
         lag -= lag[0]  # travel is measured from the home station
         predicted = np.linalg.lstsq(basis(xs.ravel(), ys.ravel()), lag, rcond=None)[0]
@@ -43,6 +49,10 @@ def test_geometry_only_map_absorbs_the_elastic_belt_as_the_closed_form_predicts(
             # 1 % of the shift, or 2 % of the coefficient's own std: what the belt moves besides the
             # map (the board's yaw, the plane of motion) is second order
             assert got == pytest.approx(predicted[k], rel=0.01, abs=0.02 * est[0][name].std), name
-    assert abs(est[1]["ex_c1"].estimate - est[1]["ex_c1"].truth) > 5 * est[1]["ex_c1"].std  # the scale is off
+    assert (
+        abs(est[1]["ex_c1"].estimate - est[1]["ex_c1"].truth) > 5 * est[1]["ex_c1"].std
+    )  # the scale is off
     checks = [{c.name: c.value for c in r.checks} for r in (rigid_r, elastic_r)]
-    assert checks[1]["check_rms_after_mm"] > 5 * checks[0]["check_rms_after_mm"]  # compensation misses
+    assert (
+        checks[1]["check_rms_after_mm"] > 5 * checks[0]["check_rms_after_mm"]
+    )  # compensation misses

@@ -27,9 +27,17 @@ def test_run_meets_the_acceptance(tmp_path):
     assert longest[0] <= 50 <= longest[1] and longest[0] >= 20 and longest[1] <= 95
     assert (tmp_path / "probe_scanner.png").is_file()
     paths = entity_paths(tmp_path / "run.rrd")
-    expected = {"/world/turntable", "/world/turntable/rail/rail", "/world/holder/plate", "/rho/plate_mm",
-                "/rho_plot/minima", "/rho_plot/quadratic_fits", "/contours/rim_true",
-                "/contours/rim_traced_after", "/figures/probe_scanner"}
+    expected = {
+        "/world/turntable",
+        "/world/turntable/rail/rail",
+        "/world/holder/plate",
+        "/rho/plate_mm",
+        "/rho_plot/minima",
+        "/rho_plot/quadratic_fits",
+        "/contours/rim_true",
+        "/contours/rim_traced_after",
+        "/figures/probe_scanner",
+    }
     assert expected <= paths, expected - paths
 
 

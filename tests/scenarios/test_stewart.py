@@ -26,8 +26,15 @@ def test_run_meets_the_acceptance(tmp_path):
     cmp = rep["info"]["compare_rms_error_mm"]
     assert cmp["one_step"] < cmp["two_step"]
     paths = entity_paths(tmp_path / "run.rrd")
-    expected = {"/world/platform", "/world/leg0/leg0_rod", "/tracker/stations", "/tracker/beams",
-                "/two_step/leg1/sphere0", "/report", "/figures/stewart"}
+    expected = {
+        "/world/platform",
+        "/world/leg0/leg0_rod",
+        "/tracker/stations",
+        "/tracker/beams",
+        "/two_step/leg1/sphere0",
+        "/report",
+        "/figures/stewart",
+    }
     assert (tmp_path / "stewart.png").stat().st_size > 20_000
     assert expected <= paths, expected - paths
 
@@ -39,7 +46,9 @@ def test_a_solve_that_runs_out_of_iterations_fails_the_run(tmp_path, monkeypatch
     from calibench.estimators import stewart as est
 
     real = est.adjust_jointly
-    monkeypatch.setattr(scenario, "adjust_jointly", lambda *a, **k: real(*a, **{**k, "iterations": 2}))
+    monkeypatch.setattr(
+        scenario, "adjust_jointly", lambda *a, **k: real(*a, **{**k, "iterations": 2})
+    )
     assert main(["run", "stewart", "--no-rrd", "--out", str(tmp_path)]) == 1
     checks = {c["name"]: c for c in json.loads((tmp_path / "report.json").read_text())["checks"]}
     assert checks["solves_not_converged"]["value"] >= 1 and not checks["solves_not_converged"]["ok"]
@@ -54,8 +63,11 @@ def test_a_datasheet_off_by_a_common_factor_leaves_estimates_and_std_unchanged(t
     from calibench.scenarios.stewart import StewartConfig, run
 
     right = StewartConfig()
-    off = dataclasses.replace(right, stated_length_sigma_um=tuple(1.5 * x for x in right.stated_length_sigma_um),
-                              stated_reading_sigma_um=1.5 * right.stated_reading_sigma_um)
+    off = dataclasses.replace(
+        right,
+        stated_length_sigma_um=tuple(1.5 * x for x in right.stated_length_sigma_um),
+        stated_reading_sigma_um=1.5 * right.stated_reading_sigma_um,
+    )
     a = run(right, 3, "analytic", tmp_path / "a", False)
     b = run(off, 3, "analytic", tmp_path / "b", False)
     pa, pb = {p.name: p for p in a.parameters}, {p.name: p for p in b.parameters}
@@ -75,5 +87,7 @@ def test_the_two_step_caps_turn_about_a_basis_fixed_by_formula():
     for u in [np.eye(3)[k] for k in range(3)] + list(rng.normal(size=(50, 3))):
         u = u / np.linalg.norm(u)
         a, b = directions_across(u)
-        np.testing.assert_allclose(np.array([a, b, u]) @ np.array([a, b, u]).T, np.eye(3), atol=1e-15)
+        np.testing.assert_allclose(
+            np.array([a, b, u]) @ np.array([a, b, u]).T, np.eye(3), atol=1e-15
+        )
         np.testing.assert_allclose(np.cross(a, b), u, atol=1e-15)

@@ -9,16 +9,54 @@ from calibench.scenarios.rrlog import entity_paths, layout_views, timelines
 
 # scenario: (timeline of its plots, {(view kind, origin)} the layout must hold)
 LAYOUTS = {
-    "belt-stage": ("station", {("3D", "world"), ("3D", "error_map"), ("2D", "world/overhead"), ("2D", "calibration"),
-                               ("TimeSeries", "error_map/station_error_mm"), ("TextDocument", "report"),
-                               ("2D", "figures")}),
-    "vision-stage": ("target_mm", {("3D", "world"), ("3D", "error_field"), ("2D", "world/microscope"),
-                                   ("TimeSeries", "interferometer"), ("TextDocument", "report"), ("2D", "figures")}),
-    "probe-scanner": ("sample", {("3D", "world"), ("3D", "contours"), ("TimeSeries", "rho"), ("2D", "rho_plot"),
-                                 ("TextDocument", "report"), ("2D", "figures")}),
-    "arm-cmm": ("posture", {("3D", "world"), ("3D", "probe"), ("TimeSeries", "residual_mm"), ("TextDocument", "report"),
-                            ("2D", "figures")}),
-    "stewart": ("pose", {("3D", "/"), ("3D", "two_step"), ("TextDocument", "report"), ("2D", "figures")}),
+    "belt-stage": (
+        "station",
+        {
+            ("3D", "world"),
+            ("3D", "error_map"),
+            ("2D", "world/overhead"),
+            ("2D", "calibration"),
+            ("TimeSeries", "error_map/station_error_mm"),
+            ("TextDocument", "report"),
+            ("2D", "figures"),
+        },
+    ),
+    "vision-stage": (
+        "target_mm",
+        {
+            ("3D", "world"),
+            ("3D", "error_field"),
+            ("2D", "world/microscope"),
+            ("TimeSeries", "interferometer"),
+            ("TextDocument", "report"),
+            ("2D", "figures"),
+        },
+    ),
+    "probe-scanner": (
+        "sample",
+        {
+            ("3D", "world"),
+            ("3D", "contours"),
+            ("TimeSeries", "rho"),
+            ("2D", "rho_plot"),
+            ("TextDocument", "report"),
+            ("2D", "figures"),
+        },
+    ),
+    "arm-cmm": (
+        "posture",
+        {
+            ("3D", "world"),
+            ("3D", "probe"),
+            ("TimeSeries", "residual_mm"),
+            ("TextDocument", "report"),
+            ("2D", "figures"),
+        },
+    ),
+    "stewart": (
+        "pose",
+        {("3D", "/"), ("3D", "two_step"), ("TextDocument", "report"), ("2D", "figures")},
+    ),
 }
 MAX_ENTITIES = 100
 
@@ -37,7 +75,11 @@ def test_recording_opens_on_its_layout(scenario, tmp_path):
     logged = timelines(rrd)
     for kind, origin in expected:
         root = origin.strip("/")
-        under = {p: t for p, t in logged.items() if not root or p.strip("/") == root or p.strip("/").startswith(root + "/")}
+        under = {
+            p: t
+            for p, t in logged.items()
+            if not root or p.strip("/") == root or p.strip("/").startswith(root + "/")
+        }
         assert under, f"{scenario}: nothing logged under {origin}"
         if kind == "TimeSeries":  # on the layout's timeline, and on no other step timeline
             for p, t in under.items():

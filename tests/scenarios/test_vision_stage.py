@@ -46,11 +46,17 @@ def test_render_run_tells_the_papers_story(render_run):
 def test_rrd_holds_table_plate_images_centres_and_fields(render_run):
     _, out, _ = render_run
     paths = entity_paths(out / "run.rrd")
-    expected = {"/world/x_carriage/x_err/y_carriage/y_err/table/table_top",
-                "/world/x_carriage/x_err/y_carriage/y_err/table/plate/circles",
-                "/world/microscope", "/world/microscope/image", "/world/microscope/image/detected",
-                "/world/microscope/image/true", "/error_field/measured_before", "/error_field/after_cubic",
-                "/report"}
+    expected = {
+        "/world/x_carriage/x_err/y_carriage/y_err/table/table_top",
+        "/world/x_carriage/x_err/y_carriage/y_err/table/plate/circles",
+        "/world/microscope",
+        "/world/microscope/image",
+        "/world/microscope/image/detected",
+        "/world/microscope/image/true",
+        "/error_field/measured_before",
+        "/error_field/after_cubic",
+        "/report",
+    }
     assert expected <= paths, expected - paths
 
 
@@ -81,7 +87,9 @@ def test_fit_cubic_on_a_recording(tmp_path):
     x, y = rng.uniform(0, 300, 150), rng.uniform(0, 200, 150)
     ex = 2e-4 * x - 1e-6 * x * y + 3e-9 * x**3 + rng.normal(0, 1e-4, 150)
     ey = -1.4e-4 * y + rng.normal(0, 1e-4, 150)
-    rows = ["x_cmd_mm,y_cmd_mm,x_meas_mm,y_meas_mm"] + [f"{a},{b},{a + c},{b + d}" for a, b, c, d in zip(x, y, ex, ey)]
+    rows = ["x_cmd_mm,y_cmd_mm,x_meas_mm,y_meas_mm"] + [
+        f"{a},{b},{a + c},{b + d}" for a, b, c, d in zip(x, y, ex, ey)
+    ]
     (tmp_path / "r.csv").write_text("\n".join(rows) + "\n")
     assert main(["fit", "vision-stage", str(tmp_path / "r.csv"), "--out", str(tmp_path)]) == 0
     fit = json.loads((tmp_path / "fit.json").read_text())

@@ -15,8 +15,11 @@ def test_scene_compiles_and_steps_without_warnings(name):
     data = mujoco.MjData(model)
     for _ in range(500):
         mujoco.mj_step(model, data)
-    warnings = {mujoco.mjtWarning(i).name: data.warning[i].number for i in range(len(data.warning))
-                if data.warning[i].number}
+    warnings = {
+        mujoco.mjtWarning(i).name: data.warning[i].number
+        for i in range(len(data.warning))
+        if data.warning[i].number
+    }
     assert warnings == {}
     assert np.isfinite(data.qpos).all()
 
@@ -66,10 +69,18 @@ def test_as_built_arm_model_is_the_mjcf_s(arm_name):
     rng = np.random.default_rng(0)
     compared = 0
     for k in range(6):
-        delta = rng.normal(0, np.r_[np.tile([0.1, 0.1, 1e-3, 1e-3, 1e-3], N), 0.1, 0.1, 0.1]) * (k > 0)
-        args = (arm, arm.nominal() + delta[:5 * N].reshape(N, 5), np.asarray(arm.tool_mm) + delta[5 * N:],
-                None if k % 2 else np.full(N, 1e5), np.array([2.2, -0.9, 0.35]), np.array([0.5, 0.5, 0.5, 0.5]),
-                (np.array([0.45, 0.25, -0.15]), np.array([0.45, -0.35, -0.15])))
+        delta = rng.normal(0, np.r_[np.tile([0.1, 0.1, 1e-3, 1e-3, 1e-3], N), 0.1, 0.1, 0.1]) * (
+            k > 0
+        )
+        args = (
+            arm,
+            arm.nominal() + delta[: 5 * N].reshape(N, 5),
+            np.asarray(arm.tool_mm) + delta[5 * N :],
+            None if k % 2 else np.full(N, 1e5),
+            np.array([2.2, -0.9, 0.35]),
+            np.array([0.5, 0.5, 0.5, 0.5]),
+            (np.array([0.45, 0.25, -0.15]), np.array([0.45, -0.35, -0.15])),
+        )
         fast = _model_arrays(as_built_model(*args))
         parsed = _model_arrays(mujoco.MjModel.from_xml_string(build_mjcf(*args)))
         assert fast.keys() == parsed.keys()
@@ -116,18 +127,45 @@ def test_a_reused_arm_twin_is_the_compiled_one(arm_name):
         truth = ArmTruth(delta=tuple(delta), stiffness_nm_per_rad=(1e5,) * N if k % 2 else ())
         reused, compiled = ArmSim(arm, truth, reuse=True), ArmSim(arm, truth)
         heavy = compiled.model.body_mass > 0
-        for name in ("body_pos", "body_quat", "body_mass", "body_inertia", "geom_pos", "geom_quat", "geom_size",
-                     "geom_rbound", "geom_aabb", "site_pos", "qpos_spring", "dof_M0", "jnt_stiffness"):
-            np.testing.assert_allclose(getattr(reused.model, name), getattr(compiled.model, name), rtol=0, atol=1e-15,
-                                       err_msg=f"arm {k}: {name}")
+        for name in (
+            "body_pos",
+            "body_quat",
+            "body_mass",
+            "body_inertia",
+            "geom_pos",
+            "geom_quat",
+            "geom_size",
+            "geom_rbound",
+            "geom_aabb",
+            "site_pos",
+            "qpos_spring",
+            "dof_M0",
+            "jnt_stiffness",
+        ):
+            np.testing.assert_allclose(
+                getattr(reused.model, name),
+                getattr(compiled.model, name),
+                rtol=0,
+                atol=1e-15,
+                err_msg=f"arm {k}: {name}",
+            )
         for name in ("body_ipos", "body_iquat"):
-            np.testing.assert_allclose(getattr(reused.model, name)[heavy], getattr(compiled.model, name)[heavy],
-                                       rtol=0, atol=1e-15, err_msg=f"arm {k}: {name}")
+            np.testing.assert_allclose(
+                getattr(reused.model, name)[heavy],
+                getattr(compiled.model, name)[heavy],
+                rtol=0,
+                atol=1e-15,
+                err_msg=f"arm {k}: {name}",
+            )
         q = rng.uniform(-np.pi, np.pi, (20, N))
         np.testing.assert_allclose(reused.probe_mm(q), compiled.probe_mm(q), rtol=0, atol=1e-12)
-        np.testing.assert_allclose(reused.gravity_torques(q), compiled.gravity_torques(q), rtol=0, atol=1e-12)
+        np.testing.assert_allclose(
+            reused.gravity_torques(q), compiled.gravity_torques(q), rtol=0, atol=1e-12
+        )
         if k == 3:
-            reused.settle_by_stepping(q[0], seconds=0.01)  # moves qpos_spring: the next reuse must not keep it
+            reused.settle_by_stepping(
+                q[0], seconds=0.01
+            )  # moves qpos_spring: the next reuse must not keep it
 
 
 def test_a_link_that_becomes_a_point_is_not_written_in_place():

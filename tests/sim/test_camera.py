@@ -7,8 +7,8 @@ import pytest
 
 from calibench.estimators.chessboard import find_chessboard_corners
 from calibench.scenes.belt_stage import BeltStageGeometry, build_mjcf
-from calibench.sim.belt_stage import BeltStageSim, BeltStageTruth
 from calibench.scenes.camera import PIXEL_PITCH_M, PinholeCamera
+from calibench.sim.belt_stage import BeltStageSim, BeltStageTruth
 
 
 def test_projection_matches_opencv():
@@ -80,7 +80,9 @@ def test_saddle_refinement_beats_cornersubpix_on_renders():
     try:
         for tilt, azimuth in [(0.3, 0.2), (0.3, 2.0), (0.6, -1.0), (0.6, 3.5)]:
             R = cv2.Rodrigues(tilt * np.array([np.cos(azimuth), np.sin(azimuth), 0.0]))[0]
-            sim.place_calib_board(R, np.array([0.0, 0.0, 900.0]) - R @ g.board.corners_mm().mean(axis=0))
+            sim.place_calib_board(
+                R, np.array([0.0, 0.0, 900.0]) - R @ g.board.corners_mm().mean(axis=0)
+            )
             img = sim.render(calib=True, rng=rng)
             truth = sim.true_corners_px(calib=True)
             grey = cv2.cvtColor(img, cv2.COLOR_RGB2GRAY)
@@ -93,9 +95,11 @@ def test_saddle_refinement_beats_cornersubpix_on_renders():
     finally:
         sim.close()
     ours, theirs = np.concatenate(ours), np.concatenate(theirs)
-    rms_ours, rms_theirs = (float(np.sqrt(np.mean(np.sum(e ** 2, axis=1)))) for e in (ours, theirs))
+    rms_ours, rms_theirs = (float(np.sqrt(np.mean(np.sum(e**2, axis=1)))) for e in (ours, theirs))
     assert rms_ours < 0.02 and rms_ours < rms_theirs / 3, (rms_ours, rms_theirs)
-    np.testing.assert_array_less(np.abs(ours.mean(axis=0)), 5 * ours.std(axis=0, ddof=1) / np.sqrt(len(ours)))
+    np.testing.assert_array_less(
+        np.abs(ours.mean(axis=0)), 5 * ours.std(axis=0, ddof=1) / np.sqrt(len(ours))
+    )
 
 
 @pytest.mark.render
@@ -110,7 +114,9 @@ def test_calibration_board_pose_is_rendered_where_placed():
         np.testing.assert_allclose(t_got, [-150, -100, 900], atol=1e-9)
         found = find_chessboard_corners(sim.render(calib=True), g.board.cols, g.board.rows)
         assert found is not None
-        assert np.sqrt(np.mean(np.sum((found - sim.true_corners_px(calib=True)) ** 2, axis=1))) < 0.1
+        assert (
+            np.sqrt(np.mean(np.sum((found - sim.true_corners_px(calib=True)) ** 2, axis=1))) < 0.1
+        )
     finally:
         sim.close()
 
@@ -122,7 +128,9 @@ def test_stage_moves_by_pulses_plus_the_error_map():
         true_mm = sim.move(xp, yp)
         cmd = np.array([xp, yp]) / 250.0
         np.testing.assert_allclose(true_mm, cmd + truth.error_mm(cmd[:1], cmd[1:])[0], atol=1e-12)
-        np.testing.assert_allclose(sim.carriage_mm(), true_mm, atol=1e-9)  # from MuJoCo's kinematics
+        np.testing.assert_allclose(
+            sim.carriage_mm(), true_mm, atol=1e-9
+        )  # from MuJoCo's kinematics
     np.testing.assert_allclose(sim.move(0, 0), [0, 0], atol=1e-12)  # homed: no error at (0, 0)
 
 
@@ -136,5 +144,7 @@ def test_probe_rays_match_the_exact_rounded_square():
     truth = ProbeScannerTruth()
     sim = ProbeScannerSim(ProbeScannerGeometry(), truth)
     th = np.linspace(0, 2 * np.pi, 400, endpoint=False)
-    exact = rounded_square_rho(th, truth.d_mm, truth.dL_mm, truth.alpha0_rad, truth.plate_centre_mm, 22.5, 5.0)
+    exact = rounded_square_rho(
+        th, truth.d_mm, truth.dL_mm, truth.alpha0_rad, truth.plate_centre_mm, 22.5, 5.0
+    )
     np.testing.assert_allclose(sim.exact_rho("plate", th), exact, atol=1e-4)

@@ -22,10 +22,19 @@ def test_elastic_belt_rests_short_of_its_command_by_friction_over_stiffness(ea, 
     drive = BeltDrive(ea_n=ea, friction_n=friction)
     belt = ElasticBelt(1000.0, drive)
     belt.move(-1.0)
-    for target, direction in ((100.0, 1), (250.0, 1), (500.0, 1), (400.0, -1), (120.0, -1), (600.0, 1)):
+    for target, direction in (
+        (100.0, 1),
+        (250.0, 1),
+        (500.0, 1),
+        (400.0, -1),
+        (120.0, -1),
+        (600.0, 1),
+    ):
         lag = belt.move(target) - target
         # 1e-6 mm: the rest point to a nanometre (the settling loop stops at 1e-12 m/s)
-        assert lag == pytest.approx(-direction * closed_form_lag_mm(target, 1000.0, drive), abs=1e-6)
+        assert lag == pytest.approx(
+            -direction * closed_form_lag_mm(target, 1000.0, drive), abs=1e-6
+        )
 
 
 def test_lost_motion_grows_along_the_travel():
@@ -47,19 +56,30 @@ def test_a_move_within_the_dead_band_does_not_move_the_carriage():
     belt.move(200.0)
     rest = belt.u_mm
     lag = closed_form_lag_mm(200.0, 1000.0, drive)
-    assert belt.move(200.0 - 1.5 * lag) == rest  # back by less than twice the lag: friction holds it
+    assert (
+        belt.move(200.0 - 1.5 * lag) == rest
+    )  # back by less than twice the lag: friction holds it
     assert belt.move(200.0 - 3 * lag) < rest
 
 
 def test_drive_errors_are_the_written_physics():
-    d = DriveErrors(reversal_at_home_um=-4.0, reversal_growth_um_per_m=-60.0, periodic_um=5.0, period_mm=40.0,
-                    periodic_phase_rad=0.3, thermal_ppm_per_k=12.0, reference_temp_c=20.0)
+    d = DriveErrors(
+        reversal_at_home_um=-4.0,
+        reversal_growth_um_per_m=-60.0,
+        periodic_um=5.0,
+        period_mm=40.0,
+        periodic_phase_rad=0.3,
+        thermal_ppm_per_k=12.0,
+        reference_temp_c=20.0,
+    )
     u = np.array([0.0, 100.0, 250.0])
     e_fwd = d.error_mm(u, np.ones(3), np.full(3, 22.0))
     e_back = d.error_mm(u, -np.ones(3), np.full(3, 22.0))
     np.testing.assert_allclose(e_fwd - e_back, (-4.0 - 60.0 * u / 1000) / 1000, atol=1e-15)
     mean = (e_fwd + e_back) / 2
-    np.testing.assert_allclose(mean, 5e-3 * np.sin(2 * np.pi * u / 40 + 0.3) + 12e-6 * 2.0 * u, atol=1e-15)
+    np.testing.assert_allclose(
+        mean, 5e-3 * np.sin(2 * np.pi * u / 40 + 0.3) + 12e-6 * 2.0 * u, atol=1e-15
+    )
     assert np.all(DriveErrors().error_mm(u, np.ones(3), np.full(3, 30.0)) == 0)
 
 
@@ -74,5 +94,6 @@ def test_directions_along_a_path_equal_each_moves_own():
         last = travel_direction(before, p, last)
         before = p
         one_by_one.append(last)
-    np.testing.assert_array_equal(travel_directions(np.array([1.0, 1.0, 1.0]), path, np.array([-1.0, 1.0, -1.0])),
-                                  one_by_one)
+    np.testing.assert_array_equal(
+        travel_directions(np.array([1.0, 1.0, 1.0]), path, np.array([-1.0, 1.0, -1.0])), one_by_one
+    )

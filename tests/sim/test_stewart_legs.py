@@ -22,5 +22,7 @@ def test_compliant_legs_read_their_axial_force_times_compliance():
         force = rigid_sim.leg_forces_n(R, t, 800.0)
         rigid_sim.set_pose(R, t)
         # 1e-9 mm: the same noise draws; what differs is c f
-        np.testing.assert_allclose(soft_sim.readings_mm() - rigid_sim.readings_mm(), c * 1e-3 * force, atol=1e-9)
+        np.testing.assert_allclose(
+            soft_sim.readings_mm() - rigid_sim.readings_mm(), c * 1e-3 * force, atol=1e-9
+        )
     assert np.max(np.abs(c * force)) > 5  # um: the payload loads the legs, the check is not vacuous

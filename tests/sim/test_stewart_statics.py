@@ -16,7 +16,9 @@ def _balance(sim, R, t, load_n):
     u /= np.linalg.norm(u, axis=1)[:, None]
     body = m.body("platform").id
     W = np.r_[0.0, 0.0, -(m.body_mass[body] * 9.81 + load_n)]
-    com = sim.data.xipos[body] * 1000 - t  # the payload hangs at the origin, the weight at the centre of mass
+    com = (
+        sim.data.xipos[body] * 1000 - t
+    )  # the payload hangs at the origin, the weight at the centre of mass
     moment = np.cross(com, np.r_[0.0, 0.0, -m.body_mass[body] * 9.81])
     A = np.vstack([u.T, np.cross(sim.r @ R.T, u).T])
     return np.linalg.solve(A, -np.r_[W, moment])
