@@ -16,12 +16,10 @@ import numpy as np
 from scipy import optimize
 from threadpoolctl import threadpool_limits
 
-from calibench.estimators.arm_identification import (
-    PointProblem,
-    identifiable_basis,
-    identify,
-    identify_identifiable,
-)
+from calibench.estimators.arm.kinematics import parallel_axes_note
+from calibench.estimators.arm.point import PointProblem
+from calibench.estimators.identification.basis import identifiable_basis
+from calibench.estimators.identification.solver import identify, identify_identifiable
 from calibench.scenarios.arm_cmm import tracker_problem
 from calibench.scenarios.arms import chain_of, loaded_joints
 from calibench.sim.arm_cmm import ArmSim, ArmTruth
@@ -58,7 +56,7 @@ def ur10_physics(n: int = 2773, quiet: bool = False) -> dict:
 
     p = problem()
     t = time.perf_counter()
-    basis = identifiable_basis(p, parallel=description.parallel_pairs())
+    basis = identifiable_basis(p, note=parallel_axes_note(description.parallel_pairs()))
     t_basis = time.perf_counter() - t
     t = time.perf_counter()
     ours = identify(p, basis)

@@ -13,7 +13,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco is imported: renders 
 
 import numpy as np  # noqa: E402
 
-from calibench.estimators.chessboard import find_chessboard_corners
+from calibench.estimators.camera.chessboard import find_chessboard_corners
 from calibench.scenarios import belt_stage
 from calibench.scenes.belt_stage import BeltStageGeometry
 from calibench.sim.belt_stage import BeltStageSim, BeltStageTruth

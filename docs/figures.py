@@ -318,7 +318,7 @@ def corner_accuracy():
     import cv2
     import numpy as np
 
-    from calibench.estimators.chessboard import find_chessboard_corners
+    from calibench.estimators.camera.chessboard import find_chessboard_corners
     from calibench.scenes.belt_stage import BeltStageGeometry
     from calibench.sim.belt_stage import BeltStageSim, BeltStageTruth
 
@@ -512,7 +512,7 @@ def arm_coverage(factor: float, trials: int) -> tuple[float, float]:
     factor), and without it (the std divided by the whitened RMS)."""
     import numpy as np
 
-    from calibench.estimators.arm_identification import identify_identifiable
+    from calibench.estimators.identification.solver import identify_identifiable
     from calibench.scenarios.arm_cmm import ArmCmmConfig, prior, reference_values, tracker_problem
     from calibench.scenarios.arms import chain_of
     from calibench.sim.arm_cmm import ArmSim
@@ -779,7 +779,7 @@ def ur10_periodogram():
     steps of 0.01; where the fit gains most, and the amplitudes there."""
     import numpy as np
 
-    from calibench.estimators.arm_kinematics import jacobian, theta_index
+    from calibench.estimators.arm.kinematics import jacobian, theta_index
     from calibench.estimators.rotations import rotvec_to_matrix
     from calibench.recordings import load_arm_csv
     from calibench.scenarios.arms import chain_of, load_arm
@@ -1292,7 +1292,7 @@ def run_times():
     import numpy as np
     from threadpoolctl import threadpool_limits
 
-    from calibench.estimators.arm_identification import identify_identifiable
+    from calibench.estimators.identification.solver import identify_identifiable
     from calibench.scenarios.arm_cmm import tracker_problem
     from calibench.scenarios.arms import chain_of
     from calibench.scenarios.discover_suite import concealed_discovery
@@ -1711,7 +1711,8 @@ def real_data():
 @block(seconds=3, ci=True)
 def python_example():
     """The README's Python example's identification on ur10_D (calibench.estimators, no MuJoCo)."""
-    from calibench.estimators.arm_identification import PointProblem, identify_identifiable
+    from calibench.estimators.arm.point import PointProblem
+    from calibench.estimators.identification.solver import identify_identifiable
     from calibench.recordings import load_arm_csv
     from calibench.scenarios.arms import chain_of, load_arm
 

@@ -9,8 +9,8 @@ import cv2  # noqa: E402
 import mujoco
 import numpy as np
 
-from calibench.estimators.chessboard import find_chessboard_corners
-from calibench.estimators.circles import find_dark_circle
+from calibench.estimators.camera.chessboard import find_chessboard_corners
+from calibench.estimators.camera.circles import find_dark_circle
 from calibench.scenes.belt_stage import BeltStageGeometry
 from calibench.scenes.vision_stage import VisionStageGeometry
 from calibench.sim.belt_stage import BeltStageSim, BeltStageTruth

@@ -30,17 +30,11 @@ from pathlib import Path
 
 import numpy as np
 
-from calibench.estimators.arm_identification import (
-    ConeProblem,
-    TrackerProblem,
-    TrackerState,
-    identifiable_basis,
-    identify_identifiable,
-    observability_index,
-    parameter_scales,
-    select_postures,
-)
-from calibench.estimators.arm_kinematics import Chain, param_names, point
+from calibench.estimators.arm.design import observability_index, select_postures
+from calibench.estimators.arm.kinematics import Chain, param_names, parameter_scales, point
+from calibench.estimators.arm.tracker import ConeProblem, TrackerProblem, TrackerState
+from calibench.estimators.identification.basis import identifiable_basis
+from calibench.estimators.identification.solver import identify_identifiable
 from calibench.estimators.rotations import rigid_transform
 from calibench.scenarios.arms import chain_of
 from calibench.scenarios.report import BadInput, Check, Parameter, Report

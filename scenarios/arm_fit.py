@@ -30,15 +30,11 @@ from pathlib import Path
 
 import numpy as np
 
-from calibench.estimators.arm_identification import (
-    AngleTerm,
-    Basis,
-    PointProblem,
-    identifiable_basis,
-    identify,
-)
-from calibench.estimators.arm_kinematics import gravity_torques, param_is_angle
-from calibench.estimators.arm_screening import screen
+from calibench.estimators.arm.kinematics import gravity_torques, parallel_axes_note, param_is_angle
+from calibench.estimators.arm.point import AngleTerm, PointProblem
+from calibench.estimators.arm.screening import screen
+from calibench.estimators.identification.basis import Basis, identifiable_basis
+from calibench.estimators.identification.solver import identify
 from calibench.estimators.rotations import matrix_to_rotvec, rigid_transform
 from calibench.recordings import ArmRecording, load_arm_csv
 from calibench.scenarios.arms import chain_of, load_arm, loaded_joints
@@ -130,7 +126,7 @@ def _calibrate(
         reg = identify(problem, Basis(np.sort(problem.always), {}))
         # what the data determine, without the prior (which would make everything "identifiable")
         problem.prior = None
-        basis = identifiable_basis(problem, reg.state, parallel=list(parallel))
+        basis = identifiable_basis(problem, reg.state, note=parallel_axes_note(list(parallel)))
         problem.prior = prior
         ident = identify(problem, basis, reg.state)
         sigma = 0.0

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from calibench.estimators.arm_kinematics import Chain, gravity_torques
+from calibench.estimators.arm.kinematics import Chain, gravity_torques
 from calibench.scenes.arm_cmm import ArmDescription, ArmFileError, load_arm  # noqa: F401  (re-exported)
 
 LOADED_FRACTION = 0.1  # a joint whose gravity torque stays under 10 % of the most loaded one's

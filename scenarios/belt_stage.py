@@ -26,14 +26,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from calibench.errors import BadInput
-from calibench.estimators.chessboard import find_chessboard_corners
-from calibench.estimators.error_map import (
-    COEF_NAMES,
-    compensated_command,
-    fit_quadratic,
-    quadratic_coefs,
-)
-from calibench.estimators.pose import (
+from calibench.estimators.camera.chessboard import find_chessboard_corners
+from calibench.estimators.camera.pose import (
     Plane,
     board2cam_from_homography,
     board2cam_refine,
@@ -43,8 +37,14 @@ from calibench.estimators.pose import (
     pose_sensitivity,
     undistort_pixels,
 )
-from calibench.estimators.travel import board_yaw, travel_from_camera_centres, travel_in_plane
-from calibench.estimators.zhang import calibrate_camera, intrinsic_covariance
+from calibench.estimators.camera.zhang import calibrate_camera, intrinsic_covariance
+from calibench.estimators.stage.error_map import (
+    COEF_NAMES,
+    compensated_command,
+    fit_quadratic,
+    quadratic_coefs,
+)
+from calibench.estimators.stage.travel import board_yaw, travel_from_camera_centres, travel_in_plane
 from calibench.recordings import CameraViews
 from calibench.scenarios.report import Check, Parameter, Report, progress
 from calibench.scenes.belt_stage import BeltStageGeometry

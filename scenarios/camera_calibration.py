@@ -8,8 +8,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from calibench.estimators.chessboard import find_chessboard_corners, gross_corners
-from calibench.estimators.zhang import CalibrationError, calibrate_camera
+from calibench.estimators.camera.chessboard import find_chessboard_corners, gross_corners
+from calibench.estimators.camera.zhang import CalibrationError, calibrate_camera
 from calibench.recordings import same_file
 from calibench.scenarios.report import BadInput
 from calibench.scenes.checkerboard import Chessboard

@@ -448,7 +448,7 @@ def arm_drivers(
     gravity in MuJoCo).
     ``delta``: the chain's errors (5 N + 3,) at which the Jacobians, the points and the flange
     are taken (the drawing's chain if None)."""
-    from calibench.estimators.arm_kinematics import jacobian, pose, theta_index
+    from calibench.estimators.arm.kinematics import jacobian, pose, theta_index
     from calibench.scenarios.arms import chain_of
     from calibench.sim.arm_cmm import ArmSim, ArmTruth
 
@@ -500,8 +500,8 @@ def discover_arm(
 
 
 def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, dict]:
-    from calibench.estimators.arm_kinematics import pose
-    from calibench.estimators.arm_screening import screen
+    from calibench.estimators.arm.kinematics import pose
+    from calibench.estimators.arm.screening import screen
     from calibench.estimators.effects import (
         ArmThermalExpansion,
         EncoderEccentricity,

@@ -1,7 +1,7 @@
 """``calibench discover probe-scanner``: where a scanner's turns disagree with its twin.
 
 The scene model: the tracer's rail (d, dL, alpha0) and the plate's centre calibrated on the
-recording by least squares, as any user would (``estimators.rotary_probe.calibrate_lsq``); the
+recording by least squares, as any user would (``estimators.probe_scanner.calibration.calibrate_lsq``); the
 twin (MuJoCo's ray against the plate's walls, and whatever effects the config's twin carries:
 ``discover --twin`` writes them, ``discover --config`` replays them) then replays every encoder
 angle. What is left is
@@ -73,7 +73,7 @@ def twin_table(out: dict) -> dict:
 def scene_model(rec, config) -> tuple[object, np.ndarray, np.ndarray, np.ndarray]:
     """The calibrated rail and plate, the twin's reading at each encoder angle (n,) mm, the
     model's columns d rho / d(d, dL, alpha0, cx, cy) (n, 5) and d rho / d theta (n,)."""
-    from calibench.estimators.rotary_probe import (
+    from calibench.estimators.probe_scanner.calibration import (
         ScannerCalibration,
         calibrate_lsq,
         rounded_square_rho,

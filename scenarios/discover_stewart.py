@@ -44,7 +44,7 @@ def register(rec, geometry, iterations: int = 10) -> tuple[np.ndarray, np.ndarra
     nominal legs' readings give (forward kinematics) against the tracker's, then Gauss-Newton on
     the legs' residuals."""
     from calibench.estimators.rotations import rigid_transform, rotvec_to_matrix
-    from calibench.estimators.stewart import forward_kinematics_many
+    from calibench.estimators.stewart.kinematics import forward_kinematics_many
 
     g = geometry
     r0, B0, l0 = g.platform_hinges_mm, g.base_hinges_mm, g.initial_lengths_mm

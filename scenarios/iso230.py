@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from calibench.estimators import iso230_2
+from calibench.estimators.stage import iso230_2
 from calibench.recordings import RecordingError, load_axis_run
 from calibench.scenarios.report import BadInput
 

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from calibench.estimators.rotary_probe import (
+from calibench.estimators.probe_scanner.calibration import (
     calibrate_lsq,
     calibrate_paper,
     contour_points,
@@ -55,7 +55,7 @@ def check_config(c: ProbeScannerConfig) -> None:
 
     g, t = c.geometry, c.truth
     a, r = g.plate.half_side_mm, g.plate.corner_radius_mm
-    # the estimators' convention (rotary_probe): d > 0 by the mechanism's construction
+    # the estimators' convention (probe_scanner.calibration): d > 0 by the mechanism's construction
     if not t.d_mm > 0:
         raise bad(
             f"{NAME}.truth.d_mm",

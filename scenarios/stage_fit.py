@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from calibench.estimators.compensation import fit_polynomial
-from calibench.estimators.error_map import fit_quadratic
+from calibench.estimators.stage.compensation import fit_polynomial
+from calibench.estimators.stage.error_map import fit_quadratic
 from calibench.recordings import StageRecording, load_stage_csv
 from calibench.scenarios.report import BadInput
 

@@ -23,19 +23,16 @@ from pathlib import Path
 
 import numpy as np
 
-from calibench.estimators.pose import mean_rotation
+from calibench.estimators.camera.pose import mean_rotation
 from calibench.estimators.rotations import rigid_transform, rotvec_to_matrix
-from calibench.estimators.stewart import (
-    LegCalibration,
+from calibench.estimators.stewart.joint import (
     TrackerObservations,
     adjust_jointly,
-    calibrate_leg,
-    fit_sphere,
-    forward_kinematics_many,
     joint_information,
-    multilaterate_many,
-    trilaterate,
 )
+from calibench.estimators.stewart.kinematics import forward_kinematics_many
+from calibench.estimators.stewart.legs import LegCalibration, calibrate_leg, fit_sphere
+from calibench.estimators.stewart.tracker import multilaterate_many, trilaterate
 from calibench.scenarios.report import Check, Parameter, Report
 from calibench.scenes.stewart import LEG_STROKE_MM, PLATFORM_KG, StewartGeometry
 from calibench.sim.stewart import StewartSim, StewartTruth

@@ -160,7 +160,7 @@ def _arm(out: dict, config: Path | None, arm) -> tuple[dict, list[str]]:
     ones zero) and each joint's stiffness from its compliance under gravity."""
     import math
 
-    from calibench.estimators.arm_kinematics import param_names
+    from calibench.estimators.arm.kinematics import param_names
     from calibench.scenes.arm_cmm import load_arm
 
     description = load_arm(arm or "arm-cmm")

@@ -24,9 +24,9 @@ from pathlib import Path
 
 import numpy as np
 
-from calibench.estimators import iso230_2
-from calibench.estimators.circles import find_dark_circle
-from calibench.estimators.compensation import (
+from calibench.estimators.camera.circles import find_dark_circle
+from calibench.estimators.stage import iso230_2
+from calibench.estimators.stage.compensation import (
     MODEL_DEGREES,
     LineRuler,
     compensated_command,

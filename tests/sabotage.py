@@ -89,7 +89,7 @@ def _arm_nominal(joint: int, column: int, error_rad: float) -> Callable[[pytest.
     (``Chain.nominal``: the MuJoCo twin builds its bodies from the arm description, untouched)."""
 
     def apply(mp):
-        from calibench.estimators import arm_kinematics as ak
+        from calibench.estimators.arm import kinematics as ak
 
         real = ak.Chain.nominal
 
@@ -109,7 +109,7 @@ def _probe_model_1pct(mp):
     """Every reading the model predicts 1 % long."""
     _wrap(
         mp,
-        "calibench.estimators.rotary_probe",
+        "calibench.estimators.probe_scanner.calibration",
         "rounded_square_rho",
         lambda rho, *a, **k: 1.01 * rho,
     )
@@ -120,7 +120,7 @@ def _chessboard_bias(mp):
     """+0.03 px in x on every corner of every detected board."""
     _wrap(
         mp,
-        "calibench.estimators.chessboard",
+        "calibench.estimators.camera.chessboard",
         "find_chessboard_corners",
         lambda c, *a, **k: None if c is None else c + np.array([0.03, 0.0]),
     )
@@ -142,7 +142,7 @@ def _error_map_std_1p6x(mp):
     """Every coefficient std of the quadratic map fit 1.6 x."""
     _wrap(
         mp,
-        "calibench.estimators.error_map",
+        "calibench.estimators.stage.error_map",
         "fit_quadratic",
         lambda fit, *a, **k: dataclasses.replace(fit, std=1.6 * fit.std),
     )
@@ -152,7 +152,7 @@ def _error_map_std_1p6x(mp):
 def _map_xy_term_dropped(mp):
     """The fitted map evaluated without its x y term (c4): the fit and its report are untouched,
     the compensation that evaluates the map is not."""
-    from calibench.estimators import error_map as em
+    from calibench.estimators.stage import error_map as em
 
     real = em.QuadraticFit.__call__
 
@@ -167,7 +167,7 @@ def _map_xy_term_dropped(mp):
 
 def _gravity_tool_term_dropped(mp):
     """The tool's weight left out of the gravity moments (the load the compliance model turns by)."""
-    from calibench.estimators import arm_kinematics as ak
+    from calibench.estimators.arm import kinematics as ak
 
     real = ak.gravity_moments
 
@@ -175,7 +175,7 @@ def _gravity_tool_term_dropped(mp):
     def moments(chain, *args, **kwargs):
         return real(dataclasses.replace(chain, tool_mass_kg=0.0), *args, **kwargs)
 
-    _replace(mp, "calibench.estimators.arm_kinematics", "gravity_moments", moments)
+    _replace(mp, "calibench.estimators.arm.kinematics", "gravity_moments", moments)
 
 
 # --- 6. one parameter's std ------------------------------------------------------------------------
@@ -187,7 +187,7 @@ def _stewart_leg_std_1p3x(mp):
         std[6] *= 1.3  # the leg's initial length l, of (a, b, c, m, n, q, l)
         return dataclasses.replace(cal, std=std)
 
-    _wrap(mp, "calibench.estimators.stewart", "calibrate_leg", scale)
+    _wrap(mp, "calibench.estimators.stewart.legs", "calibrate_leg", scale)
 
 
 def _stewart_joint_std_1p3x(mp):
@@ -198,7 +198,7 @@ def _stewart_joint_std_1p3x(mp):
         f[6] = 1.3  # leg 1's l
         return dataclasses.replace(cal, cov=cal.cov * np.outer(f, f))
 
-    _wrap(mp, "calibench.estimators.stewart", "adjust_jointly", scale)
+    _wrap(mp, "calibench.estimators.stewart.joint", "adjust_jointly", scale)
 
 
 def _arm_std_1p3x(mp):
@@ -208,16 +208,18 @@ def _arm_std_1p3x(mp):
         name = next(iter(ident.std))  # the first kept parameter
         return dataclasses.replace(ident, std={**ident.std, name: 1.3 * ident.std[name]})
 
-    _wrap(mp, "calibench.estimators.arm_identification", "identify", scale)
+    _wrap(mp, "calibench.estimators.identification.solver", "identify", scale)
 
 
 def _arm_always_converged(mp):
     """The arm's Levenberg-Marquardt says converged whatever its last iterate (a silent last iterate)."""
+    from calibench.estimators.identification.solver import Status
+
     _wrap(
         mp,
-        "calibench.estimators.arm_identification",
+        "calibench.estimators.identification.solver",
         "identify",
-        lambda ident, *a, **k: dataclasses.replace(ident, converged=True),
+        lambda ident, *a, **k: dataclasses.replace(ident, status=Status.SMALL_STEP),
     )
 
 

@@ -8,8 +8,8 @@ import pkgutil
 
 def _public(room: str):
     pkg = importlib.import_module(f"calibench.{room}")
-    for m in pkgutil.iter_modules(pkg.__path__):
-        mod = importlib.import_module(f"calibench.{room}.{m.name}")
+    for m in pkgutil.walk_packages(pkg.__path__, prefix=f"calibench.{room}."):
+        mod = importlib.import_module(m.name)
         for name, obj in vars(mod).items():
             if name.startswith("_") or getattr(obj, "__module__", None) != mod.__name__:
                 continue

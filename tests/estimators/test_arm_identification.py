@@ -8,19 +8,18 @@ implementation independent of the estimator's kinematics and gravity model.
 import numpy as np
 import pytest
 
-from calibench.estimators.arm_identification import (
-    AngleTerm,
-    ConeProblem,
-    PointProblem,
-    TrackerProblem,
-    identifiable_basis,
-    identify,
-    identify_identifiable,
-    observability_index,
+from calibench.estimators.arm.design import observability_index, select_postures
+from calibench.estimators.arm.kinematics import (
+    ArmParameters,
+    parallel_axes_note,
+    param_is_angle,
     parameter_scales,
-    select_postures,
+    point,
 )
-from calibench.estimators.arm_kinematics import param_is_angle, point
+from calibench.estimators.arm.point import AngleTerm, PointProblem
+from calibench.estimators.arm.tracker import ConeProblem, TrackerProblem
+from calibench.estimators.identification.basis import identifiable_basis
+from calibench.estimators.identification.solver import identify, identify_identifiable
 from calibench.scenarios.arm_cmm import reference_values, tracker_problem
 from calibench.scenarios.arms import chain_of
 from calibench.sim.arm_cmm import ArmSim, ArmTruth, table1_errors
@@ -154,7 +153,7 @@ def test_partners_are_the_least_squares_coefficients(arm):
             )
 
 
-class _Columns:
+class _Columns(ArmParameters):
     """A problem that is only its Jacobian (n, 5): two always-kept columns that repeat each other
     (a degenerate set-up), then a group whose last column is the sum of the two before."""
 
@@ -241,7 +240,7 @@ def test_a_planar_arm_is_singular_whatever_the_rounding(tmp_path):
     whether its inverse shows a negative variance, a NaN or a plausible-looking std, so the numpy
     and the CPU did: a four-trial study that was singular in every trial on one set-up kept two
     trials on another. The variance-inflation test makes every seed an error."""
-    from calibench.estimators.arm_identification import identify_identifiable
+    from calibench.estimators.identification.solver import identify_identifiable
     from calibench.scenes.arm_cmm import load_arm
 
     (tmp_path / "planar.toml").write_text(PLANAR_ARM)
@@ -262,7 +261,7 @@ def test_parallel_axes_keep_hayatis_beta_and_say_why_d_goes():
     assert sim.arm.parallel_pairs() == [(2, 3), (3, 4)]
     q = sim.random_postures(200, np.random.default_rng(3))
     p = PointProblem(chain, q, sim.point_mm(q))
-    basis = identifiable_basis(p, parallel=sim.arm.parallel_pairs())
+    basis = identifiable_basis(p, note=parallel_axes_note(sim.arm.parallel_pairs()))
     kept = {p.names[k] for k in basis.kept}
     assert {"dbeta2", "dbeta3"} <= kept
     parallel_drops = [n for n, why in basis.dropped.items() if "parallel axes" in why]
@@ -452,7 +451,7 @@ def test_chosen_postures_are_more_observable_than_random_ones(arm):
 
 
 def test_bad_rows_are_found_without_a_model():
-    from calibench.estimators.arm_screening import screen
+    from calibench.estimators.arm.screening import screen
 
     sim = ArmSim("ur10", ArmTruth())
     rng = np.random.default_rng(11)

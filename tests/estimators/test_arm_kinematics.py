@@ -5,7 +5,7 @@ gravity torques against MuJoCo's inverse dynamics."""
 import numpy as np
 import pytest
 
-from calibench.estimators.arm_kinematics import (
+from calibench.estimators.arm.kinematics import (
     Chain,
     gravity_torques,
     jacobian,

@@ -4,7 +4,7 @@ import cv2
 import numpy as np
 import pytest
 
-from calibench.estimators.chessboard import find_chessboard_corners, refine_saddle
+from calibench.estimators.camera.chessboard import find_chessboard_corners, refine_saddle
 from calibench.scenes.checkerboard import Chessboard
 from tests.estimators.synthetic import project, raster_chessboard
 
@@ -84,7 +84,7 @@ def test_a_gross_corner_is_found_and_only_it():
     """Each corner of an exact raster's detection, in turn, moved 3 px off (the size of the
     gross errors the sector detector made on a steep real photo): the grid check names that
     corner and no other; the clean detection has none."""
-    from calibench.estimators.chessboard import gross_corners
+    from calibench.estimators.camera.chessboard import gross_corners
 
     R = cv2.Rodrigues(np.array([0.5, -0.3, 0.2]))[0]
     t = np.array([0.0, 0.0, 600.0]) - R @ BOARD.corners_mm().mean(axis=0)

@@ -4,7 +4,7 @@ import cv2
 import numpy as np
 import pytest
 
-from calibench.estimators.circles import ellipse_centre_bias, find_dark_circle
+from calibench.estimators.camera.circles import ellipse_centre_bias, find_dark_circle
 from tests.estimators.synthetic import raster_disc
 
 F = 150.0 / 0.0104

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from calibench.estimators.compensation import (
+from calibench.estimators.stage.compensation import (
     LineRuler,
     compensated_command,
     cv_rms,

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from calibench.estimators import discovery as dsc
-from calibench.estimators.arm_kinematics import Chain, jacobian, point, theta_index
+from calibench.estimators.arm.kinematics import Chain, jacobian, point, theta_index
 from calibench.estimators.effects import (
     Backlash,
     EncoderEccentricity,

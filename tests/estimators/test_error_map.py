@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from calibench.estimators.error_map import compensated_command, fit_quadratic, quadratic_coefs
+from calibench.estimators.stage.error_map import compensated_command, fit_quadratic, quadratic_coefs
 from calibench.recordings import StageRecording
 from calibench.scenarios.stage_fit import fit_recording
 

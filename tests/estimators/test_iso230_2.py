@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from calibench.estimators.iso230_2 import AXIS_FIGURES, evaluate
+from calibench.estimators.stage.iso230_2 import AXIS_FIGURES, evaluate
 
 # --- hand-worked example: m = 3 targets, n = 3 runs per direction, deviations in um ----------
 TARGETS = np.array([0.0, 250.0, 500.0])  # mm; they enter only the validation

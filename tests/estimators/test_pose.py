@@ -4,7 +4,7 @@ import cv2
 import numpy as np
 import pytest
 
-from calibench.estimators.pose import (
+from calibench.estimators.camera.pose import (
     board2cam_from_homography,
     board2cam_pnp,
     fit_plane,
@@ -120,7 +120,7 @@ def test_pose_sensitivity_is_what_pnp_does_when_the_intrinsics_move():
     board's exact projections plus 0.02 px noise: within 2 % of each column's largest entry."""
     import cv2
 
-    from calibench.estimators.pose import board2cam_pnp, pose_sensitivity
+    from calibench.estimators.camera.pose import board2cam_pnp, pose_sensitivity
 
     names = ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2")
     K = np.array([[900.0, 0, 330], [0, 905.0, 245], [0, 0, 1]])
@@ -160,7 +160,7 @@ def test_refined_poses_are_the_reprojection_minimum():
     run to convergence (solvePnPRefineLM at 1e-15, restarted from its own result: one run stops
     about 1e-7 rad short), from a start a few mm and mrad off, a corner left out (NaN) of one
     view."""
-    from calibench.estimators.pose import board2cam_refine
+    from calibench.estimators.camera.pose import board2cam_refine
 
     rng = np.random.default_rng(7)
     obj = BOARD.corners_mm()

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from calibench.estimators.projection import INTRINSICS, project
+from calibench.estimators.camera.projection import INTRINSICS, project
 
 INTR = np.array([612.0, 607.0, 321.0, 238.0, -0.21, 0.09, 8e-4, -5e-4, 0.03])
 OBJ = np.c_[np.mgrid[0:9, 0:6].T.reshape(-1, 2) * 30.0, np.zeros(54)]

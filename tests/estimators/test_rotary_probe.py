@@ -4,7 +4,7 @@ the rail on the opening's distance function, independent of the estimator's clos
 import numpy as np
 import pytest
 
-from calibench.estimators.rotary_probe import (
+from calibench.estimators.probe_scanner.calibration import (
     MinimumFit,
     ScannerCalibration,
     calibrate_lsq,

@@ -5,20 +5,19 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from calibench.estimators.rotations import rigid_transform, rotvec_to_matrix
-from calibench.estimators.stewart import (
+from calibench.estimators.stewart.joint import (
     TrackerObservations,
     _joint_residuals,
     adjust_jointly,
-    calibrate_leg,
-    fit_sphere,
+    joint_information,
+)
+from calibench.estimators.stewart.kinematics import (
     forward_kinematics,
     forward_kinematics_many,
-    joint_information,
     leg_lengths,
-    multilaterate,
-    multilaterate_many,
-    trilaterate,
 )
+from calibench.estimators.stewart.legs import calibrate_leg, fit_sphere
+from calibench.estimators.stewart.tracker import multilaterate, multilaterate_many, trilaterate
 
 NESTS = np.array([[700.0, -500.0, 0.0], [800.0, 500.0, 700.0], [-700.0, 700.0, 1300.0]])
 STATION = np.array([1500.0, -500.0, 300.0])

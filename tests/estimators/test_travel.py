@@ -3,7 +3,7 @@
 import cv2
 import numpy as np
 
-from calibench.estimators.travel import board_yaw, travel_from_camera_centres, travel_in_plane
+from calibench.estimators.stage.travel import board_yaw, travel_from_camera_centres, travel_in_plane
 
 # camera looking down: image x along machine X, image y along -Y; board x along X, y along -Y
 X_CAM, Y_CAM = np.array([1.0, 0, 0]), np.array([0, -1.0, 0])

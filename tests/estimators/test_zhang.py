@@ -5,7 +5,11 @@ import cv2
 import numpy as np
 import pytest
 
-from calibench.estimators.zhang import CalibrationError, calibrate_camera, intrinsic_covariance
+from calibench.estimators.camera.zhang import (
+    CalibrationError,
+    calibrate_camera,
+    intrinsic_covariance,
+)
 from calibench.scenes.checkerboard import Chessboard
 from tests.estimators.synthetic import project, random_views
 

@@ -107,7 +107,7 @@ def test_montecarlo_takes_an_arm(tmp_path):
 def test_a_solve_that_runs_out_of_iterations_fails_the_run(tmp_path, monkeypatch):
     """Levenberg-Marquardt cut to one iteration: the run reports the solves that did not
     converge as a failed check (exit 1) instead of their last iterate as an answer."""
-    from calibench.estimators import arm_identification as ai
+    from calibench.estimators.identification import solver as ai
 
     real = ai.identify
     monkeypatch.setattr(ai, "identify", lambda *a, **k: real(*a, **{**k, "max_iter": 1}))
@@ -146,11 +146,8 @@ def test_the_reference_is_what_the_reduced_model_fits_to_mujocos_arm(arm):
     parameters' typical sizes (0.5 um, 5 urad; the relations are first order, what is left is
     second order in the 0.1 mm / 1 mrad errors), and the seed's arm's reference covers every
     kinematic error it keeps, the UR10's all but a few wrist ones."""
-    from calibench.estimators.arm_identification import (
-        identify,
-        identify_identifiable,
-        parameter_scales,
-    )
+    from calibench.estimators.arm.kinematics import parameter_scales
+    from calibench.estimators.identification.solver import identify, identify_identifiable
     from calibench.scenarios.arm_cmm import reference_values, tracker_problem
     from calibench.scenarios.arms import chain_of
     from calibench.sim.arm_cmm import ArmSim

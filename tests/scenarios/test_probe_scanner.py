@@ -4,7 +4,7 @@ import json
 
 import numpy as np
 
-from calibench.estimators.rotary_probe import calibrate_lsq, calibrate_paper
+from calibench.estimators.probe_scanner.calibration import calibrate_lsq, calibrate_paper
 from calibench.scenarios import probe_scanner
 from calibench.scenarios.cli import main
 from calibench.scenarios.rrlog import entity_paths

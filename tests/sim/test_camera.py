@@ -5,7 +5,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from calibench.estimators.chessboard import find_chessboard_corners
+from calibench.estimators.camera.chessboard import find_chessboard_corners
 from calibench.scenes.belt_stage import BeltStageGeometry, build_mjcf
 from calibench.scenes.camera import PIXEL_PITCH_M, PinholeCamera
 from calibench.sim.belt_stage import BeltStageSim, BeltStageTruth
@@ -137,7 +137,7 @@ def test_stage_moves_by_pulses_plus_the_error_map():
 def test_probe_rays_match_the_exact_rounded_square():
     """MuJoCo's mj_ray on the wall geoms against the estimator's closed-form reading: two
     independent routes to the same geometry (the walls are chords: <0.1 um sagitta)."""
-    from calibench.estimators.rotary_probe import rounded_square_rho
+    from calibench.estimators.probe_scanner.calibration import rounded_square_rho
     from calibench.scenes.probe_scanner import ProbeScannerGeometry
     from calibench.sim.probe_scanner import ProbeScannerSim, ProbeScannerTruth
 

@@ -140,7 +140,7 @@ def board2cam_refine(
     """
     from scipy.spatial.transform import Rotation
 
-    from calibench.estimators.projection import project
+    from calibench.estimators.camera.projection import project
 
     obj = np.asarray(board_points, float)
     pix = np.asarray(pixels, float)

@@ -14,8 +14,8 @@ import dataclasses
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from calibench.estimators.pose import board2cam_from_homography, homographies
-from calibench.estimators.projection import INTRINSICS, project
+from calibench.estimators.camera.pose import board2cam_from_homography, homographies
+from calibench.estimators.camera.projection import INTRINSICS, project
 
 INTRINSIC_NAMES = INTRINSICS  # fx, fy, cx, cy, k1, k2, p1, p2, k3
 

@@ -11,8 +11,8 @@ import dataclasses
 
 import numpy as np
 
-from calibench.estimators.compensation import _SCALE as _SCALE_MM
-from calibench.estimators.compensation import design, least_squares, monomial_powers
+from calibench.estimators.stage.compensation import _SCALE as _SCALE_MM
+from calibench.estimators.stage.compensation import design, least_squares, monomial_powers
 
 COEF_NAMES = ("c0", "c1", "c2", "c3", "c4", "c5")
 # c0..c5 are the coefficients of the degree-2 polynomial map of the vision stage's module, in the

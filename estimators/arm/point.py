@@ -1,0 +1,418 @@
+"""Identification of a serial arm's parameter errors, with identifiability analysis first.
+
+Three kinds of data, one method:
+- :class:`PointProblem`: points measured by an instrument in its own frame (a laser tracker's
+  Cartesian output, a CMM), from one or several recordings, each with its own base-to-
+  instrument transform (the laser-tracker seed's base calibration); the tool point is always
+  estimated (its Tool0 calibration). Optionally the joints' compliance under gravity.
+- :class:`TrackerProblem`: a laser tracker's range and two angles of the tool point, one frame.
+- :class:`ConeProblem`: single-point articulation in two cones of a calibrated length bar;
+  nuisance: the two cone centres (their distance constrained to the bar's length).
+
+:func:`identifiable_basis` takes the whitened Jacobian at the start and runs QR with column
+pivoting group by group (what is always estimated, then the kinematic parameters, then Hayati's
+betas, then the compliances), each on what the kept columns cannot explain: a column beyond the
+numerical rank is a parameter the data cannot tell from the others and is dropped, with the
+parameters it is a combination of. :func:`identify` solves for the kept parameters
+(Levenberg-Marquardt), the dropped ones held at zero, and reports convergence and standard
+deviations from the whitened normal matrix.
+
+Compliance (``compliance<j>``, rad / N m internally): joint j's link turns by c_j tau_j from its
+motor's (encoder's) angle, tau_j the gravity torque computed from the chain's masses at the
+encoder reading (:func:`calibench.estimators.arm.kinematics.gravity_torques`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from calibench.estimators.arm.kinematics import (
+    ArmParameters,
+    Chain,
+    cross,
+    gravity_moments,
+    jacobian,
+    joint_axes,
+    n_params,
+    param_names,
+    parameter_scales,
+    pose,
+    theta_index,
+)
+from calibench.estimators.identification.basis import identifiable_basis
+from calibench.estimators.identification.problem import Regrouped
+from calibench.estimators.rotations import matrix_to_rotvec, rigid_transform, rotvec_to_matrix, skew
+
+
+# --- points in the instrument's frame ------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class AngleTerm:
+    """A joint's angle error as a combination of known functions of its own angle: the reading
+    is off by F(q_j) @ c (rad), the link at q_j - F(q_j) @ c. ``kind``: ``harmonic`` (sin and
+    cos of ``harmonic`` q_j: an encoder's eccentricity at 1, a gear's harmonics beyond) or
+    ``table`` (one value per band of q_j between ``edges_rad``: what no law explains).
+    ``recording``: None for an error every recording shares; an index for one that holds only in
+    that recording's rows (a periodic error whose phase is set anew at each power-up: its own
+    coefficients per session, none for a session the fit has not seen)."""
+
+    joint: int
+    kind: str
+    harmonic: float = 1.0
+    edges_rad: tuple = ()
+    label: str = ""
+    recording: int | None = None
+
+    def functions(self, q_joint: np.ndarray) -> np.ndarray:
+        """F (n, k) at the joint's angles (n,)."""
+        if self.kind == "harmonic":
+            h = self.harmonic * np.asarray(q_joint, float)
+            return np.stack([np.sin(h), np.cos(h)], axis=1)
+        e = np.asarray(self.edges_rad, float)
+        band = np.clip(np.searchsorted(e, q_joint, side="right") - 1, 0, len(e) - 2)
+        F = np.zeros((len(q_joint), len(e) - 1))
+        F[np.arange(len(q_joint)), band] = 1.0
+        return F
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Parameter names of the term's coefficients (``angle_<label><joint>_...``)."""
+        stem = f"angle_{self.label or self.kind}{self.joint}"
+        if self.recording is not None:
+            stem += f"_rec{self.recording + 1}"
+        if self.kind == "harmonic":
+            return (f"{stem}_sin", f"{stem}_cos")
+        return tuple(f"{stem}_band{k + 1}" for k in range(len(self.edges_rad) - 1))
+
+
+@dataclasses.dataclass
+class PointState:
+    """delta (5 N + 3,) kinematic errors and tool; comp: the compliances (rad / N m), first about
+    the joints' axes then across them (tilt), then the angle terms' coefficients (rad); R (k, 3, 3),
+    t (k, 3) mm each recording's
+    base-to-instrument transform (y = R p + t)."""
+
+    delta: np.ndarray
+    comp: np.ndarray
+    R: np.ndarray
+    t: np.ndarray
+
+
+class PointProblem(ArmParameters):
+    """Tool points measured in the instrument's frame.
+
+    chain : the nominal arm (its ``tool_mm`` is the first guess of the tool point).
+    q_rad : (n, N) encoder readings; xyz_mm : (n, 3) measured points.
+    recording : (n,) int, which recording (own base frame) each row comes from; 0 if None.
+    sigma_mm : (n, 3) the instrument's stated 1-sigma per value, or None (then one common
+        sigma is estimated from the residuals).
+    compliance_joints : joints (1-based) whose compliance under gravity is a parameter (needs
+        the chain's masses); empty for a geometry-only model.
+    tilt_joints : joints whose bearing tilts under the moment across their axis (rad / N m):
+        everything the joint carries turns by c M_perp about the joint's origin.
+    angle_terms : :class:`AngleTerm` s: joint-angle errors as functions of the joint's own
+        angle (a discovery's transmission harmonics, an eccentricity, a table).
+    prior : None, or the prior's scale: each kinematic error (not the tool, the frames or the
+        compliances) gets a zero-mean Gaussian prior of ``prior`` times its typical size
+        (:func:`parameter_scales`: 0.1 mm, 1 mrad), the tolerances of a machined arm. The solve
+        is then the maximum a posteriori estimate: what the data cannot pin down (a narrow band
+        of a joint, one sign of a torque) stays near the drawing instead of absorbing the
+        recording's own structure, which is what carries a calibration to postures it has not
+        seen. The std are posterior std.
+    """
+
+    def __init__(
+        self,
+        chain: Chain,
+        q_rad: np.ndarray,
+        xyz_mm: np.ndarray,
+        recording: np.ndarray | None = None,
+        sigma_mm: np.ndarray | None = None,
+        compliance_joints=(),
+        tilt_joints=(),
+        prior: float | None = None,
+        angle_terms=(),
+    ):
+        self.chain = chain
+        self.q = np.asarray(q_rad, float)
+        self.y = np.asarray(xyz_mm, float)
+        n, N = self.q.shape
+        self.rec = np.zeros(n, int) if recording is None else np.asarray(recording, int)
+        self.n_rec = int(self.rec.max()) + 1
+        self.sigma = None if sigma_mm is None else np.asarray(sigma_mm, float)
+        self.extra_var = 0.0  # model-error variance (mm^2) added to every value: see reweight()
+        self.cj = np.asarray(sorted(compliance_joints), int)
+        self.tj = np.asarray(sorted(tilt_joints), int)
+        self.compliance = len(self.cj) + len(self.tj) > 0
+        if self.compliance and not chain.has_masses:
+            raise ValueError("a compliance model needs the arm's masses")
+        # gravity's moments at the readings, once: the links' sag is small enough that the
+        # moments at the sagged posture differ by second-order amounts
+        if self.compliance:
+            M = gravity_moments(chain, self.q)
+            w, _ = joint_axes(pose(chain, self.q))
+            self.tau = np.einsum("nij,nij->ni", w, M)[:, self.cj - 1]
+            Mt, wt = M[:, self.tj - 1], w[:, self.tj - 1]
+            self.m_perp = Mt - np.einsum("nij,nij->ni", Mt, wt)[:, :, None] * wt
+        else:
+            self.tau, self.m_perp = np.zeros((n, 0)), np.zeros((n, 0, 3))
+        if not (np.isfinite(self.q).all() and np.isfinite(self.y).all()):
+            raise ValueError("point data must be finite")
+        self.N = N
+        self.nk = n_params(N)
+        self.terms = tuple(angle_terms)
+        self.F = self._term_functions(self.q, self.rec)
+        self.na = sum(F.shape[1] for F in self.F)
+        self.nc = len(self.cj) + len(self.tj) + self.na
+        frame = ("rx", "ry", "rz", "x", "y", "z")
+        suffix = [""] if self.n_rec == 1 else [f"_{r + 1}" for r in range(self.n_rec)]
+        self.frame_names = tuple(f"base_{f}{s}" for s in suffix for f in frame)
+        self.R_ref: np.ndarray | None = None
+        self.prior = prior
+        # tool components held at the drawing's value: ones the base frames already move the data
+        # as (an arm whose axes are all parallel: the tool's and the base's height), see held_tool
+        self.held: tuple[int, ...] = ()
+
+    def held_tool(self, state=None, rel_tol: float = 1e-6) -> dict[str, str]:
+        """Hold each tool component the base frames (and the other tool components) already move
+        the data as: every axis parallel to one direction leaves the tool's offset along it and
+        the base's indistinguishable. Sets :attr:`held` (left out of :attr:`always`); returns
+        {name: why}."""
+        self.held = ()
+        s = self.start() if state is None else state
+        names = self.names
+        # the identifiable basis with the frames always kept and the tool as the one group
+        frames = np.arange(len(names) - len(self.frame_names), len(names))
+        view = Regrouped(self, always=frames, groups=[np.arange(self.nk - 3, self.nk)])
+        dropped = identifiable_basis(view, s, rel_tol=rel_tol).dropped
+        why = {n: f"{text}: held at the drawing's value" for n, text in dropped.items()}
+        self.held = tuple(int(names.index(n)) for n in why)
+        return why
+
+    def _term_functions(self, q_rad: np.ndarray, rec: np.ndarray | None) -> list[np.ndarray]:
+        """Each angle term's functions (n, k) at postures ``q_rad`` (n, N) of recordings ``rec``
+        (n,) (None: a recording the fit has not seen, where per-recording terms are zero)."""
+        out = []
+        for t in self.terms:
+            F = t.functions(q_rad[:, t.joint - 1])
+            if t.recording is not None:
+                F = F * (rec == t.recording)[:, None] if rec is not None else np.zeros_like(F)
+            out.append(F)
+        return out
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Parameter names, in the column order of :meth:`jacobian` and :meth:`values`."""
+        return (
+            param_names(self.N)
+            + tuple(f"compliance{j}" for j in self.cj)
+            + tuple(f"tilt_compliance{j}" for j in self.tj)
+            + tuple(n for t in self.terms for n in t.names)
+            + self.frame_names
+        )
+
+    @property
+    def always(self) -> np.ndarray:
+        """Columns always estimated: the base frames and the tool point (but its :attr:`held` components)."""
+        nf = len(self.frame_names)
+        tool = [k for k in range(self.nk - 3, self.nk) if k not in self.held]
+        return np.r_[np.array(tool, int), np.arange(len(self.names) - nf, len(self.names))]
+
+    @property
+    def groups(self) -> list[np.ndarray]:
+        """Column groups the identifiable basis is found in, in order: kinematics, Hayati's beta, compliance, angle
+        terms."""
+        N, nk = self.N, self.nk
+        kin = np.array([5 * i + k for i in range(N) for k in range(4)])
+        beta = np.array([5 * i + 4 for i in range(N)])
+        out = [kin, beta]
+        n_comp = len(self.cj) + len(self.tj)
+        if n_comp:
+            out.append(np.arange(nk, nk + n_comp))
+        if self.na:
+            out.append(np.arange(nk + n_comp, nk + self.nc))
+        return out
+
+    def weights(self) -> np.ndarray:
+        """1 / sigma per value, (n, 3): the stated sigma and the model-error variance (one per
+        recording: each setup its own)."""
+        extra = np.asarray(self.extra_var, float)
+        extra = extra[self.rec][:, None] if extra.ndim else extra
+        var = (self.sigma**2 if self.sigma is not None else np.zeros_like(self.y)) + extra
+        if not np.any(var > 0):
+            return np.ones_like(self.y)  # nothing stated yet: unit weights until reweight()
+        return 1.0 / np.sqrt(np.maximum(var, 1e-12))
+
+    def start(self) -> PointState:
+        """Nominal arm; each base frame from a rigid fit of its measured points to the nominal ones."""
+        p = pose(self.chain, self.q).point
+        R, t = np.empty((self.n_rec, 3, 3)), np.empty((self.n_rec, 3))
+        for r in range(self.n_rec):
+            m = self.rec == r
+            if m.sum() < 3:
+                raise ValueError(
+                    f"recording {r + 1} has {m.sum()} rows: a base frame needs at least 3"
+                )
+            R[r], t[r] = rigid_transform(p[m], self.y[m])
+        if self.R_ref is None:
+            self.R_ref = R.copy()
+        return PointState(np.zeros(self.nk), np.zeros(self.nc), R, t)
+
+    def _q_eff(self, s: PointState, q=None, tau=None, F=None) -> np.ndarray:
+        """The links' angles: the readings, sagged by compliance, less the angle terms' errors."""
+        q, tau, F = (self.q, self.tau, self.F) if q is None else (q, tau, F)
+        out = q.copy()
+        if self.compliance and tau is not None and len(self.cj):
+            out[:, self.cj - 1] += s.comp[: len(self.cj)] * tau
+        k = len(self.cj) + len(self.tj)
+        for t, Ft in zip(self.terms, F or ()):
+            out[:, t.joint - 1] -= Ft @ s.comp[k : k + Ft.shape[1]]
+            k += Ft.shape[1]
+        return out
+
+    def _tilt(self, s: PointState, P, m_perp) -> np.ndarray:
+        """The tool point's shift from the bearings' tilt, (n, 3) mm, and its columns (n, 3, nt)."""
+        _, o = joint_axes(P)
+        cols = cross(m_perp, P.point[:, None] - o[:, self.tj - 1]).transpose(0, 2, 1)
+        return cols @ s.comp[len(self.cj) : len(self.cj) + len(self.tj)], cols
+
+    def base_points(
+        self, s: PointState, q_rad: np.ndarray | None = None, session: int | None = None
+    ) -> np.ndarray:
+        """Modelled tool points in the arm's base frame, (n, 3) mm: this problem's postures, or
+        others ``q_rad`` (m, N) (their gravity loads computed here) taken in recording
+        ``session``'s session (None: one the fit has not seen, where per-recording angle terms
+        are unknown and left out)."""
+        if q_rad is None:
+            q_eff, m_perp = self._q_eff(s), self.m_perp
+        else:
+            q_rad = np.atleast_2d(np.asarray(q_rad, float))
+            tau, m_perp = None, None
+            if self.compliance:
+                other = PointProblem(
+                    self.chain,
+                    q_rad,
+                    np.zeros((len(q_rad), 3)),
+                    compliance_joints=self.cj,
+                    tilt_joints=self.tj,
+                )
+                tau, m_perp = other.tau, other.m_perp
+            F = self._term_functions(
+                q_rad, None if session is None else np.full(len(q_rad), session)
+            )
+            q_eff = self._q_eff(s, q_rad, tau, F)
+        P = pose(self.chain, q_eff, s.delta)
+        return P.point + (self._tilt(s, P, m_perp)[0] if len(self.tj) else 0.0)
+
+    def model(
+        self,
+        s: PointState,
+        q_rad: np.ndarray | None = None,
+        frame: int = 0,
+        session: int | None = None,
+    ) -> np.ndarray:
+        """Modelled points (n, 3) in the instrument frame: this problem's rows (each in its own
+        recording's frame), or postures ``q_rad`` (m, N) in recording ``frame``'s frame, with
+        recording ``session``'s per-recording angle terms (None: another session's rows, e.g. a
+        test recording in the same frame)."""
+        p = self.base_points(s, q_rad, session)
+        rec = self.rec if q_rad is None else np.full(len(p), frame)
+        return np.einsum("nij,nj->ni", s.R[rec], p) + s.t[rec]
+
+    def _prior_rows(self) -> tuple[np.ndarray, np.ndarray]:
+        """Which parameters carry the prior, (k,) indices, and its sigma (k,)."""
+        idx = np.arange(self.nk - 3)
+        return idx, parameter_scales([self.names[i] for i in idx]) * self.prior
+
+    def residuals(self, s: PointState) -> np.ndarray:
+        """Whitened residuals (3 n,) of measured minus modelled points (and the prior's rows when there is one)."""
+        r = ((self.y - self.model(s)) * self.weights()).ravel()
+        if self.prior is None:
+            return r
+        idx, sig = self._prior_rows()
+        return np.r_[r, s.delta[idx] / sig]
+
+    def jacobian(self, s: PointState) -> np.ndarray:
+        """Whitened d(residuals) / d(parameters), (3 n, len(names)); residual = y - model."""
+        q_eff = self._q_eff(s)
+        P = pose(self.chain, q_eff, s.delta)
+        Jk = jacobian(self.chain, P=P)  # (n, 3, nk) base frame
+        R = s.R[self.rec]
+        n = len(self.q)
+        cols = [np.einsum("nij,njk->nik", R, Jk)]
+        p = P.point
+        if len(self.cj):
+            Jq = Jk[:, :, [theta_index(j) for j in self.cj]]
+            cols.append(np.einsum("nij,njk->nik", R, Jq * self.tau[:, None, :]))
+        if len(self.tj):
+            shift, Jt = self._tilt(s, P, self.m_perp)
+            cols.append(np.einsum("nij,njk->nik", R, Jt))
+            p = p + shift
+        for t, Ft in zip(self.terms, self.F):
+            Jq = Jk[:, :, theta_index(t.joint)]  # (n, 3): the link turns by -Ft @ c
+            cols.append(-np.einsum("nij,nj,nk->nik", R, Jq, Ft))
+        Rp = np.einsum("nij,nj->ni", R, p)
+        Jf = np.zeros((n, 3, 6 * self.n_rec))
+        for r in range(self.n_rec):
+            m = self.rec == r
+            Jf[m, :, 6 * r : 6 * r + 3] = -skew(Rp[m])  # left perturbation of R
+            Jf[m, :, 6 * r + 3 : 6 * r + 6] = np.eye(3)
+        cols.append(Jf)
+        J = (-np.concatenate(cols, axis=2) * self.weights()[:, :, None]).reshape(3 * n, -1)
+        if self.prior is None:
+            return J
+        idx, sig = self._prior_rows()
+        Jp = np.zeros((len(idx), J.shape[1]))
+        Jp[np.arange(len(idx)), idx] = 1.0 / sig
+        return np.r_[J, Jp]
+
+    def update(self, s: PointState, step: np.ndarray) -> PointState:
+        """The state moved by ``step`` (len(names),): additive for the errors, a left rotation for each base frame."""
+        nk, nc = self.nk, self.nc
+        f = step[nk + nc :].reshape(self.n_rec, 6)
+        R = np.stack([rotvec_to_matrix(f[r, :3]) @ s.R[r] for r in range(self.n_rec)])
+        comp = s.comp + step[nk : nk + nc] if nc else s.comp
+        return PointState(s.delta + step[:nk], comp, R, s.t + f[:, 3:])
+
+    def values(self, s: PointState) -> np.ndarray:
+        """The state as one vector (len(names),): errors, compliances and terms, then each base frame's rotation
+        (rotvec from the reference, rad) and translation (mm)."""
+        w = np.stack([matrix_to_rotvec(s.R[r] @ self.R_ref[r].T) for r in range(self.n_rec)])
+        frames = np.c_[w, s.t].ravel()
+        return np.r_[s.delta, s.comp, frames]
+
+    def reweight(self, s: PointState, dof: int) -> float:
+        """Set the model-error variances, one per recording, so that each recording's whitened
+        residuals have unit variance (variance components: what the stated sigma does not cover,
+        and a setup that the model fits worse weighs less instead of having its tail called
+        outliers). ``dof``: the fit's degrees of freedom, shared out by the recordings' sizes.
+        Returns the model-error sigma (mm) over all rows."""
+        e2 = (self.y - self.model(s)) ** 2
+        base = self.sigma**2 if self.sigma is not None else np.zeros_like(e2)
+        n_values = e2.size
+        extra = np.zeros(self.n_rec)
+        for r in range(self.n_rec):
+            m = self.rec == r
+            extra[r] = _variance_component(e2[m], base[m], max(dof * e2[m].size / n_values, 1.0))
+        self.extra_var = extra
+        return float(
+            np.sqrt(np.sum(extra * np.bincount(self.rec, minlength=self.n_rec)) / len(self.rec))
+        )
+
+
+def _variance_component(e2: np.ndarray, base: np.ndarray, target: float) -> float:
+    """v >= 0 with sum(e2 / (base + v)) = target (0 if the stated sigma already covers it)."""
+
+    def chi2(v):
+        return float(np.sum(e2 / np.maximum(base + v, 1e-12)))
+
+    if chi2(0.0) <= target:
+        return 0.0
+    lo, hi = 0.0, float(np.mean(e2)) + 1e-12
+    while chi2(hi) > target:
+        hi *= 4
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if chi2(mid) > target else (lo, mid)
+    return hi

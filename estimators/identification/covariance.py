@@ -1,0 +1,45 @@
+"""The covariance of a least-squares estimate, and the test that its normal matrix is regular."""
+
+from __future__ import annotations
+
+import numpy as np
+
+# kept columns whose variance inflation reaches this repeat each other (see covariance)
+MAX_VARIANCE_INFLATION = 1e12
+
+
+def covariance(J: np.ndarray, cost: float) -> tuple[np.ndarray, float]:
+    """The estimated parameters' covariance at the minimum of a whitened problem.
+
+    Parameters
+    ----------
+    J : (m, k) whitened Jacobian of the estimated parameters at the minimum.
+    cost : the sum of the squared whitened residuals there.
+
+    Returns
+    -------
+    cov : (k, k) ``(J^T J)^-1`` times the variance factor (1 when the stated noise is right).
+    s2 : the variance factor, ``cost / (m - k)``.
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        When the normal matrix is singular to working precision: a column's variance inflation,
+        ``(A^-1)_ii A_ii``, is 1 alone and ``1 / (1 - R^2)`` beside columns that explain it by
+        ``R^2``; an identifiable basis keeps none beyond about 1e8, while columns that repeat each
+        other to rounding (frames and a tool a degenerate arm cannot tell apart) give about
+        1 / eps, a negative variance or a NaN, whichever the rounding picks.
+    """
+    dof = max(len(J) - J.shape[1], 1)
+    s2 = cost / dof
+    A = J.T @ J
+    try:
+        A_inv = np.linalg.inv(A)
+    except np.linalg.LinAlgError:
+        A_inv = np.full_like(A, np.nan)  # exactly singular: said below, as every other kind is
+    vif = np.diag(A_inv) * np.diag(A)
+    if not np.all((vif >= 0.5) & (vif < MAX_VARIANCE_INFLATION)):
+        raise np.linalg.LinAlgError(
+            "the kept parameters' normal matrix is singular to working precision"
+        )
+    return A_inv * s2, s2

@@ -1,0 +1,185 @@
+"""Levenberg-Marquardt over a problem's kept parameters, with its status, trace and covariance.
+
+The one solver of calibench's identifications (the arm's problems, the Stewart platform's joint
+adjustment): it takes a :class:`~calibench.estimators.identification.problem.Problem` and a
+:class:`~calibench.estimators.identification.basis.Basis`, and returns the estimate, its
+covariance, why it stopped (:class:`Status`) and what each iteration did (:class:`Iteration`),
+after mujoco's ``minimize.least_squares``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+
+import numpy as np
+
+from calibench.estimators.identification.basis import Basis, identifiable_basis
+from calibench.estimators.identification.covariance import covariance
+from calibench.estimators.identification.problem import Problem
+
+# a sum of squares of a few hundred whitened residuals is exact to about 1e-14 of itself: a
+# promised decrease below this fraction of the cost is rounding (a step of ~1e-6 std)
+COST_ROUNDING = 1e-13
+
+
+class Status(enum.Enum):
+    """Why the solver stopped; the first three are a minimum."""
+
+    COST_ROUNDING = "even the undamped step would lower the cost by less than its rounding"
+    SMALL_STEP = "the last accepted step moved no parameter by more than xtol of its std"
+    ZERO_GRADIENT = "no step lowers the cost, and the gradient vanishes"
+    NO_DECREASE = "no step lowers the cost, yet the gradient does not vanish (model or Jacobian?)"
+    MAX_ITER = "ran out of iterations"
+
+    @property
+    def converged(self) -> bool:
+        """Whether this stop is a minimum."""
+        return self in (Status.COST_ROUNDING, Status.SMALL_STEP, Status.ZERO_GRADIENT)
+
+
+@dataclasses.dataclass(frozen=True)
+class Iteration:
+    """One iteration of the solver: the cost it started from, the damping of its last try, the
+    largest step of a parameter in units of its std (``|step| sqrt(A_ii)``), and whether a step
+    was taken."""
+
+    cost: float
+    damping: float
+    step_std: float
+    accepted: bool
+
+
+@dataclasses.dataclass(frozen=True)
+class Identification:
+    """A solve's result: the state, the kept parameters' values and std by name, the basis, the
+    whitened residual RMS (1 when the noise model is right), why it stopped and its trace, and the
+    kept parameters' covariance (in ``basis.kept`` order)."""
+
+    state: object
+    estimate: dict[str, float]
+    std: dict[str, float]
+    basis: Basis
+    rms: float
+    iterations: int
+    status: Status = Status.SMALL_STEP
+    cov: np.ndarray | None = None
+    trace: tuple[Iteration, ...] = ()
+
+    @property
+    def converged(self) -> bool:
+        """Whether the solve stopped at a minimum (:attr:`Status.converged`)."""
+        return self.status.converged
+
+
+def identify(
+    problem: Problem, basis: Basis, state=None, max_iter: int = 50, xtol: float = 1e-8
+) -> Identification:
+    """Levenberg-Marquardt over the kept parameters; std from the whitened normal matrix.
+
+    Converged when the last accepted step moved no parameter by more than ``xtol`` of its std, or
+    when even the undamped step would lower the cost by less than the cost's own rounding (then
+    no comparison of costs can tell a better state from a worse one: the minimum, to the precision
+    the data are summed in). When no step, however damped, lowers the cost, the solve is converged
+    only if the gradient vanishes; one that ran out of iterations says so in its status.
+
+    Parameters
+    ----------
+    problem : the problem (:class:`~calibench.estimators.identification.problem.Problem`).
+    basis : which columns to estimate; the others stay where ``state`` has them.
+    state : where to start (default ``problem.start()``).
+    max_iter, xtol : the iteration limit and the step tolerance (in units of each std).
+
+    Returns
+    -------
+    Identification
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        When the kept parameters' normal matrix is singular at the end
+        (:func:`~calibench.estimators.identification.covariance.covariance`).
+    """
+    s = problem.start() if state is None else state
+    k = basis.kept
+    lam = 1e-3
+    r = problem.residuals(s)
+    cost = r @ r
+    it, status = 0, Status.MAX_ITER
+    trace: list[Iteration] = []
+    for it in range(1, max_iter + 1):  # noqa: B007 - the count is reported after the loop
+        J = problem.jacobian(s)[:, k]
+        A, g = J.T @ J, J.T @ r
+        start_cost = float(cost)
+        # the most the linearised model promises is the undamped step's decrease, g' A^-1 g: a
+        # damped step promises less, so only the undamped one may say the minimum is reached
+        try:
+            floor = bool(g @ np.linalg.solve(A, g) <= COST_ROUNDING * cost)
+        except np.linalg.LinAlgError:
+            floor = False
+        if floor:
+            status = Status.COST_ROUNDING
+            trace.append(Iteration(start_cost, lam, 0.0, False))
+            break
+        accepted = False
+        while True:
+            step_k = -np.linalg.solve(A + lam * np.diag(np.diag(A)), g)
+            step = np.zeros(len(problem.names))
+            step[k] = step_k
+            s_new = problem.update(s, step)
+            r_new = problem.residuals(s_new)
+            if r_new @ r_new < cost:
+                s, r, cost, lam = s_new, r_new, r_new @ r_new, max(lam / 10, 1e-12)
+                accepted = True
+                break
+            if np.max(np.abs(step_k) * np.sqrt(np.diag(A))) < xtol:
+                break  # a step already below the tolerance: shorter ones change nothing either
+            lam *= 10
+            if lam > 1e12:
+                break
+        step_std = float(np.max(np.abs(step_k) * np.sqrt(np.diag(A))))
+        trace.append(Iteration(start_cost, lam, step_std, accepted))
+        if accepted:
+            if step_std < xtol:
+                status = Status.SMALL_STEP
+                break
+            continue
+        # no step lowers the cost any more (the damped ones, however short): a minimum only if the
+        # gradient says so too; a wrong model or Jacobian ends here unconverged
+        vanishes = np.max(np.abs(g) / np.sqrt(np.maximum(np.diag(A), 1e-300))) < 1e-6 * max(
+            np.sqrt(cost), 1.0
+        )
+        status = Status.ZERO_GRADIENT if vanishes else Status.NO_DECREASE
+        break
+    cov, s2 = covariance(problem.jacobian(s)[:, k], cost)
+    names = problem.names
+    values = problem.values(s)
+    return Identification(
+        state=s,
+        estimate={names[j]: float(values[j]) for j in k},
+        std={names[j]: float(np.sqrt(cov[i, i])) for i, j in enumerate(k)},
+        basis=basis,
+        rms=float(np.sqrt(s2)),
+        iterations=it,
+        status=status,
+        cov=cov,
+        trace=tuple(trace),
+    )
+
+
+def identify_identifiable(problem: Problem, note=None) -> Identification:
+    """Basis at the start, solve, then the basis again at the solution: a dependence that only
+    holds once the model fits (e.g. all points of one cone coinciding) shows there; if the basis
+    changes, solve again with it. ``note``: as :func:`identifiable_basis`'s."""
+    basis = identifiable_basis(problem, note=note)
+    first = identify(problem, basis)
+    again = identifiable_basis(problem, first.state, explain=False)
+    if set(again.kept) == set(basis.kept):
+        return first
+    again = identifiable_basis(problem, first.state, note=note)
+    # restart from the solution with the newly dropped parameters back at nominal (kept fixed
+    # there), so the fit is re-expressed in the new basis rather than carried over
+    reset = np.zeros(len(problem.names))
+    newly = np.setdiff1d(basis.kept, again.kept)
+    reset[newly] = -problem.values(first.state)[newly]
+    return identify(problem, again, state=problem.update(first.state, reset))

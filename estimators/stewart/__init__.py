@@ -1,0 +1,15 @@
+"""Calibration of a 6-6 Stewart platform with a laser tracker's lengths (the laser-tracker seed).
+
+Lengths in mm, a pose is (R (3, 3), t (3,)) mapping platform-frame points into the base frame.
+Leg i joins the base hinge B_i to the platform hinge r_i (platform frame); its length is
+l_i + reading: |R r_i + t - B_i| = l_i + L_reading (the seed's one-step equation).
+
+- :func:`.tracker.trilaterate`: a point from its distances to three known points (Eq. 1), with the
+  covariance propagated through the distance Jacobian (Eq. 4-5).
+- :func:`.tracker.multilaterate`: a point from its distances to three or more stations (least squares).
+- :func:`.legs.fit_sphere`: the centre and radius of the sphere through four or more non-coplanar
+  points (Eq. 2: the two-step method's hinge point).
+- :func:`.legs.calibrate_leg`: the one-step method's seven unknowns of one leg, with std.
+- :func:`.kinematics.forward_kinematics`: the pose from six leg lengths (Newton).
+- :func:`.joint.adjust_jointly`: maximum likelihood over stations, poses and legs together.
+"""

@@ -1,0 +1,95 @@
+"""One leg's calibration: the two-step method's sphere (Eq. 2) and the one-step method's seven
+unknowns, |R r_i + t - B_i| = l_i + reading, with their std.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from calibench.estimators.stewart.tracker import CONVERGED_STEP
+
+
+def fit_sphere(points: np.ndarray) -> tuple[np.ndarray, float, bool]:
+    """Centre (3,) and radius of the least-squares sphere through points (n >= 4, not coplanar),
+    and whether the geometric refinement converged.
+
+    Linear in (c, k) from |p|^2 = 2 p.c + k (k = r^2 - |c|^2), then refined geometrically.
+    """
+    P = np.asarray(points, float)
+    if len(P) < 4:
+        raise ValueError("a sphere needs four or more points")
+    A = np.c_[2 * P, np.ones(len(P))]
+    if np.linalg.matrix_rank(A, tol=1e-9 * np.abs(A).max()) < 4:
+        raise ValueError("coplanar points: no unique sphere")
+    sol, *_ = np.linalg.lstsq(A, np.sum(P * P, axis=1), rcond=None)
+    c = sol[:3]
+    r = np.sqrt(sol[3] + c @ c)
+    step = np.full(4, np.inf)
+    for _ in range(20):  # geometric refinement: residual |p - c| - r
+        v = P - c
+        d = np.linalg.norm(v, axis=1)
+        J = np.c_[-v / d[:, None], -np.ones(len(P))]
+        step = np.linalg.lstsq(J, -(d - r), rcond=None)[0]
+        c, r = c + step[:3], r + step[3]
+        if np.max(np.abs(step)) < 1e-12:
+            break
+    return c, float(r), bool(np.max(np.abs(step)) < CONVERGED_STEP)
+
+
+@dataclasses.dataclass(frozen=True)
+class LegCalibration:
+    """Platform hinge r (3,) (platform frame), base hinge B (3,), initial length l; 1-sigma of
+    the seven as (7,) in the order a, b, c, m, n, q, l; whitened residual RMS."""
+
+    r: np.ndarray
+    B: np.ndarray
+    l: float
+    std: np.ndarray
+    rms: float
+    converged: bool = True  # False: Gauss-Newton ran out of iterations, this is its last iterate
+
+
+def calibrate_leg(
+    R: np.ndarray,
+    t: np.ndarray,
+    readings: np.ndarray,
+    r0: np.ndarray,
+    B0: np.ndarray,
+    l0: float,
+    sigma: np.ndarray,
+    iterations: int = 50,
+) -> LegCalibration:
+    """The one-step method for one leg: poses (n, 3, 3), (n, 3), readings (n,), sigma (n,) of
+    each equation (length units); Gauss-Newton on |R r + t - B| - (l + reading) = 0."""
+    x = np.r_[r0, B0, l0].astype(float)
+    w = 1 / np.asarray(sigma, float)
+
+    def linearise(x):
+        v = np.einsum("nij,j->ni", R, x[:3]) + t - x[3:6]
+        L = np.linalg.norm(v, axis=1)
+        u = v / L[:, None]
+        res = (L - (x[6] + readings)) * w
+        return res, np.c_[np.einsum("ni,nij->nj", u, R), -u, -np.ones(len(u))] * w[:, None]
+
+    converged = False
+    for _ in range(iterations):
+        res, J = linearise(x)
+        step = np.linalg.lstsq(J, -res, rcond=None)[0]
+        x = x + step
+        if np.max(np.abs(step)) < 1e-12:
+            converged = True
+            break
+    res, J = linearise(x)
+    dof = max(len(res) - 7, 1)
+    s2 = res @ res / dof
+    cov = np.linalg.inv(J.T @ J) * s2
+    return LegCalibration(
+        r=x[:3],
+        B=x[3:6],
+        l=float(x[6]),
+        std=np.sqrt(np.diag(cov)),
+        rms=float(np.sqrt(s2)),
+        converged=converged,
+    )
