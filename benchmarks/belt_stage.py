@@ -14,7 +14,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")  # before mujoco is imported: renders 
 import numpy as np  # noqa: E402
 
 from calibench.estimators.camera.chessboard import find_chessboard_corners
-from calibench.scenarios import belt_stage
+from calibench.scenarios.belt_stage import scenario as belt_stage
 from calibench.scenes.belt_stage import BeltStageGeometry
 from calibench.sim.belt_stage import BeltStageSim, BeltStageTruth
 

@@ -20,7 +20,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from calibench.scenarios.camera_calibration import calibrate_photos
+from calibench.scenarios.camera import calibrate_photos
 
 
 def opencv(paths, cols, rows, square_mm):

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from calibench.scenarios.montecarlo import run_study
+from calibench.scenarios.study.montecarlo import run_study
 
 STATED = {
     "arm-cmm": {

@@ -19,9 +19,9 @@ from pathlib import Path
 import numpy as np
 
 from calibench.estimators import discovery as dsc
-from calibench.scenarios.discover import discover_stage, paper_belt_recording
-from calibench.scenarios.discover_stewart import STEWART_FLOOR
-from calibench.scenarios.discover_suite import SUITE, null_claims, run_case, score, table
+from calibench.scenarios.discover.command import discover_stage, paper_belt_recording
+from calibench.scenarios.discover.stewart import STEWART_FLOOR
+from calibench.scenarios.discover.suite import SUITE, null_claims, run_case, score, table
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
 

@@ -19,8 +19,8 @@ from pathlib import Path
 
 from results import STUDIES
 
-from calibench.scenarios.montecarlo import load_journal, run_study
 from calibench.scenarios.registry import SCENARIOS
+from calibench.scenarios.study.montecarlo import load_journal, run_study
 
 RENDERED = ("belt-stage", "vision-stage")  # the others report fidelity "analytic" only
 

@@ -48,7 +48,7 @@ def render(n: int = 16) -> dict:
     distortion, blur, noise) against MuJoCo's bare 640 x 480 frame of the same scene, alternated."""
     import mujoco
 
-    from calibench.scenarios import belt_stage
+    from calibench.scenarios.belt_stage import scenario as belt_stage
     from calibench.scenes.belt_stage import BeltStageGeometry
     from calibench.sim.belt_stage import BeltStageSim, BeltStageTruth
 
@@ -79,7 +79,7 @@ def camera(data: Path, rounds: int = 5) -> dict:
     """ms for OpenCV's 13 sample photos: calibench camera against OpenCV's classic pipeline."""
     from camera import opencv
 
-    from calibench.scenarios.camera_calibration import calibrate_photos
+    from calibench.scenarios.camera import calibrate_photos
 
     paths = sorted((data / "opencv_left").glob("left*.jpg"))
     t_cv, t_cb = [], []
@@ -99,7 +99,7 @@ def camera(data: Path, rounds: int = 5) -> dict:
 
 def studies() -> dict:
     """Whole-command trials/s of each scenario's analytic study on all cores (pool start-up in)."""
-    from calibench.scenarios.montecarlo import run_study
+    from calibench.scenarios.study.montecarlo import run_study
 
     out = {}
     for name, (n, goal) in STUDIES.items():

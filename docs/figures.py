@@ -513,8 +513,13 @@ def arm_coverage(factor: float, trials: int) -> tuple[float, float]:
     import numpy as np
 
     from calibench.estimators.identification.solver import identify_identifiable
-    from calibench.scenarios.arm_cmm import ArmCmmConfig, prior, reference_values, tracker_problem
-    from calibench.scenarios.arms import chain_of
+    from calibench.scenarios.arm_cmm.arms import chain_of
+    from calibench.scenarios.arm_cmm.scenario import (
+        ArmCmmConfig,
+        prior,
+        reference_values,
+        tracker_problem,
+    )
     from calibench.sim.arm_cmm import ArmSim
 
     base = ArmCmmConfig()
@@ -782,7 +787,7 @@ def ur10_periodogram():
     from calibench.estimators.arm.kinematics import jacobian, theta_index
     from calibench.estimators.rotations import rotvec_to_matrix
     from calibench.recordings import load_arm_csv
-    from calibench.scenarios.arms import chain_of, load_arm
+    from calibench.scenarios.arm_cmm.arms import chain_of, load_arm
 
     chain = chain_of(load_arm(UR10 / "ur10.toml"))
     fit, res = ur10_fit("all"), ur10_residuals("all")
@@ -1060,7 +1065,7 @@ def stewart():
 def study(scenario: str, trials: int, factor: float | None = None) -> dict:
     """A Monte-Carlo study (seed 0, analytic, all cores): its summary. ``factor``: every stated
     sigma times this (benchmarks/datasheet_coverage.py's tables)."""
-    from calibench.scenarios.montecarlo import run_study
+    from calibench.scenarios.study.montecarlo import run_study
 
     table_ = None
     if factor is not None:
@@ -1182,7 +1187,7 @@ PHYSICS = (
 @functools.cache
 def physics_study(scenario: str, trials: int, physics: bool) -> dict:
     """A Monte-Carlo study (seed 0, analytic) of the rigid twin or of the one with PHYSICS on."""
-    from calibench.scenarios.montecarlo import run_study
+    from calibench.scenarios.study.montecarlo import run_study
 
     arm, table_ = next((a, t) for s, a, n, _, t, *_ in PHYSICS if s == scenario)
     out = scratch() / "physics" / f"{scenario}-{trials}-{physics}"
@@ -1252,7 +1257,7 @@ def physics_studies():
 @block(seconds=1, ci=True)
 def coverage_bands():
     """scenarios.montecarlo.summarise's band for an honest 95 % coverage at 1000 and 200 trials."""
-    from calibench.scenarios.montecarlo import summarise
+    from calibench.scenarios.study.montecarlo import summarise
 
     def band(n):  # the band summary.json writes beside every coverage, for n trials
         rows = [
@@ -1293,10 +1298,10 @@ def run_times():
     from threadpoolctl import threadpool_limits
 
     from calibench.estimators.identification.solver import identify_identifiable
-    from calibench.scenarios.arm_cmm import tracker_problem
-    from calibench.scenarios.arms import chain_of
-    from calibench.scenarios.discover_suite import concealed_discovery
-    from calibench.scenarios.montecarlo import run_study
+    from calibench.scenarios.arm_cmm.arms import chain_of
+    from calibench.scenarios.arm_cmm.scenario import tracker_problem
+    from calibench.scenarios.discover.suite import concealed_discovery
+    from calibench.scenarios.study.montecarlo import run_study
     from calibench.sim.arm_cmm import ArmSim, ArmTruth
 
     def timed(fn) -> float:
@@ -1364,7 +1369,7 @@ def run_times():
 @block(seconds=215, ci=True)
 def discover_suite():
     """The concealed-effect suite (scenarios/discover_suite.py, as benchmarks/discover.py runs it)."""
-    from calibench.scenarios.discover_suite import SUITE, run_case, score
+    from calibench.scenarios.discover.suite import SUITE, run_case, score
 
     s = score([run_case(*case) for case in SUITE])
     what, value, limit = s["worst_param"]
@@ -1398,8 +1403,8 @@ def discover_instruments():
     effects found against the concealed ones, the held-out RMS and the repeatability."""
     import numpy as np
 
-    from calibench.scenarios.discover import _figure
-    from calibench.scenarios.discover_suite import concealed_discovery
+    from calibench.scenarios.discover.command import _figure
+    from calibench.scenarios.discover.suite import concealed_discovery
 
     rows = []
     for scenario, kind, seed in SHOWCASE:
@@ -1449,7 +1454,7 @@ def null_claims() -> dict:
     import concurrent.futures as cf
     import multiprocessing
 
-    from calibench.scenarios.discover_suite import null_claims as claims_on
+    from calibench.scenarios.discover.suite import null_claims as claims_on
 
     jobs = {
         (sc, k): (FLOORS if sc.startswith("arm") else STAGE_FLOORS)
@@ -1473,7 +1478,7 @@ def null_claims() -> dict:
 def discover_nulls():
     """discover on 30 fresh null recordings per scenario at several floors: the false-claim rate."""
     from calibench.estimators.discovery import FLOOR
-    from calibench.scenarios.discover import ARM_FLOOR
+    from calibench.scenarios.discover.command import ARM_FLOOR
 
     rates = null_claims()
     rows = [
@@ -1499,7 +1504,7 @@ def discover_nulls():
 
 def paper_recording():
     """The seed paper's measured belt-stage tables as a stage recording."""
-    from calibench.scenarios.discover import paper_belt_recording
+    from calibench.scenarios.discover.command import paper_belt_recording
 
     need_data(DATA / "seed_belt_stage")
     return paper_belt_recording(DATA / "seed_belt_stage")
@@ -1508,7 +1513,7 @@ def paper_recording():
 @functools.cache
 def paper_discovery(holdout: str) -> dict:
     """discover belt-stage on the seed paper's measured tables, holding out whole rows or columns."""
-    from calibench.scenarios.discover import discover_stage
+    from calibench.scenarios.discover.command import discover_stage
 
     return discover_stage("belt-stage", paper_recording(), 0, holdout)[0]
 
@@ -1580,7 +1585,7 @@ def paper_belt_discover():
 def stewart_located():
     """What discover stewart's `located` says on the suite's lost-motion and thermal recordings
     of the platform (seed 0 of each)."""
-    from calibench.scenarios.discover_suite import concealed_discovery
+    from calibench.scenarios.discover.suite import concealed_discovery
 
     said = [
         concealed_discovery("stewart", kind, 0)[1]["located"][0]["where"]
@@ -1593,7 +1598,7 @@ def stewart_located():
 def growing_reversal():
     """What discover belt-stage says of the belt's growing lost motion (the suite's elastic
     recording, seed 2, as tests/scenarios/test_discover_twin.py runs it)."""
-    from calibench.scenarios.discover import discover_stage
+    from calibench.scenarios.discover.command import discover_stage
     from calibench.sim.concealed import stage_recording
 
     d, _ = discover_stage("belt-stage", stage_recording("belt-stage", "elastic", 2)[0], 0)
@@ -1714,7 +1719,7 @@ def python_example():
     from calibench.estimators.arm.point import PointProblem
     from calibench.estimators.identification.solver import identify_identifiable
     from calibench.recordings import load_arm_csv
-    from calibench.scenarios.arms import chain_of, load_arm
+    from calibench.scenarios.arm_cmm.arms import chain_of, load_arm
 
     rec = load_arm_csv(series("D")[0], n_joints=6)
     ident = identify_identifiable(PointProblem(chain_of(load_arm("ur10")), rec.q_rad, rec.xyz_mm))

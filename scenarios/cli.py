@@ -394,7 +394,7 @@ def _run(args) -> int:
             raise BadInput(f"--arm applies to arm-cmm, not {args.scenario}")
         configs["arm-cmm"] = override(configs["arm-cmm"], {"arm": args.arm}, "arm-cmm")
     if "arm-cmm" in configs:
-        from calibench.scenarios.arm_cmm import check_cones
+        from calibench.scenarios.arm_cmm.scenario import check_cones
         from calibench.scenes.arm_cmm import load_arm
 
         load_arm(configs["arm-cmm"].arm)  # a bad arm is said before anything runs
@@ -460,7 +460,7 @@ def _fit(args) -> int:
 
 
 def _fit_arm(args, out: Path) -> int:
-    from calibench.scenarios.arm_fit import run_arm_fit
+    from calibench.scenarios.arm_cmm.fit import run_arm_fit
 
     r = run_arm_fit(
         args.recordings,
@@ -495,7 +495,7 @@ def _fit_arm(args, out: Path) -> int:
 
 
 def _montecarlo(args) -> int:
-    from calibench.scenarios.montecarlo import checks_table, run_study, summary_table
+    from calibench.scenarios.study.montecarlo import checks_table, run_study, summary_table
 
     _known(args.scenario)
     out = args.out or Path("calibench-out") / f"{args.scenario}-montecarlo"
@@ -550,7 +550,7 @@ def _montecarlo(args) -> int:
 
 
 def _discover(args) -> int:
-    from calibench.scenarios.discover import run_discover
+    from calibench.scenarios.discover.command import run_discover
 
     out = args.out or Path("calibench-out") / f"{args.scenario}-discover"
     if args.arm is not None and args.scenario != "arm-cmm":
@@ -610,7 +610,7 @@ def _iso230(args) -> int:
 
 
 def _camera(args) -> int:
-    from calibench.scenarios.camera_calibration import run_camera
+    from calibench.scenarios.camera import run_camera
 
     r = run_camera(
         args.images,

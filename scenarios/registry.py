@@ -77,7 +77,7 @@ def scenario(name: str) -> Scenario:
         import importlib
 
         module, config, fit_model, renders = _TABLE[name]
-        m = importlib.import_module(f"calibench.scenarios.{module}")
+        m = importlib.import_module(f"calibench.scenarios.{module}.scenario")
         assert m.NAME == name
         _built[name] = Scenario(name, getattr(m, config), m.run, fit_model, renders)
     return _built[name]

@@ -450,7 +450,7 @@ def stewart_recording(kind: str, seed: int, n_poses: int = 100) -> tuple[Stewart
     """
     from scipy.spatial.transform import Rotation
 
-    from calibench.scenarios.stewart import StewartConfig, random_poses
+    from calibench.scenarios.stewart.scenario import StewartConfig, random_poses
     from calibench.sim.stewart import StewartSim, StewartTruth
 
     if kind not in STEWART_KINDS:

@@ -20,8 +20,8 @@ from calibench.estimators.arm.point import AngleTerm, PointProblem
 from calibench.estimators.arm.tracker import ConeProblem, TrackerProblem
 from calibench.estimators.identification.basis import identifiable_basis
 from calibench.estimators.identification.solver import identify, identify_identifiable
-from calibench.scenarios.arm_cmm import reference_values, tracker_problem
-from calibench.scenarios.arms import chain_of
+from calibench.scenarios.arm_cmm.arms import chain_of
+from calibench.scenarios.arm_cmm.scenario import reference_values, tracker_problem
 from calibench.sim.arm_cmm import ArmSim, ArmTruth, table1_errors
 
 
@@ -475,7 +475,7 @@ def test_identification_std_is_honest_per_parameter():
     honest, +- 0.035 at 400 trials (1 / sqrt(800)); 0.85-1.2 is over 4 sigma either side, with
     room for the largest of ~18. A pooled RMS cannot see one parameter's std 1.3x off (1 % on
     27); here that parameter gives 0.77 and fails."""
-    from calibench.scenarios.arm_cmm import reference_values
+    from calibench.scenarios.arm_cmm.scenario import reference_values
 
     sim = ArmSim("arm-cmm", ArmTruth())
     chain = chain_of(sim.arm)

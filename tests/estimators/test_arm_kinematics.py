@@ -14,7 +14,7 @@ from calibench.estimators.arm.kinematics import (
     point,
     theta_index,
 )
-from calibench.scenarios.arms import chain_of
+from calibench.scenarios.arm_cmm.arms import chain_of
 from calibench.scenes.arm_cmm import arm_from_table, load_arm
 from calibench.sim.arm_cmm import ArmSim, ArmTruth
 

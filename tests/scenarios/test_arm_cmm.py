@@ -6,7 +6,7 @@ import json
 import numpy as np
 import pytest
 
-from calibench.scenarios.arm_cmm import ArmCmmConfig, prior, trial_parameters
+from calibench.scenarios.arm_cmm.scenario import ArmCmmConfig, prior, trial_parameters
 from calibench.scenarios.cli import main
 from calibench.scenarios.rrlog import entity_paths
 
@@ -148,8 +148,8 @@ def test_the_reference_is_what_the_reduced_model_fits_to_mujocos_arm(arm):
     kinematic error it keeps, the UR10's all but a few wrist ones."""
     from calibench.estimators.arm.kinematics import parameter_scales
     from calibench.estimators.identification.solver import identify, identify_identifiable
-    from calibench.scenarios.arm_cmm import reference_values, tracker_problem
-    from calibench.scenarios.arms import chain_of
+    from calibench.scenarios.arm_cmm.arms import chain_of
+    from calibench.scenarios.arm_cmm.scenario import reference_values, tracker_problem
     from calibench.sim.arm_cmm import ArmSim
 
     for k in range(5):

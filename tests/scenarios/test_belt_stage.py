@@ -6,7 +6,7 @@ import json
 import numpy as np
 import pytest
 
-from calibench.scenarios import belt_stage
+from calibench.scenarios.belt_stage import scenario as belt_stage
 from calibench.scenarios.cli import main
 from calibench.scenarios.rrlog import entity_paths
 

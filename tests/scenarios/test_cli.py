@@ -132,7 +132,7 @@ def test_camera_leaves_out_a_gross_corner_and_says_which(shared_data, tmp_path, 
     """A detector's 9.2 px error on one corner of one photo (the size the sector detector made
     on a steep real view): the corner is named and left out, the other 53 of that photo kept,
     and the calibration stays at OpenCV's reference; kept in, it raises the RMS by over 0.05 px."""
-    import calibench.scenarios.camera_calibration as cam
+    import calibench.scenarios.camera as cam
 
     real = cam.find_chessboard_corners
 
@@ -210,7 +210,7 @@ def test_version_and_internal_errors(tmp_path, capsys, monkeypatch):
     except SystemExit as e:  # argparse's version action exits
         assert e.code == 0
     assert calibench.__version__ in capsys.readouterr().out
-    from calibench.scenarios import arm_fit
+    from calibench.scenarios.arm_cmm import fit as arm_fit
 
     def broken(*a, **k):
         raise RuntimeError("a defect")

@@ -5,7 +5,7 @@ manifests only afterwards (see scenarios/discover_suite.py)."""
 
 from collections import Counter
 
-from calibench.scenarios.discover_suite import SUITE, run_case, score, table
+from calibench.scenarios.discover.suite import SUITE, run_case, score, table
 
 
 def test_concealed_effect_suite():

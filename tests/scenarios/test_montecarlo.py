@@ -12,7 +12,7 @@ import pyarrow.parquet as pq
 import pytest
 
 from calibench.scenarios.cli import main
-from calibench.scenarios.montecarlo import (
+from calibench.scenarios.study.montecarlo import (
     JOURNAL,
     binom_ppf,
     chi2_ppf,
@@ -72,7 +72,7 @@ def test_dask_cluster_gives_the_pool_s_results(tmp_path):
 def test_a_finished_study_needs_no_workers(tmp_path, monkeypatch):
     """Asked again with all its trials journaled, a study rewrites its outputs without starting a
     pool or reaching a cluster (the cluster of the first run may be gone)."""
-    import calibench.scenarios.montecarlo as mc
+    import calibench.scenarios.study.montecarlo as mc
 
     with cf.ThreadPoolExecutor(1) as ex:
         first = run_study("arm-cmm", 3, 5, "analytic", tmp_path, executor=ex, progress=False)
@@ -96,7 +96,7 @@ def test_a_bad_config_is_said_by_the_worker_that_checks_it(tmp_path):
 import sys
 from pathlib import Path
 from calibench.errors import BadInput
-from calibench.scenarios.montecarlo import run_study
+from calibench.scenarios.study.montecarlo import run_study
 try:
     run_study("arm-cmm", 3, 0, "analytic", Path({str(tmp_path)!r}), workers=1, progress=False,
               table={{"stated_range_sigma_um": [0.0, 1.0]}})
@@ -125,7 +125,7 @@ def test_a_config_under_which_every_trial_fails_is_bad_input(tmp_path, monkeypat
     empty table with exit 0; the trials stay in the journal. Without a config the same failures
     are the study's result (a defect of calibench, not of the input)."""
     from calibench.errors import BadInput
-    from calibench.scenarios import arm_cmm
+    from calibench.scenarios.arm_cmm import scenario as arm_cmm
 
     def no_prior(config, rng):
         raise ValueError("the set-up cannot seat a cone")
@@ -160,7 +160,7 @@ def test_a_study_whose_trials_compare_nothing_is_bad_input(tmp_path, monkeypatch
     """Trials that succeed without one parameter to compare with the truth (an arm whose every
     error its frames and tool absorb) make an empty table: one BadInput line, not exit 0."""
     from calibench.errors import BadInput
-    from calibench.scenarios import arm_cmm
+    from calibench.scenarios.arm_cmm import scenario as arm_cmm
 
     monkeypatch.setattr(arm_cmm, "trial_parameters", lambda config, seed: [])
     with (

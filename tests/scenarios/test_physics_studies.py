@@ -8,7 +8,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from calibench.scenarios.belt_stage import BeltStageConfig, run
+from calibench.scenarios.belt_stage.scenario import BeltStageConfig, run
 from calibench.sim.stage_drive import BeltDrive
 from tests.sim.test_stage_drive import closed_form_lag_mm
 

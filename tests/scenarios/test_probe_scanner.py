@@ -5,8 +5,8 @@ import json
 import numpy as np
 
 from calibench.estimators.probe_scanner.calibration import calibrate_lsq, calibrate_paper
-from calibench.scenarios import probe_scanner
 from calibench.scenarios.cli import main
+from calibench.scenarios.probe_scanner import scenario as probe_scanner
 from calibench.scenarios.rrlog import entity_paths
 from calibench.scenes.probe_scanner import ProbeScannerGeometry
 from calibench.sim.probe_scanner import ProbeScannerSim, ProbeScannerTruth

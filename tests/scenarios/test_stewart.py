@@ -42,7 +42,7 @@ def test_run_meets_the_acceptance(tmp_path):
 def test_a_solve_that_runs_out_of_iterations_fails_the_run(tmp_path, monkeypatch):
     """Two Gauss-Newton iterations cannot converge from the drawing's hinges: the run must say
     so (a failed check, exit 1), not report the last iterate as an answer."""
-    import calibench.scenarios.stewart as scenario
+    import calibench.scenarios.stewart.scenario as scenario
     from calibench.estimators.stewart import joint as est
 
     real = est.adjust_jointly
@@ -60,7 +60,7 @@ def test_a_datasheet_off_by_a_common_factor_leaves_estimates_and_std_unchanged(t
     weighs everything as before, finds a variance factor of 1 / 1.5^2 in its residuals and
     rescales its covariance by it: the same estimates and the same std as with the right
     datasheet (whose coverage the Monte-Carlo studies check), to the solver's convergence."""
-    from calibench.scenarios.stewart import StewartConfig, run
+    from calibench.scenarios.stewart.scenario import StewartConfig, run
 
     right = StewartConfig()
     off = dataclasses.replace(
@@ -81,7 +81,7 @@ def test_a_datasheet_off_by_a_common_factor_leaves_estimates_and_std_unchanged(t
 def test_the_two_step_caps_turn_about_a_basis_fixed_by_formula():
     """The cap's directions across the leg: orthonormal and right-handed about it, from a formula
     (an SVD's null space is LAPACK's free pick and moved the two-step's figures between CPUs)."""
-    from calibench.scenarios.stewart import directions_across
+    from calibench.scenarios.stewart.scenario import directions_across
 
     rng = np.random.default_rng(0)
     for u in [np.eye(3)[k] for k in range(3)] + list(rng.normal(size=(50, 3))):

@@ -5,9 +5,9 @@ import json
 import numpy as np
 import pytest
 
-from calibench.scenarios import vision_stage
 from calibench.scenarios.cli import main
 from calibench.scenarios.rrlog import entity_paths
+from calibench.scenarios.vision_stage import scenario as vision_stage
 
 
 @pytest.fixture(scope="module")

@@ -4,7 +4,7 @@ every wall finds, to the last bit."""
 import numpy as np
 import pytest
 
-from calibench.scenarios.probe_scanner import ProbeScannerConfig
+from calibench.scenarios.probe_scanner.scenario import ProbeScannerConfig
 from calibench.sim.probe_scanner import (
     N_SECTORS,
     ProbeScannerSim,

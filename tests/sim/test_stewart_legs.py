@@ -5,7 +5,7 @@ import dataclasses
 
 import numpy as np
 
-from calibench.scenarios.stewart import StewartConfig, random_poses
+from calibench.scenarios.stewart.scenario import StewartConfig, random_poses
 from calibench.sim.stewart import StewartSim, StewartTruth
 
 

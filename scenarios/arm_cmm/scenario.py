@@ -36,7 +36,7 @@ from calibench.estimators.arm.tracker import ConeProblem, TrackerProblem, Tracke
 from calibench.estimators.identification.basis import identifiable_basis
 from calibench.estimators.identification.solver import identify_identifiable
 from calibench.estimators.rotations import rigid_transform
-from calibench.scenarios.arms import chain_of
+from calibench.scenarios.arm_cmm.arms import chain_of
 from calibench.scenarios.report import BadInput, Check, Parameter, Report
 from calibench.sim.arm_cmm import ArmSim, ArmTruth
 
@@ -332,9 +332,9 @@ def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool
     if out_dir is not None:  # a Monte-Carlo trial keeps only the numbers
         _write_figure(out_dir, artifacts)
     if rrd and out_dir is not None:
-        from calibench.scenarios import arm_cmm_log
+        from calibench.scenarios.arm_cmm import viewer
 
-        arm_cmm_log.log_run(out_dir / "run.rrd", report, artifacts)
+        viewer.log_run(out_dir / "run.rrd", report, artifacts)
         report.rrd = "run.rrd"
     return report
 

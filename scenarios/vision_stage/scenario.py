@@ -377,9 +377,9 @@ def run(config: VisionStageConfig, seed: int, fidelity: str, out_dir: Path, rrd:
         if out_dir is not None:  # a Monte-Carlo trial keeps only the numbers
             _write_figure(out_dir, artifacts, config)
         if rrd and out_dir is not None:
-            from calibench.scenarios import vision_stage_log
+            from calibench.scenarios.vision_stage import viewer
 
-            vision_stage_log.log_run(out_dir / "run.rrd", report, artifacts)
+            viewer.log_run(out_dir / "run.rrd", report, artifacts)
             report.rrd = "run.rrd"
         return report
     finally:

@@ -168,8 +168,8 @@ def discover_scanner(
     rec, seed: int = 0, floor: float = dsc.FLOOR, config=None
 ) -> tuple[dict, dict]:
     """discovery.json's content for a probe-scanner recording, and what the figure needs."""
-    from calibench.scenarios.discover import _describe, one_axis_fit, verdict
-    from calibench.scenarios.probe_scanner import ProbeScannerConfig
+    from calibench.scenarios.discover.command import _describe, one_axis_fit, verdict
+    from calibench.scenarios.probe_scanner.scenario import ProbeScannerConfig
 
     config = config or ProbeScannerConfig()
     n = len(rec)

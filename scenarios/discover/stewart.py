@@ -295,8 +295,8 @@ def discover_stewart(
     rec, seed: int = 0, floor: float = STEWART_FLOOR, config=None
 ) -> tuple[dict, dict]:
     """discovery.json's content for a Stewart recording, and what the figure needs."""
-    from calibench.scenarios.discover import _describe, one_axis_fit, verdict
-    from calibench.scenarios.stewart import StewartConfig
+    from calibench.scenarios.discover.command import _describe, one_axis_fit, verdict
+    from calibench.scenarios.stewart.scenario import StewartConfig
     from calibench.sim.stewart import leg_effects_mm
 
     config = config or StewartConfig()

@@ -482,9 +482,9 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
     if out_dir is not None:  # a Monte-Carlo trial keeps only the numbers
         _write_figure(out_dir, report, err)
     if rrd and out_dir is not None:
-        from calibench.scenarios import stewart_log
+        from calibench.scenarios.stewart import viewer
 
-        stewart_log.log_run(out_dir / "run.rrd", report, artifacts)
+        viewer.log_run(out_dir / "run.rrd", report, artifacts)
         report.rrd = "run.rrd"
     return report
 

@@ -17,9 +17,9 @@ from __future__ import annotations
 
 import dataclasses
 
-from calibench.scenarios.discover import discover_arm, discover_stage
-from calibench.scenarios.discover_scanner import discover_scanner
-from calibench.scenarios.discover_stewart import discover_stewart
+from calibench.scenarios.discover.command import discover_arm, discover_stage
+from calibench.scenarios.discover.probe_scanner import discover_scanner
+from calibench.scenarios.discover.stewart import discover_stewart
 from calibench.sim.concealed import (
     arm_recording,
     scanner_recording,

@@ -449,7 +449,7 @@ def arm_drivers(
     ``delta``: the chain's errors (5 N + 3,) at which the Jacobians, the points and the flange
     are taken (the drawing's chain if None)."""
     from calibench.estimators.arm.kinematics import jacobian, pose, theta_index
-    from calibench.scenarios.arms import chain_of
+    from calibench.scenarios.arm_cmm.arms import chain_of
     from calibench.sim.arm_cmm import ArmSim, ArmTruth
 
     N = arm.n_joints
@@ -512,8 +512,8 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
         joint_table,
     )
     from calibench.estimators.rotations import skew
-    from calibench.scenarios.arm_fit import calibrate, check_postures
-    from calibench.scenarios.arms import chain_of, load_arm
+    from calibench.scenarios.arm_cmm.arms import chain_of, load_arm
+    from calibench.scenarios.arm_cmm.fit import calibrate, check_postures
 
     arm = load_arm(arm) if isinstance(arm, (str, Path)) else arm
     N = arm.n_joints
@@ -862,8 +862,8 @@ def run_discover(
         if scenario == "probe-scanner":
             from calibench.recordings import load_scanner_csv
             from calibench.scenarios.config import load_toml, override
-            from calibench.scenarios.discover_scanner import discover_scanner
-            from calibench.scenarios.probe_scanner import ProbeScannerConfig
+            from calibench.scenarios.discover.probe_scanner import discover_scanner
+            from calibench.scenarios.probe_scanner.scenario import ProbeScannerConfig
 
             cfg = ProbeScannerConfig()
             if config is not None:
@@ -872,15 +872,15 @@ def run_discover(
         if scenario == "stewart":
             from calibench.recordings import load_stewart_csv
             from calibench.scenarios.config import load_toml, override
-            from calibench.scenarios.discover_stewart import discover_stewart
-            from calibench.scenarios.stewart import StewartConfig
+            from calibench.scenarios.discover.stewart import discover_stewart
+            from calibench.scenarios.stewart.scenario import StewartConfig
 
             cfg = StewartConfig()
             if config is not None:
                 cfg = override(cfg, load_toml(config).get("stewart", {}), "stewart")
             return discover_stewart(load_stewart_csv(paths[0], MAX_ROWS), seed, config=cfg)
         if scenario == "arm-cmm":
-            from calibench.scenarios.twin import arm_truth
+            from calibench.scenarios.discover.twin import arm_truth
             from calibench.scenes.arm_cmm import load_arm
 
             if arm is not None and not str(arm).strip():
@@ -901,7 +901,7 @@ def run_discover(
             if len(paths) > 1:
                 out["recordings"] = [str(p) for p in paths]
             return out, fig
-        from calibench.scenarios.twin import stage_truth
+        from calibench.scenarios.discover.twin import stage_truth
 
         return discover_stage(
             scenario,
@@ -918,7 +918,7 @@ def run_discover(
         nominal, before = once(None)
         out["nominal_twin_fit"] = nominal["fit"]
     if twin is not None:
-        from calibench.scenarios.twin import twin_tables
+        from calibench.scenarios.discover.twin import twin_tables
 
         tables, left = twin_tables(scenario, out, config, arm)
         note = f"the twin of {paths[0]} updated by calibench discover"

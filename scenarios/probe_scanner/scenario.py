@@ -237,9 +237,9 @@ def run(config: ProbeScannerConfig, seed: int, fidelity: str, out_dir: Path, rrd
     if out_dir is not None:  # a Monte-Carlo trial keeps only the numbers
         _write_figure(out_dir, artifacts)
     if rrd and out_dir is not None:
-        from calibench.scenarios import probe_scanner_log
+        from calibench.scenarios.probe_scanner import viewer
 
-        probe_scanner_log.log_run(out_dir / "run.rrd", report, artifacts)
+        viewer.log_run(out_dir / "run.rrd", report, artifacts)
         report.rrd = "run.rrd"
     return report
 

@@ -423,9 +423,9 @@ def run(config: BeltStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: b
         if out_dir is not None:  # a Monte-Carlo trial keeps only the numbers
             _write_figure(out_dir, artifacts)
         if rrd and out_dir is not None:
-            from calibench.scenarios import belt_stage_log
+            from calibench.scenarios.belt_stage import viewer
 
-            belt_stage_log.log_run(out_dir / "run.rrd", report, artifacts)
+            viewer.log_run(out_dir / "run.rrd", report, artifacts)
             report.rrd = "run.rrd"
         return report
     finally:

@@ -37,7 +37,7 @@ from calibench.estimators.identification.basis import Basis, identifiable_basis
 from calibench.estimators.identification.solver import identify
 from calibench.estimators.rotations import matrix_to_rotvec, rigid_transform
 from calibench.recordings import ArmRecording, load_arm_csv
-from calibench.scenarios.arms import chain_of, load_arm, loaded_joints
+from calibench.scenarios.arm_cmm.arms import chain_of, load_arm, loaded_joints
 from calibench.scenarios.report import BadInput
 
 SPLIT_SEED = 0  # holdout rows and new-frame registration rows: fixed, so runs compare
@@ -446,7 +446,7 @@ def run_arm_fit(
     check_postures(q, len(paths))
     discovery = None
     if run_discovery:
-        from calibench.scenarios.discover import discover_arm
+        from calibench.scenarios.discover.command import discover_arm
 
         parts = [r.subset(k) for r, k in zip(train, used)]
         discovery, _ = discover_arm(parts if len(parts) > 1 else parts[0], arm=arm)

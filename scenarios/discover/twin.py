@@ -25,8 +25,8 @@ from pathlib import Path
 from calibench.scenarios.report import BadInput
 
 STAGE_CONFIGS = {
-    "belt-stage": ("calibench.scenarios.belt_stage", "BeltStageConfig"),
-    "vision-stage": ("calibench.scenarios.vision_stage", "VisionStageConfig"),
+    "belt-stage": ("calibench.scenarios.belt_stage.scenario", "BeltStageConfig"),
+    "vision-stage": ("calibench.scenarios.vision_stage.scenario", "VisionStageConfig"),
 }
 
 
@@ -87,7 +87,7 @@ def _stewart(out: dict, config: Path | None) -> tuple[dict, list[str]]:
     import numpy as np
 
     from calibench.scenarios.config import load_toml, override
-    from calibench.scenarios.stewart import StewartConfig
+    from calibench.scenarios.stewart.scenario import StewartConfig
 
     cfg = StewartConfig()
     if config is not None:
@@ -196,7 +196,7 @@ def twin_tables(scenario: str, out: dict, config: Path | None, arm=None) -> tupl
         drives, left = _stage_drives(out, truth)
         return {scenario: {"truth": drives}}, left
     if scenario == "probe-scanner":
-        from calibench.scenarios.discover_scanner import twin_table
+        from calibench.scenarios.discover.probe_scanner import twin_table
 
         left = [
             e["name"]

@@ -1,0 +1,1 @@
+"""Scenario ``probe-scanner``: its config and run (:mod:`.scenario`) and its rerun layout (:mod:`.viewer`)."""
