@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from calibench.estimators import discovery as dsc
+from calibench.estimators.discovery.select import FLOOR
 from calibench.scenarios.discover.command import discover_stage, paper_belt_recording
 from calibench.scenarios.discover.stewart import STEWART_FLOOR
 from calibench.scenarios.discover.suite import SUITE, null_claims, run_case, score, table
@@ -51,7 +51,7 @@ def null_calibration(n):
         claims = np.sum([null_claims(sc, k, floors) for k in range(n)], axis=0)
         print(f"| {sc} | " + " | ".join(f"{c / n:.0%}" for c in claims) + " |")
     print(
-        f"house floor: {dsc.FLOOR:.0%} (the stages and the scanner); the arm's 3 %, the platform's "
+        f"house floor: {FLOOR:.0%} (the stages and the scanner); the arm's 3 %, the platform's "
         f"{STEWART_FLOOR:.0%}"
     )
 

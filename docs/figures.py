@@ -1477,7 +1477,7 @@ def null_claims() -> dict:
 @block(seconds=400, ci=True)
 def discover_nulls():
     """discover on 30 fresh null recordings per scenario at several floors: the false-claim rate."""
-    from calibench.estimators.discovery import FLOOR
+    from calibench.estimators.discovery.select import FLOOR
     from calibench.scenarios.discover.command import ARM_FLOOR
 
     rates = null_claims()

@@ -16,8 +16,23 @@ from pathlib import Path
 
 import numpy as np
 
-from calibench.estimators import discovery as dsc
-from calibench.estimators.effects import polynomial_candidates, stage_candidates
+from calibench.estimators.discovery.fit import (
+    Signal,
+    confounded,
+    cv_residuals,
+    fit_terms,
+    lstsq,
+    rms,
+)
+from calibench.estimators.discovery.locate import change_point, permutation_p, reversal_profile
+from calibench.estimators.discovery.noise import Noise, repeatability
+from calibench.estimators.discovery.nonsmooth import find_nonsmooth
+from calibench.estimators.discovery.select import FLOOR, Step, prune, refine, select
+from calibench.estimators.discovery.stage import (
+    PeriodSearch,
+    polynomial_candidates,
+    stage_candidates,
+)
 from calibench.recordings import same_file
 from calibench.scenarios.report import BadInput
 
@@ -80,7 +95,7 @@ def discover_stage(
     rec,
     seed: int = 0,
     holdout: str | None = None,
-    floor: float = dsc.FLOOR,
+    floor: float = FLOOR,
     truth=None,
 ) -> tuple[dict, dict]:
     """discovery.json's content for a stage recording, and what the figure needs. ``truth``:
@@ -112,8 +127,8 @@ def discover_stage(
         )
     idx = np.arange(n)
     signals = [
-        dsc.Signal("x_meas - x_sim", "x", rec.x_meas_mm - sim[:, 0], base, idx, x),
-        dsc.Signal("y_meas - y_sim", "y", rec.y_meas_mm - sim[:, 1], base, idx, y),
+        Signal("x_meas - x_sim", "x", rec.x_meas_mm - sim[:, 0], base, idx, x),
+        Signal("y_meas - y_sim", "y", rec.y_meas_mm - sim[:, 1], base, idx, y),
     ]
     fold, scheme = folds_for(rec.run, x, y, holdout)
     order = rec.t_s if rec.t_s is not None else idx.astype(float)
@@ -121,39 +136,37 @@ def discover_stage(
     key = np.unique(np.stack([x, y, *dirs], axis=1).round(6), axis=0, return_inverse=True)[
         1
     ].ravel()
-    noise = {
-        s.axis: dsc.repeatability(s.r - base @ dsc._lstsq(base, s.r), key, order) for s in signals
-    }
+    noise = {s.axis: repeatability(s.r - base @ lstsq(base, s.r), key, order) for s in signals}
     step = np.median(np.diff(np.unique(np.r_[x, y]))) if len(np.unique(np.r_[x, y])) > 1 else 1.0
     candidates = stage_candidates(drivers)
     for a, u in (("x", x), ("y", y)):
         lo, hi = max(2.5 * step, 5.0), np.ptp(u) / 2
         if hi > lo:  # uniform in frequency, five points per resolution element (1 / travel)
             f = np.arange(1 / hi, 1 / lo, 1 / (5 * np.ptp(u)))
-            candidates.append(dsc.PeriodSearch(a, 1 / f))
+            candidates.append(PeriodSearch(a, 1 / f))
         candidates += polynomial_candidates(a, deg)
-    found, terms = dsc.select(signals, candidates, drivers, fold, noise, floor=floor)
+    found, terms = select(signals, candidates, drivers, fold, noise, floor=floor)
     growing = _grow_backlash(signals, terms, found, drivers, fold, noise, floor)
 
     # nonsmooth: what stands out of the repeatability after the accepted effects
     pos_key, pos_inv = np.unique(np.stack([x, y], axis=1).round(6), axis=0, return_inverse=True)
     pos_inv = pos_inv.ravel()
     for s in signals:
-        table = dsc.find_nonsmooth(
+        table = find_nonsmooth(
             s, terms[s.axis], drivers, pos_inv, pos_key, noise[s.axis], fold, floor
         )
         if table is not None:
             cv_sq = {
-                t.axis: float(np.sum(dsc.cv_residuals(t, terms[t.axis], drivers, fold, {}) ** 2))
+                t.axis: float(np.sum(cv_residuals(t, terms[t.axis], drivers, fold, {}) ** 2))
                 for t in signals
             }
             before = np.sqrt(sum(cv_sq.values()) / (2 * n))
             cv_sq[s.axis] = float(
-                np.sum(dsc.cv_residuals(s, terms[s.axis] + [table], drivers, fold, {}) ** 2)
+                np.sum(cv_residuals(s, terms[s.axis] + [table], drivers, fold, {}) ** 2)
             )
             after = np.sqrt(sum(cv_sq.values()) / (2 * n))
             terms[s.axis].append(table)
-            found.steps.append(dsc.Step(table, s.axis, float(before), float(after), 0.0))
+            found.steps.append(Step(table, s.axis, float(before), float(after), 0.0))
             found.cv_final = float(after)
 
     effects, fitted = _describe(signals, terms, found, drivers, noise)
@@ -167,7 +180,7 @@ def discover_stage(
             )
     # the repeatability again, after the accepted effects: an effect that drifts between passes
     # (temperature, a creeping offset) inflates the first estimate
-    after = {a: dsc.repeatability(fitted[a], key, order) for a in fitted}
+    after = {a: repeatability(fitted[a], key, order) for a in fitted}
     located = _locate_stage(signals, drivers, seed)
     confounds = _confounds(signals, terms, found, candidates, drivers, rec)
     out = {
@@ -202,7 +215,7 @@ def _grow_backlash(signals, terms, found, drivers, fold, noise, floor) -> dict:
     """Does an accepted lost motion grow along its axis's travel (an elastic drive)? Where it
     does, the term becomes the growing one in place. Returns axis -> (held-out RMS of that axis
     with a constant reversal, with the growing one)."""
-    from calibench.estimators.effects import Backlash
+    from calibench.estimators.discovery.stage import Backlash
 
     out = {}
     for s in signals:
@@ -211,7 +224,7 @@ def _grow_backlash(signals, terms, found, drivers, fold, noise, floor) -> dict:
                 continue
             u = np.asarray(drivers[s.axis], float)
             richer = Backlash(axis=s.axis, span_mm=(float(u.min()), float(u.max())))
-            ok, before, after = dsc.refine(
+            ok, before, after = refine(
                 s, terms[s.axis], i, richer, drivers, fold, noise[s.axis], floor
             )
             if ok:
@@ -222,8 +235,7 @@ def _grow_backlash(signals, terms, found, drivers, fold, noise, floor) -> dict:
                 out[s.axis] = (before, after)
     if out:
         cv_sq = sum(
-            float(np.sum(dsc.cv_residuals(s, terms[s.axis], drivers, fold, {}) ** 2))
-            for s in signals
+            float(np.sum(cv_residuals(s, terms[s.axis], drivers, fold, {}) ** 2)) for s in signals
         )
         found.cv_final = float(np.sqrt(cv_sq / sum(len(s.r) for s in signals)))
     return out
@@ -299,7 +311,7 @@ def _describe(signals, terms, found, drivers, noise):
     for a, sig in by_axis.items():
         nz = noise.get(a)
         sigma = nz.sigma_mm * nz.inflation if nz is not None and nz.sigma_mm else None
-        fixed, coef, cov, res = dsc.fit_terms(sig, terms[a], drivers, {}, sigma)
+        fixed, coef, cov, res = fit_terms(sig, terms[a], drivers, {}, sigma)
         fitted[a] = res
         for term, (t, start, k) in zip(
             terms[a], fixed
@@ -342,12 +354,12 @@ def _locate_stage(signals, drivers, seed):
     passes = drivers["run"] if drivers.get("run") is not None else np.zeros(len(signals[0].r))
     out = []
     for s in signals:
-        r = s.r - s.base @ dsc._lstsq(s.base, s.r)
+        r = s.r - s.base @ lstsq(s.base, s.r)
         for name in ("x", "y", "dir_x", "dir_y", "t_s", "temp_c"):
             v = drivers.get(name)
             if v is None or np.ptp(v) == 0:
                 continue
-            score, p = dsc.permutation_p(
+            score, p = permutation_p(
                 r, np.asarray(v, float), passes, name in ("t_s", "temp_c"), rng
             )
             if p > 0.01 or score < 0.02:
@@ -367,14 +379,14 @@ def _locate_stage(signals, drivers, seed):
 def _where(r, v, name, drivers):
     if name.startswith("dir_"):
         axis = name[-1]
-        c, prof = dsc.reversal_profile(r, np.asarray(drivers[axis], float), v)
+        c, prof = reversal_profile(r, np.asarray(drivers[axis], float), v)
         ok = np.isfinite(prof)
         return (
             f"whole {axis.upper()} travel: forward minus backward {np.nanmean(prof) * 1000:+.1f} um "
             f"(from {np.nanmin(prof[ok]) * 1000:+.1f} to {np.nanmax(prof[ok]) * 1000:+.1f} um along it)"
         )
     if name in ("t_s", "temp_c"):
-        k, stat = dsc.change_point(
+        k, stat = change_point(
             r[np.argsort(drivers["t_s"])] if drivers.get("t_s") is not None else r
         )
         unit = "s" if name == "t_s" else "deg C"
@@ -399,11 +411,11 @@ def _confounds(signals, terms, found, candidates, drivers, rec):
     for c in candidates:
         if (
             c.key in accepted
-            or isinstance(c, dsc.PeriodSearch)
+            or isinstance(c, PeriodSearch)
             or c.name in ("positioning", "straightness", "cross_coupling")
         ):
             continue
-        frac = dsc.confounded(by_axis[c.axis], terms[c.axis], c, drivers, {})
+        frac = confounded(by_axis[c.axis], terms[c.axis], c, drivers, {})
         if c.name == "thermal_expansion" and np.ptp(rec.temp_c) < 1.0:
             out.append(
                 {
@@ -502,15 +514,15 @@ def discover_arm(
 def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, dict]:
     from calibench.estimators.arm.kinematics import pose
     from calibench.estimators.arm.screening import screen
-    from calibench.estimators.effects import (
+    from calibench.estimators.discovery.arm import (
         ArmThermalExpansion,
         EncoderEccentricity,
         Geometry,
         JointCompliance,
         TransmissionSearch,
-        harmonic_grid,
         joint_table,
     )
+    from calibench.estimators.discovery.harmonics import harmonic_grid
     from calibench.estimators.rotations import skew
     from calibench.scenarios.arm_cmm.arms import chain_of, load_arm
     from calibench.scenarios.arm_cmm.fit import calibrate, check_postures
@@ -592,7 +604,7 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
         frame[m, :, 6 * i : 6 * i + 3] = -skew(drivers["point"][m])
         frame[m, :, 6 * i + 3 : 6 * i + 6] = np.eye(3)
     frame[:, :, -3:] = drivers["flange_R"]
-    sig = dsc.Signal(
+    sig = Signal(
         "xyz_meas - xyz_sim", "xyz", r.ravel(), frame.reshape(3 * n, -1), np.repeat(np.arange(n), 3)
     )
     nk = 5 * N
@@ -624,27 +636,27 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
     candidates = [c for c in candidates if not hasattr(c, "applies") or c.applies(drivers)]
     # five contiguous blocks of each recording: every fold holds out a fifth of each setup
     fold = np.concatenate([np.minimum(np.arange(len(k)) * 5 // len(k), 4) for k in parts])
-    noise = {"xyz": dsc.Noise(None, 0.0, 0)}
-    found, terms = dsc.select([sig], candidates, drivers, fold, noise, floor=floor)
-    dsc.prune(sig, found, terms, drivers, fold, floor)
+    noise = {"xyz": Noise(None, 0.0, 0)}
+    found, terms = select([sig], candidates, drivers, fold, noise, floor=floor)
+    prune(sig, found, terms, drivers, fold, floor)
     _shared_unless_sessions_differ(sig, found, terms["xyz"], drivers, fold, floor)
     # what no candidate explains: a table over one joint's angle, kept if it helps held out
     cache = {}
-    cv_now = dsc._rms(dsc.cv_residuals(sig, terms["xyz"], drivers, fold, cache))
+    cv_now = rms(cv_residuals(sig, terms["xyz"], drivers, fold, cache))
     best = None
     for j in range(1, N + 1):
         table = joint_table(q[:, j - 1], j)
         if table is None:
             continue
-        cv = dsc._rms(dsc.cv_residuals(sig, terms["xyz"] + [table], drivers, fold, cache))
+        cv = rms(cv_residuals(sig, terms["xyz"] + [table], drivers, fold, cache))
         if cv < (1 - floor) * cv_now and (best is None or cv < best[1]):
             best = (table, cv)
     if best is not None:
         terms["xyz"].append(best[0])
-        found.steps.append(dsc.Step(best[0], "xyz", found.cv_final, best[1], 1 - best[1] / cv_now))
+        found.steps.append(Step(best[0], "xyz", found.cv_final, best[1], 1 - best[1] / cv_now))
         found.cv_final = best[1]
     effects, fitted = _describe([sig], terms, found, drivers, noise)
-    confounded = _arm_confounds(sig, terms["xyz"], candidates, drivers, found)
+    confounds = _arm_confounds(sig, terms["xyz"], candidates, drivers, found)
     located = _locate_arm(sig, terms["xyz"], drivers, q, temp, seed)
     names = [e["name"] for e in effects if e["name"] != "geometry"]
     out = {
@@ -671,7 +683,7 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
         ],
         "left_out_rows": left_out,
         "not_accepted": {**found.rejected, **not_applicable},
-        "confounded": confounded,
+        "confounded": confounds,
         "summary": _arm_summary(arm.name, found, effects, names),
     }
     return out, {"signals": [sig], "fitted": fitted}
@@ -685,10 +697,8 @@ def _shared_unless_sessions_differ(sig, found, terms: list, drivers, fold, floor
         if not getattr(t, "per_recording", False):
             continue
         shared = dataclasses.replace(t, per_recording=False)
-        cv_per = dsc._rms(dsc.cv_residuals(sig, terms, drivers, fold, {}))
-        cv_shared = dsc._rms(
-            dsc.cv_residuals(sig, terms[:i] + [shared] + terms[i + 1 :], drivers, fold, {})
-        )
+        cv_per = rms(cv_residuals(sig, terms, drivers, fold, {}))
+        cv_shared = rms(cv_residuals(sig, terms[:i] + [shared] + terms[i + 1 :], drivers, fold, {}))
         if cv_per > (1 - floor) * cv_shared:
             for k, st in enumerate(found.steps):
                 if (
@@ -734,7 +744,7 @@ def _arm_confounds(sig, terms, candidates, drivers, found) -> list[dict]:
         other = (
             "encoder_eccentricity" if c.name == "joint_compliance" else "joint_compliance"
         ) + f":joint{c.joint}"
-        frac = dsc.confounded(sig, terms, c, drivers, {})
+        frac = confounded(sig, terms, c, drivers, {})
         if frac <= 0.9:
             continue
         if other in accepted:
@@ -771,7 +781,7 @@ def _locate_arm(sig, terms, drivers, q, temp, seed) -> list[dict]:
     rng = np.random.default_rng(seed)
     n = len(q)
     geo = [t for t in terms if t.name == "geometry"]
-    _, _, _, res = dsc.fit_terms(sig, geo, drivers, {}, None)
+    _, _, _, res = fit_terms(sig, geo, drivers, {}, None)
     res3 = res.reshape(n, 3)
     located = []
     for name, v in [(f"q{j}", q[:, j - 1]) for j in range(1, q.shape[1] + 1)] + [("temp_c", temp)]:
@@ -779,7 +789,7 @@ def _locate_arm(sig, terms, drivers, q, temp, seed) -> list[dict]:
             continue
         best = max(
             (
-                dsc.permutation_p(res3[:, k], v, np.zeros(n), name == "temp_c", rng, 99) + (k,)
+                permutation_p(res3[:, k], v, np.zeros(n), name == "temp_c", rng, 99) + (k,)
                 for k in range(3)
             ),
             key=lambda t: t[0],
@@ -980,7 +990,7 @@ def _figure(path: Path, out: dict, fig: dict, before_fig: dict | None = None) ->
     )
 
     def alone(sig):
-        return sig.r - sig.base @ dsc._lstsq(sig.base, sig.r) if sig.base.shape[1] else sig.r
+        return sig.r - sig.base @ lstsq(sig.base, sig.r) if sig.base.shape[1] else sig.r
 
     titles = ("scene model only", "with the accepted effects")
     for k, (row, s) in enumerate(zip(axes, sigs)):

@@ -16,14 +16,25 @@ from __future__ import annotations
 
 import numpy as np
 
-from calibench.estimators import discovery as dsc
-from calibench.estimators.scanner_effects import (
+from calibench.estimators.discovery.fit import (
+    Signal,
+    confounded,
+    cv_residuals,
+    fit_terms,
+    lstsq,
+    rms,
+)
+from calibench.estimators.discovery.locate import permutation_p
+from calibench.estimators.discovery.noise import Noise, repeatability
+from calibench.estimators.discovery.nonsmooth import NONSMOOTH_Z
+from calibench.estimators.discovery.probe_scanner import (
     AXIS,
     AngleTable,
     ProbeOffset,
     Runout,
     scanner_candidates,
 )
+from calibench.estimators.discovery.select import FLOOR, Step, prune, select
 from calibench.scenarios.report import BadInput
 
 BIN_DEG = 1.0  # the nonsmooth table's bands of the table's angle
@@ -88,10 +99,10 @@ def scene_model(rec, config) -> tuple[object, np.ndarray, np.ndarray, np.ndarray
     except np.linalg.LinAlgError:  # readings no rail can give: the normal matrix has no inverse
         cal = None
     if cal is None or not np.isfinite(cal.rms_mm) or cal.rms_mm > 1.0:
-        rms = "no fit" if cal is None else f"rms {cal.rms_mm:.3g} mm"
+        fit_rms = "no fit" if cal is None else f"rms {cal.rms_mm:.3g} mm"
         raise BadInput(
             f"the recording does not fit the calibration plate ({2 * a:g} mm square, r = {rc:g} mm) with "
-            f"any rail ({rms}): another artefact, a wrong unit (the format: mm and degrees), or not a "
+            f"any rail ({fit_rms}): another artefact, a wrong unit (the format: mm and degrees), or not a "
             "probe-scanner recording?"
         )
     p = np.r_[cal.d_mm, cal.dL_mm, cal.alpha0_rad, cal.centre_mm]
@@ -113,21 +124,21 @@ def scene_model(rec, config) -> tuple[object, np.ndarray, np.ndarray, np.ndarray
 
 
 def find_angle_table(
-    sig: dsc.Signal, terms: list, drivers: dict, noise: dsc.Noise, fold: np.ndarray, floor: float
+    sig: Signal, terms: list, drivers: dict, noise: Noise, fold: np.ndarray, floor: float
 ) -> AngleTable | None:
     """Bands of the angle whose mean residual (over turns) stands out of the repeatability,
     grown to their neighbours (|z| > 2, within 3 bands, around the turn); kept only if a
     correction there helps held out."""
     if noise.sigma_mm is None:
         return None
-    _, _, _, res = dsc.fit_terms(sig, terms, drivers, {}, None)
+    _, _, _, res = fit_terms(sig, terms, drivers, {}, None)
     n_bins = int(round(360 / BIN_DEG))
     band = np.floor(np.degrees(np.mod(drivers["theta"], 2 * np.pi)) / BIN_DEG).astype(int) % n_bins
     counts = np.bincount(band, minlength=n_bins)
     means = np.bincount(band, weights=res, minlength=n_bins) / np.maximum(counts, 1)
     z = means / (noise.sigma_mm * noise.inflation / np.sqrt(np.maximum(counts, 1)))
     z[counts < 2] = 0.0
-    hot = np.abs(z) > dsc.NONSMOOTH_Z
+    hot = np.abs(z) > NONSMOOTH_Z
     if hot.sum() < 2:
         return None
     near = np.zeros(n_bins, bool)
@@ -148,8 +159,8 @@ def find_angle_table(
     # judged where it acts: a nick a degree wide barely moves the whole turn's RMS
     inside = table.band >= 0
     cache = {}
-    before = dsc._rms(dsc.cv_residuals(sig, terms, drivers, fold, cache)[inside])
-    after = dsc._rms(dsc.cv_residuals(sig, terms + [table], drivers, fold, cache)[inside])
+    before = rms(cv_residuals(sig, terms, drivers, fold, cache)[inside])
+    after = rms(cv_residuals(sig, terms + [table], drivers, fold, cache)[inside])
     return table if after < (1 - floor) * before else None
 
 
@@ -164,9 +175,7 @@ def _runs(bands: np.ndarray) -> list[str]:
     return out
 
 
-def discover_scanner(
-    rec, seed: int = 0, floor: float = dsc.FLOOR, config=None
-) -> tuple[dict, dict]:
+def discover_scanner(rec, seed: int = 0, floor: float = FLOOR, config=None) -> tuple[dict, dict]:
     """discovery.json's content for a probe-scanner recording, and what the figure needs."""
     from calibench.scenarios.discover.command import _describe, one_axis_fit, verdict
     from calibench.scenarios.probe_scanner.scenario import ProbeScannerConfig
@@ -190,7 +199,7 @@ def discover_scanner(
         "t_s": rec.t_s,
         "temp_c": rec.temp_c,
     }
-    sig = dsc.Signal("rho_meas - rho_sim", AXIS, rec.rho_mm - rho_twin, geo, np.arange(n), th)
+    sig = Signal("rho_meas - rho_sim", AXIS, rec.rho_mm - rho_twin, geo, np.arange(n), th)
     if len(turns) >= 2:
         fold, scheme = np.searchsorted(turns, rec.turn), "leave one turn out"
     else:
@@ -199,23 +208,23 @@ def discover_scanner(
         1
     ].ravel()
     order = rec.t_s if rec.t_s is not None else np.arange(n, dtype=float)
-    first = sig.r - geo @ dsc._lstsq(geo, sig.r)
-    noise = {AXIS: dsc.repeatability(first, station, order)}
+    first = sig.r - geo @ lstsq(geo, sig.r)
+    noise = {AXIS: repeatability(first, station, order)}
     candidates = scanner_candidates()
-    found, terms = dsc.select([sig], candidates, drivers, fold, noise, floor=floor)
-    dsc.prune(sig, found, terms, drivers, fold, floor)
+    found, terms = select([sig], candidates, drivers, fold, noise, floor=floor)
+    prune(sig, found, terms, drivers, fold, floor)
     table = find_angle_table(sig, terms[AXIS], drivers, noise[AXIS], fold, floor)
     if table is not None:
-        after = dsc._rms(dsc.cv_residuals(sig, terms[AXIS] + [table], drivers, fold, {}))
-        found.steps.append(dsc.Step(table, AXIS, found.cv_final, after, 1 - after / found.cv_final))
+        after = rms(cv_residuals(sig, terms[AXIS] + [table], drivers, fold, {}))
+        found.steps.append(Step(table, AXIS, found.cv_final, after, 1 - after / found.cv_final))
         terms[AXIS].append(table)
         found.cv_final = after
     effects, fitted = _describe([sig], terms, found, drivers, noise)
-    after_noise = {AXIS: dsc.repeatability(fitted[AXIS], station, order)}
-    confounded = []
+    after_noise = {AXIS: repeatability(fitted[AXIS], station, order)}
+    confounds = []
     symmetric = Runout(harmonic=4)
-    frac = dsc.confounded(sig, terms[AXIS], symmetric, drivers, {})
-    confounded.append(
+    frac = confounded(sig, terms[AXIS], symmetric, drivers, {})
+    confounds.append(
         {
             "effect": "runout",
             "axis": AXIS,
@@ -227,9 +236,9 @@ def discover_scanner(
             "harmonic",
         }
     )
-    frac = dsc.confounded(sig, terms[AXIS], ProbeOffset(), drivers, {})
+    frac = confounded(sig, terms[AXIS], ProbeOffset(), drivers, {})
     if frac > 0.9:
-        confounded.append(
+        confounds.append(
             {
                 "effect": "offset",
                 "axis": AXIS,
@@ -261,7 +270,7 @@ def discover_scanner(
             "plate_centre_mm": [float(c) for c in cal.centre_mm],
         },
         "not_accepted": found.rejected,
-        "confounded": confounded,
+        "confounded": confounds,
         "verdict": verdict(found.cv_final, after_noise, bool(effects)),
     }
     return out, {
@@ -275,7 +284,7 @@ def _locate(sig, drivers, rec, seed) -> list[dict]:
     """The residual after the scene model against the angle (per-turn cyclic shifts as the
     null) and against time and temperature (whole turns permuted)."""
     rng = np.random.default_rng(seed)
-    r = sig.r - sig.base @ dsc._lstsq(sig.base, sig.r)
+    r = sig.r - sig.base @ lstsq(sig.base, sig.r)
     out = []
     for name, v in (
         ("theta_deg", np.degrees(np.mod(rec.theta_rad, 2 * np.pi))),
@@ -284,9 +293,7 @@ def _locate(sig, drivers, rec, seed) -> list[dict]:
     ):
         if v is None or np.ptp(v) == 0:
             continue
-        score, p = dsc.permutation_p(
-            r, np.asarray(v, float), rec.turn, name != "theta_deg", rng, 99
-        )
+        score, p = permutation_p(r, np.asarray(v, float), rec.turn, name != "theta_deg", rng, 99)
         if p <= 0.01 and score >= 0.02:
             out.append(
                 {

@@ -14,8 +14,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from calibench.estimators import discovery as dsc
-from calibench.estimators.stewart_effects import AXIS, stewart_candidates
+from calibench.estimators.discovery.fit import Signal, confounded, lstsq
+from calibench.estimators.discovery.locate import binned_r2, permutation_p
+from calibench.estimators.discovery.noise import repeatability
+from calibench.estimators.discovery.select import prune, select
+from calibench.estimators.discovery.stewart import AXIS, stewart_candidates
 from calibench.scenarios.report import BadInput
 
 # The platform's practical floor: 4 % of the held-out RMS. One leg's effect shows on a sixth of
@@ -246,12 +249,12 @@ def locate(
                 "temp_c",
                 "t_s",
             ):  # the poses come in random order: time itself is what is tested
-                score = dsc.binned_r2(r, v)
-                p = (
-                    sum(dsc.binned_r2(r, rng.permutation(v)) >= score for _ in range(n_perm)) + 1
-                ) / (n_perm + 1)
+                score = binned_r2(r, v)
+                p = (sum(binned_r2(r, rng.permutation(v)) >= score for _ in range(n_perm)) + 1) / (
+                    n_perm + 1
+                )
             else:
-                score, p = dsc.permutation_p(r, v, zero, False, rng, n_perm)
+                score, p = permutation_p(r, v, zero, False, rng, n_perm)
             if p <= alpha and score >= 0.05:
                 out.append(
                     {
@@ -322,7 +325,7 @@ def discover_stewart(
         own = leg_effects_mm(truth, drivers["L"], drivers["force"], rec.direction, rec.temp_c)
         Rf, tf = register(dataclasses.replace(rec, readings_mm=rec.readings_mm - own), g)
         drivers, r, frame = twin_drivers(rec, g, Rf, tf, rec.load_n, truth)
-    sig = dsc.Signal("reading - twin", AXIS, r, frame, np.repeat(np.arange(n), 6))
+    sig = Signal("reading - twin", AXIS, r, frame, np.repeat(np.arange(n), 6))
     fold = np.minimum(np.arange(n) * 5 // n, 4)
     station = np.repeat(stations(rec), 6) * 6 + np.tile(np.arange(6), n)
     order = (
@@ -331,22 +334,20 @@ def discover_stewart(
     )
     candidates = stewart_candidates(drivers)
     geo = next(c for c in candidates if c.name == "geometry")
-    first = r - np.c_[frame, geo.columns(drivers)] @ dsc._lstsq(
-        np.c_[frame, geo.columns(drivers)], r
-    )
-    noise = {AXIS: dsc.repeatability(first, station, order)}
-    found, terms = dsc.select([sig], candidates, drivers, fold, noise, floor=floor)
-    dsc.prune(sig, found, terms, drivers, fold, floor)
+    first = r - np.c_[frame, geo.columns(drivers)] @ lstsq(np.c_[frame, geo.columns(drivers)], r)
+    noise = {AXIS: repeatability(first, station, order)}
+    found, terms = select([sig], candidates, drivers, fold, noise, floor=floor)
+    prune(sig, found, terms, drivers, fold, floor)
     effects, fitted = _describe([sig], terms, found, drivers, noise)
-    after_noise = {AXIS: dsc.repeatability(fitted[AXIS], station, order)}
-    confounded = []
+    after_noise = {AXIS: repeatability(fitted[AXIS], station, order)}
+    confounds = []
     accepted = {t.key for t in terms[AXIS]}
     for c in candidates:
         if c.key in accepted or not hasattr(c, "columns") or c.name == "geometry":
             continue
-        frac = dsc.confounded(sig, terms[AXIS], c, drivers, {})
+        frac = confounded(sig, terms[AXIS], c, drivers, {})
         if frac > 0.9:
-            confounded.append(
+            confounds.append(
                 {
                     "effect": c.name,
                     "axis": AXIS,
@@ -371,7 +372,7 @@ def discover_stewart(
         "tracker_frame": {"R": Rf.tolist(), "t_mm": tf.tolist()},
         "temp_mean_c": None if rec.temp_c is None else float(np.mean(rec.temp_c)),
         "not_accepted": found.rejected,
-        "confounded": confounded,
+        "confounded": confounds,
         "verdict": verdict(found.cv_final, after_noise, bool(names)),
     }
     return out, {

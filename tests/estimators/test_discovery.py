@@ -3,17 +3,23 @@
 import numpy as np
 import pytest
 
-from calibench.estimators import discovery as dsc
 from calibench.estimators.arm.kinematics import Chain, jacobian, point, theta_index
-from calibench.estimators.effects import (
-    Backlash,
+from calibench.estimators.discovery.arm import (
     EncoderEccentricity,
     JointCompliance,
     TransmissionSearch,
+)
+from calibench.estimators.discovery.fit import Signal, fit_terms
+from calibench.estimators.discovery.harmonics import (
     best_harmonic,
     best_period,
+    grid_rel,
     harmonic_grid,
+    refine_period,
 )
+from calibench.estimators.discovery.noise import repeatability
+from calibench.estimators.discovery.select import select
+from calibench.estimators.discovery.stage import Backlash
 
 
 def test_periodogram_and_refinement_find_the_period():
@@ -30,7 +36,7 @@ def test_periodogram_and_refinement_find_the_period():
     )
     f = np.arange(1 / 200, 1 / 10, 1 / 2000)
     P0, frac = best_period(u, r, base, 1 / f)
-    P, P_std = dsc.refine_period(u, r, base, P0, rel=dsc._grid_rel(1 / f, P0))
+    P, P_std = refine_period(u, r, base, P0, rel=grid_rel(1 / f, P0))
     assert frac > 0.7
     assert abs(P - 47.3) < 4 * P_std and P_std < 0.2
 
@@ -41,7 +47,7 @@ def test_repeatability_from_passes():
     rng = np.random.default_rng(41)
     station = np.tile(np.arange(200), 4)
     r = rng.normal(0, 0.05, 200)[station] + rng.normal(0, 0.0015, 800)
-    nz = dsc.repeatability(r, station, np.arange(800))
+    nz = repeatability(r, station, np.arange(800))
     assert abs(nz.sigma_mm / 0.0015 - 1) < 0.08 and abs(nz.lag1) < 0.15
 
 
@@ -53,18 +59,16 @@ def test_selection_takes_backlash_and_leaves_noise_alone():
     d = np.tile(np.r_[np.ones(150), -np.ones(150)], 4)
     drivers = {"x": x, "dir_x": d, "run": run}
     base = np.c_[np.ones(n), x / 300]
-    sig = dsc.Signal(
+    sig = Signal(
         "x", "x", 0.004 * d + 0.001 * x / 300 + rng.normal(0, 0.001, n), base, np.arange(n), x
     )
-    noise = {
-        "x": dsc.repeatability(sig.r, np.round(x * 10).astype(int) * 2 + (d > 0), np.arange(n))
-    }
-    found, terms = dsc.select([sig], [Backlash(axis="x")], drivers, run, noise)
+    noise = {"x": repeatability(sig.r, np.round(x * 10).astype(int) * 2 + (d > 0), np.arange(n))}
+    found, terms = select([sig], [Backlash(axis="x")], drivers, run, noise)
     assert [s.term.name for s in found.steps] == ["backlash"]
-    fixed, coef, cov, _ = dsc.fit_terms(sig, terms["x"], drivers, {}, noise["x"].sigma_mm)
+    fixed, coef, cov, _ = fit_terms(sig, terms["x"], drivers, {}, noise["x"].sigma_mm)
     assert abs(coef[2] - 0.008) < 5 * np.sqrt(cov[2, 2])
-    pure = dsc.Signal("x", "x", rng.normal(0, 0.001, n), base, np.arange(n), x)
-    found, _ = dsc.select([pure], [Backlash(axis="x")], drivers, run, noise)
+    pure = Signal("x", "x", rng.normal(0, 0.001, n), base, np.arange(n), x)
+    found, _ = select([pure], [Backlash(axis="x")], drivers, run, noise)
     assert found.steps == []
 
 

@@ -294,7 +294,7 @@ def test_what_is_left_is_judged_against_the_repeatability(monkeypatch):
     rec, _ = stage_recording("vision-stage", "backlash", 7)
     monkeypatch.setattr(disc, "stage_candidates", lambda drivers: [])
     monkeypatch.setattr(disc, "polynomial_candidates", lambda axis, deg: [])
-    monkeypatch.setattr(disc.dsc, "find_nonsmooth", lambda *a, **k: None)
+    monkeypatch.setattr(disc, "find_nonsmooth", lambda *a, **k: None)
     d, _ = disc.discover_stage("vision-stage", rec)
     assert d["verdict"].startswith("unexplained:") and "um of repeatability" in d["verdict"]
     rep = max(v["repeatability_mm"] for v in d["noise_after_effects"].values())

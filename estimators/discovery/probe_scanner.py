@@ -13,7 +13,7 @@ import dataclasses
 
 import numpy as np
 
-from calibench.estimators.effects import Effect, _amplitude, _std
+from calibench.estimators.discovery.effect import Effect, amplitude, coef_std
 
 AXIS = "rho"
 
@@ -41,7 +41,7 @@ class Runout(Effect):
         return np.stack([np.sin(h), np.cos(h)], axis=1)
 
     def describe(self, coef, cov):
-        amp, amp_std, phase = _amplitude(*coef, cov)
+        amp, amp_std, phase = amplitude(*coef, cov)
         return (
             {"harmonic": self.harmonic, "amplitude_mm": amp, "phase_rad": phase},
             {"amplitude_mm": amp_std},
@@ -102,7 +102,7 @@ class TableEccentricity(Effect):
         return -np.stack([slope * np.sin(th), slope * np.cos(th)], axis=1)
 
     def describe(self, coef, cov):
-        amp, amp_std, phase = _amplitude(*coef, cov)
+        amp, amp_std, phase = amplitude(*coef, cov)
         return (
             {"amplitude_urad": amp * 1e6, "phase_rad": phase},
             {"amplitude_urad": amp_std * 1e6},
@@ -127,7 +127,7 @@ class ProbeScale(Effect):
         s = float(coef[0])
         return (
             {"ppm": s},
-            {"ppm": _std(cov, 0)},
+            {"ppm": coef_std(cov, 0)},
             f"the probe's linear encoder reads {s:+.0f} ppm long (its scale, or its lever's ratio)",
         )
 
@@ -145,7 +145,7 @@ class ProbeOffset(Effect):
     def describe(self, coef, cov):
         return (
             {"offset_mm": float(coef[0])},
-            {"offset_mm": _std(cov, 0)},
+            {"offset_mm": coef_std(cov, 0)},
             f"the probe's zero is {coef[0] * 1000:+.1f} um off",
         )
 
@@ -179,7 +179,7 @@ class AngleTable(Effect):
         k = int(np.argmax(np.abs(coef)))
         return (
             {"where": self.where, "theta_deg": self.peak_deg, "peak_mm": float(coef[k])},
-            {"peak_mm": _std(cov, k)},
+            {"peak_mm": coef_std(cov, k)},
             f"a local error of the reading {self.where} that no candidate effect has (a nick or burr on the "
             f"artefact's wall, dirt in the stylus's path): modelled as a correction table there",
         )

@@ -14,7 +14,7 @@ import dataclasses
 
 import numpy as np
 
-from calibench.estimators.effects import Effect, _amplitude, _std
+from calibench.estimators.discovery.effect import Effect, amplitude, coef_std
 
 AXIS = "legs"
 HINGE_NAMES = tuple(
@@ -22,7 +22,7 @@ HINGE_NAMES = tuple(
 )
 
 
-def _on_leg(values: np.ndarray, leg: int) -> np.ndarray:
+def on_leg(values: np.ndarray, leg: int) -> np.ndarray:
     """(n, k) values on leg ``leg``'s rows of the stacked signal, zeros elsewhere: (6 n, k)."""
     values = np.asarray(values, float).reshape(len(values), -1)
     out = np.zeros((len(values), 6, values.shape[1]))
@@ -59,7 +59,7 @@ class HingeGeometry(Effect):
 
     def describe(self, coef, cov):
         params = {n: float(c) for n, c in zip(HINGE_NAMES, coef)}
-        stderr = {n: _std(cov, i) for i, n in enumerate(HINGE_NAMES)}
+        stderr = {n: coef_std(cov, i) for i, n in enumerate(HINGE_NAMES)}
         big = sorted(params, key=lambda n: -abs(params[n]))[:3]
         return (
             params,
@@ -83,15 +83,13 @@ class LegThermal(LegEffect):
 
     def columns(self, d):
         T = np.asarray(d["temp_c"], float)
-        return _on_leg(
-            -(T - T.mean()) * np.asarray(d["L"], float)[:, self.leg - 1] * 1e-6, self.leg
-        )
+        return on_leg(-(T - T.mean()) * np.asarray(d["L"], float)[:, self.leg - 1] * 1e-6, self.leg)
 
     def describe(self, coef, cov):
         k = float(coef[0])
         return (
             {"leg": self.leg, "ppm_per_k": k},
-            {"ppm_per_k": _std(cov, 0)},
+            {"ppm_per_k": coef_std(cov, 0)},
             f"leg {self.leg} grows {k:.1f} ppm per kelvin of the logged temperature that its length sensor "
             f"does not see",
         )
@@ -112,13 +110,13 @@ class LegBacklash(LegEffect):
         return d is not None and np.ptp(np.asarray(d)[:, self.leg - 1]) > 0
 
     def columns(self, d):
-        return _on_leg(np.asarray(d["dir"], float)[:, self.leg - 1] / 2, self.leg)
+        return on_leg(np.asarray(d["dir"], float)[:, self.leg - 1] / 2, self.leg)
 
     def describe(self, coef, cov):
         B = float(coef[0])
         return (
             {"leg": self.leg, "reversal_mm": B},
-            {"reversal_mm": _std(cov, 0)},
+            {"reversal_mm": coef_std(cov, 0)},
             f"leg {self.leg}'s drive loses {B * 1000:+.1f} um on reversal (its nut or coupling's backlash)",
         )
 
@@ -136,10 +134,10 @@ class LegPitch(LegEffect):
 
     def columns(self, d):
         ph = 2 * np.pi * np.asarray(d["L"], float)[:, self.leg - 1] / self.period_mm
-        return _on_leg(np.stack([np.sin(ph), np.cos(ph)], axis=1), self.leg)
+        return on_leg(np.stack([np.sin(ph), np.cos(ph)], axis=1), self.leg)
 
     def describe(self, coef, cov):
-        amp, amp_std, phase = _amplitude(*coef, cov)
+        amp, amp_std, phase = amplitude(*coef, cov)
         return (
             {"leg": self.leg, "period_mm": self.period_mm, "amplitude_mm": amp, "phase_rad": phase},
             {"period_mm": self.period_std, "amplitude_mm": amp_std},
@@ -165,8 +163,7 @@ class LegPitchSearch:
     def fix(self, r: np.ndarray, others: np.ndarray, rows: np.ndarray, drivers: dict) -> LegPitch:
         """The period explaining most of ``r`` (6 n,) beside ``others`` on ``rows``, on this leg's
         rows; refined by golden section around the grid's best."""
-        from calibench.estimators.discovery import refine_period
-        from calibench.estimators.effects import best_period
+        from calibench.estimators.discovery.harmonics import best_period, refine_period
 
         mine = np.zeros((len(r) // 6, 6), bool)
         mine[:, self.leg - 1] = True
@@ -207,7 +204,7 @@ class LegCompliance(Effect):
 
     def columns(self, d):
         F = np.asarray(d["force"], float) * 1e-3  # um per N -> mm
-        return F.reshape(-1, 1) if self.leg == 0 else _on_leg(F[:, self.leg - 1], self.leg)
+        return F.reshape(-1, 1) if self.leg == 0 else on_leg(F[:, self.leg - 1], self.leg)
 
     def describe(self, coef, cov):
         c = float(coef[0])
@@ -216,7 +213,7 @@ class LegCompliance(Effect):
         params = {"um_per_n": c} if self.leg == 0 else {"leg": self.leg, "um_per_n": c}
         return (
             params,
-            {"um_per_n": _std(cov, 0)},
+            {"um_per_n": coef_std(cov, 0)},
             f"{who} gives {c:.3g} um per N of the axial load the platform's weight puts on it{stiff}",
         )
 

@@ -1,0 +1,64 @@
+"""The candidate-effect protocol: physical terms a simulation may have left out, each with units.
+
+One small interface, many small implementations (CONTRACT's vocabulary). An effect is linear in
+its coefficients once its shape is fixed: ``columns(drivers) -> (n, k)`` in the signal's unit
+(mm), ``describe(coef, cov) -> (params, stderr, physics)``. Shapes with a nonlinear parameter (a
+period) are fixed by :func:`best_period` on the data they are fitted to.
+
+``drivers`` is a plain dict of (n,) arrays: ``x``, ``y`` (commanded, mm), ``dir_x``, ``dir_y``
+(+1 / -1 / 0), ``t_s``, ``temp_c``, ``run`` for stages; for an N-joint arm ``q`` (n, N) rad,
+``J`` (n, 3, 5 N + 3) the chain's parameter Jacobian, ``Jq`` (n, 3, N) d(point) / d(q),
+``tau`` (n, N) the joints' gravity torques (N m, from the twin), ``grow`` (5 N + 3,) the chain's
+lengths in the Jacobian's layout. A missing driver means the candidate does not apply
+(``applies`` is False). Searched shapes (a transmission's harmonic) are fixed by their
+``fix(r, others, rows, drivers)`` on the rows they are fitted to.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+
+@dataclasses.dataclass(frozen=True)
+class Effect:
+    """Base: a name from the vocabulary, the signal it acts on (``axis``: x, y or xyz), the
+    drivers it needs."""
+
+    name: str = ""
+    axis: str = "x"
+    needs: tuple[str, ...] = ()
+
+    @property
+    def key(self) -> str:
+        """A name that tells this candidate apart from the others of its kind (for de-duplication)."""
+        return f"{self.name}:{self.axis}"
+
+    def applies(self, drivers: dict) -> bool:
+        """Whether the recording carries what this effect needs (its drivers: directions, temperatures, ...)."""
+        return all(
+            drivers.get(k) is not None and np.ptp(np.asarray(drivers[k], float)) > 0
+            for k in self.needs
+        )
+
+    def columns(self, drivers: dict) -> np.ndarray:
+        """The effect's design matrix on the recording's rows, (n, k): one column per parameter, in the signal's unit
+        per parameter unit."""
+        raise NotImplementedError
+
+    def describe(self, coef: np.ndarray, cov: np.ndarray) -> tuple[dict, dict, str]:
+        """The effect in words and physical units, from its fitted coefficients (k,): what discover prints."""
+        raise NotImplementedError
+
+
+def coef_std(cov: np.ndarray, i: int) -> float:
+    """The std of coefficient ``i`` from a covariance (k, k), a rounding-negative variance as 0."""
+    return float(np.sqrt(max(cov[i, i], 0.0)))
+
+
+def amplitude(s: float, c: float, cov: np.ndarray) -> tuple[float, float, float]:
+    """Amplitude, its std (first order) and phase of s sin + c cos."""
+    amp = float(np.hypot(s, c))
+    g = np.array([s, c]) / max(amp, 1e-300)  # d amp / d (s, c)
+    return amp, float(np.sqrt(max(g @ cov[:2, :2] @ g, 0.0))), float(np.arctan2(c, s))

@@ -1,0 +1,109 @@
+"""The linear layer of discovery: a residual signal, its terms' columns, held-out residuals, fits."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+from scipy import linalg
+
+
+@dataclasses.dataclass
+class Signal:
+    """One residual series: ``r`` (m,) = recording - simulation, ``base`` (m, p) the scene
+    model's free columns (calibrated with the data), ``sample`` (m,) the sample of each row,
+    ``u`` (m,) the position along the axis (periodogram), ``axis`` the effects' axis key."""
+
+    name: str
+    axis: str
+    r: np.ndarray
+    base: np.ndarray
+    sample: np.ndarray
+    u: np.ndarray | None = None
+
+
+def lstsq(X, r):
+    """Least squares on scaled columns: QR with column pivoting (LAPACK's gelsy), which handles a
+    rank-deficient X as the SVD does at a fraction of its cost on tall matrices."""
+    if X.shape[1] == 0:
+        return np.zeros(0)
+    scale = np.linalg.norm(X, axis=0)
+    scale[scale == 0] = 1.0
+    return (
+        linalg.lstsq(X / scale, r, cond=1e-12, lapack_driver="gelsy", check_finite=False)[0] / scale
+    )
+
+
+def term_columns(term, drivers, sig: Signal, others: np.ndarray, train: np.ndarray, cache: dict):
+    """Columns (m, k) of one term, its shape fixed on the training rows where it has one."""
+    if hasattr(term, "fix"):  # a searched shape (a period, a harmonic), on the training rows
+        rows = np.ones(len(sig.r), bool) if train is None else train
+        return term.fix(sig.r, others, rows, drivers).columns(drivers)
+    if term.key not in cache:
+        cache[term.key] = term.columns(drivers)
+    return cache[term.key]
+
+
+def cv_residuals(
+    sig: Signal, terms: list, drivers: dict, fold: np.ndarray, cache: dict
+) -> np.ndarray:
+    """Held-out residuals (m,): each fold predicted from a fit to the others (``fold`` per sample)."""
+    rows_fold = fold[sig.sample]
+    out = np.empty_like(sig.r)
+    for f in np.unique(rows_fold):
+        test = rows_fold == f
+        train = ~test
+        X = sig.base
+        for t in terms:
+            X = np.c_[X, term_columns(t, drivers, sig, X, train, cache)]
+        coef = lstsq(X[train], sig.r[train])
+        out[test] = sig.r[test] - X[test] @ coef
+    return out
+
+
+def rms(v) -> float:
+    """Root mean square of ``v`` (m,); 0 for an empty array."""
+    return float(np.sqrt(np.mean(np.square(v)))) if len(v) else 0.0
+
+
+def fit_terms(sig: Signal, terms: list, drivers: dict, cache: dict, sigma: float | None):
+    """All-data fit: fixed shapes (periods refined), coefficients, covariance, residual.
+
+    The covariance takes the larger of the repeatability and the residual scatter (inflated
+    for correlation by the caller through ``sigma``), so a poor model cannot look precise.
+    """
+    fixed, X = [], sig.base
+    for t in terms:
+        if hasattr(t, "fix"):
+            t = t.fix(sig.r, X, np.ones(len(sig.r), bool), drivers)
+            cols = t.columns(drivers)
+        else:
+            cols = term_columns(t, drivers, sig, X, None, cache)
+        fixed.append((t, X.shape[1], cols.shape[1]))
+        X = np.c_[X, cols]
+    coef = lstsq(X, sig.r)
+    res = sig.r - X @ coef
+    s_res = float(np.sqrt(res @ res / max(len(res) - X.shape[1], 1)))
+    s = max(s_res, sigma or 0.0)
+    scale = np.linalg.norm(X, axis=0)
+    scale[scale == 0] = 1.0
+    Xs = X / scale
+    cov = np.linalg.pinv(Xs.T @ Xs) / np.outer(scale, scale) * s * s
+    return fixed, coef, cov, res
+
+
+def confounded(
+    sig: Signal, terms: list, candidate, drivers: dict, cache: dict, limit: float = 0.9
+) -> float:
+    """The fraction of a candidate's column(s) that the scene model and the accepted terms
+    already span (1 = indistinguishable). Above ``limit`` the data cannot tell them apart."""
+    X = sig.base
+    for t in terms:
+        X = np.c_[X, term_columns(t, drivers, sig, X, np.ones(len(sig.r), bool), cache)]
+    C = term_columns(candidate, drivers, sig, X, np.ones(len(sig.r), bool), cache)
+    C = C - C.mean(0)
+    if not np.any(C):
+        return 1.0
+    Q, _ = np.linalg.qr(X)
+    left = C - Q @ (Q.T @ C)
+    return float(1 - np.sum(left**2) / np.sum(C**2))

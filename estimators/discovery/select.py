@@ -1,0 +1,211 @@
+"""Forward selection of candidate effects by held-out error, and the checks after it (refine,
+prune): the engine's decisions. The recipe: :mod:`calibench.estimators.discovery`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from calibench.estimators.discovery.fit import Signal, cv_residuals, fit_terms, lstsq
+
+FLOOR = 0.10  # practical floor: an effect must cut its axis's held-out RMS by 10 %
+Z_MIN = 5.0  # and be at least 5 standard errors from zero
+
+
+# --- selection -----------------------------------------------------------------------------------
+@dataclasses.dataclass
+class Step:
+    term: object
+    axis: str
+    cv_before: float  # all signals, held out
+    cv_after: float
+    gain: float  # relative cut of its own axis's held-out RMS
+
+
+@dataclasses.dataclass
+class Discovery:
+    steps: list[Step]
+    rejected: dict[str, str]  # candidate key -> why it was not accepted
+    cv_nominal: float
+    cv_final: float
+    rms_nominal: float
+    cv_by_signal: dict
+
+
+def _total_rms(cv_sq: dict, counts: dict) -> float:
+    return float(np.sqrt(sum(cv_sq.values()) / sum(counts.values())))
+
+
+def _coef_z(sig, terms, drivers, cache, sigma, term_index) -> float:
+    fixed, coef, cov, _ = fit_terms(sig, terms, drivers, cache, sigma)
+    _, start, k = fixed[term_index]
+    c, C = coef[start : start + k], cov[start : start + k, start : start + k]
+    try:
+        return float(
+            np.sqrt(c @ np.linalg.solve(C, c) / k) if k > 1 else abs(c[0]) / np.sqrt(C[0, 0])
+        )
+    except np.linalg.LinAlgError:
+        return 0.0
+
+
+def helps_everywhere(sig, terms, drivers, cache, fold, parts: int = 4, need: int = 3) -> bool:
+    """A periodic error repeats: its last term must cut the held-out squared residual in at
+    least ``need`` of ``parts`` stretches of the travel (a local bump helps in one)."""
+    before = cv_residuals(sig, terms[:-1], drivers, fold, cache)
+    after = cv_residuals(sig, terms, drivers, fold, cache)
+    edges = np.quantile(sig.u, np.linspace(0, 1, parts + 1))
+    idx = np.clip(np.searchsorted(edges, sig.u, side="right") - 1, 0, parts - 1)
+    better = [
+        np.sum(after[idx == k] ** 2) < 0.8 * np.sum(before[idx == k] ** 2) for k in range(parts)
+    ]
+    return sum(better) >= need
+
+
+def select(
+    signals: list[Signal],
+    candidates: list,
+    drivers: dict,
+    fold: np.ndarray,
+    noise: dict,
+    floor: float = FLOOR,
+    z_min: float = Z_MIN,
+) -> tuple[Discovery, dict]:
+    """Forward selection of candidate effects by held-out RMS (see the module's recipe).
+
+    ``candidates``: Effects and PeriodSearches, each acting on the signal whose ``axis`` it
+    names; ``noise``: axis -> Noise. Returns the discovery and the accepted terms per axis.
+    """
+    by_axis = {s.axis: s for s in signals}
+    caches = {a: {} for a in by_axis}
+    terms = {a: [] for a in by_axis}
+    counts = {a: len(s.r) for a, s in by_axis.items()}
+    cv_sq = {
+        a: float(np.sum(cv_residuals(s, [], drivers, fold, caches[a]) ** 2))
+        for a, s in by_axis.items()
+    }
+    cv_nominal = _total_rms(cv_sq, counts)
+    rms_nominal = float(
+        np.sqrt(
+            sum(np.sum((s.r - s.base @ lstsq(s.base, s.r)) ** 2) for s in signals)
+            / sum(counts.values())
+        )
+    )
+    remaining = [c for c in candidates if c.axis in by_axis]
+    rejected, steps = {}, []
+    while remaining:
+        trials = []
+        for c in remaining:
+            a = c.axis
+            sse = float(
+                np.sum(cv_residuals(by_axis[a], terms[a] + [c], drivers, fold, caches[a]) ** 2)
+            )
+            gain = 1 - np.sqrt(sse / cv_sq[a])
+            trials.append((gain, c, sse))
+        trials.sort(key=lambda t: -t[0])
+        accepted = None
+        for gain, c, sse in trials:
+            a = c.axis
+            if gain < floor:
+                rejected.setdefault(
+                    c.key,
+                    f"cuts the held-out RMS of {a} by {100 * max(gain, 0):.1f} % "
+                    f"(< {100 * floor:.0f} %)",
+                )
+                continue
+            sig_a = noise[a].sigma_mm * noise[a].inflation if noise[a].sigma_mm else None
+            z = _coef_z(by_axis[a], terms[a] + [c], drivers, caches[a], sig_a, len(terms[a]))
+            if z < z_min:
+                rejected[c.key] = f"coefficients only {z:.1f} standard errors from zero"
+                continue
+            if getattr(c, "periodic", False) and not helps_everywhere(
+                by_axis[a], terms[a] + [c], drivers, caches[a], fold
+            ):
+                rejected[c.key] = "helps in one stretch of the travel only: not periodic"
+                continue
+            accepted = (gain, c, sse)
+            break
+        if accepted is None:
+            break
+        gain, c, sse = accepted
+        before = _total_rms(cv_sq, counts)
+        cv_sq[c.axis] = sse
+        terms[c.axis].append(c)
+        steps.append(Step(c, c.axis, before, _total_rms(cv_sq, counts), float(gain)))
+        remaining = [r for r in remaining if r is not c and r.key not in rejected]
+        rejected.pop(c.key, None)
+    cv_by = {a: float(np.sqrt(cv_sq[a] / counts[a])) for a in by_axis}
+    return Discovery(
+        steps, rejected, cv_nominal, _total_rms(cv_sq, counts), rms_nominal, cv_by
+    ), terms
+
+
+def refine(
+    sig: Signal,
+    terms: list,
+    index: int,
+    richer,
+    drivers: dict,
+    fold: np.ndarray,
+    noise,
+    floor: float = FLOOR,
+    z_min: float = Z_MIN,
+) -> tuple[bool, float, float]:
+    """Whether the accepted ``terms[index]`` should become ``richer`` (the same effect with more
+    columns, its own first, e.g. lost motion that grows along the travel): the held-out RMS of
+    the signal must fall by ``floor`` and the added coefficients stand ``z_min`` standard errors
+    from zero. Returns (accepted, held-out RMS before, after)."""
+    trial = terms[:index] + [richer] + terms[index + 1 :]
+    before = float(np.sqrt(np.mean(cv_residuals(sig, terms, drivers, fold, {}) ** 2)))
+    after = float(np.sqrt(np.mean(cv_residuals(sig, trial, drivers, fold, {}) ** 2)))
+    sigma = noise.sigma_mm * noise.inflation if noise.sigma_mm else None
+    fixed, coef, cov, _ = fit_terms(sig, trial, drivers, {}, sigma)
+    _, start, k = fixed[index]
+    k0 = terms[index].columns(drivers).shape[1]
+    c, C = coef[start + k0 : start + k], cov[start + k0 : start + k, start + k0 : start + k]
+    try:
+        z = float(np.sqrt(c @ np.linalg.solve(C, c) / len(c)))
+    except np.linalg.LinAlgError:
+        z = 0.0
+    return bool(after <= (1 - floor) * before and z >= z_min), before, after
+
+
+def prune(
+    sig: Signal,
+    found: Discovery,
+    terms: dict,
+    drivers: dict,
+    fold: np.ndarray,
+    floor: float = FLOOR,
+) -> None:
+    """Backward check after forward selection (one signal): an accepted effect that a later one
+    made redundant (leaving it out now costs less than ``floor`` of the held-out RMS) goes, with
+    the reason; the steps' held-out figures are then recomputed in order. In place."""
+    a = sig.axis
+    cache: dict = {}
+    changed = True
+    while changed and len(terms[a]) > 1:
+        changed = False
+        full = float(np.sum(cv_residuals(sig, terms[a], drivers, fold, cache) ** 2))
+        for t in list(terms[a][1:]):  # the first is what everything else was found beside
+            rest = [u for u in terms[a] if u is not t]
+            without = float(np.sum(cv_residuals(sig, rest, drivers, fold, cache) ** 2))
+            if 1 - np.sqrt(full / max(without, 1e-300)) < floor:
+                later = ", ".join(u.key for u in terms[a][terms[a].index(t) + 1 :])
+                found.rejected[t.key] = f"accepted first, then made redundant by {later}"
+                terms[a] = rest
+                changed = True
+                break
+    kept = {id(t) for t in terms[a]}
+    steps = [st for st in found.steps if id(st.term) in kept]
+    n = len(sig.r)
+    prev = float(np.sqrt(np.sum(cv_residuals(sig, [], drivers, fold, cache) ** 2) / n))
+    for i, st in enumerate(steps):
+        now = float(
+            np.sqrt(np.sum(cv_residuals(sig, terms[a][: i + 1], drivers, fold, cache) ** 2) / n)
+        )
+        st.cv_before, st.cv_after, st.gain = prev, now, 1 - now / prev
+        prev = now
+    found.steps[:] = steps
+    found.cv_final = prev
