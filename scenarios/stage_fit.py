@@ -5,10 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import numpy as np
-
-from calibench.estimators.stage.compensation import fit_polynomial
-from calibench.estimators.stage.error_map import fit_quadratic
+from calibench.estimators.stage.error_map import fit_cubic, fit_quadratic
 from calibench.recordings import StageRecording, load_stage_csv
 from calibench.scenarios.report import BadInput
 
@@ -30,7 +27,7 @@ def fit_recording(scenario: str, model: str, recording: StageRecording) -> dict:
             if model == "quadratic":
                 axes[axis] = fit_quadratic(x, y, err).as_dict()
             else:
-                axes[axis] = _cubic(x, y, err)
+                axes[axis] = fit_cubic(x, y, err).as_dict()
         except ValueError as e:
             raise BadInput(f"fit: axis {axis}: {e}") from None
     p = N_COEF[model]
@@ -40,22 +37,6 @@ def fit_recording(scenario: str, model: str, recording: StageRecording) -> dict:
         "axes": axes,
         "unit": "mm",
         "note": f"rmse = sqrt(sse / (n - {p})); std are 1-sigma from the residuals",
-    }
-
-
-def _cubic(x, y, err) -> dict:
-    f = fit_polynomial(x, y, err, degree=3)
-    r = err - f(x, y)
-    sse = float(r @ r)
-    sst = float(np.sum((err - err.mean()) ** 2))
-    names = [f"a{k}" for k in range(10)]
-    return {
-        "coef": dict(zip(names, map(float, f.coef))),
-        "std": dict(zip(names, map(float, f.coef_std(x, y, f.rmse)))),
-        "sse": sse,
-        "r2": 1 - sse / sst if sst > 0 else None,
-        "rmse": f.rmse,
-        "n": len(err),
     }
 
 

@@ -135,7 +135,7 @@ def _belt_map_std_1p6x(mp):
         std[:12] *= 1.6  # ex c0..c5, ey c0..c5; the board's yaw (13th) untouched
         return std
 
-    _wrap(mp, "calibench.scenarios.belt_stage.scenario", "propagated_std", inflate)
+    _wrap(mp, "calibench.estimators.stage.belt_maps", "propagated_std", inflate)
 
 
 def _error_map_std_1p6x(mp):

@@ -16,10 +16,11 @@ commands the reading s that satisfies s + e(s) = target.
 from __future__ import annotations
 
 import dataclasses
+from typing import Literal, overload
 
 import numpy as np
 
-_SCALE = 100.0  # mm: monomials are built on u / 100 for conditioning
+MONOMIAL_SCALE_MM = 100.0  # monomials are built on u / 100 mm for conditioning
 
 
 def monomial_powers(degree: int) -> list[tuple[int, int]]:
@@ -32,7 +33,7 @@ def design(
 ) -> np.ndarray:
     """Monomials of (u, v) / 100 mm up to ``degree``, then (with ``period_mm``) sin and cos of
     2 pi w / period with w = u (``along`` 0) or v (1); shape (n, n_terms)."""
-    a, b = np.asarray(u, float) / _SCALE, np.asarray(v, float) / _SCALE
+    a, b = np.asarray(u, float) / MONOMIAL_SCALE_MM, np.asarray(v, float) / MONOMIAL_SCALE_MM
     p = np.array(monomial_powers(degree))
     A = a[..., None] ** p[:, 0] * b[..., None] ** p[:, 1]
     if period_mm is None:
@@ -66,7 +67,7 @@ class Polynomial:
         return design(u, v, self.degree, self.period_mm, self.along) @ (self.coef * self._scales())
 
     def _scales(self) -> np.ndarray:
-        s = [_SCALE ** (i + j) for i, j in monomial_powers(self.degree)]
+        s = [MONOMIAL_SCALE_MM ** (i + j) for i, j in monomial_powers(self.degree)]
         return np.array(s + ([1.0, 1.0] if self.period_mm is not None else []))
 
     def coef_std(self, u: np.ndarray, v: np.ndarray, sigma_um: float) -> np.ndarray:
@@ -75,9 +76,21 @@ class Polynomial:
         return sigma_um * np.sqrt(np.diag(np.linalg.inv(A.T @ A))) / self._scales()
 
 
+@overload
+def least_squares(
+    A: np.ndarray, e: np.ndarray, with_std: Literal[True] = ...
+) -> tuple[np.ndarray, np.ndarray, float, float]: ...
+
+
+@overload
+def least_squares(
+    A: np.ndarray, e: np.ndarray, with_std: Literal[False]
+) -> tuple[np.ndarray, None, None, None]: ...
+
+
 def least_squares(
     A: np.ndarray, e: np.ndarray, with_std: bool = True
-) -> tuple[np.ndarray, np.ndarray, float, float]:
+) -> tuple[np.ndarray, np.ndarray | None, float | None, float | None]:
     """The one linear least-squares fitter of the error maps: coefficients c (p,) of
     A (n, p) @ c ~ e (n,) by QR, their 1-sigma (p,) from the residuals, the dof-adjusted RMSE
     sqrt(SSE / (n - p)) and the SSE. ValueError when n <= p or the columns are dependent.

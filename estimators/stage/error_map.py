@@ -1,4 +1,5 @@
-"""Positioning-error maps of a two-axis stage: the seed paper's bivariate quadratic (Eq. 1).
+"""Positioning-error maps of a two-axis stage: the seed paper's bivariate quadratic (Eq. 1), and
+the vision-stage seed's cubic (:func:`fit_cubic`) as ``calibench fit`` reports it.
 
 ``err(x, y) = c0 + c1 x + c2 y + c3 x^2 + c4 x y + c5 y^2`` with x, y the commanded position in
 mm and err in mm, one map per axis. Goodness of fit as the paper's Table 3: SSE, R^2 and the
@@ -11,8 +12,13 @@ import dataclasses
 
 import numpy as np
 
-from calibench.estimators.stage.compensation import _SCALE as _SCALE_MM
-from calibench.estimators.stage.compensation import design, least_squares, monomial_powers
+from calibench.estimators.stage.compensation import (
+    MONOMIAL_SCALE_MM,
+    design,
+    fit_polynomial,
+    least_squares,
+    monomial_powers,
+)
 
 COEF_NAMES = ("c0", "c1", "c2", "c3", "c4", "c5")
 # c0..c5 are the coefficients of the degree-2 polynomial map of the vision stage's module, in the
@@ -35,7 +41,7 @@ class QuadraticFit:
     n: int
 
     def __call__(self, x_mm, y_mm) -> np.ndarray:
-        return design(x_mm, y_mm, 2) @ (self.coef * _SCALE_MM**_POWERS)
+        return design(x_mm, y_mm, 2) @ (self.coef * MONOMIAL_SCALE_MM**_POWERS)
 
     def as_dict(self) -> dict:
         """The coefficients and fit figures as plain floats."""
@@ -60,7 +66,7 @@ def fit_quadratic(x_mm: np.ndarray, y_mm: np.ndarray, err_mm: np.ndarray) -> Qua
     except ValueError:
         raise ValueError("degenerate stations: they do not span a quadratic in x and y") from None
     sst = float(np.sum((e - e.mean()) ** 2))
-    unit = _SCALE_MM**-_POWERS  # from the design's (x / 100 mm)^k to mm^-k
+    unit = MONOMIAL_SCALE_MM**-_POWERS  # from the design's (x / 100 mm)^k to mm^-k
     return QuadraticFit(
         coef=c * unit,
         std=std * unit,
@@ -75,7 +81,7 @@ def quadratic_coefs(x_mm: np.ndarray, y_mm: np.ndarray, err_mm: np.ndarray) -> n
     """The coefficients c0..c5 of k maps on the same stations at once, (n,), (n,), (n, k) -> (6, k)
     (each column as :func:`fit_quadratic` fits it)."""
     c = least_squares(design(x_mm, y_mm, 2), np.asarray(err_mm, float))[0]
-    return c * (_SCALE_MM**-_POWERS)[:, None]
+    return c * (MONOMIAL_SCALE_MM**-_POWERS)[:, None]
 
 
 def compensated_command(
@@ -91,3 +97,52 @@ def compensated_command(
     for _ in range(iterations):
         xc, yc = xt - fit_x(xc, yc), yt - fit_y(xc, yc)
     return xc, yc
+
+
+CUBIC_NAMES = tuple(f"a{k}" for k in range(10))
+
+
+@dataclasses.dataclass(frozen=True)
+class CubicFit:
+    """Least-squares cubic map of one axis's error (the vision-stage seed's Eq. 5-9), in the
+    error's own unit (``calibench fit``: mm).
+
+    coef : (10,) a0..a9 on 1, x, y, x^2, xy, y^2, x^3, x^2 y, x y^2, y^3 (per mm^k).
+    std : (10,) their 1-sigma (from the residuals).
+    sse, r2 (None when the errors are all alike), rmse = sqrt(sse / (n - 10)), n.
+    """
+
+    coef: np.ndarray
+    std: np.ndarray
+    sse: float
+    r2: float | None
+    rmse: float
+    n: int
+
+    def as_dict(self) -> dict:
+        """The coefficients and fit figures as plain floats."""
+        return {
+            "coef": dict(zip(CUBIC_NAMES, map(float, self.coef))),
+            "std": dict(zip(CUBIC_NAMES, map(float, self.std))),
+            "sse": self.sse,
+            "r2": self.r2,
+            "rmse": self.rmse,
+            "n": self.n,
+        }
+
+
+def fit_cubic(x_mm: np.ndarray, y_mm: np.ndarray, err: np.ndarray) -> CubicFit:
+    """Fit one axis's error map by the cubic, (n,), (n,), (n,) -> CubicFit. Needs n > 10 points
+    that span the cubic (ValueError otherwise)."""
+    f = fit_polynomial(x_mm, y_mm, err, degree=3)
+    r = err - f(x_mm, y_mm)
+    sse = float(r @ r)
+    sst = float(np.sum((err - err.mean()) ** 2))
+    return CubicFit(
+        coef=f.coef,
+        std=f.coef_std(x_mm, y_mm, f.rmse),
+        sse=sse,
+        r2=1 - sse / sst if sst > 0 else None,
+        rmse=f.rmse,
+        n=len(err),
+    )

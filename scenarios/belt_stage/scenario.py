@@ -23,29 +23,19 @@ import dataclasses
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from calibench.errors import BadInput
 from calibench.estimators.camera.chessboard import find_chessboard_corners
-from calibench.estimators.camera.pose import (
-    Plane,
-    board2cam_from_homography,
-    board2cam_refine,
-    fit_plane,
-    homographies,
-    mean_rotation,
-    pose_sensitivity,
-    undistort_pixels,
+from calibench.estimators.camera.zhang import calibrate_camera
+from calibench.estimators.stage.belt_maps import (
+    MAP_INTRINSICS,
+    intrinsics_cov,
+    measure_maps,
+    propagated_std,
 )
-from calibench.estimators.camera.zhang import calibrate_camera, intrinsic_covariance
-from calibench.estimators.stage.error_map import (
-    COEF_NAMES,
-    compensated_command,
-    fit_quadratic,
-    quadratic_coefs,
-)
-from calibench.estimators.stage.travel import board_yaw, travel_from_camera_centres, travel_in_plane
+from calibench.estimators.stage.error_map import COEF_NAMES, compensated_command
 from calibench.recordings import CameraViews
+from calibench.scenarios.harness import write_outputs
 from calibench.scenarios.report import Check, Parameter, Report, progress
 from calibench.scenes.belt_stage import BeltStageGeometry
 from calibench.scenes.checkerboard import TEXTURE_PX_PER_SQUARE
@@ -62,12 +52,6 @@ NAME = "belt-stage"
 # The paper's 121 stations (Tables 1-2), mm.
 PAPER_STATIONS_X = (0, 100, 170, 230, 310, 400, 540, 610, 760, 890, 980)
 PAPER_STATIONS_Y = (0, 80, 170, 250, 310, 460, 520, 640, 710, 890, 920)
-
-# How the machine is seen: the camera is mounted with its image x along +X and image y along
-# -Y; the board is laid with its x along +X and its y along -Y (scenes.belt_stage).
-X_AXIS_CAM = np.array([1.0, 0.0, 0.0])
-Y_AXIS_CAM = np.array([0.0, -1.0, 0.0])
-BOARD_XY_TO_AXES = np.diag([1.0, -1.0])
 
 
 @dataclasses.dataclass(frozen=True)
@@ -240,16 +224,6 @@ def check_config(c: BeltStageConfig) -> None:
             )
 
 
-@dataclasses.dataclass
-class StationPoses:
-    """Per-station board2cam poses: closed form (from H) and PnP; R (n, 3, 3), t (n, 3) mm."""
-
-    R_closed: np.ndarray
-    t_closed: np.ndarray
-    R_pnp: np.ndarray
-    t_pnp: np.ndarray
-
-
 def run(config: BeltStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool) -> Report:
     """Simulate the belt-driven XY stage watched by its overhead camera; calibrate it from what its
     sensors recorded; compare with the truth.
@@ -301,13 +275,10 @@ def run(config: BeltStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: b
         # 3-4. poses, travel, errors, maps; then the intrinsics' uncertainty carried through
         cmd = np.stack([x_pulses, y_pulses], axis=1) / PULSES_PER_MM
         m = measure_maps(board_pts, station_views.corners_px, calib.K, calib.dist, cmd, ref)
-        intr_names = ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2")
-        cov_intr = (
-            calib.cov
-            if calib.cov_names == intr_names
-            else intrinsic_covariance(calib, board_pts, calib_points, intr_names)
+        cov_intr = intrinsics_cov(calib, board_pts, calib_points)
+        std_map = propagated_std(
+            m, board_pts, calib.K, calib.dist, cmd, ref, MAP_INTRINSICS, cov_intr
         )
-        std_map = propagated_std(m, board_pts, calib, cmd, ref, intr_names, cov_intr)
         fit_x, fit_y, yaw, err = m.fit_x, m.fit_y, m.yaw_rad, m.err
         gx, gy = np.meshgrid(*(np.linspace(0, t, 41) for t in g.travel_mm))
         gx, gy = gx.ravel(), gy.ravel()
@@ -331,9 +302,7 @@ def run(config: BeltStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: b
         corner_rms = float(np.sqrt(np.nanmean(np.sum(corner_err**2, axis=-1))))
         calib_err = calib_views.corners_px[used] - calib_true[used]
         corner_rms_calib = float(np.sqrt(np.mean(np.sum(calib_err**2, axis=-1))))
-        # in-plane gap: the closed form's depth is noisier and does not enter the travel
-        gap = np.einsum("nij,ni->nj", st.R_pnp[:, :, :2], st.t_closed - st.t_pnp)
-        pose_gap = float(np.max(np.linalg.norm(gap, axis=1)))
+        pose_gap = float(np.max(st.in_plane_gap_mm()))
 
         report = Report(scenario=NAME, seed=seed, fidelity=fidelity)
         report.parameters += _intrinsic_parameters(g.camera, calib)
@@ -399,7 +368,6 @@ def run(config: BeltStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: b
             },
             "stations": len(cmd),
         }
-        report.rrd = None
         artifacts = {
             "sim": sim,
             "calib": calib,
@@ -420,183 +388,12 @@ def run(config: BeltStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: b
             "y_pulses": y_pulses,
             "limit_mm": config.map_limit_mm,
         }
-        if out_dir is not None:  # a Monte-Carlo trial keeps only the numbers
-            _write_figure(out_dir, artifacts)
-        if rrd and out_dir is not None:
-            from calibench.scenarios.belt_stage import viewer
-
-            viewer.log_run(out_dir / "run.rrd", report, artifacts)
-            report.rrd = "run.rrd"
-        return report
+        return write_outputs(report, artifacts, out_dir, rrd, "calibench.scenarios.belt_stage")
     finally:
         sim.close()
 
 
 TOL_SIGMA = 5.0  # parameter tolerance, in the estimator's own standard deviations
-
-
-@dataclasses.dataclass
-class StageMaps:
-    """Everything measured from the station views for one set of intrinsics."""
-
-    poses: StationPoses
-    plane: Plane  # plane of motion of the board's centroid, camera frame, mm
-    travel: np.ndarray  # (n, 2) mm, ours
-    err: np.ndarray  # (n, 2) mm, travel - pulse travel
-    yaw_rad: float
-    yaw_std_rad: float  # from the spread of the per-station yaws
-    fit_x: object
-    fit_y: object
-    paper_fit_x: object  # None when not asked for
-    paper_fit_y: object
-
-    def vector(self) -> np.ndarray:
-        """The 13 reported figures as one vector: ex c0..c5, ey c0..c5, yaw."""
-        return np.r_[self.fit_x.coef, self.fit_y.coef, self.yaw_rad]
-
-
-def measure_maps(
-    board_pts: np.ndarray,
-    corners_px: np.ndarray,
-    K: np.ndarray,
-    dist: np.ndarray,
-    cmd: np.ndarray,
-    ref: int,
-    slopes: np.ndarray | None = None,
-) -> StageMaps:
-    """Stations' corners (n, n_corners, 2) and commands (n, 2) mm to the two error maps.
-
-    The tracked point is the board's centroid, where a pose's tilt and translation errors
-    decouple (the tilt of a small board seen from far is poorly determined). Each station's
-    depth is noisy (~0.2 mm here); the carriage moves in a plane, so every centroid is moved
-    along its viewing ray onto the plane fitted through all of them. ``slopes`` (2,) tilts that
-    plane, for propagating its uncertainty.
-    """
-    return maps_from_poses(
-        station_poses(board_pts, corners_px, K, dist), board_pts, cmd, ref, slopes
-    )
-
-
-def maps_from_poses(
-    st: StationPoses,
-    board_pts: np.ndarray,
-    cmd: np.ndarray,
-    ref: int,
-    slopes: np.ndarray | None = None,
-    paper: bool = True,
-) -> StageMaps:
-    """:func:`measure_maps` from the stations' poses on: plane, travel, errors, maps (``paper``:
-    the seed paper's maps too, else None)."""
-    plane, travel, err, yaw = _travel_errors(st, board_pts, cmd, ref, slopes)
-    yaws = board_yaw(st.R_pnp, plane.normal, X_AXIS_CAM, Y_AXIS_CAM, BOARD_XY_TO_AXES)
-    rel = cmd - cmd[ref]
-    x, y = cmd[:, 0], cmd[:, 1]
-    paper_x = paper_y = None
-    if paper:
-        err_paper = (
-            travel_from_camera_centres(st.R_closed, st.t_closed, ref, BOARD_XY_TO_AXES) - rel
-        )
-        paper_x, paper_y = (
-            fit_quadratic(x, y, err_paper[:, 0]),
-            fit_quadratic(x, y, err_paper[:, 1]),
-        )
-    return StageMaps(
-        poses=st,
-        plane=plane,
-        travel=travel,
-        err=err,
-        yaw_rad=yaw,
-        yaw_std_rad=float(np.std(yaws, ddof=1) / np.sqrt(len(yaws))),
-        fit_x=fit_quadratic(x, y, err[:, 0]),
-        fit_y=fit_quadratic(x, y, err[:, 1]),
-        paper_fit_x=paper_x,
-        paper_fit_y=paper_y,
-    )
-
-
-def _travel_errors(
-    st: StationPoses,
-    board_pts: np.ndarray,
-    cmd: np.ndarray,
-    ref: int,
-    slopes: np.ndarray | None = None,
-) -> tuple[Plane, np.ndarray, np.ndarray, float]:
-    """The plane of motion, each station's travel and error (n, 2) mm, and the board's yaw."""
-    centroid = board_pts.mean(axis=0)
-    p = np.einsum("nij,j->ni", st.R_pnp, centroid) + st.t_pnp
-    plane = fit_plane(p)
-    if slopes is not None:
-        plane = plane.tilted(slopes)
-    travel = travel_in_plane(plane.intersect_rays(p), ref, plane.normal, X_AXIS_CAM, Y_AXIS_CAM)
-    yaw = board_yaw(mean_rotation(st.R_pnp), plane.normal, X_AXIS_CAM, Y_AXIS_CAM, BOARD_XY_TO_AXES)
-    return plane, travel, travel - (cmd - cmd[ref]), yaw
-
-
-def propagated_std(m: StageMaps, board_pts, calib, cmd, ref, names, cov_intr) -> np.ndarray:
-    """1-sigma of (ex c0..c5, ey c0..c5, yaw): station noise plus two common-mode errors.
-
-    The intrinsics and the plane of motion are shared by every station, so their errors move
-    the whole map coherently. Their effect is the Jacobian of the map coefficients with
-    respect to them sandwiched around their covariance: each station's PnP pose moves with the
-    intrinsics by the implicit-function Jacobian at its minimum (:func:`pose_sensitivity`, no PnP
-    rerun), and the closed-form rest of the pipeline (plane, travel, maps) is differenced
-    centrally at one sigma.
-    """
-    st = m.poses
-    S = pose_sensitivity(board_pts, st.R_pnp, st.t_pnp, calib.K, calib.dist, names)
-    rvecs = Rotation.from_matrix(st.R_pnp).as_rotvec()
-
-    def at(d_intr=None, slopes=None) -> np.ndarray:
-        """The stations' errors and the yaw, (2 n + 1,), with the intrinsics or the plane moved."""
-        poses = st
-        if d_intr is not None:
-            d = S @ d_intr  # (n, 6): each station's (rvec, t) moved
-            poses = dataclasses.replace(
-                st,
-                R_pnp=Rotation.from_rotvec(rvecs + d[:, :3]).as_matrix(),
-                t_pnp=st.t_pnp + d[:, 3:],
-            )
-        _, _, err, yaw = _travel_errors(poses, board_pts, cmd, ref, slopes)
-        return np.r_[err[:, 0], err[:, 1], yaw]
-
-    # central differences of the errors; the maps are linear in them: all fitted in one solve
-    D = []
-    for j in range(len(names)):
-        h = np.zeros(len(names))
-        h[j] = np.sqrt(cov_intr[j, j])
-        D.append((at(h) - at(-h)) / (2 * h[j]))
-    for j in range(2):
-        h = np.zeros(2)
-        h[j] = np.sqrt(m.plane.slope_cov[j, j])
-        D.append((at(slopes=h) - at(slopes=-h)) / (2 * h[j]))
-    D = np.stack(D, axis=1)  # (2 n + 1, k)
-    n = len(cmd)
-    x, y = cmd[:, 0], cmd[:, 1]
-    coef = quadratic_coefs(x, y, np.concatenate([D[:n], D[n : 2 * n]], axis=1))  # (6, 2 k)
-    k = D.shape[1]
-    JJ = np.concatenate([coef[:, :k], coef[:, k:], D[2 * n :]], axis=0)  # (13, k)
-    J, Js = JJ[:, : len(names)], JJ[:, len(names) :]
-    own = np.r_[m.fit_x.std, m.fit_y.std, m.yaw_std_rad]
-    # errors are measured from the home station, whose own scatter (the per-station RMSE) moves
-    # every error alike: a common offset the residuals cannot show, so it joins c0's variance
-    own[0] = np.hypot(own[0], m.fit_x.rmse)
-    own[6] = np.hypot(own[6], m.fit_y.rmse)
-    common = np.einsum("ij,jk,ik->i", J, cov_intr, J) + np.einsum(
-        "ij,jk,ik->i", Js, m.plane.slope_cov, Js
-    )
-    return np.sqrt(own**2 + common)
-
-
-def station_poses(
-    board_pts: np.ndarray, corners_px: np.ndarray, K: np.ndarray, dist: np.ndarray
-) -> StationPoses:
-    """Closed-form and PnP board2cam poses of every station, (n_stations, n_corners, 2) in."""
-    ideal = undistort_pixels(np.asarray(corners_px, float).reshape(-1, 2), K, dist).reshape(
-        np.shape(corners_px)
-    )
-    R0, t0 = board2cam_from_homography(homographies(board_pts[:, :2], ideal), K)
-    R, t = board2cam_refine(board_pts, corners_px, K, dist, R0, t0)
-    return StationPoses(R0, t0, R, t)
 
 
 def _record(
@@ -662,48 +459,6 @@ def _map_parameters(prefix: str, truth_coef, coef, std) -> list[Parameter]:
         Parameter(f"{prefix}_{n}", u, float(t), float(e), float(s), tolerance=TOL_SIGMA * float(s))
         for n, u, t, e, s in zip(COEF_NAMES, units, truth_coef, coef, std)
     ]
-
-
-def _write_figure(out_dir: Path, a: dict) -> None:
-    """error_map.png: measured station errors and the true and fitted maps, both axes."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    out_dir.mkdir(parents=True, exist_ok=True)
-    cmd, err, (fx, fy), truth = a["cmd"], a["err"], a["fits"], a["truth"]
-    g = a["geometry"]
-    gx, gy = np.meshgrid(np.linspace(0, g.travel_mm[0], 61), np.linspace(0, g.travel_mm[1], 61))
-    true = truth.error_mm(gx.ravel(), gy.ravel())
-    fig, axes = plt.subplots(1, 3, figsize=(15, 4.6), constrained_layout=True)
-    for ax, k, fit, label in ((axes[0], 0, fx, "X"), (axes[1], 1, fy, "Y")):
-        cs = ax.contourf(gx, gy, true[:, k].reshape(gx.shape), 20, cmap="viridis")
-        ax.contour(gx, gy, fit(gx, gy), cs.levels[::2], colors="w", linewidths=0.7, linestyles="--")
-        ax.scatter(
-            cmd[:, 0], cmd[:, 1], c=err[:, k], cmap="viridis", norm=cs.norm, edgecolors="k", s=28
-        )
-        fig.colorbar(cs, ax=ax, label=f"{label} error (mm)")
-        ax.set(
-            title=f"{label} error: truth (fill), fit (dashed), stations (dots)",
-            xlabel="X command (mm)",
-            ylabel="Y command (mm)",
-            aspect="equal",
-        )
-    b, af = np.linalg.norm(a["before"], axis=1), np.linalg.norm(a["after"], axis=1)
-    ax = axes[2]
-    k = np.arange(1, len(b) + 1)
-    ax.semilogy(k, b, "o", color="tab:red", label="before compensation")
-    ax.semilogy(k, af, "o", color="tab:green", label="after compensation")
-    ax.axhline(a["limit_mm"], color="k", ls=":", label=f"limit {a['limit_mm']:g} mm")
-    ax.set(
-        title="check points (unseen by the fit)",
-        xlabel="check point",
-        ylabel="|position error| (mm)",
-    )
-    ax.legend(loc="center right")
-    fig.savefig(out_dir / "error_map.png", dpi=90)
-    plt.close(fig)
 
 
 def prior(config: BeltStageConfig, rng: np.random.Generator) -> BeltStageConfig:

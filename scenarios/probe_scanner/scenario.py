@@ -23,6 +23,7 @@ from calibench.estimators.probe_scanner.calibration import (
     fit_minima,
     paper_sweep_d_mm,
 )
+from calibench.scenarios.harness import write_outputs
 from calibench.scenarios.report import Check, Parameter, Report
 from calibench.scenes.probe_scanner import ProbeScannerGeometry, ProbeScannerNominal
 from calibench.sim.probe_scanner import ProbeScannerSim, ProbeScannerTruth
@@ -234,14 +235,7 @@ def run(config: ProbeScannerConfig, seed: int, fidelity: str, out_dir: Path, rrd
         lsq=lsq,
         plate_outline=sim.true_outline_mm("plate"),
     )
-    if out_dir is not None:  # a Monte-Carlo trial keeps only the numbers
-        _write_figure(out_dir, artifacts)
-    if rrd and out_dir is not None:
-        from calibench.scenarios.probe_scanner import viewer
-
-        viewer.log_run(out_dir / "run.rrd", report, artifacts)
-        report.rrd = "run.rrd"
-    return report
+    return write_outputs(report, artifacts, out_dir, rrd, "calibench.scenarios.probe_scanner")
 
 
 def _ranges(ms: np.ndarray) -> list[list[int]]:
@@ -253,70 +247,6 @@ def _ranges(ms: np.ndarray) -> list[list[int]]:
         else:
             out.append([int(m), int(m)])
     return out
-
-
-def _write_figure(out_dir: Path, a: dict) -> None:
-    """probe_scanner.png: recovered d against m (the paper's study), rho(theta), the rim."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    out_dir.mkdir(parents=True, exist_ok=True)
-    cfg = a["config"]
-    d_true, req = cfg.truth.d_mm, cfg.d_requirement_mm
-    fig, axes = plt.subplots(1, 3, figsize=(16, 4.8), constrained_layout=True)
-    ax = axes[0]
-    ax.axhspan(
-        d_true - req, d_true + req, color="tab:green", alpha=0.15, label=f"requirement +-{req:g} mm"
-    )
-    ax.axhline(d_true, color="k", lw=1, label="truth")
-    ax.plot(a["ms"], a["sweep"], ".-", color="tab:blue", ms=3, label="this turn")
-    ax.plot(
-        a["ms"],
-        d_true + a["rms_m"],
-        "--",
-        color="tab:red",
-        label=f"truth + RMS error over {cfg.sweep_turns} turns",
-    )
-    ax.set(
-        xlabel="samples per quadratic fit, m",
-        ylabel="recovered d (mm)",
-        ylim=(d_true - 4 * req, d_true + 4 * req),
-        title="the paper's method: d against m",
-    )
-    ax.legend(fontsize=8)
-    ax = axes[1]
-    p = a["plate"]
-    ax.plot(np.rad2deg(p.theta_rad), p.rho_mm, lw=0.8, color="tab:gray", label="rho")
-    for f in a["minima"]:
-        x = np.linspace(-0.25, 0.25, 50)
-        ax.plot(
-            np.rad2deg(f.theta_rad + x),
-            f.rho_mm + 0.5 * f.curvature_mm * x * x,
-            color="tab:orange",
-            lw=1,
-        )
-        ax.plot(np.rad2deg(f.theta_rad), f.rho_mm, "o", color="tab:orange", ms=4)
-    ax.set(
-        xlabel="table angle (deg)",
-        ylabel="rho (mm)",
-        title=f"one turn over the plate; fits at m = {cfg.paper_m}",
-    )
-    ax = axes[2]
-    o = a["outline"]
-    ax.plot(o[:, 0], o[:, 1], color="k", lw=0.8, label="true rim")
-    for k, c in (("before", "tab:red"), ("after", "tab:green")):
-        ax.plot(*a["contours"][k].T, ".", ms=1, color=c, label=f"traced, {k}")
-    ax.set(
-        aspect="equal",
-        xlabel="x (mm)",
-        ylabel="y (mm)",
-        title="the rim, before and after calibration",
-    )
-    ax.legend(fontsize=8, loc="upper right")
-    fig.savefig(out_dir / "probe_scanner.png", dpi=90)
-    plt.close(fig)
 
 
 def prior(config: ProbeScannerConfig, rng: np.random.Generator) -> ProbeScannerConfig:

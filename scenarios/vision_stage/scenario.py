@@ -24,18 +24,20 @@ from pathlib import Path
 
 import numpy as np
 
-from calibench.estimators.camera.circles import find_dark_circle
-from calibench.estimators.stage import iso230_2
-from calibench.estimators.stage.compensation import (
-    MODEL_DEGREES,
-    LineRuler,
-    compensated_command,
-    fit_polynomial,
-    select_model,
-)
+from calibench.estimators.stage.circle_plate import PlateFit, compensation_models, fit_plate
+from calibench.estimators.stage.compensation import MODEL_DEGREES, fit_polynomial
+from calibench.scenarios.harness import write_outputs
 from calibench.scenarios.report import Check, Parameter, Report, progress
+from calibench.scenarios.vision_stage.procedure import (
+    RULER_SHORTER_BY_MM,
+    Microscope,
+    align_plate,
+    interferometer_lines,
+    interferometer_test,
+    measure_rulers,
+    servo,
+)
 from calibench.scenes.vision_stage import VisionStageGeometry
-from calibench.sim.vision_stage import LineRuler as RulerArtefact
 from calibench.sim.vision_stage import VisionStageSim, VisionStageTruth
 
 NAME = "vision-stage"
@@ -84,9 +86,6 @@ MAX_TURN_ERROR = (
 )
 MIN_RULER_PITCH_MM = (
     1.0  # graduations far apart beside the aim's scatter (um), so their readings increase
-)
-RULER_SHORTER_BY_MM = (
-    10.0  # measure_rulers lays each ruler over the travel less this (its ends clear)
 )
 MAX_RULER_SCATTER = (
     0.1  # the aim's and the graduations' 1-sigma, of the pitch: the readings stay in order
@@ -182,108 +181,6 @@ def check_config(c: VisionStageConfig) -> None:
         )
 
 
-class Microscope:
-    """Finds the circle nearest the image centre; keeps the true centres for the report."""
-
-    def __init__(self, sim: VisionStageSim, config: VisionStageConfig, fidelity: str):
-        self.sim, self.config, self.fidelity = sim, config, fidelity
-        cam = config.geometry.camera
-        self.centre = np.array([cam.cx, cam.cy])
-        self.mm_per_px = config.geometry.working_distance_mm / cam.fx
-        self.errors_px = []  # detected - true, every measurement
-        self.last_image = None
-        self.last_found = None
-        self.last_true = None
-
-    def offset_mm(self) -> np.ndarray:
-        """Where the nearest circle's centre is from the image centre, in machine X, Y (mm)."""
-        true = self._nearest_true()
-        if self.fidelity == "render":
-            img = self.sim.render(self.config.pixel_noise_dn, self.config.psf_px)
-            fit = find_dark_circle(img)
-            if fit is None:
-                raise ValueError(
-                    f"no whole circle in the microscope's view at reading {self.sim.reading_mm}"
-                )
-            found = fit.centre
-            self.last_image = img
-        else:
-            found = true + self.sim.rng.normal(0, self.config.centre_noise_px, 2)
-        self.errors_px.append(found - true)
-        self.last_found, self.last_true = found, true
-        d = found - self.centre
-        # image x runs along machine X; image v runs against machine Y
-        return np.array([d[0], -d[1]]) * self.mm_per_px
-
-    def _nearest_true(self) -> np.ndarray:
-        p = self.sim.point_in_body_mm("plate")
-        plate = self.config.geometry.plate
-        i, j = np.clip(np.rint(p / plate.pitch_mm), 0, plate.n - 1).astype(int)
-        return self.sim.true_circle_px(j * plate.n + i)
-
-
-def approach(sim: VisionStageSim, reading: np.ndarray) -> None:
-    """Move to a reading from below on both axes (unidirectional approach)."""
-    sim.move_path(np.array([reading - 0.02, reading], float))
-
-
-def servo(
-    sim: VisionStageSim, scope: Microscope, reading: np.ndarray, tol_px: float
-) -> tuple[np.ndarray, int]:
-    """Move until the nearest circle is within ``tol_px`` of the image centre.
-
-    Returns the reading at which the circle's centre is on the optical axis (the final reading
-    plus the residual offset measured in the last image) and the number of moves.
-    """
-    s = np.array(reading, float)
-    for n in range(1, 8):
-        approach(sim, s)
-        off = scope.offset_mm()
-        if np.all(np.abs(off) < tol_px * scope.mm_per_px):
-            return s + off, n
-        s = s + off
-    raise ValueError(f"servo did not settle near reading {reading}")
-
-
-def align_plate(sim, scope, config, rng):
-    """The rotate-and-check loop. Returns (phi estimates in order, truths in order, s00)."""
-    g = config.geometry
-    pitch = g.plate.pitch_mm
-    far = (config.grid[0] - 1) * pitch
-    estimates, truths, turns = [], [], 0
-    while True:
-        s00, _ = servo(sim, scope, np.array(g.plate_origin_reading_mm), config.servo_tolerance_px)
-        # a near circle first, so the far one can be found even when phi is large
-        s_near, _ = servo(sim, scope, s00 + [4 * pitch, 0], config.servo_tolerance_px)
-        coarse = np.arctan2(*(s_near - s00)[::-1])
-        s_far, _ = servo(
-            sim,
-            scope,
-            s00 + far * np.array([np.cos(coarse), np.sin(coarse)]),
-            config.servo_tolerance_px,
-        )
-        d = s_far - s00
-        estimates.append(float(np.arctan2(d[1], d[0])))
-        truths.append(true_phi(sim, s00, s00 + [far, 0.0]))
-        if (
-            abs(estimates[-1]) * 1e6 <= config.align_tolerance_urad
-            or turns >= config.align_max_turns
-        ):
-            return estimates, truths, s00
-        # the operator turns the plate about circle (0, 0), imperfectly
-        turn = -estimates[-1] * (1 + config.turn_error * rng.standard_normal())
-        turn += config.turn_noise_urad * 1e-6 * rng.standard_normal()
-        sim.set_plate_yaw(sim.plate_phi_rad + turn)
-        turns += 1
-
-
-def true_phi(sim: VisionStageSim, s_a: np.ndarray, s_b: np.ndarray) -> float:
-    """The plate's angle to the X motion from reading s_a to s_b (a pure X move), from the
-    geometric truth: that motion, seen in plate coordinates, turns by -phi."""
-    d = sim.true_point_mm(*s_b, body="plate") - sim.true_point_mm(*s_a, body="plate")
-    return float(-np.arctan2(d[1], d[0]))
-
-
 def run(config: VisionStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool) -> Report:
     """Simulate the vision measuring machine's table under its microscope, with a circle plate and an
     interferometer; calibrate it from what its sensors recorded; compare with the truth.
@@ -315,32 +212,19 @@ def run(config: VisionStageConfig, seed: int, fidelity: str, out_dir: Path, rrd:
             readings[k], _ = servo(sim, scope, s00 + p, config.servo_tolerance_px)
             if scope.last_image is not None and k % nx in (0, nx - 1) and k // nx in (0, ny - 1):
                 images.append((k, scope.last_image, scope.last_found, scope.last_true))
-        rel = readings - readings[0]  # readings relative to circle (0, 0)
-        err_um = (nominal_machine - rel) * 1000  # true - reading
-        u, v = rel[:, 0], rel[:, 1]
 
         # 3. models ------------------------------------------------------------------------------
-        cubic = [fit_polynomial(u, v, err_um[:, a], 3) for a in range(2)]
-        selected = [select_model(u, v, err_um[:, a], along=a) for a in range(2)]
-        best = [m for m, _ in selected]
+        plate = fit_plate(readings, nominal_machine, (nx - 1) * pitch)
         rulers = measure_rulers(sim, config, rng, s00)
 
         # truth for the coefficients: the same cubic fitted to the true error field at the
         # same readings, in the frame the alignment defines (X along the X motion)
         true_err = true_error_field(sim, readings, phi_residual)
+        u, v = plate.u_mm, plate.v_mm
         cubic_true = [fit_polynomial(u, v, true_err[:, a], 3) for a in range(2)]
-        sigma_um = max(b.rmse for b in best)  # the points' own scatter, from the best model
-        sigma_phi = np.sqrt(2) * sigma_um / 1000 / ((nx - 1) * pitch)
 
         # 4. verification ------------------------------------------------------------------------
-        models = {
-            "uncompensated": lambda r: np.zeros_like(r),
-            "lineruler": lambda r: np.stack([rulers[0](r[:, 0]), rulers[1](r[:, 1])], axis=1),
-            "polynomial": lambda r: np.stack(
-                [cubic[a](*(r - readings[0]).T) for a in range(2)], axis=1
-            ),
-            "best": lambda r: np.stack([best[a](*(r - readings[0]).T) for a in range(2)], axis=1),
-        }
+        models = compensation_models(plate, rulers)
         lines = interferometer_lines(config, rng)
         verification = {
             name: interferometer_test(sim, config, lines, model) for name, model in models.items()
@@ -354,19 +238,14 @@ def run(config: VisionStageConfig, seed: int, fidelity: str, out_dir: Path, rrd:
             phi_est,
             phi_true,
             phi_residual,
-            sigma_phi,
-            cubic,
+            plate,
             cubic_true,
-            u,
-            v,
-            sigma_um,
             verification,
-            selected,
         )
         artifacts = dict(
             sim=sim,
             readings=readings,
-            err_um=err_um,
+            err_um=plate.err_um,
             true_err=true_err,
             models=models,
             verification=verification,
@@ -374,14 +253,7 @@ def run(config: VisionStageConfig, seed: int, fidelity: str, out_dir: Path, rrd:
             s00=s00,
             geometry=g,
         )
-        if out_dir is not None:  # a Monte-Carlo trial keeps only the numbers
-            _write_figure(out_dir, artifacts, config)
-        if rrd and out_dir is not None:
-            from calibench.scenarios.vision_stage import viewer
-
-            viewer.log_run(out_dir / "run.rrd", report, artifacts)
-            report.rrd = "run.rrd"
-        return report
+        return write_outputs(report, artifacts, out_dir, rrd, "calibench.scenarios.vision_stage")
     finally:
         sim.close()
 
@@ -395,83 +267,6 @@ def true_error_field(sim: VisionStageSim, readings: np.ndarray, phi_residual: fl
     return ((p - p[0]) - (readings - readings[0])) * 1000
 
 
-def measure_rulers(sim: VisionStageSim, config: VisionStageConfig, rng, s00) -> list[LineRuler]:
-    """Lay a ruler along X through the middle of the grid and one along Y, read them (Eq. 3)."""
-    g = config.geometry
-    out = []
-    for axis in (0, 1):
-        length = g.travel_mm[axis] - RULER_SHORTER_BY_MM
-        n = int(length // config.ruler_pitch_mm) + 1
-        other = 1 - axis
-        mid = s00[other] + (config.grid[other] - 1) * g.plate.pitch_mm / 2
-        origin = np.zeros(2)
-        origin[axis], origin[other] = 4.0, mid
-        angle = (0.0 if axis == 0 else np.pi / 2) + config.ruler_parallelism_urad * 1e-6
-        ruler = RulerArtefact(
-            origin_mm=origin,
-            angle_rad=angle,
-            pitch_mm=config.ruler_pitch_mm,
-            graduation_errors_mm=rng.normal(0, config.ruler_error_um / 1000, n),
-        )
-        readings = [sim.ruler_reading(ruler, k, axis, mid, config.ruler_aim_um) for k in range(n)]
-        out.append(LineRuler.from_graduations(np.array(readings), config.ruler_pitch_mm))
-    return out
-
-
-def interferometer_lines(config: VisionStageConfig, rng) -> list[tuple[int, float, np.ndarray]]:
-    """(axis, other axis's coordinate, targets) of every line; targets irregularly spaced, as
-    ISO 230-2 asks, so that periodic errors are not sampled in step, and inside the range the
-    plate calibrated (a model is not tested where it extrapolates)."""
-    g = config.geometry
-    lines = []
-    for axis, others in ((0, config.x_lines_at_y_mm), (1, config.y_lines_at_x_mm)):
-        m = config.targets_per_line
-        lo = g.plate_origin_reading_mm[axis] + 3.0
-        hi = g.plate_origin_reading_mm[axis] + (config.grid[axis] - 1) * g.plate.pitch_mm - 3.0
-        base = np.linspace(lo, hi, m)
-        jitter = rng.uniform(-0.3, 0.3, m) * (base[1] - base[0])
-        jitter[[0, -1]] = 0.0
-        for o in others:
-            lines.append((axis, o, base + jitter))
-    return lines
-
-
-def interferometer_test(sim, config, lines, model) -> list[dict]:
-    """Bidirectional runs along each line: deviations (actual - target, um) and ISO 230-2."""
-    out = []
-    for axis, other, targets in lines:
-        m, n = len(targets), config.runs
-        # every position's compensated command, the same in every run: solved once, all at once
-        along = np.r_[
-            targets, targets[0] - 2.0, targets[-1] + 2.0
-        ]  # the targets, then both overruns
-        points = np.empty((m + 2, 2))
-        points[:, axis], points[:, 1 - axis] = along, other
-        commands = compensated_command(points, model)
-        # each run: the overrun below, the targets up, the overrun above, the targets down
-        up, down = np.r_[m, 0:m], np.r_[m + 1, m - 1 : -1 : -1]
-        path = np.tile(np.r_[up, down], n)
-        readings = sim.move_path(commands[path], path < m, axis, config.interferometer_noise_um)
-        readings = readings.reshape(n, 2, m)  # run, direction (up, down), in the order of travel
-        zero = readings[0, 0, 0] - targets[0]  # zeroed at the first target of the first run
-        dev = {
-            +1: ((readings[:, 0] - zero - targets) * 1000).T,
-            -1: ((readings[:, 1, ::-1] - zero - targets) * 1000).T,
-        }
-        res = iso230_2.evaluate(targets, dev[+1], dev[-1])
-        out.append(
-            {
-                "axis": "xy"[axis],
-                "at_mm": other,
-                "targets_mm": targets,
-                "dev_up_um": dev[+1],
-                "dev_down_um": dev[-1],
-                "iso": res,
-            }
-        )
-    return out
-
-
 def build_report(
     config,
     seed,
@@ -480,14 +275,9 @@ def build_report(
     phi_est,
     phi_true,
     phi_residual,
-    sigma_phi,
-    cubic,
+    plate: PlateFit,
     cubic_true,
-    u,
-    v,
-    sigma_um,
     verification,
-    selected,
 ) -> Report:
     """The vision stage's Report: phi, the cubic's coefficients against the truth, the ISO 230-2 checks."""
     report = Report(scenario=NAME, seed=seed, fidelity=fidelity)
@@ -497,15 +287,13 @@ def build_report(
             "urad",
             phi_true[0] * 1e6,
             phi_est[0] * 1e6,
-            sigma_phi * 1e6,
-            tolerance=TOL_SIGMA * sigma_phi * 1e6,
+            plate.phi_std_rad * 1e6,
+            tolerance=TOL_SIGMA * plate.phi_std_rad * 1e6,
         )
     )
+    cubic, selected = plate.cubic, list(zip(plate.best, plate.cv_rms_um))
     for a, axis in enumerate("xy"):
-        std = cubic[a].coef_std(u, v, sigma_um)
-        # the alignment's own error turns the reference frame: it enters the cross slopes
-        slope = 2 if a == 0 else 1
-        std[slope] = np.hypot(std[slope], sigma_phi * 1000)
+        std = plate.cubic_std[a]
         for k in range(10):
             unit = "um" if k == 0 else f"um/mm^{[0, 1, 1, 2, 2, 2, 3, 3, 3, 3][k]}"
             report.parameters.append(
@@ -569,7 +357,7 @@ def build_report(
     report.info = {
         "phi_estimates_urad": [p * 1e6 for p in phi_est],
         "phi_truths_urad": [p * 1e6 for p in phi_true],
-        "point_scatter_um": sigma_um,
+        "point_scatter_um": plate.sigma_um,
         "best_model": {axis: selected[a][0].name for a, axis in enumerate("xy")},
         "cv_rms_um": {
             axis: {k: v for k, v in selected[a][1].items() if "period" not in k}
@@ -585,64 +373,6 @@ def build_report(
         "worst_deviation_um": worst,
     }
     return report
-
-
-def _write_figure(out_dir: Path, a: dict, config) -> None:
-    """vision_stage.png: the error field before and after compensation, and the interferometer."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    out_dir.mkdir(parents=True, exist_ok=True)
-    r, e = a["readings"], a["err_um"]
-    fig, axes = plt.subplots(1, 3, figsize=(16, 4.8), constrained_layout=True)
-    after = e - a["models"]["polynomial"](r)
-    for ax, field, title, scale in (
-        (axes[0], e, "error field before (um)", 0.5),
-        (axes[1], after, "after the cubic (um, x10)", 5.0),
-    ):
-        q = ax.quiver(
-            r[:, 0],
-            r[:, 1],
-            field[:, 0],
-            field[:, 1],
-            np.hypot(*field.T),
-            angles="xy",
-            scale_units="xy",
-            scale=1 / scale,
-            cmap="viridis",
-        )
-        fig.colorbar(q, ax=ax, label="|error| (um)")
-        ax.set(title=title, xlabel="X reading (mm)", ylabel="Y reading (mm)", aspect="equal")
-    ax = axes[2]
-    colors = {"lineruler": "tab:orange", "polynomial": "tab:green", "best": "tab:blue"}
-    for name, lines in a["verification"].items():
-        if name not in colors:
-            continue
-        for k, ln in enumerate(lines):
-            if ln["axis"] != "x":
-                continue
-            mean = (ln["iso"].mean_up + ln["iso"].mean_down) / 2
-            ax.plot(
-                ln["targets_mm"],
-                mean,
-                "-o",
-                ms=3,
-                color=colors[name],
-                label=name if k == 0 else None,
-            )
-    worst = max(
-        float(np.max(np.abs(ln["iso"].mean_bi))) for ln in a["verification"]["uncompensated"]
-    )
-    ax.set(
-        title=f"interferometer, X lines (uncompensated {worst:.0f} um)",
-        xlabel="X target (mm)",
-        ylabel="mean bidirectional deviation (um)",
-    )
-    ax.legend()
-    fig.savefig(out_dir / "vision_stage.png", dpi=90)
-    plt.close(fig)
 
 
 def prior(config: VisionStageConfig, rng: np.random.Generator) -> VisionStageConfig:

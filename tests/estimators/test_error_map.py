@@ -1,9 +1,15 @@
-"""The quadratic error map (the seed's Eq. 1): synthetic truth, std honesty, the paper's Table 3."""
+"""The quadratic error map (the seed's Eq. 1) and the cubic ``calibench fit`` reports: synthetic
+truth, std honesty, the paper's Table 3."""
 
 import numpy as np
 import pytest
 
-from calibench.estimators.stage.error_map import compensated_command, fit_quadratic, quadratic_coefs
+from calibench.estimators.stage.error_map import (
+    compensated_command,
+    fit_cubic,
+    fit_quadratic,
+    quadratic_coefs,
+)
 from calibench.recordings import StageRecording
 from calibench.scenarios.stage_fit import fit_recording
 
@@ -34,6 +40,34 @@ def test_recovers_coefficients_within_their_std_and_the_std_is_honest():
     assert np.all(np.abs(est.mean(axis=0) - TRUE) <= 4 * std.mean(axis=0) / np.sqrt(300))
     np.testing.assert_allclose(est.std(axis=0, ddof=1) / std.mean(axis=0), 1, atol=0.15)
     assert np.mean(rmse) == pytest.approx(sigma, rel=0.05)
+
+
+# a cubic map (mm, mm/mm^k) on 1, x, y, x^2, xy, y^2, x^3, x^2 y, x y^2, y^3
+TRUE_CUBIC = np.array([0.02, 2e-4, -1.4e-4, 3e-7, -1e-6, 2e-7, 3e-9, -1e-9, 2e-9, -4e-9])
+
+
+def _cubic(x, y):
+    terms = [x ** (d - j) * y**j for d in range(4) for j in range(d + 1)]
+    return TRUE_CUBIC @ np.stack(terms)
+
+
+def test_cubic_recovers_coefficients_within_their_std_and_the_std_is_honest():
+    """300 noise draws on 150 random points: the coefficients scatter about the truth by their
+    std (each std's ratio to 1 +- 0.04 over 300 draws: within 0.15), the RMSE is the noise."""
+    rng = np.random.default_rng(15)
+    x, y = rng.uniform(0, 300, 150), rng.uniform(0, 200, 150)
+    sigma = 1e-4
+    fits = [fit_cubic(x, y, _cubic(x, y) + rng.normal(0, sigma, x.size)) for _ in range(300)]
+    est, std = np.array([f.coef for f in fits]), np.array([f.std for f in fits])
+    assert np.all(np.abs(est[0] - TRUE_CUBIC) <= 5 * std[0])
+    np.testing.assert_allclose(est.std(axis=0, ddof=1) / std.mean(axis=0), 1, atol=0.15)
+    assert np.mean([f.rmse for f in fits]) == pytest.approx(sigma, rel=0.05)
+    e = _cubic(x, y) + rng.normal(0, sigma, x.size)
+    f = fit_cubic(x, y, e)
+    assert f.sse == pytest.approx(f.rmse**2 * (x.size - 10))
+    assert f.r2 == pytest.approx(1 - f.sse / np.sum((e - e.mean()) ** 2))
+    assert f.as_dict()["n"] == 150 and list(f.as_dict()["coef"]) == [f"a{k}" for k in range(10)]
+    assert fit_cubic(x, y, np.full(x.size, 0.3)).r2 is None  # all alike: no R^2
 
 
 def test_many_maps_at_once_are_each_maps_own_fit():
