@@ -1,14 +1,11 @@
-"""Arms for the scenarios: the description (scenes) as the estimators' chain, and which joints
-gravity loads enough for their compliance to show."""
+"""Arms for the scenarios: the description (scenes) as the estimators' chain."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from calibench.estimators.arm.kinematics import Chain, gravity_torques
+from calibench.estimators.arm.kinematics import Chain
 from calibench.scenes.arm_cmm import ArmDescription, ArmFileError, load_arm  # noqa: F401  (re-exported)
-
-LOADED_FRACTION = 0.1  # a joint whose gravity torque stays under 10 % of the most loaded one's
 
 
 def chain_of(arm: ArmDescription, tool_mm=None) -> Chain:
@@ -26,24 +23,3 @@ def chain_of(arm: ArmDescription, tool_mm=None) -> Chain:
         arm.tool_mass_kg,
         f(arm.gravity_m_s2),
     )
-
-
-def loaded_joints(chain: Chain, q_rad: np.ndarray) -> tuple[tuple[int, ...], dict[str, str]]:
-    """Joints (1-based) whose gravity torque over the postures ``q_rad`` (n, N) is large enough for
-    their compliance to be a parameter, and why each other joint's is not."""
-    if not chain.has_masses:
-        return (), {}
-    tau = np.abs(gravity_torques(chain, q_rad))
-    peak = tau.max(axis=0)
-    top = max(peak.max(), 1e-12)
-    keep, why = [], {}
-    for j, p in enumerate(peak, 1):
-        if p >= LOADED_FRACTION * top:
-            keep.append(j)
-        else:
-            why[f"compliance{j}"] = (
-                f"joint {j} carries at most {p:.2g} N m of gravity torque here (under "
-                f"{100 * LOADED_FRACTION:.0f} % of the {top:.3g} N m of the most loaded joint): "
-                "its compliance would not show"
-            )
-    return tuple(keep), why
