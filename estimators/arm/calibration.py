@@ -24,11 +24,12 @@ The estimate and its covariance are the last identification's
 from __future__ import annotations
 
 import dataclasses
+from typing import cast
 
 import numpy as np
 
 from calibench.estimators.arm.kinematics import Chain, gravity_torques, parallel_axes_note
-from calibench.estimators.arm.point import PointProblem
+from calibench.estimators.arm.point import PointProblem, PointState
 from calibench.estimators.identification.basis import Basis, identifiable_basis
 from calibench.estimators.identification.solver import Identification, identify
 from calibench.estimators.rotations import rigid_transform
@@ -75,9 +76,9 @@ class ArmCalibration:
     names: tuple
 
     @property
-    def state(self):
+    def state(self) -> PointState:
         """The identification's final state."""
-        return self.ident.state
+        return cast(PointState, self.ident.state)
 
 
 def loaded_joints(chain: Chain, q_rad: np.ndarray) -> tuple[tuple[int, ...], dict[str, str]]:
@@ -196,11 +197,13 @@ def _calibrate(
         ident = identify(problem, basis, reg.state)
         sigma = 0.0
         for _ in range(2):
-            sigma = problem.reweight(ident.state, 3 * keep.sum() - len(basis.kept))
-            ident = identify(problem, basis, ident.state)
+            # the solver hands back the problem's own state type
+            state = cast(PointState, ident.state)
+            sigma = problem.reweight(state, 3 * keep.sum() - len(basis.kept))
+            ident = identify(problem, basis, state)
         if not robust:
             break
-        e = (problem.y - problem.model(ident.state)) * problem.weights()
+        e = (problem.y - problem.model(cast(PointState, ident.state))) * problem.weights()
         d2 = np.sum(e * e, axis=1)
         # each recording against its own scatter
         s2 = (

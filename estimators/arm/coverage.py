@@ -57,7 +57,8 @@ def coverage_warnings(
     chain : the arm (its masses, when it has them, give the gravity torques).
     q_train : (n, N) the training postures, rad.
     tests : {name: (m, N) postures, rad} of the recordings the fit is tested on.
-    compliance_joints : the joints (1-based) whose compliance the fit estimates.
+    compliance_joints : the joints (1-based) whose compliance the fit estimates (the chain then
+        has masses).
 
     Returns
     -------
@@ -69,15 +70,18 @@ def coverage_warnings(
         span = span_deg(qd[:, j])
         if span < 180.0:
             out.append(f"q{j + 1} spans only {span:.0f} deg in the training postures")
+    if len(compliance_joints) and not chain.has_masses:
+        raise ValueError("a joint's compliance needs the chain's masses (its gravity torques)")
     tau = gravity_torques(chain, q_train) if chain.has_masses else None
-    for j in compliance_joints:
-        pos = float(np.mean(tau[:, j - 1] > 0))
-        if pos < 0.02 or pos > 0.98:
-            sign = "positive" if pos > 0.5 else "negative"
-            out.append(
-                f"joint {j}'s gravity torque is {sign} in {100 * max(pos, 1 - pos):.0f} % of the "
-                "training postures: the model has not seen it loaded the other way"
-            )
+    if tau is not None:
+        for j in compliance_joints:
+            pos = float(np.mean(tau[:, j - 1] > 0))
+            if pos < 0.02 or pos > 0.98:
+                sign = "positive" if pos > 0.5 else "negative"
+                out.append(
+                    f"joint {j}'s gravity torque is {sign} in {100 * max(pos, 1 - pos):.0f} % "
+                    "of the training postures: the model has not seen it loaded the other way"
+                )
     arcs = visited_bins(qd)
     for name, q in tests.items():
         qt = np.degrees(q)

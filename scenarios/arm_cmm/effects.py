@@ -43,7 +43,8 @@ def angle_terms_from_discovery(path, n_joints: int, n_recordings: int = 1) -> li
         name, p = e.get("name"), e.get("params", {})
         if name not in ARM_EFFECTS:
             raise BadInput(
-                f"{path}: effect {name!r} is not an arm's (the arm's effects: {', '.join(ARM_EFFECTS)})"
+                f"{path}: effect {name!r} is not an arm's "
+                f"(the arm's effects: {', '.join(ARM_EFFECTS)})"
             )
         if name not in ("transmission", "encoder_eccentricity", "nonsmooth"):
             continue  # the model's own (geometry, compliance) or none the fit has a term for
