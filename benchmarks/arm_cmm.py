@@ -16,11 +16,12 @@ import numpy as np
 from scipy import optimize
 from threadpoolctl import threadpool_limits
 
+from calibench.estimators.arm.calibration import loaded_joints
 from calibench.estimators.arm.kinematics import parallel_axes_note
 from calibench.estimators.arm.point import PointProblem
 from calibench.estimators.identification.basis import identifiable_basis
 from calibench.estimators.identification.solver import identify, identify_identifiable
-from calibench.scenarios.arm_cmm.arms import chain_of, loaded_joints
+from calibench.scenarios.arm_cmm.arms import chain_of
 from calibench.scenarios.arm_cmm.scenario import tracker_problem
 from calibench.sim.arm_cmm import ArmSim, ArmTruth
 

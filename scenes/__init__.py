@@ -30,11 +30,11 @@ def _probe_scanner_default():
 def _arm(name: str, stiffness_nm_per_rad: float):
     """A built-in arm with its tracker, cones and a spring on every joint (its sag under gravity
     is what the steps settle)."""
-    from calibench.scenes import arm_cmm
+    from calibench.scenes import arm_cmm, arm_mjcf
 
     arm = arm_cmm.load_arm(name)
     k = [stiffness_nm_per_rad] * arm.n_joints
-    return arm_cmm.build_mjcf(
+    return arm_mjcf.build_mjcf(
         arm,
         None,
         None,

@@ -27,7 +27,8 @@ import mujoco
 import numpy as np
 
 from calibench.errors import BadInput
-from calibench.scenes.arm_cmm import ArmDescription, as_built_model, load_arm, write_as_built
+from calibench.scenes.arm_cmm import ArmDescription, load_arm
+from calibench.scenes.arm_mjcf import as_built_model, write_as_built
 
 # The seed's Table 1 errors: (da, dd, dalpha, dtheta) of links 1-6 (mm, mm, rad, rad), then dd7,
 # the stylus length (mm): the tool point's z in the flange frame.

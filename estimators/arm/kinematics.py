@@ -64,6 +64,10 @@ class Chain:
     gravity_m_s2 : (3,) gravity in the base frame.
 
     Treat a chain as immutable, its arrays too: its nominal table is computed once and kept.
+
+    The fields carry the names and units of an arm description's (ARM.toml): the scenarios make
+    a chain from a description field by field by name (``scenarios.arm_cmm.arms.chain_of``), so
+    a field added here must be one of the description's too.
     """
 
     convention: str

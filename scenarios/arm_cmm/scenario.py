@@ -37,6 +37,7 @@ from calibench.estimators.identification.basis import identifiable_basis
 from calibench.estimators.identification.solver import identify_identifiable
 from calibench.estimators.rotations import rigid_transform
 from calibench.scenarios.arm_cmm.arms import chain_of
+from calibench.scenarios.harness import write_outputs
 from calibench.scenarios.report import BadInput, Check, Parameter, Report
 from calibench.sim.arm_cmm import ArmSim, ArmTruth
 
@@ -329,49 +330,11 @@ def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool
         R_bt=R_bt,
         t_bt=t_bt,
     )
-    if out_dir is not None:  # a Monte-Carlo trial keeps only the numbers
-        _write_figure(out_dir, artifacts)
-    if rrd and out_dir is not None:
-        from calibench.scenarios.arm_cmm import viewer
-
-        viewer.log_run(out_dir / "run.rrd", report, artifacts)
-        report.rrd = "run.rrd"
-    return report
+    return write_outputs(report, artifacts, out_dir, rrd, "calibench.scenarios.arm_cmm")
 
 
 def _rms(d: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.sum(d * d, axis=1))))
-
-
-def posture_residuals(a: dict) -> tuple[np.ndarray, np.ndarray]:
-    """Per chosen posture: |measured - modelled| tool point (mm), nominal and identified."""
-    problem, st0, st = a["problem"], a["start"], a["ident"].state
-    r, az, el = problem.meas.T
-    y = np.stack([r * np.cos(el) * np.cos(az), r * np.cos(el) * np.sin(az), r * np.sin(el)], axis=1)
-    return (
-        np.linalg.norm(problem.points(st0) - y, axis=1),
-        np.linalg.norm(problem.points(st) - y, axis=1),
-    )
-
-
-def _write_figure(out_dir: Path, a: dict) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    out_dir.mkdir(parents=True, exist_ok=True)
-    before, after = posture_residuals(a)
-    fig, ax = plt.subplots(figsize=(8, 4), constrained_layout=True)
-    k = np.arange(1, len(before) + 1)
-    ax.semilogy(k, before, "o", color="tab:red", label="nominal model")
-    ax.semilogy(k, after, "o", color="tab:green", label="identified model")
-    ax.set(
-        xlabel="posture", ylabel="|measured - modelled| (mm)", title="arm-cmm: residual per posture"
-    )
-    ax.legend()
-    fig.savefig(out_dir / "arm_cmm.png", dpi=90)
-    plt.close(fig)
 
 
 def trial_parameters(config: ArmCmmConfig, seed: int) -> list[Parameter]:

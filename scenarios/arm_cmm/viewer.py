@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from calibench.scenarios import rrlog
-from calibench.scenarios.arm_cmm.scenario import posture_residuals
+from calibench.scenarios.arm_cmm.figure import posture_residuals
 
 
 def log_run(path: Path, report, a: dict) -> None:

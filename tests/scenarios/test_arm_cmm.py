@@ -1,4 +1,5 @@
-"""arm-cmm end to end through the CLI: the report, the checks, the rrd."""
+"""arm-cmm end to end through the CLI: the report, the checks, the rrd; and the estimators' chain
+made from the arm's description (scenarios.arm_cmm.arms)."""
 
 import dataclasses
 import json
@@ -172,3 +173,59 @@ def test_the_reference_is_what_the_reduced_model_fits_to_mujocos_arm(arm):
                 k,
                 name,
             )
+
+
+def _field_values_equal(a, b) -> bool:
+    return (a is None and b is None) or (
+        a is not None and b is not None and np.array_equal(np.asarray(a), np.asarray(b))
+    )
+
+
+@pytest.mark.parametrize("arm_name", ["arm-cmm", "ur10", "massless"])
+def test_the_chain_is_the_description_field_for_field(arm_name):
+    """Every field of the description is the chain's field of that name (as an array) or one it
+    says it does without; the methods both have agree."""
+    from calibench.estimators.arm.kinematics import Chain
+    from calibench.scenarios.arm_cmm.arms import NOT_IN_CHAIN, chain_of
+    from calibench.scenes.arm_cmm import ArmDescription, arm_from_table, load_arm
+
+    if arm_name == "massless":  # no masses: the optional fields are None in both forms
+        joint = {"a_mm": 300.0, "d_mm": 100.0, "alpha_deg": 90.0}
+        arm = arm_from_table({"convention": "mdh", "joint": [joint] * 3}, "massless.toml")
+    else:
+        arm = load_arm(arm_name)
+    chain = chain_of(arm)
+    chain_fields = {f.name for f in dataclasses.fields(Chain)}
+    for f in dataclasses.fields(ArmDescription):
+        if f.name in NOT_IN_CHAIN:
+            assert f.name not in chain_fields
+            continue
+        assert _field_values_equal(getattr(chain, f.name), getattr(arm, f.name)), f.name
+    assert chain.n_joints == arm.n_joints and chain.has_masses == arm.has_masses
+    assert np.array_equal(chain.nominal(), arm.nominal())
+    assert chain.has_masses == (arm_name != "massless")
+
+
+def test_a_field_added_to_the_description_is_not_forgotten_by_the_chain(monkeypatch):
+    """A description with a field the chain does not take, and that no one said it does without,
+    is refused by name; said, it passes. A field the chain takes and the description lacks is
+    refused too."""
+    from calibench.estimators.arm.kinematics import Chain
+    from calibench.scenarios.arm_cmm import arms
+    from calibench.scenes.arm_cmm import ArmDescription, load_arm
+
+    ur10 = load_arm("ur10")
+    Payload = dataclasses.make_dataclass(
+        "Payload", [("payload_kg", float, 0.0)], bases=(ArmDescription,), frozen=True
+    )
+    arm = Payload(**{f.name: getattr(ur10, f.name) for f in dataclasses.fields(ur10)})
+    with pytest.raises(TypeError, match="payload_kg"):
+        arms.chain_of(arm)
+    monkeypatch.setitem(arms.NOT_IN_CHAIN, "payload_kg", "a test's")
+    assert arms.chain_of(arm).n_joints == ur10.n_joints
+    Stiff = dataclasses.make_dataclass(
+        "Stiff", [("stiffness_nm_per_rad", object, None)], bases=(Chain,), frozen=True
+    )
+    monkeypatch.setattr(arms, "Chain", Stiff)
+    with pytest.raises(AttributeError, match="stiffness_nm_per_rad"):
+        arms.chain_of(ur10)

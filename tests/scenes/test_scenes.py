@@ -62,7 +62,8 @@ def test_as_built_arm_model_is_the_mjcf_s(arm_name):
     after another (a spec reused must not keep anything of the previous arm)."""
     import mujoco
 
-    from calibench.scenes.arm_cmm import as_built_model, build_mjcf, load_arm
+    from calibench.scenes.arm_cmm import load_arm
+    from calibench.scenes.arm_mjcf import as_built_model, build_mjcf
 
     arm = load_arm(arm_name)
     N = arm.n_joints
@@ -96,7 +97,7 @@ def test_joint_quaternions_are_the_joint_frames_turns(convention):
     own quaternion-to-matrix), to 1e-15, at random angles including whole turns."""
     import mujoco
 
-    from calibench.scenes.arm_cmm import joint_frames, joint_quats
+    from calibench.scenes.arm_mjcf import joint_frames, joint_quats
 
     rng = np.random.default_rng(2)
     alpha, theta, beta = rng.uniform(-2 * np.pi, 2 * np.pi, (3, 40))
@@ -171,7 +172,8 @@ def test_a_reused_arm_twin_is_the_compiled_one(arm_name):
 def test_a_link_that_becomes_a_point_is_not_written_in_place():
     """A link whose length falls below 1 um is a sphere in the MJCF, not a capsule: the model
     cannot take it in place, says so, and is left as it was."""
-    from calibench.scenes.arm_cmm import as_built_model, load_arm, write_as_built
+    from calibench.scenes.arm_cmm import load_arm
+    from calibench.scenes.arm_mjcf import as_built_model, write_as_built
 
     arm = load_arm("arm-cmm")
     model = as_built_model(arm, arm.nominal(), np.asarray(arm.tool_mm))
@@ -189,7 +191,8 @@ def test_an_arm_s_name_is_text_in_its_mjcf():
 
     import mujoco
 
-    from calibench.scenes.arm_cmm import build_mjcf, load_arm
+    from calibench.scenes.arm_cmm import load_arm
+    from calibench.scenes.arm_mjcf import build_mjcf
 
     arm = dataclasses.replace(load_arm("ur10"), name='UR10" evil="<x>&')
     model = mujoco.MjModel.from_xml_string(build_mjcf(arm))

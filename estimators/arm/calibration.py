@@ -1,0 +1,303 @@
+"""A serial arm calibrated on points measured in an instrument's frame: the robust, reweighted
+fit of ``calibench fit arm-cmm`` (and of ``discover``'s geometry), a new setup's frame registered
+on part of its rows, and the error statistics a fit is judged by.
+
+:func:`calibrate` works on the stacked rows of one or several recordings, each with its own base
+frame; the kinematic parameters, the tool point and (``model="physics"``) the compliance of the
+joints gravity loads (:func:`loaded_joints`) are shared. The order of work, each step on what the
+previous left:
+
+1. register each base and the tool point on the nominal arm (the laser-tracker seed's base and
+   Tool0 calibration), then find the identifiable parameters at that state (without the prior,
+   which would make every parameter "identifiable") and solve for them, each kinematic error
+   with a prior of its typical size (:data:`PRIOR`);
+2. weight: the instrument's stated sigma plus a model-error variance per recording estimated
+   from its residuals (so the reported std mean what they say, and a setup the model fits worse
+   weighs less), and refit, twice;
+3. leave out rows whose residual no Gaussian scatter of their recording's size explains
+   (:data:`OUTLIER_P`), and start over from 1 on the rest (at most four rounds).
+
+The estimate and its covariance are the last identification's
+(:attr:`ArmCalibration.ident`: the kept parameters' values, std and covariance).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import cast
+
+import numpy as np
+
+from calibench.estimators.arm.kinematics import Chain, gravity_torques, parallel_axes_note
+from calibench.estimators.arm.point import PointProblem, PointState
+from calibench.estimators.identification.basis import Basis, identifiable_basis
+from calibench.estimators.identification.solver import Identification, identify
+from calibench.estimators.rotations import rigid_transform
+
+# The kinematic errors' prior, in their typical sizes (0.1 mm, 1 mrad): a machined arm's
+# tolerances. On the UR10 trained on its random poses (ur10_C) it is what carries the fit to the
+# other side of the robot (held-out ur10_B: 0.63 mm without, 0.49 with); on enough data it
+# changes nothing (all four series: the same figures to 0.001 mm).
+PRIOR = 1.0
+# A row is left out when no Gaussian scatter of its recording's size explains its residual:
+# |e|^2 / s^2 beyond chi2(3)'s 1 - OUTLIER_P quantile (30.66), s^2 from the recording's median
+# (chi2(3)'s median is 2.366).
+OUTLIER_P = 1e-6
+CHI2_3_QUANTILE = 30.66
+CHI2_3_MEDIAN = 2.366
+LOADED_FRACTION = 0.1  # a joint whose gravity torque stays under 10 % of the most loaded one's
+
+
+class DegenerateFit(ValueError):
+    """Data that cannot determine the fit: too few postures for the parameters, a singular
+    system, rows to register a frame on that lie on one line."""
+
+
+@dataclasses.dataclass
+class ArmCalibration:
+    """A fitted arm.
+
+    problem : the last round's problem (its rows: the input's less the outliers; its weights).
+    ident : the identification: the kept parameters' estimate, std and covariance, the basis.
+    model : ``"geometry"`` or ``"physics"``.
+    compliance_dropped : {parameter: why} for the compliances not estimated and the tool
+        components held at the drawing's value.
+    outliers : (k,) indices into the input's rows that were left out of the last fit.
+    sigma_model_mm : the model-error sigma over all rows (mm).
+    names : the problem's parameter names.
+    """
+
+    problem: PointProblem
+    ident: Identification
+    model: str
+    compliance_dropped: dict
+    outliers: np.ndarray
+    sigma_model_mm: float
+    names: tuple
+
+    @property
+    def state(self) -> PointState:
+        """The identification's final state."""
+        return cast(PointState, self.ident.state)
+
+
+def loaded_joints(chain: Chain, q_rad: np.ndarray) -> tuple[tuple[int, ...], dict[str, str]]:
+    """The joints whose compliance is a parameter: those whose gravity torque over the postures
+    is large enough for it to show.
+
+    Parameters
+    ----------
+    chain : the arm (no masses: no joint).
+    q_rad : (n, N) postures.
+
+    Returns
+    -------
+    (joints, why) : the joints (1-based) whose peak gravity torque is at least
+    :data:`LOADED_FRACTION` of the most loaded joint's, and {``compliance<j>``: why} for the others.
+    """
+    if not chain.has_masses:
+        return (), {}
+    tau = np.abs(gravity_torques(chain, q_rad))
+    peak = tau.max(axis=0)
+    top = max(peak.max(), 1e-12)
+    keep, why = [], {}
+    for j, p in enumerate(peak, 1):
+        if p >= LOADED_FRACTION * top:
+            keep.append(j)
+        else:
+            why[f"compliance{j}"] = (
+                f"joint {j} carries at most {p:.2g} N m of gravity torque here (under "
+                f"{100 * LOADED_FRACTION:.0f} % of the {top:.3g} N m of the most loaded joint): "
+                "its compliance would not show"
+            )
+    return tuple(keep), why
+
+
+def calibrate(
+    chain: Chain,
+    q_rad: np.ndarray,
+    xyz_mm: np.ndarray,
+    recording: np.ndarray,
+    sigma_mm: np.ndarray | None,
+    model: str,
+    parallel=(),
+    robust: bool = True,
+    prior: float | None = PRIOR,
+    angle_terms=(),
+) -> ArmCalibration:
+    """The module's recipe on stacked rows of one or several recordings.
+
+    Parameters
+    ----------
+    chain : the nominal arm (its ``tool_mm`` the first guess of the tool point).
+    q_rad : (n, N) encoder readings.
+    xyz_mm : (n, 3) measured points, each in its recording's instrument frame.
+    recording : (n,) int, the recording (own base frame) of each row, 0 .. R - 1.
+    sigma_mm : (n, 3) the instrument's stated 1-sigma per value, or None.
+    model : ``"geometry"``, or ``"physics"`` (adds the loaded joints' compliance).
+    parallel : consecutive joint pairs (1-based) with parallel axes, for the dropped
+        parameters' reasons.
+    robust : whether to leave out the rows no Gaussian scatter explains (step 3).
+    prior : the kinematic errors' prior in units of their typical size; None: none.
+    angle_terms : :class:`~calibench.estimators.arm.point.AngleTerm` s, joint-angle errors
+        (a discovery's).
+
+    Returns
+    -------
+    ArmCalibration
+
+    Raises
+    ------
+    DegenerateFit
+        When there are too few postures for the parameters, or the system is singular (an arm
+        whose links have no length, postures that never move the tool point).
+    """
+    try:
+        return _calibrate(
+            chain, q_rad, xyz_mm, recording, sigma_mm, model, parallel, robust, prior, angle_terms
+        )
+    except np.linalg.LinAlgError:
+        raise DegenerateFit(
+            "the postures and the arm leave the fit singular: the measured points cannot determine "
+            "even the base frame and the tool (an arm without length? postures that never move the "
+            "tool point?)"
+        ) from None
+
+
+def _calibrate(
+    chain, q_rad, xyz_mm, recording, sigma_mm, model, parallel, robust, prior, angle_terms
+) -> ArmCalibration:
+    """:func:`calibrate`, its singular systems not yet said."""
+    joints, why = loaded_joints(chain, q_rad) if model == "physics" else ((), {})
+    keep = np.ones(len(q_rad), bool)
+    outliers = np.zeros(0, int)
+    for _ in range(4):
+        problem = PointProblem(
+            chain,
+            q_rad[keep],
+            xyz_mm[keep],
+            recording[keep],
+            None if sigma_mm is None else sigma_mm[keep],
+            compliance_joints=joints,
+            prior=prior,
+            angle_terms=angle_terms,
+        )
+        held = problem.held_tool()
+        n_par = len(problem.names)
+        if 3 * keep.sum() <= n_par + 3:
+            raise DegenerateFit(
+                f"{keep.sum()} postures for {n_par} parameters (base frames, tool, kinematics): "
+                "far too few to calibrate"
+            )
+        reg = identify(problem, Basis(np.sort(problem.always), {}))
+        # what the data determine, without the prior (which would make everything "identifiable")
+        problem.prior = None
+        basis = identifiable_basis(problem, reg.state, note=parallel_axes_note(list(parallel)))
+        problem.prior = prior
+        ident = identify(problem, basis, reg.state)
+        sigma = 0.0
+        for _ in range(2):
+            # the solver hands back the problem's own state type
+            state = cast(PointState, ident.state)
+            sigma = problem.reweight(state, 3 * keep.sum() - len(basis.kept))
+            ident = identify(problem, basis, state)
+        if not robust:
+            break
+        e = (problem.y - problem.model(cast(PointState, ident.state))) * problem.weights()
+        d2 = np.sum(e * e, axis=1)
+        # each recording against its own scatter
+        s2 = (
+            np.array([np.median(d2[problem.rec == r]) for r in range(problem.n_rec)])
+            / CHI2_3_MEDIAN
+        )
+        bad = d2 > CHI2_3_QUANTILE * s2[problem.rec]
+        if not bad.any():
+            break
+        rows = np.flatnonzero(keep)
+        outliers = np.r_[outliers, rows[bad]]
+        keep[rows[bad]] = False
+    return ArmCalibration(
+        problem, ident, model, {**why, **held}, np.sort(outliers), sigma, problem.names
+    )
+
+
+@dataclasses.dataclass(frozen=True)
+class FrameRegistration:
+    """A recording's instrument frame, registered on some of its rows.
+
+    R, t : (3, 3), (3,) mm: instrument point = R @ base point + t.
+    register_rows : (k,) the rows it was registered on, in the drawn order.
+    judge_rows : (m,) the other usable rows, sorted: the ones to judge a fit on.
+    """
+
+    R: np.ndarray
+    t: np.ndarray
+    register_rows: np.ndarray
+    judge_rows: np.ndarray
+
+
+def register_frame(
+    base_points_mm: np.ndarray,
+    xyz_mm: np.ndarray,
+    usable: np.ndarray,
+    fraction: float,
+    seed: int,
+) -> FrameRegistration:
+    """Register a recording from another setup on a drawn ``fraction`` of its usable rows (at
+    least 3), by a rigid fit of the modelled points to the measured ones; the other usable rows
+    are left to judge the model on.
+
+    Parameters
+    ----------
+    base_points_mm : (n, 3) the fitted model's points in the arm's base frame.
+    xyz_mm : (n, 3) the measured points in the recording's instrument frame.
+    usable : (n,) bool, the rows that may be used.
+    fraction : the share of the usable rows to register on.
+    seed : the seed of the draw (fixed, so that runs compare).
+
+    Returns
+    -------
+    FrameRegistration
+
+    Raises
+    ------
+    DegenerateFit
+        When no usable row is left to judge on, or the rows to register on measure points on one
+        line (or one point), which cannot fix the frame's rotation.
+    """
+    order = np.random.default_rng(seed).permutation(np.flatnonzero(usable))
+    k_reg = max(int(round(fraction * len(order))), 3)
+    reg_rows, eval_rows = order[:k_reg], np.sort(order[k_reg:])
+    if len(eval_rows) == 0:
+        raise DegenerateFit(
+            f"{len(order)} usable rows; a new frame needs rows to register on and rows to judge"
+        )
+    sv = np.linalg.svd(xyz_mm[reg_rows] - xyz_mm[reg_rows].mean(axis=0), compute_uv=False)
+    if sv[1] < max(1e-3 * sv[0], 1.0):
+        raise DegenerateFit(
+            f"the {len(reg_rows)} rows a new frame is registered on measure points on one line "
+            "(or one point): they cannot fix the frame's rotation"
+        )
+    R, t = rigid_transform(base_points_mm[reg_rows], xyz_mm[reg_rows])
+    return FrameRegistration(R, t, reg_rows, eval_rows)
+
+
+def error_statistics(e_mm: np.ndarray) -> dict:
+    """The figures a fit is judged by, of 3-D errors.
+
+    Parameters
+    ----------
+    e_mm : (n, 3) modelled minus measured points (or the reverse), mm.
+
+    Returns
+    -------
+    {"samples": n, "mean_mm", "rms_mm", "max_mm", "p95_mm"} of the errors' lengths.
+    """
+    d = np.linalg.norm(e_mm, axis=1)
+    return {
+        "samples": int(len(d)),
+        "mean_mm": float(d.mean()),
+        "rms_mm": float(np.sqrt(np.mean(d * d))),
+        "max_mm": float(d.max()),
+        "p95_mm": float(np.percentile(d, 95)),
+    }

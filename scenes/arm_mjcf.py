@@ -1,0 +1,310 @@
+"""The ``arm-cmm`` scene's MJCF: an arm description (:mod:`calibench.scenes.arm_cmm`) with
+as-built parameter values, as MJCF text (:func:`build_mjcf`), or compiled fast from a cached spec
+(:func:`as_built_model`), or written into a compiled model in place (:func:`write_as_built`).
+
+World frame = the arm's base frame, z up, metres. Joint i is body ``joint{i}``: the hinge frame
+(its z axis is the joint's axis, the joint's zero offset included), a hinge ``q{i}``, the link's
+mass and centre of mass; its child body ``link{i}`` is link frame i of the convention (dh or
+mdh). The tool point is site ``probe`` in the flange frame (body ``link{N}``), the tool's mass
+in body ``tool``. Each hinge may carry a spring (its stiffness, N m / rad) whose reference the
+simulation sets to the motor's angle: the link then settles where the spring holds gravity.
+Contacts are off: the arm is a measuring instrument.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import threading
+from xml.sax.saxutils import quoteattr
+
+import numpy as np
+
+from calibench.scenes.arm_cmm import ArmDescription
+
+
+def _rot(axis: str, angle: np.ndarray) -> np.ndarray:
+    """Turns about a coordinate axis by angles (N,), (N, 3, 3), written out."""
+    angle = np.asarray(angle, float)
+    c, s = np.cos(angle), np.sin(angle)
+    i, j = {"x": (1, 2), "y": (2, 0), "z": (0, 1)}[axis]
+    R = np.zeros((len(angle), 3, 3))
+    R[:, 3 - i - j, 3 - i - j] = 1.0
+    R[:, i, i], R[:, j, j], R[:, i, j], R[:, j, i] = c, c, -s, s
+    return R
+
+
+def _quat(axis: str, angle: np.ndarray) -> np.ndarray:
+    """The same turns as unit quaternions (N, 4), w x y z."""
+    half = 0.5 * np.asarray(angle, float)
+    q = np.zeros((len(half), 4))
+    q[:, 0], q[:, " xyz".index(axis)] = np.cos(half), np.sin(half)
+    return q
+
+
+def _qmul(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Hamilton products of quaternion stacks (N, 4), w x y z: the turn p, then q in p's frame."""
+    pw, pv, qw, qv = p[:, :1], p[:, 1:], q[:, :1], q[:, 1:]
+    out = np.empty(np.broadcast_shapes(p.shape, q.shape))
+    out[:, :1] = pw * qw - np.sum(pv * qv, axis=1, keepdims=True)
+    out[:, 1:] = pw * qv + qw * pv
+    # pv x qv written out (np.cross's axis handling costs more than its arithmetic here)
+    out[:, 1] += pv[:, 1] * qv[:, 2] - pv[:, 2] * qv[:, 1]
+    out[:, 2] += pv[:, 2] * qv[:, 0] - pv[:, 0] * qv[:, 2]
+    out[:, 3] += pv[:, 0] * qv[:, 1] - pv[:, 1] * qv[:, 0]
+    return out
+
+
+def joint_frames(
+    convention: str, a, d, alpha, theta, beta
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Each joint's two rigid pieces around its hinge, for (N,) values (metres as given):
+    (pre_R (N, 3, 3), pre_t (N, 3)) the hinge frame in the previous link frame, (post_R, post_t)
+    the link frame in the hinge frame."""
+    a, d, alpha, theta, beta = (
+        np.atleast_1d(np.asarray(v, float)) for v in (a, d, alpha, theta, beta)
+    )
+    zero, eye = np.zeros(len(a)), np.broadcast_to(np.eye(3), (len(a), 3, 3))
+    M = _rot("x", alpha) @ _rot("y", beta)
+    if convention == "dh":  # RotZ(theta + q) | TransZ(d) TransX(a) RotX(alpha) RotY(beta)
+        return _rot("z", theta), np.zeros((len(a), 3)), M, np.stack([a, zero, d], axis=1)
+    # mdh: RotX(alpha) RotY(beta) TransX(a) RotZ(theta + q) | TransZ(d)
+    return M @ _rot("z", theta), a[:, None] * M[:, :, 0], eye, np.stack([zero, zero, d], axis=1)
+
+
+def joint_quats(convention: str, alpha, theta, beta) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`joint_frames`' pre_R and post_R as unit quaternions (N, 4), w x y z, made from the
+    half angles (a quaternion read back from a matrix would cost ten times as much)."""
+    alpha, theta, beta = (np.atleast_1d(np.asarray(v, float)) for v in (alpha, theta, beta))
+    M = _qmul(_quat("x", alpha), _quat("y", beta))
+    if convention == "dh":
+        return _quat("z", theta), M
+    return _qmul(M, _quat("z", theta)), _quat("x", np.zeros(len(alpha)))
+
+
+@dataclasses.dataclass(frozen=True)
+class _Links:
+    """The as-built numbers of the MJCF's bodies, per joint i (metres, unit quaternions w x y z):
+    hinge body ``joint{i}`` at pre_t (N, 3) turned by pre_quat (N, 4); link body ``link{i}`` at
+    post_t, post_quat in it; the link's mass (N,), centre com (N, 3) and rod inertia (N,) in the
+    hinge body; its capsule from the hinge to post_t (a sphere where that is shorter than 1 um);
+    the tool point tool (3,) in the flange."""
+
+    pre_t: np.ndarray
+    pre_quat: np.ndarray
+    post_t: np.ndarray
+    post_quat: np.ndarray
+    mass: np.ndarray
+    com: np.ndarray
+    inertia: np.ndarray
+    capsule: tuple
+    tool: np.ndarray
+
+
+def _links(arm: ArmDescription, values: np.ndarray | None, tool_mm) -> _Links:
+    """:class:`_Links` of ``arm`` with as-built ``values`` (N, 5) and ``tool_mm`` (nominal when None)."""
+    N = arm.n_joints
+    values = np.asarray(arm.nominal() if values is None else values, float)
+    a, d, al, th, be = values.T
+    _, pre_t, post_R, post_t = joint_frames(arm.convention, a / 1000, d / 1000, al, th, be)
+    pre_quat, post_quat = joint_quats(arm.convention, al, th, be)
+    if arm.has_masses:
+        mass = np.maximum(np.asarray(arm.mass_kg, float), 1e-6)
+        com = np.einsum("nij,nj->ni", post_R, np.asarray(arm.com_mm, float) / 1000) + post_t
+        # statics need only mass and centre; the inertia is a rod's, for stepping
+        inertia = mass * (0.05**2 + np.sum(post_t * post_t, axis=1) / 12)
+    else:
+        mass, com, inertia = np.full(N, 0.1), post_t / 2, np.full(N, 1e-3)
+    tool = np.asarray(arm.tool_mm if tool_mm is None else tool_mm, float) / 1000
+    return _Links(
+        pre_t,
+        pre_quat,
+        post_t,
+        post_quat,
+        mass,
+        com,
+        inertia,
+        tuple(bool(x) for x in np.linalg.norm(post_t, axis=1) > 1e-6),
+        tool,
+    )
+
+
+def _g(v) -> str:
+    """Floats as MJCF text that parses back to the same doubles."""
+    return " ".join(f"{x:.17g}" for x in np.atleast_1d(v))
+
+
+def build_mjcf(
+    arm: ArmDescription,
+    values: np.ndarray | None = None,
+    tool_mm=None,
+    stiffness_nm_per_rad=None,
+    tracker_pos_m=None,
+    tracker_quat=None,
+    cones_m=None,
+) -> str:
+    """MJCF of ``arm`` built with as-built ``values`` (N, 5): a, d (mm), alpha, theta, beta (rad)
+    per joint (nominal when None), the tool point ``tool_mm`` (3,), each hinge's spring
+    ``stiffness_nm_per_rad`` (N,) (none when None or inf), the tracker's pose and the cones."""
+    N = arm.n_joints
+    k = (
+        np.full(N, np.inf)
+        if stiffness_nm_per_rad is None
+        else np.asarray(stiffness_nm_per_rad, float)
+    )
+    g = arm.gravity_m_s2
+    L = _links(arm, values, tool_mm)
+    body, close = "", ""
+    for i in range(N):
+        spring = f' stiffness="{k[i]:.17g}"' if np.isfinite(k[i]) else ""
+        geom = (
+            f'<geom type="capsule" fromto="0 0 0 {_g(L.post_t[i])}" size="0.03" rgba="0.75 0.75 0.78 1"/>'
+            if L.capsule[i]
+            else '<geom type="sphere" size="0.035" rgba="0.75 0.75 0.78 1"/>'
+        )
+        # armature 0.1 kg m^2: a geared motor's rotor seen through its reduction; with the 0.5 ms
+        # step it keeps a stiff joint's spring stable when the model is stepped
+        body += f"""
+      <body name="joint{i + 1}" pos="{_g(L.pre_t[i])}" quat="{_g(L.pre_quat[i])}">
+        <joint name="q{i + 1}" type="hinge" axis="0 0 1" damping="2" armature="0.1"{spring}/>
+        <inertial pos="{_g(L.com[i])}" mass="{L.mass[i]:.17g}" diaginertia="{_g([L.inertia[i]] * 3)}"/>
+        {geom}
+        <body name="link{i + 1}" pos="{_g(L.post_t[i])}" quat="{_g(L.post_quat[i])}">"""
+        close = "\n        </body>\n      </body>" + close
+    tool_mass = max(arm.tool_mass_kg, 1e-6)
+    body += f"""
+          <site name="flange" pos="0 0 0" size="0.005" rgba="0.3 0.3 0.9 1"/>
+          <site name="probe" pos="{_g(L.tool)}" size="0.006" rgba="0.9 0.2 0.2 1"/>
+          <body name="tool" pos="{_g(L.tool)}">
+            <inertial pos="0 0 0" mass="{tool_mass:.17g}" diaginertia="1e-5 1e-5 1e-5"/>
+          </body>"""
+    world = ""
+    if tracker_pos_m is not None:
+        tp = np.asarray(tracker_pos_m, float)
+        world += (
+            f'\n    <body name="tracker" pos="{tp[0]:.17g} {tp[1]:.17g} {tp[2]:.17g}" '
+            f'quat="{" ".join(f"{v:.17g}" for v in tracker_quat)}">'
+            '<geom name="tracker_head" type="box" size="0.08 0.06 0.1" rgba="0.85 0.85 0.8 1"/></body>'
+        )
+    if cones_m is not None:
+        ca, cb = (np.asarray(c, float) for c in cones_m)
+        world += f"""
+    <geom name="cone_a" type="cylinder" size="0.01 0.01" pos="{ca[0]} {ca[1]} {ca[2] - 0.01}" rgba="0.2 0.6 0.9 1"/>
+    <geom name="cone_b" type="cylinder" size="0.01 0.01" pos="{cb[0]} {cb[1]} {cb[2] - 0.01}" rgba="0.2 0.6 0.9 1"/>
+    <geom name="length_bar" type="capsule" fromto="{ca[0]} {ca[1]} {ca[2] - 0.02} {cb[0]} {cb[1]} {cb[2] - 0.02}" size="0.008" rgba="0.3 0.3 0.35 1"/>"""
+    reach = max(arm.reach_mm / 1000, 0.5)
+    return f"""
+<mujoco model={quoteattr(arm.name)}>
+  <compiler angle="radian" autolimits="true"/>
+  <option gravity="{g[0]:.17g} {g[1]:.17g} {g[2]:.17g}" timestep="0.0005">
+    <flag contact="disable"/>
+  </option>
+  <visual><global offwidth="640" offheight="480"/></visual>
+  <worldbody>
+    <light name="top" pos="0 0 {2 * reach:.3f}" dir="0 0 -1" directional="true" castshadow="false"/>
+    <geom name="floor" type="plane" size="{2 * reach:.3f} {2 * reach:.3f} 0.01" pos="0 0 {-0.35 * reach:.3f}" rgba="0.2 0.22 0.25 1"/>
+    <geom name="pedestal" type="cylinder" size="0.06 {0.17 * reach:.3f}" pos="0 0 {-0.18 * reach:.3f}" rgba="0.3 0.3 0.32 1"/>{world}
+    <body name="base" pos="0 0 0">{body}{close}
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def _key(v) -> tuple | None:
+    return None if v is None else tuple(np.ravel(np.asarray(v, float)).tolist())
+
+
+_SPEC_LOCK = (
+    threading.Lock()
+)  # a Dask worker may run trials in threads: one edits the spec at a time
+
+
+@functools.lru_cache(maxsize=8)
+def _spec(arm: ArmDescription, stiffness, tracker_pos, tracker_quat, cones):
+    """The nominal arm's parsed MJCF (an MjSpec) for one setup, and its links' capsule pattern."""
+    import mujoco
+
+    c = None if cones is None else (cones[:3], cones[3:])
+    xml = build_mjcf(arm, None, None, stiffness, tracker_pos, tracker_quat, c)
+    return mujoco.MjSpec.from_string(xml), _links(arm, None, None).capsule
+
+
+def as_built_model(
+    arm: ArmDescription,
+    values: np.ndarray,
+    tool_mm,
+    stiffness_nm_per_rad=None,
+    tracker_pos_m=None,
+    tracker_quat=None,
+    cones_m=None,
+):
+    """The MjModel of :func:`build_mjcf` with the same arguments, without writing and parsing the
+    MJCF each time: the nominal arm's MJCF is parsed once per arm and setup, and each as-built
+    arm writes its frames, centres of mass and tool into that spec before compiling (a Monte-Carlo
+    trial makes one per trial). A test checks every array of the model against the MJCF's."""
+    import mujoco
+
+    L = _links(arm, values, tool_mm)
+    spec, capsule = _spec(
+        arm, _key(stiffness_nm_per_rad), _key(tracker_pos_m), _key(tracker_quat), _key(cones_m)
+    )
+    if L.capsule != capsule:  # a link's capsule became a sphere or back: another MJCF
+        return mujoco.MjModel.from_xml_string(
+            build_mjcf(
+                arm, values, tool_mm, stiffness_nm_per_rad, tracker_pos_m, tracker_quat, cones_m
+            )
+        )
+    with _SPEC_LOCK:
+        for i in range(arm.n_joints):
+            hinge, link = spec.body(f"joint{i + 1}"), spec.body(f"link{i + 1}")
+            hinge.pos, hinge.quat, hinge.ipos = L.pre_t[i], L.pre_quat[i], L.com[i]
+            hinge.inertia = [L.inertia[i]] * 3
+            link.pos, link.quat = L.post_t[i], L.post_quat[i]
+            if L.capsule[i]:
+                hinge.geoms[0].fromto = np.r_[0.0, 0.0, 0.0, L.post_t[i]]
+        spec.site("probe").pos = L.tool
+        spec.body("tool").pos = L.tool
+        return spec.compile()
+
+
+def write_as_built(model, arm: ArmDescription, values: np.ndarray, tool_mm) -> bool:
+    """Write an as-built arm into ``model`` in place, without compiling: an MjModel of
+    :func:`as_built_model` for the same arm and setup, reused from trial to trial (a Monte-Carlo
+    trial's twin). Written: each hinge body's frame, centre of mass and inertia, each link
+    frame, each capsule's pose and length (MuJoCo's own z-to-vector turn, as its compiler
+    turns a ``fromto``), the tool: what kinematics, inverse dynamics and rendering read (a test
+    checks them against the compiled model's, and the points and gravity torques). Not written:
+    the inertial frames of the massless link bodies, which nothing reads, and the collision
+    bounding volumes (contacts are off); ``mj_setConst`` redoes what the compiler derives at
+    qpos0 (the caller's, with its data). False, nothing written, when a link's capsule
+    became a sphere or back (another MJCF)."""
+    import mujoco
+
+    L = _links(arm, values, tool_mm)
+    N = arm.n_joints
+    hinge = [model.body(f"joint{i + 1}").id for i in range(N)]
+    geom = model.body_geomadr[hinge]
+    if tuple(bool(t) for t in model.geom_type[geom] == mujoco.mjtGeom.mjGEOM_CAPSULE) != L.capsule:
+        return False
+    link = [model.body(f"link{i + 1}").id for i in range(N)]
+    model.body_pos[hinge], model.body_quat[hinge], model.body_ipos[hinge] = (
+        L.pre_t,
+        L.pre_quat,
+        L.com,
+    )
+    model.body_inertia[hinge] = L.inertia[:, None]
+    model.body_pos[link], model.body_quat[link] = L.post_t, L.post_quat
+    caps = np.flatnonzero(L.capsule)
+    g = geom[caps]
+    half = 0.5 * np.sqrt(np.sum(L.post_t[caps] ** 2, axis=1))
+    model.geom_pos[g] = 0.5 * L.post_t[caps]
+    quat = model.geom_quat
+    for i, gi in zip(caps, g):
+        mujoco.mju_quatZ2Vec(quat[gi], -L.post_t[i])  # the compiler's fromto: z from "to" to "from"
+    model.geom_size[g, 1] = half
+    model.geom_rbound[g] = model.geom_size[g, 0] + half
+    model.geom_aabb[g, 5] = model.geom_size[g, 0] + half
+    model.site_pos[model.site("probe").id] = L.tool
+    model.body_pos[model.body("tool").id] = L.tool
+    return True

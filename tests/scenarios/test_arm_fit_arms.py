@@ -1,0 +1,130 @@
+"""``calibench fit arm-cmm`` on arms of unusual shape, from their ARM.toml: a heavy arm whose
+compliance columns dwarf its geometry's, a SCARA whose axes are all parallel. Recordings from
+the MuJoCo twin of each, in the CONTRACT's CSV format."""
+
+import json
+
+import numpy as np
+
+from calibench.estimators.rotations import rotvec_to_matrix
+from calibench.recordings import ArmRecording
+from calibench.scenarios.cli import main
+from calibench.sim.arm_cmm import ArmSim, ArmTruth
+
+NOISE_MM = 0.02
+
+
+SCARA = """name = "scara"
+convention = "dh"
+[[joint]]
+a_mm = 400.0
+d_mm = 300.0
+alpha_deg = 0.0
+[[joint]]
+a_mm = 350.0
+d_mm = 0.0
+alpha_deg = 0.0
+[[joint]]
+a_mm = 0.0
+d_mm = 0.0
+alpha_deg = 0.0
+[tool]
+offset_mm = [60.0, 0.0, -100.0]
+"""
+
+
+# A KR 210's proportions, 900 kg: a_mm, d_mm, alpha_deg, theta_deg, range_deg, mass_kg, com_mm per joint
+HEAVY_JOINTS = [
+    (350.0, 675.0, -90.0, 0.0, (-170, 170), 400.0, (-150.0, 100.0, 0.0)),
+    (1150.0, 0.0, 0.0, -90.0, (-60, 60), 200.0, (-600.0, 0.0, 150.0)),
+    (41.0, 0.0, -90.0, 0.0, (-120, 120), 180.0, (0.0, 0.0, 150.0)),
+    (0.0, 1200.0, 90.0, 0.0, (-170, 170), 60.0, (0.0, 300.0, 0.0)),
+    (0.0, 0.0, -90.0, 0.0, (-120, 120), 20.0, (0.0, 0.0, 30.0)),
+    (0.0, 215.0, 0.0, 0.0, (-170, 170), 5.0, (0.0, 0.0, -20.0)),
+]
+
+
+def _arm_toml(name: str, joints, tool_mm, tool_kg: float) -> str:
+    """An ARM.toml (CONTRACT, "Arms") from one row per joint, as :data:`HEAVY_JOINTS`."""
+    text = f'name = "{name}"\nconvention = "dh"\n'
+    for a, d, alpha, theta, (lo, hi), m, com in joints:
+        text += (
+            f"[[joint]]\na_mm = {a}\nd_mm = {d}\nalpha_deg = {alpha}\ntheta_deg = {theta}\n"
+            f"range_deg = [{lo}.0, {hi}.0]\nmass_kg = {m}\ncom_mm = {list(com)}\n"
+        )
+    return text + f"[tool]\noffset_mm = {list(tool_mm)}\nmass_kg = {tool_kg}\n"
+
+
+def test_a_heavy_arms_compliance_does_not_crowd_out_its_geometry(tmp_path):
+    """A 900 kg arm (a KR 210's proportions): a compliance's column, its gravity torque (5 kN m)
+    times a typical 10 urad / N m, is 25 times an angle error's. The identifiable basis measured
+    its tolerance against the largest column, so --model physics dropped kinematic errors that
+    --model geometry determines (da5 and dd5 here, with the wrist's ranges of a KR 210). Now the
+    tolerance is measured against the largest geometric column, and both keep the same geometry."""
+    (tmp_path / "heavy.toml").write_text(_arm_toml("heavy", HEAVY_JOINTS, (12.5, -8.3, 135.2), 8.0))
+    sim = ArmSim(
+        str(tmp_path / "heavy.toml"),
+        ArmTruth(stiffness_nm_per_rad=(np.inf, 5e7, 3e7, np.inf, np.inf, np.inf)),
+    )
+    rng = np.random.default_rng(5)
+    q = sim.random_postures(600, rng)
+    R, t = rotvec_to_matrix(np.array([0.01, 0.02, 2.0])), np.array([3000.0, -1500.0, 200.0])
+    ArmRecording(q, sim.probe_mm(q) @ R.T + t + rng.normal(0, NOISE_MM, (600, 3))).to_csv(
+        tmp_path / "h.csv"
+    )
+    kept = {}
+    for model in ("geometry", "physics"):
+        out = tmp_path / model
+        assert (
+            main(
+                [
+                    "fit",
+                    "arm-cmm",
+                    str(tmp_path / "h.csv"),
+                    "--arm",
+                    str(tmp_path / "heavy.toml"),
+                    "--model",
+                    model,
+                    "--out",
+                    str(out),
+                ]
+            )
+            == 0
+        )
+        names = [p["name"] for p in json.loads((out / "fit.json").read_text())["parameters"]]
+        kept[model] = {n for n in names if not n.startswith("compliance")}
+    assert kept["physics"] == kept["geometry"], kept
+
+
+def test_an_arm_whose_axes_are_all_parallel_holds_its_tools_height(tmp_path):
+    """A SCARA's axes are all vertical: the tool's height moves the data as the base's does. The
+    fit holds tool_z at the drawing's value, says so, and fits to the tracker's noise (it was
+    refused as singular)."""
+    (tmp_path / "scara.toml").write_text(SCARA)
+    sim = ArmSim(str(tmp_path / "scara.toml"), ArmTruth())
+    rng = np.random.default_rng(4)
+    q = sim.random_postures(300, rng)
+    R, t = rotvec_to_matrix(np.array([0.002, -0.001, 0.7])), np.array([1500.0, -300.0, 80.0])
+    ArmRecording(q, sim.probe_mm(q) @ R.T + t + rng.normal(0, NOISE_MM, (300, 3))).to_csv(
+        tmp_path / "s.csv"
+    )
+    out = tmp_path / "out"
+    assert (
+        main(
+            [
+                "fit",
+                "arm-cmm",
+                str(tmp_path / "s.csv"),
+                "--arm",
+                str(tmp_path / "scara.toml"),
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
+    fit = json.loads((out / "fit.json").read_text())
+    held = {d["name"]: d["why"] for d in fit["dropped"]}
+    assert "base_z" in held["tool_z"] and "held at the drawing" in held["tool_z"]
+    # 3-D RMS of a 3-coordinate Gaussian less the fitted parameters' share: within 15 % of sqrt(3) sigma
+    assert abs(fit["fit"]["rms_mm"] / (np.sqrt(3) * NOISE_MM) - 1) < 0.15, fit["fit"]
