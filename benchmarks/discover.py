@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from calibench.estimators.discovery.select import FLOOR
-from calibench.scenarios.discover.command import discover_stage, paper_belt_recording
+from calibench.scenarios.discover.stage import discover_stage, paper_belt_recording
 from calibench.scenarios.discover.stewart import STEWART_FLOOR
 from calibench.scenarios.discover.suite import SUITE, null_claims, run_case, score, table
 

@@ -550,7 +550,7 @@ def _montecarlo(args) -> int:
 
 
 def _discover(args) -> int:
-    from calibench.scenarios.discover.command import run_discover
+    from calibench.scenarios.discover.engine import run_discover
 
     out = args.out or Path("calibench-out") / f"{args.scenario}-discover"
     if args.arm is not None and args.scenario != "arm-cmm":

@@ -32,9 +32,20 @@ class Problem(Protocol):
         effect on the data is the one dropped.
     """
 
-    names: tuple[str, ...]
-    always: np.ndarray
-    groups: list[np.ndarray]
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Every parameter's name, in column order."""
+        ...
+
+    @property
+    def always(self) -> np.ndarray:
+        """The columns estimated whatever the data."""
+        ...
+
+    @property
+    def groups(self) -> list[np.ndarray]:
+        """The other columns, group by group."""
+        ...
 
     def start(self) -> State:
         """The state the solve starts from (the nominal parameters)."""

@@ -205,7 +205,7 @@ def run_arm_fit(
     check_postures(q, len(paths))
     discovery = None
     if run_discovery:
-        from calibench.scenarios.discover.command import discover_arm
+        from calibench.scenarios.discover.arm_cmm import discover_arm
 
         parts = [r.subset(k) for r, k in zip(train, used)]
         discovery, _ = discover_arm(parts if len(parts) > 1 else parts[0], arm=arm)

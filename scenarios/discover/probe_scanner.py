@@ -177,7 +177,7 @@ def _runs(bands: np.ndarray) -> list[str]:
 
 def discover_scanner(rec, seed: int = 0, floor: float = FLOOR, config=None) -> tuple[dict, dict]:
     """discovery.json's content for a probe-scanner recording, and what the figure needs."""
-    from calibench.scenarios.discover.command import _describe, one_axis_fit, verdict
+    from calibench.scenarios.discover.report import describe_effects, one_axis_fit, verdict
     from calibench.scenarios.probe_scanner.scenario import ProbeScannerConfig
 
     config = config or ProbeScannerConfig()
@@ -219,7 +219,7 @@ def discover_scanner(rec, seed: int = 0, floor: float = FLOOR, config=None) -> t
         found.steps.append(Step(table, AXIS, found.cv_final, after, 1 - after / found.cv_final))
         terms[AXIS].append(table)
         found.cv_final = after
-    effects, fitted = _describe([sig], terms, found, drivers, noise)
+    effects, fitted = describe_effects([sig], terms, found, drivers, noise)
     after_noise = {AXIS: repeatability(fitted[AXIS], station, order)}
     confounds = []
     symmetric = Runout(harmonic=4)
@@ -305,3 +305,37 @@ def _locate(sig, drivers, rec, seed) -> list[dict]:
                 }
             )
     return sorted(out, key=lambda d: -d["score"])
+
+
+# --- the plug-in (calibench.scenarios.discover.engine.Plugin) ----------------------------------------
+HOLDOUTS: tuple[str, ...] = ()  # its own folds: whole turns (or interleaved samples of one)
+MANY_RECORDINGS = False
+
+
+def load(scenario: str, paths: list, arm=None):
+    """The scanner recording at ``paths[0]`` (CONTRACT: turn, theta_deg, rho_mm)."""
+    from calibench.recordings import load_scanner_csv
+    from calibench.scenarios.discover.engine import MAX_ROWS
+
+    return load_scanner_csv(paths[0], MAX_ROWS)
+
+
+def discover(scenario: str, rec, seed: int, holdout, config, arm=None) -> tuple[dict, dict]:
+    """:func:`discover_scanner` with the twin of the ``run --config`` file ``config``."""
+    from calibench.scenarios.config import load_toml, override
+    from calibench.scenarios.probe_scanner.scenario import ProbeScannerConfig
+
+    cfg = ProbeScannerConfig()
+    if config is not None:
+        cfg = override(cfg, load_toml(config).get("probe-scanner", {}), "probe-scanner")
+    return discover_scanner(rec, seed, config=cfg)
+
+
+def twin_tables(scenario: str, found: dict, config, arm=None) -> tuple[dict, list[str]]:
+    """The twin's tables (:func:`twin_table`) and the accepted effects it cannot carry."""
+    left = [
+        e["name"]
+        for e in found["effects"]
+        if e["name"] not in ("runout", "encoder_eccentricity", "scale")
+    ]
+    return twin_table(found), left

@@ -12,6 +12,8 @@ same way by every leg are one station.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from calibench.estimators.discovery.fit import Signal, confounded, lstsq
@@ -298,7 +300,7 @@ def discover_stewart(
     rec, seed: int = 0, floor: float = STEWART_FLOOR, config=None
 ) -> tuple[dict, dict]:
     """discovery.json's content for a Stewart recording, and what the figure needs."""
-    from calibench.scenarios.discover.command import _describe, one_axis_fit, verdict
+    from calibench.scenarios.discover.report import describe_effects, one_axis_fit, verdict
     from calibench.scenarios.stewart.scenario import StewartConfig
     from calibench.sim.stewart import leg_effects_mm
 
@@ -338,7 +340,7 @@ def discover_stewart(
     noise = {AXIS: repeatability(first, station, order)}
     found, terms = select([sig], candidates, drivers, fold, noise, floor=floor)
     prune(sig, found, terms, drivers, fold, floor)
-    effects, fitted = _describe([sig], terms, found, drivers, noise)
+    effects, fitted = describe_effects([sig], terms, found, drivers, noise)
     after_noise = {AXIS: repeatability(fitted[AXIS], station, order)}
     confounds = []
     accepted = {t.key for t in terms[AXIS]}
@@ -380,3 +382,84 @@ def discover_stewart(
         "fitted": fitted,
         "abscissa": (np.arange(len(r)) / 6, "pose (legs 1-6 each)"),
     }
+
+
+def twin_tables(scenario: str, out: dict, config: Path | None, arm=None) -> tuple[dict, list[str]]:
+    """The platform's twin: the hinges and lengths with the found geometry, the legs' physics."""
+    import numpy as np
+
+    from calibench.scenarios.config import load_toml, override
+    from calibench.scenarios.stewart.scenario import StewartConfig
+
+    cfg = StewartConfig()
+    if config is not None:
+        cfg = override(cfg, load_toml(config).get("stewart", {}), "stewart")
+    g, t = cfg.geometry, cfg.truth
+    r, B, l0 = (
+        np.array(a, float) for a in (g.platform_hinges_mm, g.base_hinges_mm, g.initial_lengths_mm)
+    )
+    leg = {
+        k: list(getattr(t, k))
+        for k in (
+            "leg_compliance_um_per_n",
+            "leg_thermal_ppm_per_k",
+            "leg_reversal_um",
+            "leg_pitch_um",
+            "leg_pitch_lead_mm",
+            "leg_pitch_phase_rad",
+        )
+    }
+    ref, left = t.reference_temp_c, []
+    for e in out["effects"]:
+        p = e["params"]
+        i = p.get("leg", 0) - 1
+        if e["name"] == "geometry":
+            for k in range(6):
+                r[k] += [p[f"r{c}{k + 1}"] for c in "xyz"]
+                B[k] += [p[f"B{c}{k + 1}"] for c in "xyz"]
+                l0[k] += p[f"l{k + 1}"]
+        elif e["name"] == "leg_compliance":
+            for k in range(6) if i < 0 else (i,):
+                leg["leg_compliance_um_per_n"][k] += p["um_per_n"]
+        elif e["name"] == "thermal_expansion" and out.get("temp_mean_c") is not None:
+            leg["leg_thermal_ppm_per_k"][i] += p["ppm_per_k"]
+            ref = out["temp_mean_c"]
+        elif e["name"] == "backlash":
+            leg["leg_reversal_um"][i] += p["reversal_mm"] * 1000
+        elif e["name"] == "periodic":
+            leg["leg_pitch_um"][i] = p["amplitude_mm"] * 1000
+            leg["leg_pitch_lead_mm"][i] = p["period_mm"]
+            leg["leg_pitch_phase_rad"][i] = p["phase_rad"]
+        else:
+            left.append(e["name"])
+    truth = {**leg, "reference_temp_c": ref}
+    geometry = {
+        "platform_hinges_mm": r.tolist(),
+        "base_hinges_mm": B.tolist(),
+        "initial_lengths_mm": l0.tolist(),
+    }
+    return {"stewart": {"geometry": geometry, "truth": truth}}, left
+
+
+# --- the plug-in (calibench.scenarios.discover.engine.Plugin) ----------------------------------------
+HOLDOUTS: tuple[str, ...] = ()  # its own folds: contiguous blocks of poses
+MANY_RECORDINGS = False
+
+
+def load(scenario: str, paths: list, arm=None):
+    """The platform recording at ``paths[0]`` (CONTRACT: l1_mm .. l6_mm and the tracker's pose)."""
+    from calibench.recordings import load_stewart_csv
+    from calibench.scenarios.discover.engine import MAX_ROWS
+
+    return load_stewart_csv(paths[0], MAX_ROWS)
+
+
+def discover(scenario: str, rec, seed: int, holdout, config, arm=None) -> tuple[dict, dict]:
+    """:func:`discover_stewart` with the twin of the ``run --config`` file ``config``."""
+    from calibench.scenarios.config import load_toml, override
+    from calibench.scenarios.stewart.scenario import StewartConfig
+
+    cfg = StewartConfig()
+    if config is not None:
+        cfg = override(cfg, load_toml(config).get("stewart", {}), "stewart")
+    return discover_stewart(rec, seed, config=cfg)

@@ -17,8 +17,9 @@ from __future__ import annotations
 
 import dataclasses
 
-from calibench.scenarios.discover.command import discover_arm, discover_stage
+from calibench.scenarios.discover.arm_cmm import discover_arm
 from calibench.scenarios.discover.probe_scanner import discover_scanner
+from calibench.scenarios.discover.stage import discover_stage
 from calibench.scenarios.discover.stewart import discover_stewart
 from calibench.sim.concealed import (
     arm_recording,

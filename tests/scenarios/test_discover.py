@@ -152,7 +152,7 @@ def test_a_gear_harmonic_whose_phase_each_session_sets_is_found_per_recording(tm
 def test_a_gear_harmonic_the_sessions_share_is_not_split_per_recording():
     """The same gear in two sessions with one phase and amplitude: one transmission for both (a
     phase per recording would fit noise)."""
-    from calibench.scenarios.discover.command import discover_arm
+    from calibench.scenarios.discover.arm_cmm import discover_arm
 
     recs = [
         arm_recording(
@@ -183,7 +183,7 @@ def test_a_tool_guessed_100_mm_off_leaves_no_structure_behind():
     import numpy as np
 
     from calibench.recordings import ArmRecording
-    from calibench.scenarios.discover.command import discover_arm
+    from calibench.scenarios.discover.arm_cmm import discover_arm
     from calibench.scenes.arm_cmm import load_arm
     from calibench.sim.arm_cmm import ArmSim, ArmTruth, default_errors
 
@@ -208,7 +208,7 @@ def test_postures_that_turn_one_joint_only_leave_the_geometry_nothing_to_claim()
     import numpy as np
 
     from calibench.recordings import ArmRecording
-    from calibench.scenarios.discover.command import discover_arm
+    from calibench.scenarios.discover.arm_cmm import discover_arm
     from calibench.scenes.arm_cmm import load_arm
     from calibench.sim.arm_cmm import ArmSim, ArmTruth
 
@@ -226,7 +226,7 @@ def test_postures_that_turn_one_joint_only_leave_the_geometry_nothing_to_claim()
 def test_an_eccentric_shoulder_encoder_is_not_called_compliance():
     """Joint 2's gravity torque is nearly a sinusoid of its own angle; the other joints' angles
     tell the two apart."""
-    from calibench.scenarios.discover.command import discover_arm
+    from calibench.scenarios.discover.arm_cmm import discover_arm
 
     for arm in ("arm-cmm", "ur10"):
         rec, manifest = arm_recording("eccentricity", 6, arm=arm, joint=2)
@@ -239,7 +239,7 @@ def test_an_eccentric_shoulder_encoder_is_not_called_compliance():
 
 def test_thermal_expansion_without_a_temperature_change_is_called_confounded(tmp_path):
     rec, manifest = stage_recording("belt-stage", "null", 3)
-    from calibench.scenarios.discover.command import discover_stage
+    from calibench.scenarios.discover.stage import discover_stage
 
     d, _ = discover_stage("belt-stage", rec)
     assert any(
@@ -272,7 +272,7 @@ def test_paper_belt_stage_residual_is_table_3_and_lives_in_y(shared_data):
     """The seed paper's measured tables with its quadratic as the simulation: the residual RMS is
     Table 3's, sqrt((31.96 + 24.08) / 242) = 0.4812 mm (to its printed digits), and the located
     structure is the Y error against y."""
-    from calibench.scenarios.discover.command import discover_stage, paper_belt_recording
+    from calibench.scenarios.discover.stage import discover_stage, paper_belt_recording
 
     d, _ = discover_stage(
         "belt-stage", paper_belt_recording(shared_data / "seed_belt_stage"), 0, "columns"
@@ -286,7 +286,7 @@ def test_what_is_left_is_judged_against_the_repeatability(monkeypatch):
     """A null recording ends at its repeatability and says so; the same machine with lost motion
     and no candidate allowed to find it (the candidate list emptied) must not stop silently: it
     reports the held-out RMS against the repeatability from repeats, after the effects."""
-    import calibench.scenarios.discover.command as disc
+    import calibench.scenarios.discover.stage as disc
 
     null, _ = stage_recording("vision-stage", "null", 5)
     d, _ = disc.discover_stage("vision-stage", null)

@@ -1,0 +1,186 @@
+"""``calibench discover``: where a recording disagrees with its twin, and which physics is missing.
+
+One engine (``calibench.estimators.discovery``: candidates, held-out selection, localisation,
+the nonsmooth table) and a plug-in per instrument, picked by the scenario's name:
+:mod:`.stage` (belt-stage, vision-stage), :mod:`.arm_cmm`, :mod:`.probe_scanner`,
+:mod:`.stewart`. A plug-in is a module that follows :class:`Plugin`:
+
+1. ``load`` reads the recording(s) in the contract's format (one clear BadInput line for any
+   defect);
+2. ``discover`` replays it with the twin (the nominal one, or the one of a ``run --config``
+   file) and forms its signals (recording minus twin) and the scene model's free columns (what a
+   user calibrates anyway: a stage's error map, an arm's base frame and tool, a scanner's rail,
+   a platform's tracker frame); builds its typed drivers (the ``*Drivers`` of its candidates'
+   module in ``estimators.discovery``), its candidates and its folds (held-out scheme, said in
+   discovery.json's ``holdout``); runs the engine's selection; and says what it found in plain
+   words (each effect's ``physics``, the ``verdict``, what is ``confounded`` and the experiment
+   that would separate it);
+3. ``twin_tables`` maps the accepted effects onto the instrument's twin (a ``run --config``
+   file): ``discover --twin`` writes it, ``discover --config`` replays a recording with it, and
+   ``run`` / ``montecarlo`` simulate the machine with what was found. Effects the simulation has
+   no parameter for (a drift with time, a nonsmooth table) are listed as not carried.
+
+Writes DIR/discovery.json (CONTRACT) and DIR/discovery.png (residuals before and after).
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+
+from calibench.recordings import same_file
+from calibench.scenarios.discover.figure import write_figure
+from calibench.scenarios.report import BadInput
+
+# the plug-in module of each scenario, in calibench.scenarios.discover
+PLUGINS = {
+    "belt-stage": "stage",
+    "vision-stage": "stage",
+    "arm-cmm": "arm_cmm",
+    "probe-scanner": "probe_scanner",
+    "stewart": "stewart",
+}
+SUPPORTED = tuple(PLUGINS)
+# Rows per recording: the candidates' design matrices grow with it (a 1e6-row stage recording
+# would need tens of GB); refused before any work, with the advice to decimate.
+MAX_ROWS = 100_000
+
+
+class Plugin(Protocol):
+    """An instrument's discovery (a module of ``calibench.scenarios.discover``).
+
+    Attributes
+    ----------
+    HOLDOUTS : tuple of str
+        The held-out schemes ``--holdout`` may name for it (empty: the plug-in's own folds).
+    MANY_RECORDINGS : bool
+        Whether it takes several recordings at once (each in its own frame).
+    """
+
+    HOLDOUTS: tuple[str, ...]
+    MANY_RECORDINGS: bool
+
+    def load(self, scenario: str, paths: list[Path], arm) -> object:
+        """The recording(s) at ``paths``, read in the contract's format (``arm``: an ARM.toml or
+        a built-in arm's name, for the arm; None elsewhere)."""
+        ...
+
+    def discover(
+        self, scenario: str, rec, seed: int, holdout: str | None, config: Path | None, arm
+    ) -> tuple[dict, dict]:
+        """discovery.json's content and the figure's data: ``rec`` replayed by the twin of the
+        ``run --config`` file ``config`` (None: the scenario's nominal twin)."""
+        ...
+
+    def twin_tables(
+        self, scenario: str, found: dict, config: Path | None, arm
+    ) -> tuple[dict, list[str]]:
+        """The twin file's tables with what ``found`` (discovery.json's content) accepted, on top
+        of ``config``'s twin, and the accepted effects the simulation cannot carry."""
+        ...
+
+
+def plugin(scenario: str) -> Plugin:
+    """The discovery plug-in of ``scenario`` (BadInput for a scenario discover has none for)."""
+    if scenario not in PLUGINS:
+        raise BadInput(f"discover supports {', '.join(SUPPORTED)}, not {scenario!r}")
+    return importlib.import_module(f"calibench.scenarios.discover.{PLUGINS[scenario]}")  # type: ignore[return-value]
+
+
+def run_discover(
+    scenario: str,
+    csv_path,
+    out_dir: Path,
+    seed: int = 0,
+    holdout: str | None = None,
+    arm: str | Path | None = None,
+    config: Path | None = None,
+    twin: Path | None = None,
+) -> dict:
+    """``calibench discover``: the plug-in of ``scenario`` on the recording(s) ``csv_path``
+    (several for an instrument that takes them, each in its own frame); with ``config`` (a
+    ``run --config`` file) its twin replays the recording, beside the nominal twin's replay;
+    ``twin``: where to write the twin updated with what was found (the same format). Writes
+    ``out_dir``/discovery.json and discovery.png; returns discovery.json's content."""
+    paths = list(csv_path) if isinstance(csv_path, (list, tuple)) else [csv_path]
+    many = scenario in PLUGINS and plugin(scenario).MANY_RECORDINGS
+    if not many and len(paths) != 1:
+        raise BadInput(f"discover {scenario}: one recording, not {len(paths)}")
+    if config is not None:
+        from calibench.scenarios.config import load_toml
+
+        tables = load_toml(config)
+        if scenario not in tables:
+            raise BadInput(
+                f"config {config} has no [{scenario}] table (it has: {', '.join(tables) or 'none'}): "
+                "its twin is not this instrument's"
+            )
+    if twin is not None and any(same_file(twin, p) for p in paths):
+        raise BadInput(f"--twin {twin} is a recording of this run: the twin would overwrite it")
+    found_by = plugin(scenario)
+    if holdout is not None and holdout not in found_by.HOLDOUTS:
+        stages = ", ".join(s for s in SUPPORTED if plugin(s).HOLDOUTS)
+        raise BadInput(
+            f"--holdout {holdout}: for the stages ({stages}); discover {scenario} holds out "
+            "its own folds (an arm's and a platform's contiguous blocks, a scanner's turns)"
+        )
+
+    def once(cfg: Path | None) -> tuple[dict, dict]:
+        rec = found_by.load(scenario, paths, arm)
+        return found_by.discover(scenario, rec, seed, holdout, cfg, arm)
+
+    out, fig = once(config)
+    before = None
+    if config is not None:  # the nominal twin's residual beside the updated one's, both replayed
+        out["replayed_config"] = str(config)
+        nominal, before = once(None)
+        out["nominal_twin_fit"] = nominal["fit"]
+    if twin is not None:
+        tables, left = found_by.twin_tables(scenario, out, config, arm)
+        note = f"the twin of {paths[0]} updated by calibench discover"
+        if left:
+            note += "; not carried by the simulation: " + ", ".join(left)
+        write_toml(twin, tables, note)
+        out["twin"] = {"path": str(twin), "not_carried": left}
+    out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / "discovery.json").write_text(json.dumps(out, indent=2, default=json_default) + "\n")
+    write_figure(out_dir / "discovery.png", out, fig, before)
+    return out
+
+
+def write_toml(path: Path, tables: dict, comment: str) -> None:
+    """A config file (nested tables of numbers and lists of numbers) for ``run --config``."""
+
+    def value(v):
+        if isinstance(v, (list, tuple)):
+            return "[" + ", ".join(value(x) for x in v) + "]"
+        return repr(int(v)) if isinstance(v, (int, np.integer)) else repr(float(v))
+
+    lines = [f"# {comment}"]
+
+    def table(prefix, d):
+        plain = {k: v for k, v in d.items() if not isinstance(v, dict)}
+        if plain:
+            lines.append(f"\n[{prefix}]")
+            lines.extend(f"{k} = {value(v)}" for k, v in plain.items())
+        for k, v in d.items():
+            if isinstance(v, dict):
+                table(f"{prefix}.{k}", v)
+
+    for name, d in tables.items():
+        table(name, d)
+    try:
+        Path(path).write_text("\n".join(lines) + "\n")
+    except OSError as e:
+        raise BadInput(f"cannot write the twin {path}: {e.strerror}") from None
+
+
+def json_default(o):
+    """numpy scalars as Python numbers, for json.dumps."""
+    if isinstance(o, (np.floating, np.integer)):
+        return o.item()
+    raise TypeError(type(o))

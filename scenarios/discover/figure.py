@@ -1,0 +1,70 @@
+"""discovery.png: each signal's residual before (the scene model alone) and after (with the
+accepted effects), or the nominal twin's and the updated twin's replays side by side.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from calibench.estimators.discovery.fit import (
+    lstsq,
+)
+
+
+def write_figure(path: Path, out: dict, fig: dict, before_fig: dict | None = None) -> None:
+    """Residuals before (the scene model alone) and after (with the accepted effects); with
+    ``before_fig`` (a replay by an updated twin), the nominal twin's residual and the updated
+    twin's, both simulated (the scene model alone)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    sigs = fig["signals"]
+    f, axes = plt.subplots(
+        len(sigs), 2, figsize=(13, 3.6 * len(sigs)), squeeze=False, constrained_layout=True
+    )
+
+    def alone(sig):
+        return sig.r - sig.base @ lstsq(sig.base, sig.r) if sig.base.shape[1] else sig.r
+
+    titles = ("scene model only", "with the accepted effects")
+    for k, (row, s) in enumerate(zip(axes, sigs)):
+        before = alone(s)
+        after = fig["fitted"][s.axis]
+        if before_fig is not None:
+            before, after = alone(before_fig["signals"][k]), before
+            titles = ("the nominal twin, replayed", "the updated twin, replayed")
+        if "x" in fig and s.u is not None:
+            for ax, v, title in ((row[0], before, titles[0]), (row[1], after, titles[1])):
+                lim = np.max(np.abs(before)) * 1000
+                sc = ax.scatter(
+                    fig["x"], fig["y"], c=v * 1000, s=6, cmap="coolwarm", vmin=-lim, vmax=lim
+                )
+                ax.set(
+                    title=f"{s.name}: {title}, rms {np.sqrt(np.mean(v**2)) * 1000:.2f} um",
+                    xlabel="x (mm)",
+                    ylabel="y (mm)",
+                )
+                f.colorbar(sc, ax=ax, label="um")
+        else:
+            u, label = fig.get("abscissa") or (
+                np.arange(len(before)),
+                "row (posture x 3 + coordinate)",
+            )
+            for ax, v, title in ((row[0], before, titles[0]), (row[1], after, titles[1])):
+                ax.plot(u, v * 1000, ".", ms=2)
+                ax.set(
+                    title=f"{s.name}: {title}, rms {np.sqrt(np.mean(v**2)) * 1000:.2f} um",
+                    xlabel=label,
+                    ylabel="um",
+                )
+    f.suptitle(
+        f"{out['scenario']}: "
+        + ("replayed with the updated twin; " if before_fig is not None else "")
+        + (", ".join(f"{e['name']} ({e['axis']})" for e in out["effects"]) or "nothing missing")
+    )
+    f.savefig(path, dpi=80)
+    plt.close(f)

@@ -1,0 +1,105 @@
+"""What every plug-in's discovery.json says the same way: the accepted effects described from the
+final fit, the verdict against the repeatability, a one-signal instrument's fit and noise.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from calibench.estimators.discovery.fit import (
+    fit_terms,
+)
+
+UNEXPLAINED_RATIO = 1.5  # held-out RMS over repeatability beyond which something is left
+
+
+def one_axis_fit(axis: str, rms_nominal: float, found, noise: dict, after_noise: dict) -> dict:
+    """discovery.json's ``fit``, ``noise`` and ``noise_after_effects`` of a one-signal instrument
+    (the probe scanner, the Stewart platform): ``found`` the selection, ``noise`` and
+    ``after_noise`` the repeatability before and after the accepted effects, by axis."""
+    return {
+        "fit": {
+            "rms_nominal": float(rms_nominal),
+            "cv_rms_nominal": found.cv_nominal,
+            "cv_rms_final": found.cv_final,
+        },
+        "noise": {
+            axis: {
+                "repeatability_mm": noise[axis].sigma_mm,
+                "lag1_correlation": noise[axis].lag1,
+                "dof": noise[axis].dof,
+            }
+        },
+        "noise_after_effects": {
+            axis: {"repeatability_mm": after_noise[axis].sigma_mm, "dof": after_noise[axis].dof}
+        },
+    }
+
+
+def verdict(cv_final_mm: float, noise: dict, found_any: bool) -> str:
+    """What is left after the accepted effects, in words: the final held-out RMS (per
+    coordinate) against the repeatability from repeats (``noise``: axis -> Noise, after the
+    effects). Never a silent stop: unexplained structure, or no repeats to judge by, is said."""
+    sig = [nz.sigma_mm for nz in noise.values() if nz.sigma_mm]
+    left = cv_final_mm * 1000
+    if not sig:
+        return (
+            f"what is left: {left:.2f} um held out; no station was visited twice, so the repeatability is "
+            "unknown and it cannot be said whether that is noise"
+        )
+    floor = float(np.sqrt(np.mean(np.square(sig)))) * 1000
+    if cv_final_mm * 1000 > UNEXPLAINED_RATIO * floor:
+        return (
+            f"unexplained: {left:.2f} um held out against {floor:.2f} um of repeatability; the recording holds "
+            "structure no candidate explains"
+        )
+    what = (
+        "the accepted effects explain" if found_any else "nothing missing: the scene model explains"
+    )
+    return f"{what} the recording to its repeatability ({left:.2f} um held out, {floor:.2f} um from repeats)"
+
+
+def describe_effects(signals, terms, found, drivers, noise):
+    """Each accepted effect's parameters and standard errors from the final all-data fit."""
+    by_axis = {s.axis: s for s in signals}
+    fitted, described = {}, {}
+    for a, sig in by_axis.items():
+        nz = noise.get(a)
+        sigma = nz.sigma_mm * nz.inflation if nz is not None and nz.sigma_mm else None
+        fixed, coef, cov, res = fit_terms(sig, terms[a], drivers, {}, sigma)
+        fitted[a] = res
+        for term, (t, start, k) in zip(
+            terms[a], fixed
+        ):  # keyed by the term as selected (a search, fixed here)
+            p, e, text = t.describe(
+                coef[start : start + k], cov[start : start + k, start : start + k]
+            )
+            described[id(term)] = (t, p, e, text)
+    effects = []
+    for st in found.steps:
+        t, p, e, text = described[id(st.term)]
+        effects.append(
+            {
+                "name": t.name,
+                "axis": st.axis,
+                "params": plain(p),
+                "stderr": plain(e),
+                "physics": text,
+                "cv_rms_before": st.cv_before,
+                "cv_rms_after": st.cv_after,
+            }
+        )
+    return effects, fitted
+
+
+def plain(d: dict) -> dict:
+    """A dict of numbers, arrays, strings and flags as JSON-ready Python values."""
+
+    def one(v):
+        if isinstance(v, (str, bool, np.bool_)) or v is None:
+            return v if not isinstance(v, np.bool_) else bool(v)
+        if isinstance(v, (list, tuple, np.ndarray)):
+            return [one(x) for x in v]
+        return int(v) if isinstance(v, (int, np.integer)) else float(v)
+
+    return {k: one(v) for k, v in d.items()}

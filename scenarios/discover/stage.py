@@ -1,0 +1,438 @@
+"""The stages' discovery plug-in (belt-stage, vision-stage).
+
+The twin replays the commands (``sim.replay``); the scene's own error model (the belt stage's
+quadratic map, the vision stage's cubic one) is calibrated with the data, as any user would; what
+is left is searched: the drives' lost motion (constant, or growing along the travel), periodic
+errors, thermal expansion and drift, smooth straightness and cross-coupling terms, then a
+``nonsmooth`` table where stations stand out of the repeatability. Folds: whole passes, rows or
+columns of a grid, or blocks (``--holdout``). The twin: each axis's ``DriveErrors``
+(``sim.stage_drive``) with the accepted effects written in.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+from calibench.estimators.discovery.fit import (
+    Signal,
+    confounded,
+    cv_residuals,
+    lstsq,
+)
+from calibench.estimators.discovery.locate import change_point, permutation_p, reversal_profile
+from calibench.estimators.discovery.noise import repeatability
+from calibench.estimators.discovery.nonsmooth import find_nonsmooth
+from calibench.estimators.discovery.select import FLOOR, Step, refine, select
+from calibench.estimators.discovery.stage import (
+    PeriodSearch,
+    polynomial_candidates,
+    stage_candidates,
+)
+from calibench.scenarios.discover.report import describe_effects, verdict
+from calibench.scenarios.report import BadInput
+
+STAGE_DEGREE = {"belt-stage": 2, "vision-stage": 3}
+
+
+EXPERIMENTS = {
+    "thermal_expansion": "let the machine's temperature change by several K during the test (or repeat it warm "
+    "and cold): only then does thermal expansion differ from a plain scale error",
+    "thermal_drift": "hold the temperature steady for part of the test, or vary it independently of time",
+    "backlash": "approach every station from both directions",
+    "periodic": "measure at a finer step over a longer travel",
+    "positioning": "measure more stations along the axis",
+    "straightness": "measure more lines across the travel",
+    "cross_coupling": "measure a full grid rather than lines",
+}
+
+
+def poly_base(x: np.ndarray, y: np.ndarray, degree: int, span: tuple[float, float]) -> np.ndarray:
+    """The scene's error model as columns: monomials x^i y^j, i + j <= degree (scaled)."""
+    u, v = x / max(span[0], 1e-9), y / max(span[1], 1e-9)
+    return np.stack([u**i * v ** (k - i) for k in range(degree + 1) for i in range(k + 1)], axis=1)
+
+
+def folds_for(rec_run, x, y, holdout: str | None) -> tuple[np.ndarray, str]:
+    """Fold label per sample: whole passes when there are several, else whole rows (or columns)
+    of a grid, else five contiguous blocks in time. A scheme asked for by name that the
+    recording cannot give (one pass, no grid) is bad input, not quietly another scheme."""
+    passes = rec_run is not None and len(np.unique(rec_run)) >= 2
+    rows, cols = len(np.unique(y)) <= len(y) / 4, len(np.unique(x)) <= len(x) / 4
+    if holdout == "pass" and not passes:
+        raise BadInput(
+            "--holdout pass: the recording has one pass (its run column); hold out rows, columns or blocks"
+        )
+    if holdout == "rows" and not rows:
+        raise BadInput(
+            f"--holdout rows: the recording's y values are not rows of a grid ({len(np.unique(y))} "
+            f"distinct in {len(y)} samples); hold out blocks"
+        )
+    if holdout == "columns" and not cols:
+        raise BadInput(
+            f"--holdout columns: the recording's x values are not columns of a grid "
+            f"({len(np.unique(x))} distinct in {len(x)} samples); hold out blocks"
+        )
+    if holdout in (None, "pass") and passes:
+        return np.unique(rec_run, return_inverse=True)[1], "leave one pass out"
+    if holdout in (None, "rows") and rows:
+        return np.unique(y, return_inverse=True)[1], "leave one row (y) out"
+    if holdout == "columns":
+        return np.unique(x, return_inverse=True)[1], "leave one column (x) out"
+    return np.minimum(np.arange(len(x)) * 5 // len(x), 4), "five contiguous blocks"
+
+
+# --- stages --------------------------------------------------------------------------------------
+def discover_stage(
+    scenario: str,
+    rec,
+    seed: int = 0,
+    holdout: str | None = None,
+    floor: float = FLOOR,
+    truth=None,
+) -> tuple[dict, dict]:
+    """discovery.json's content for a stage recording, and what the figure needs. ``truth``:
+    the twin's as-built parameters (a ``--config`` file's; default: the scenario's own)."""
+    from calibench.sim.replay import replay_stage
+
+    n = len(rec)
+    x, y = rec.x_cmd_mm, rec.y_cmd_mm
+    if n < 20:
+        raise BadInput(f"{n} stations: discover needs at least 20")
+    _within_travel(scenario, x, y)
+    sim = replay_stage(scenario, x, y, rec.temp_c, truth)
+    drivers = {
+        "x": x,
+        "y": y,
+        "dir_x": rec.dir_x,
+        "dir_y": rec.dir_y,
+        "t_s": rec.t_s,
+        "temp_c": rec.temp_c,
+        "run": rec.run,
+    }
+    span = (max(np.ptp(x), 1.0), max(np.ptp(y), 1.0))
+    deg = STAGE_DEGREE[scenario]
+    base = poly_base(x, y, deg, span)
+    if np.linalg.matrix_rank(base) < base.shape[1]:
+        raise BadInput(
+            f"the stations do not span the {scenario} error model (degree {deg} in x and y): "
+            "measure a grid or lines along both axes"
+        )
+    idx = np.arange(n)
+    signals = [
+        Signal("x_meas - x_sim", "x", rec.x_meas_mm - sim[:, 0], base, idx, x),
+        Signal("y_meas - y_sim", "y", rec.y_meas_mm - sim[:, 1], base, idx, y),
+    ]
+    fold, scheme = folds_for(rec.run, x, y, holdout)
+    order = rec.t_s if rec.t_s is not None else idx.astype(float)
+    dirs = [np.zeros(n) if d is None else d for d in (rec.dir_x, rec.dir_y)]
+    key = np.unique(np.stack([x, y, *dirs], axis=1).round(6), axis=0, return_inverse=True)[
+        1
+    ].ravel()
+    noise = {s.axis: repeatability(s.r - base @ lstsq(base, s.r), key, order) for s in signals}
+    step = np.median(np.diff(np.unique(np.r_[x, y]))) if len(np.unique(np.r_[x, y])) > 1 else 1.0
+    candidates = stage_candidates(drivers)
+    for a, u in (("x", x), ("y", y)):
+        lo, hi = max(2.5 * step, 5.0), np.ptp(u) / 2
+        if hi > lo:  # uniform in frequency, five points per resolution element (1 / travel)
+            f = np.arange(1 / hi, 1 / lo, 1 / (5 * np.ptp(u)))
+            candidates.append(PeriodSearch(a, 1 / f))
+        candidates += polynomial_candidates(a, deg)
+    found, terms = select(signals, candidates, drivers, fold, noise, floor=floor)
+    growing = _grow_backlash(signals, terms, found, drivers, fold, noise, floor)
+
+    # nonsmooth: what stands out of the repeatability after the accepted effects
+    pos_key, pos_inv = np.unique(np.stack([x, y], axis=1).round(6), axis=0, return_inverse=True)
+    pos_inv = pos_inv.ravel()
+    for s in signals:
+        table = find_nonsmooth(
+            s, terms[s.axis], drivers, pos_inv, pos_key, noise[s.axis], fold, floor
+        )
+        if table is not None:
+            cv_sq = {
+                t.axis: float(np.sum(cv_residuals(t, terms[t.axis], drivers, fold, {}) ** 2))
+                for t in signals
+            }
+            before = np.sqrt(sum(cv_sq.values()) / (2 * n))
+            cv_sq[s.axis] = float(
+                np.sum(cv_residuals(s, terms[s.axis] + [table], drivers, fold, {}) ** 2)
+            )
+            after = np.sqrt(sum(cv_sq.values()) / (2 * n))
+            terms[s.axis].append(table)
+            found.steps.append(Step(table, s.axis, float(before), float(after), 0.0))
+            found.cv_final = float(after)
+
+    effects, fitted = describe_effects(signals, terms, found, drivers, noise)
+    for e in effects:
+        if e["name"] == "backlash" and e["axis"] in growing:
+            e["grows_along_travel"] = True
+            e["cv_rms_constant_reversal"], e["cv_rms_growing_reversal"] = growing[e["axis"]]
+            e["physics"] += (
+                f" (held out on {e['axis']}: {growing[e['axis']][0] * 1000:.2f} um with a constant "
+                f"reversal, {growing[e['axis']][1] * 1000:.2f} um with one that grows)"
+            )
+    # the repeatability again, after the accepted effects: an effect that drifts between passes
+    # (temperature, a creeping offset) inflates the first estimate
+    after = {a: repeatability(fitted[a], key, order) for a in fitted}
+    located = _locate_stage(signals, drivers, seed)
+    confounds = _confounds(signals, terms, found, candidates, drivers, rec)
+    out = {
+        "scenario": scenario,
+        "samples": n,
+        "unit": "mm",
+        "located": located,
+        "effects": effects,
+        "fit": {
+            "rms_nominal": found.rms_nominal,
+            "cv_rms_nominal": found.cv_nominal,
+            "cv_rms_final": found.cv_final,
+        },
+        "noise": {
+            a: {"repeatability_mm": nz.sigma_mm, "lag1_correlation": nz.lag1, "dof": nz.dof}
+            for a, nz in noise.items()
+        },
+        "noise_after_effects": {
+            a: {"repeatability_mm": nz.sigma_mm, "dof": nz.dof} for a, nz in after.items()
+        },
+        "holdout": scheme,
+        "scene_model": f"the twin plus its degree-{deg} error map in (x, y), calibrated",
+        "temp_mean_c": None if rec.temp_c is None else float(np.mean(rec.temp_c)),
+        "not_accepted": found.rejected,
+        "confounded": confounds,
+        "verdict": verdict(found.cv_final, after, bool(effects)),
+    }
+    return out, {"signals": signals, "fitted": fitted, "x": x, "y": y}
+
+
+def _grow_backlash(signals, terms, found, drivers, fold, noise, floor) -> dict:
+    """Does an accepted lost motion grow along its axis's travel (an elastic drive)? Where it
+    does, the term becomes the growing one in place. Returns axis -> (held-out RMS of that axis
+    with a constant reversal, with the growing one)."""
+    from calibench.estimators.discovery.stage import Backlash
+
+    out = {}
+    for s in signals:
+        for i, t in enumerate(terms[s.axis]):
+            if not (isinstance(t, Backlash) and t.span_mm is None):
+                continue
+            u = np.asarray(drivers[s.axis], float)
+            richer = Backlash(axis=s.axis, span_mm=(float(u.min()), float(u.max())))
+            ok, before, after = refine(
+                s, terms[s.axis], i, richer, drivers, fold, noise[s.axis], floor
+            )
+            if ok:
+                terms[s.axis][i] = richer
+                for st in found.steps:
+                    if st.term is t:
+                        st.term = richer
+                out[s.axis] = (before, after)
+    if out:
+        cv_sq = sum(
+            float(np.sum(cv_residuals(s, terms[s.axis], drivers, fold, {}) ** 2)) for s in signals
+        )
+        found.cv_final = float(np.sqrt(cv_sq / sum(len(s.r) for s in signals)))
+    return out
+
+
+def _within_travel(scenario: str, x: np.ndarray, y: np.ndarray) -> None:
+    """BadInput when a commanded station lies beyond the twin's travel (by more than 5 % of it):
+    the twin cannot replay it, and a recording there is in another unit or of another stage."""
+    from calibench.sim.replay import stage_travel_mm
+
+    travel = stage_travel_mm(scenario)
+    for axis, v, t in (("x", x, travel[0]), ("y", y, travel[1])):
+        if v.min() < -0.05 * t or v.max() > 1.05 * t:
+            raise BadInput(
+                f"{axis}_cmd_mm reaches {v.min() if v.min() < -0.05 * t else v.max():.6g} mm; the twin's "
+                f"{scenario} travels 0-{t:g} mm in {axis}: a wrong unit (um?) or another stage"
+            )
+
+
+def _locate_stage(signals, drivers, seed):
+    """Each residual (after the scene model) against each driver, whole-pass permutation tests."""
+    rng = np.random.default_rng(seed)
+    passes = drivers["run"] if drivers.get("run") is not None else np.zeros(len(signals[0].r))
+    out = []
+    for s in signals:
+        r = s.r - s.base @ lstsq(s.base, s.r)
+        for name in ("x", "y", "dir_x", "dir_y", "t_s", "temp_c"):
+            v = drivers.get(name)
+            if v is None or np.ptp(v) == 0:
+                continue
+            score, p = permutation_p(
+                r, np.asarray(v, float), passes, name in ("t_s", "temp_c"), rng
+            )
+            if p > 0.01 or score < 0.02:
+                continue
+            out.append(
+                {
+                    "signal": s.name,
+                    "driver": name,
+                    "score": score,
+                    "p_value": p,
+                    "where": _where(r, np.asarray(v, float), name, drivers),
+                }
+            )
+    return sorted(out, key=lambda d: -d["score"])
+
+
+def _where(r, v, name, drivers):
+    if name.startswith("dir_"):
+        axis = name[-1]
+        c, prof = reversal_profile(r, np.asarray(drivers[axis], float), v)
+        ok = np.isfinite(prof)
+        return (
+            f"whole {axis.upper()} travel: forward minus backward {np.nanmean(prof) * 1000:+.1f} um "
+            f"(from {np.nanmin(prof[ok]) * 1000:+.1f} to {np.nanmax(prof[ok]) * 1000:+.1f} um along it)"
+        )
+    if name in ("t_s", "temp_c"):
+        k, stat = change_point(
+            r[np.argsort(drivers["t_s"])] if drivers.get("t_s") is not None else r
+        )
+        unit = "s" if name == "t_s" else "deg C"
+        return f"follows {name} ({unit}); largest shift after sample {k} (CUSUM {stat:.1f})"
+    edges = np.quantile(v, np.linspace(0, 1, 9))
+    idx = np.clip(np.searchsorted(edges, v, side="right") - 1, 0, 7)
+    means = np.array([np.mean(r[idx == k]) if np.any(idx == k) else 0 for k in range(8)])
+    k = int(np.argmax(np.abs(means)))
+    return (
+        f"largest at {name} {edges[k]:.0f}-{edges[k + 1]:.0f} mm (mean {means[k] * 1000:+.1f} um)"
+    )
+
+
+def _confounds(signals, terms, found, candidates, drivers, rec):
+    """Physical candidates the data cannot tell from what the model already has, each with the
+    experiment that would (smooth polynomial terms are left out: they are meant to overlap)."""
+    out = []
+    by_axis = {s.axis: s for s in signals}
+    accepted = {st.term.key for st in found.steps} | {
+        f"{st.term.name}:{st.axis}" for st in found.steps
+    }
+    for c in candidates:
+        if (
+            c.key in accepted
+            or isinstance(c, PeriodSearch)
+            or c.name in ("positioning", "straightness", "cross_coupling")
+        ):
+            continue
+        frac = confounded(by_axis[c.axis], terms[c.axis], c, drivers, {})
+        if c.name == "thermal_expansion" and np.ptp(rec.temp_c) < 1.0:
+            out.append(
+                {
+                    "effect": c.name,
+                    "axis": c.axis,
+                    "with": "scale",
+                    "why": f"the temperature moved only {np.ptp(rec.temp_c):.2f} K, so an expansion "
+                    f"coefficient would look like (and be absorbed by) a scale error",
+                    "experiment": EXPERIMENTS[c.name],
+                }
+            )
+        elif frac > 0.9:
+            out.append(
+                {
+                    "effect": c.name,
+                    "axis": c.axis,
+                    "with": "the scene model and the accepted effects",
+                    "why": f"{100 * frac:.0f} % of its effect on the data is also what the model already has",
+                    "experiment": EXPERIMENTS.get(c.name, "vary its driver independently"),
+                }
+            )
+    return out
+
+
+def paper_belt_recording(data_dir: Path):
+    """The seed paper's measured belt-stage tables (../shared/data/seed_belt_stage) as a stage
+    recording: one row per station, error = measured - commanded (no passes, no directions)."""
+    from calibench.recordings import StageRecording
+
+    ex = np.loadtxt(Path(data_dir) / "x_axis_error_mm.csv", delimiter=",", skiprows=1)
+    ey = np.loadtxt(Path(data_dir) / "y_axis_error_mm.csv", delimiter=",", skiprows=1)
+    if not np.array_equal(ex[:, :2], ey[:, :2]):
+        raise BadInput("the X and Y tables list different stations")
+    x, y = ex[:, 0], ex[:, 1]
+    return StageRecording(x_cmd_mm=x, y_cmd_mm=y, x_meas_mm=x + ex[:, 2], y_meas_mm=y + ey[:, 2])
+
+
+STAGE_CONFIGS = {
+    "belt-stage": ("calibench.scenarios.belt_stage.scenario", "BeltStageConfig"),
+    "vision-stage": ("calibench.scenarios.vision_stage.scenario", "VisionStageConfig"),
+}
+
+
+def _config(scenario: str, path: Path | None):
+    """The scenario's run config, overridden by the file at ``path`` (None: the defaults)."""
+    import importlib
+
+    from calibench.scenarios.config import load_toml, override
+
+    module, name = STAGE_CONFIGS[scenario]
+    cfg = getattr(importlib.import_module(module), name)()
+    if path is not None:
+        cfg = override(cfg, load_toml(path).get(scenario, {}), scenario)
+    return cfg
+
+
+def stage_truth(scenario: str, path: Path | None):
+    """The stage twin's as-built truth for ``discover``: the config file's, or None (the defaults)."""
+    return None if path is None else _config(scenario, path).truth
+
+
+def _stage_drives(out: dict, truth) -> tuple[dict, list[str]]:
+    """Each axis's ``DriveErrors`` with the accepted effects written in (on top of ``truth``'s)."""
+    drives, left = {}, []
+    for a in ("x", "y"):
+        d = getattr(truth, f"drive_{a}")
+        for e in (e for e in out["effects"] if e["axis"] == a):
+            p = e["params"]
+            if e["name"] == "backlash":
+                home = p.get("reversal_at_home_mm", p["reversal_mm"])
+                d = dataclasses.replace(
+                    d,
+                    reversal_at_home_um=d.reversal_at_home_um + home * 1000,
+                    reversal_growth_um_per_m=d.reversal_growth_um_per_m
+                    + p.get("growth_mm_per_m", 0.0) * 1000,
+                )
+            elif e["name"] == "periodic":
+                d = dataclasses.replace(
+                    d,
+                    periodic_um=p["amplitude_mm"] * 1000,
+                    period_mm=p["period_mm"],
+                    periodic_phase_rad=p["phase_rad"],
+                )
+            elif e["name"] == "thermal_expansion" and out.get("temp_mean_c") is not None:
+                d = dataclasses.replace(
+                    d,
+                    thermal_ppm_per_k=d.thermal_ppm_per_k + p["ppm_per_k"],
+                    reference_temp_c=out["temp_mean_c"],
+                )
+            else:
+                left.append(f"{e['name']} ({a})")
+        drives[f"drive_{a}"] = dataclasses.asdict(d)
+    return drives, left
+
+
+# --- the plug-in (calibench.scenarios.discover.engine.Plugin) ----------------------------------------
+HOLDOUTS = ("pass", "rows", "columns", "blocks")  # --holdout's schemes (folds_for)
+MANY_RECORDINGS = False
+
+
+def load(scenario: str, paths: list, arm=None):
+    """The stage recording at ``paths[0]`` (CONTRACT: commanded and measured x, y)."""
+    from calibench.recordings import load_stage_csv
+    from calibench.scenarios.discover.engine import MAX_ROWS
+
+    return load_stage_csv(paths[0], MAX_ROWS)
+
+
+def discover(scenario: str, rec, seed: int, holdout, config, arm=None) -> tuple[dict, dict]:
+    """:func:`discover_stage` with the twin of the ``run --config`` file ``config``."""
+    return discover_stage(scenario, rec, seed, holdout, truth=stage_truth(scenario, config))
+
+
+def twin_tables(scenario: str, found: dict, config, arm=None) -> tuple[dict, list[str]]:
+    """Each axis's drive errors with the accepted effects written in, on top of ``config``'s
+    twin, and the accepted effects the drives cannot carry."""
+    drives, left = _stage_drives(found, _config(scenario, config).truth)
+    return {scenario: {"truth": drives}}, left
