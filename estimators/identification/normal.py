@@ -1,0 +1,139 @@
+"""The normal equations of one Levenberg-Marquardt iteration, dense or sparse.
+
+A problem's Jacobian is a numpy array (the arm's problems: a few hundred rows, a few dozen
+columns) or a scipy.sparse matrix (a large structured problem: the Stewart platform's joint
+adjustment has six columns per pose, each pose's rows touching only its own six, the stations'
+and the legs'). The solver asks both kinds the same three things: the diagonal of ``A = J^T J``,
+the undamped step's promised decrease ``g^T A^-1 g`` and the step damped by Marquardt's
+``lam diag(A)``. The dense kind does it as it always has; the sparse kind factorises ``A``
+(SuperLU) after scaling it to a unit diagonal, where Marquardt's damping is ``lam I``.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+import numpy as np
+from scipy import sparse
+from scipy.linalg import lapack
+from scipy.sparse import linalg as splinalg
+
+
+class NormalEquations(Protocol):
+    """``A = J^T J`` and ``g = J^T r`` of the kept columns (k of them) at one state.
+
+    Attributes
+    ----------
+    diag : ndarray, (k,)
+        The diagonal of ``A``: a step's size in units of each parameter's std is
+        ``|step| sqrt(diag)``.
+    g : ndarray, (k,)
+        The gradient of half the cost.
+    """
+
+    diag: np.ndarray
+    g: np.ndarray
+
+    def undamped_decrease(self) -> float:
+        """``g^T A^-1 g``, the most the linearised model promises; raises
+        ``numpy.linalg.LinAlgError`` when ``A`` is exactly singular."""
+        ...
+
+    def step(self, lam: float) -> np.ndarray:
+        """The Levenberg-Marquardt step (k,), ``-(A + lam diag(A))^-1 g``."""
+        ...
+
+
+class DenseNormal:
+    """The normal equations of a dense Jacobian ``J`` (m, k) and residuals ``r`` (m,)."""
+
+    def __init__(self, J: np.ndarray, r: np.ndarray):
+        self.A, self.g = J.T @ J, J.T @ r
+        self.diag = np.diag(self.A)
+
+    def undamped_decrease(self) -> float:
+        """``g^T A^-1 g`` by LAPACK's solve."""
+        return self.g @ np.linalg.solve(self.A, self.g)
+
+    def step(self, lam: float) -> np.ndarray:
+        """``-(A + lam diag(A))^-1 g`` by LAPACK's solve."""
+        return -np.linalg.solve(self.A + lam * np.diag(np.diag(self.A)), self.g)
+
+
+def _factor(M: sparse.csc_matrix) -> splinalg.SuperLU:
+    """SuperLU of a symmetric positive (semi-)definite ``M`` (k, k) with a unit-order diagonal:
+    a fill-reducing column order applied to the rows too, and the diagonal as pivots (no row
+    exchanges needed: the factorisation is Cholesky's in LU form). Raises
+    ``numpy.linalg.LinAlgError`` when a pivot is exactly zero."""
+    try:
+        return splinalg.splu(
+            M,
+            permc_spec="COLAMD",
+            diag_pivot_thresh=0.0,
+            options={"SymmetricMode": True},
+        )
+    except RuntimeError as e:  # SuperLU's "Factor is exactly singular"
+        raise np.linalg.LinAlgError(str(e)) from e
+
+
+def unit_diagonal(J: sparse.spmatrix) -> tuple[sparse.csr_matrix, np.ndarray]:
+    """``J`` (m, k) with its columns scaled to unit norm, ``J D`` with ``D = diag(A)^-1/2``
+    (``A = J^T J``, so ``D A D`` has a unit diagonal), and D's diagonal (k,). A zero column (a
+    parameter that does not move the data) keeps its zero, and a zero in D.
+
+    The columns of a problem mix units (mm and rad, a station and a rotation): scaled alike, a
+    factorisation's pivots and Marquardt's damping weigh each as the data move under it."""
+    J = sparse.csr_matrix(J)
+    norm2 = np.bincount(J.indices, J.data**2, minlength=J.shape[1])
+    d = np.where(norm2 > 0, 1 / np.sqrt(np.where(norm2 > 0, norm2, 1.0)), 0.0)
+    return sparse.csr_matrix((J.data * d[J.indices], J.indices, J.indptr), J.shape), d
+
+
+class SparseNormal:
+    """The normal equations of a sparse Jacobian ``J`` (m, k) and residuals ``r`` (m,), solved
+    by a sparse factorisation of ``D A D``, ``A`` scaled to a unit diagonal (:func:`unit_diagonal`),
+    where Marquardt's damping ``lam diag(A)`` is ``lam I``."""
+
+    def __init__(self, J: sparse.spmatrix, r: np.ndarray):
+        Js, self.d = unit_diagonal(J)
+        self.As = sparse.csc_matrix(Js.T @ Js)
+        self.gs = Js.T @ r  # the gradient on the scaled columns, D g
+        with np.errstate(divide="ignore"):
+            self.diag = np.where(self.d > 0, 1 / self.d**2, 0.0)
+            self.g = np.where(self.d > 0, self.gs / self.d, 0.0)
+
+    def undamped_decrease(self) -> float:
+        """``g^T A^-1 g`` (on the scaled columns, where it is the same number)."""
+        return float(self.gs @ _factor(self.As).solve(self.gs))
+
+    def step(self, lam: float) -> np.ndarray:
+        """``-(A + lam diag(A))^-1 g``: on the scaled columns ``-(D A D + lam I)^-1 D g``,
+        scaled back by D."""
+        damped = self.As + lam * sparse.identity(self.As.shape[0], format="csc")
+        return -self.d * _factor(sparse.csc_matrix(damped)).solve(self.gs)
+
+
+def normal_equations(J, r: np.ndarray) -> NormalEquations:
+    """:class:`SparseNormal` for a scipy.sparse Jacobian, :class:`DenseNormal` otherwise."""
+    return SparseNormal(J, r) if sparse.issparse(J) else DenseNormal(J, r)
+
+
+def inverse_normal(J: sparse.spmatrix) -> tuple[np.ndarray, np.ndarray]:
+    """``(J^T J)^-1`` (k, k) of a sparse Jacobian (m, k), and the columns' variance inflations
+    (k,), ``(A^-1)_ii A_ii``: the diagonal of the inverse of the unit-diagonal normal matrix
+    (:func:`unit_diagonal`), which is what is inverted.
+
+    The normal matrix is formed sparsely; its inverse is dense (a covariance of k parameters is
+    k x k whatever the sparsity), by LAPACK's Cholesky factorisation and inverse (potrf, potri):
+    a sparse factorisation's solve for k right-hand sides is many times slower. A matrix that is
+    not positive definite to working precision (a zero column, a zero or negative pivot) gives NaN
+    inflations, for the caller's test."""
+    Js, d = unit_diagonal(J)
+    k = len(d)
+    c, info = lapack.dpotrf((Js.T @ Js).toarray(), lower=False, clean=True)
+    if info == 0 and np.all(d > 0):
+        inv_s, info = lapack.dpotri(c, lower=False)
+    if info != 0 or not np.all(d > 0):
+        inv_s = np.full((k, k), np.nan)
+    inv_s = np.triu(inv_s) + np.triu(inv_s, 1).T  # potri fills the upper triangle
+    return inv_s * np.outer(d, d), np.diag(inv_s).copy()
