@@ -101,16 +101,26 @@ class SparseNormal:
         with np.errstate(divide="ignore"):
             self.diag = np.where(self.d > 0, 1 / self.d**2, 0.0)
             self.g = np.where(self.d > 0, self.gs / self.d, 0.0)
+        self._undamped: np.ndarray | None = None  # (D A D)^-1 D g, once solved
+
+    def _solve(self, lam: float) -> np.ndarray:
+        """``(D A D + lam I)^-1 D g``; the undamped one kept for a Gauss-Newton step."""
+        if lam == 0.0 and self._undamped is not None:
+            return self._undamped
+        M = self.As if lam == 0.0 else self.As + lam * sparse.identity(len(self.d), format="csc")
+        x = _factor(sparse.csc_matrix(M)).solve(self.gs)
+        if lam == 0.0:
+            self._undamped = x
+        return x
 
     def undamped_decrease(self) -> float:
         """``g^T A^-1 g`` (on the scaled columns, where it is the same number)."""
-        return float(self.gs @ _factor(self.As).solve(self.gs))
+        return float(self.gs @ self._solve(0.0))
 
     def step(self, lam: float) -> np.ndarray:
         """``-(A + lam diag(A))^-1 g``: on the scaled columns ``-(D A D + lam I)^-1 D g``,
         scaled back by D."""
-        damped = self.As + lam * sparse.identity(self.As.shape[0], format="csc")
-        return -self.d * _factor(sparse.csc_matrix(damped)).solve(self.gs)
+        return -self.d * self._solve(lam)
 
 
 def normal_equations(J, r: np.ndarray) -> NormalEquations:
@@ -118,22 +128,29 @@ def normal_equations(J, r: np.ndarray) -> NormalEquations:
     return SparseNormal(J, r) if sparse.issparse(J) else DenseNormal(J, r)
 
 
-def inverse_normal(J: sparse.spmatrix) -> tuple[np.ndarray, np.ndarray]:
-    """``(J^T J)^-1`` (k, k) of a sparse Jacobian (m, k), and the columns' variance inflations
-    (k,), ``(A^-1)_ii A_ii``: the diagonal of the inverse of the unit-diagonal normal matrix
-    (:func:`unit_diagonal`), which is what is inverted.
+def inverse_normal(J: sparse.spmatrix, last: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """``(J^T J)^-1`` (k, k) of a sparse Jacobian (m, k), or its block of the ``last`` columns
+    (last, last), and those columns' variance inflations, ``(A^-1)_ii A_ii``: the diagonal of the
+    inverse of the unit-diagonal normal matrix (:func:`unit_diagonal`), which is what is inverted.
 
     The normal matrix is formed sparsely; its inverse is dense (a covariance of k parameters is
-    k x k whatever the sparsity), by LAPACK's Cholesky factorisation and inverse (potrf, potri):
-    a sparse factorisation's solve for k right-hand sides is many times slower. A matrix that is
-    not positive definite to working precision (a zero column, a zero or negative pivot) gives NaN
-    inflations, for the caller's test."""
+    k x k whatever the sparsity), by LAPACK's Cholesky factorisation ``U^T U`` and inverse (potrf,
+    potri): a sparse factorisation's solve for k right-hand sides is many times slower. The last
+    columns' block alone is ``U22^-1 U22^-T``, U22 the factor's last diagonal block (the other
+    columns are eliminated before them). A matrix that is not positive definite to working
+    precision (a zero column, a zero or negative pivot) gives NaN inflations, for the caller's
+    test."""
     Js, d = unit_diagonal(J)
     k = len(d)
-    c, info = lapack.dpotrf((Js.T @ Js).toarray(), lower=False, clean=True)
-    if info == 0 and np.all(d > 0):
-        inv_s, info = lapack.dpotri(c, lower=False)
-    if info != 0 or not np.all(d > 0):
-        inv_s = np.full((k, k), np.nan)
-    inv_s = np.triu(inv_s) + np.triu(inv_s, 1).T  # potri fills the upper triangle
-    return inv_s * np.outer(d, d), np.diag(inv_s).copy()
+    n = k if last is None else last
+    U, info = lapack.dpotrf((Js.T @ Js).toarray(), lower=False, clean=True)
+    regular = info == 0 and bool(np.all(d > 0))
+    if regular and last is None:
+        inv_s, info = lapack.dpotri(U, lower=False)
+        inv_s = np.triu(inv_s) + np.triu(inv_s, 1).T  # potri fills the upper triangle
+    elif regular:
+        U22_inv, info = lapack.dtrtri(U[k - n :, k - n :], lower=False)
+        inv_s = U22_inv @ U22_inv.T
+    if not regular or info != 0:
+        inv_s = np.full((n, n), np.nan)
+    return inv_s * np.outer(d[k - n :], d[k - n :]), np.diag(inv_s).copy()

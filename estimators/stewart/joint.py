@@ -30,8 +30,14 @@ N_LEGS = 6 * len(LEG_PARAMS)
 # (not the 1e-13 of a sum of unit-size terms). Comparisons of costs take the solve to ~1e-4 std;
 # Gauss-Newton's steps, which compare no costs, take it the rest of the way (``finish``).
 JOINT_COST_ROUNDING = 1e-9
-# The joint adjustment's step tolerance (in units of each parameter's std)
+# The step tolerance (in units of each parameter's std): the Gauss-Newton steps' own rounding is
+# 2e-8 to 1e-7 of the std here, so 1e-8 is never met; a step below 1e-6 leaves, by Gauss-Newton's
+# quadratic convergence, an error at that rounding (the old hand-written solver's minimum to
+# 1e-12 mm). Within ~1e-3 std of the minimum the steps compare no costs (JOINT_COST_ROUNDING).
 JOINT_XTOL = 1e-6
+# The first damping: the start (the sequential pipeline's estimate) is a consistent estimate a
+# few std from the joint one, where Gauss-Newton's steps are already good.
+JOINT_DAMPING = 1e-9
 
 
 @dataclasses.dataclass(frozen=True)
@@ -270,8 +276,7 @@ def joint_information(obs: TrackerObservations, stations, R, t, r, B, l) -> np.n
     normal matrix). At the truth this is the Cramer-Rao bound of any unbiased estimator of the
     legs from these measurements."""
     problem = JointProblem(obs, stations, R, t, r, B, l)
-    inv, _ = inverse_normal(problem.jacobian(problem.start()))
-    return inv[problem.legs(), problem.legs()]
+    return inverse_normal(problem.jacobian(problem.start()), last=N_LEGS)[0]
 
 
 def adjust_jointly(
@@ -300,7 +305,7 @@ def adjust_jointly(
         xtol=JOINT_XTOL,
         rounding=JOINT_COST_ROUNDING,
         finish=True,
-        damping=1e-9,
+        damping=JOINT_DAMPING,
     )
     s = ident.state
     legs = problem.legs()
