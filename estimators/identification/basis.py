@@ -139,7 +139,7 @@ def identifiable_basis(
     # each column as the data move under a typical-size error of its parameter
     J = problem.jacobian(s)
     if sparse.issparse(J):  # the QR below is dense whatever the Jacobian
-        J = J.toarray()
+        J = sparse.csr_matrix(J).toarray()
     Js = J * problem.scales()
     if not np.isfinite(Js).all():  # geqp3 would return a basis of garbage
         raise np.linalg.LinAlgError("the Jacobian is not finite")

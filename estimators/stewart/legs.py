@@ -166,8 +166,8 @@ def two_step_leg(
         )
         bad += int(np.sum(~ok))
         Rs.append(Rm)
-        c, rad, ok = fit_sphere(ts)
-        bad += not ok
+        c, rad, fitted = fit_sphere(ts)
+        bad += not fitted
         centres.append(c)
         radii.append(rad)
         origins.append(np.array(ts))

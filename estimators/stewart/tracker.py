@@ -160,4 +160,4 @@ def poses_from_lengths(
         stations, d.reshape(-1, 3), np.asarray(sigma, float).reshape(-1, 3), start.reshape(-1, 3)
     )
     R, t = rigid_transform(reflectors, pts.reshape(n, 3, 3))
-    return R, t, ok.reshape(n, 3).all(axis=1)
+    return R, t, np.logical_and.reduce(np.asarray(ok).reshape(n, 3), axis=1)
