@@ -18,6 +18,11 @@ from scipy import sparse
 from scipy.linalg import lapack
 from scipy.sparse import linalg as splinalg
 
+# Up to this many columns a scaled normal matrix is factorised densely (LAPACK's Cholesky of a
+# 400-column matrix takes a third less time than SuperLU's, and forming it sparsely is what saves
+# the dense path's cost); beyond it, sparsely, where the dense cost (cubic) would dominate.
+DENSE_LIMIT = 2000
+
 
 class NormalEquations(Protocol):
     """``A = J^T J`` and ``g = J^T r`` of the kept columns (k of them) at one state.
@@ -60,20 +65,30 @@ class DenseNormal:
         return -np.linalg.solve(self.A + lam * np.diag(np.diag(self.A)), self.g)
 
 
-def _factor(M: sparse.csc_matrix) -> splinalg.SuperLU:
-    """SuperLU of a symmetric positive (semi-)definite ``M`` (k, k) with a unit-order diagonal:
-    a fill-reducing column order applied to the rows too, and the diagonal as pivots (no row
-    exchanges needed: the factorisation is Cholesky's in LU form). Raises
-    ``numpy.linalg.LinAlgError`` when a pivot is exactly zero."""
+def solve_spd(M: sparse.spmatrix, rhs: np.ndarray) -> np.ndarray:
+    """``M^-1 rhs`` for a symmetric positive definite ``M`` (k, k) with a unit diagonal (the
+    scaled normal matrix) and rhs (k,): LAPACK's dense Cholesky up to :data:`DENSE_LIMIT`
+    columns, SuperLU beyond (a fill-reducing column order applied to the rows too, the diagonal
+    as pivots: Cholesky's factorisation in LU form). Raises ``numpy.linalg.LinAlgError`` when
+    ``M`` is not positive definite to working precision (dense) or a pivot is exactly zero
+    (sparse)."""
+    if M.shape[0] <= DENSE_LIMIT:
+        U, info = lapack.dpotrf(M.toarray(), lower=False, clean=False)
+        if info != 0:
+            raise np.linalg.LinAlgError(
+                f"the normal matrix is not positive definite (potrf {info})"
+            )
+        return lapack.dpotrs(U, rhs, lower=False)[0]
     try:
-        return splinalg.splu(
-            M,
+        lu = splinalg.splu(
+            sparse.csc_matrix(M),
             permc_spec="COLAMD",
             diag_pivot_thresh=0.0,
             options={"SymmetricMode": True},
         )
     except RuntimeError as e:  # SuperLU's "Factor is exactly singular"
         raise np.linalg.LinAlgError(str(e)) from e
+    return lu.solve(rhs)
 
 
 def unit_diagonal(J: sparse.spmatrix) -> tuple[sparse.csr_matrix, np.ndarray]:
@@ -90,9 +105,9 @@ def unit_diagonal(J: sparse.spmatrix) -> tuple[sparse.csr_matrix, np.ndarray]:
 
 
 class SparseNormal:
-    """The normal equations of a sparse Jacobian ``J`` (m, k) and residuals ``r`` (m,), solved
-    by a sparse factorisation of ``D A D``, ``A`` scaled to a unit diagonal (:func:`unit_diagonal`),
-    where Marquardt's damping ``lam diag(A)`` is ``lam I``."""
+    """The normal equations of a sparse Jacobian ``J`` (m, k) and residuals ``r`` (m,), formed
+    sparsely and solved on ``D A D``, ``A`` scaled to a unit diagonal (:func:`unit_diagonal`),
+    where Marquardt's damping ``lam diag(A)`` is ``lam I`` (:func:`solve_spd`)."""
 
     def __init__(self, J: sparse.spmatrix, r: np.ndarray):
         Js, self.d = unit_diagonal(J)
@@ -108,7 +123,7 @@ class SparseNormal:
         if lam == 0.0 and self._undamped is not None:
             return self._undamped
         M = self.As if lam == 0.0 else self.As + lam * sparse.identity(len(self.d), format="csc")
-        x = _factor(sparse.csc_matrix(M)).solve(self.gs)
+        x = solve_spd(M, self.gs)
         if lam == 0.0:
             self._undamped = x
         return x
@@ -146,8 +161,10 @@ def inverse_normal(J: sparse.spmatrix, last: int | None = None) -> tuple[np.ndar
     U, info = lapack.dpotrf((Js.T @ Js).toarray(), lower=False, clean=True)
     regular = info == 0 and bool(np.all(d > 0))
     if regular and last is None:
-        inv_s, info = lapack.dpotri(U, lower=False)
-        inv_s = np.triu(inv_s) + np.triu(inv_s, 1).T  # potri fills the upper triangle
+        inv_s, info = lapack.dpotri(
+            U, lower=False
+        )  # the upper triangle; clean=True zeroed the rest
+        inv_s += np.triu(inv_s, 1).T
     elif regular:
         U22_inv, info = lapack.dtrtri(U[k - n :, k - n :], lower=False)
         inv_s = U22_inv @ U22_inv.T
