@@ -5,8 +5,11 @@ columns) or a scipy.sparse matrix (a large structured problem: the Stewart platf
 adjustment has six columns per pose, each pose's rows touching only its own six, the stations'
 and the legs'). The solver asks both kinds the same three things: the diagonal of ``A = J^T J``,
 the undamped step's promised decrease ``g^T A^-1 g`` and the step damped by Marquardt's
-``lam diag(A)``. The dense kind does it as it always has; the sparse kind factorises ``A``
-(SuperLU) after scaling it to a unit diagonal, where Marquardt's damping is ``lam I``.
+``lam diag(A)``. The dense kind does it as it always has; the sparse kind forms ``A`` sparsely
+(the dense product's cost is what a large problem cannot pay), scales it to a unit diagonal,
+where Marquardt's damping is ``lam I``, and factorises it (LAPACK's Cholesky up to
+:data:`DENSE_LIMIT` columns, SuperLU beyond). :func:`inverse_normal` is the sparse kind's
+covariance.
 """
 
 from __future__ import annotations
@@ -161,9 +164,8 @@ def inverse_normal(J: sparse.spmatrix, last: int | None = None) -> tuple[np.ndar
     U, info = lapack.dpotrf((Js.T @ Js).toarray(), lower=False, clean=True)
     regular = info == 0 and bool(np.all(d > 0))
     if regular and last is None:
-        inv_s, info = lapack.dpotri(
-            U, lower=False
-        )  # the upper triangle; clean=True zeroed the rest
+        # potri fills the upper triangle; the lower one is U's, which clean=True zeroed
+        inv_s, info = lapack.dpotri(U, lower=False)
         inv_s += np.triu(inv_s, 1).T
     elif regular:
         U22_inv, info = lapack.dtrtri(U[k - n :, k - n :], lower=False)

@@ -45,9 +45,10 @@ class Status(enum.Enum):
 
 @dataclasses.dataclass(frozen=True)
 class Iteration:
-    """One iteration of the solver: the cost it started from, the damping of its last try, the
-    largest step of a parameter in units of its std (``|step| sqrt(A_ii)``), and whether a step
-    was taken."""
+    """One iteration of the solver: the cost it started from, the damping of its last try (0 for
+    a Gauss-Newton step past the cost's rounding floor, ``identify(finish=True)``), the largest
+    step of a parameter in units of its std (``|step| sqrt(A_ii)``), and whether a step was
+    taken."""
 
     cost: float
     damping: float
