@@ -12,6 +12,7 @@ import dataclasses
 from collections.abc import Callable
 
 import numpy as np
+from scipy import sparse
 from scipy.linalg import lapack
 
 from calibench.estimators.identification.problem import Problem
@@ -136,7 +137,10 @@ def identifiable_basis(
     s = problem.start() if state is None else state
     names = problem.names
     # each column as the data move under a typical-size error of its parameter
-    Js = problem.jacobian(s) * problem.scales()
+    J = problem.jacobian(s)
+    if sparse.issparse(J):  # the QR below is dense whatever the Jacobian
+        J = sparse.csr_matrix(J).toarray()
+    Js = J * problem.scales()
     if not np.isfinite(Js).all():  # geqp3 would return a basis of garbage
         raise np.linalg.LinAlgError("the Jacobian is not finite")
     norm = np.linalg.norm(Js, axis=0)

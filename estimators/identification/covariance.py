@@ -3,17 +3,23 @@
 from __future__ import annotations
 
 import numpy as np
+from scipy import sparse
+
+from calibench.estimators.identification.normal import inverse_normal
 
 # kept columns whose variance inflation reaches this repeat each other (see covariance)
 MAX_VARIANCE_INFLATION = 1e12
 
 
-def covariance(J: np.ndarray, cost: float) -> tuple[np.ndarray, float]:
+def covariance(J, cost: float) -> tuple[np.ndarray, float]:
     """The estimated parameters' covariance at the minimum of a whitened problem.
 
     Parameters
     ----------
-    J : (m, k) whitened Jacobian of the estimated parameters at the minimum.
+    J : (m, k) whitened Jacobian of the estimated parameters at the minimum: a numpy array, or a
+        scipy.sparse matrix (then the normal matrix is factorised sparsely,
+        :func:`~calibench.estimators.identification.normal.inverse_normal`; the test below is
+        the same).
     cost : the sum of the squared whitened residuals there.
 
     Returns
@@ -30,16 +36,24 @@ def covariance(J: np.ndarray, cost: float) -> tuple[np.ndarray, float]:
         other to rounding (frames and a tool a degenerate arm cannot tell apart) give about
         1 / eps, a negative variance or a NaN, whichever the rounding picks.
     """
-    dof = max(len(J) - J.shape[1], 1)
+    dof = max(J.shape[0] - J.shape[1], 1)
     s2 = cost / dof
+    if sparse.issparse(J):
+        A_inv, vif = inverse_normal(J)
+        _check(vif)
+        return A_inv * s2, s2
     A = J.T @ J
     try:
         A_inv = np.linalg.inv(A)
     except np.linalg.LinAlgError:
         A_inv = np.full_like(A, np.nan)  # exactly singular: said below, as every other kind is
-    vif = np.diag(A_inv) * np.diag(A)
+    _check(np.diag(A_inv) * np.diag(A))
+    return A_inv * s2, s2
+
+
+def _check(vif: np.ndarray) -> None:
+    """Raise ``LinAlgError`` unless every variance inflation (k,) is a regular matrix's."""
     if not np.all((vif >= 0.5) & (vif < MAX_VARIANCE_INFLATION)):
         raise np.linalg.LinAlgError(
             "the kept parameters' normal matrix is singular to working precision"
         )
-    return A_inv * s2, s2

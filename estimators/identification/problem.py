@@ -56,7 +56,10 @@ class Problem(Protocol):
         ...
 
     def jacobian(self, s: State) -> np.ndarray:
-        """d residuals / d step, (m, n), at ``s`` (a step as :meth:`update` applies it)."""
+        """d residuals / d step, (m, n), at ``s`` (a step as :meth:`update` applies it): a numpy
+        array, or a scipy.sparse matrix for a large structured problem (many nuisance blocks,
+        each touching few rows), whose normal equations the solver then factorises sparsely
+        (:mod:`calibench.estimators.identification.normal`)."""
         ...
 
     def update(self, s: State, step: np.ndarray) -> State:

@@ -4,7 +4,10 @@ The one solver of calibench's identifications (the arm's problems, the Stewart p
 adjustment): it takes a :class:`~calibench.estimators.identification.problem.Problem` and a
 :class:`~calibench.estimators.identification.basis.Basis`, and returns the estimate, its
 covariance, why it stopped (:class:`Status`) and what each iteration did (:class:`Iteration`),
-after mujoco's ``minimize.least_squares``.
+after mujoco's ``minimize.least_squares``. A problem whose Jacobian is a scipy.sparse matrix
+(many nuisance blocks: the Stewart platform's poses) has its normal equations and covariance
+factorised sparsely (:mod:`calibench.estimators.identification.normal`); a dense one's
+arithmetic is that of a plain LAPACK solve.
 """
 
 from __future__ import annotations
@@ -13,10 +16,12 @@ import dataclasses
 import enum
 
 import numpy as np
+from scipy import sparse
 
 from calibench.estimators.identification.basis import Basis, identifiable_basis
 from calibench.estimators.identification.covariance import covariance
-from calibench.estimators.identification.problem import Problem
+from calibench.estimators.identification.normal import normal_equations
+from calibench.estimators.identification.problem import Problem, State
 
 # a sum of squares of a few hundred whitened residuals is exact to about 1e-14 of itself: a
 # promised decrease below this fraction of the cost is rounding (a step of ~1e-6 std)
@@ -40,9 +45,10 @@ class Status(enum.Enum):
 
 @dataclasses.dataclass(frozen=True)
 class Iteration:
-    """One iteration of the solver: the cost it started from, the damping of its last try, the
-    largest step of a parameter in units of its std (``|step| sqrt(A_ii)``), and whether a step
-    was taken."""
+    """One iteration of the solver: the cost it started from, the damping of its last try (0 for
+    a Gauss-Newton step past the cost's rounding floor, ``identify(finish=True)``), the largest
+    step of a parameter in units of its std (``|step| sqrt(A_ii)``), and whether a step was
+    taken."""
 
     cost: float
     damping: float
@@ -56,7 +62,7 @@ class Identification:
     whitened residual RMS (1 when the noise model is right), why it stopped and its trace, and the
     kept parameters' covariance (in ``basis.kept`` order)."""
 
-    state: object
+    state: State  # the problem's own state type
     estimate: dict[str, float]
     std: dict[str, float]
     basis: Basis
@@ -72,8 +78,26 @@ class Identification:
         return self.status.converged
 
 
+def kept_columns(J, kept: np.ndarray):
+    """The kept columns (m, k) of a Jacobian (m, n): ``J[:, kept]`` for a numpy array; a
+    scipy.sparse one as it is when every column is kept in order (a structured problem's
+    usual basis), else its columns taken as CSC."""
+    if not sparse.issparse(J):
+        return J[:, kept]
+    if len(kept) == J.shape[1] and np.array_equal(kept, np.arange(J.shape[1])):
+        return J
+    return sparse.csc_matrix(J)[:, kept]
+
+
 def identify(
-    problem: Problem, basis: Basis, state=None, max_iter: int = 50, xtol: float = 1e-8
+    problem: Problem,
+    basis: Basis,
+    state=None,
+    max_iter: int = 50,
+    xtol: float = 1e-8,
+    rounding: float = COST_ROUNDING,
+    finish: bool = False,
+    damping: float = 1e-3,
 ) -> Identification:
     """Levenberg-Marquardt over the kept parameters; std from the whitened normal matrix.
 
@@ -89,6 +113,14 @@ def identify(
     basis : which columns to estimate; the others stay where ``state`` has them.
     state : where to start (default ``problem.start()``).
     max_iter, xtol : the iteration limit and the step tolerance (in units of each std).
+    rounding : the cost's own rounding, relative to it (default :data:`COST_ROUNDING`): residuals
+        that are differences of large numbers (metre lengths measured to the micrometre) sum to a
+        cost exact only to about 1e-10 of itself.
+    finish : past the rounding floor, take Gauss-Newton's undamped steps (they need no
+        comparison of costs) until one moves no parameter by more than ``xtol`` of its std, instead
+        of stopping at the floor: the minimum to the precision of the steps, not of the cost.
+    damping : Marquardt's first damping (of ``diag(A)``); a start already close to the minimum (a
+        consistent estimate to refine) can begin nearly undamped.
 
     Returns
     -------
@@ -102,28 +134,43 @@ def identify(
     """
     s = problem.start() if state is None else state
     k = basis.kept
-    lam = 1e-3
+    lam = damping
     r = problem.residuals(s)
     cost = r @ r
     it, status = 0, Status.MAX_ITER
     trace: list[Iteration] = []
     for it in range(1, max_iter + 1):  # noqa: B007 - the count is reported after the loop
-        J = problem.jacobian(s)[:, k]
-        A, g = J.T @ J, J.T @ r
+        normal = normal_equations(kept_columns(problem.jacobian(s), k), r)
+        diag, g = normal.diag, normal.g
         start_cost = float(cost)
         # the most the linearised model promises is the undamped step's decrease, g' A^-1 g: a
         # damped step promises less, so only the undamped one may say the minimum is reached
         try:
-            floor = bool(g @ np.linalg.solve(A, g) <= COST_ROUNDING * cost)
+            floor = bool(normal.undamped_decrease() <= rounding * cost)
         except np.linalg.LinAlgError:
             floor = False
+        if floor and finish:
+            # no comparison of costs can judge a step any more: Gauss-Newton's (undamped) steps,
+            # which need none, go on to the minimum until they are below the tolerance
+            step_k = normal.step(0.0)
+            step = np.zeros(len(problem.names))
+            step[k] = step_k
+            s = problem.update(s, step)
+            r = problem.residuals(s)
+            cost = r @ r
+            step_std = float(np.max(np.abs(step_k) * np.sqrt(diag)))
+            trace.append(Iteration(start_cost, 0.0, step_std, True))
+            if step_std < xtol:
+                status = Status.COST_ROUNDING
+                break
+            continue
         if floor:
             status = Status.COST_ROUNDING
             trace.append(Iteration(start_cost, lam, 0.0, False))
             break
         accepted = False
         while True:
-            step_k = -np.linalg.solve(A + lam * np.diag(np.diag(A)), g)
+            step_k = normal.step(lam)
             step = np.zeros(len(problem.names))
             step[k] = step_k
             s_new = problem.update(s, step)
@@ -132,12 +179,12 @@ def identify(
                 s, r, cost, lam = s_new, r_new, r_new @ r_new, max(lam / 10, 1e-12)
                 accepted = True
                 break
-            if np.max(np.abs(step_k) * np.sqrt(np.diag(A))) < xtol:
+            if np.max(np.abs(step_k) * np.sqrt(diag)) < xtol:
                 break  # a step already below the tolerance: shorter ones change nothing either
             lam *= 10
             if lam > 1e12:
                 break
-        step_std = float(np.max(np.abs(step_k) * np.sqrt(np.diag(A))))
+        step_std = float(np.max(np.abs(step_k) * np.sqrt(diag)))
         trace.append(Iteration(start_cost, lam, step_std, accepted))
         if accepted:
             if step_std < xtol:
@@ -146,12 +193,12 @@ def identify(
             continue
         # no step lowers the cost any more (the damped ones, however short): a minimum only if the
         # gradient says so too; a wrong model or Jacobian ends here unconverged
-        vanishes = np.max(np.abs(g) / np.sqrt(np.maximum(np.diag(A), 1e-300))) < 1e-6 * max(
+        vanishes = np.max(np.abs(g) / np.sqrt(np.maximum(diag, 1e-300))) < 1e-6 * max(
             np.sqrt(cost), 1.0
         )
         status = Status.ZERO_GRADIENT if vanishes else Status.NO_DECREASE
         break
-    cov, s2 = covariance(problem.jacobian(s)[:, k], cost)
+    cov, s2 = covariance(kept_columns(problem.jacobian(s), k), cost)
     names = problem.names
     values = problem.values(s)
     return Identification(

@@ -17,6 +17,25 @@ def leg_lengths(R: np.ndarray, t: np.ndarray, r: np.ndarray, B: np.ndarray) -> n
     return np.linalg.norm(r @ R.T + t - B, axis=1)
 
 
+def leg_conditions(
+    r: np.ndarray, B: np.ndarray, R: np.ndarray, t: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The legs' lengths (n, 6) mm and the condition numbers (n,) of their Jacobian at poses
+    R (n, 3, 3), t (n, 3), for platform hinges r (6, 3) and base hinges B (6, 3): rows
+    (u, (R r) x u / rho), u the leg's unit vector, rho the platform's hinge radius (so turns and
+    shifts weigh alike). A pose where a leg has no length (or no finite one) has condition inf."""
+    arm = np.einsum("nij,kj->nki", R, r)  # (n, 6, 3)
+    v = arm + t[:, None] - B
+    L = np.linalg.norm(v, axis=2)
+    rho = float(np.max(np.linalg.norm(r, axis=1)))
+    with np.errstate(all="ignore"):
+        u = v / L[..., None]
+        J = np.concatenate([u, np.cross(arm, u) / rho], axis=2)
+        sv = np.linalg.svd(np.nan_to_num(J, nan=0.0, posinf=0.0, neginf=0.0), compute_uv=False)
+        cond = np.where(sv[:, -1] > 0, sv[:, 0] / sv[:, -1], np.inf)
+    return L, cond
+
+
 def forward_kinematics(
     lengths: np.ndarray,
     r: np.ndarray,

@@ -1,5 +1,6 @@
 """Where a laser tracker's lengths put a point: trilateration from three known points (the seed's
-Eq. 1, with the covariance of Eq. 4-5) and multilateration from three or more stations.
+Eq. 1, with the covariance of Eq. 4-5) and multilateration from three or more stations; the
+tracker's stations from the reference nests, and a platform's poses from its reflectors.
 
 Lengths in mm; stations and points in the base frame.
 """
@@ -7,6 +8,8 @@ Lengths in mm; stations and points in the base frame.
 from __future__ import annotations
 
 import numpy as np
+
+from calibench.estimators.rotations import rigid_transform
 
 
 def trilaterate(
@@ -100,3 +103,61 @@ def multilaterate_many(
     J = v / np.linalg.norm(v, axis=2)[..., None]
     cov = np.linalg.inv(np.einsum("nki,nk,nkj->nij", J, w, J))
     return p, cov, np.max(np.abs(step), axis=1) < CONVERGED_STEP
+
+
+def locate_stations(
+    nests: np.ndarray, lengths: np.ndarray, sigma: np.ndarray, above: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The tracker's stations from their lengths to three reference nests (the seed's Eq. 1),
+    each with its covariance (Eq. 4-5).
+
+    Parameters
+    ----------
+    nests : (3, 3) the nests' known positions (base frame, mm).
+    lengths : (s, 3) each station's lengths to the three nests (mm).
+    sigma : (s, 3) their 1-sigma (mm).
+    above : (3,) the side of the nests' plane the stations are on.
+
+    Returns
+    -------
+    stations : (s, 3) mm
+    cov : (s, 3, 3) mm^2
+    """
+    out = [
+        trilaterate(nests, d, sd, above=np.asarray(above, float)) for d, sd in zip(lengths, sigma)
+    ]
+    return np.array([p for p, _ in out]), np.array([c for _, c in out])
+
+
+def poses_from_lengths(
+    reflectors: np.ndarray,
+    stations: np.ndarray,
+    lengths: np.ndarray,
+    sigma: np.ndarray,
+    R_guess: np.ndarray,
+    t_guess: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A platform's poses from the tracker's lengths to three reflectors: each reflector
+    multilaterated from the stations (weighted by its 1-sigma), then the rigid transform of the
+    reflectors' platform coordinates onto the three points.
+
+    Parameters
+    ----------
+    reflectors : (3, 3) the reflectors in the platform frame (mm).
+    stations : (3, 3) the stations (base frame, mm).
+    lengths, sigma : (n, 3 reflectors, 3 stations) the lengths and their 1-sigma (mm).
+    R_guess, t_guess : (n, 3, 3), (n, 3) the poses to start from (the commanded ones).
+
+    Returns
+    -------
+    R : (n, 3, 3), t : (n, 3) mm the poses (platform frame into the base frame);
+    ok : (n,) whether each pose's three multilaterations converged.
+    """
+    d = np.asarray(lengths, float)
+    n = len(d)
+    start = np.einsum("kj,nij->nki", reflectors, np.asarray(R_guess)) + np.asarray(t_guess)[:, None]
+    pts, _, ok = multilaterate_many(
+        stations, d.reshape(-1, 3), np.asarray(sigma, float).reshape(-1, 3), start.reshape(-1, 3)
+    )
+    R, t = rigid_transform(reflectors, pts.reshape(n, 3, 3))
+    return R, t, np.logical_and.reduce(np.asarray(ok).reshape(n, 3), axis=1)

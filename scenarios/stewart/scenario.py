@@ -23,16 +23,16 @@ from pathlib import Path
 
 import numpy as np
 
-from calibench.estimators.camera.pose import mean_rotation
-from calibench.estimators.rotations import rigid_transform, rotvec_to_matrix
+from calibench.estimators.rotations import rotvec_to_matrix
 from calibench.estimators.stewart.joint import (
     TrackerObservations,
     adjust_jointly,
     joint_information,
 )
-from calibench.estimators.stewart.kinematics import forward_kinematics_many
-from calibench.estimators.stewart.legs import LegCalibration, calibrate_leg, fit_sphere
-from calibench.estimators.stewart.tracker import multilaterate_many, trilaterate
+from calibench.estimators.stewart.kinematics import forward_kinematics_many, leg_conditions
+from calibench.estimators.stewart.legs import LegCalibration, calibrate_legs, two_step_leg
+from calibench.estimators.stewart.tracker import locate_stations, poses_from_lengths
+from calibench.scenarios.harness import write_outputs
 from calibench.scenarios.report import Check, Parameter, Report
 from calibench.scenes.stewart import LEG_STROKE_MM, PLATFORM_KG, StewartGeometry
 from calibench.sim.stewart import StewartSim, StewartTruth
@@ -72,36 +72,15 @@ class StewartConfig:
         return (a + b * np.asarray(L_mm) / 1000) / 1000
 
 
-# What the config's checks hold the set-up to (see check_config).
-MAX_ERROR_FRACTION = (
-    0.1  # a 1-sigma geometric error over 10 % of the platform's size is not a calibration error
-)
-MAX_GIVE_FRACTION = (
-    0.01  # a leg's give under the load, of its length: beyond it the legs are springs
-)
-MAX_ROTATION_DEG = 90.0  # the poses' turn about each axis: beyond it the platform lies on its side
-MAX_CONDITION = (
-    1000.0  # the legs' Jacobian (rotations over the platform's radius): beyond it, near-singular
-)
-
-
-def _legs(
-    r: np.ndarray, B: np.ndarray, R: np.ndarray, t: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """The nominal legs' lengths (n, 6) mm and the condition numbers (n,) of their Jacobian at
-    poses R (n, 3, 3), t (n, 3), for platform hinges r (6, 3) and base hinges B (6, 3): rows
-    (u, (R r) x u / rho), u the leg's unit vector, rho the platform's hinge radius (so turns and
-    shifts weigh alike)."""
-    arm = np.einsum("nij,kj->nki", R, r)  # (n, 6, 3)
-    v = arm + t[:, None] - B
-    L = np.linalg.norm(v, axis=2)
-    rho = float(np.max(np.linalg.norm(r, axis=1)))
-    with np.errstate(all="ignore"):
-        u = v / L[..., None]
-        J = np.concatenate([u, np.cross(arm, u) / rho], axis=2)
-        sv = np.linalg.svd(np.nan_to_num(J, nan=0.0, posinf=0.0, neginf=0.0), compute_uv=False)
-        cond = np.where(sv[:, -1] > 0, sv[:, 0] / sv[:, -1], np.inf)
-    return L, cond
+# What the config's checks hold the set-up to (see check_config):
+# a 1-sigma geometric error over 10 % of the platform's size is not a calibration error;
+MAX_ERROR_FRACTION = 0.1
+# a leg's give under the load, of its length: beyond it the legs are springs;
+MAX_GIVE_FRACTION = 0.01
+# the poses' turn about each axis: beyond it the platform lies on its side;
+MAX_ROTATION_DEG = 90.0
+# the legs' Jacobian's condition (rotations over the platform's radius): beyond it, near-singular
+MAX_CONDITION = 1000.0
 
 
 @functools.lru_cache(maxsize=16)
@@ -114,10 +93,10 @@ def _workspace(
     the 729 poses cost a few milliseconds."""
     r, B = np.asarray(r, float).reshape(6, 3), np.asarray(B, float).reshape(6, 3)
     home_t = np.array([[0.0, 0.0, home_height_mm]])
-    L_home, cond_home = _legs(r, B, np.eye(3)[None], home_t)
+    L_home, cond_home = leg_conditions(r, B, np.eye(3)[None], home_t)
     corners = np.array(np.meshgrid(*[[-1.0, 0.0, 1.0]] * 6)).reshape(6, -1).T  # (729, 6)
     R = rotvec_to_matrix(np.deg2rad(rotation_deg) * corners[:, 3:])
-    L, cond = _legs(r, B, R, home_t + translation_mm * corners[:, :3])
+    L, cond = leg_conditions(r, B, R, home_t + translation_mm * corners[:, :3])
     return L_home[0], float(cond_home[0]), float(L.min()), float(L.max()), float(np.max(cond))
 
 
@@ -227,42 +206,15 @@ def random_poses(n, rng, config):
     ]
 
 
-def locate_stations(sim: StewartSim, sigma_mm):
-    """Each station from its lengths to the three nests (Eq. 1), with covariance (Eq. 4-5) from
-    the stated 1-sigma ``sigma_mm(L)``, and the lengths (3 stations, 3 nests)."""
-    g = sim.geometry
-    out, lengths = [], []
-    for s in range(3):
-        d = sim.distances_mm(s, g.reference_nests_mm)
-        lengths.append(d)
-        out.append(trilaterate(g.reference_nests_mm, d, sigma_mm(d), above=np.array([0, 0, 1.0])))
-    return np.array([p for p, _ in out]), [c for _, c in out], np.array(lengths)
-
-
-def poses_from_lengths(
-    sim: StewartSim,
-    stations: np.ndarray,
-    d: np.ndarray,
-    R_guess: np.ndarray,
-    t_guess: np.ndarray,
-    sigma_mm,
-):
-    """The platform's poses (R (n, 3, 3), t (n, 3) mm) from the tracker's distances ``d`` (n, 3
-    reflectors, 3 stations): each reflector multilaterated from the stations (weighted by the
-    stated ``sigma_mm(L)``), then a rigid fit, from the guesses (R_guess (n, 3, 3), t_guess (n, 3));
-    and whether each pose's three multilaterations converged (n,)."""
-    g = sim.geometry
-    d = np.asarray(d, float)
-    n = len(d)
-    start = (
-        np.einsum("kj,nij->nki", g.reflectors_mm[:3], np.asarray(R_guess))
-        + np.asarray(t_guess)[:, None]
+def measure_stations(sim: StewartSim, config: StewartConfig):
+    """The tracker at each station measures the three nests: the lengths (3 stations, 3 nests)
+    mm, and the stations with their covariance (Eq. 1, 4-5) from the stated 1-sigma."""
+    nests = sim.geometry.reference_nests_mm
+    lengths = np.array([sim.distances_mm(s, nests) for s in range(3)])
+    stations, cov = locate_stations(
+        nests, lengths, config.length_sigma_mm(lengths), above=np.array([0, 0, 1.0])
     )
-    pts, _, ok = multilaterate_many(
-        stations, d.reshape(-1, 3), sigma_mm(d.reshape(-1, 3)), start.reshape(-1, 3)
-    )
-    R, t = rigid_transform(g.reflectors_mm[:3], pts.reshape(n, 3, 3))
-    return R, t, ok.reshape(n, 3).all(axis=1)
+    return stations, cov, lengths
 
 
 def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool) -> Report:
@@ -274,45 +226,31 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
     rng = np.random.default_rng(seed)
     g = config.geometry
     sim = StewartSim(g, config.truth, np.random.default_rng(rng.integers(2**63)))
-    stations, station_cov, nest_lengths = locate_stations(sim, config.length_sigma_mm)
+    stations, station_cov, nest_lengths = measure_stations(sim, config)
     station_err = np.linalg.norm(stations - sim.stations, axis=1)
 
     # one-step data
     poses = random_poses(config.n_poses, rng, config)
-    meas_R, meas_t, readings, lengths = [], [], [], []
+    readings, lengths = [], []
     unconverged = 0  # multilaterations, spheres and forward kinematics that ran out of iterations
     for R, t in poses:  # the draws in the machine's order: legs, then the tracker, pose by pose
         sim.set_pose(R, t)
         readings.append(sim.readings_mm())
         lengths.append(sim.distances_many_mm(sim.reflectors_mm()[:3]))
     meas_R, meas_t, ok = poses_from_lengths(
-        sim,
+        g.reflectors_mm[:3],
         stations,
         np.array(lengths),
+        config.length_sigma_mm(np.array(lengths)),
         np.array([R for R, _ in poses]),
         np.array([t for _, t in poses]),
-        config.length_sigma_mm,
     )
     unconverged += int(np.sum(~ok))
     readings = np.array(readings)
     # each equation's sigma: the reading plus what the pose's error does at the hinge (~1 um)
     sigma = np.full(len(poses), np.hypot(config.stated_reading_sigma_um, 1.0) / 1000)
-
-    def solve_legs(R_all, t_all):
-        return [
-            calibrate_leg(
-                R_all,
-                t_all,
-                readings[:, i],
-                g.platform_hinges_mm[i],
-                g.base_hinges_mm[i],
-                g.initial_lengths_mm[i],
-                sigma,
-            )
-            for i in range(6)
-        ]
-
-    pipeline = solve_legs(meas_R, meas_t)
+    nominal = (g.platform_hinges_mm, g.base_hinges_mm, g.initial_lengths_mm)
+    pipeline = calibrate_legs(meas_R, meas_t, readings, *nominal, sigma)
     # The sequential pipeline leaves information unused (the legs' readings say where the
     # platform is too, and every pose says where the stations are): finish with the joint
     # maximum likelihood over stations, poses and legs, whose covariance reaches the CRLB.
@@ -363,26 +301,22 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
     ]
 
     # two-step
-    two_step, spheres = [], []
-    for i in range(6):
-        cal, sph, bad = two_step_leg(sim, stations, i, rng, config.length_sigma_mm)
-        unconverged += bad
-        two_step.append(cal)
-        spheres.append(sph)
+    two_step = [two_step_experiment(sim, stations, i, config) for i in range(6)]
+    unconverged += sum(c.unconverged for c in two_step)
+    spheres = [list(zip(c.centres, c.radii, c.origins)) for c in two_step]
 
     # held-out poses: the pose from the readings, nominal vs calibrated
     hold = random_poses(config.n_holdout, rng, config)
     err = {"before": [], "after": [], "two_step": []}
-    nominal = (g.platform_hinges_mm, g.base_hinges_mm, g.initial_lengths_mm)
     one = (
         np.array([c.r for c in legs]),
         np.array([c.B for c in legs]),
         np.array([c.l for c in legs]),
     )
     two = (
-        np.array([c[0] for c in two_step]),
-        np.array([c[1] for c in two_step]),
-        np.array([c[2] for c in two_step]),
+        np.array([c.r for c in two_step]),
+        np.array([c.B for c in two_step]),
+        np.array([c.l for c in two_step]),
     )
     home = (np.eye(3), np.array([0, 0, g.home_height_mm]))
     reads = []
@@ -456,7 +390,7 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
             "two-step spheres and the held-out poses' forward kinematics",
         ),
     ]
-    two_err = np.array([np.r_[c[0], c[1], c[2]] for c in two_step]) - np.array(truth_vals)
+    two_err = np.array([np.r_[c.r, c.B, c.l] for c in two_step]) - np.array(truth_vals)
     one_err = np.array([np.r_[c.r, c.B, c.l] for c in legs]) - np.array(truth_vals)
     report.info = {
         "compare_rms_error_mm": {
@@ -464,7 +398,7 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
             "two_step": float(np.sqrt(np.mean(two_err**2))),
         },
         "two_step": {
-            f"leg{i + 1}": dict(zip(LEG_PARAMS, map(float, np.r_[c[0], c[1], c[2]])))
+            f"leg{i + 1}": dict(zip(LEG_PARAMS, map(float, np.r_[c.r, c.B, c.l])))
             for i, c in enumerate(two_step)
         },
         "station_error_um": (station_err * 1000).tolist(),
@@ -478,15 +412,15 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
             )
         ),
     }
-    artifacts = dict(sim=sim, poses=poses, stations=stations, spheres=spheres, config=config)
-    if out_dir is not None:  # a Monte-Carlo trial keeps only the numbers
-        _write_figure(out_dir, report, err)
-    if rrd and out_dir is not None:
-        from calibench.scenarios.stewart import viewer
-
-        viewer.log_run(out_dir / "run.rrd", report, artifacts)
-        report.rrd = "run.rrd"
-    return report
+    artifacts = dict(
+        sim=sim,
+        poses=poses,
+        stations=stations,
+        spheres=spheres,
+        config=config,
+        holdout_error_mm=err,
+    )
+    return write_outputs(report, artifacts, out_dir, rrd, "calibench.scenarios.stewart")
 
 
 def directions_across(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -501,10 +435,10 @@ def directions_across(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return a, np.cross(u, a)
 
 
-def two_step_leg(sim: StewartSim, stations: np.ndarray, i: int, rng, sigma_mm):
+def two_step_experiment(sim: StewartSim, stations: np.ndarray, i: int, config: StewartConfig):
     """Lock leg i at its home length; translate the platform at three fixed orientations so the
-    leg keeps its length; fit a sphere to each set of platform origins (Eq. 2). Returns (r, B, l),
-    the spheres, and how many of its solves did not converge."""
+    leg keeps its length, the tracker measuring each place; the two-step method's estimate from
+    those lengths (:func:`calibench.estimators.stewart.legs.two_step_leg`)."""
     g = sim.geometry
     home_t = np.array([0, 0, g.home_height_mm])
     # the sphere's centre lies along the leg: a wide cap pins it, and wide turns between the
@@ -517,8 +451,7 @@ def two_step_leg(sim: StewartSim, stations: np.ndarray, i: int, rng, sigma_mm):
     sim.set_pose(np.eye(3), home_t)
     locked = sim.readings_mm()[i]
     L = sim.leg_lengths_mm()[i]
-    centres, radii, Rs, pts_all = [], [], [], []
-    bad = 0
+    places, lengths = [], []
     for R0 in orientations:
         c_true = sim.B[i] - R0 @ sim.r[i]  # the platform origin's sphere (truth drives the motion)
         u0 = (home_t - c_true) / np.linalg.norm(home_t - c_true)
@@ -532,74 +465,21 @@ def two_step_leg(sim: StewartSim, stations: np.ndarray, i: int, rng, sigma_mm):
         for t in targets:
             sim.set_pose(R0, t)
             d.append(sim.distances_many_mm(sim.reflectors_mm()[:3]))
-        Rm, ts, ok = poses_from_lengths(
-            sim,
-            stations,
-            np.array(d),
-            np.repeat(R0[None], len(targets), axis=0),
-            np.array(targets),
-            sigma_mm,
-        )
-        bad += int(np.sum(~ok))
-        Rs.extend(Rm)
-        c, rad, ok = fit_sphere(ts)
-        bad += not ok
-        centres.append(c)
-        radii.append(rad)
-        pts_all.append(np.array(ts))
-    # centres C_o = B - R_o r: differences give r; then B and l. The orientations are the
-    # measured ones (mean of each group of five), not what was commanded.
-
-    n = len(Rs) // 3
-    measured = [mean_rotation(np.array(Rs[n * k : n * (k + 1)])) for k in range(3)]
-    orientations = measured
-    A = np.vstack([orientations[0] - orientations[k] for k in (1, 2)])
-    y = np.r_[centres[1] - centres[0], centres[2] - centres[0]]
-    r = np.linalg.lstsq(A, y, rcond=None)[0]
-    B = np.mean([centres[k] + orientations[k] @ r for k in range(3)], axis=0)
-    l = float(np.mean(radii) - locked)
-    return (r, B, l), [(c, rad, p) for c, rad, p in zip(centres, radii, pts_all)], bad
+        places.append(targets)
+        lengths.append(d)
+    lengths = np.array(lengths)
+    return two_step_leg(
+        g.reflectors_mm[:3],
+        stations,
+        lengths,
+        config.length_sigma_mm(lengths),
+        np.array(orientations),
+        np.array(places),
+        locked,
+    )
 
 
 def prior(config: StewartConfig, rng: np.random.Generator) -> StewartConfig:
     """The hinges' and lengths' errors are drawn by the simulator from the run's seed (hinges
     N(0, 0.4 mm), initial lengths N(0, 0.5 mm)): nothing more to draw here."""
     return config
-
-
-def _write_figure(out_dir: Path, report: Report, err: dict) -> None:
-    """Held-out pose error per pose before and after calibration, and every leg parameter's
-    error in units of its reported std (a calibration whose std are honest keeps them in +-3)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    out_dir.mkdir(parents=True, exist_ok=True)
-    fig, (a, b) = plt.subplots(1, 2, figsize=(12, 4.2), constrained_layout=True)
-    k = np.arange(1, len(err["before"]) + 1)
-    for key, color, label in (
-        ("before", "tab:red", "nominal"),
-        ("after", "tab:green", "one-step calibration"),
-        ("two_step", "tab:blue", "two-step calibration"),
-    ):
-        rms_um = np.sqrt(np.mean(np.square(err[key]), axis=1)) * 1000
-        a.semilogy(
-            k, rms_um, "o", color=color, label=f"{label}: rms {np.sqrt(np.mean(rms_um**2)):.3g} um"
-        )
-    a.set(
-        xlabel="held-out pose",
-        ylabel="hinge-point error, rms over the six (um)",
-        title="stewart: held-out poses",
-    )
-    a.legend(fontsize=8)
-    z = np.array([(p.estimate - p.truth) / p.std for p in report.parameters])
-    b.bar(np.arange(len(z)), z, color=np.where(np.abs(z) <= 3, "tab:green", "tab:red"))
-    b.axhspan(-3, 3, color="0.9", zorder=0)
-    b.set(
-        xlabel="leg parameter (7 per leg: r, B, l)",
-        ylabel="(estimate - truth) / std",
-        title="one-step calibration: error in units of its std",
-    )
-    fig.savefig(out_dir / "stewart.png", dpi=90)
-    plt.close(fig)
