@@ -1,0 +1,79 @@
+"""The house rules of DESIGN.md that a reader cannot see from one file: the rooms' imports, the
+size of a file, and private names kept private. Each fails with the offending places listed."""
+
+import ast
+import subprocess
+import sys
+
+from tests.conftest import REPO
+
+MAX_LINES = 500
+
+
+def _python_files() -> list[str]:
+    out = subprocess.run(
+        ["git", "ls-files", "--cached", "--others", "--exclude-standard", "*.py"],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout.split()
+    return [f for f in out if (REPO / f).exists()]
+
+
+def _imports(path: str) -> list[tuple[int, str, list[str]]]:
+    """(line, module, names) of every import of ``path``, ``import m`` as (line, m, [])."""
+    tree = ast.parse((REPO / path).read_text())
+    out = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            out.append((node.lineno, node.module, [a.name for a in node.names]))
+        elif isinstance(node, ast.Import):
+            out += [(node.lineno, a.name, []) for a in node.names]
+    return out
+
+
+def test_no_source_file_is_over_500_lines():
+    big = {
+        f: n for f in _python_files() if (n := len((REPO / f).read_text().splitlines())) > MAX_LINES
+    }
+    assert not big, big
+
+
+def test_no_private_name_is_imported_from_another_module():
+    bad = [
+        f"{f}:{line}: from {module} import {name}"
+        for f in _python_files()
+        for line, module, names in _imports(f)
+        if module.startswith(("calibench", "tests"))
+        for name in names
+        if name.startswith("_") and not (name.startswith("__") and name.endswith("__"))
+    ]
+    assert not bad, bad
+
+
+def test_estimators_import_only_numpy_scipy_cv2_and_themselves():
+    """Truth never leaks into an estimator: besides the standard library, only numpy, scipy,
+    cv2 and the estimators themselves."""
+    allowed = ("numpy", "scipy", "cv2", "calibench.estimators")
+    bad = [
+        f"{f}:{line}: {module}"
+        for f in _python_files()
+        if f.startswith("estimators/")
+        for line, module, _ in _imports(f)
+        if module.split(".")[0] not in sys.stdlib_module_names
+        and module.split(".")[0] not in ("numpy", "scipy", "cv2")
+        and not module.startswith(allowed)
+    ]
+    assert not bad, bad
+
+
+def test_sim_never_imports_the_estimators_nor_the_scenarios():
+    bad = [
+        f"{f}:{line}: {module}"
+        for f in _python_files()
+        if f.startswith("sim/")
+        for line, module, _ in _imports(f)
+        if module.startswith(("calibench.estimators", "calibench.scenarios"))
+    ]
+    assert not bad, bad
