@@ -29,14 +29,13 @@ import numpy as np
 
 from calibench.estimators.arm import calibration
 from calibench.estimators.arm.calibration import (
-    PRIOR,
     ArmCalibration,
     DegenerateFit,
     error_statistics,
     register_frame,
 )
 from calibench.estimators.arm.coverage import coverage_warnings
-from calibench.estimators.arm.kinematics import Chain, param_is_angle
+from calibench.estimators.arm.kinematics import param_is_angle
 from calibench.estimators.arm.screening import screen
 from calibench.estimators.rotations import matrix_to_rotvec
 from calibench.recordings import ArmRecording, load_arm_csv
@@ -50,26 +49,13 @@ REGISTER_FRACTION = 0.2
 MAX_ROWS = 500_000  # the Jacobian (3 rows x ~50 columns a posture) stays under 1 GB
 
 
-def calibrate(
-    chain: Chain,
-    q_rad: np.ndarray,
-    xyz_mm: np.ndarray,
-    recording: np.ndarray,
-    sigma_mm: np.ndarray | None,
-    model: str,
-    parallel=(),
-    robust: bool = True,
-    prior: float | None = PRIOR,
-    angle_terms=(),
-) -> ArmCalibration:
+def calibrate(*args, **kwargs) -> ArmCalibration:
     """:func:`calibench.estimators.arm.calibration.calibrate` (the same arguments: q (n, N) rad,
     xyz (n, 3) mm, recording (n,), sigma (n, 3) mm or None), data it cannot determine said as
     bad input in one line (an arm whose links have no length, postures that never move the tool
     point, too few postures)."""
     try:
-        return calibration.calibrate(
-            chain, q_rad, xyz_mm, recording, sigma_mm, model, parallel, robust, prior, angle_terms
-        )
+        return calibration.calibrate(*args, **kwargs)
     except DegenerateFit as e:
         raise BadInput(str(e)) from None
 
