@@ -1,0 +1,167 @@
+"""Bad-input cases, `camera`: photos and board sizes it must refuse.
+
+See tests/test_bad_input.py, which runs every case.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def png(path, size=(480, 640), value=128):
+    import cv2
+
+    cv2.imwrite(str(path), np.full((*size, 3), value, np.uint8))
+    return path
+
+
+def _truncated_jpeg(path):
+    import cv2
+
+    img = np.random.default_rng(0).integers(0, 255, (240, 320, 3), np.uint8)
+    data = cv2.imencode(".jpg", img)[1].tobytes()
+    path.write_bytes(data[: len(data) // 2])
+
+
+# (id, files to write {name: text or bytes or callable(path)}, argv with {d} for the case folder,
+#  expected exit status, a fragment the message must contain)
+CASES = [
+    # camera
+    (
+        "camera-no-image",
+        {},
+        ["camera", "{d}/none.jpg", "--cols", "9", "--rows", "6", "--square-mm", "25"],
+        2,
+        "no such image",
+    ),
+    (
+        "camera-not-image",
+        {"a.jpg": "not an image"},
+        [
+            "camera",
+            "{d}/a.jpg",
+            "--cols",
+            "9",
+            "--rows",
+            "6",
+            "--square-mm",
+            "25",
+            "--out",
+            "{d}/o",
+        ],
+        2,
+        "a.jpg: not a readable image",
+    ),
+    (
+        "camera-no-board",
+        {"a.png": png, "b.png": png, "c.png": png},
+        [
+            "camera",
+            "{d}/a.png",
+            "{d}/b.png",
+            "{d}/c.png",
+            "--cols",
+            "9",
+            "--rows",
+            "6",
+            "--square-mm",
+            "25",
+            "--out",
+            "{d}/o",
+        ],
+        2,
+        "board",
+    ),
+    (
+        "camera-cols-zero",
+        {"a.png": png},
+        ["camera", "{d}/a.png", "--cols", "0", "--rows", "6", "--square-mm", "25"],
+        2,
+        "--cols",
+    ),
+    (
+        "camera-rows-negative",
+        {"a.png": png},
+        ["camera", "{d}/a.png", "--cols", "9", "--rows", "-6", "--square-mm", "25"],
+        2,
+        "--rows",
+    ),
+    (
+        "camera-square-zero",
+        {"a.png": png},
+        ["camera", "{d}/a.png", "--cols", "9", "--rows", "6", "--square-mm", "0"],
+        2,
+        "--square-mm",
+    ),
+    (
+        "camera-square-nan",
+        {"a.png": png},
+        ["camera", "{d}/a.png", "--cols", "9", "--rows", "6", "--square-mm", "nan"],
+        2,
+        "--square-mm",
+    ),
+    (
+        "camera-square-text",
+        {"a.png": png},
+        ["camera", "{d}/a.png", "--cols", "9", "--rows", "6", "--square-mm", "big"],
+        2,
+        "--square-mm",
+    ),
+    (
+        "camera-square-absurd",
+        {"a.png": png},
+        ["camera", "{d}/a.png", "--cols", "9", "--rows", "6", "--square-mm", "1e-300"],
+        2,
+        "from 0.001 to 10000 mm",
+    ),
+    (
+        "camera-truncated-jpeg",
+        {"a.jpg": lambda p: _truncated_jpeg(p)},
+        [
+            "camera",
+            "{d}/a.jpg",
+            "--cols",
+            "9",
+            "--rows",
+            "6",
+            "--square-mm",
+            "25",
+            "--out",
+            "{d}/o",
+        ],
+        2,
+        "a.jpg: not a readable image (truncated",
+    ),
+    (
+        "camera-same-file-twice",
+        {"a.png": png},
+        ["camera", "{d}/a.png", "{d}/a.png", "--cols", "9", "--rows", "6", "--square-mm", "25"],
+        2,
+        "is given twice",
+    ),
+    (
+        "camera-radial-4",
+        {"a.png": png},
+        ["camera", "{d}/a.png", "--cols", "9", "--rows", "6", "--square-mm", "25", "--radial", "4"],
+        2,
+        "invalid choice",
+    ),
+    (
+        "camera-out-is-file",
+        {"a.png": png, "f.txt": "x"},
+        [
+            "camera",
+            "{d}/a.png",
+            "--cols",
+            "9",
+            "--rows",
+            "6",
+            "--square-mm",
+            "25",
+            "--out",
+            "{d}/f.txt",
+        ],
+        2,
+        "is a file",
+    ),
+]

@@ -1,0 +1,101 @@
+"""Bad-input cases, the command line itself: verbs, seeds, --out, and `run`'s arm and
+cones.
+
+See tests/test_bad_input.py, which runs every case.
+"""
+
+from __future__ import annotations
+
+from tests.bad_input.files import (
+    ARM_TOML,
+    UR10_TOML,
+    stage_csv,
+)
+
+# (id, files to write {name: text or bytes or callable(path)}, argv with {d} for the case folder,
+#  expected exit status, a fragment the message must contain)
+CASES = [
+    # the command line itself
+    ("no-command", {}, [], 2, "required"),
+    ("unknown-verb", {}, ["frobnicate"], 2, "invalid choice"),
+    ("run-no-scenario", {}, ["run"], 2, "required"),
+    ("run-unknown-scenario", {}, ["run", "no-such"], 2, "unknown scenario 'no-such'"),
+    ("run-seed-negative", {}, ["run", "belt-stage", "--seed", "-1"], 2, "--seed"),
+    ("run-seed-text", {}, ["run", "belt-stage", "--seed", "abc"], 2, "--seed"),
+    ("run-seed-float", {}, ["run", "belt-stage", "--seed", "1.5"], 2, "--seed"),
+    ("run-seed-huge", {}, ["run", "belt-stage", "--seed", "1" + "0" * 30], 2, "--seed"),
+    ("run-fidelity", {}, ["run", "belt-stage", "--fidelity", "photoreal"], 2, "invalid choice"),
+    (
+        "run-out-is-file",
+        {"f.txt": "x"},
+        ["run", "belt-stage", "--out", "{d}/f.txt"],
+        2,
+        "is a file",
+    ),
+    (
+        "run-out-under-file",
+        {"f.txt": "x"},
+        ["run", "belt-stage", "--out", "{d}/f.txt/sub"],
+        2,
+        "--out",
+    ),
+    ("run-out-unwritable", {}, ["run", "belt-stage", "--out", "/proc/calibench-out"], 2, "--out"),
+    (
+        "run-out-name-too-long",
+        {},
+        ["run", "belt-stage", "--out", "{d}/" + "x" * 300],
+        2,
+        "File name too long",
+    ),
+    (
+        "fit-out-empty",
+        {"r.csv": stage_csv()},
+        ["fit", "belt-stage", "{d}/r.csv", "--out", ""],
+        2,
+        "--out: is empty",
+    ),
+    (
+        "run-arm-cones-coincide",
+        {
+            "c.toml": "[arm-cmm.truth]\ncone_a_mm = [450.0, 250.0, -150.0]\n"
+            "cone_b_mm = [450.0, 250.0, -150.0]\n"
+        },
+        ["run", "arm-cmm", "--config", "{d}/c.toml", "--out", "{d}/o"],
+        2,
+        "coincide",
+    ),
+    (
+        "mc-arm-cones-coincide",
+        {
+            "c.toml": "[arm-cmm.truth]\ncone_a_mm = [450.0, 250.0, -150.0]\n"
+            "cone_b_mm = [450.0, 250.5, -150.0]\n"
+        },
+        ["montecarlo", "arm-cmm", "--config", "{d}/c.toml", "--trials", "2", "--out", "{d}/o"],
+        2,
+        "coincide",
+    ),
+    (
+        "run-arm-name-newline",
+        {"a.toml": ARM_TOML.replace('name = "Two"', 'name = "Two\\nlines"')},
+        ["run", "arm-cmm", "--arm", "{d}/a.toml", "--out", "{d}/o"],
+        2,
+        "control character",
+    ),
+    (
+        "run-arm-cones-outside-ranges",
+        {
+            "a.toml": 'name = "UR10narrow"\n'
+            + "\n".join(
+                line + ("\nrange_deg = [-5.0, 5.0]" if line.startswith("theta_deg") else "")
+                for line in UR10_TOML.splitlines()
+                if not line.startswith("name")
+            )
+        },
+        ["run", "arm-cmm", "--arm", "{d}/a.toml", "--out", "{d}/o"],
+        2,
+        "out of the arm UR10narrow's reach",
+    ),
+    ("run-arm-on-stage", {}, ["run", "belt-stage", "--arm", "ur10"], 2, "--arm applies to arm-cmm"),
+    ("run-arm-missing", {}, ["run", "arm-cmm", "--arm", "{d}/none.toml"], 2, "none.toml"),
+    ("run-arm-unknown-builtin", {}, ["run", "arm-cmm", "--arm", "kuka"], 2, "kuka"),
+]

@@ -1,0 +1,192 @@
+"""Bad-input cases, `fit` on stages: spoiled stage recordings, and legitimately odd ones that
+must work.
+
+See tests/test_bad_input.py, which runs every case.
+"""
+
+from __future__ import annotations
+
+from tests.bad_input.files import (
+    STAGE_HEAD,
+    arm_csv,
+    arm_rows,
+    stage_csv,
+)
+
+# (id, files to write {name: text or bytes or callable(path)}, argv with {d} for the case folder,
+#  expected exit status, a fragment the message must contain)
+CASES = [
+    # fit on stages
+    ("fit-missing-file", {}, ["fit", "belt-stage", "{d}/none.csv"], 2, "cannot read"),
+    ("fit-folder", {"sub/x": ""}, ["fit", "belt-stage", "{d}/sub"], 2, "sub"),
+    ("fit-empty", {"r.csv": ""}, ["fit", "belt-stage", "{d}/r.csv"], 2, "is empty"),
+    (
+        "fit-header-only",
+        {"r.csv": STAGE_HEAD + "\n"},
+        ["fit", "belt-stage", "{d}/r.csv"],
+        2,
+        "no data rows",
+    ),
+    (
+        "fit-missing-column",
+        {"r.csv": "x_cmd_mm,y_cmd_mm,x_meas_mm\n1,2,3\n"},
+        ["fit", "belt-stage", "{d}/r.csv"],
+        2,
+        "missing column(s) y_meas_mm",
+    ),
+    (
+        "fit-nan",
+        {"r.csv": STAGE_HEAD + "\n1,2,3,nan\n"},
+        ["fit", "belt-stage", "{d}/r.csv"],
+        2,
+        "not finite",
+    ),
+    (
+        "fit-inf",
+        {"r.csv": STAGE_HEAD + "\n1,2,inf,4\n"},
+        ["fit", "belt-stage", "{d}/r.csv"],
+        2,
+        "not finite",
+    ),
+    (
+        "fit-text-cell",
+        {"r.csv": STAGE_HEAD + "\n1,2,three,4\n"},
+        ["fit", "belt-stage", "{d}/r.csv"],
+        2,
+        "'three', not a number",
+    ),
+    (
+        "fit-short-row",
+        {"r.csv": STAGE_HEAD + "\n1,2,3\n"},
+        ["fit", "belt-stage", "{d}/r.csv"],
+        2,
+        "not a number",
+    ),
+    (
+        "fit-semicolons",
+        {"r.csv": stage_csv().replace(",", ";")},
+        ["fit", "belt-stage", "{d}/r.csv"],
+        2,
+        "semicolon",
+    ),
+    (
+        "fit-decimal-commas",
+        {"r.csv": STAGE_HEAD.replace(",", ";") + "\n1,5;2;3,5;4\n"},
+        ["fit", "belt-stage", "{d}/r.csv"],
+        2,
+        "semicolon",
+    ),
+    (
+        "fit-extra-cell",
+        {"r.csv": stage_csv() + "1,2,3,4,5\n"},
+        ["fit", "belt-stage", "{d}/r.csv"],
+        2,
+        "values, the header names 4",
+    ),
+    (
+        "fit-arm-decimal-comma",
+        {"r.csv": lambda p: p.write_text(arm_csv(*arm_rows()).replace(".", ",", 1))},
+        ["fit", "arm-cmm", "{d}/r.csv", "--arm", "ur10"],
+        2,
+        "a decimal comma",
+    ),
+    (
+        "fit-latin1",
+        {"r.csv": (STAGE_HEAD + ",note\n1,2,3,4,caf\xe9\n").encode("latin-1")},
+        ["fit", "belt-stage", "{d}/r.csv"],
+        2,
+        "not UTF-8",
+    ),
+    ("fit-binary", {"r.csv": bytes(range(256))}, ["fit", "belt-stage", "{d}/r.csv"], 2, "r.csv"),
+    (
+        "fit-1e300",
+        {"r.csv": stage_csv(err=lambda x, y: (1e300, 1e300))},
+        ["fit", "belt-stage", "{d}/r.csv"],
+        2,
+        "r.csv",
+    ),
+    (
+        "fit-degenerate-line",
+        {"r.csv": STAGE_HEAD + "\n" + "".join(f"{x},0,{x},0\n" for x in range(20))},
+        ["fit", "belt-stage", "{d}/r.csv"],
+        2,
+        "degenerate",
+    ),
+    (
+        "fit-too-few",
+        {"r.csv": STAGE_HEAD + "\n0,0,0,0\n1,0,1,0\n0,1,0,1\n"},
+        ["fit", "belt-stage", "{d}/r.csv"],
+        2,
+        "3 stations",
+    ),
+    (
+        "fit-one-station-repeated",
+        {"r.csv": STAGE_HEAD + "\n" + "5,5,5.001,5.002\n" * 50},
+        ["fit", "belt-stage", "{d}/r.csv"],
+        2,
+        "degenerate",
+    ),
+    (
+        "fit-two-recordings",
+        {"r.csv": stage_csv()},
+        ["fit", "belt-stage", "{d}/r.csv", "{d}/r.csv"],
+        2,
+        "one recording",
+    ),
+    (
+        "fit-arm-options-on-stage",
+        {"r.csv": stage_csv()},
+        ["fit", "belt-stage", "{d}/r.csv", "--holdout", "0.3"],
+        2,
+        "apply to arm-cmm only",
+    ),
+    (
+        "fit-no-model",
+        {"r.csv": stage_csv()},
+        ["fit", "probe-scanner", "{d}/r.csv"],
+        2,
+        "has no fit model",
+    ),
+    (
+        "fit-unknown-scenario",
+        {"r.csv": stage_csv()},
+        ["fit", "no-such", "{d}/r.csv"],
+        2,
+        "unknown scenario",
+    ),
+    (
+        "fit-dir-x-7",
+        {
+            "r.csv": STAGE_HEAD
+            + ",dir_x\n"
+            + "".join(
+                f"{x},{y},{x},{y},7\n" for x in range(0, 500, 100) for y in range(0, 500, 100)
+            )
+        },
+        ["fit", "belt-stage", "{d}/r.csv"],
+        2,
+        "dir_x",
+    ),
+    (
+        "fit-out-is-file",
+        {"r.csv": stage_csv(), "f.txt": "x"},
+        ["fit", "belt-stage", "{d}/r.csv", "--out", "{d}/f.txt"],
+        2,
+        "is a file",
+    ),
+    # legitimately odd stage recordings: must work
+    (
+        "fit-bom",
+        {"r.csv": ("\ufeff" + stage_csv()).encode("utf-8")},
+        ["fit", "belt-stage", "{d}/r.csv", "--out", "{d}/o"],
+        0,
+        "",
+    ),
+    (
+        "fit-crlf",
+        {"r.csv": stage_csv().replace("\n", "\r\n")},
+        ["fit", "belt-stage", "{d}/r.csv", "--out", "{d}/o"],
+        0,
+        "",
+    ),
+]

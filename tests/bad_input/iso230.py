@@ -1,0 +1,44 @@
+"""Bad-input cases, `iso230`: positioning runs it must refuse.
+
+See tests/test_bad_input.py, which runs every case.
+"""
+
+from __future__ import annotations
+
+# (id, files to write {name: text or bytes or callable(path)}, argv with {d} for the case folder,
+#  expected exit status, a fragment the message must contain)
+CASES = [
+    # iso230
+    ("iso-missing", {}, ["iso230", "{d}/none.csv"], 2, "cannot read"),
+    (
+        "iso-no-deviation",
+        {"r.csv": "target_mm,run,direction\n0,1,1\n"},
+        ["iso230", "{d}/r.csv"],
+        2,
+        "deviation_um",
+    ),
+    (
+        "iso-direction-0",
+        {"r.csv": "target_mm,run,direction,deviation_um\n0,1,0,1\n"},
+        ["iso230", "{d}/r.csv"],
+        2,
+        "direction is 0",
+    ),
+    (
+        "iso-nan",
+        {"r.csv": "target_mm,run,direction,deviation_um\n0,1,1,nan\n"},
+        ["iso230", "{d}/r.csv"],
+        2,
+        "not finite",
+    ),
+    (
+        "iso-one-direction",
+        {
+            "r.csv": "target_mm,run,direction,deviation_um\n"
+            + "".join(f"{t},{r},1,1\n" for t in (0, 10) for r in (1, 2))
+        },
+        ["iso230", "{d}/r.csv"],
+        2,
+        "negative direction",
+    ),
+]
