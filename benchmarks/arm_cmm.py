@@ -36,7 +36,8 @@ def seed_arm_trials(n: int = 200) -> None:
         identify_identifiable(tracker_problem(arm, chain, q, arm.encoders(q, rng), rng))
     dt = time.perf_counter() - t
     print(
-        f"arm-cmm identification, 50 postures: {n / dt:.1f} trials/s on one core ({dt / n * 1000:.1f} ms each)"
+        f"arm-cmm identification, 50 postures: {n / dt:.1f} trials/s on one core "
+        f"({dt / n * 1000:.1f} ms each)"
     )
 
 
@@ -80,8 +81,10 @@ def ur10_physics(n: int = 2773, quiet: bool = False) -> dict:
     cost_ours = float(np.sum(p.residuals(ours.state) ** 2))
     if not quiet:
         print(
-            f"UR10, {n} poses, physics ({len(k)} parameters, compliance of joints {joints}): basis {t_basis:.2f} s; "
-            f"identification {t_ours:.2f} s with the analytic Jacobian ({ours.iterations} iterations), "
+            f"UR10, {n} poses, physics ({len(k)} parameters, compliance of joints {joints}): "
+            f"basis {t_basis:.2f} s; "
+            f"identification {t_ours:.2f} s with the analytic Jacobian ({ours.iterations} "
+            "iterations), "
             f"{t_fd:.2f} s with finite differences ({ref.nfev} evaluations); {t_fd / t_ours:.0f}x; "
             f"cost {cost_ours:.1f} vs {2 * ref.cost:.1f}"
         )

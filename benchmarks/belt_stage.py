@@ -54,7 +54,8 @@ def main():
     print(f"render (640x480, 2x supersampled, lens, blur, noise): {rate(frame, 16):6.1f} frames/s")
     img = frame(0)
     print(
-        f"chessboard detection + saddle refinement: {rate(lambda i: find_chessboard_corners(img, 9, 6), 16):6.1f} images/s"
+        "chessboard detection + saddle refinement: "
+        f"{rate(lambda i: find_chessboard_corners(img, 9, 6), 16):6.1f} images/s"
     )
     s.close()
     with TemporaryDirectory() as d:

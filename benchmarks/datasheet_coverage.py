@@ -44,7 +44,8 @@ def main():
     }
     print(f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, spawn pool")
     print(
-        f"{'scenario':9s} {'datasheet':>9s} {'trials':>6s} {'coverage':>9s} {'params out of band':>19s} {'s':>6s}"
+        f"{'scenario':9s} {'datasheet':>9s} {'trials':>6s} {'coverage':>9s} "
+        f"{'params out of band':>19s} {'s':>6s}"
     )
     for name, n in counts.items():
         for factor in (1.0, 1.5, 1 / 1.5):
@@ -68,7 +69,8 @@ def main():
                 for lo, hi in [p["coverage_95_expected"]]
             )
             print(
-                f"{name:9s} {factor:9.3f} {s['trials']:6d} {pooled:9.3f} {out:>12d} of {len(params):<4d} "
+                f"{name:9s} {factor:9.3f} {s['trials']:6d} {pooled:9.3f} {out:>12d} of "
+                f"{len(params):<4d} "
                 f"{elapsed:6.0f}"
             )
 

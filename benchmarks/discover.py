@@ -1,8 +1,8 @@
 """discover's figures on this machine: ``python benchmarks/discover.py [N_NULL]``.
 
 1. The concealed-effect suite (scenarios/discover_suite.py's SUITE: stages, the seed's arm and a
-   UR10, the probe scanner and the Stewart platform, with compliance made by MuJoCo's physics): detection, false claims, parameters,
-   held-out improvement, and the time per recording.
+   UR10, the probe scanner and the Stewart platform, with compliance made by MuJoCo's physics):
+   detection, false claims, parameters, held-out improvement, and the time per recording.
 2. The null calibration of the acceptance floor: N_NULL (default 30) null recordings per
    scenario through discover at several floors; the false-claim rate at each. The house floor
    (estimators.discovery.FLOOR) is the smallest whose rate stays under 5 %.
@@ -37,7 +37,8 @@ def suite():
         f"detection {s['detection']:.0%}, false claims on nulls {s['null_false_claim_rate']:.0%}, "
         f"spurious claims beside real ones {s['spurious_claims']}, parameters within limits "
         f"{s['params_within_limit']:.0%} (worst {s['worst_param'][0]} {s['worst_param'][1]:.3f} of "
-        f"{s['worst_param'][2]}), cv after/before <= 0.5 in {s['ratios_ok']:.0%} of {s['n_dominated']} "
+        f"{s['worst_param'][2]}), cv after/before <= 0.5 in {s['ratios_ok']:.0%} of "
+        f"{s['n_dominated']} "
         f"dominated recordings (worst {s['worst_ratio']:.2f})"
     )
 
@@ -73,7 +74,8 @@ def paper():
             )
         for loc in d["located"]:
             print(
-                f"  - {loc['signal']} against {loc['driver']}: score {loc['score']:.2f}, p {loc['p_value']:.3f}; "
+                f"  - {loc['signal']} against {loc['driver']}: score {loc['score']:.2f}, p "
+                f"{loc['p_value']:.3f}; "
                 f"{loc['where']}"
             )
 

@@ -132,15 +132,18 @@ def table(data: Path) -> str:
             f"{r['ours_ms'] / r['peer_ms']:.1f}x",
         ),
         (
-            f"`calibench camera` on OpenCV's {c['photos']} sample photos (0.01 px corners, gross-corner check, std)",
+            f"`calibench camera` on OpenCV's {c['photos']} sample photos (0.01 px corners, "
+            "gross-corner check, std)",
             f"{c['ours_ms']:.0f} ms",
             f"OpenCV's classic pipeline {c['peer_ms']:.0f} ms",
             f"{c['ours_ms'] / c['peer_ms']:.2f}x",
         ),
         (
-            f"UR10 identification with physics, {arm['n']} poses, {arm['k']} parameters, one thread",
+            f"UR10 identification with physics, {arm['n']} poses, {arm['k']} parameters, one "
+            "thread",
             f"{arm['ours_s']:.2f} s (analytic Jacobian)",
-            f"pybotics' approach (scipy's LM, finite differences) {arm['peer_s']:.1f} s, the same cost to "
+            f"pybotics' approach (scipy's LM, finite differences) {arm['peer_s']:.1f} s, the same "
+            "cost to "
             f"{abs(arm['cost_ours'] / arm['cost_peer'] - 1):.0e}",
             f"{arm['ours_s'] / arm['peer_s']:.3f}x",
         ),
@@ -148,7 +151,8 @@ def table(data: Path) -> str:
     for name, s in st.items():
         rows.append(
             (
-                f"Monte Carlo, {name}, analytic, {s['trials']} trials (whole command, {os.cpu_count()} cores)",
+                f"Monte Carlo, {name}, analytic, {s['trials']} trials (whole command, "
+                f"{os.cpu_count()} cores)",
                 f"{s['rate']:.1f} trials/s",
                 f"goal {s['goal']} trials/s",
                 f"{s['rate'] / s['goal']:.2f} of the goal",

@@ -78,7 +78,8 @@ async def _capture(devtools_port: int, url: str, png: Path) -> None:
 def screenshot(rrd: Path, png: Path) -> None:
     web, grpc, devtools = _free_port(), _free_port(), _free_port()
     rerun = Path(sys.executable).with_name("rerun")
-    # own process groups: `rerun` and `chromium` start children that a plain terminate() would orphan
+    # own process groups: `rerun` and `chromium` start children that a plain terminate() would
+    # orphan
     server = subprocess.Popen(
         [str(rerun), "--serve-web", "--web-viewer-port", str(web), "--port", str(grpc), str(rrd)],
         stdout=subprocess.DEVNULL,

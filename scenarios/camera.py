@@ -1,4 +1,5 @@
-"""``calibench camera``: calibrate a camera from real chessboard photos (CONTRACT: intrinsics.json)."""
+"""``calibench camera``: calibrate a camera from real chessboard photos (CONTRACT:
+intrinsics.json)."""
 
 from __future__ import annotations
 
@@ -75,7 +76,8 @@ def calibrate_photos(
         why = "; ".join(f"{k}: {v}" for k, v in list(rejected.items())[:3])
         more = f" and {len(rejected) - 3} more" if len(rejected) > 3 else ""
         raise BadInput(
-            f"camera: {len(used)} usable view(s) of the {cols}x{rows} board among {len(paths)} image(s), "
+            f"camera: {len(used)} usable view(s) of the {cols}x{rows} board among {len(paths)} "
+            "image(s), "
             f"a calibration needs at least 3 distinct ones" + (f" ({why}{more})" if why else "")
         )
     board = Chessboard(cols=cols, rows=rows, square_mm=square_mm)

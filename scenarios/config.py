@@ -266,11 +266,13 @@ def check_camera(cam, where: str) -> None:
     if not (np.isfinite(bend) and bend <= MAX_LENS_BEND and np.all(det > 0)):
         lens = ", ".join(f"{k} = {getattr(cam, k):g}" for k in ("k1", "k2", "p1", "p2", "k3"))
         how = (
-            f"moves the image's points by up to {bend:.3g} of their distance from the principal point"
+            f"moves the image's points by up to {bend:.3g} of their distance from the principal "
+            "point"
             if np.isfinite(bend)
             else "is not finite over the image"
         )
         raise BadInput(
-            f"config: {where}: the lens {lens} {how}{'' if np.all(det > 0) else ' and folds the image'}"
+            f"config: {where}: the lens {lens} "
+            f"{how}{'' if np.all(det > 0) else ' and folds the image'}"
             f": a calibratable lens bends them by at most {MAX_LENS_BEND:.0%}, one-to-one"
         )

@@ -94,7 +94,8 @@ def figure(path: Path, result: dict) -> None:
     ax.set(
         xlabel="target position (mm)",
         ylabel="deviation, actual - target (um)",
-        title=f"ISO 230-2: A {a['A']:.2f}  E {a['E']:.2f}  M {a['M']:.2f}  R {a['R']:.2f}  B {a['B']:.2f} um "
+        title=f"ISO 230-2: A {a['A']:.2f}  E {a['E']:.2f}  M {a['M']:.2f}  R {a['R']:.2f}  B "
+        f"{a['B']:.2f} um "
         f"({result['targets']} targets, {result['runs']} runs each way)",
     )
     ax.grid(alpha=0.3)

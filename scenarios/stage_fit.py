@@ -1,4 +1,5 @@
-"""``calibench fit``: the scenario's error model fitted to a stage recording (CONTRACT: fit.json)."""
+"""``calibench fit``: the scenario's error model fitted to a stage recording (CONTRACT:
+fit.json)."""
 
 from __future__ import annotations
 

@@ -162,7 +162,8 @@ def arm_from_table(t: dict, where: str = "arm") -> ArmDescription:
     extra = set(t) - known
     if extra:
         raise ArmFileError(
-            f"{where}: unknown field(s) {', '.join(sorted(extra))} (known: {', '.join(sorted(known))})"
+            f"{where}: unknown field(s) {', '.join(sorted(extra))} (known: "
+            f"{', '.join(sorted(known))})"
         )
     name = t.get("name", Path(where).stem)
     if not isinstance(name, str) or not name.strip():
@@ -171,7 +172,8 @@ def arm_from_table(t: dict, where: str = "arm") -> ArmDescription:
         not name.isprintable()
     ):  # a newline or a tab would split or shift every line that names the arm
         raise ArmFileError(
-            f"{where}: name {name!r} holds a control character (a newline, a tab): one printable line"
+            f"{where}: name {name!r} holds a control character (a newline, a tab): one printable "
+            "line"
         )
     conv = t.get("convention")
     if conv not in ("dh", "mdh"):
@@ -188,7 +190,8 @@ def arm_from_table(t: dict, where: str = "arm") -> ArmDescription:
         extra = set(j) - jkeys
         if extra:
             raise ArmFileError(
-                f"{w}: unknown field(s) {', '.join(sorted(extra))} (known: {', '.join(sorted(jkeys))})"
+                f"{w}: unknown field(s) {', '.join(sorted(extra))} (known: "
+                f"{', '.join(sorted(jkeys))})"
             )
         a.append(_number(j, "a_mm", w, lo=-1e5, hi=1e5))
         d.append(_number(j, "d_mm", w, lo=-1e5, hi=1e5))
@@ -217,7 +220,8 @@ def arm_from_table(t: dict, where: str = "arm") -> ArmDescription:
     extra = set(tool) - {"offset_mm", "mass_kg"}
     if extra:
         raise ArmFileError(
-            f"{where}: [tool]: unknown field(s) {', '.join(sorted(extra))} (known: mass_kg, offset_mm)"
+            f"{where}: [tool]: unknown field(s) {', '.join(sorted(extra))} (known: mass_kg, "
+            "offset_mm)"
         )
     tool_mm = _vector(tool, "offset_mm", f"{where}: [tool]", 3, default=(0.0, 0.0, 0.0), bound=1e5)
     if sum(abs(x) for x in a + d) + np.linalg.norm(tool_mm) < 1.0:

@@ -102,7 +102,8 @@ class _Links:
 
 
 def _links(arm: ArmDescription, values: np.ndarray | None, tool_mm) -> _Links:
-    """:class:`_Links` of ``arm`` with as-built ``values`` (N, 5) and ``tool_mm`` (nominal when None)."""
+    """:class:`_Links` of ``arm`` with as-built ``values`` (N, 5) and ``tool_mm`` (nominal when
+    None)."""
     N = arm.n_joints
     values = np.asarray(arm.nominal() if values is None else values, float)
     a, d, al, th, be = values.T
@@ -158,7 +159,8 @@ def build_mjcf(
     for i in range(N):
         spring = f' stiffness="{k[i]:.17g}"' if np.isfinite(k[i]) else ""
         geom = (
-            f'<geom type="capsule" fromto="0 0 0 {_g(L.post_t[i])}" size="0.03" rgba="0.75 0.75 0.78 1"/>'
+            f'<geom type="capsule" fromto="0 0 0 {_g(L.post_t[i])}" size="0.03" rgba="0.75 0.75 '
+            '0.78 1"/>'
             if L.capsule[i]
             else '<geom type="sphere" size="0.035" rgba="0.75 0.75 0.78 1"/>'
         )
@@ -167,7 +169,8 @@ def build_mjcf(
         body += f"""
       <body name="joint{i + 1}" pos="{_g(L.pre_t[i])}" quat="{_g(L.pre_quat[i])}">
         <joint name="q{i + 1}" type="hinge" axis="0 0 1" damping="2" armature="0.1"{spring}/>
-        <inertial pos="{_g(L.com[i])}" mass="{L.mass[i]:.17g}" diaginertia="{_g([L.inertia[i]] * 3)}"/>
+        <inertial pos="{_g(L.com[i])}" mass="{L.mass[i]:.17g}"
+            diaginertia="{_g([L.inertia[i]] * 3)}"/>
         {geom}
         <body name="link{i + 1}" pos="{_g(L.post_t[i])}" quat="{_g(L.post_quat[i])}">"""
         close = "\n        </body>\n      </body>" + close
@@ -184,14 +187,19 @@ def build_mjcf(
         world += (
             f'\n    <body name="tracker" pos="{tp[0]:.17g} {tp[1]:.17g} {tp[2]:.17g}" '
             f'quat="{" ".join(f"{v:.17g}" for v in tracker_quat)}">'
-            '<geom name="tracker_head" type="box" size="0.08 0.06 0.1" rgba="0.85 0.85 0.8 1"/></body>'
+            '<geom name="tracker_head" type="box" size="0.08 0.06 0.1" rgba="0.85 0.85 0.8 '
+            '1"/></body>'
         )
     if cones_m is not None:
         ca, cb = (np.asarray(c, float) for c in cones_m)
         world += f"""
-    <geom name="cone_a" type="cylinder" size="0.01 0.01" pos="{ca[0]} {ca[1]} {ca[2] - 0.01}" rgba="0.2 0.6 0.9 1"/>
-    <geom name="cone_b" type="cylinder" size="0.01 0.01" pos="{cb[0]} {cb[1]} {cb[2] - 0.01}" rgba="0.2 0.6 0.9 1"/>
-    <geom name="length_bar" type="capsule" fromto="{ca[0]} {ca[1]} {ca[2] - 0.02} {cb[0]} {cb[1]} {cb[2] - 0.02}" size="0.008" rgba="0.3 0.3 0.35 1"/>"""
+    <geom name="cone_a" type="cylinder" size="0.01 0.01" pos="{ca[0]} {ca[1]} {ca[2] - 0.01}"
+        rgba="0.2 0.6 0.9 1"/>
+    <geom name="cone_b" type="cylinder" size="0.01 0.01" pos="{cb[0]} {cb[1]} {cb[2] - 0.01}"
+        rgba="0.2 0.6 0.9 1"/>
+    <geom name="length_bar" type="capsule"
+        fromto="{ca[0]} {ca[1]} {ca[2] - 0.02} {cb[0]} {cb[1]} {cb[2] - 0.02}" size="0.008"
+        rgba="0.3 0.3 0.35 1"/>"""
     reach = max(arm.reach_mm / 1000, 0.5)
     return f"""
 <mujoco model={quoteattr(arm.name)}>
@@ -202,8 +210,10 @@ def build_mjcf(
   <visual><global offwidth="640" offheight="480"/></visual>
   <worldbody>
     <light name="top" pos="0 0 {2 * reach:.3f}" dir="0 0 -1" directional="true" castshadow="false"/>
-    <geom name="floor" type="plane" size="{2 * reach:.3f} {2 * reach:.3f} 0.01" pos="0 0 {-0.35 * reach:.3f}" rgba="0.2 0.22 0.25 1"/>
-    <geom name="pedestal" type="cylinder" size="0.06 {0.17 * reach:.3f}" pos="0 0 {-0.18 * reach:.3f}" rgba="0.3 0.3 0.32 1"/>{world}
+    <geom name="floor" type="plane" size="{2 * reach:.3f} {2 * reach:.3f} 0.01"
+        pos="0 0 {-0.35 * reach:.3f}" rgba="0.2 0.22 0.25 1"/>
+    <geom name="pedestal" type="cylinder" size="0.06 {0.17 * reach:.3f}"
+        pos="0 0 {-0.18 * reach:.3f}" rgba="0.3 0.3 0.32 1"/>{world}
     <body name="base" pos="0 0 0">{body}{close}
     </body>
   </worldbody>

@@ -78,28 +78,44 @@ def build_mjcf(
   </asset>
   <worldbody>
     <!-- no shadows: the mast and boom would shade the plate in the measurement images -->
-    <light name="top" pos="{tx / 2} {ty / 2} 3" dir="0 0 -1" directional="true" diffuse="0.4 0.4 0.4" castshadow="false"/>
-    <geom name="floor" type="plane" size="{tx + 1} {ty + 1} 0.05" pos="{tx / 2} {ty / 2} 0" material="floor"/>
-    <geom name="rail_x_front" type="box" size="{tx / 2 + 0.3} 0.02 0.01" pos="{tx / 2} -0.35 0.01" material="frame"/>
-    <geom name="rail_x_back" type="box" size="{tx / 2 + 0.3} 0.02 0.01" pos="{tx / 2} {ty + 0.35} 0.01" material="frame"/>
-    <camera name="overhead" pos="{cam_pos[0]} {cam_pos[1]} {cam_pos[2]}" xyaxes="1 0 0 0 1 0" {attrs}/>
+    <light name="top" pos="{tx / 2} {ty / 2} 3" dir="0 0 -1" directional="true"
+        diffuse="0.4 0.4 0.4" castshadow="false"/>
+    <geom name="floor" type="plane" size="{tx + 1} {ty + 1} 0.05" pos="{tx / 2} {ty / 2} 0"
+        material="floor"/>
+    <geom name="rail_x_front" type="box" size="{tx / 2 + 0.3} 0.02 0.01" pos="{tx / 2} -0.35 0.01"
+        material="frame"/>
+    <geom name="rail_x_back" type="box" size="{tx / 2 + 0.3} 0.02 0.01"
+        pos="{tx / 2} {ty + 0.35} 0.01" material="frame"/>
+    <camera name="overhead" pos="{cam_pos[0]} {cam_pos[1]} {cam_pos[2]}" xyaxes="1 0 0 0 1 0"
+        {attrs}/>
     <!-- camera housing, boom and mast: above the lens and outside the field of view -->
-    <geom name="camera_housing" type="box" size="0.035 0.03 0.03" pos="{cam_pos[0]} {cam_pos[1]} {cam_pos[2] + 0.035}" material="camera" contype="0" conaffinity="0"/>
-    <geom name="boom" type="box" size="{(cam_pos[0] + 0.75) / 2} 0.02 0.02" pos="{(cam_pos[0] - 0.75) / 2} {cam_pos[1]} {cam_pos[2] + 0.085}" material="frame" contype="0" conaffinity="0"/>
-    <geom name="mast" type="box" size="0.03 0.03 {(cam_pos[2] + 0.105) / 2}" pos="-0.75 {cam_pos[1]} {(cam_pos[2] + 0.105) / 2}" material="frame" contype="0" conaffinity="0"/>
+    <geom name="camera_housing" type="box" size="0.035 0.03 0.03"
+        pos="{cam_pos[0]} {cam_pos[1]} {cam_pos[2] + 0.035}" material="camera" contype="0"
+        conaffinity="0"/>
+    <geom name="boom" type="box" size="{(cam_pos[0] + 0.75) / 2} 0.02 0.02"
+        pos="{(cam_pos[0] - 0.75) / 2} {cam_pos[1]} {cam_pos[2] + 0.085}" material="frame"
+        contype="0" conaffinity="0"/>
+    <geom name="mast" type="box" size="0.03 0.03 {(cam_pos[2] + 0.105) / 2}"
+        pos="-0.75 {cam_pos[1]} {(cam_pos[2] + 0.105) / 2}" material="frame" contype="0"
+        conaffinity="0"/>
     <body name="x_carriage" pos="0 0 0">
       <joint name="x" type="slide" axis="1 0 0" range="-0.05 {tx + 0.05}" damping="50"/>
-      <geom name="gantry" type="box" size="0.04 {ty / 2 + 0.37} 0.012" pos="0 {ty / 2} 0.022" material="frame" mass="8"/>
+      <geom name="gantry" type="box" size="0.04 {ty / 2 + 0.37} 0.012" pos="0 {ty / 2} 0.022"
+          material="frame" mass="8"/>
       <body name="y_carriage" pos="0 0 0">
         <joint name="y" type="slide" axis="0 1 0" range="-0.05 {ty + 0.05}" damping="50"/>
-        <geom name="carriage" type="box" size="0.08 0.08 0.008" pos="0 0 {z_board - plate_t * 2 - 0.008}" material="carriage" mass="2"/>
+        <geom name="carriage" type="box" size="0.08 0.08 0.008"
+            pos="0 0 {z_board - plate_t * 2 - 0.008}" material="carriage" mass="2"/>
         <body name="board" pos="0 0 {z_board - plate_t}">
-          <geom name="board" type="box" size="{bw / 2} {bh / 2} {plate_t}" material="board" group="{STAGE_BOARD_GROUP}" mass="0.5" contype="0" conaffinity="0"/>
+          <geom name="board" type="box" size="{bw / 2} {bh / 2} {plate_t}" material="board"
+              group="{STAGE_BOARD_GROUP}" mass="0.5" contype="0" conaffinity="0"/>
         </body>
       </body>
     </body>
-    <body name="calib_board" mocap="true" pos="{CALIB_BOARD_PARK[0]} {CALIB_BOARD_PARK[1]} {CALIB_BOARD_PARK[2]}">
-      <geom name="calib_board" type="box" size="{bw / 2} {bh / 2} {plate_t}" material="board" group="{CALIB_BOARD_GROUP}" contype="0" conaffinity="0"/>
+    <body name="calib_board" mocap="true"
+        pos="{CALIB_BOARD_PARK[0]} {CALIB_BOARD_PARK[1]} {CALIB_BOARD_PARK[2]}">
+      <geom name="calib_board" type="box" size="{bw / 2} {bh / 2} {plate_t}" material="board"
+          group="{CALIB_BOARD_GROUP}" contype="0" conaffinity="0"/>
     </body>
   </worldbody>
 </mujoco>

@@ -96,7 +96,8 @@ def wall_geoms(outline_mm: np.ndarray, group: int, prefix: str, material: str) -
         out.append(
             f'<geom name="{prefix}{k}" type="box" size="{L / 2 + 1e-5:.9f} {WALL_HALF_THICKNESS_M} '
             f'{WALL_HALF_HEIGHT_M}" pos="{c[0]:.9f} {c[1]:.9f} {WALL_HALF_HEIGHT_M}" '
-            f'euler="0 0 {yaw:.12f}" group="{group}" material="{material}" contype="0" conaffinity="0"/>'
+            f'euler="0 0 {yaw:.12f}" group="{group}" material="{material}" contype="0" '
+            'conaffinity="0"/>'
         )
     return "\n        ".join(out)
 
@@ -173,10 +174,13 @@ def build_mjcf(
       <joint name="theta" type="hinge" axis="0 0 1" damping="0.1"/>
       <geom name="disc" type="cylinder" size="0.045 0.004" material="table" mass="1.0" group="2"/>
       <body name="rail" pos="0 0 0.01">
-        <geom name="rail" type="box" size="{g.rail_length_mm / 2000} 0.002 0.0015" pos="{rail_mid[0]} {rail_mid[1]} 0.012"
-              euler="0 0 {alpha0_rad}" material="rail" mass="0.1" group="2" contype="0" conaffinity="0"/>
+        <geom name="rail" type="box" size="{g.rail_length_mm / 2000} 0.002 0.0015"
+            pos="{rail_mid[0]} {rail_mid[1]} 0.012"
+            euler="0 0 {alpha0_rad}" material="rail" mass="0.1" group="2" contype="0"
+            conaffinity="0"/>
         <site name="Q" pos="{q[0]} {q[1]} {RAY_HEIGHT_M}" size="0.0008"/>
-        <site name="rail_dir" pos="{q[0] + u[0] * 0.01} {q[1] + u[1] * 0.01} {RAY_HEIGHT_M}" size="0.0004"/>
+        <site name="rail_dir" pos="{q[0] + u[0] * 0.01} {q[1] + u[1] * 0.01} {RAY_HEIGHT_M}"
+            size="0.0004"/>
       </body>
     </body>
   </worldbody>

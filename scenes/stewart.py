@@ -77,25 +77,34 @@ def build_mjcf(
     <body name="leg{i}" pos="{B[i, 0]} {B[i, 1]} {B[i, 2]}">
       <joint name="leg{i}_ux" type="hinge" axis="1 0 0"/>
       <joint name="leg{i}_uy" type="hinge" axis="0 1 0"/>
-      <geom name="leg{i}_cyl" type="cylinder" fromto="0 0 0 0 0 0.35" size="0.025" rgba="0.5 0.52 0.55 1" mass="2" contype="0" conaffinity="0"/>
+      <geom name="leg{i}_cyl" type="cylinder" fromto="0 0 0 0 0 0.35" size="0.025"
+          rgba="0.5 0.52 0.55 1" mass="2" contype="0" conaffinity="0"/>
       <body name="leg{i}_rod">
-        <joint name="leg{i}_slide" type="slide" axis="0 0 1" range="{LEG_STROKE_MM[0] / 1000} {LEG_STROKE_MM[1] / 1000}"/>
-        <geom name="leg{i}_rod" type="capsule" fromto="0 0 -0.45 0 0 0" size="0.014" rgba="0.8 0.8 0.82 1" mass="1" contype="0" conaffinity="0"/>
+        <joint name="leg{i}_slide" type="slide" axis="0 0 1"
+            range="{LEG_STROKE_MM[0] / 1000} {LEG_STROKE_MM[1] / 1000}"/>
+        <geom name="leg{i}_rod" type="capsule" fromto="0 0 -0.45 0 0 0" size="0.014"
+            rgba="0.8 0.8 0.82 1" mass="1" contype="0" conaffinity="0"/>
         <site name="leg{i}_end" pos="0 0 0" size="0.01"/>
       </body>
     </body>"""
-        sites += f'\n      <site name="plat{i}" pos="{r[i, 0]} {r[i, 1]} {r[i, 2]}" size="0.012" rgba="0.9 0.3 0.2 1"/>'
+        sites += (
+            f'\n      <site name="plat{i}" pos="{r[i, 0]} {r[i, 1]} {r[i, 2]}" size="0.012" '
+            'rgba="0.9 0.3 0.2 1"/>'
+        )
         eqs += f'\n    <connect site1="leg{i}_end" site2="plat{i}"/>'
     refl = "".join(
-        f'\n      <site name="reflector{k}" pos="{p[0] / 1000} {p[1] / 1000} {p[2] / 1000}" size="0.01" rgba="0.9 0.9 0.2 1"/>'
+        f'\n      <site name="reflector{k}" pos="{p[0] / 1000} {p[1] / 1000} {p[2] / 1000}" '
+        'size="0.01" rgba="0.9 0.9 0.2 1"/>'
         for k, p in enumerate(reflectors_mm)
     )
     nests = "".join(
-        f'\n    <site name="nest{k}" pos="{p[0] / 1000} {p[1] / 1000} {p[2] / 1000}" size="0.012" rgba="0.2 0.6 0.9 1"/>'
+        f'\n    <site name="nest{k}" pos="{p[0] / 1000} {p[1] / 1000} {p[2] / 1000}" size="0.012" '
+        'rgba="0.2 0.6 0.9 1"/>'
         for k, p in enumerate(g.reference_nests_mm)
     )
     stations = "".join(
-        f'\n    <site name="station{k}" pos="{p[0] / 1000} {p[1] / 1000} {p[2] / 1000}" size="0.02" rgba="0.9 0.9 0.9 1"/>'
+        f'\n    <site name="station{k}" pos="{p[0] / 1000} {p[1] / 1000} {p[2] / 1000}" '
+        'size="0.02" rgba="0.9 0.9 0.9 1"/>'
         for k, p in enumerate(stations_mm)
     )
     h = g.home_height_mm / 1000
@@ -106,12 +115,16 @@ def build_mjcf(
   <visual><global offwidth="640" offheight="480"/></visual>
   <worldbody>
     <light name="top" pos="0 0 4" dir="0 0 -1" directional="true" castshadow="false"/>
-    <geom name="floor" type="plane" size="3 3 0.01" pos="0 0 -0.05" rgba="0.2 0.22 0.25 1" contype="0" conaffinity="0"/>
-    <geom name="base_plate" type="cylinder" size="0.6 0.02" pos="0 0 -0.02" rgba="0.35 0.36 0.4 1" contype="0" conaffinity="0"/>
-    <geom name="measuring_plate" type="box" size="0.02 0.6 0.7" pos="1.55 0 0.9" rgba="0.4 0.4 0.45 0.6" contype="0" conaffinity="0"/>{nests}{stations}{legs}
+    <geom name="floor" type="plane" size="3 3 0.01" pos="0 0 -0.05" rgba="0.2 0.22 0.25 1"
+        contype="0" conaffinity="0"/>
+    <geom name="base_plate" type="cylinder" size="0.6 0.02" pos="0 0 -0.02" rgba="0.35 0.36 0.4 1"
+        contype="0" conaffinity="0"/>
+    <geom name="measuring_plate" type="box" size="0.02 0.6 0.7" pos="1.55 0 0.9"
+        rgba="0.4 0.4 0.45 0.6" contype="0" conaffinity="0"/>{nests}{stations}{legs}
     <body name="platform" pos="0 0 {h}">
       <freejoint name="platform"/>
-      <geom name="platform" type="cylinder" size="0.34 0.015" rgba="0.6 0.45 0.25 1" mass="{PLATFORM_KG}" contype="0" conaffinity="0"/>{sites}{refl}
+      <geom name="platform" type="cylinder" size="0.34 0.015" rgba="0.6 0.45 0.25 1"
+          mass="{PLATFORM_KG}" contype="0" conaffinity="0"/>{sites}{refl}
     </body>
   </worldbody>
   <equality>{eqs}

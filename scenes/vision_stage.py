@@ -110,7 +110,8 @@ def build_mjcf(
     half = TILE_MM / 2000
     tiles = "\n".join(
         f'            <geom name="tile{k}" type="box" size="{half} {half} {TILE_HALF_THICKNESS_M}" '
-        f'pos="{cx:.9f} {cy:.9f} {-TILE_HALF_THICKNESS_M}" material="circle" contype="0" conaffinity="0" mass="0.001"/>'
+        f'pos="{cx:.9f} {cy:.9f} {-TILE_HALF_THICKNESS_M}" material="circle" contype="0" '
+        'conaffinity="0" mass="0.001"/>'
         for k, (cx, cy) in enumerate(centres)
     )
 
@@ -151,24 +152,30 @@ def build_mjcf(
     <material name="optics" rgba="0.1 0.1 0.12 1"/>
   </asset>
   <worldbody>
-    <light name="top" pos="0 0 1" dir="0 0 -1" directional="true" diffuse="0.3 0.3 0.3" castshadow="false"/>
+    <light name="top" pos="0 0 1" dir="0 0 -1" directional="true" diffuse="0.3 0.3 0.3"
+        castshadow="false"/>
     <geom name="base" type="box" size="0.35 0.3 0.02" pos="-0.15 -0.1 0.0" material="base"/>
     <camera name="microscope" pos="0 0 {z_cam}" xyaxes="1 0 0 0 1 0" {attrs}/>
-    <geom name="objective" type="cylinder" size="0.02 0.04" pos="0 0 {z_cam + 0.045}" material="optics" contype="0" conaffinity="0"/>
+    <geom name="objective" type="cylinder" size="0.02 0.04" pos="0 0 {z_cam + 0.045}"
+        material="optics" contype="0" conaffinity="0"/>
     <body name="x_carriage" pos="0 0 0">
       <joint name="x" type="slide" axis="-1 0 0" range="-0.01 {g.travel_mm[0] / 1000 + 0.01}"/>
-      <geom name="x_saddle" type="box" size="0.2 0.04 0.012" pos="{xg[0]} {xg[1]} {xg[2] - 0.015}" material="carriage" mass="5"/>
+      <geom name="x_saddle" type="box" size="0.2 0.04 0.012" pos="{xg[0]} {xg[1]} {xg[2] - 0.015}"
+          material="carriage" mass="5"/>
       <body name="x_err" pos="{xg[0]} {xg[1]} {xg[2]}">
         {error_joints("ex")}
         <inertial pos="0 0 0" mass="0.01" diaginertia="1e-6 1e-6 1e-6"/>
         <body name="y_carriage" pos="{-xg[0]} {-xg[1]} {-xg[2]}">
           <joint name="y" type="slide" axis="0 -1 0" range="-0.01 {g.travel_mm[1] / 1000 + 0.01}"/>
-          <geom name="y_saddle" type="box" size="0.05 0.2 0.012" pos="{yg[0]} {yg[1]} {yg[2] - 0.015}" material="carriage" mass="4"/>
+          <geom name="y_saddle" type="box" size="0.05 0.2 0.012"
+              pos="{yg[0]} {yg[1]} {yg[2] - 0.015}" material="carriage" mass="4"/>
           <body name="y_err" pos="{yg[0]} {yg[1]} {yg[2]}">
             {error_joints("ey")}
             <inertial pos="0 0 0" mass="0.01" diaginertia="1e-6 1e-6 1e-6"/>
             <body name="table" pos="{-yg[0]} {-yg[1]} {-yg[2]}">
-              <geom name="table_top" type="box" size="0.19 0.19 0.01" pos="{0.15 - 0.005} {0.1 - 0.005} {z_plate - 0.016}" material="carriage" mass="8"/>
+              <geom name="table_top" type="box" size="0.19 0.19 0.01"
+                  pos="{0.15 - 0.005} {0.1 - 0.005} {z_plate - 0.016}" material="carriage"
+                  mass="8"/>
               <body name="plate" pos="{ox} {oy} {z_plate}">
 {tiles}
               </body>

@@ -226,7 +226,7 @@ class ArmSim:
         """Whether any joint has a finite stiffness (the postures then sag under gravity)."""
         return bool(np.any(np.isfinite(self.stiffness)))
 
-    # --- physics ------------------------------------------------------------------------------------
+    # --- physics ----------------------------------------------------------------------------------
     def gravity_torques(self, q_rad: np.ndarray) -> np.ndarray:
         """The torque gravity puts on each joint at rest, MuJoCo's inverse dynamics, (n, N) N m."""
         q = np.atleast_2d(q_rad)
@@ -317,7 +317,7 @@ class ArmSim:
         """True tool points for motor angles (n, N): the links settled under gravity first."""
         return self.point_mm(self.link_angles(q_motor))
 
-    # --- postures and instruments ------------------------------------------------------------------
+    # --- postures and instruments -----------------------------------------------------------------
     def random_postures(
         self, n: int, rng: np.random.Generator, min_z_mm: float | None = None
     ) -> np.ndarray:
@@ -346,7 +346,8 @@ class ArmSim:
             tries += 1
             if tries > 50 * n:
                 raise BadInput(
-                    f"the cone at ({', '.join(f'{v:g}' for v in np.asarray(cone_mm, float))}) mm is out of "
+                    f"the cone at ({', '.join(f'{v:g}' for v in np.asarray(cone_mm, float))}) mm "
+                    "is out of "
                     f"the arm {self.arm.name}'s reach"
                 )
             q = rng.uniform(lim[:, 0], lim[:, 1])

@@ -53,7 +53,8 @@ class ProbeScannerTruth:
             )
         if any(not (float(k).is_integer() and k >= 1) for k in self.runout_harmonics):
             raise ValueError(
-                f"runout_harmonics = {list(self.runout_harmonics)}: a run-out repeats a whole number of "
+                f"runout_harmonics = {list(self.runout_harmonics)}: a run-out repeats a whole "
+                "number of "
                 "times per turn, 1 or more"
             )
 
@@ -67,7 +68,8 @@ class Scan:
 
 
 class ProbeScannerSim:
-    """The scanner's twin: a rotary table, a rail and a spring-loaded stylus whose contact is MuJoCo's ray cast."""
+    """The scanner's twin: a rotary table, a rail and a spring-loaded stylus whose contact is
+    MuJoCo's ray cast."""
 
     def __init__(self, geometry: ProbeScannerGeometry, truth: ProbeScannerTruth):
         self.geometry, self.truth = geometry, truth

@@ -92,7 +92,8 @@ class LensRenderer:
 
 def bilinear_matrix(coords: np.ndarray, shape: tuple[int, int]):
     """The sparse (n_out, H W) matrix of bilinear sampling at ``coords`` (2, h, w) (row, column)
-    in an image of ``shape`` (H, W), edges extended (``map_coordinates(order=1, mode="nearest")``)."""
+    in an image of ``shape`` (H, W), edges extended (``map_coordinates(order=1, mode="nearest")``).
+    """
     from scipy import sparse
 
     H, W = shape

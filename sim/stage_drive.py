@@ -160,14 +160,16 @@ class ElasticBelt:
         self._command = None
 
     def _spans_at(self, u_mm: float) -> np.ndarray:
-        """The two free spans' lengths (2,) m with the carriage at ``u_mm``, from MuJoCo's tendons."""
+        """The two free spans' lengths (2,) m with the carriage at ``u_mm``, from MuJoCo's
+        tendons."""
         self.data.qpos[0] = u_mm / 1000
         mujoco.mj_kinematics(self.model, self.data)
         mujoco.mj_tendon(self.model, self.data)
         return self.data.ten_length.copy()
 
     def _spring_n(self, u_mm: float) -> float:
-        """The belt's net force on the carriage at ``u_mm`` (N, + towards +u): MuJoCo's passive force."""
+        """The belt's net force on the carriage at ``u_mm`` (N, + towards +u): MuJoCo's
+        passive force."""
         self.data.qpos[0], self.data.qvel[0] = u_mm / 1000, 0.0
         mujoco.mj_forward(self.model, self.data)
         return float(self.data.qfrc_passive[0])

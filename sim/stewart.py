@@ -43,7 +43,8 @@ class StewartTruth:
         )
         if pitched.any():  # leg_effects_mm would leave the error out without a word
             raise ValueError(
-                f"leg {int(np.argmax(pitched)) + 1} has a pitch error (leg_pitch_um) but no screw lead: "
+                f"leg {int(np.argmax(pitched)) + 1} has a pitch error (leg_pitch_um) but no screw "
+                "lead: "
                 "leg_pitch_lead_mm must be positive there"
             )
 
@@ -90,8 +91,8 @@ def leg_effects_mm(
 
 
 class StewartSim:
-    """The platform's twin: six legs between ball joints, the truth's hinge errors, a tracker's reflectors on the
-    platform."""
+    """The platform's twin: six legs between ball joints, the truth's hinge errors, a tracker's
+    reflectors on the platform."""
 
     def __init__(self, geometry: StewartGeometry, truth: StewartTruth, rng: np.random.Generator):
         g = geometry

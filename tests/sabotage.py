@@ -3,7 +3,8 @@
 A pytest plugin. Loaded with ``-p tests.sabotage`` and given a fault's name in the environment,
 it applies that one fault at the start of the session, before any test module is imported::
 
-    CALIBENCH_SABOTAGE=chessboard_bias_0p03px python -m pytest -p tests.sabotage tests/estimators/test_chessboard.py
+    CALIBENCH_SABOTAGE=chessboard_bias_0p03px python -m pytest -p tests.sabotage
+    tests/estimators/test_chessboard.py
 
 and the run must fail. Each fault wraps the real function (or method) and changes its answer
 by a small, precise amount; the names the library imports from one module into another are
@@ -104,7 +105,7 @@ def _arm_nominal(joint: int, column: int, error_rad: float) -> Callable[[pytest.
     return apply
 
 
-# --- 2. the rotary probe's reading model -----------------------------------------------------------
+# --- 2. the rotary probe's reading model ----------------------------------------------------------
 def _probe_model_1pct(mp):
     """Every reading the model predicts 1 % long."""
     _wrap(
@@ -115,7 +116,7 @@ def _probe_model_1pct(mp):
     )
 
 
-# --- 3. the chessboard detector --------------------------------------------------------------------
+# --- 3. the chessboard detector -------------------------------------------------------------------
 def _chessboard_bias(mp):
     """+0.03 px in x on every corner of every detected board."""
     _wrap(
@@ -126,7 +127,7 @@ def _chessboard_bias(mp):
     )
 
 
-# --- 4. the belt stage's map std -------------------------------------------------------------------
+# --- 4. the belt stage's map std ------------------------------------------------------------------
 def _belt_map_std_1p6x(mp):
     """The 12 map coefficients' reported 1-sigma 1.6 x (the std the report carries)."""
 
@@ -148,7 +149,7 @@ def _error_map_std_1p6x(mp):
     )
 
 
-# --- 5. a dropped term -----------------------------------------------------------------------------
+# --- 5. a dropped term ----------------------------------------------------------------------------
 def _map_xy_term_dropped(mp):
     """The fitted map evaluated without its x y term (c4): the fit and its report are untouched,
     the compensation that evaluates the map is not."""
@@ -166,7 +167,8 @@ def _map_xy_term_dropped(mp):
 
 
 def _gravity_tool_term_dropped(mp):
-    """The tool's weight left out of the gravity moments (the load the compliance model turns by)."""
+    """The tool's weight left out of the gravity moments (the load the compliance model turns
+    by)."""
     from calibench.estimators.arm import kinematics as ak
 
     real = ak.gravity_moments
@@ -178,7 +180,7 @@ def _gravity_tool_term_dropped(mp):
     _replace(mp, "calibench.estimators.arm.kinematics", "gravity_moments", moments)
 
 
-# --- 6. one parameter's std ------------------------------------------------------------------------
+# --- 6. one parameter's std -----------------------------------------------------------------------
 def _stewart_leg_std_1p3x(mp):
     """One of the one-step leg calibration's seven std 1.3 x."""
 
@@ -191,7 +193,8 @@ def _stewart_leg_std_1p3x(mp):
 
 
 def _stewart_joint_std_1p3x(mp):
-    """One of the joint adjustment's 42 leg parameters' std 1.3 x (its covariance row and column)."""
+    """One of the joint adjustment's 42 leg parameters' std 1.3 x (its covariance row and
+    column)."""
 
     def scale(cal, *a, **k):
         f = np.ones(len(cal.cov))
@@ -212,7 +215,8 @@ def _arm_std_1p3x(mp):
 
 
 def _arm_always_converged(mp):
-    """The arm's Levenberg-Marquardt says converged whatever its last iterate (a silent last iterate)."""
+    """The arm's Levenberg-Marquardt says converged whatever its last iterate (a silent last
+    iterate)."""
     from calibench.estimators.identification.solver import Status
 
     _wrap(
@@ -345,7 +349,8 @@ def pytest_runtest_makereport(item, call):
 
 
 def pytest_terminal_summary(terminalreporter):
-    """Say which fault ran and which tests' assertions caught it (read by tests/test_sabotage.py)."""
+    """Say which fault ran and which tests' assertions caught it (read by
+    tests/test_sabotage.py)."""
     name = _state["name"]
     if name is None:
         terminalreporter.write_line("sabotage: no fault applied")

@@ -167,13 +167,15 @@ CASES = [
     (
         "scanner-runout-fractional-harmonic",
         "probe-scanner",
-        "[probe-scanner.truth]\nrunout_harmonics = [1.5]\nrunout_mm = [0.003]\nrunout_phase_rad = [0.0]\n",
+        "[probe-scanner.truth]\nrunout_harmonics = [1.5]\nrunout_mm = [0.003]\nrunout_phase_rad = "
+        "[0.0]\n",
         "runout_harmonics",
     ),
     (
         "scanner-runout-harmonic-zero",
         "probe-scanner",
-        "[probe-scanner.truth]\nrunout_harmonics = [0]\nrunout_mm = [0.003]\nrunout_phase_rad = [0.0]\n",
+        "[probe-scanner.truth]\nrunout_harmonics = [0]\nrunout_mm = [0.003]\nrunout_phase_rad = "
+        "[0.0]\n",
         "runout_harmonics",
     ),
     # stewart
@@ -192,7 +194,8 @@ CASES = [
     (
         "stewart-compliance-huge",
         "stewart",
-        "[stewart.truth]\nleg_compliance_um_per_n = [1e4, 1e4, 1e4, 1e4, 1e4, 1e4]\npayload_n = 1000.0\n",
+        "[stewart.truth]\nleg_compliance_um_per_n = [1e4, 1e4, 1e4, 1e4, 1e4, 1e4]\npayload_n = "
+        "1000.0\n",
         "leg_compliance_um_per_n",
     ),
     (
@@ -205,7 +208,8 @@ CASES = [
     (
         "stewart-platform-hinges-zero",
         "stewart",
-        "[stewart.geometry]\nplatform_hinges_mm = [[0,0,0],[0,0,0],[0,0,0],[0,0,0],[0,0,0],[0,0,0]]\n",
+        "[stewart.geometry]\nplatform_hinges_mm = "
+        "[[0,0,0],[0,0,0],[0,0,0],[0,0,0],[0,0,0],[0,0,0]]\n",
         "platform_hinges_mm",
     ),
     ("stewart-rotation-720", "stewart", "[stewart]\nrotation_deg = 720.0\n", "rotation_deg"),

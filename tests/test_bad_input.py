@@ -51,7 +51,8 @@ CASES = (
     + iso230.CASES
 )
 
-# the photo cases that need the shared data (real boards): (id, builder(shared, d) -> argv, fragment)
+# the photo cases that need the shared data (real boards): (id, builder(shared, d) -> argv,
+# fragment)
 PHOTO_CASES = [
     ("camera-same-photo-thrice", "the same view as copy0.jpg"),
     ("camera-first-photo-other-size", None),  # legitimately odd: the twelve others calibrate
@@ -129,7 +130,8 @@ def test_bad_photos(case, shared_data, tmp_path, capsys, monkeypatch):
 
 
 def test_every_default_config_passes_its_own_validation():
-    """The ranges the config checks (counts, scatters, sizes) must admit every scenario's defaults."""
+    """The ranges the config checks (counts, scatters, sizes) must admit every scenario's
+    defaults."""
     from calibench.scenarios.config import override
     from calibench.scenarios.registry import SCENARIOS
 

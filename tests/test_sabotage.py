@@ -54,7 +54,8 @@ def _pytest(fault: str | None, targets) -> subprocess.CompletedProcess:
     return subprocess.run(cmd, cwd=REPO, env=env, capture_output=True, text=True, timeout=600)
 
 
-# a fault no test catches yet is expected to pass unseen; once a test catches it, strict turns it red
+# a fault no test catches yet is expected to pass unseen; once a test catches it, strict turns it
+# red
 PARAMS = [
     pytest.param(
         name,

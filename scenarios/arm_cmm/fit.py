@@ -300,7 +300,8 @@ def run_arm_fit(
         result["holdout"] = {}
         for i, (p, rec) in enumerate(zip(paths, train)):
             m = held[label[p]].copy()
-            # a row named bad (the farther of a disagreeing repeat) is not judged, as in a test recording
+            # a row named bad (the farther of a disagreeing repeat) is not judged, as in a test
+            # recording
             m[[f["row"] for f in flagged[label[p]]]] = False
             if m.sum() == 0:
                 continue
@@ -360,26 +361,31 @@ def run_arm_fit(
     ):  # one weighting for all, or the recordings' weights would not compare
         result["coverage"]["warnings"].append(
             f"{', '.join(stated)} state{'s' if len(stated) == 1 else ''} a std per value, "
-            f"{', '.join(label[p] for p in paths if label[p] not in stated)} not: the stated std are not used, every row "
+            f"{', '.join(label[p] for p in paths if label[p] not in stated)} not: the stated std "
+            "are not used, every row "
             "is weighted by the fitted scatter of its recording"
         )
     if result["fit"]["rms_mm"] > PLAUSIBLE_RMS_MM:
         result["coverage"]["warnings"].insert(
             0,
             (
-                f"the fit leaves {result['fit']['rms_mm']:.3g} mm RMS, far beyond any arm's or instrument's error: is "
-                f"the arm description right (--arm; this fit used {arm.name}) and are the columns in degrees and mm?"
+                f"the fit leaves {result['fit']['rms_mm']:.3g} mm RMS, far beyond any arm's or "
+                "instrument's error: is "
+                f"the arm description right (--arm; this fit used {arm.name}) and are the columns "
+                "in degrees and mm?"
             ),
         )
     elif tests:
-        # a plausible fit and a same-frame test hundreds of times off it: the test's tracker stood elsewhere
+        # a plausible fit and a same-frame test hundreds of times off it: the test's tracker stood
+        # elsewhere
         for p in tests:
             got = result["test"][label[p]]["rms_mm"]
             if got > PLAUSIBLE_RMS_MM and got > 100 * result["fit"]["rms_mm"]:
                 result["coverage"]["warnings"].insert(
                     0,
                     (
-                        f"{label[p]}: {got:.4g} mm RMS off the fitted arm in {label[paths[0]]}'s frame: is it from another "
+                        f"{label[p]}: {got:.4g} mm RMS off the fitted arm in {label[paths[0]]}'s "
+                        "frame: is it from another "
                         "setup? (--test-new-frame registers its own frame)"
                     ),
                 )
@@ -414,7 +420,8 @@ def _enough_to_judge(path: Path, keep: np.ndarray) -> None:
     """A test recording needs rows left to judge the fit on once its stale readings are out."""
     if keep.sum() < 3:
         raise BadInput(
-            f"{path}: {keep.sum()} usable rows of {len(keep)} once the stale readings (a measurement "
+            f"{path}: {keep.sum()} usable rows of {len(keep)} once the stale readings (a "
+            "measurement "
             "repeated while the arm moved) are left out: too few to judge the fit on"
         )
 
@@ -424,7 +431,8 @@ def check_postures(q: np.ndarray, n_recordings: int) -> None:
     distinct = len(np.unique(np.round(np.degrees(q), 2), axis=0))
     if distinct < 0.1 * len(q) and distinct < 50:
         raise BadInput(
-            f"{len(q)} rows but only {distinct} distinct postures: repeats carry no new information "
+            f"{len(q)} rows but only {distinct} distinct postures: repeats carry no new "
+            "information "
             "for calibration"
         )
     if distinct < 10 + 6 * n_recordings:

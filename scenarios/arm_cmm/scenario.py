@@ -111,11 +111,11 @@ def reference_values(arm, delta: np.ndarray, kept: list[str], partners: dict) ->
 
     A kept kinematic error is its injected value when no dropped parameter's injected error
     leans on it (``partners``, the basis's first-order relations, only decide which; the values
-    come from ``delta`` alone). Along a run of consecutive parallel axes only the sum of the runs' d moves
-    the data (their common normals slide along parallel axes), so the one d the basis keeps
-    carries the sum. Parameters that absorb other errors by a relation that runs through the
-    chain (the tracker frame, the tool point, a wrist angle seen through the tool's lever) have
-    no entry: held-out positions from MuJoCo judge them instead.
+    come from ``delta`` alone). Along a run of consecutive parallel axes only the sum of the runs' d
+    moves the data (their common normals slide along parallel axes), so the one d the basis keeps
+    carries the sum. Parameters that absorb other errors by a relation that runs through the chain
+    (the tracker frame, the tool point, a wrist angle seen through the tool's lever) have no entry:
+    held-out positions from MuJoCo judge them instead.
     """
     inj = dict(zip(param_names(arm.n_joints), map(float, delta)))
     runs: list[list[int]] = []
@@ -198,7 +198,8 @@ def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool
             ident = identify_identifiable(problem)
         except np.linalg.LinAlgError:
             raise BadInput(
-                f"the arm {sim.arm.name} leaves the identification singular: its links give the tool "
+                f"the arm {sim.arm.name} leaves the identification singular: its links give the "
+                "tool "
                 "point too little motion to determine its parameters (an arm without length?)"
             ) from None
         elapsed = time.perf_counter() - t0
@@ -279,7 +280,8 @@ def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool
             "probe_rms_after_cone_mm",
             rms["cone"],
             None,
-            note="identified from the cones and the bar alone; compared after a rigid fit (no base frame)",
+            note="identified from the cones and the bar alone; compared after a rigid fit (no "
+            "base frame)",
         ),
         Check(
             "observability_chosen",
@@ -315,7 +317,8 @@ def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool
         # errors that absorb others through the chain; the held-out positions judge them
         "judged_by_holdout": by_holdout,
         "cone_estimates": {k: v for k, v in cone_ident.estimate.items()},
-        "observability_index": "O1 = (prod sigma_i)^(1/L) / sqrt(rows), columns scaled 0.1 mm / 1 mrad",
+        "observability_index": "O1 = (prod sigma_i)^(1/L) / sqrt(rows), columns scaled 0.1 mm / 1 "
+        "mrad",
     }
     artifacts = dict(
         sim=sim,

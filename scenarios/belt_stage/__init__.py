@@ -1,1 +1,2 @@
-"""Scenario ``belt-stage``: its config and run (:mod:`.scenario`) and its rerun layout (:mod:`.viewer`)."""
+"""Scenario ``belt-stage``: its config and run (:mod:`.scenario`) and its rerun layout
+(:mod:`.viewer`)."""

@@ -1,4 +1,5 @@
-"""The ``belt-stage`` run's figure: both axes' error maps (truth, fit, stations), the check points."""
+"""The ``belt-stage`` run's figure: both axes' error maps (truth, fit, stations) and the check
+points."""
 
 from __future__ import annotations
 

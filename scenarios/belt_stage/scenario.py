@@ -106,7 +106,8 @@ def check_config(c: BeltStageConfig) -> None:
         raise bad(
             f"{where}.board.square_mm",
             board.square_mm,
-            f"the {w_mm:g} x {h_mm:g} mm board spans {share:.3g} times the image at {far:g} mm, the far end of "
+            f"the {w_mm:g} x {h_mm:g} mm board spans {share:.3g} times the image at {far:g} mm, "
+            "the far end of "
             f"the tilted calibration views: at most {MAX_BOARD_FRACTION:g}, square_mm up to "
             f"{max(most, 0.0):.3g} with this board and camera",
         )
@@ -119,8 +120,10 @@ def check_config(c: BeltStageConfig) -> None:
         raise bad(
             f"{where}.board.square_mm",
             board.square_mm,
-            f"the margin ({board.margin_mm:g} mm) must be a whole number of 1/{TEXTURE_PX_PER_SQUARE} squares "
-            f"(the board's texture pixels): e.g. square_mm = {' or '.join(f'{q:.6g}' for q in near)}",
+            f"the margin ({board.margin_mm:g} mm) must be a whole number of "
+            f"1/{TEXTURE_PX_PER_SQUARE} squares "
+            "(the board's texture pixels): e.g. square_mm = "
+            f"{' or '.join(f'{q:.6g}' for q in near)}",
         )
     # the board in view over the whole travel (the camera hangs above its middle)
     tx, ty = g.travel_mm
@@ -147,7 +150,8 @@ def check_config(c: BeltStageConfig) -> None:
         )
     )
     what = (
-        f"camera_height_mm = {show(g.camera_height_mm)} with travel_mm = {show(g.travel_mm)}: the camera above "
+        f"camera_height_mm = {show(g.camera_height_mm)} with travel_mm = {show(g.travel_mm)}: the "
+        "camera above "
         f"the middle of the travel must see the {w_mm:g} x {h_mm:g} mm board anywhere in the travel"
     )
     if depth <= 0:
@@ -178,18 +182,22 @@ def check_config(c: BeltStageConfig) -> None:
         raise bad(
             f"{NAME}.truth.{key}",
             getattr(t, key),
-            f"the map moves the board up to {err[int(key == 'error_y')]:.4g} mm, out of the camera's view at the "
+            f"the map moves the board up to {err[int(key == 'error_y')]:.4g} mm, out of the "
+            "camera's view at the "
             f"edge of the travel (camera_height_mm = {g.camera_height_mm:g})",
         )
     if board.square_mm * min(cam.fx, cam.fy) / depth < MIN_SQUARE_PX:
         raise bad(
             f"{where}.board.square_mm",
             board.square_mm,
-            f"a square spans {board.square_mm * min(cam.fx, cam.fy) / depth:.3g} px in the station views "
-            f"({depth:g} mm from the camera): the corner detector needs {MIN_SQUARE_PX:g} px or more",
+            f"a square spans {board.square_mm * min(cam.fx, cam.fy) / depth:.3g} px in the "
+            "station views "
+            f"({depth:g} mm from the camera): the corner detector needs {MIN_SQUARE_PX:g} px or "
+            "more",
         )
     # stations: inside the travel, home once, enough distinct ones for the quadratic maps
-    n_min = 3  # a quadratic in x (1, x, x^2) needs three distinct x, and so in y; 3 x 3 > 6 coefficients
+    # a quadratic in x (1, x, x^2) needs three distinct x, and so in y; 3 x 3 > 6 coefficients
+    n_min = 3
     for axis, (key, stations, travel) in enumerate(
         (("stations_x_mm", c.stations_x_mm, tx), ("stations_y_mm", c.stations_y_mm, ty))
     ):

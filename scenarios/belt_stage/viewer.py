@@ -36,7 +36,8 @@ def log_run(path: Path, report, a: dict) -> None:
                     V(
                         "3d",
                         "error_map",
-                        f"error map (arrows x{ARROW_GAIN:g}): true red, measured green, fitted blue",
+                        f"error map (arrows x{ARROW_GAIN:g}): true red, measured green, fitted "
+                        "blue",
                     ),
                 ],
                 [

@@ -30,9 +30,10 @@ from calibench.estimators.discovery.select import Step, prune, select
 from calibench.scenarios.discover.report import describe_effects
 from calibench.scenarios.report import BadInput
 
-# --- the arm ---------------------------------------------------------------------------------------
+# --- the arm --------------------------------------------------------------------------------------
 ARM_EXPERIMENTS = {
-    "joint_compliance": "take postures where the other joints change this joint's gravity torque (the elbow "
+    "joint_compliance": "take postures where the other joints change this joint's gravity torque "
+    "(the elbow "
     "folded and stretched at the same shoulder angle), or add a known payload",
     "encoder_eccentricity": "take postures at the same gravity torque over the joint's whole turn",
     "transmission": "measure over a wider range of the joint's angle at a finer step",
@@ -151,7 +152,8 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
     n_kin = 4 * N + len(arm.parallel_pairs())
     if min(len(k) for k in parts) < 12 or n < max(40, 2 * n_kin):
         raise BadInput(
-            f"{n} usable postures ({', '.join(str(len(k)) for k in parts)} per recording): discover "
+            f"{n} usable postures ({', '.join(str(len(k)) for k in parts)} per recording): "
+            "discover "
             f"needs at least {max(40, 2 * n_kin)} for the {arm.name}'s parameters"
         )
 
@@ -166,7 +168,8 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
     temp, t_s = joined("temp_c"), joined("t_s")
     if truth is not None and truth.delta and len(truth.delta) != 5 * N + 3:
         raise BadInput(
-            f"the twin's truth.delta has {len(truth.delta)} values; the arm {arm.name} needs 5 x {N} + 3"
+            f"the twin's truth.delta has {len(truth.delta)} values; the arm {arm.name} needs 5 x "
+            f"{N} + 3"
         )
     chain = chain_of(arm)
     solved = calibrate(
@@ -316,7 +319,8 @@ def _arm_summary(name: str, found, effects: list, names: list) -> str:
     )
     return (
         f"the nominal {name} leaves out {', '.join(dict.fromkeys(names))}; held-out RMS "
-        f"{found.cv_nominal * 1000:.0f} um with the drawing, {found.cv_final * 1000:.0f} um with what was found "
+        f"{found.cv_nominal * 1000:.0f} um with the drawing, {found.cv_final * 1000:.0f} um with "
+        "what was found "
         f"({steps})"
     )
 
@@ -343,8 +347,10 @@ def _arm_confounds(sig, terms, candidates, drivers, found) -> list[dict]:
                     "effect": c.name,
                     "axis": "xyz",
                     "with": other,
-                    "why": f"joint {c.joint}'s gravity torque is nearly a sinusoid of its own angle in these "
-                    f"postures: {100 * frac:.0f} % of {c.name}'s effect is what {other} already explains",
+                    "why": f"joint {c.joint}'s gravity torque is nearly a sinusoid of its own "
+                    "angle in these "
+                    f"postures: {100 * frac:.0f} % of {c.name}'s effect is what {other} already "
+                    "explains",
                     "experiment": ARM_EXPERIMENTS[c.name],
                 }
             )
@@ -355,10 +361,13 @@ def _arm_confounds(sig, terms, candidates, drivers, found) -> list[dict]:
                     "effect": c.name,
                     "axis": "xyz",
                     "with": "geometry",
-                    "why": f"within these postures joint {c.joint}'s gravity torque ({tau.min():.0f} to "
+                    "why": f"within these postures joint {c.joint}'s gravity torque "
+                    f"({tau.min():.0f} to "
                     f"{tau.max():.0f} N m) moves the point almost as the kinematic errors do: "
-                    f"{100 * frac:.0f} % of a compliance's effect is absorbed by them, so the recording "
-                    f"cannot show it, yet a calibration without it will not carry to postures that load "
+                    f"{100 * frac:.0f} % of a compliance's effect is absorbed by them, so the "
+                    "recording "
+                    "cannot show it, yet a calibration without it will not carry to postures "
+                    "that load "
                     f"the joint otherwise",
                     "experiment": ARM_EXPERIMENTS[c.name],
                 }
@@ -447,7 +456,7 @@ def twin_tables(scenario: str, out: dict, config: Path | None, arm=None) -> tupl
     return {"arm-cmm": {"truth": {"delta": delta, "stiffness_nm_per_rad": stiffness}}}, left
 
 
-# --- the plug-in (calibench.scenarios.discover.engine.Plugin) ----------------------------------------
+# --- the plug-in (calibench.scenarios.discover.engine.Plugin) -------------------------------------
 HOLDOUTS: tuple[str, ...] = ()  # its own folds: contiguous blocks of postures of each recording
 MANY_RECORDINGS = True  # several sessions, each in its own instrument frame
 

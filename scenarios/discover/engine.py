@@ -116,7 +116,8 @@ def run_discover(
         tables = load_toml(config)
         if scenario not in tables:
             raise BadInput(
-                f"config {config} has no [{scenario}] table (it has: {', '.join(tables) or 'none'}): "
+                f"config {config} has no [{scenario}] table (it has: "
+                f"{', '.join(tables) or 'none'}): "
                 "its twin is not this instrument's"
             )
     if twin is not None and any(same_file(twin, p) for p in paths):

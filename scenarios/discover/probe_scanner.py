@@ -1,12 +1,12 @@
 """``calibench discover probe-scanner``: where a scanner's turns disagree with its twin.
 
 The scene model: the tracer's rail (d, dL, alpha0) and the plate's centre calibrated on the
-recording by least squares, as any user would (``estimators.probe_scanner.calibration.calibrate_lsq``); the
-twin (MuJoCo's ray against the plate's walls, and whatever effects the config's twin carries:
-``discover --twin`` writes them, ``discover --config`` replays them) then replays every encoder
-angle. What is left is
-searched: the table's runout (harmonics per turn), the encoder's eccentricity, the probe's
-scale and offset; then a table over the angle for what none of them explains.
+recording by least squares, as any user would
+(``estimators.probe_scanner.calibration.calibrate_lsq``); the twin (MuJoCo's ray against the plate's
+walls, and whatever effects the config's twin carries: ``discover --twin`` writes them, ``discover
+--config`` replays them) then replays every encoder angle. What is left is searched: the table's
+runout (harmonics per turn), the encoder's eccentricity, the probe's scale and offset; then a table
+over the angle for what none of them explains.
 
 Repeats: every turn samples the same encoder angles, so each angle is a station visited once
 per turn; the held-out folds are whole turns.
@@ -39,7 +39,8 @@ from calibench.scenarios.report import BadInput
 
 BIN_DEG = 1.0  # the nonsmooth table's bands of the table's angle
 EXPERIMENTS = {
-    "offset": "measure a gauge of known size (a ring): the probe's zero and the rail's dL are one column on one "
+    "offset": "measure a gauge of known size (a ring): the probe's zero and the rail's dL are one "
+    "column on one "
     "artefact",
     "scale": "measure two artefacts of different size",
     "encoder_eccentricity": "turn the artefact in its holder by 90 deg and measure again",
@@ -101,8 +102,10 @@ def scene_model(rec, config) -> tuple[object, np.ndarray, np.ndarray, np.ndarray
     if cal is None or not np.isfinite(cal.rms_mm) or cal.rms_mm > 1.0:
         fit_rms = "no fit" if cal is None else f"rms {cal.rms_mm:.3g} mm"
         raise BadInput(
-            f"the recording does not fit the calibration plate ({2 * a:g} mm square, r = {rc:g} mm) with "
-            f"any rail ({fit_rms}): another artefact, a wrong unit (the format: mm and degrees), or not a "
+            f"the recording does not fit the calibration plate ({2 * a:g} mm square, r = {rc:g} "
+            "mm) with "
+            f"any rail ({fit_rms}): another artefact, a wrong unit (the format: mm and degrees), "
+            "or not a "
             "probe-scanner recording?"
         )
     p = np.r_[cal.d_mm, cal.dL_mm, cal.alpha0_rad, cal.centre_mm]
@@ -116,7 +119,8 @@ def scene_model(rec, config) -> tuple[object, np.ndarray, np.ndarray, np.ndarray
         cols[:, k] = (f[0] - f[1]) / (2 * steps[k])
     if not np.all(np.isfinite(cols)):
         raise BadInput(
-            f"the recording does not fit the calibration plate ({2 * a:g} mm square, r = {rc:g} mm): "
+            f"the recording does not fit the calibration plate ({2 * a:g} mm square, r = {rc:g} "
+            "mm): "
             "its rail's model has no slope there"
         )
     rho_twin = _twin(config, cal).reading_mm("plate", th)
@@ -150,7 +154,8 @@ def find_angle_table(
     peak = int(np.argmax(np.abs(z)))
     bands = np.flatnonzero(region)
     where = (
-        f"at table angles {', '.join(_runs(bands))} deg (largest at {(peak + 0.5) * BIN_DEG:.1f} deg, "
+        f"at table angles {', '.join(_runs(bands))} deg (largest at {(peak + 0.5) * BIN_DEG:.1f} "
+        "deg, "
         f"{means[peak] * 1000:+.1f} um)"
     )
     table = AngleTable(
@@ -229,10 +234,13 @@ def discover_scanner(rec, seed: int = 0, floor: float = FLOOR, config=None) -> t
             "effect": "runout",
             "axis": AXIS,
             "with": "the square's form",
-            "why": "a runout 4, 8, ... times a turn repeats with the square plate's sides: it cannot be "
-            f"told from the plate's form error ({100 * frac:.0f} % of a fourfold runout is what the "
+            "why": "a runout 4, 8, ... times a turn repeats with the square plate's sides: it "
+            "cannot be "
+            f"told from the plate's form error ({100 * frac:.0f} % of a fourfold runout is what "
+            "the "
             "calibrated rail already does), so those harmonics are not searched",
-            "experiment": "measure a round artefact (a ring gauge) to see the table's runout at every "
+            "experiment": "measure a round artefact (a ring gauge) to see the table's runout at "
+            "every "
             "harmonic",
         }
     )
@@ -243,7 +251,8 @@ def discover_scanner(rec, seed: int = 0, floor: float = FLOOR, config=None) -> t
                 "effect": "offset",
                 "axis": AXIS,
                 "with": "the rail's dL",
-                "why": f"{100 * frac:.0f} % of a probe offset is what the rail's dL already does: on one "
+                "why": f"{100 * frac:.0f} % of a probe offset is what the rail's dL already does: "
+                "on one "
                 "artefact the two are one number",
                 "experiment": EXPERIMENTS["offset"],
             }
@@ -258,7 +267,8 @@ def discover_scanner(rec, seed: int = 0, floor: float = FLOOR, config=None) -> t
         **one_axis_fit(AXIS, np.sqrt(np.mean(first**2)), found, noise, after_noise),
         "holdout": scheme,
         "scene_model": (
-            f"the twin (MuJoCo's ray on the {2 * config.geometry.plate.half_side_mm:g} mm plate) with "
+            f"the twin (MuJoCo's ray on the {2 * config.geometry.plate.half_side_mm:g} mm plate) "
+            "with "
             f"its rail calibrated: d {cal.d_mm:.4f} mm, dL {cal.dL_mm:.4f} mm, alpha0 "
             f"{np.degrees(cal.alpha0_rad):.4f} deg, plate centre ({cal.centre_mm[0]:.4f}, "
             f"{cal.centre_mm[1]:.4f}) mm"
@@ -307,7 +317,7 @@ def _locate(sig, drivers, rec, seed) -> list[dict]:
     return sorted(out, key=lambda d: -d["score"])
 
 
-# --- the plug-in (calibench.scenarios.discover.engine.Plugin) ----------------------------------------
+# --- the plug-in (calibench.scenarios.discover.engine.Plugin) -------------------------------------
 HOLDOUTS: tuple[str, ...] = ()  # its own folds: whole turns (or interleaved samples of one)
 MANY_RECORDINGS = False
 

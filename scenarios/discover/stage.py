@@ -38,9 +38,11 @@ STAGE_DEGREE = {"belt-stage": 2, "vision-stage": 3}
 
 
 EXPERIMENTS = {
-    "thermal_expansion": "let the machine's temperature change by several K during the test (or repeat it warm "
+    "thermal_expansion": "let the machine's temperature change by several K during the test (or "
+    "repeat it warm "
     "and cold): only then does thermal expansion differ from a plain scale error",
-    "thermal_drift": "hold the temperature steady for part of the test, or vary it independently of time",
+    "thermal_drift": "hold the temperature steady for part of the test, or vary it independently "
+    "of time",
     "backlash": "approach every station from both directions",
     "periodic": "measure at a finer step over a longer travel",
     "positioning": "measure more stations along the axis",
@@ -63,7 +65,8 @@ def folds_for(rec_run, x, y, holdout: str | None) -> tuple[np.ndarray, str]:
     rows, cols = len(np.unique(y)) <= len(y) / 4, len(np.unique(x)) <= len(x) / 4
     if holdout == "pass" and not passes:
         raise BadInput(
-            "--holdout pass: the recording has one pass (its run column); hold out rows, columns or blocks"
+            "--holdout pass: the recording has one pass (its run column); hold out rows, columns "
+            "or blocks"
         )
     if holdout == "rows" and not rows:
         raise BadInput(
@@ -245,7 +248,8 @@ def _within_travel(scenario: str, x: np.ndarray, y: np.ndarray) -> None:
     for axis, v, t in (("x", x, travel[0]), ("y", y, travel[1])):
         if v.min() < -0.05 * t or v.max() > 1.05 * t:
             raise BadInput(
-                f"{axis}_cmd_mm reaches {v.min() if v.min() < -0.05 * t else v.max():.6g} mm; the twin's "
+                f"{axis}_cmd_mm reaches {v.min() if v.min() < -0.05 * t else v.max():.6g} mm; the "
+                "twin's "
                 f"{scenario} travels 0-{t:g} mm in {axis}: a wrong unit (um?) or another stage"
             )
 
@@ -284,8 +288,10 @@ def _where(r, v, name, drivers):
         c, prof = reversal_profile(r, np.asarray(drivers[axis], float), v)
         ok = np.isfinite(prof)
         return (
-            f"whole {axis.upper()} travel: forward minus backward {np.nanmean(prof) * 1000:+.1f} um "
-            f"(from {np.nanmin(prof[ok]) * 1000:+.1f} to {np.nanmax(prof[ok]) * 1000:+.1f} um along it)"
+            f"whole {axis.upper()} travel: forward minus backward {np.nanmean(prof) * 1000:+.1f} "
+            "um "
+            f"(from {np.nanmin(prof[ok]) * 1000:+.1f} to {np.nanmax(prof[ok]) * 1000:+.1f} um "
+            "along it)"
         )
     if name in ("t_s", "temp_c"):
         k, stat = change_point(
@@ -324,7 +330,8 @@ def _confounds(signals, terms, found, candidates, drivers, rec):
                     "effect": c.name,
                     "axis": c.axis,
                     "with": "scale",
-                    "why": f"the temperature moved only {np.ptp(rec.temp_c):.2f} K, so an expansion "
+                    "why": f"the temperature moved only {np.ptp(rec.temp_c):.2f} K, so an "
+                    "expansion "
                     f"coefficient would look like (and be absorbed by) a scale error",
                     "experiment": EXPERIMENTS[c.name],
                 }
@@ -335,7 +342,8 @@ def _confounds(signals, terms, found, candidates, drivers, rec):
                     "effect": c.name,
                     "axis": c.axis,
                     "with": "the scene model and the accepted effects",
-                    "why": f"{100 * frac:.0f} % of its effect on the data is also what the model already has",
+                    "why": f"{100 * frac:.0f} % of its effect on the data is also what the model "
+                    "already has",
                     "experiment": EXPERIMENTS.get(c.name, "vary its driver independently"),
                 }
             )
@@ -375,7 +383,8 @@ def _config(scenario: str, path: Path | None):
 
 
 def stage_truth(scenario: str, path: Path | None):
-    """The stage twin's as-built truth for ``discover``: the config file's, or None (the defaults)."""
+    """The stage twin's as-built truth for ``discover``: the config file's, or None (the
+    defaults)."""
     return None if path is None else _config(scenario, path).truth
 
 
@@ -413,7 +422,7 @@ def _stage_drives(out: dict, truth) -> tuple[dict, list[str]]:
     return drives, left
 
 
-# --- the plug-in (calibench.scenarios.discover.engine.Plugin) ----------------------------------------
+# --- the plug-in (calibench.scenarios.discover.engine.Plugin) -------------------------------------
 HOLDOUTS = ("pass", "rows", "columns", "blocks")  # --holdout's schemes (folds_for)
 MANY_RECORDINGS = False
 

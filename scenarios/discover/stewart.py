@@ -33,7 +33,8 @@ MIN_DISTINCT_POSES = (
     20  # 42 hinge parameters and the frame's 6 from 6 readings a pose, with room for the folds
 )
 EXPERIMENTS = {
-    "leg_compliance": "add a known payload to the platform, or hold poses that load the legs differently",
+    "leg_compliance": "add a known payload to the platform, or hold poses that load the legs "
+    "differently",
     "thermal_expansion": "let the machine's temperature change by several K during the recording",
     "backlash": "approach each pose with every leg extending, then retracting",
     "periodic": "measure at a finer step of the legs' lengths",
@@ -57,7 +58,8 @@ def register(rec, geometry, iterations: int = 10) -> tuple[np.ndarray, np.ndarra
     Rb, tb, ok = forward_kinematics_many(rec.readings_mm + l0, r0, B0, np.eye(3), home)
     if ok.mean() < 0.5:
         raise BadInput(
-            "the legs' readings give no pose of the nominal platform for most rows: not this machine's "
+            "the legs' readings give no pose of the nominal platform for most rows: not this "
+            "machine's "
             "recording, or not readings relative to the initial lengths"
         )
     Rf, tf = rigid_transform(
@@ -82,7 +84,8 @@ def _check_registered(rec, g, Rf, tf) -> None:
     if far.mean() > 0.5:
         raise BadInput(
             f"the legs' readings disagree with the tracker's poses on the nominal platform by "
-            f"{np.median(worst):.3g} mm (median): a wrong unit (the format: mm and degrees), readings "
+            f"{np.median(worst):.3g} mm (median): a wrong unit (the format: mm and degrees), "
+            "readings "
             "not relative to the initial lengths, or another platform (--config)"
         )
     if far.any():
@@ -90,7 +93,8 @@ def _check_registered(rec, g, Rf, tf) -> None:
         listed = ", ".join(str(int(k) + 1) for k in rows[:5]) + (" ..." if len(rows) > 5 else "")
         raise BadInput(
             f"data row(s) {listed}: the legs' readings disagree with the tracker's pose by up to "
-            f"{worst[far].max():.3g} mm, where the other rows agree within {worst[~far].max():.3g} mm: "
+            f"{worst[far].max():.3g} mm, where the other rows agree within "
+            f"{worst[~far].max():.3g} mm: "
             "corrupt rows (leave them out)"
         )
 
@@ -212,7 +216,8 @@ def _along(r: np.ndarray, v: np.ndarray) -> float:
 
 
 def _p_along(r, v, rng, n_perm):
-    """_along's score and its p-value, the poses' residuals shifted cyclically in time as the null."""
+    """_along's score and its p-value, the poses' residuals shifted cyclically in time as the
+    null."""
     score = _along(r, v)
     hits = sum(_along(np.roll(r, rng.integers(1, len(r))), v) >= score for _ in range(n_perm))
     return score, (hits + 1) / (n_perm + 1)
@@ -274,16 +279,21 @@ def locate(
 def _where(r, v, name, leg) -> str:
     if name == "direction":
         return (
-            f"leg {leg}: extending minus retracting {1000 * (r[v > 0].mean() - r[v < 0].mean()):+.1f} um "
+            f"leg {leg}: extending minus retracting "
+            f"{1000 * (r[v > 0].mean() - r[v < 0].mean()):+.1f} um "
             f"at the same poses"
         )
     if name in ("temp_c", "t_s"):
         slope = np.polyfit(v, r, 1)[0]
         unit = "K" if name == "temp_c" else "h"
-        return f"leg {leg} follows {name}: {1000 * slope * (1 if name == 'temp_c' else 3600):+.2f} um per {unit}"
+        return (
+            f"leg {leg} follows {name}: "
+            f"{1000 * slope * (1 if name == 'temp_c' else 3600):+.2f} um per {unit}"
+        )
     if name == "axial_force":
         return (
-            f"leg {leg} reads more the more it carries: {1000 * np.polyfit(v, r, 1)[0]:+.4f} um per N of axial "
+            f"leg {leg} reads more the more it carries: {1000 * np.polyfit(v, r, 1)[0]:+.4f} um "
+            "per N of axial "
             "load, beyond what the hinge geometry absorbed"
         )
     edges = np.quantile(v, np.linspace(0, 1, 9))
@@ -309,12 +319,14 @@ def discover_stewart(
     n = len(rec)
     if n < 60:
         raise BadInput(
-            f"{n} poses: discover stewart needs at least 60 (42 hinge parameters and the tracker's frame)"
+            f"{n} poses: discover stewart needs at least 60 (42 hinge parameters and the "
+            "tracker's frame)"
         )
     distinct = len(np.unique(stations(rec)))
     if distinct < MIN_DISTINCT_POSES:
         raise BadInput(
-            f"{distinct} distinct poses among {n}: the hinges need at least {MIN_DISTINCT_POSES} poses "
+            f"{distinct} distinct poses among {n}: the hinges need at least {MIN_DISTINCT_POSES} "
+            "poses "
             "spread over the workspace"
         )
     Rf, tf = register(rec, g)
@@ -354,7 +366,8 @@ def discover_stewart(
                     "effect": c.name,
                     "axis": AXIS,
                     "with": "the hinge geometry and the accepted effects",
-                    "why": f"{100 * frac:.0f} % of {c.key}'s effect on the readings is what the model "
+                    "why": f"{100 * frac:.0f} % of {c.key}'s effect on the readings is what the "
+                    "model "
                     "already has",
                     "experiment": EXPERIMENTS.get(c.name, "vary its driver"),
                 }
@@ -369,7 +382,8 @@ def discover_stewart(
         "effects": effects,
         **one_axis_fit(AXIS, np.sqrt(np.mean(r**2)), found, noise, after_noise),
         "holdout": "five contiguous blocks of poses",
-        "scene_model": "the nominal platform (drawing hinges, rigid legs) at the tracker's poses, the tracker's "
+        "scene_model": "the nominal platform (drawing hinges, rigid legs) at the tracker's poses, "
+        "the tracker's "
         "frame registered",
         "tracker_frame": {"R": Rf.tolist(), "t_mm": tf.tolist()},
         "temp_mean_c": None if rec.temp_c is None else float(np.mean(rec.temp_c)),
@@ -441,7 +455,7 @@ def twin_tables(scenario: str, out: dict, config: Path | None, arm=None) -> tupl
     return {"stewart": {"geometry": geometry, "truth": truth}}, left
 
 
-# --- the plug-in (calibench.scenarios.discover.engine.Plugin) ----------------------------------------
+# --- the plug-in (calibench.scenarios.discover.engine.Plugin) -------------------------------------
 HOLDOUTS: tuple[str, ...] = ()  # its own folds: contiguous blocks of poses
 MANY_RECORDINGS = False
 

@@ -164,8 +164,8 @@ def null_claims(scenario: str, k: int, floors) -> list[bool]:
 
 
 def concealed_discovery(scenario: str, kind: str, seed: int) -> tuple[dict, dict, dict]:
-    """The suite's case (scenario, kind, seed) through discover: the sealed manifest, discovery.json's
-    content and what the figure needs."""
+    """The suite's case (scenario, kind, seed) through discover: the sealed manifest,
+    discovery.json's content and what the figure needs."""
     rec_seed = case_seed(kind, seed)
     if scenario == "probe-scanner":
         rec, manifest = scanner_recording(kind, rec_seed)
@@ -246,7 +246,8 @@ def run_case(scenario: str, kind: str, seed: int) -> CaseResult:
 
 
 def score(results: list[CaseResult]) -> dict:
-    """The suite's figures: detection, false claims on nulls, spurious claims, parameters, ratios."""
+    """The suite's figures: detection, false claims on nulls, spurious claims, parameters,
+    ratios."""
     nulls = [r for r in results if r.kind == "null"]
     concealed = sum(r.concealed for r in results)
     params = [e for r in results for e in r.param_errors]

@@ -1,1 +1,2 @@
-"""Scenario ``probe-scanner``: its config and run (:mod:`.scenario`) and its rerun layout (:mod:`.viewer`)."""
+"""Scenario ``probe-scanner``: its config and run (:mod:`.scenario`) and its rerun layout
+(:mod:`.viewer`)."""

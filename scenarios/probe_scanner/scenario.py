@@ -70,9 +70,11 @@ def check_config(c: ProbeScannerConfig) -> None:
     rim_room = float(np.min(np.linalg.norm(g.lens.outline(n=4000), axis=1)))
     if not q < min(plate_room, rim_room):
         raise BadInput(
-            f"config: {NAME}.truth.d_mm = {show(t.d_mm)} (with dL_mm = {show(t.dL_mm)}): the stylus starts "
+            f"config: {NAME}.truth.d_mm = {show(t.d_mm)} (with dL_mm = {show(t.dL_mm)}): the "
+            "stylus starts "
             f"{q:.4g} mm from the table's axis and must start inside both openings all round: "
-            f"hypot(d_mm, dL_mm) below {min(plate_room, rim_room):.4g} mm (the plate's opening leaves "
+            f"hypot(d_mm, dL_mm) below {min(plate_room, rim_room):.4g} mm (the plate's opening "
+            "leaves "
             f"{plate_room:.4g} mm, the rim's {rim_room:.4g} mm)"
         )
     # the quadratic fits around the four minima: 3 to a quarter turn of samples (fit_minima)
@@ -104,15 +106,17 @@ def check_config(c: ProbeScannerConfig) -> None:
             raise bad(
                 f"{NAME}.geometry.plate.corner_radius_mm",
                 r,
-                f"the plate's sides must be flat where the fits around their middles look ({reach:.3g} mm each "
-                f"side of the middle): corner_radius_mm from 0 to below {a - reach:.4g} mm with half_side_mm "
+                "the plate's sides must be flat where the fits around their middles look "
+                f"({reach:.3g} mm each "
+                f"side of the middle): corner_radius_mm from 0 to below {a - reach:.4g} mm with "
+                "half_side_mm "
                 f"= {a:g}",
             )
 
 
 def run(config: ProbeScannerConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool) -> Report:
-    """Simulate the rotary probe scanner tracing its calibration opening and a spectacle rim; calibrate
-    it from what its sensors recorded; compare with the truth.
+    """Simulate the rotary probe scanner tracing its calibration opening and a spectacle rim;
+    calibrate it from what its sensors recorded; compare with the truth.
 
     The arguments and the Report: :class:`calibench.scenarios.registry.Scenario`.
     """
@@ -199,7 +203,8 @@ def run(config: ProbeScannerConfig, seed: int, fidelity: str, out_dir: Path, rrd
             "contour_rms_after_mm",
             rms["after"],
             config.contour_quanta * quantum,
-            note=f"rim traced with the full-data calibration; limit {config.contour_quanta:g} encoder quanta",
+            note=f"rim traced with the full-data calibration; limit {config.contour_quanta:g} "
+            "encoder quanta",
         ),
         Check(
             "contour_rms_paper_mm",

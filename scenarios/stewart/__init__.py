@@ -1,1 +1,2 @@
-"""Scenario ``stewart``: its config and run (:mod:`.scenario`) and its rerun layout (:mod:`.viewer`)."""
+"""Scenario ``stewart``: its config and run (:mod:`.scenario`) and its rerun layout
+(:mod:`.viewer`)."""

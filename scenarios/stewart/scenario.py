@@ -113,8 +113,10 @@ def check_config(c: StewartConfig) -> None:
         raise bad(
             f"{NAME}.n_poses",
             c.n_poses,
-            f"at least {need}: each leg's one-step calibration solves {len(LEG_PARAMS)} unknowns (r, B, l) by "
-            f"least squares and scales their covariance by the residuals' variance, which needs one pose more",
+            f"at least {need}: each leg's one-step calibration solves {len(LEG_PARAMS)} unknowns "
+            "(r, B, l) by "
+            "least squares and scales their covariance by the residuals' variance, which needs "
+            "one pose more",
         )
     if not c.rotation_deg <= MAX_ROTATION_DEG:
         raise bad(
@@ -140,29 +142,36 @@ def check_config(c: StewartConfig) -> None:
         raise bad(
             f"{NAME}.geometry.home_height_mm",
             g.home_height_mm,
-            f"at home the legs are {L_home.min():.4g} to {L_home.max():.4g} mm long: the legs' stroke is {lo:g} "
+            f"at home the legs are {L_home.min():.4g} to {L_home.max():.4g} mm long: the legs' "
+            f"stroke is {lo:g} "
             f"to {hi:g} mm (the scene's slides)",
         )
     if not cond_home <= MAX_CONDITION:
         raise BadInput(
-            f"config: {NAME}.geometry: platform_hinges_mm and base_hinges_mm leave the platform singular at "
-            f"home (the legs' Jacobian has condition number {cond_home:.3g}, at most {MAX_CONDITION:g}): "
-            f"six legs pin its six degrees of freedom only from hinges spread around platform and base "
+            f"config: {NAME}.geometry: platform_hinges_mm and base_hinges_mm leave the platform "
+            "singular at "
+            f"home (the legs' Jacobian has condition number {cond_home:.3g}, at most "
+            f"{MAX_CONDITION:g}): "
+            "six legs pin its six degrees of freedom only from hinges spread around platform and "
+            "base "
             f"(now out to {size_p:.4g} mm and {size_b:.4g} mm from their centres)"
         )
     # the poses' range: home +- translation_mm, +- rotation_deg about each axis
     what = (
-        f"the poses (home_height_mm = {show(g.home_height_mm)}, +- translation_mm = {show(c.translation_mm)} "
+        f"the poses (home_height_mm = {show(g.home_height_mm)}, +- translation_mm = "
+        f"{show(c.translation_mm)} "
         f"along and +- rotation_deg = {show(c.rotation_deg)} about each axis)"
     )
     if not lo <= L_min <= L_max <= hi:
         raise BadInput(
-            f"config: {NAME}: {what} take the legs from {L_min:.4g} to {L_max:.4g} mm: their stroke is "
+            f"config: {NAME}: {what} take the legs from {L_min:.4g} to {L_max:.4g} mm: their "
+            "stroke is "
             f"{lo:g} to {hi:g} mm (the scene's slides); a smaller translation_mm or rotation_deg"
         )
     if not cond_max <= MAX_CONDITION:
         raise BadInput(
-            f"config: {NAME}: {what} come near a singularity (the legs' Jacobian's condition number "
+            f"config: {NAME}: {what} come near a singularity (the legs' Jacobian's condition "
+            "number "
             f"{cond_max:.3g}, at most {MAX_CONDITION:g}); a smaller translation_mm or rotation_deg"
         )
     # the injected geometric errors: errors, not a different machine
@@ -173,7 +182,8 @@ def check_config(c: StewartConfig) -> None:
             raise bad(
                 f"{NAME}.truth.{key}",
                 v,
-                f"a 1-sigma geometric error is at most {MAX_ERROR_FRACTION:.0%} of the platform's size (its "
+                f"a 1-sigma geometric error is at most {MAX_ERROR_FRACTION:.0%} of the platform's "
+                "size (its "
                 f"hinges {size:g} mm from the centre): from 0 to {MAX_ERROR_FRACTION * size:g} mm",
             )
     # the legs' give under the load (the payload and the platform's weight, shared by six legs
@@ -187,14 +197,17 @@ def check_config(c: StewartConfig) -> None:
         raise bad(
             f"{NAME}.truth.leg_compliance_um_per_n",
             t.leg_compliance_um_per_n,
-            f"a leg would give {give.max():.4g} mm under the load (payload_n = {t.payload_n:g} and the "
-            f"platform's weight, about {force:.4g} N a leg): at most {MAX_GIVE_FRACTION:.0%} of its length, "
+            f"a leg would give {give.max():.4g} mm under the load (payload_n = {t.payload_n:g} "
+            "and the "
+            f"platform's weight, about {force:.4g} N a leg): at most {MAX_GIVE_FRACTION:.0%} of "
+            "its length, "
             f"compliance from 0 to {most:.3g} um/N",
         )
 
 
 def random_poses(n, rng, config):
-    """``n`` random poses (R (3, 3), t (3,) mm) within the config's translation and rotation ranges."""
+    """``n`` random poses (R (3, 3), t (3,) mm) within the config's translation and rotation
+    ranges."""
     home = np.array([0, 0, config.geometry.home_height_mm])
     rot = np.deg2rad(config.rotation_deg)
     return [
@@ -218,8 +231,8 @@ def measure_stations(sim: StewartSim, config: StewartConfig):
 
 
 def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool) -> Report:
-    """Simulate the Stewart platform measured by a laser tracker's lengths; calibrate it from what its
-    sensors recorded; compare with the truth.
+    """Simulate the Stewart platform measured by a laser tracker's lengths; calibrate it from
+    what its sensors recorded; compare with the truth.
 
     The arguments and the Report: :class:`calibench.scenarios.registry.Scenario`.
     """
@@ -386,7 +399,8 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
             "solves_not_converged",
             float(sum(not c.converged for c in pipeline) + (not joint.converged) + unconverged),
             0.0,
-            note="the six legs' one-step Gauss-Newton, the joint adjustment, the multilaterations, the "
+            note="the six legs' one-step Gauss-Newton, the joint adjustment, the "
+            "multilaterations, the "
             "two-step spheres and the held-out poses' forward kinematics",
         ),
     ]

@@ -1,1 +1,2 @@
-"""Scenario ``vision-stage``: its config and run (:mod:`.scenario`) and its rerun layout (:mod:`.viewer`)."""
+"""Scenario ``vision-stage``: its config and run (:mod:`.scenario`) and its rerun layout
+(:mod:`.viewer`)."""

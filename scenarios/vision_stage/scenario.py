@@ -110,8 +110,10 @@ def check_config(c: VisionStageConfig) -> None:
         raise bad(
             f"{NAME}.geometry.working_distance_mm",
             g.working_distance_mm,
-            f"the microscope sees {field[0]:.3g} x {field[1]:.3g} mm; its field must hold one whole "
-            f"{plate.diameter_mm:g} mm circle and not two ({plate.pitch_mm:g} mm pitch): working_distance_mm "
+            f"the microscope sees {field[0]:.3g} x {field[1]:.3g} mm; its field must hold one "
+            "whole "
+            f"{plate.diameter_mm:g} mm circle and not two ({plate.pitch_mm:g} mm pitch): "
+            "working_distance_mm "
             f"from {lo:.4g} to {hi:.4g} with this camera",
         )
     if plate.diameter_mm >= plate.pitch_mm:
@@ -130,9 +132,12 @@ def check_config(c: VisionStageConfig) -> None:
             raise bad(
                 f"{NAME}.grid",
                 c.grid,
-                f"from {need} to {most} circles along {'XY'[axis]} ({need}: the model selection fits "
-                f"polynomials up to degree {need - 1}, which need {need} along each axis; {most}: the plate's "
-                f"{plate.n} x {plate.n} circles at {plate.pitch_mm:g} mm within the {g.travel_mm[axis]:g} mm "
+                f"from {need} to {most} circles along {'XY'[axis]} ({need}: the model selection "
+                "fits "
+                f"polynomials up to degree {need - 1}, which need {need} along each axis; {most}: "
+                "the plate's "
+                f"{plate.n} x {plate.n} circles at {plate.pitch_mm:g} mm within the "
+                f"{g.travel_mm[axis]:g} mm "
                 f"travel)",
             )
     # interferometer lines: at least one each way, over the range the plate calibrated
@@ -144,7 +149,8 @@ def check_config(c: VisionStageConfig) -> None:
             raise bad(
                 f"{NAME}.{key}",
                 getattr(c, key),
-                f"one line or more, each over the range the grid calibrates: {'XY'[axis]} from {lo:g} to "
+                f"one line or more, each over the range the grid calibrates: {'XY'[axis]} from "
+                f"{lo:g} to "
                 f"{hi:g} mm (a model is not tested where it extrapolates)",
             )
     # the line rulers: graduations far enough apart to read in order, two or more on each axis
@@ -153,7 +159,8 @@ def check_config(c: VisionStageConfig) -> None:
         raise bad(
             f"{NAME}.ruler_pitch_mm",
             c.ruler_pitch_mm,
-            f"from {MIN_RULER_PITCH_MM:g} mm (graduations read in order through the aim's scatter) to "
+            f"from {MIN_RULER_PITCH_MM:g} mm (graduations read in order through the aim's "
+            "scatter) to "
             f"{longest:g} mm (two graduations on the {longest:g} mm ruler of the shorter axis)",
         )
     for key in ("ruler_aim_um", "ruler_error_um"):
@@ -161,14 +168,17 @@ def check_config(c: VisionStageConfig) -> None:
             raise bad(
                 f"{NAME}.{key}",
                 getattr(c, key),
-                f"a graduation's scatter is a small part of the pitch: at most {MAX_RULER_SCATTER:.0%} of "
-                f"ruler_pitch_mm = {c.ruler_pitch_mm:g}, {MAX_RULER_SCATTER * c.ruler_pitch_mm * 1000:g} um",
+                "a graduation's scatter is a small part of the pitch: at most "
+                f"{MAX_RULER_SCATTER:.0%} of "
+                f"ruler_pitch_mm = {c.ruler_pitch_mm:g}, "
+                f"{MAX_RULER_SCATTER * c.ruler_pitch_mm * 1000:g} um",
             )
     if not 0 <= c.turn_error <= MAX_TURN_ERROR:
         raise bad(
             f"{NAME}.turn_error",
             c.turn_error,
-            f"the fraction the operator's turn is off by: from 0 to {MAX_TURN_ERROR:g} (at 1 or more the "
+            f"the fraction the operator's turn is off by: from 0 to {MAX_TURN_ERROR:g} (at 1 or "
+            "more the "
             f"rotate-and-check loop does not converge)",
         )
     s = c.truth.squareness_rad
@@ -176,14 +186,15 @@ def check_config(c: VisionStageConfig) -> None:
         raise bad(
             f"{NAME}.truth.squareness_rad",
             s,
-            f"a squareness error is a small angle: from -{MAX_SQUARENESS_RAD:g} to {MAX_SQUARENESS_RAD:g} rad "
+            f"a squareness error is a small angle: from -{MAX_SQUARENESS_RAD:g} to "
+            f"{MAX_SQUARENESS_RAD:g} rad "
             f"({MAX_SQUARENESS_RAD * 1000:g} mm per metre)",
         )
 
 
 def run(config: VisionStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool) -> Report:
-    """Simulate the vision measuring machine's table under its microscope, with a circle plate and an
-    interferometer; calibrate it from what its sensors recorded; compare with the truth.
+    """Simulate the vision measuring machine's table under its microscope, with a circle plate
+    and an interferometer; calibrate it from what its sensors recorded; compare with the truth.
 
     The arguments and the Report: :class:`calibench.scenarios.registry.Scenario`.
     """
@@ -279,7 +290,8 @@ def build_report(
     cubic_true,
     verification,
 ) -> Report:
-    """The vision stage's Report: phi, the cubic's coefficients against the truth, the ISO 230-2 checks."""
+    """The vision stage's Report: phi, the cubic's coefficients against the truth, the ISO 230-2
+    checks."""
     report = Report(scenario=NAME, seed=seed, fidelity=fidelity)
     report.parameters.append(
         Parameter(

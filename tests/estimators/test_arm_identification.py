@@ -134,7 +134,8 @@ def _partners_by_lstsq(problem, basis) -> dict:
 
 def test_partners_are_the_least_squares_coefficients(arm):
     """The basis solves for its partners through its own orthonormal basis (not lstsq, for speed):
-    the same coefficients to 1e-9 of the largest, on the seed's arm (tracker) and a UR10 (points)."""
+    the same coefficients to 1e-9 of the largest, on the seed's arm (tracker) and a UR10 (points).
+    """
     sim, chain = arm
     q = sim.random_postures(50, np.random.default_rng(2))
     ur10 = ArmSim("ur10", ArmTruth())

@@ -89,7 +89,8 @@ def test_contour_points_lie_on_the_opening():
 def test_minima_are_the_sides_feet():
     rho = _ray_rho(TH, TRUE["d"], TRUE["dL"], TRUE["alpha0"], [0, 0])
     fits = fit_minima(TH, rho, 9)
-    # rho_min = sqrt(a^2 - d^2) - dL; curvature a^2 / sqrt(a^2 - d^2); alpha0 + theta = psi - asin(d/a)
+    # rho_min = sqrt(a^2 - d^2) - dL; curvature a^2 / sqrt(a^2 - d^2); alpha0 + theta = psi -
+    # asin(d/a)
     for f in fits:
         assert f.rho_mm == pytest.approx(np.sqrt(A**2 - 64) - 3.0, abs=1e-5)
         # the window sits on the samples, not the vertex, and the curve is skewed (d != 0): the

@@ -51,7 +51,8 @@ def test_any_arm_by_name_and_a_compliant_one_by_config(tmp_path):
     assert rep["info"]["arm"] == "UR10"
     config = tmp_path / "compliant.toml"
     config.write_text(
-        '[arm-cmm]\narm = "ur10"\n[arm-cmm.truth]\nstiffness_nm_per_rad = [inf, 2e5, 1.5e5, inf, inf, inf]\n'
+        '[arm-cmm]\narm = "ur10"\n[arm-cmm.truth]\nstiffness_nm_per_rad = [inf, 2e5, 1.5e5, inf, '
+        "inf, inf]\n"
     )
     assert (
         main(

@@ -77,7 +77,8 @@ def test_physics_recovers_the_twins_stiffness_and_carries_to_other_frames(series
         p = par[f"compliance{j}"]
         assert p["unit"] == "urad_per_nm"
         assert abs(p["estimate"] - 1e6 / STIFFNESS[j - 1]) < 3 * p["std"], p
-    # the noise is 0.02 mm per coordinate: a mean 3-D error of about 0.03 mm where the model is right
+    # the noise is 0.02 mm per coordinate: a mean 3-D error of about 0.03 mm where the model is
+    # right
     for name in ("test.csv", "other.csv"):
         assert phys["test"][name]["mean_mm"] < 0.06, phys["test"][name]
     assert "registered on" in phys["test"]["other.csv"]["frame"]

@@ -33,7 +33,8 @@ offset_mm = [60.0, 0.0, -100.0]
 """
 
 
-# A KR 210's proportions, 900 kg: a_mm, d_mm, alpha_deg, theta_deg, range_deg, mass_kg, com_mm per joint
+# A KR 210's proportions, 900 kg: a_mm, d_mm, alpha_deg, theta_deg, range_deg, mass_kg, com_mm per
+# joint
 HEAVY_JOINTS = [
     (350.0, 675.0, -90.0, 0.0, (-170, 170), 400.0, (-150.0, 100.0, 0.0)),
     (1150.0, 0.0, 0.0, -90.0, (-60, 60), 200.0, (-600.0, 0.0, 150.0)),
@@ -126,5 +127,6 @@ def test_an_arm_whose_axes_are_all_parallel_holds_its_tools_height(tmp_path):
     fit = json.loads((out / "fit.json").read_text())
     held = {d["name"]: d["why"] for d in fit["dropped"]}
     assert "base_z" in held["tool_z"] and "held at the drawing" in held["tool_z"]
-    # 3-D RMS of a 3-coordinate Gaussian less the fitted parameters' share: within 15 % of sqrt(3) sigma
+    # 3-D RMS of a 3-coordinate Gaussian less the fitted parameters' share: within 15 % of sqrt(3)
+    # sigma
     assert abs(fit["fit"]["rms_mm"] / (np.sqrt(3) * NOISE_MM) - 1) < 0.15, fit["fit"]

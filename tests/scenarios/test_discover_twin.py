@@ -12,7 +12,8 @@ from calibench.sim.concealed import stage_recording, write_blinded
 
 
 def _found_and_replayed(tmp_path, scenario, rec, manifest):
-    """discover --twin, then discover --config with that twin: (found, replayed, twin path, recording path)."""
+    """discover --twin, then discover --config with that twin: (found, replayed, twin path,
+    recording path)."""
     path = write_blinded(tmp_path, "rec", rec, manifest)
     twin = tmp_path / "twin.toml"
     assert (
@@ -41,7 +42,8 @@ def test_elastic_belt_is_lost_motion_growing_along_the_travel(tmp_path, capsys):
     assert e["axis"] == truth["axis"] and e["grows_along_travel"]
     assert "grows along the travel" in capsys.readouterr().out
     # the growth against MuJoCo's belt measured at the travel's ends: 5 standard errors, and the
-    # straight line's own bias (the belt's stiffness is 1 / (1/L1 + 1/L2), slightly curved) within 3 %
+    # straight line's own bias (the belt's stiffness is 1 / (1/L1 + 1/L2), slightly curved) within 3
+    # %
     g, g_std = e["params"]["growth_mm_per_m"], e["stderr"]["growth_mm_per_m"]
     assert abs(g - truth["params"]["growth_mm_per_m"]) < 5 * g_std + 0.03 * abs(
         truth["params"]["growth_mm_per_m"]

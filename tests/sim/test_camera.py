@@ -1,4 +1,5 @@
-"""The world's camera: lens model against OpenCV's, and MuJoCo's render against the exact projection."""
+"""The world's camera: lens model against OpenCV's, and MuJoCo's render against the exact
+projection."""
 
 import cv2
 import mujoco
