@@ -190,7 +190,8 @@ def montecarlo(args: argparse.Namespace) -> int:
     int
         0 when every trial ran, 1 when some failed.
     """
-    from calibench.scenarios.study.montecarlo import checks_table, run_study, summary_table
+    from calibench.scenarios.study.montecarlo import run_study
+    from calibench.scenarios.study.summary import checks_table, summary_table
 
     _known(args.scenario)
     out = args.out or Path("calibench-out") / f"{args.scenario}-montecarlo"
