@@ -21,7 +21,8 @@ from pathlib import Path
 from results import STUDIES
 
 from calibench.scenarios.registry import SCENARIOS
-from calibench.scenarios.study.montecarlo import load_journal, run_study
+from calibench.scenarios.study.journal import load_journal
+from calibench.scenarios.study.montecarlo import run_study
 
 RENDERED = ("belt-stage", "vision-stage")  # the others report fidelity "analytic" only
 

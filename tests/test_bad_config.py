@@ -287,7 +287,7 @@ def test_every_default_config_and_sampled_truth_passes_the_checks():
     trials), lie within the ranges the checks allow."""
     from calibench.scenarios.config import override
     from calibench.scenarios.registry import SCENARIOS
-    from calibench.scenarios.study.montecarlo import trial_seed
+    from calibench.scenarios.study.trials import trial_seed
 
     for name, s in SCENARIOS.items():
         module = sys.modules[s.run.__module__]

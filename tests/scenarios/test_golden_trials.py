@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from calibench.scenarios.registry import NAMES
-from calibench.scenarios.study.montecarlo import run_trial
+from calibench.scenarios.study.trials import run_trial
 
 GOLDEN = Path(__file__).with_name("golden_trials.json")
 TRIALS = (0, 1)

@@ -12,15 +12,10 @@ import pyarrow.parquet as pq
 import pytest
 
 from calibench.scenarios.cli import main
-from calibench.scenarios.study.montecarlo import (
-    JOURNAL,
-    binom_ppf,
-    chi2_ppf,
-    load_journal,
-    run_study,
-    summarise,
-    trial_seed,
-)
+from calibench.scenarios.study.journal import JOURNAL, load_journal
+from calibench.scenarios.study.montecarlo import run_study
+from calibench.scenarios.study.summary import binom_ppf, chi2_ppf, summarise
+from calibench.scenarios.study.trials import trial_seed
 
 
 def _estimates(out):

@@ -1,0 +1,126 @@
+"""``calibench``'s ``main``: parse, check --out, run the verb's handler, and turn what went wrong
+into the CONTRACT's exit statuses (2 bad input in one line, 3 an internal error with the
+traceback in OUT/error.log, 130 interrupted)."""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+from calibench.scenarios.cli import verbs
+from calibench.scenarios.cli.parser import build_parser
+from calibench.scenarios.cli.status import (
+    EXIT_BAD_INPUT,
+    EXIT_INTERNAL,
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """The ``calibench`` command.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments after the program's name (default ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        The exit status (CONTRACT): 0 ok, 1 a check failed, 2 bad input (one line on stderr),
+        3 an internal error (the traceback in OUT/error.log), 130 interrupted.
+    """
+    os.environ.setdefault(
+        "MUJOCO_GL", "egl"
+    )  # before MuJoCo's first import: renders without a display
+    try:
+        args = build_parser().parse_args(argv)
+    except SystemExit as e:  # usage errors (status 2) and --help (0), as a return value
+        return e.code if isinstance(e.code, int) else EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("calibench: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    created = None
+    try:
+        created = _check_out(getattr(args, "out", None))
+        return {
+            "run": verbs.run,
+            "fit": verbs.fit,
+            "camera": verbs.camera,
+            "montecarlo": verbs.montecarlo,
+            "discover": verbs.discover,
+            "iso230": verbs.iso230,
+        }[args.command](args)
+    except BrokenPipeError:  # the reader went away (| head): nothing to say
+        sys.stderr.close()
+        return EXIT_OK
+    except KeyboardInterrupt:
+        kept = (
+            "; finished trials are kept, rerun the same command to resume"
+            if args.command == "montecarlo"
+            else ""
+        )
+        print(f"calibench: interrupted{kept}", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except Exception as e:  # noqa: BLE001 - bad input is reported in one line
+        from calibench.errors import BadInput
+
+        if isinstance(e, BadInput):
+            print(f"calibench: {e}", file=sys.stderr)
+            if created is not None and created.is_dir() and not any(created.iterdir()):
+                created.rmdir()
+            return EXIT_BAD_INPUT
+        return _internal_error(e, getattr(args, "out", None))
+
+
+def _check_out(out: Path | None) -> Path | None:
+    """--out must be a folder calibench can write: said before any work. Returns the folder if
+    this call created it (removed again if the command ends in bad input, empty)."""
+    if out is None:
+        return None
+    from calibench.scenarios.report import BadInput
+
+    out = Path(out)
+    try:
+        for parent in [out, *out.parents]:
+            if parent.exists() and not parent.is_dir():
+                raise BadInput(f"--out {out}: {parent} is a file, not a folder")
+        created = None if out.exists() else out
+    except OSError as e:  # a name too long for the file system, a folder that cannot be read
+        raise BadInput(
+            f"--out {str(out)[:80]}{'...' if len(str(out)) > 80 else ''}: cannot write there "
+            f"({e.strerror})"
+        ) from None
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        probe = out / ".calibench-write-test"
+        probe.touch()
+        probe.unlink()
+    except OSError as e:
+        raise BadInput(f"--out {out}: cannot write there ({e.strerror})") from None
+    return created
+
+
+def _internal_error(e: Exception, out: Path | None) -> int:
+    """A defect of calibench: one line, the traceback in OUT/error.log (CONTRACT's exit 3)."""
+    import traceback
+
+    try:
+        where = Path(out) if out is not None and not Path(out).is_file() else Path("calibench-out")
+    except OSError:
+        where = Path("calibench-out")
+    text = "".join(traceback.format_exception(e))
+    try:
+        where.mkdir(parents=True, exist_ok=True)
+        (where / "error.log").write_text(text)
+        said = f"the traceback is in {where / 'error.log'}"
+    except OSError:
+        said = "the traceback could not be written"
+    print(
+        f"calibench: internal error ({type(e).__name__}: {str(e).splitlines()[0] if str(e) else ''}); this is a "
+        f"defect of calibench, please report it; {said}",
+        file=sys.stderr,
+    )
+    return EXIT_INTERNAL

@@ -1,0 +1,267 @@
+"""The ``calibench`` command's argument parser (CONTRACT.md, "Command line"): its verbs, their
+options, and the ranges a value is checked against before any work (a usage error is one line,
+exit status 2)."""
+
+from __future__ import annotations
+
+import argparse
+import os
+from pathlib import Path
+
+from calibench.scenarios.cli.status import EXIT_BAD_INPUT
+
+MAX_TRIALS = 1_000_000
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that reports a usage error in one line (it prints usage plus a line by default)."""
+
+    def error(self, message: str):
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: {message} (see {self.prog} --help)\n")
+
+
+def _ranged(kind: type, ok, rule: str):
+    """An argparse type: the text as ``kind`` (int or float), refused in one line unless
+    ``ok(value)``; ``rule`` says the range in words."""
+    noun = "a whole number" if kind is int else "a number"
+
+    def parse(text: str):
+        try:
+            v = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not {noun}") from None
+        if not ok(v):
+            raise argparse.ArgumentTypeError(f"{text}: {rule}")
+        return v
+
+    return parse
+
+
+# more local processes than a few per core only compete (and each holds a scenario in memory)
+MAX_WORKERS = 4 * (os.cpu_count() or 1)
+_workers = _ranged(
+    int,
+    lambda v: 1 <= v <= MAX_WORKERS,
+    f"from 1 to {MAX_WORKERS} local workers on this machine ({os.cpu_count()} cores)",
+)
+_seed = _ranged(int, lambda v: 0 <= v < 2**63, "a seed is a whole number from 0 to 2^63 - 1")
+_trials = _ranged(
+    int,
+    lambda v: 1 <= v <= MAX_TRIALS,
+    f"from 1 to {MAX_TRIALS} trials a study (run several studies)",
+)
+_fraction = _ranged(float, lambda v: 0 < v < 0.9, "a fraction between 0 and 0.9")
+_square_mm = _ranged(
+    float, lambda v: 0.001 <= v <= 10_000, "a square's side from 0.001 to 10000 mm"
+)
+_board_count = _ranged(int, lambda v: v >= 2, "a board has at least 2 inner corners each way")
+
+
+def _folder(text: str) -> Path:
+    """--out's folder; an empty one is refused (it would be the current folder, silently)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("is empty: give an output folder")
+    return Path(text)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``calibench`` command's parser: every verb, its options and their checks.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        A parser whose usage errors exit with status 2 and one line on stderr; the verb is
+        ``args.command``.
+    """
+    from calibench.scenarios.registry import FIT_MODELS, NAMES, PLANNED
+
+    names = ", ".join(NAMES)
+    p = _Parser(
+        prog="calibench",
+        description="Simulation-first test bench for calibrating measuring machines.",
+    )
+    from calibench import __version__
+
+    p.add_argument("--version", action="version", version=f"calibench {__version__}")
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    r = sub.add_parser(
+        "run",
+        help="simulate a scenario, calibrate, compare with the truth",
+        description=f"Run a scenario ({names}) or all of them; writes DIR/report.json and DIR/run.rrd.",
+    )
+    r.add_argument("scenario", help=f"one of: {names}; or 'all'")
+    r.add_argument("--seed", type=_seed, default=0, help="random seed (default 0)")
+    r.add_argument("--out", type=_folder, help="output folder (default ./calibench-out/<scenario>)")
+    r.add_argument(
+        "--fidelity",
+        choices=("render", "analytic"),
+        default="render",
+        help="render: pixels through MuJoCo's renderer and the real detector; "
+        "analytic: exact projection plus detector noise (default render)",
+    )
+    r.add_argument(
+        "--config", type=Path, help="TOML file with one table per scenario overriding its defaults"
+    )
+    r.add_argument("--no-rrd", action="store_true", help="do not write the rerun recording")
+    r.add_argument(
+        "--arm",
+        help="arm-cmm: ARM.toml or a built-in arm (arm-cmm, ur10) instead of the seed's arm",
+    )
+
+    fit_names = ", ".join(list(FIT_MODELS) + ["arm-cmm"])
+    f = sub.add_parser(
+        "fit",
+        help="fit the scenario's error model to real recordings (CSV)",
+        description="Fit the scenario's calibration model to recordings; writes DIR/fit.json. "
+        "Stages: one recording (x_cmd_mm, y_cmd_mm, x_meas_mm, y_meas_mm). arm-cmm: "
+        "one or more training recordings (q1_deg.., x_mm, y_mm, z_mm), each with its "
+        "own base frame, and recordings to test the result on.",
+    )
+    f.add_argument("scenario", help=f"one of: {fit_names}")
+    f.add_argument("recordings", type=Path, nargs="+", metavar="RECORDING", help="CSV recording(s)")
+    f.add_argument("--out", type=_folder, help="output folder (default ./calibench-out/<scenario>)")
+    f.add_argument(
+        "--arm", help="arm-cmm: ARM.toml or a built-in arm (arm-cmm, ur10); default the seed's arm"
+    )
+    f.add_argument(
+        "--test",
+        type=Path,
+        action="append",
+        default=[],
+        metavar="CSV",
+        help="arm-cmm: a recording in the first training recording's frame to test on (repeatable)",
+    )
+    f.add_argument(
+        "--test-new-frame",
+        type=Path,
+        action="append",
+        default=[],
+        metavar="CSV",
+        help="arm-cmm: a recording from another setup: registered on 20 %% of its rows, tested on "
+        "the rest (repeatable)",
+    )
+    f.add_argument(
+        "--holdout",
+        type=_fraction,
+        metavar="F",
+        help="arm-cmm: keep a fraction F of every training recording out of the fit (fixed seed)",
+    )
+    f.add_argument(
+        "--model",
+        choices=("geometry", "physics"),
+        help="arm-cmm: geometry (kinematics, base, tool) or physics (and the joints' compliance "
+        "under gravity); default physics when the arm has masses",
+    )
+    f.add_argument(
+        "--effects",
+        metavar="DISCOVERY.json|discover",
+        help="arm-cmm: add the joint-angle effects a discover run found (transmission, eccentricity, "
+        "a nonsmooth table) to the model; 'discover' runs the discovery here on the training rows",
+    )
+
+    mc = sub.add_parser(
+        "montecarlo",
+        help="an accuracy study: many trials, truth drawn from the prior",
+        description="Run N trials of a scenario (truth from its prior, noise from its sensors); "
+        "writes DIR/trials.parquet, DIR/summary.json, DIR/study.png. "
+        "Rerunning the same command resumes: finished trials are kept.",
+    )
+    mc.add_argument("scenario", help=f"one of: {names}")
+    mc.add_argument("--trials", type=_trials, required=True, help="number of trials")
+    mc.add_argument("--workers", type=_workers, help="local worker processes (default: all cores)")
+    mc.add_argument(
+        "--scheduler", help="address of a Dask scheduler (tcp://host:8786) instead of local workers"
+    )
+    mc.add_argument("--seed", type=_seed, default=0, help="study seed (default 0)")
+    mc.add_argument(
+        "--out", type=_folder, help="output folder (default ./calibench-out/<scenario>-montecarlo)"
+    )
+    mc.add_argument(
+        "--fidelity",
+        choices=("render", "analytic"),
+        default="analytic",
+        help="sensor fidelity of each trial (default analytic)",
+    )
+    mc.add_argument("--arm", help="arm-cmm: ARM.toml or a built-in arm (arm-cmm, ur10)")
+    mc.add_argument(
+        "--config",
+        type=Path,
+        help="TOML overriding the scenario's defaults, as for run (its "
+        "[scenario] table); the prior then draws around them",
+    )
+
+    d = sub.add_parser(
+        "discover",
+        help="where a recording disagrees with the twin, and which physics is missing",
+        description="Compare a recording with the twin replaying its commands; locate the "
+        "mismatch, name and fit the missing effects, show the held-out fit improve. "
+        "Writes DIR/discovery.json and DIR/discovery.png.",
+    )
+    d.add_argument(
+        "scenario", help="one of: belt-stage, vision-stage, probe-scanner, arm-cmm, stewart"
+    )
+    d.add_argument(
+        "recording",
+        type=Path,
+        nargs="+",
+        help="CSV in the CONTRACT's format for the scenario (arm-cmm: "
+        "one or more, each with its own base frame)",
+    )
+    d.add_argument(
+        "--out", type=_folder, help="output folder (default ./calibench-out/<scenario>-discover)"
+    )
+    d.add_argument(
+        "--seed", type=_seed, default=0, help="seed of the permutation tests (default 0)"
+    )
+    d.add_argument(
+        "--arm", help="arm-cmm: ARM.toml or a built-in arm (arm-cmm, ur10); default the seed's arm"
+    )
+    d.add_argument(
+        "--config",
+        type=Path,
+        help="a run --config file whose twin replays the recording (e.g. one --twin wrote)",
+    )
+    d.add_argument(
+        "--twin",
+        type=Path,
+        help="write the twin updated with what was found, as a run --config file",
+    )
+    d.add_argument(
+        "--holdout",
+        choices=("pass", "rows", "columns", "blocks"),
+        help="what cross-validation holds out (default: passes if the recording has several, "
+        "else whole rows of a grid, else contiguous blocks)",
+    )
+
+    c = sub.add_parser(
+        "camera",
+        help="calibrate a camera from chessboard photos",
+        description="Calibrate a camera from real chessboard photos; writes DIR/intrinsics.json.",
+    )
+    c.add_argument("images", nargs="+", type=Path, help="photos of the chessboard")
+    c.add_argument("--cols", type=_board_count, required=True, help="inner corners per row")
+    c.add_argument("--rows", type=_board_count, required=True, help="inner corners per column")
+    c.add_argument("--square-mm", type=_square_mm, required=True, help="side of a square, mm")
+    c.add_argument("--fix-aspect", action="store_true", help="keep fx = fy")
+    c.add_argument(
+        "--radial", type=int, choices=(2, 3), default=3, help="radial terms k1..k3 (default 3)"
+    )
+    c.add_argument("--no-tangential", action="store_true", help="no tangential terms p1, p2")
+    c.add_argument(
+        "--out", type=_folder, default=Path("calibench-out/camera"), help="output folder"
+    )
+    i = sub.add_parser(
+        "iso230",
+        help="ISO 230-2 evaluation of a real bidirectional run of one axis",
+        description="Evaluate a bidirectional positioning run (target_mm, run, direction, and "
+        "deviation_um or actual_mm) as ISO 230-2:2014; writes DIR/iso230.json and "
+        "DIR/iso230.png.",
+    )
+    i.add_argument("run", type=Path, metavar="RUN.csv", help="the run, one row per reading")
+    i.add_argument(
+        "--out", type=_folder, default=Path("calibench-out/iso230"), help="output folder"
+    )
+    if PLANNED:
+        p.epilog = f"Scenarios planned but not built yet: {', '.join(PLANNED)}."
+    return p

@@ -1,0 +1,368 @@
+"""The ``calibench`` verbs' handlers: each takes the parsed arguments, runs its scenario's code,
+prints what the user reads on the console and returns the exit status (bad input is raised as
+:class:`~calibench.errors.BadInput`, which ``main`` says in one line)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+from calibench.scenarios.cli.status import EXIT_CHECK_FAILED, EXIT_OK
+
+
+def _scenario(name: str):
+    """A scenario by its name (checked), only its own module imported."""
+    from calibench.scenarios.registry import scenario
+
+    _known(name)
+    return scenario(name)  # its module alone: the others would cost a second or two of imports
+
+
+def _known(name: str) -> None:
+    """A scenario's name checked, its module not imported (half a second a study's workers need)."""
+    from calibench.scenarios.registry import NAMES, PLANNED
+    from calibench.scenarios.report import BadInput
+
+    if name in NAMES:
+        return
+    if name in PLANNED:
+        raise BadInput(f"scenario {name!r} is not built yet (available: {', '.join(NAMES)})")
+    raise BadInput(f"unknown scenario {name!r} (available: {', '.join(NAMES)})")
+
+
+def run(args: argparse.Namespace) -> int:
+    """``calibench run``: simulate each scenario asked for, calibrate, compare with the truth and
+    write its report.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed arguments of ``calibench run``.
+
+    Returns
+    -------
+    int
+        0 when every check passed, 1 when one failed.
+    """
+    from calibench.scenarios.config import load_toml, override
+    from calibench.scenarios.registry import NAMES
+    from calibench.scenarios.report import BadInput
+
+    names = list(NAMES) if args.scenario == "all" else [args.scenario]
+    scenarios = [_scenario(n) for n in names]
+    table = load_toml(args.config) if args.config else {}
+    unknown = [k for k in table if k not in NAMES]
+    if unknown:
+        raise BadInput(f"config {args.config}: unknown scenario table(s) {', '.join(unknown)}")
+    configs = {s.name: override(s.config(), table.get(s.name, {}), s.name) for s in scenarios}
+    if args.arm is not None:
+        if "arm-cmm" not in configs:
+            raise BadInput(f"--arm applies to arm-cmm, not {args.scenario}")
+        configs["arm-cmm"] = override(configs["arm-cmm"], {"arm": args.arm}, "arm-cmm")
+    if "arm-cmm" in configs:
+        from calibench.scenarios.arm_cmm.scenario import check_cones
+        from calibench.scenes.arm_cmm import load_arm
+
+        load_arm(configs["arm-cmm"].arm)  # a bad arm is said before anything runs
+        check_cones(configs["arm-cmm"])  # and cones it cannot reach
+    status = EXIT_OK
+    for s in scenarios:
+        if args.out is None:
+            out = Path("calibench-out") / s.name
+        else:
+            out = args.out / s.name if args.scenario == "all" else args.out
+        t0 = time.perf_counter()
+        how = f"seed {args.seed}, {args.fidelity}" if s.renders else f"seed {args.seed}"
+        print(f"calibench: {s.name} ({how})", file=sys.stderr, flush=True)
+        try:
+            report = s.execute(configs[s.name], args.seed, args.fidelity, out, not args.no_rrd)
+        except BadInput as e:
+            raise BadInput(f"{s.name}: {e}") from None
+        report.elapsed_s = time.perf_counter() - t0
+        path = report.write(out)
+        print(report.table())
+        print(
+            f"\n{s.name}: {'ok' if report.ok else 'FAILED'} in {report.elapsed_s:.1f} s -> {path}"
+        )
+        if not report.ok:
+            status = EXIT_CHECK_FAILED
+    return status
+
+
+def fit(args: argparse.Namespace) -> int:
+    """``calibench fit``: fit the scenario's error model to real recordings (arm-cmm: the
+    arm's parameters, tested on held-out rows and recordings).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed arguments of ``calibench fit``.
+
+    Returns
+    -------
+    int
+        0 when the fit is done, 1 when the arm's solve did not converge.
+    """
+    from calibench.scenarios.report import BadInput
+
+    s = _scenario(args.scenario)
+    out = args.out or Path("calibench-out") / s.name
+    if s.name == "arm-cmm":
+        return _fit_arm(args, out)
+    arm_only = [
+        o
+        for o, v in (
+            ("--arm", args.arm),
+            ("--test", args.test),
+            ("--test-new-frame", args.test_new_frame),
+            ("--holdout", args.holdout),
+            ("--model", args.model),
+            ("--effects", args.effects),
+        )
+        if v
+    ]
+    if arm_only:
+        raise BadInput(f"fit {s.name}: {', '.join(arm_only)} apply to arm-cmm only")
+    if s.fit_model is None:
+        raise BadInput(f"fit: scenario {s.name!r} has no fit model")
+    if len(args.recordings) != 1:
+        raise BadInput(f"fit {s.name}: one recording, not {len(args.recordings)}")
+    from calibench.scenarios.stage_fit import run_fit
+
+    result = run_fit(s.name, s.fit_model, args.recordings[0], out)
+    for axis, a in result["axes"].items():
+        print(
+            f"{axis}: SSE {a['sse']:.4g} mm^2  R^2 {a['r2']:.4f}  RMSE {a['rmse']:.4f} mm  (n = {a['n']})"
+        )
+    print(f"-> {out / 'fit.json'}")
+    return EXIT_OK
+
+
+def _fit_arm(args: argparse.Namespace, out: Path) -> int:
+    """``fit arm-cmm``: the fit, its held-out and test errors; 1 when the solve did not converge."""
+    from calibench.scenarios.arm_cmm.fit import run_arm_fit
+
+    r = run_arm_fit(
+        args.recordings,
+        args.arm,
+        args.test,
+        args.test_new_frame,
+        args.holdout,
+        args.model,
+        out,
+        args.effects,
+    )
+    f = r["fit"]
+    print(
+        f"{r['arm']}, model {r['model']}: {r['samples']} training rows, {len(r['parameters'])} parameters "
+        f"({len(r['dropped'])} dropped); fit mean {f['mean_mm']:.3f} mm, rms {f['rms_mm']:.3f} mm, "
+        f"max {f['max_mm']:.3f} mm"
+    )
+    for title, block in (("held out", r.get("holdout", {})), ("test", r.get("test", {}))):
+        for name, e in block.items():
+            print(
+                f"  {title} {name}: mean {e['mean_mm']:.3f}  rms {e['rms_mm']:.3f}  p95 {e['p95_mm']:.3f}  "
+                f"max {e['max_mm']:.3f} mm  (n = {e['samples']})"
+            )
+    for name, rows in r.get("flagged", {}).items():
+        print(f"  left out of {name}: rows {', '.join(str(x['row']) for x in rows)} (see fit.json)")
+    for w in r["coverage"]["warnings"]:
+        print(f"  warning: {w}")
+    if not r["converged"]:
+        print("  the solve did not converge: the figures are of its last iterate", file=sys.stderr)
+    print(f"-> {out / 'fit.json'}")
+    return EXIT_OK if r["converged"] else EXIT_CHECK_FAILED
+
+
+def montecarlo(args: argparse.Namespace) -> int:
+    """``calibench montecarlo``: run (or resume) a study and print its coverage and checks
+    tables.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed arguments of ``calibench montecarlo``.
+
+    Returns
+    -------
+    int
+        0 when every trial ran, 1 when some failed.
+    """
+    from calibench.scenarios.study.montecarlo import run_study
+    from calibench.scenarios.study.summary import checks_table, summary_table
+
+    _known(args.scenario)
+    out = args.out or Path("calibench-out") / f"{args.scenario}-montecarlo"
+    arm = None
+    if args.arm is not None:
+        from calibench.scenarios.report import BadInput
+        from calibench.scenes.arm_cmm import BUILTIN, load_arm
+
+        if args.scenario != "arm-cmm":
+            raise BadInput(f"--arm applies to arm-cmm, not {args.scenario}")
+        load_arm(args.arm)  # a bad file is said here, not in every trial
+        arm = args.arm if args.arm in BUILTIN else str(Path(args.arm).resolve())
+    table = None
+    if args.config is not None:
+        from calibench.scenarios.config import load_toml
+        from calibench.scenarios.report import BadInput
+
+        doc = load_toml(args.config)
+        other = [k for k in doc if k != args.scenario]
+        if other:
+            raise BadInput(
+                f"config {args.config}: a study of {args.scenario} takes only its [{args.scenario}] table "
+                f"(found {', '.join(other)})"
+            )
+        table = doc.get(args.scenario, {})
+    s = run_study(
+        args.scenario,
+        args.trials,
+        args.seed,
+        args.fidelity,
+        out,
+        args.workers,
+        args.scheduler,
+        arm=arm,
+        table=table,
+    )
+    print(
+        f"{s['scenario']}: {s['trials']} trials ({s['resumed']} kept from an earlier run, {s['failed']} failed); "
+        f"this run took {s['elapsed_s']:.1f} s"
+    )
+    print(summary_table(s))
+    if checks_table(s):
+        print("\n" + checks_table(s))
+    print(f"-> {out / 'summary.json'}")
+    if s["failed"]:
+        print(
+            f"calibench: {s['failed']} of {s['trials']} trials failed, e.g. {s['errors'][0]} (every error and its "
+            f"trials: {out / 'trials.parquet'})",
+            file=sys.stderr,
+        )
+    return EXIT_OK if s["failed"] == 0 else EXIT_CHECK_FAILED
+
+
+def discover(args: argparse.Namespace) -> int:
+    """``calibench discover``: where a recording disagrees with the twin, and the effects found.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed arguments of ``calibench discover``.
+
+    Returns
+    -------
+    int
+        0 when the discovery ran.
+    """
+    from calibench.scenarios.discover.engine import run_discover
+
+    out = args.out or Path("calibench-out") / f"{args.scenario}-discover"
+    if args.arm is not None and args.scenario != "arm-cmm":
+        from calibench.scenarios.report import BadInput
+
+        raise BadInput(f"--arm applies to arm-cmm, not {args.scenario}")
+    d = run_discover(
+        args.scenario,
+        args.recording,
+        out,
+        args.seed,
+        args.holdout,
+        args.arm,
+        args.config,
+        args.twin,
+    )
+    f = d["fit"]
+    print(
+        f"{d['scenario']}: {d['samples']} samples; held-out RMS {f['cv_rms_nominal'] * 1000:.2f} um with the "
+        f"scene model, {f['cv_rms_final'] * 1000:.2f} um with what was found ({d['holdout']})"
+    )
+    for e in d["effects"]:
+        print(
+            f"- {e['name']} ({e['axis']}): {e['physics']}; held-out RMS {e['cv_rms_before'] * 1000:.2f} -> "
+            f"{e['cv_rms_after'] * 1000:.2f} um"
+        )
+    for c in d["confounded"]:
+        print(
+            f"- cannot separate {c['effect']} ({c['axis']}): {c['why']}; to separate: {c['experiment']}"
+        )
+    if d.get("verdict"):
+        print(d["verdict"])
+    elif not d["effects"]:
+        print("- nothing missing: the scene model explains the recording")
+    if d.get("summary"):
+        print(d["summary"])
+    if args.twin is not None:
+        print(
+            f"-> {args.twin} (the twin with what was found: calibench discover {args.scenario} ... --config "
+            f"{args.twin} replays it)"
+        )
+    print(f"-> {out / 'discovery.json'}")
+    return EXIT_OK
+
+
+def iso230(args: argparse.Namespace) -> int:
+    """``calibench iso230``: the ISO 230-2 evaluation of a bidirectional run of one axis.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed arguments of ``calibench iso230``.
+
+    Returns
+    -------
+    int
+        0 when the evaluation ran.
+    """
+    from calibench.scenarios.iso230 import run_iso230
+
+    r = run_iso230(args.run, args.out)
+    a = r["axis"]
+    print(
+        f"ISO 230-2, {r['targets']} targets, {r['runs']} runs each way (um): A {a['A']:.3f}  E {a['E']:.3f}  "
+        f"M {a['M']:.3f}  R {a['R']:.3f}  B {a['B']:.3f}  (A up {a['A_up']:.3f}, down {a['A_down']:.3f})"
+    )
+    print(f"-> {args.out / 'iso230.json'}")
+    return EXIT_OK
+
+
+def camera(args: argparse.Namespace) -> int:
+    """``calibench camera``: a camera's intrinsics from chessboard photos.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed arguments of ``calibench camera``.
+
+    Returns
+    -------
+    int
+        0 when the calibration ran.
+    """
+    from calibench.scenarios.camera import run_camera
+
+    r = run_camera(
+        args.images,
+        args.cols,
+        args.rows,
+        args.square_mm,
+        args.fix_aspect,
+        args.radial,
+        not args.no_tangential,
+        args.out,
+    )
+    K = r["K"]
+    print(
+        f"fx {K[0][0]:.3f}  fy {K[1][1]:.3f}  cx {K[0][2]:.3f}  cy {K[1][2]:.3f}  "
+        f"rms {r['rms_px']:.3f} px  ({len(r['used'])} used, {len(r['rejected'])} rejected)"
+    )
+    for photo, corners in r["corners_left_out"].items():
+        print(
+            f"  {photo}: left out corner(s) "
+            + ", ".join(f"{c['corner']} ({c['off_grid_px']} px off the grid)" for c in corners)
+        )
+    print(f"-> {args.out / 'intrinsics.json'}")
+    return EXIT_OK

@@ -1,0 +1,115 @@
+"""Where a study's trials run: a local pool of spawned processes (a forked child of a process
+with a GL context hangs), or a Dask cluster's executor with ``--scheduler``; and Ctrl-C while
+the study waits on them."""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import contextlib
+import multiprocessing
+import os
+import re
+import signal
+import threading
+
+from calibench.errors import BadInput
+
+
+def _ignore_interrupts() -> None:
+    """In a worker: Ctrl-C is the parent's to handle (one line), not a traceback per worker."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+@contextlib.contextmanager
+def interrupt_flag():
+    """An Event set by Ctrl-C while the study waits. A KeyboardInterrupt raised at an arbitrary
+    bytecode can land while a future's lock is held (inside ``as_completed``), and the pool's
+    manager thread then blocks the interpreter's exit forever; a flag is checked only where the
+    loop can stop cleanly.
+
+    Yields
+    ------
+    threading.Event
+        Set once Ctrl-C came (never set outside the main thread, where SIGINT cannot be caught);
+        the previous SIGINT handler is back when the block ends.
+    """
+    stop = threading.Event()
+    if threading.current_thread() is not threading.main_thread():
+        yield stop
+        return
+    old = signal.signal(signal.SIGINT, lambda signum, frame: stop.set())
+    try:
+        yield stop
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
+def make_executor(workers: int | None, scheduler: str | None):
+    """A spawn process pool, or a Dask cluster's executor.
+
+    Parameters
+    ----------
+    workers : int, optional
+        Local worker processes (default: one per core); ignored with ``scheduler``.
+    scheduler : str, optional
+        A Dask scheduler's address (``tcp://host:8786``, ``tls://...``).
+
+    Returns
+    -------
+    executor : concurrent.futures.Executor
+        Where the trials run; its workers ignore Ctrl-C (the parent says it in one line).
+    close : callable
+        ``close(interrupted=False)`` releases the executor; ``interrupted`` stops the local
+        workers at once instead of letting them finish their tasks.
+
+    Raises
+    ------
+    BadInput
+        ``scheduler`` is not an address, Dask distributed is not installed, or the scheduler
+        cannot be reached.
+    """
+    if scheduler:
+        if not re.fullmatch(
+            r"(tcp|tls|ucx|inproc|ws|wss)://[^\s/:]+(:\d+)?|[^\s/:]+:\d+", scheduler
+        ):
+            raise BadInput(f"--scheduler {scheduler}: not a scheduler's address (tcp://host:8786)")
+        try:
+            from distributed import Client
+        except ImportError:
+            raise BadInput(
+                "--scheduler needs Dask distributed: pip install 'calibench[cluster]'"
+            ) from None
+        try:
+            client = Client(scheduler, timeout="10s")
+        except (OSError, ValueError, TimeoutError) as e:
+            raise BadInput(
+                f"--scheduler {scheduler}: cannot reach the Dask scheduler ({e})"
+            ) from None
+        return client.get_executor(), lambda interrupted=False: client.close()
+    n = workers or os.cpu_count() or 1
+    ex = cf.ProcessPoolExecutor(
+        max_workers=n,
+        mp_context=multiprocessing.get_context("spawn"),
+        initializer=_ignore_interrupts,
+    )
+
+    def close(interrupted: bool = False) -> None:
+        if not interrupted:
+            ex.shutdown(wait=False, cancel_futures=True)
+            return
+        # a worker mid-chunk would hold the exit for its whole chunk: its trials are not kept anyway
+        procs = list((getattr(ex, "_processes", None) or {}).values())
+        for proc in procs:
+            proc.terminate()
+        for proc in procs:  # a worker that ignores SIGTERM (stuck in C) must not hold the exit
+            proc.join(5)
+            if proc.is_alive():
+                proc.kill()
+        # the workers are gone, so waiting is short; not waiting leaves the pool's manager thread
+        # closing its wake-up pipe while the interpreter's exit writes to it (Python 3.11's
+        # concurrent.futures race): a traceback after the one line, about 1 Ctrl-C in 20
+        ex.shutdown(wait=True, cancel_futures=True)
+
+    return ex, close

@@ -1,0 +1,123 @@
+"""A study's folder as a resumable record: the journal of finished trials (one JSON line each,
+appended as they finish, so nothing is lost on interruption and a rerun skips them) and
+study.json, which says which study the folder holds (one study per folder)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import TextIO
+
+from calibench.errors import BadInput
+
+JOURNAL = "trials.jsonl"
+
+
+def load_journal(out_dir: Path) -> dict[int, dict]:
+    """Finished trials by index. A row an interruption tore is ignored; anything else that is not
+    a trial of calibench's is bad input, said with the line.
+
+    Parameters
+    ----------
+    out_dir : Path
+        The study's folder.
+
+    Returns
+    -------
+    dict of int to dict
+        The journal's rows (:func:`~calibench.scenarios.study.trials.run_trial`) by trial index;
+        empty when there is no journal yet.
+
+    Raises
+    ------
+    BadInput
+        The journal cannot be read, or holds a line that is not a trial of calibench's.
+    """
+    path = out_dir / JOURNAL
+    done = {}
+    if not path.exists():
+        return done
+    try:
+        text = path.read_text()
+    except (OSError, UnicodeDecodeError):
+        raise BadInput(
+            f"{path} cannot be read as a journal of trials: remove it or use another --out"
+        ) from None
+    lines = text.splitlines()
+    for k, line in enumerate(lines):
+        if not line.strip():
+            continue
+        try:
+            row = json.loads(line)
+        except json.JSONDecodeError:
+            if line.startswith('{"trial": '):
+                continue  # a row torn by an interruption (a resume starts a fresh line after it)
+            row = None
+        if not (
+            isinstance(row, dict)
+            and isinstance(row.get("trial"), int)
+            and row["trial"] >= 0
+            and isinstance(row.get("ok"), bool)
+            and "seed" in row
+        ):
+            raise BadInput(
+                f"{path} line {k + 1} is not a finished trial of calibench's: the journal is corrupt or "
+                "another program's; remove it or use another --out"
+            )
+        done[row["trial"]] = row
+    return done
+
+
+def open_journal(out_dir: Path) -> TextIO:
+    """The journal, opened to append finished trials to; a last line that an interruption tore is
+    closed first, so the next row starts on a line of its own.
+
+    Parameters
+    ----------
+    out_dir : Path
+        The study's folder (it exists).
+
+    Returns
+    -------
+    TextIO
+        The journal in append mode; the caller closes it (a ``with`` block).
+    """
+    path = out_dir / JOURNAL
+    torn = path.exists() and path.stat().st_size and not path.read_bytes().endswith(b"\n")
+    journal = open(path, "a")  # the caller's with block closes it
+    if torn:  # an interruption cut the last line: start a fresh one
+        journal.write("\n")
+    return journal
+
+
+def record_study(out_dir: Path, meta: dict) -> None:
+    """Write study.json, which says the study a folder holds; a folder that holds another study
+    (or a study.json that is not one) is refused, so a resumed study cannot mix two.
+
+    Parameters
+    ----------
+    out_dir : Path
+        The study's folder (it exists).
+    meta : dict
+        The study: ``scenario``, ``seed``, ``fidelity``, and ``arm`` and ``config`` where given.
+
+    Raises
+    ------
+    BadInput
+        The folder holds a different study, or a study.json that cannot be read.
+    """
+    meta_path = out_dir / "study.json"
+    old = None
+    if meta_path.exists():
+        try:
+            old = json.loads(meta_path.read_text())
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+            raise BadInput(
+                f"{meta_path} is not a study's description (corrupt?): remove it or use another "
+                "--out"
+            ) from None
+    if old is not None and old != meta:
+        raise BadInput(
+            f"{out_dir} holds a different study ({meta_path.read_text().strip()}); use another --out"
+        )
+    meta_path.write_text(json.dumps(meta) + "\n")

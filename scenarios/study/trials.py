@@ -1,0 +1,200 @@
+"""A Monte-Carlo study's trials, as a worker runs them.
+
+Each trial draws the truth from the scenario's declared prior (its ``prior(config, rng)``) and
+the noise from its sensor models, runs the pipeline, and returns plain data: one row with
+``trial, seed, ok, error, elapsed_s`` and ``<name>.truth / .estimate / .std`` per parameter.
+A trial is reproducible from (study seed, trial index) alone. Everything here is picklable by
+reference and imports the scenario lazily: a worker loads only what its trials need.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import sys
+import time
+import traceback
+
+import numpy as np
+
+
+def trial_seed(study_seed: int, index: int) -> int:
+    """The trial's own seed, from the study's and its index (independent streams).
+
+    Parameters
+    ----------
+    study_seed : int
+        The study's seed (``--seed``).
+    index : int
+        The trial's index in the study, from 0.
+
+    Returns
+    -------
+    int
+        The seed of the trial's ``numpy.random.Generator``, below 2^32.
+    """
+    return int(np.random.SeedSequence([int(study_seed), int(index)]).generate_state(1)[0])
+
+
+def study_config(
+    scenario: str, table: dict | None = None, arm: str | None = None, checked_only: bool = False
+):
+    """The scenario's config for a study: its defaults, overridden by ``table`` (the scenario's
+    table of a ``--config`` TOML, checked as ``run`` checks it), then ``arm``.
+
+    Parameters
+    ----------
+    scenario : str
+        The scenario's name.
+    table : dict, optional
+        The overrides of the scenario's defaults.
+    arm : str, optional
+        A built-in arm's name or an ARM.toml's absolute path (arm-cmm).
+    checked_only : bool
+        Only check the config (in another process, whose config need not travel back).
+
+    Returns
+    -------
+    config or None
+        The scenario's config dataclass; None when ``checked_only``.
+
+    Raises
+    ------
+    BadInput
+        A key or value of ``table`` the scenario does not take.
+    """
+    from calibench.scenarios.config import override
+    from calibench.scenarios.registry import scenario as get
+
+    config = override(get(scenario).config(), table or {}, scenario)
+    config = config if arm is None else dataclasses.replace(config, arm=arm)
+    return None if checked_only else config
+
+
+def run_trial(
+    scenario: str,
+    study_seed: int,
+    index: int,
+    fidelity: str,
+    arm: str | None = None,
+    table: dict | None = None,
+) -> dict:
+    """One trial, in a worker process; never raises (a failure is a row with its error).
+
+    Parameters
+    ----------
+    scenario : str
+        The scenario's name.
+    study_seed : int
+        The study's seed; the trial's own is :func:`trial_seed` of it and ``index``.
+    index : int
+        The trial's index in the study.
+    fidelity : str
+        ``"render"`` or ``"analytic"``.
+    arm : str, optional
+        The arm (arm-cmm), as :func:`study_config` takes it.
+    table : dict, optional
+        The study's config overrides (:func:`study_config`).
+
+    Returns
+    -------
+    dict
+        The journal's row: ``trial``, ``seed``, ``ok``, ``error`` (and ``traceback``),
+        ``elapsed_s``; per parameter ``<name>.truth``, ``.estimate``, ``.std``, ``.unit`` (and
+        ``.crlb``); per check ``check.<name>`` and ``check.<name>.ok``.
+    """
+    os.environ.setdefault("MUJOCO_GL", "egl")  # a worker renders without a display
+
+    seed = trial_seed(study_seed, index)
+    row = {"trial": index, "seed": seed, "ok": True, "error": None}
+    t0 = time.perf_counter()
+    try:
+        from calibench.scenarios.registry import scenario as get
+
+        s = get(scenario)
+        module = sys.modules[s.run.__module__]
+        rng = np.random.default_rng(seed)
+        config = module.prior(study_config(scenario, table, arm), rng)
+        if hasattr(module, "trial_parameters"):
+            params = module.trial_parameters(config, seed)
+        else:
+            rep = s.execute(config, seed, fidelity, None, False)
+            params = rep.parameters
+            for c in rep.checks:  # what the calibration achieved (a compensation, a pose error)
+                row[f"check.{c.name}"] = float(c.value)
+                row[f"check.{c.name}.ok"] = c.ok
+        for p in params:
+            row[f"{p.name}.truth"] = float(p.truth)
+            row[f"{p.name}.estimate"] = float(p.estimate)
+            row[f"{p.name}.std"] = None if p.std is None else float(p.std)
+            row[f"{p.name}.unit"] = p.unit
+            if p.crlb is not None:
+                row[f"{p.name}.crlb"] = float(p.crlb)
+    except Exception as e:  # noqa: BLE001 - recorded, the study goes on
+        row["ok"] = False
+        row["error"] = f"{type(e).__name__}: {e}".splitlines()[0]
+        row["traceback"] = traceback.format_exc(limit=3)
+    row["elapsed_s"] = time.perf_counter() - t0
+    return row
+
+
+def run_trials(
+    scenario: str,
+    study_seed: int,
+    indices: list[int],
+    fidelity: str,
+    arm: str | None = None,
+    table: dict | None = None,
+) -> list[dict]:
+    """Several trials in one task: millisecond trials would otherwise spend more time in
+    inter-process traffic than in the estimator. One BLAS thread: a worker already has its core,
+    and threaded BLAS on small matrices (the arm's QR at 200 postures) runs several times slower.
+
+    Parameters
+    ----------
+    scenario, study_seed, fidelity, arm, table
+        As for :func:`run_trial`.
+    indices : list of int
+        The trials' indices.
+
+    Returns
+    -------
+    list of dict
+        One :func:`run_trial` row per index, in their order.
+    """
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(1):
+        return [run_trial(scenario, study_seed, i, fidelity, arm, table) for i in indices]
+
+
+def chunk_size(n_todo: int, fidelity: str) -> int:
+    """Trials per task: one for renders (seconds each, finest progress and resume), up to 16 for
+    analytic trials, keeping 64 tasks or more so every worker stays busy to the end.
+
+    Parameters
+    ----------
+    n_todo : int
+        The number of trials to run.
+    fidelity : str
+        ``"render"`` or ``"analytic"``.
+
+    Returns
+    -------
+    int
+        Trials per task, from 1 to 16.
+    """
+    return 1 if fidelity == "render" else max(1, min(16, n_todo // 64))
+
+
+def load_scenario(scenario: str) -> None:
+    """In a worker, at its start: the scenario's module, imported before its first trials arrive.
+
+    Parameters
+    ----------
+    scenario : str
+        The scenario's name (``registry.NAMES``).
+    """
+    from calibench.scenarios.registry import scenario as get
+
+    get(scenario)
