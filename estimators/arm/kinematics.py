@@ -159,7 +159,7 @@ class Pose:
     ):
         self.link_R, self.link_o, self.point = link_R, link_o, point
         self._motions_of = (convention, c, s, a, d, alpha)
-        self._motions = None
+        self._motions: tuple[np.ndarray, np.ndarray] | None = None
 
     @property
     def axis(self) -> np.ndarray:
@@ -294,7 +294,9 @@ def jacobian(
     the tool offset moves it through the flange's rotation. ``P``: the pose, when the caller has
     it already. Column ``theta_index(j)`` is also d(point) / d(q_j).
     """
-    P = pose(chain, q_rad, delta) if P is None else P
+    if P is None:
+        assert q_rad is not None, "the postures q_rad, or their pose P"
+        P = pose(chain, q_rad, delta)
     N = P.link_R.shape[1] - 1
     n = len(P.point)
     J = np.empty((n, 3, n_params(N)))
@@ -320,7 +322,9 @@ def gravity_moments(
     mass (the tool's mass sits at the tool point), o_i the joint's frame origin on its axis."""
     if not chain.has_masses:
         raise ValueError("the chain has no masses: gravity moments need mass_kg and com_mm")
-    P = pose(chain, q_rad, delta) if P is None else P
+    if P is None:
+        assert q_rad is not None, "the postures q_rad, or their pose P"
+        P = pose(chain, q_rad, delta)
     N = chain.n_joints
     g = np.asarray(chain.gravity_m_s2, float)
     com = P.link_o[:, 1:] + np.einsum(
@@ -359,7 +363,9 @@ def gravity_torques(
     (:func:`gravity_moments`). Positive tau_i turns joint i positively; a joint of compliance c
     deflects by c tau_i.
     """
-    P = pose(chain, q_rad, delta) if P is None else P
+    if P is None:
+        assert q_rad is not None, "the postures q_rad, or their pose P"
+        P = pose(chain, q_rad, delta)
     return np.einsum("nij,nij->ni", P.axis[:, _THETA::5], gravity_moments(chain, P=P))
 
 
@@ -400,7 +406,10 @@ class ArmParameters:
     """What an arm's identification problems share beyond the protocol's own data: the typical
     sizes of their parameters and the columns that set the rank tolerance, both by name."""
 
-    names: tuple[str, ...]
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Every parameter's name, in column order (each problem says its own)."""
+        raise NotImplementedError
 
     def scales(self) -> np.ndarray:
         """(n,) typical sizes of the parameters' errors (:func:`parameter_scales`)."""

@@ -141,7 +141,8 @@ class PointProblem(ArmParameters):
         self.rec = np.zeros(n, int) if recording is None else np.asarray(recording, int)
         self.n_rec = int(self.rec.max()) + 1
         self.sigma = None if sigma_mm is None else np.asarray(sigma_mm, float)
-        self.extra_var = 0.0  # model-error variance (mm^2) added to every value: see reweight()
+        # model-error variance (mm^2) added to every value, one per recording after reweight()
+        self.extra_var: float | np.ndarray = 0.0
         self.cj = np.asarray(sorted(compliance_joints), int)
         self.tj = np.asarray(sorted(tilt_joints), int)
         self.compliance = len(self.cj) + len(self.tj) > 0
@@ -271,7 +272,7 @@ class PointProblem(ArmParameters):
             k += Ft.shape[1]
         return out
 
-    def _tilt(self, s: PointState, P, m_perp) -> np.ndarray:
+    def _tilt(self, s: PointState, P, m_perp) -> tuple[np.ndarray, np.ndarray]:
         """The tool point's shift from the bearings' tilt, (n, 3) mm, and its columns (n, 3, nt)."""
         _, o = joint_axes(P)
         cols = cross(m_perp, P.point[:, None] - o[:, self.tj - 1]).transpose(0, 2, 1)
@@ -378,6 +379,7 @@ class PointProblem(ArmParameters):
     def values(self, s: PointState) -> np.ndarray:
         """The state as one vector (len(names),): errors, compliances and terms, then each base frame's rotation
         (rotvec from the reference, rad) and translation (mm)."""
+        assert self.R_ref is not None, "values are reported after a start"
         w = np.stack([matrix_to_rotvec(s.R[r] @ self.R_ref[r].T) for r in range(self.n_rec)])
         frames = np.c_[w, s.t].ravel()
         return np.r_[s.delta, s.comp, frames]

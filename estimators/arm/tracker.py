@@ -73,11 +73,12 @@ class TrackerProblem(ArmParameters):
         self.N = self.q.shape[1]
         self.nk = n_params(self.N)
         self.encoder_sigma = float(encoder_sigma_rad)
-        self._W = None  # per-posture whitening (n, 3, 3), made at the first start
-        self._start = None  # the start's frame (R, t), found once
-        self._G = None  # d(spherical)/d(encoders) at the start (n, 3, N), for the whitening
-        self._last = None  # (delta, Pose) of the last evaluation
-        self._last_jacobian = None  # (delta, R, t, J) of the last Jacobian
+        self._W: np.ndarray | None = None  # per-posture whitening (n, 3, 3), at the first start
+        self._start: tuple[np.ndarray, np.ndarray] | None = None  # the start's frame (R, t), once
+        self._G: np.ndarray | None = None  # d(spherical)/d(encoders) at the start (n, 3, N)
+        self._last: tuple[np.ndarray, Pose] | None = None  # (delta, Pose) of the last evaluation
+        # (delta, R, t, J) of the last Jacobian
+        self._last_jacobian: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
         # the tracker's rotation is reported as the small turn from this reference (the first
         # start's): the same coordinates its std is computed in. Share it between problems whose
         # estimates are compared.
@@ -166,6 +167,7 @@ class TrackerProblem(ArmParameters):
         """Residuals (3 n,) in spherical coordinates, whitened by each posture's covariance (instrument and encoders)."""
         if self._W is None:
             self.start()
+        assert self._W is not None  # start() made it
         d = spherical(self.points(s)) - self.meas
         d[:, 1] = (d[:, 1] + np.pi) % (2 * np.pi) - np.pi
         return np.einsum("nij,nj->ni", self._W, d).ravel()
@@ -188,6 +190,7 @@ class TrackerProblem(ArmParameters):
         y = P.point @ s.R.T + s.t
         if self._W is None:
             self.start()
+        assert self._W is not None  # start() made it
         Js = self._W @ spherical_jacobian(y)
         Jy = np.empty((len(y), 3, self.nk + 6))
         Jy[:, :, : self.nk] = s.R @ jacobian(self.chain, P=P)
@@ -206,6 +209,7 @@ class TrackerProblem(ArmParameters):
 
     def values(self, s: TrackerState) -> np.ndarray:
         """The state as one vector (len(names),)."""
+        assert self.R_ref is not None, "values are reported after a start"
         return np.concatenate([s.delta, matrix_to_rotvec(s.R @ self.R_ref.T), s.t])
 
 

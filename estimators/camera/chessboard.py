@@ -87,7 +87,8 @@ def refine_saddle(
         min(int(np.ceil(c[:, 0].max())) + m + 1, w_img),
         min(int(np.ceil(c[:, 1].max())) + m + 1, h),
     )
-    img = cv2.GaussianBlur(gray[y0:y1, x0:x1].astype(np.float32), (0, 0), sigma).astype(np.float64)
+    blurred = cv2.GaussianBlur(gray[y0:y1, x0:x1].astype(np.float32), (0, 0), sigma)
+    img: np.ndarray = blurred.astype(np.float64)  # copyMakeBorder below: typed any dtype
     if x0 == 0 or y0 == 0 or x1 == w_img or y1 == h:
         # a board at the image's edge: the edge repeated, so that no window leaves the image
         pad = r + iterations + 2
@@ -194,7 +195,7 @@ def gross_corners(
     """
     n = rows * cols
     left = np.zeros(n, bool)
-    found = []
+    found: list[tuple[int, float]] = []
     while len(found) < n // 4:
         r = grid_residuals(corners, cols, rows, left)
         r[left] = np.nan

@@ -86,8 +86,8 @@ def calibrate_camera(
     obj = np.asarray(object_points, float)
     if obj.ndim != 2 or obj.shape[1] != 3 or np.any(obj[:, 2] != 0):
         raise CalibrationError("object points must be (n, 3) on the plane z = 0")
-    pixels = [np.asarray(p, float) for p in image_points]
-    if any(p.shape != (len(obj), 2) or np.isinf(p).any() for p in pixels):
+    given = [np.asarray(p, float) for p in image_points]
+    if any(p.shape != (len(obj), 2) or np.isinf(p).any() for p in given):
         raise CalibrationError(
             "every view needs one image point (or NaN: left out) per target point"
         )
@@ -95,7 +95,7 @@ def calibrate_camera(
     # that of the OpenCV-based calibration this replaces (equal to 1e-11 px): a 640 px
     # coordinate moves by at most 3e-5 px, under 0.3 % of the 0.01 px corners' noise
     obj = obj.astype(np.float32).astype(float)
-    measured = np.stack(pixels)
+    measured = np.stack(given)
     pixels = measured.astype(np.float32).astype(float)
     kept = np.isfinite(pixels).all(axis=2)  # (n_views, n_corners)
     if kept.sum(axis=1).min() < 6:
@@ -129,7 +129,7 @@ def calibrate_camera(
         ),  # over each view's kept corners
         rvecs=Rotation.from_matrix(fit.R).as_rotvec(),
         tvecs=fit.t,
-        image_size=tuple(image_size),
+        image_size=(image_size[0], image_size[1]),
     )
     cov = intrinsic_covariance(calib, obj, None, names, fix_aspect=fix_aspect, _views=views)
     std = {n: float(np.sqrt(cov[i, i])) for i, n in enumerate(names)}

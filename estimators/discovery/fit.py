@@ -34,8 +34,11 @@ def lstsq(X, r):
     )
 
 
-def term_columns(term, drivers, sig: Signal, others: np.ndarray, train: np.ndarray, cache: dict):
-    """Columns (m, k) of one term, its shape fixed on the training rows where it has one."""
+def term_columns(
+    term, drivers, sig: Signal, others: np.ndarray, train: np.ndarray | None, cache: dict
+):
+    """Columns (m, k) of one term, its shape fixed on the training rows where it has one
+    (``train`` (m,) bool; None: all rows)."""
     if hasattr(term, "fix"):  # a searched shape (a period, a harmonic), on the training rows
         rows = np.ones(len(sig.r), bool) if train is None else train
         return term.fix(sig.r, others, rows, drivers).columns(drivers)

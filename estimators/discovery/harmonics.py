@@ -64,14 +64,16 @@ def best_harmonic(
         )
 
     # a posture's sums belong to its group alone: each group's share is the sums masked to it
-    parts = (
+    parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = (
         [(w, l2, PQ)]
         if groups is None
         else [(w * m, l2 * m, PQ * m[:, None]) for m in (groups == g for g in np.unique(groups))]
     )
 
     def explained(hs: np.ndarray, project: bool, trig=None) -> np.ndarray:
-        return sum(explained_by(*part, hs, project, trig) for part in parts)
+        total = sum(explained_by(*part, hs, project, trig) for part in parts)
+        assert isinstance(total, np.ndarray)  # parts is never empty: never the int start 0
+        return total
 
     def exact(hs: np.ndarray) -> np.ndarray:
         return explained(hs, True)

@@ -84,7 +84,7 @@ def find_nonsmooth(
         f"(largest at x = {peak[0]:.0f} mm, y = {peak[1]:.0f} mm)"
     )
     table = StationTable(axis=sig.axis, station=table_id[inv], n=int(region.sum()), where=where)
-    cache = {}
+    cache: dict[str, np.ndarray] = {}
     before = rms(cv_residuals(sig, terms, drivers, fold, cache))
     after = rms(cv_residuals(sig, terms + [table], drivers, fold, cache))
     return table if after < (1 - floor) * before else None

@@ -159,7 +159,7 @@ class AngleTable(Effect):
 
     name: str = "nonsmooth"
     axis: str = AXIS
-    band: np.ndarray = None
+    band: np.ndarray | None = None  # a default only because Effect's fields have defaults
     n: int = 0
     where: str = ""
     peak_deg: float = 0.0
@@ -170,6 +170,7 @@ class AngleTable(Effect):
         return "nonsmooth:rho"
 
     def columns(self, d):
+        assert self.band is not None, "an AngleTable is built with its bands"
         X = np.zeros((len(self.band), self.n))
         ok = self.band >= 0
         X[np.flatnonzero(ok), self.band[ok]] = 1.0

@@ -78,8 +78,8 @@ def select(
     names; ``noise``: axis -> Noise. Returns the discovery and the accepted terms per axis.
     """
     by_axis = {s.axis: s for s in signals}
-    caches = {a: {} for a in by_axis}
-    terms = {a: [] for a in by_axis}
+    caches: dict[str, dict[str, np.ndarray]] = {a: {} for a in by_axis}  # term key -> columns
+    terms: dict[str, list] = {a: [] for a in by_axis}
     counts = {a: len(s.r) for a, s in by_axis.items()}
     cv_sq = {
         a: float(np.sum(cv_residuals(s, [], drivers, fold, caches[a]) ** 2))
@@ -93,7 +93,8 @@ def select(
         )
     )
     remaining = [c for c in candidates if c.axis in by_axis]
-    rejected, steps = {}, []
+    rejected: dict[str, str] = {}
+    steps: list[Step] = []
     while remaining:
         trials = []
         for c in remaining:

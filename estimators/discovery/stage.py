@@ -199,7 +199,11 @@ def polynomial_candidates(axis: str, degree: int) -> list[Polynomial]:
     """The next order of smooth terms above a scene model of total ``degree`` in (x, y)."""
     own, other = (0, 1) if axis == "x" else (1, 0)
     n = degree + 1
-    terms = {"positioning": [], "straightness": [], "cross_coupling": []}
+    terms: dict[str, list[tuple[int, int]]] = {
+        "positioning": [],
+        "straightness": [],
+        "cross_coupling": [],
+    }
     for k in (n, n + 1):
         for i in range(k + 1):
             p = (i, k - i)

@@ -220,7 +220,7 @@ class LegCompliance(Effect):
 
 def stewart_candidates(drivers: dict) -> list:
     """Every Stewart candidate the recording's columns support."""
-    out = [HingeGeometry()]
+    out: list[Effect | LegPitchSearch] = [HingeGeometry()]
     for leg in range(1, 7):
         out += [LegThermal(leg=leg), LegBacklash(leg=leg)]
         L = np.asarray(drivers["L"], float)[:, leg - 1]
