@@ -3,11 +3,34 @@
 from __future__ import annotations
 
 import dataclasses
+from typing import TypedDict
 
 import numpy as np
 
 from calibench.estimators.discovery.effect import Effect, amplitude, coef_std
 from calibench.estimators.discovery.harmonics import best_harmonic
+
+
+class ArmDrivers(TypedDict, total=False):
+    """What an N-joint arm's candidates see, at n postures: ``q`` (n, N) rad; the chain's
+    parameter Jacobian ``J`` (n, 3, 5 N + 3) and ``Jq`` (n, 3, N) d(point) / d(q) at the
+    geometry's solution; ``grow`` (5 N + 3,) the chain's lengths in the Jacobian's layout;
+    ``tau`` (n, N) the joints' gravity torques (N m, the twin's inverse dynamics; None without
+    masses); ``point`` (n, 3) mm and ``flange_R`` (n, 3, 3) of the chain there; ``delta_twin``
+    (5 N + 3,) the twin's own chain errors; ``rec`` (n,) each posture's recording; ``t_s``,
+    ``temp_c`` (n,) or None."""
+
+    q: np.ndarray
+    J: np.ndarray
+    Jq: np.ndarray
+    grow: np.ndarray
+    tau: np.ndarray | None
+    point: np.ndarray
+    flange_R: np.ndarray
+    delta_twin: np.ndarray
+    rec: np.ndarray
+    t_s: np.ndarray | None
+    temp_c: np.ndarray | None
 
 
 # --- the arm ----------------------------------------------------------------------------------------

@@ -5,7 +5,8 @@ its coefficients once its shape is fixed: ``columns(drivers) -> (n, k)`` in the 
 (mm), ``describe(coef, cov) -> (params, stderr, physics)``. Shapes with a nonlinear parameter (a
 period) are fixed by :func:`best_period` on the data they are fitted to.
 
-``drivers`` is a plain dict of (n,) arrays: ``x``, ``y`` (commanded, mm), ``dir_x``, ``dir_y``
+``drivers`` is a dict of arrays, typed per instrument (``StageDrivers``, ``ArmDrivers``,
+``ScannerDrivers``, ``StewartDrivers`` beside each instrument's candidates): ``x``, ``y`` (commanded, mm), ``dir_x``, ``dir_y``
 (+1 / -1 / 0), ``t_s``, ``temp_c``, ``run`` for stages; for an N-joint arm ``q`` (n, N) rad,
 ``J`` (n, 3, 5 N + 3) the chain's parameter Jacobian, ``Jq`` (n, 3, N) d(point) / d(q),
 ``tau`` (n, N) the joints' gravity torques (N m, from the twin), ``grow`` (5 N + 3,) the chain's

@@ -10,10 +10,25 @@ reading at that angle (mm), ``drho`` its slope d rho / d theta (mm/rad, from the
 from __future__ import annotations
 
 import dataclasses
+from typing import TypedDict
 
 import numpy as np
 
 from calibench.estimators.discovery.effect import Effect, amplitude, coef_std
+
+
+class ScannerDrivers(TypedDict, total=False):
+    """What a scanner's candidates see, sample by sample (n,): the table's angle ``theta``
+    (rad), the twin's reading ``rho`` (mm) and its slope ``drho`` (mm / rad), the ``turn``,
+    ``t_s`` and ``temp_c`` (or None)."""
+
+    theta: np.ndarray
+    rho: np.ndarray
+    drho: np.ndarray
+    turn: np.ndarray
+    t_s: np.ndarray | None
+    temp_c: np.ndarray | None
+
 
 AXIS = "rho"
 

@@ -5,11 +5,27 @@ out, along each axis (CONTRACT's vocabulary).
 from __future__ import annotations
 
 import dataclasses
+from typing import TypedDict
 
 import numpy as np
 
 from calibench.estimators.discovery.effect import Effect, amplitude, coef_std
 from calibench.estimators.discovery.harmonics import best_period, grid_rel, refine_period
+
+
+class StageDrivers(TypedDict, total=False):
+    """What a stage's candidates see, row by row (n,): the commanded ``x``, ``y`` (mm), the
+    direction of the last approach ``dir_x``, ``dir_y`` (+1, -1, 0 unknown), ``t_s`` (s),
+    ``temp_c`` (deg C) and the pass ``run``; None where the recording does not carry it."""
+
+    x: np.ndarray
+    y: np.ndarray
+    dir_x: np.ndarray | None
+    dir_y: np.ndarray | None
+    t_s: np.ndarray | None
+    temp_c: np.ndarray | None
+    run: np.ndarray | None
+
 
 AXES = ("x", "y")
 

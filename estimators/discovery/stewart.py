@@ -11,10 +11,26 @@ statics (N, positive in compression). Interface as in :mod:`estimators.effects`.
 from __future__ import annotations
 
 import dataclasses
+from typing import TypedDict
 
 import numpy as np
 
 from calibench.estimators.discovery.effect import Effect, amplitude, coef_std
+
+
+class StewartDrivers(TypedDict, total=False):
+    """What a platform's candidates see, pose by pose (n poses, 6 legs): the legs' lengths
+    ``L`` (n, 6) mm, the hinge geometry's Jacobian ``J_geo`` (n, 6, 42), the legs' directions of
+    travel ``dir`` (n, 6) or None, their axial forces ``force`` (n, 6) N from the twin's statics,
+    ``temp_c`` and ``t_s`` (n,) or None."""
+
+    L: np.ndarray
+    J_geo: np.ndarray
+    dir: np.ndarray | None
+    force: np.ndarray | None
+    temp_c: np.ndarray | None
+    t_s: np.ndarray | None
+
 
 AXIS = "legs"
 HINGE_NAMES = tuple(

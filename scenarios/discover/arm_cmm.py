@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from calibench.estimators.discovery.arm import ArmDrivers
 from calibench.estimators.discovery.fit import (
     Signal,
     confounded,
@@ -63,7 +64,7 @@ def arm_drivers(
     J = jacobian(chain, P=P)
     grow = np.zeros(5 * N + 3)
     grow[0 : 5 * N : 5], grow[1 : 5 * N : 5], grow[5 * N :] = arm.a_mm, arm.d_mm, arm.tool_mm
-    drivers = {
+    drivers: ArmDrivers = {
         "q": q_rad,
         "J": J,
         "Jq": J[:, :, [theta_index(j) for j in range(1, N + 1)]],

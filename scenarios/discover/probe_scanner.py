@@ -32,6 +32,7 @@ from calibench.estimators.discovery.probe_scanner import (
     AngleTable,
     ProbeOffset,
     Runout,
+    ScannerDrivers,
     scanner_candidates,
 )
 from calibench.estimators.discovery.select import FLOOR, Step, prune, select
@@ -196,7 +197,7 @@ def discover_scanner(rec, seed: int = 0, floor: float = FLOOR, config=None) -> t
         )
     cal, rho_twin, geo, slope = scene_model(rec, config)
     th = rec.theta_rad
-    drivers = {
+    drivers: ScannerDrivers = {
         "theta": th,
         "rho": rho_twin,
         "drho": slope,

@@ -28,6 +28,7 @@ from calibench.estimators.discovery.nonsmooth import find_nonsmooth
 from calibench.estimators.discovery.select import FLOOR, Step, refine, select
 from calibench.estimators.discovery.stage import (
     PeriodSearch,
+    StageDrivers,
     polynomial_candidates,
     stage_candidates,
 )
@@ -106,7 +107,7 @@ def discover_stage(
         raise BadInput(f"{n} stations: discover needs at least 20")
     _within_travel(scenario, x, y)
     sim = replay_stage(scenario, x, y, rec.temp_c, truth)
-    drivers = {
+    drivers: StageDrivers = {
         "x": x,
         "y": y,
         "dir_x": rec.dir_x,

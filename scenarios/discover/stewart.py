@@ -20,7 +20,7 @@ from calibench.estimators.discovery.fit import Signal, confounded, lstsq
 from calibench.estimators.discovery.locate import binned_r2, permutation_p
 from calibench.estimators.discovery.noise import repeatability
 from calibench.estimators.discovery.select import prune, select
-from calibench.estimators.discovery.stewart import AXIS, stewart_candidates
+from calibench.estimators.discovery.stewart import AXIS, StewartDrivers, stewart_candidates
 from calibench.scenarios.report import BadInput
 
 # The platform's practical floor: 4 % of the held-out RMS. One leg's effect shows on a sixth of
@@ -136,7 +136,7 @@ def twin_drivers(
     force = np.array([twin.leg_forces_n(R[k], t[k], loads[k]) for k in range(n)])
     if truth is not None and truth.has_leg_physics:
         res = res - leg_effects_mm(truth, L, force, rec.direction, rec.temp_c).ravel()
-    drivers = {
+    drivers: StewartDrivers = {
         "L": L,
         "J_geo": J,
         "dir": rec.direction,
