@@ -1,0 +1,101 @@
+"""What the arm's discovery says beside its effects: where the residual is structured (against
+each joint's angle and the temperature) and which candidates the postures cannot tell apart from
+what was accepted, with the experiment that would.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from calibench.estimators.discovery.fit import confounded, fit_terms
+from calibench.estimators.discovery.locate import permutation_p
+
+ARM_EXPERIMENTS = {
+    "joint_compliance": "take postures where the other joints change this joint's gravity torque "
+    "(the elbow folded and stretched at the same shoulder angle), or add a known payload",
+    "encoder_eccentricity": "take postures at the same gravity torque over the joint's whole turn",
+    "transmission": "measure over a wider range of the joint's angle at a finer step",
+    "thermal_expansion": "let the arm's temperature change by several K during the recording",
+}
+
+
+def arm_confounds(sig, terms, candidates, drivers, found) -> list[dict]:
+    """Candidates the data cannot tell from what was accepted, in plain words: compliance and
+    eccentricity of one joint look alike when its gravity torque is nearly a sinusoid of its own
+    angle; a compliance the geometry absorbs within these postures (a narrow band of the joint)
+    would still matter on postures that load the joint otherwise."""
+    out = []
+    accepted = {t.key for t in terms}
+    for c in candidates:
+        if c.key in accepted or c.name not in ("joint_compliance", "encoder_eccentricity"):
+            continue
+        other = (
+            "encoder_eccentricity" if c.name == "joint_compliance" else "joint_compliance"
+        ) + f":joint{c.joint}"
+        frac = confounded(sig, terms, c, drivers, {})
+        if frac <= 0.9:
+            continue
+        if other in accepted:
+            out.append(
+                {
+                    "effect": c.name,
+                    "axis": "xyz",
+                    "with": other,
+                    "why": f"joint {c.joint}'s gravity torque is nearly a sinusoid of its own "
+                    "angle in these "
+                    f"postures: {100 * frac:.0f} % of {c.name}'s effect is what {other} already "
+                    "explains",
+                    "experiment": ARM_EXPERIMENTS[c.name],
+                }
+            )
+        elif c.name == "joint_compliance" and np.ptp(drivers["tau"][:, c.joint - 1]) > 0:
+            tau = drivers["tau"][:, c.joint - 1]
+            out.append(
+                {
+                    "effect": c.name,
+                    "axis": "xyz",
+                    "with": "geometry",
+                    "why": f"within these postures joint {c.joint}'s gravity torque "
+                    f"({tau.min():.0f} to "
+                    f"{tau.max():.0f} N m) moves the point almost as the kinematic errors do: "
+                    f"{100 * frac:.0f} % of a compliance's effect is absorbed by them, so the "
+                    "recording "
+                    "cannot show it, yet a calibration without it will not carry to postures "
+                    "that load "
+                    f"the joint otherwise",
+                    "experiment": ARM_EXPERIMENTS[c.name],
+                }
+            )
+    return out
+
+
+def locate_arm(sig, terms, drivers, q, temp, seed) -> list[dict]:
+    """The residual after the geometry against each joint angle and the temperature."""
+    rng = np.random.default_rng(seed)
+    n = len(q)
+    geo = [t for t in terms if t.name == "geometry"]
+    _, _, _, res = fit_terms(sig, geo, drivers, {}, None)
+    res3 = res.reshape(n, 3)
+    located = []
+    for name, v in [(f"q{j}", q[:, j - 1]) for j in range(1, q.shape[1] + 1)] + [("temp_c", temp)]:
+        if v is None or np.ptp(v) == 0:
+            continue
+        best = max(
+            (
+                permutation_p(res3[:, k], v, np.zeros(n), name == "temp_c", rng, 99) + (k,)
+                for k in range(3)
+            ),
+            key=lambda t: t[0],
+        )
+        if best[1] <= 0.01 and best[0] >= 0.02:
+            located.append(
+                {
+                    "signal": f"{'xyz'[best[2]]}_meas - {'xyz'[best[2]]}_sim (after geometry)",
+                    "driver": name,
+                    "score": best[0],
+                    "p_value": best[1],
+                    "where": f"over the whole range of {name}",
+                }
+            )
+    located.sort(key=lambda d: -d["score"])
+    return located
