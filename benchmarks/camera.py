@@ -55,8 +55,7 @@ def main():
     paths = sorted((data / "opencv_left").glob("left*.jpg"))
     print(
         f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, OpenCV "
-        f"{cv2.__version__}, "
-        f"{len(paths)} photos"
+        f"{cv2.__version__}, {len(paths)} photos"
     )
     t_cv, t_cb = [], []
     for _ in range(5):

@@ -70,8 +70,7 @@ def main():
             )
             print(
                 f"{name:9s} {factor:9.3f} {s['trials']:6d} {pooled:9.3f} {out:>12d} of "
-                f"{len(params):<4d} "
-                f"{elapsed:6.0f}"
+                f"{len(params):<4d} {elapsed:6.0f}"
             )
 
 

@@ -38,8 +38,7 @@ def suite():
         f"spurious claims beside real ones {s['spurious_claims']}, parameters within limits "
         f"{s['params_within_limit']:.0%} (worst {s['worst_param'][0]} {s['worst_param'][1]:.3f} of "
         f"{s['worst_param'][2]}), cv after/before <= 0.5 in {s['ratios_ok']:.0%} of "
-        f"{s['n_dominated']} "
-        f"dominated recordings (worst {s['worst_ratio']:.2f})"
+        f"{s['n_dominated']} dominated recordings (worst {s['worst_ratio']:.2f})"
     )
 
 
@@ -75,8 +74,7 @@ def paper():
         for loc in d["located"]:
             print(
                 f"  - {loc['signal']} against {loc['driver']}: score {loc['score']:.2f}, p "
-                f"{loc['p_value']:.3f}; "
-                f"{loc['where']}"
+                f"{loc['p_value']:.3f}; {loc['where']}"
             )
 
 

@@ -143,8 +143,7 @@ def table(data: Path) -> str:
             "thread",
             f"{arm['ours_s']:.2f} s (analytic Jacobian)",
             f"pybotics' approach (scipy's LM, finite differences) {arm['peer_s']:.1f} s, the same "
-            "cost to "
-            f"{abs(arm['cost_ours'] / arm['cost_peer'] - 1):.0e}",
+            f"cost to {abs(arm['cost_ours'] / arm['cost_peer'] - 1):.0e}",
             f"{arm['ours_s'] / arm['peer_s']:.3f}x",
         ),
     ]

@@ -95,8 +95,7 @@ def figure(path: Path, result: dict) -> None:
         xlabel="target position (mm)",
         ylabel="deviation, actual - target (um)",
         title=f"ISO 230-2: A {a['A']:.2f}  E {a['E']:.2f}  M {a['M']:.2f}  R {a['R']:.2f}  B "
-        f"{a['B']:.2f} um "
-        f"({result['targets']} targets, {result['runs']} runs each way)",
+        f"{a['B']:.2f} um ({result['targets']} targets, {result['runs']} runs each way)",
     )
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)

@@ -347,8 +347,7 @@ class ArmSim:
             if tries > 50 * n:
                 raise BadInput(
                     f"the cone at ({', '.join(f'{v:g}' for v in np.asarray(cone_mm, float))}) mm "
-                    "is out of "
-                    f"the arm {self.arm.name}'s reach"
+                    f"is out of the arm {self.arm.name}'s reach"
                 )
             q = rng.uniform(lim[:, 0], lim[:, 1])
             target = cone + rng.normal(0, self.truth.cone_seat_um * 1e-6, 3)

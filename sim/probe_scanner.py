@@ -54,8 +54,7 @@ class ProbeScannerTruth:
         if any(not (float(k).is_integer() and k >= 1) for k in self.runout_harmonics):
             raise ValueError(
                 f"runout_harmonics = {list(self.runout_harmonics)}: a run-out repeats a whole "
-                "number of "
-                "times per turn, 1 or more"
+                "number of times per turn, 1 or more"
             )
 
 

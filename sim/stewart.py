@@ -44,8 +44,7 @@ class StewartTruth:
         if pitched.any():  # leg_effects_mm would leave the error out without a word
             raise ValueError(
                 f"leg {int(np.argmax(pitched)) + 1} has a pitch error (leg_pitch_um) but no screw "
-                "lead: "
-                "leg_pitch_lead_mm must be positive there"
+                "lead: leg_pitch_lead_mm must be positive there"
             )
 
     @property

@@ -61,8 +61,7 @@ def test_a_changed_digit_is_a_disagreement_and_a_band_is_not(figures):
 def test_a_rewrite_keeps_the_markers_and_reads_back(figures):
     text = (
         "intro\n\n<!-- figures:t -->\nold 1\n<!-- /figures:t -->\n\n- item\n  <!-- figures:u "
-        "-->\n  old 2\n"
-        "  <!-- /figures:u -->\n"
+        "-->\n  old 2\n  <!-- /figures:u -->\n"
     )
     new = figures.replace(text, {"t": "| a | 3 |", "u": "new 4 " + "word " * 30})
     assert figures.current(new, "t") == "| a | 3 |"

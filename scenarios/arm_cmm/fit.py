@@ -362,8 +362,7 @@ def run_arm_fit(
         result["coverage"]["warnings"].append(
             f"{', '.join(stated)} state{'s' if len(stated) == 1 else ''} a std per value, "
             f"{', '.join(label[p] for p in paths if label[p] not in stated)} not: the stated std "
-            "are not used, every row "
-            "is weighted by the fitted scatter of its recording"
+            "are not used, every row is weighted by the fitted scatter of its recording"
         )
     if result["fit"]["rms_mm"] > PLAUSIBLE_RMS_MM:
         result["coverage"]["warnings"].insert(
@@ -421,8 +420,7 @@ def _enough_to_judge(path: Path, keep: np.ndarray) -> None:
     if keep.sum() < 3:
         raise BadInput(
             f"{path}: {keep.sum()} usable rows of {len(keep)} once the stale readings (a "
-            "measurement "
-            "repeated while the arm moved) are left out: too few to judge the fit on"
+            "measurement repeated while the arm moved) are left out: too few to judge the fit on"
         )
 
 
@@ -432,8 +430,7 @@ def check_postures(q: np.ndarray, n_recordings: int) -> None:
     if distinct < 0.1 * len(q) and distinct < 50:
         raise BadInput(
             f"{len(q)} rows but only {distinct} distinct postures: repeats carry no new "
-            "information "
-            "for calibration"
+            "information for calibration"
         )
     if distinct < 10 + 6 * n_recordings:
         raise BadInput(f"{distinct} distinct postures: too few to calibrate the arm")

@@ -199,8 +199,7 @@ def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool
         except np.linalg.LinAlgError:
             raise BadInput(
                 f"the arm {sim.arm.name} leaves the identification singular: its links give the "
-                "tool "
-                "point too little motion to determine its parameters (an arm without length?)"
+                "tool point too little motion to determine its parameters (an arm without length?)"
             ) from None
         elapsed = time.perf_counter() - t0
         results[label] = (problem, ident, elapsed)

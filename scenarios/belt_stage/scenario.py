@@ -121,8 +121,7 @@ def check_config(c: BeltStageConfig) -> None:
             f"{where}.board.square_mm",
             board.square_mm,
             f"the margin ({board.margin_mm:g} mm) must be a whole number of "
-            f"1/{TEXTURE_PX_PER_SQUARE} squares "
-            "(the board's texture pixels): e.g. square_mm = "
+            f"1/{TEXTURE_PX_PER_SQUARE} squares (the board's texture pixels): e.g. square_mm = "
             f"{' or '.join(f'{q:.6g}' for q in near)}",
         )
     # the board in view over the whole travel (the camera hangs above its middle)
@@ -183,8 +182,7 @@ def check_config(c: BeltStageConfig) -> None:
             f"{NAME}.truth.{key}",
             getattr(t, key),
             f"the map moves the board up to {err[int(key == 'error_y')]:.4g} mm, out of the "
-            "camera's view at the "
-            f"edge of the travel (camera_height_mm = {g.camera_height_mm:g})",
+            f"camera's view at the edge of the travel (camera_height_mm = {g.camera_height_mm:g})",
         )
     if board.square_mm * min(cam.fx, cam.fy) / depth < MIN_SQUARE_PX:
         raise bad(
@@ -227,8 +225,7 @@ def check_config(c: BeltStageConfig) -> None:
                 f"{NAME}.{key}",
                 stations,
                 f"at least {n_min} distinct stations: the quadratic error map "
-                f"(c0 + c1 x + c2 y + c3 x^2 + c4 x y + c5 y^2) needs {n_min} along "
-                f"each axis",
+                f"(c0 + c1 x + c2 y + c3 x^2 + c4 x y + c5 y^2) needs {n_min} along each axis",
             )
 
 

@@ -255,8 +255,7 @@ def build_parser() -> argparse.ArgumentParser:
         "iso230",
         help="ISO 230-2 evaluation of a real bidirectional run of one axis",
         description="Evaluate a bidirectional positioning run (target_mm, run, direction, and "
-        "deviation_um or actual_mm) as ISO 230-2:2014; writes DIR/iso230.json and "
-        "DIR/iso230.png.",
+        "deviation_um or actual_mm) as ISO 230-2:2014; writes DIR/iso230.json and DIR/iso230.png.",
     )
     i.add_argument("run", type=Path, metavar="RUN.csv", help="the run, one row per reading")
     i.add_argument(

@@ -142,8 +142,7 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
     if min(len(k) for k in parts) < 12 or n < max(40, 2 * n_kin):
         raise BadInput(
             f"{n} usable postures ({', '.join(str(len(k)) for k in parts)} per recording): "
-            "discover "
-            f"needs at least {max(40, 2 * n_kin)} for the {arm.name}'s parameters"
+            f"discover needs at least {max(40, 2 * n_kin)} for the {arm.name}'s parameters"
         )
 
     def joined(name):
@@ -309,8 +308,7 @@ def _arm_summary(name: str, found, effects: list, names: list) -> str:
     return (
         f"the nominal {name} leaves out {', '.join(dict.fromkeys(names))}; held-out RMS "
         f"{found.cv_nominal * 1000:.0f} um with the drawing, {found.cv_final * 1000:.0f} um with "
-        "what was found "
-        f"({steps})"
+        f"what was found ({steps})"
     )
 
 

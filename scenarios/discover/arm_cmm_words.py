@@ -61,8 +61,7 @@ def arm_confounds(sig, terms, candidates, drivers, found) -> list[dict]:
                     f"{100 * frac:.0f} % of a compliance's effect is absorbed by them, so the "
                     "recording "
                     "cannot show it, yet a calibration without it will not carry to postures "
-                    "that load "
-                    f"the joint otherwise",
+                    f"that load the joint otherwise",
                     "experiment": ARM_EXPERIMENTS[c.name],
                 }
             )

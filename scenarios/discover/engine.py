@@ -117,8 +117,7 @@ def run_discover(
         if scenario not in tables:
             raise BadInput(
                 f"config {config} has no [{scenario}] table (it has: "
-                f"{', '.join(tables) or 'none'}): "
-                "its twin is not this instrument's"
+                f"{', '.join(tables) or 'none'}): its twin is not this instrument's"
             )
     if twin is not None and any(same_file(twin, p) for p in paths):
         raise BadInput(f"--twin {twin} is a recording of this run: the twin would overwrite it")

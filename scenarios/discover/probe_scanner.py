@@ -41,8 +41,7 @@ from calibench.scenarios.report import BadInput
 BIN_DEG = 1.0  # the nonsmooth table's bands of the table's angle
 EXPERIMENTS = {
     "offset": "measure a gauge of known size (a ring): the probe's zero and the rail's dL are one "
-    "column on one "
-    "artefact",
+    "column on one artefact",
     "scale": "measure two artefacts of different size",
     "encoder_eccentricity": "turn the artefact in its holder by 90 deg and measure again",
     "runout": "measure more turns",
@@ -106,8 +105,7 @@ def scene_model(rec, config) -> tuple[object, np.ndarray, np.ndarray, np.ndarray
             f"the recording does not fit the calibration plate ({2 * a:g} mm square, r = {rc:g} "
             "mm) with "
             f"any rail ({fit_rms}): another artefact, a wrong unit (the format: mm and degrees), "
-            "or not a "
-            "probe-scanner recording?"
+            "or not a probe-scanner recording?"
         )
     p = np.r_[cal.d_mm, cal.dL_mm, cal.alpha0_rad, cal.centre_mm]
     steps = np.array([1e-4, 1e-4, 1e-6, 1e-4, 1e-4])
@@ -121,8 +119,7 @@ def scene_model(rec, config) -> tuple[object, np.ndarray, np.ndarray, np.ndarray
     if not np.all(np.isfinite(cols)):
         raise BadInput(
             f"the recording does not fit the calibration plate ({2 * a:g} mm square, r = {rc:g} "
-            "mm): "
-            "its rail's model has no slope there"
+            "mm): its rail's model has no slope there"
         )
     rho_twin = _twin(config, cal).reading_mm("plate", th)
     return cal, rho_twin, cols, cols[:, 2]
@@ -156,8 +153,7 @@ def find_angle_table(
     bands = np.flatnonzero(region)
     where = (
         f"at table angles {', '.join(_runs(bands))} deg (largest at {(peak + 0.5) * BIN_DEG:.1f} "
-        "deg, "
-        f"{means[peak] * 1000:+.1f} um)"
+        f"deg, {means[peak] * 1000:+.1f} um)"
     )
     table = AngleTable(
         band=table_id[band], n=int(region.sum()), where=where, peak_deg=(peak + 0.5) * BIN_DEG
@@ -238,11 +234,9 @@ def discover_scanner(rec, seed: int = 0, floor: float = FLOOR, config=None) -> t
             "why": "a runout 4, 8, ... times a turn repeats with the square plate's sides: it "
             "cannot be "
             f"told from the plate's form error ({100 * frac:.0f} % of a fourfold runout is what "
-            "the "
-            "calibrated rail already does), so those harmonics are not searched",
+            "the calibrated rail already does), so those harmonics are not searched",
             "experiment": "measure a round artefact (a ring gauge) to see the table's runout at "
-            "every "
-            "harmonic",
+            "every harmonic",
         }
     )
     frac = confounded(sig, terms[AXIS], ProbeOffset(), drivers, {})
@@ -253,8 +247,7 @@ def discover_scanner(rec, seed: int = 0, floor: float = FLOOR, config=None) -> t
                 "axis": AXIS,
                 "with": "the rail's dL",
                 "why": f"{100 * frac:.0f} % of a probe offset is what the rail's dL already does: "
-                "on one "
-                "artefact the two are one number",
+                "on one artefact the two are one number",
                 "experiment": EXPERIMENTS["offset"],
             }
         )
@@ -269,8 +262,7 @@ def discover_scanner(rec, seed: int = 0, floor: float = FLOOR, config=None) -> t
         "holdout": scheme,
         "scene_model": (
             f"the twin (MuJoCo's ray on the {2 * config.geometry.plate.half_side_mm:g} mm plate) "
-            "with "
-            f"its rail calibrated: d {cal.d_mm:.4f} mm, dL {cal.dL_mm:.4f} mm, alpha0 "
+            f"with its rail calibrated: d {cal.d_mm:.4f} mm, dL {cal.dL_mm:.4f} mm, alpha0 "
             f"{np.degrees(cal.alpha0_rad):.4f} deg, plate centre ({cal.centre_mm[0]:.4f}, "
             f"{cal.centre_mm[1]:.4f}) mm"
         ),

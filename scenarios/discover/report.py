@@ -45,15 +45,13 @@ def verdict(cv_final_mm: float, noise: dict, found_any: bool) -> str:
     if not sig:
         return (
             f"what is left: {left:.2f} um held out; no station was visited twice, so the "
-            "repeatability is "
-            "unknown and it cannot be said whether that is noise"
+            "repeatability is unknown and it cannot be said whether that is noise"
         )
     floor = float(np.sqrt(np.mean(np.square(sig)))) * 1000
     if cv_final_mm * 1000 > UNEXPLAINED_RATIO * floor:
         return (
             f"unexplained: {left:.2f} um held out against {floor:.2f} um of repeatability; the "
-            "recording holds "
-            "structure no candidate explains"
+            "recording holds structure no candidate explains"
         )
     what = (
         "the accepted effects explain" if found_any else "nothing missing: the scene model explains"

@@ -40,8 +40,7 @@ STAGE_DEGREE = {"belt-stage": 2, "vision-stage": 3}
 
 EXPERIMENTS = {
     "thermal_expansion": "let the machine's temperature change by several K during the test (or "
-    "repeat it warm "
-    "and cold): only then does thermal expansion differ from a plain scale error",
+    "repeat it warm and cold): only then does thermal expansion differ from a plain scale error",
     "thermal_drift": "hold the temperature steady for part of the test, or vary it independently "
     "of time",
     "backlash": "approach every station from both directions",
@@ -290,8 +289,7 @@ def _where(r, v, name, drivers):
         ok = np.isfinite(prof)
         return (
             f"whole {axis.upper()} travel: forward minus backward {np.nanmean(prof) * 1000:+.1f} "
-            "um "
-            f"(from {np.nanmin(prof[ok]) * 1000:+.1f} to {np.nanmax(prof[ok]) * 1000:+.1f} um "
+            f"um (from {np.nanmin(prof[ok]) * 1000:+.1f} to {np.nanmax(prof[ok]) * 1000:+.1f} um "
             "along it)"
         )
     if name in ("t_s", "temp_c"):
@@ -332,8 +330,7 @@ def _confounds(signals, terms, found, candidates, drivers, rec):
                     "axis": c.axis,
                     "with": "scale",
                     "why": f"the temperature moved only {np.ptp(rec.temp_c):.2f} K, so an "
-                    "expansion "
-                    f"coefficient would look like (and be absorbed by) a scale error",
+                    f"expansion coefficient would look like (and be absorbed by) a scale error",
                     "experiment": EXPERIMENTS[c.name],
                 }
             )

@@ -59,8 +59,7 @@ def register(rec, geometry, iterations: int = 10) -> tuple[np.ndarray, np.ndarra
     if ok.mean() < 0.5:
         raise BadInput(
             "the legs' readings give no pose of the nominal platform for most rows: not this "
-            "machine's "
-            "recording, or not readings relative to the initial lengths"
+            "machine's recording, or not readings relative to the initial lengths"
         )
     Rf, tf = rigid_transform(
         _hinge_points(rec.R, rec.t_mm, r0)[ok].reshape(-1, 3),
@@ -85,8 +84,7 @@ def _check_registered(rec, g, Rf, tf) -> None:
         raise BadInput(
             f"the legs' readings disagree with the tracker's poses on the nominal platform by "
             f"{np.median(worst):.3g} mm (median): a wrong unit (the format: mm and degrees), "
-            "readings "
-            "not relative to the initial lengths, or another platform (--config)"
+            "readings not relative to the initial lengths, or another platform (--config)"
         )
     if far.any():
         rows = np.flatnonzero(far)
@@ -94,8 +92,7 @@ def _check_registered(rec, g, Rf, tf) -> None:
         raise BadInput(
             f"data row(s) {listed}: the legs' readings disagree with the tracker's pose by up to "
             f"{worst[far].max():.3g} mm, where the other rows agree within "
-            f"{worst[~far].max():.3g} mm: "
-            "corrupt rows (leave them out)"
+            f"{worst[~far].max():.3g} mm: corrupt rows (leave them out)"
         )
 
 
@@ -280,8 +277,7 @@ def _where(r, v, name, leg) -> str:
     if name == "direction":
         return (
             f"leg {leg}: extending minus retracting "
-            f"{1000 * (r[v > 0].mean() - r[v < 0].mean()):+.1f} um "
-            f"at the same poses"
+            f"{1000 * (r[v > 0].mean() - r[v < 0].mean()):+.1f} um at the same poses"
         )
     if name in ("temp_c", "t_s"):
         slope = np.polyfit(v, r, 1)[0]
@@ -293,8 +289,7 @@ def _where(r, v, name, leg) -> str:
     if name == "axial_force":
         return (
             f"leg {leg} reads more the more it carries: {1000 * np.polyfit(v, r, 1)[0]:+.4f} um "
-            "per N of axial "
-            "load, beyond what the hinge geometry absorbed"
+            "per N of axial load, beyond what the hinge geometry absorbed"
         )
     edges = np.quantile(v, np.linspace(0, 1, 9))
     idx = np.clip(np.searchsorted(edges, v, side="right") - 1, 0, 7)
@@ -326,8 +321,7 @@ def discover_stewart(
     if distinct < MIN_DISTINCT_POSES:
         raise BadInput(
             f"{distinct} distinct poses among {n}: the hinges need at least {MIN_DISTINCT_POSES} "
-            "poses "
-            "spread over the workspace"
+            "poses spread over the workspace"
         )
     Rf, tf = register(rec, g)
     _check_registered(rec, g, Rf, tf)
@@ -367,8 +361,7 @@ def discover_stewart(
                     "axis": AXIS,
                     "with": "the hinge geometry and the accepted effects",
                     "why": f"{100 * frac:.0f} % of {c.key}'s effect on the readings is what the "
-                    "model "
-                    "already has",
+                    "model already has",
                     "experiment": EXPERIMENTS.get(c.name, "vary its driver"),
                 }
             )
@@ -383,8 +376,7 @@ def discover_stewart(
         **one_axis_fit(AXIS, np.sqrt(np.mean(r**2)), found, noise, after_noise),
         "holdout": "five contiguous blocks of poses",
         "scene_model": "the nominal platform (drawing hinges, rigid legs) at the tracker's poses, "
-        "the tracker's "
-        "frame registered",
+        "the tracker's frame registered",
         "tracker_frame": {"R": Rf.tolist(), "t_mm": tf.tolist()},
         "temp_mean_c": None if rec.temp_c is None else float(np.mean(rec.temp_c)),
         "not_accepted": found.rejected,

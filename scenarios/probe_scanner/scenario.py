@@ -74,8 +74,7 @@ def check_config(c: ProbeScannerConfig) -> None:
             "stylus starts "
             f"{q:.4g} mm from the table's axis and must start inside both openings all round: "
             f"hypot(d_mm, dL_mm) below {min(plate_room, rim_room):.4g} mm (the plate's opening "
-            "leaves "
-            f"{plate_room:.4g} mm, the rim's {rim_room:.4g} mm)"
+            f"leaves {plate_room:.4g} mm, the rim's {rim_room:.4g} mm)"
         )
     # the quadratic fits around the four minima: 3 to a quarter turn of samples (fit_minima)
     n = g.samples_per_turn
@@ -109,8 +108,7 @@ def check_config(c: ProbeScannerConfig) -> None:
                 "the plate's sides must be flat where the fits around their middles look "
                 f"({reach:.3g} mm each "
                 f"side of the middle): corner_radius_mm from 0 to below {a - reach:.4g} mm with "
-                "half_side_mm "
-                f"= {a:g}",
+                f"half_side_mm = {a:g}",
             )
 
 

@@ -143,18 +143,15 @@ def check_config(c: StewartConfig) -> None:
             f"{NAME}.geometry.home_height_mm",
             g.home_height_mm,
             f"at home the legs are {L_home.min():.4g} to {L_home.max():.4g} mm long: the legs' "
-            f"stroke is {lo:g} "
-            f"to {hi:g} mm (the scene's slides)",
+            f"stroke is {lo:g} to {hi:g} mm (the scene's slides)",
         )
     if not cond_home <= MAX_CONDITION:
         raise BadInput(
             f"config: {NAME}.geometry: platform_hinges_mm and base_hinges_mm leave the platform "
-            "singular at "
-            f"home (the legs' Jacobian has condition number {cond_home:.3g}, at most "
+            f"singular at home (the legs' Jacobian has condition number {cond_home:.3g}, at most "
             f"{MAX_CONDITION:g}): "
             "six legs pin its six degrees of freedom only from hinges spread around platform and "
-            "base "
-            f"(now out to {size_p:.4g} mm and {size_b:.4g} mm from their centres)"
+            f"base (now out to {size_p:.4g} mm and {size_b:.4g} mm from their centres)"
         )
     # the poses' range: home +- translation_mm, +- rotation_deg about each axis
     what = (
@@ -200,8 +197,7 @@ def check_config(c: StewartConfig) -> None:
             f"a leg would give {give.max():.4g} mm under the load (payload_n = {t.payload_n:g} "
             "and the "
             f"platform's weight, about {force:.4g} N a leg): at most {MAX_GIVE_FRACTION:.0%} of "
-            "its length, "
-            f"compliance from 0 to {most:.3g} um/N",
+            f"its length, compliance from 0 to {most:.3g} um/N",
         )
 
 
@@ -400,8 +396,7 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
             float(sum(not c.converged for c in pipeline) + (not joint.converged) + unconverged),
             0.0,
             note="the six legs' one-step Gauss-Newton, the joint adjustment, the "
-            "multilaterations, the "
-            "two-step spheres and the held-out poses' forward kinematics",
+            "multilaterations, the two-step spheres and the held-out poses' forward kinematics",
         ),
     ]
     two_err = np.array([np.r_[c.r, c.B, c.l] for c in two_step]) - np.array(truth_vals)

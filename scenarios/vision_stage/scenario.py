@@ -111,10 +111,8 @@ def check_config(c: VisionStageConfig) -> None:
             f"{NAME}.geometry.working_distance_mm",
             g.working_distance_mm,
             f"the microscope sees {field[0]:.3g} x {field[1]:.3g} mm; its field must hold one "
-            "whole "
-            f"{plate.diameter_mm:g} mm circle and not two ({plate.pitch_mm:g} mm pitch): "
-            "working_distance_mm "
-            f"from {lo:.4g} to {hi:.4g} with this camera",
+            f"whole {plate.diameter_mm:g} mm circle and not two ({plate.pitch_mm:g} mm pitch): "
+            f"working_distance_mm from {lo:.4g} to {hi:.4g} with this camera",
         )
     if plate.diameter_mm >= plate.pitch_mm:
         raise bad(
@@ -135,10 +133,8 @@ def check_config(c: VisionStageConfig) -> None:
                 f"from {need} to {most} circles along {'XY'[axis]} ({need}: the model selection "
                 "fits "
                 f"polynomials up to degree {need - 1}, which need {need} along each axis; {most}: "
-                "the plate's "
-                f"{plate.n} x {plate.n} circles at {plate.pitch_mm:g} mm within the "
-                f"{g.travel_mm[axis]:g} mm "
-                f"travel)",
+                f"the plate's {plate.n} x {plate.n} circles at {plate.pitch_mm:g} mm within the "
+                f"{g.travel_mm[axis]:g} mm travel)",
             )
     # interferometer lines: at least one each way, over the range the plate calibrated
     for axis, key in ((1, "x_lines_at_y_mm"), (0, "y_lines_at_x_mm")):
@@ -150,8 +146,7 @@ def check_config(c: VisionStageConfig) -> None:
                 f"{NAME}.{key}",
                 getattr(c, key),
                 f"one line or more, each over the range the grid calibrates: {'XY'[axis]} from "
-                f"{lo:g} to "
-                f"{hi:g} mm (a model is not tested where it extrapolates)",
+                f"{lo:g} to {hi:g} mm (a model is not tested where it extrapolates)",
             )
     # the line rulers: graduations far enough apart to read in order, two or more on each axis
     longest = min(g.travel_mm) - RULER_SHORTER_BY_MM
@@ -169,8 +164,7 @@ def check_config(c: VisionStageConfig) -> None:
                 f"{NAME}.{key}",
                 getattr(c, key),
                 "a graduation's scatter is a small part of the pitch: at most "
-                f"{MAX_RULER_SCATTER:.0%} of "
-                f"ruler_pitch_mm = {c.ruler_pitch_mm:g}, "
+                f"{MAX_RULER_SCATTER:.0%} of ruler_pitch_mm = {c.ruler_pitch_mm:g}, "
                 f"{MAX_RULER_SCATTER * c.ruler_pitch_mm * 1000:g} um",
             )
     if not 0 <= c.turn_error <= MAX_TURN_ERROR:
@@ -178,8 +172,7 @@ def check_config(c: VisionStageConfig) -> None:
             f"{NAME}.turn_error",
             c.turn_error,
             f"the fraction the operator's turn is off by: from 0 to {MAX_TURN_ERROR:g} (at 1 or "
-            "more the "
-            f"rotate-and-check loop does not converge)",
+            f"more the rotate-and-check loop does not converge)",
         )
     s = c.truth.squareness_rad
     if not abs(s) <= MAX_SQUARENESS_RAD:
@@ -187,8 +180,7 @@ def check_config(c: VisionStageConfig) -> None:
             f"{NAME}.truth.squareness_rad",
             s,
             f"a squareness error is a small angle: from -{MAX_SQUARENESS_RAD:g} to "
-            f"{MAX_SQUARENESS_RAD:g} rad "
-            f"({MAX_SQUARENESS_RAD * 1000:g} mm per metre)",
+            f"{MAX_SQUARENESS_RAD:g} rad ({MAX_SQUARENESS_RAD * 1000:g} mm per metre)",
         )
 
 
