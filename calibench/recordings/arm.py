@@ -1,0 +1,153 @@
+"""Reading a serial arm's recording (any joint count) and its checks."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+
+from calibench.recordings.csv_io import RecordingError, read_columns
+from calibench.recordings.records import ArmRecording
+
+ARM_REQUIRED = tuple(f"q{j}_deg" for j in range(1, 7)) + ("x_mm", "y_mm", "z_mm")
+MAX_STD_MM = (
+    1000.0  # an instrument's 1-sigma of a metre is a wrong unit or a corrupt value, not a reading
+)
+ARM_OPTIONAL = ("x_std_mm", "y_std_mm", "z_std_mm", "t_s", "temp_c")
+
+
+def _joint_columns(path: Path) -> int:
+    """How many q<j>_deg columns the header names, q1 upward without a gap."""
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as f:
+            header = [h.strip() for h in next(csv.reader(f), [])]
+    except (OSError, UnicodeDecodeError):
+        return 0  # read_columns says what is wrong
+    n = 0
+    while f"q{n + 1}_deg" in header:
+        n += 1
+    return n
+
+
+def _joint_gap(path: Path) -> str | None:
+    """The first q<j>_deg missing below the highest one the header names (a gap), or None."""
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as f:
+            header = [h.strip() for h in next(csv.reader(f), [])]
+    except (OSError, UnicodeDecodeError):
+        return None
+    named = [
+        int(h[1:-4])
+        for h in header
+        if h.startswith("q") and h.endswith("_deg") and h[1:-4].isdigit()
+    ]
+    gap = [j for j in range(1, max(named, default=0)) if j not in named]
+    return f"q{gap[0]}_deg" if gap else None
+
+
+def load_arm_csv(
+    path: str | Path,
+    n_joints: int | None = None,
+    max_rows: int | None = None,
+    range_deg: np.ndarray | None = None,
+) -> ArmRecording:
+    """Read an arm recording (CONTRACT, "Arms").
+
+    Angles that are evidently radians (every |q| below 2 pi over a spread of postures) and
+    positions that are evidently metres are refused: the format says degrees and millimetres.
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV: q1_deg..qN_deg, x_mm, y_mm, z_mm; optional x_std_mm, y_std_mm, z_std_mm (all
+        three or none), t_s, temp_c.
+    n_joints : int or None
+        The arm's joint count; a recording with another count is refused. None: as many as the
+        header names.
+    max_rows : int or None
+        Refuse longer recordings before converting them.
+    range_deg : ndarray or None
+        (n_joints, 2) the arm's joint ranges, deg; an arm whose every joint stays within 2 pi
+        degrees cannot tell its degrees from radians, so its readings are taken as the format
+        says.
+
+    Returns
+    -------
+    ArmRecording
+        q_rad (n, n_joints), xyz_mm (n, 3), xyz_std_mm (n, 3) or None, t_s and temp_c (n,) or
+        None.
+
+    Raises
+    ------
+    RecordingError
+        Any defect of the file, a gap in the joint columns, another joint count, radians,
+        metres, an angle or a coordinate out of range, a std that is not positive or over a
+        metre.
+    """
+    path = Path(path)
+    found = _joint_columns(path)
+    n = n_joints if n_joints is not None else max(found, 1)
+    gap = _joint_gap(path)
+    if gap:
+        raise RecordingError(
+            f"{path}: column {gap} is missing "
+            "(the joint columns are q1_deg, q2_deg, ... without a gap)"
+        )
+    if n_joints is not None and found and found != n_joints:
+        raise RecordingError(
+            f"{path}: {found} joint column(s) (q1_deg..q{found}_deg) but the arm has "
+            f"{n_joints} joints"
+        )
+    q_cols = tuple(f"q{j}_deg" for j in range(1, n + 1))
+    cols, line = read_columns(path, q_cols + ("x_mm", "y_mm", "z_mm"), ARM_OPTIONAL, max_rows)
+    q_deg = np.stack([cols[c] for c in q_cols], axis=1)
+    xyz = np.stack([cols["x_mm"], cols["y_mm"], cols["z_mm"]], axis=1)
+    tiny_arm = range_deg is not None and np.abs(np.asarray(range_deg, float)).max() <= 2 * np.pi
+    if (
+        len(q_deg) >= 10
+        and np.ptp(q_deg, axis=0).max() > 0.5
+        and np.abs(q_deg).max() <= 2 * np.pi
+        and not tiny_arm
+    ):
+        raise RecordingError(
+            f"{path}: every joint angle lies within +-{np.abs(q_deg).max():.2f}: these look like "
+            "radians, the format wants degrees (q<j>_deg)"
+        )
+    if np.abs(q_deg).max() > 3600:
+        raise RecordingError(
+            f"{path}: a joint angle of {np.abs(q_deg).max():.3g} deg: not an angle in degrees"
+        )
+    # the arm moved (a joint over 20 deg) yet its point stayed within 5: the unit, not the arm
+    if len(xyz) >= 10 and np.ptp(q_deg, axis=0).max() > 20 and 0 < np.ptp(xyz, axis=0).max() < 5.0:
+        raise RecordingError(
+            f"{path}: the measured points span only {np.ptp(xyz, axis=0).max():.3g} in x, y and z: "
+            "metres? the format wants millimetres (x_mm, y_mm, z_mm)"
+        )
+    if np.abs(xyz).max() > 1e6:
+        raise RecordingError(
+            f"{path}: a measured coordinate of {np.abs(xyz).max():.3g} mm (over a kilometre): "
+            "wrong unit or a corrupt value"
+        )
+    std = None
+    std_cols = ("x_std_mm", "y_std_mm", "z_std_mm")
+    present = [c for c in std_cols if c in cols]
+    if present and len(present) < 3:
+        raise RecordingError(
+            f"{path}: {', '.join(present)} without the others: "
+            "give all of x_std_mm, y_std_mm, z_std_mm"
+        )
+    if present:
+        std = np.stack([cols[c] for c in std_cols], axis=1)
+        if np.any(std <= 0):
+            bad = int(np.argmax(np.any(std <= 0, axis=1)))
+            raise RecordingError(
+                f"{path} line {line[bad]}: a std of zero or below (no instrument reads exactly: "
+                "leave the std columns out to have the scatter estimated)"
+            )
+        if np.any(std > MAX_STD_MM):
+            raise RecordingError(
+                f"{path} line {line[int(np.argmax(np.any(std > MAX_STD_MM, axis=1)))]}: a std of "
+                f"{std.max():.3g} mm (over {MAX_STD_MM:g} mm): a wrong unit or a corrupt value"
+            )
+    return ArmRecording(np.deg2rad(q_deg), xyz, cols.get("t_s"), cols.get("temp_c"), std)

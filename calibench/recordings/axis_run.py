@@ -1,0 +1,52 @@
+"""Reading a bidirectional positioning run of one axis (ISO 230-2) and its checks."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from calibench.recordings.csv_io import RecordingError, read_columns
+from calibench.recordings.records import AxisRun
+
+
+def load_axis_run(path: str | Path) -> AxisRun:
+    """Read a bidirectional run (CONTRACT, "iso230").
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV: target_mm, run, direction and either deviation_um or actual_mm.
+
+    Returns
+    -------
+    AxisRun
+        (k,) arrays, one per reading; the deviation in um either way.
+
+    Raises
+    ------
+    RecordingError
+        A missing column, a direction other than +1 / -1, a deviation over a metre.
+    """
+    path = Path(path)
+    cols, line = read_columns(
+        path, ("target_mm", "run", "direction"), ("deviation_um", "actual_mm")
+    )
+    if "deviation_um" in cols:
+        dev = cols["deviation_um"]
+    elif "actual_mm" in cols:
+        dev = (cols["actual_mm"] - cols["target_mm"]) * 1000.0
+    else:
+        raise RecordingError(f"{path}: missing column deviation_um (or actual_mm)")
+    d = cols["direction"]
+    if not np.all(np.isin(d, (-1.0, 1.0))):
+        bad = int(np.argmax(~np.isin(d, (-1.0, 1.0))))
+        raise RecordingError(
+            f"{path} line {line[bad]}: direction is {d[bad]:g}; +1 (approached from below) or -1"
+        )
+    if np.abs(dev).max() > 1e6:
+        raise RecordingError(
+            f"{path}: a deviation of {np.abs(dev).max():.3g} um (over a metre): wrong unit or a "
+            "corrupt value"
+        )
+    return AxisRun(cols["target_mm"], cols["run"], d.astype(int), dev)

@@ -1,0 +1,188 @@
+"""The CSV every recording format shares: one reader with its checks, one writer.
+
+The reader turns any defect of a file (unreadable, not UTF-8, separated by semicolons, a column
+missing or named twice, a row with a value too many, a cell that is not a number or not finite, a
+temperature or load out of range, a pass id that is not whole) into one ``RecordingError`` naming
+the file and, where it can, the line.
+"""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+
+from calibench.errors import BadInput
+
+
+class RecordingError(BadInput):
+    """A recording that cannot be used as it is (missing column, NaN, unreadable file)."""
+
+
+def same_file(a: str | Path, b: str | Path) -> bool:
+    """Whether two paths name one file (through links too).
+
+    Parameters
+    ----------
+    a, b : str or Path
+        The two paths; one that does not exist yet is the other only if it resolves to it.
+
+    Returns
+    -------
+    bool
+        True when both name the same file.
+    """
+    try:
+        return Path(a).resolve() == Path(b).resolve() or Path(a).samefile(b)
+    except OSError:
+        return False
+
+
+def read_columns(
+    path: str | Path, required: tuple, optional: tuple, max_rows: int | None = None
+) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """Numeric columns of a CSV by name, with each data row's line in the file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV file: a header row of column names, then one row of numbers per sample (UTF-8,
+        with or without a byte-order mark; CRLF or LF line ends; quoted cells allowed).
+    required : tuple of str
+        Columns that must be present.
+    optional : tuple of str
+        Columns read when present.
+    max_rows : int or None
+        Refuse a file with more data rows than this, before converting it.
+
+    Returns
+    -------
+    columns : dict of str to ndarray
+        Each present required or optional column, (n,) float, all finite.
+    line : ndarray
+        (n,) int, each data row's line in the file (the header is line 1; blank lines are skipped,
+        not renumbered).
+
+    Raises
+    ------
+    RecordingError
+        One clear message for any defect, naming the file and the line where there is one.
+    """
+    path = Path(path)
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as f:
+            rows = list(csv.reader(f))
+    except IsADirectoryError:
+        raise RecordingError(f"{path} is a folder, not a CSV file") from None
+    except OSError as e:
+        raise RecordingError(f"cannot read {path}: {e.strerror}") from None
+    except UnicodeDecodeError:
+        raise RecordingError(
+            f"{path} is not UTF-8 text (Latin-1, or not a CSV at all?): save it as UTF-8 CSV"
+        ) from None
+    except csv.Error as e:
+        raise RecordingError(f"{path} is not a CSV file ({e})") from None
+    if not rows or not rows[0]:
+        raise RecordingError(f"{path} is empty")
+    header = [h.strip() for h in rows[0]]
+    if len(header) == 1 and ";" in header[0]:
+        raise RecordingError(
+            f"{path} is separated by semicolons (a spreadsheet's export with decimal commas?): "
+            "the format wants commas between values and points in numbers"
+        )
+    twice = sorted({h for h in header if h and header.count(h) > 1})
+    if twice:
+        raise RecordingError(
+            f"{path}: column(s) {', '.join(twice)} named twice: which one is meant cannot be told"
+        )
+    missing = [c for c in required if c not in header]
+    if missing:
+        raise RecordingError(f"{path}: missing column(s) {', '.join(missing)}")
+    # each data row with its line in the file (blank lines are skipped, not renumbered)
+    lines = [i + 2 for i, r in enumerate(rows[1:]) if any(cell.strip() for cell in r)]
+    body = [rows[i - 1] for i in lines]
+    if not body:
+        raise RecordingError(f"{path}: no data rows")
+    # a value beyond the header's last column shifts every value after it (a decimal comma, a
+    # stray separator): the columns can no longer be trusted (trailing empty cells are harmless)
+    for i, r in enumerate(rows[1:]):
+        if len(r) > len(header) and any(cell.strip() for cell in r[len(header) :]):
+            raise RecordingError(
+                f"{path} line {i + 2}: {len(r)} values, the header names {len(header)} columns "
+                "(a decimal comma, or a separator too many?)"
+            )
+    if max_rows is not None and len(body) > max_rows:
+        raise RecordingError(
+            f"{path}: {len(body)} rows; this command takes at most {max_rows}: decimate the "
+            "recording or split it"
+        )
+    fields = {}
+    for name in required + optional:
+        if name not in header:
+            continue
+        j = header.index(name)
+        try:  # the whole column at once; the loop below only finds the bad cell
+            cells = [r[j] for r in body]
+            values = np.array(cells, dtype=float)
+            if any(
+                "_" in c for c in cells
+            ):  # Python's float reads 1_000: a CSV number has no underscore
+                raise ValueError
+        except (IndexError, ValueError):
+            for line, r in zip(lines, body):
+                cell = r[j] if j < len(r) else ""
+                try:
+                    if "_" in cell:
+                        raise ValueError
+                    float(cell)
+                except ValueError:
+                    raise RecordingError(
+                        f"{path} line {line}: column {name} is {cell!r}, not a number"
+                    ) from None
+            raise
+        bad = ~np.isfinite(values)
+        if bad.any():
+            raise RecordingError(
+                f"{path} line {lines[int(np.argmax(bad))]}: column {name} is not finite"
+            )
+        fields[name] = values
+    line = np.array(lines)
+    _check_common(path, fields, line)
+    return fields, line
+
+
+def _check_common(path, cols: dict, line: np.ndarray) -> None:
+    """The optional columns every format shares: a machine's temperature, a load, a pass id.
+    ``line`` (n,): each row's line in the file."""
+    for name, lo, hi, what in (
+        ("temp_c", -100.0, 200.0, "not a machine's temperature in deg C (-100 to 200)"),
+        ("load_n", -1e6, 1e6, "over 100 t: a wrong unit or a corrupt value"),
+    ):
+        v = cols.get(name)
+        if v is not None and np.any((v < lo) | (v > hi)):
+            i = int(np.argmax((v < lo) | (v > hi)))
+            raise RecordingError(f"{path} line {line[i]}: {name} is {v[i]:.3g}: {what}")
+    run = cols.get("run")
+    if run is not None and np.any(run != np.round(run)):
+        i = int(np.argmax(run != np.round(run)))
+        raise RecordingError(
+            f"{path} line {line[i]}: run is {run[i]:g}; a pass id is a whole number"
+        )
+
+
+def write_csv(path, cols: list[str], data: list[np.ndarray]) -> None:
+    """Write columns to a CSV with a header row, ten significant digits a value.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to write (replaced).
+    cols : list of str
+        The header's column names, in order.
+    data : list of ndarray
+        (n,) or (n, k) arrays, stacked side by side into ``len(cols)`` columns.
+    """
+    np.savetxt(
+        path, np.column_stack(data), delimiter=",", header=",".join(cols), comments="", fmt="%.10g"
+    )

@@ -1,0 +1,179 @@
+"""Blinded arm recordings (any arm description; the seed's arm CMM and the UR10 in the suite) with
+concealed effects.
+
+Kinds: ``null``, ``eccentricity`` (one joint's encoder), ``thermal`` (the links' growth),
+``compliance`` (joints giving way under gravity, by MuJoCo's physics), ``transmission`` (one
+joint's gear train).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from calibench.errors import BadInput
+from calibench.recordings import ArmRecording
+
+ARM_KINDS = ("null", "eccentricity", "thermal", "compliance", "transmission")
+
+
+def arm_recording(
+    kind: str,
+    seed: int,
+    n: int = 300,
+    noise_um: float = 10.0,
+    arm: str = "arm-cmm",
+    joint: int | None = None,
+    harmonic: float | None = None,
+    phase_rad: float | None = None,
+    amplitude_urad: float | None = None,
+) -> tuple[ArmRecording, dict]:
+    """A blinded arm recording: the twin with its default as-built errors (Table 1 for the seed's
+    arm), probed at ``n`` postures by a reference of ``noise_um`` 1-sigma per coordinate that
+    reports in its own frame (a tracker's), with the concealed effect of ``kind``:
+
+    - ``eccentricity``: one joint's encoder disc off-centre (the reading is off once per turn);
+    - ``transmission``: one joint's gear train off periodically, 8-40 cycles per turn (not a
+      whole number: a reduction's ratio);
+    - ``thermal``: the links and tool grow with the logged temperature;
+    - ``compliance``: the two most loaded joints given way under gravity (stiffness drawn so the
+      largest sag is 100-300 urad), the links settled where MuJoCo's physics puts them.
+
+    Parameters
+    ----------
+    kind : str
+        One of ``ARM_KINDS``.
+    seed : int
+        Every draw's seed: the same seed gives the same recording, bit for bit.
+    n : int
+        How many postures.
+    noise_um : float
+        The reference's 1-sigma per coordinate, um.
+    arm : str
+        The arm's description (a built-in name or an ARM.toml path).
+    joint : int or None
+        The eccentric (or geared) joint, 1-based; None: drawn.
+    harmonic, phase_rad, amplitude_urad : float or None
+        The gear's cycles per turn, phase (rad) and amplitude (urad); None: each drawn (given,
+        sessions of one gear train can be recorded).
+
+    Returns
+    -------
+    recording : ArmRecording
+        q_rad (n, n_joints) the encoders' readings, xyz_mm (n, 3) in the reference's frame.
+    manifest : dict
+        The sealed truth: scenario, arm, kind, seed, the effects with their parameters, the
+        reference noise in um.
+
+    Raises
+    ------
+    ValueError
+        An unknown kind.
+    BadInput
+        ``compliance`` on an arm without masses.
+    """
+    from calibench.scenes.arm_cmm import load_arm
+    from calibench.sim.arm_cmm import ArmSim, ArmTruth
+
+    if kind not in ARM_KINDS:
+        raise ValueError(f"unknown kind {kind!r} (known: {', '.join(ARM_KINDS)})")
+    rng = np.random.default_rng(seed)
+    description = load_arm(arm)
+    N = description.n_joints
+    truth = ArmTruth()
+    sim = ArmSim(description, truth)
+    q = sim.random_postures(n, rng)
+    t = np.arange(n) * 20.0
+    T = 20.0 + np.cumsum(rng.normal(0, 0.002, n))
+    q_read = q + rng.normal(0, truth.encoder_noise_urad * 1e-6, q.shape)
+    effects = []
+    if kind == "eccentricity":
+        j, A, ph = (
+            int(rng.integers(1, N + 1)),
+            rng.uniform(300, 600) * 1e-6,
+            rng.uniform(0, 2 * np.pi),
+        )
+        j = joint or j
+        q_read[:, j - 1] += A * np.sin(q[:, j - 1] + ph)
+        effects.append(
+            {
+                "name": "encoder_eccentricity",
+                "axis": "xyz",
+                "params": {"joint": j, "amplitude_urad": A * 1e6, "phase_rad": ph},
+            }
+        )
+    if kind == "transmission":
+        j = joint or int(rng.integers(1, N + 1))
+        h, A, ph = rng.uniform(8, 40), rng.uniform(150, 300) * 1e-6, rng.uniform(0, 2 * np.pi)
+        h = h if harmonic is None else harmonic
+        ph = ph if phase_rad is None else phase_rad
+        A = A if amplitude_urad is None else amplitude_urad * 1e-6
+        q_read[:, j - 1] += A * np.sin(h * q[:, j - 1] + ph)
+        effects.append(
+            {
+                "name": "transmission",
+                "axis": "xyz",
+                "params": {
+                    "joint": j,
+                    "harmonics": [h],
+                    "amplitude_urad": [A * 1e6],
+                    "phase_rad": ph,
+                },
+            }
+        )
+    if kind == "thermal":
+        rise, k = rng.uniform(2, 5), rng.uniform(10, 25)
+        T = T + rise * (1 - np.exp(-t / (t[-1] / 2)))
+        effects.append(
+            {
+                "name": "thermal_expansion",
+                "axis": "xyz",
+                "params": {"ppm_per_k": k},
+                "temperature_rise_k": rise,
+            }
+        )
+        xyz = np.empty((n, 3))
+        base = sim.delta
+        lengths = np.zeros(5 * N + 3)
+        lengths[0 : 5 * N : 5] = np.asarray(description.a_mm) + base[0 : 5 * N : 5]
+        lengths[1 : 5 * N : 5] = np.asarray(description.d_mm) + base[1 : 5 * N : 5]
+        lengths[5 * N :] = np.asarray(description.tool_mm) + base[5 * N :]
+        for i in range(n):  # each posture on the arm as long as it then was
+            delta = base + k * 1e-6 * (T[i] - T[0]) * lengths
+            xyz[i] = ArmSim(description, dataclasses.replace(truth, delta=tuple(delta))).probe_mm(
+                q[i : i + 1]
+            )[0]
+    elif kind == "compliance":
+        if not description.has_masses:
+            raise BadInput(f"the arm {description.name} has no masses: no compliance under gravity")
+        tau = np.abs(sim.gravity_torques(q)).max(axis=0)
+        joints = np.sort(np.argsort(-tau)[:2]) + 1
+        k = np.full(N, np.inf)
+        for j in joints:
+            k[j - 1] = tau[j - 1] / (rng.uniform(100, 300) * 1e-6)
+            effects.append(
+                {
+                    "name": "joint_compliance",
+                    "axis": "xyz",
+                    "params": {"joint": int(j), "urad_per_nm": 1e6 / k[j - 1]},
+                }
+            )
+        sim = ArmSim(description, dataclasses.replace(truth, stiffness_nm_per_rad=tuple(k)))
+        xyz = sim.probe_mm(q)  # MuJoCo's gravity torques, the links at their equilibrium
+    else:
+        xyz = sim.probe_mm(q)
+    R, p = truth.tracker2base()
+    xyz = (xyz - p) @ R  # the instrument reports in its own frame
+    xyz = xyz + rng.normal(0, noise_um / 1000, xyz.shape)
+    return (
+        ArmRecording(q_read, xyz, t, np.round(T, 3)),
+        {
+            "scenario": "arm-cmm",
+            "arm": description.name,
+            "kind": kind,
+            "seed": seed,
+            "effects": effects,
+            "noise_um": noise_um,
+        },
+    )

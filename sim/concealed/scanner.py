@@ -1,0 +1,118 @@
+"""Blinded probe-scanner recordings with concealed effects.
+
+Kinds: ``null``, ``runout`` (the table's radial error motion), ``eccentricity`` (the table
+encoder's), ``scale`` (the probe's), ``bump`` (a nick in the plate's wall), ``combined`` (runout,
+eccentricity and scale).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from calibench.recordings import ScannerRecording
+
+SCANNER_KINDS = ("null", "runout", "eccentricity", "scale", "bump", "combined")
+
+
+def scanner_recording(kind: str, seed: int, turns: int = 4) -> tuple[ScannerRecording, dict]:
+    """A blinded probe-scanner recording: ``turns`` turns over the calibration plate, the rail
+    as built (its d, dL, alpha0 and the plate's clamping drawn about the design), each reading
+    MuJoCo's ray at the table's true angle, with the concealed effect of ``kind``:
+
+    - ``runout``: the table's bearing moves radially along the rail, a whole number of times
+      per turn (2-9, not 4 or 8), 3-8 um: the stylus starts that much further out;
+    - ``eccentricity``: the encoder's disc off-centre, 150-400 urad: the table stands short of
+      what the encoder reads;
+    - ``scale``: the probe's linear encoder reads 0.1-0.3 % long;
+    - ``bump``: a nick in the plate's wall 10-25 um deep, 0.5-1.5 deg wide;
+    - ``combined``: runout, eccentricity and scale together.
+
+    Parameters
+    ----------
+    kind : str
+        One of ``SCANNER_KINDS``.
+    seed : int
+        Every draw's seed: the same seed gives the same recording, bit for bit.
+    turns : int
+        How many turns, each of the scanner's samples per turn.
+
+    Returns
+    -------
+    recording : ScannerRecording
+        (n,) each field; the encoder's nominal angles, the probe's quantised readings (mm).
+    manifest : dict
+        The sealed truth: scenario, kind, seed, the effects with their parameters, the probe's
+        noise in um.
+
+    Raises
+    ------
+    ValueError
+        An unknown kind.
+    """
+    from calibench.scenes.probe_scanner import ProbeScannerGeometry
+    from calibench.sim.probe_scanner import ProbeScannerSim, ProbeScannerTruth
+
+    if kind not in SCANNER_KINDS:
+        raise ValueError(f"unknown kind {kind!r} (known: {', '.join(SCANNER_KINDS)})")
+    rng = np.random.default_rng(seed)
+    g = ProbeScannerGeometry()
+    truth = ProbeScannerTruth(
+        d_mm=rng.uniform(7.6, 8.4),
+        dL_mm=rng.uniform(2.7, 3.3),
+        alpha0_rad=rng.uniform(0.30, 0.40),
+        plate_centre_mm=tuple(float(v) for v in rng.normal(0, 0.1, 2)),
+    )
+    sim = ProbeScannerSim(g, truth)
+    m = g.samples_per_turn
+    nominal = np.tile(np.arange(m) * 2 * np.pi / m, turns)
+    turn = np.repeat(np.arange(turns), m)
+    wanted = {"combined": ("runout", "eccentricity", "scale")}.get(kind, (kind,))
+    effects = []
+    true_theta = nominal + rng.normal(0, np.deg2rad(truth.angle_jitter_deg), len(nominal))
+    if "eccentricity" in wanted:
+        A, ph = rng.uniform(150, 400) * 1e-6, rng.uniform(0, 2 * np.pi)
+        true_theta -= A * np.sin(nominal + ph)  # the encoder reads A sin ahead of the table
+        effects.append(
+            {"name": "encoder_eccentricity", "axis": "rho", "params": {"amplitude_urad": A * 1e6}}
+        )
+    rho = sim.exact_rho("plate", true_theta)
+    if "runout" in wanted:
+        # not 4 or 8: a square artefact cannot show a fourfold runout (discover says so)
+        k, A, ph = (
+            int(rng.choice([2, 3, 5, 6, 7, 9])),
+            rng.uniform(3, 8) / 1000,
+            rng.uniform(0, 2 * np.pi),
+        )
+        rho -= A * np.sin(k * true_theta + ph)
+        effects.append(
+            {"name": "runout", "axis": "rho", "params": {"harmonic": k, "amplitude_mm": A}}
+        )
+    if kind == "bump":
+        th0, w, h = rng.uniform(0, 360), rng.uniform(0.5, 1.5), rng.uniform(10, 25) / 1000
+        dist = (np.degrees(nominal) - th0 + 180) % 360 - 180
+        rho += h * np.exp(-0.5 * (dist / w) ** 2)  # the stylus drops into the nick
+        effects.append(
+            {
+                "name": "nonsmooth",
+                "axis": "rho",
+                "params": {"theta_deg": th0, "width_deg": w, "depth_mm": h},
+            }
+        )
+    if "scale" in wanted:
+        s = rng.uniform(1000, 3000)
+        rho *= 1 + s * 1e-6
+        effects.append({"name": "scale", "axis": "rho", "params": {"ppm": s}})
+    q = truth.quantum_um / 1000
+    rho = np.round((rho + rng.normal(0, truth.probe_noise_um / 1000, len(rho))) / q) * q
+    t = np.arange(len(rho)) * 10.0 / m  # ten seconds a turn
+    rec = ScannerRecording(
+        turn, nominal, rho, t, np.round(20.0 + np.cumsum(rng.normal(0, 1e-3, len(rho))), 3)
+    )
+    noise = float(np.hypot(truth.probe_noise_um, truth.quantum_um / np.sqrt(12)))
+    return rec, {
+        "scenario": "probe-scanner",
+        "kind": kind,
+        "seed": seed,
+        "effects": effects,
+        "noise_um": noise,
+    }

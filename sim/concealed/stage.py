@@ -1,0 +1,254 @@
+"""Blinded stage recordings (belt-stage, vision-stage) with concealed effects.
+
+Kinds: ``null``, ``backlash``, ``periodic``, ``thermal``, ``combined`` (backlash + periodic +
+thermal), ``bump`` (a local defect no candidate has), ``mixed`` (lost motion, a periodic error
+and thermal expansion all on one axis, the temperature rising over the passes), ``elastic`` (belt
+stage: one axis's belt elastic against the carriage's friction, by MuJoCo's tendons: lost motion
+that grows along the travel).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from calibench.recordings import StageRecording
+from calibench.sim.replay import replay_stage
+from calibench.sim.stage_drive import travel_direction
+
+STAGE_KINDS = ("null", "backlash", "periodic", "thermal", "combined", "bump", "mixed", "elastic")
+REFERENCE_NOISE_UM = 1.0  # the reference instrument (interferometer / microscope), 1-sigma
+PASS_OFFSET_UM = 0.3  # each pass's own offset: correlated noise that must not become a term
+
+
+@dataclasses.dataclass(frozen=True)
+class StagePlan:
+    """ISO 230-2 style lines: along X at three Y levels and along Y at three X levels, each
+    forward then backward, ``passes`` times.
+
+    Attributes
+    ----------
+    travel_mm : tuple of float
+        (X, Y) travel, mm; the lines run from 0 to it.
+    step_mm : float
+        Between stations along a line, mm: fine enough for a 30 mm period.
+    passes : int
+        How many times the six lines are run.
+    seconds_per_station : float
+        The time a station takes, s (the recording's clock).
+    """
+
+    travel_mm: tuple[float, float]
+    step_mm: float
+    passes: int = 4
+    seconds_per_station: float = 3.0
+
+
+PLANS = {
+    "belt-stage": StagePlan((500.0, 400.0), 6.5),
+    "vision-stage": StagePlan((300.0, 200.0), 4.5),
+}
+
+
+def stage_commands(plan: StagePlan) -> dict:
+    """The plan's stations in the order they are visited.
+
+    Parameters
+    ----------
+    plan : StagePlan
+        The lines, their step and passes.
+
+    Returns
+    -------
+    dict of str to ndarray
+        (n,) each: ``x``, ``y`` the commanded position (mm), ``run`` the pass id, ``dir_x``,
+        ``dir_y`` the direction each axis last moved (+1 / -1; homed from below), ``t_s`` the
+        time, s.
+    """
+    tx, ty = plan.travel_mm
+    xs, ys = np.arange(0, tx + 1e-9, plan.step_mm), np.arange(0, ty + 1e-9, plan.step_mm)
+    rows = []
+    for p in range(plan.passes):
+        for y0 in (0.15 * ty, 0.5 * ty, 0.85 * ty):
+            rows += [(x, y0, p) for x in xs] + [(x, y0, p) for x in xs[::-1]]
+        for x0 in (0.15 * tx, 0.5 * tx, 0.85 * tx):
+            rows += [(x0, y, p) for y in ys] + [(x0, y, p) for y in ys[::-1]]
+    c = np.array(rows)
+    x, y = c[:, 0], c[:, 1]
+    dirs = np.zeros((len(c), 2))
+    last = np.array([1.0, 1.0])
+    prev = np.array([-1.0, -1.0])  # homed from below
+    for i, pos in enumerate(c[:, :2]):
+        last = travel_direction(prev, pos, last)
+        dirs[i], prev = last, pos
+    return {
+        "x": x,
+        "y": y,
+        "run": c[:, 2],
+        "dir_x": dirs[:, 0],
+        "dir_y": dirs[:, 1],
+        "t_s": np.arange(len(c)) * plan.seconds_per_station,
+    }
+
+
+def stage_recording(scenario: str, kind: str, seed: int) -> tuple[StageRecording, dict]:
+    """A blinded stage recording: the twin replayed along the plan's lines, the as-built map, a
+    wandering room temperature, each pass's offset and the reference's noise, with the concealed
+    effect of ``kind``.
+
+    Parameters
+    ----------
+    scenario : str
+        ``belt-stage`` or ``vision-stage`` (a key of ``PLANS``).
+    kind : str
+        One of ``STAGE_KINDS`` (``elastic`` for the belt stage only).
+    seed : int
+        Every draw's seed: the same seed gives the same recording, bit for bit.
+
+    Returns
+    -------
+    recording : StageRecording
+        (n,) each field, mm; what ``discover`` reads.
+    manifest : dict
+        The sealed truth: scenario, kind, seed, the effects with their parameters, the reference
+        noise in um.
+
+    Raises
+    ------
+    ValueError
+        An unknown kind, or ``elastic`` on the vision stage.
+    """
+    if kind not in STAGE_KINDS:
+        raise ValueError(f"unknown kind {kind!r}")
+    rng = np.random.default_rng(seed)
+    plan = PLANS[scenario]
+    c = stage_commands(plan)
+    x, y, n = c["x"], c["y"], len(c["x"])
+    effects = []
+    if kind == "elastic":
+        if scenario != "belt-stage":
+            raise ValueError("an elastic belt is the belt stage's")
+        a = str(rng.choice(["x", "y"]))
+        pos, effect = _elastic_belt(a, rng, x, y)
+        effects.append(effect)
+    else:
+        pos = replay_stage(scenario, x, y)
+    err = np.zeros((n, 2))
+    # the as-built machine differs smoothly from the twin (the scene's model absorbs this)
+    u, v = x / plan.travel_mm[0], y / plan.travel_mm[1]
+    for k in range(2):
+        err[:, k] += rng.normal(0, 0.02, 6) @ np.stack([np.ones(n), u, v, u * u, u * v, v * v])
+    T = 20.0 + np.cumsum(rng.normal(0, 0.002, n))  # a quiet room: the logged temperature wanders
+    wanted = {
+        "combined": ("backlash", "periodic", "thermal"),
+        "mixed": ("backlash", "periodic", "thermal"),
+    }.get(kind, (kind,))
+    axis_of = {"x": 0, "y": 1}
+    pick = [str(a) for a in rng.permutation(["x", "y"])]
+    if "backlash" in wanted:
+        a = pick[0]
+        B = rng.uniform(5, 15) / 1000
+        err[:, axis_of[a]] += B / 2 * c[f"dir_{a}"]
+        effects.append({"name": "backlash", "axis": a, "params": {"reversal_mm": B}})
+    if "periodic" in wanted:
+        a = pick[1] if kind == "combined" else pick[0]
+        P, A, ph = rng.uniform(30, 100), rng.uniform(4, 10) / 1000, rng.uniform(0, 2 * np.pi)
+        pos_a = x if a == "x" else y
+        err[:, axis_of[a]] += A * np.sin(2 * np.pi * pos_a / P + ph)
+        effects.append(
+            {"name": "periodic", "axis": a, "params": {"period_mm": P, "amplitude_mm": A}}
+        )
+    if "thermal" in wanted:
+        rise, tau = rng.uniform(2, 5), c["t_s"][-1] / rng.uniform(1.5, 3)
+        T = T + rise * (1 - np.exp(-c["t_s"] / tau))
+        k = rng.uniform(10, 25)  # ppm/K: the scale's mismatch with the part (aluminium vs glass)
+        for a, u_a in (("x", x), ("y", y)):
+            if kind == "mixed" and a != pick[0]:  # all three on one axis
+                continue
+            err[:, axis_of[a]] += k * 1e-6 * (T - T[0]) * u_a
+            effects.append(
+                {
+                    "name": "thermal_expansion",
+                    "axis": a,
+                    "params": {"ppm_per_k": k},
+                    "temperature_rise_k": rise,
+                }
+            )
+    if kind == "bump":
+        x0, w, h = (
+            rng.uniform(0.2, 0.8) * plan.travel_mm[0],
+            rng.uniform(8, 15),
+            rng.uniform(8, 15) / 1000,
+        )
+        err[:, 1] += h * np.exp(
+            -0.5 * ((x - x0) / w) ** 2
+        )  # the X rail's bump lifts the carriage sideways
+        effects.append(
+            {
+                "name": "nonsmooth",
+                "axis": "y",
+                "params": {"x_mm": x0, "width_mm": w, "height_mm": h},
+            }
+        )
+    run = c["run"].astype(int)
+    err += rng.normal(0, PASS_OFFSET_UM / 1000, (plan.passes, 2))[run]
+    err += rng.normal(0, REFERENCE_NOISE_UM / 1000, (n, 2))
+    meas = pos + err
+    rec = StageRecording(
+        x_cmd_mm=x,
+        y_cmd_mm=y,
+        x_meas_mm=meas[:, 0],
+        y_meas_mm=meas[:, 1],
+        t_s=c["t_s"],
+        dir_x=c["dir_x"],
+        dir_y=c["dir_y"],
+        temp_c=np.round(T, 3),
+        run=run.astype(float),
+    )
+    return rec, {
+        "scenario": scenario,
+        "kind": kind,
+        "seed": seed,
+        "effects": effects,
+        "noise_um": REFERENCE_NOISE_UM,
+    }
+
+
+def _elastic_belt(
+    axis: str, rng: np.random.Generator, x: np.ndarray, y: np.ndarray
+) -> tuple[np.ndarray, dict]:
+    """The belt stage's twin with ``axis``'s belt elastic (EA 25-50 kN against 2-5 N of carriage
+    friction) at the commands, (n, 2) mm, and the effect's truth: the reversal measured on the
+    elastic belt itself (MuJoCo), approached from either side at the ends and middle of the
+    travel."""
+    from calibench.scenes.belt_stage import BeltStageGeometry
+    from calibench.sim.belt_stage import BeltStageTruth
+    from calibench.sim.stage_drive import BeltDrive, ElasticBelt
+
+    belt = BeltDrive(ea_n=rng.uniform(25e3, 50e3), friction_n=rng.uniform(2.0, 5.0))
+    truth = dataclasses.replace(BeltStageTruth(), **{f"belt_{axis}": belt})
+    pos = replay_stage("belt-stage", x, y, truth=truth)
+    u = x if axis == "x" else y
+    travel = BeltStageGeometry().travel_mm["xy".index(axis)]
+
+    def reversal(at: float) -> float:
+        b = ElasticBelt(travel, belt)
+        b.move(at - 5.0)
+        up = b.move(at)
+        b.move(at + 5.0)
+        return up - b.move(at)
+
+    lo, hi = float(u.min()), float(u.max())
+    start, mid, end = reversal(lo), reversal((lo + hi) / 2), reversal(hi)
+    return pos, {
+        "name": "backlash",
+        "axis": axis,
+        "params": {
+            "reversal_mm": mid,
+            "reversal_at_start_mm": start,
+            "reversal_at_end_mm": end,
+            "growth_mm_per_m": (end - start) / (hi - lo) * 1000,
+        },
+        "physics": {"belt_ea_n": belt.ea_n, "carriage_friction_n": belt.friction_n},
+    }

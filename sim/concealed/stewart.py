@@ -1,0 +1,196 @@
+"""Blinded Stewart platform recordings with concealed effects, and the poses they visit.
+
+Kinds: ``null``, ``thermal`` (a leg's growth), ``backlash`` (a leg's lost motion), ``pitch`` (a
+leg's screw), ``compliance`` (the legs shortened by their axial loads, by MuJoCo's statics).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from calibench.recordings import StewartRecording
+
+STEWART_KINDS = ("null", "thermal", "backlash", "pitch", "compliance")
+# The Stewart scenario's default working range about home (its StewartConfig's), fixed here: the
+# proof set does not move with the scenario's config.
+STEWART_TRANSLATION_MM = 150.0
+STEWART_ROTATION_DEG = 10.0
+
+
+def stewart_poses(
+    n: int,
+    rng: np.random.Generator,
+    geometry,
+    translation_mm: float = STEWART_TRANSLATION_MM,
+    rotation_deg: float = STEWART_ROTATION_DEG,
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Random poses of a Stewart platform within a working range about its home.
+
+    Parameters
+    ----------
+    n : int
+        How many poses.
+    rng : numpy.random.Generator
+        The draws, per pose a rotation vector then a translation.
+    geometry : calibench.scenes.stewart.StewartGeometry
+        The machine; its ``home_height_mm`` is the home's height.
+    translation_mm : float
+        Each coordinate of the origin drawn uniformly within home +- this, mm.
+    rotation_deg : float
+        Each component of the rotation vector drawn uniformly within +- this, deg.
+
+    Returns
+    -------
+    list of (ndarray, ndarray)
+        ``n`` poses: R (3, 3) the platform's orientation and t (3,) its origin, mm.
+    """
+    home = np.array([0, 0, geometry.home_height_mm])
+    rot = np.deg2rad(rotation_deg)
+    return [
+        (
+            _rotvec_to_matrix(rng.uniform(-rot, rot, 3)),
+            home + rng.uniform(-1, 1, 3) * translation_mm,
+        )
+        for _ in range(n)
+    ]
+
+
+def _rotvec_to_matrix(w: np.ndarray) -> np.ndarray:
+    """Rotation vector (3,) rad -> matrix (3, 3), by Rodrigues' formula on scalars (the same
+    arithmetic as the scenario's poses, so the recordings stay what they were)."""
+    x, y, z = (float(v) for v in w)
+    theta = math.sqrt(x * x + y * y + z * z)
+    if theta < 1e-8:
+        a, b = 1.0 - theta**2 / 6, 0.5 - theta**2 / 24
+    else:
+        a, b = math.sin(theta) / theta, 2 * (math.sin(0.5 * theta) / theta) ** 2
+    return np.array(
+        [
+            [1 - b * (y * y + z * z), b * x * y - a * z, b * x * z + a * y],
+            [b * x * y + a * z, 1 - b * (x * x + z * z), b * y * z - a * x],
+            [b * x * z - a * y, b * y * z + a * x, 1 - b * (x * x + y * y)],
+        ]
+    )
+
+
+def stewart_recording(kind: str, seed: int, n_poses: int = 100) -> tuple[StewartRecording, dict]:
+    """A blinded Stewart recording: ``n_poses`` poses visited, then visited again in reverse
+    order (so every leg approaches each pose both ways), a payload of 0, 500 or 1000 N on the
+    platform in turn, the platform as built (hinge errors of the scenario's size), the tracker
+    in a frame of its own measuring three reflectors (2 um per coordinate), the legs' readings
+    1 um, with the concealed effect of ``kind``:
+
+    - ``thermal``: one leg grows 10-25 ppm/K, the temperature rising 2-5 K;
+    - ``backlash``: one leg's drive loses 5-15 um on reversal;
+    - ``pitch``: one leg's screw is off periodically, lead 4-12 mm, 3-8 um;
+    - ``compliance``: every leg gives 0.02-0.05 um per N (each within 5 % of the others) of the
+      axial force MuJoCo's statics put on it.
+
+    Parameters
+    ----------
+    kind : str
+        One of ``STEWART_KINDS``.
+    seed : int
+        Every draw's seed: the same seed gives the same recording, bit for bit.
+    n_poses : int
+        How many poses (each visited twice: the recording has 2 ``n_poses`` rows).
+
+    Returns
+    -------
+    recording : StewartRecording
+        readings_mm (n, 6), the tracker's pose R (n, 3, 3) and t_mm (n, 3), directions (n, 6),
+        the load (n,) N.
+    manifest : dict
+        The sealed truth: scenario, kind, seed, the effects with their parameters, the noise in
+        um.
+
+    Raises
+    ------
+    ValueError
+        An unknown kind.
+    """
+    from scipy.spatial.transform import Rotation
+
+    from calibench.scenes.stewart import StewartGeometry
+    from calibench.sim.stewart import StewartSim, StewartTruth
+
+    if kind not in STEWART_KINDS:
+        raise ValueError(f"unknown kind {kind!r} (known: {', '.join(STEWART_KINDS)})")
+    rng = np.random.default_rng(seed)
+    g = StewartGeometry()
+    sim = StewartSim(g, StewartTruth(), rng)
+    poses = stewart_poses(n_poses, rng, g)
+    poses = poses + poses[::-1]
+    n = len(poses)
+    load = 500.0 * (np.arange(n) % 3)
+    L = np.empty((n, 6))
+    force = np.zeros((n, 6))
+    for k, (R, t) in enumerate(poses):
+        sim.set_pose(R, t)
+        L[k] = sim.leg_lengths_mm()
+        if kind == "compliance":
+            force[k] = sim.leg_forces_n(R, t, load[k])
+    step = np.diff(np.vstack([L[:1] - 1.0, L]), axis=0)  # homed from below
+    direction = np.sign(step)
+    t_s = np.arange(n) * 30.0
+    T = 20.0 + np.cumsum(rng.normal(0, 0.002, n))
+    readings = L - sim.l0
+    leg = int(rng.integers(1, 7))
+    effects = []
+    if kind == "thermal":
+        rise, k = rng.uniform(2, 5), rng.uniform(10, 25)
+        T = T + rise * (1 - np.exp(-t_s / (t_s[-1] / 2)))
+        readings[:, leg - 1] -= k * 1e-6 * (T - T[0]) * L[:, leg - 1]
+        effects.append(
+            {"name": "thermal_expansion", "axis": "legs", "params": {"leg": leg, "ppm_per_k": k}}
+        )
+    if kind == "backlash":
+        B = rng.uniform(5, 15) / 1000
+        readings[:, leg - 1] += B / 2 * direction[:, leg - 1]
+        effects.append(
+            {"name": "backlash", "axis": "legs", "params": {"leg": leg, "reversal_mm": B}}
+        )
+    if kind == "pitch":
+        P, A, ph = rng.uniform(4, 12), rng.uniform(3, 8) / 1000, rng.uniform(0, 2 * np.pi)
+        readings[:, leg - 1] += A * np.sin(2 * np.pi * L[:, leg - 1] / P + ph)
+        effects.append(
+            {
+                "name": "periodic",
+                "axis": "legs",
+                "params": {"leg": leg, "period_mm": P, "amplitude_mm": A},
+            }
+        )
+    if kind == "compliance":
+        c = rng.uniform(0.02, 0.05)
+        readings += (
+            c * (1 + 0.05 * rng.standard_normal(6)) * 1e-3 * force
+        )  # the screw reads what the leg gave
+        effects.append({"name": "leg_compliance", "axis": "legs", "params": {"um_per_n": c}})
+    readings += rng.normal(0, 1e-3, readings.shape)
+    # the tracker's frame: turned about the vertical and set beside the machine
+    R_tr = Rotation.from_rotvec(
+        np.r_[rng.normal(0, 0.01, 2), rng.uniform(-np.pi, np.pi)]
+    ).as_matrix()
+    t_tr = np.r_[rng.uniform(1500, 3000), rng.uniform(-1000, 1000), rng.uniform(-800, 0)]
+    R_meas, t_meas = np.empty((n, 3, 3)), np.empty((n, 3))
+    for k, (R, t) in enumerate(poses):
+        world = g.reflectors_mm @ R.T + t
+        seen = (world @ R_tr.T + t_tr) + rng.normal(0, 2e-3, world.shape)
+        # the tracker's own pose solution (scipy's Kabsch, not the estimators')
+        c_seen, c_refl = seen.mean(axis=0), g.reflectors_mm.mean(axis=0)
+        R_meas[k] = Rotation.align_vectors(seen - c_seen, g.reflectors_mm - c_refl)[0].as_matrix()
+        t_meas[k] = c_seen - R_meas[k] @ c_refl
+    rec = StewartRecording(
+        np.round(readings, 6), R_meas, t_meas, t_s, np.round(T, 3), direction, load
+    )
+    # per leg: the reading's 1 um and the tracker's pose (its reflectors' 2 um, levered out to the
+    # hinges) together, as the repeats show it
+    return rec, {
+        "scenario": "stewart",
+        "kind": kind,
+        "seed": seed,
+        "effects": effects,
+        "noise_um": 2.3,
+    }
