@@ -9,6 +9,7 @@ platform free joint), and the loop closure is measured, not assumed.
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import mujoco
 import numpy as np
@@ -218,3 +219,59 @@ class StewartSim:
     def platform_hinges_world_mm(self) -> np.ndarray:
         """The true platform hinges in the world, (6, 3) mm, at the current pose."""
         return np.array([self.data.site_xpos[s] for s in self._plat]) * 1000
+
+
+def stewart_poses(
+    n: int,
+    rng: np.random.Generator,
+    geometry,
+    translation_mm: float,
+    rotation_deg: float,
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Random poses of a Stewart platform within a working range about its home.
+
+    Parameters
+    ----------
+    n : int
+        How many poses.
+    rng : numpy.random.Generator
+        The draws, per pose a rotation vector then a translation.
+    geometry : calibench.scenes.stewart.StewartGeometry
+        The machine; its ``home_height_mm`` is the home's height.
+    translation_mm : float
+        Each coordinate of the origin drawn uniformly within home +- this, mm.
+    rotation_deg : float
+        Each component of the rotation vector drawn uniformly within +- this, deg.
+
+    Returns
+    -------
+    list of (ndarray, ndarray)
+        ``n`` poses: R (3, 3) the platform's orientation and t (3,) its origin, mm.
+    """
+    home = np.array([0, 0, geometry.home_height_mm])
+    rot = np.deg2rad(rotation_deg)
+    return [
+        (
+            _rotvec_to_matrix(rng.uniform(-rot, rot, 3)),
+            home + rng.uniform(-1, 1, 3) * translation_mm,
+        )
+        for _ in range(n)
+    ]
+
+
+def _rotvec_to_matrix(w: np.ndarray) -> np.ndarray:
+    """Rotation vector (3,) rad -> matrix (3, 3), by Rodrigues' formula on scalars (scalar
+    arithmetic: the poses of every study and recording depend on its last bits)."""
+    x, y, z = (float(v) for v in w)
+    theta = math.sqrt(x * x + y * y + z * z)
+    if theta < 1e-8:
+        a, b = 1.0 - theta**2 / 6, 0.5 - theta**2 / 24
+    else:
+        a, b = math.sin(theta) / theta, 2 * (math.sin(0.5 * theta) / theta) ** 2
+    return np.array(
+        [
+            [1 - b * (y * y + z * z), b * x * y - a * z, b * x * z + a * y],
+            [b * x * y + a * z, 1 - b * (x * x + z * z), b * y * z - a * x],
+            [b * x * z - a * y, b * y * z + a * x, 1 - b * (x * x + y * y)],
+        ]
+    )

@@ -35,7 +35,7 @@ from calibench.estimators.stewart.tracker import locate_stations, poses_from_len
 from calibench.scenarios.harness import write_outputs
 from calibench.scenarios.report import Check, Parameter, Report
 from calibench.scenes.stewart import LEG_STROKE_MM, PLATFORM_KG, StewartGeometry
-from calibench.sim.stewart import StewartSim, StewartTruth
+from calibench.sim.stewart import StewartSim, StewartTruth, stewart_poses
 
 NAME = "stewart"
 TOL_SIGMA = 5.0
@@ -201,20 +201,6 @@ def check_config(c: StewartConfig) -> None:
         )
 
 
-def random_poses(n, rng, config):
-    """``n`` random poses (R (3, 3), t (3,) mm) within the config's translation and rotation
-    ranges."""
-    home = np.array([0, 0, config.geometry.home_height_mm])
-    rot = np.deg2rad(config.rotation_deg)
-    return [
-        (
-            rotvec_to_matrix(rng.uniform(-rot, rot, 3)),
-            home + rng.uniform(-1, 1, 3) * config.translation_mm,
-        )
-        for _ in range(n)
-    ]
-
-
 def measure_stations(sim: StewartSim, config: StewartConfig):
     """The tracker at each station measures the three nests: the lengths (3 stations, 3 nests)
     mm, and the stations with their covariance (Eq. 1, 4-5) from the stated 1-sigma."""
@@ -239,7 +225,7 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
     station_err = np.linalg.norm(stations - sim.stations, axis=1)
 
     # one-step data
-    poses = random_poses(config.n_poses, rng, config)
+    poses = stewart_poses(config.n_poses, rng, g, config.translation_mm, config.rotation_deg)
     readings, lengths = [], []
     unconverged = 0  # multilaterations, spheres and forward kinematics that ran out of iterations
     for R, t in poses:  # the draws in the machine's order: legs, then the tracker, pose by pose
@@ -315,7 +301,7 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
     spheres = [list(zip(c.centres, c.radii, c.origins)) for c in two_step]
 
     # held-out poses: the pose from the readings, nominal vs calibrated
-    hold = random_poses(config.n_holdout, rng, config)
+    hold = stewart_poses(config.n_holdout, rng, g, config.translation_mm, config.rotation_deg)
     err = {"before": [], "after": [], "two_step": []}
     one = (
         np.array([c.r for c in legs]),

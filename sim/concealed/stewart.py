@@ -1,4 +1,4 @@
-"""Blinded Stewart platform recordings with concealed effects, and the poses they visit.
+"""Blinded Stewart platform recordings with concealed effects.
 
 Kinds: ``null``, ``thermal`` (a leg's growth), ``backlash`` (a leg's lost motion), ``pitch`` (a
 leg's screw), ``compliance`` (the legs shortened by their axial loads, by MuJoCo's statics).
@@ -6,73 +6,16 @@ leg's screw), ``compliance`` (the legs shortened by their axial loads, by MuJoCo
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from calibench.recordings import StewartRecording
+from calibench.sim.stewart import stewart_poses
 
 STEWART_KINDS = ("null", "thermal", "backlash", "pitch", "compliance")
 # The Stewart scenario's default working range about home (its StewartConfig's), fixed here: the
 # proof set does not move with the scenario's config.
 STEWART_TRANSLATION_MM = 150.0
 STEWART_ROTATION_DEG = 10.0
-
-
-def stewart_poses(
-    n: int,
-    rng: np.random.Generator,
-    geometry,
-    translation_mm: float = STEWART_TRANSLATION_MM,
-    rotation_deg: float = STEWART_ROTATION_DEG,
-) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Random poses of a Stewart platform within a working range about its home.
-
-    Parameters
-    ----------
-    n : int
-        How many poses.
-    rng : numpy.random.Generator
-        The draws, per pose a rotation vector then a translation.
-    geometry : calibench.scenes.stewart.StewartGeometry
-        The machine; its ``home_height_mm`` is the home's height.
-    translation_mm : float
-        Each coordinate of the origin drawn uniformly within home +- this, mm.
-    rotation_deg : float
-        Each component of the rotation vector drawn uniformly within +- this, deg.
-
-    Returns
-    -------
-    list of (ndarray, ndarray)
-        ``n`` poses: R (3, 3) the platform's orientation and t (3,) its origin, mm.
-    """
-    home = np.array([0, 0, geometry.home_height_mm])
-    rot = np.deg2rad(rotation_deg)
-    return [
-        (
-            _rotvec_to_matrix(rng.uniform(-rot, rot, 3)),
-            home + rng.uniform(-1, 1, 3) * translation_mm,
-        )
-        for _ in range(n)
-    ]
-
-
-def _rotvec_to_matrix(w: np.ndarray) -> np.ndarray:
-    """Rotation vector (3,) rad -> matrix (3, 3), by Rodrigues' formula on scalars (the same
-    arithmetic as the scenario's poses, so the recordings stay what they were)."""
-    x, y, z = (float(v) for v in w)
-    theta = math.sqrt(x * x + y * y + z * z)
-    if theta < 1e-8:
-        a, b = 1.0 - theta**2 / 6, 0.5 - theta**2 / 24
-    else:
-        a, b = math.sin(theta) / theta, 2 * (math.sin(0.5 * theta) / theta) ** 2
-    return np.array(
-        [
-            [1 - b * (y * y + z * z), b * x * y - a * z, b * x * z + a * y],
-            [b * x * y + a * z, 1 - b * (x * x + z * z), b * y * z - a * x],
-            [b * x * z - a * y, b * y * z + a * x, 1 - b * (x * x + y * y)],
-        ]
-    )
 
 
 def stewart_recording(kind: str, seed: int, n_poses: int = 100) -> tuple[StewartRecording, dict]:
@@ -121,7 +64,7 @@ def stewart_recording(kind: str, seed: int, n_poses: int = 100) -> tuple[Stewart
     rng = np.random.default_rng(seed)
     g = StewartGeometry()
     sim = StewartSim(g, StewartTruth(), rng)
-    poses = stewart_poses(n_poses, rng, g)
+    poses = stewart_poses(n_poses, rng, g, STEWART_TRANSLATION_MM, STEWART_ROTATION_DEG)
     poses = poses + poses[::-1]
     n = len(poses)
     load = 500.0 * (np.arange(n) % 3)

@@ -5,8 +5,8 @@ import dataclasses
 
 import numpy as np
 
-from calibench.scenarios.stewart.scenario import StewartConfig, random_poses
-from calibench.sim.stewart import StewartSim, StewartTruth
+from calibench.scenarios.stewart.scenario import StewartConfig
+from calibench.sim.stewart import StewartSim, StewartTruth, stewart_poses
 
 
 def test_compliant_legs_read_their_axial_force_times_compliance():
@@ -15,7 +15,10 @@ def test_compliant_legs_read_their_axial_force_times_compliance():
     soft = dataclasses.replace(StewartTruth(), leg_compliance_um_per_n=tuple(c), payload_n=800.0)
     rigid_sim = StewartSim(g, StewartTruth(), np.random.default_rng(3))
     soft_sim = StewartSim(g, soft, np.random.default_rng(3))
-    poses = random_poses(10, np.random.default_rng(4), StewartConfig())
+    cfg = StewartConfig()
+    poses = stewart_poses(
+        10, np.random.default_rng(4), cfg.geometry, cfg.translation_mm, cfg.rotation_deg
+    )
     for R, t in poses:
         rigid_sim.set_pose(R, t)
         soft_sim.set_pose(R, t)
