@@ -96,7 +96,8 @@ def matrix_to_rotvec(R: np.ndarray) -> np.ndarray:
 def rigid_transform(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Kabsch: R, t minimising sum |R src + t - dst|^2, src (n, 3) not collinear, n >= 3.
 
-    ``dst`` (n, 3) gives R (3, 3), t (3,); a stack (m, n, 3), one fit per set: R (m, 3, 3), t (m, 3).
+    ``dst`` (n, 3) gives R (3, 3), t (3,); a stack (m, n, 3), one fit per set: R (m, 3, 3), t (m,
+    3).
     """
     src, dst = np.asarray(src, float), np.asarray(dst, float)
     cs, cd = src.mean(axis=0), dst.mean(axis=-2)

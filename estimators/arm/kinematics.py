@@ -119,12 +119,14 @@ def param_names(n_joints: int) -> tuple[str, ...]:
 
 
 def param_is_angle(names) -> np.ndarray:
-    """For each parameter name, whether it is an angle (rad) rather than a length (mm), (k,) bool."""
+    """For each parameter name, whether it is an angle (rad) rather than a length (mm), (k,)
+    bool."""
     return np.array([n.startswith(("dalpha", "dtheta", "dbeta")) for n in names])
 
 
 def n_params(n_joints: int) -> int:
-    """The error parameters of an N-joint chain: 5 per joint (da, dd, dalpha, dtheta, dbeta) and the tool's 3."""
+    """The error parameters of an N-joint chain: 5 per joint (da, dd, dalpha, dtheta, dbeta) and
+    the tool's 3."""
     return 5 * n_joints + N_TOOL
 
 
@@ -181,9 +183,10 @@ class Pose:
         n, N = c.shape
         R0, o0, R1, o1 = link_R[:, :-1], link_o[:, :-1], link_R[:, 1:], link_o[:, 1:]
         axis, origin = np.empty((n, N, 5, 3)), np.empty((n, N, 5, 3))
-        if (
-            convention == "dh"
-        ):  # RotZ(theta + q), TransZ(d) about frame i-1's z; TransX(a), RotX(alpha) along the turned x
+        # dh: RotZ(theta + q), TransZ(d) about frame i-1's z; TransX(a), RotX(alpha) along the
+        # turned x. mdh: RotX(alpha), RotY(beta), TransX(a) at frame i-1's origin; RotZ(theta + q),
+        # TransZ(d) on frame i's z.
+        if convention == "dh":
             x1 = c[..., None] * R0[..., 0] + s[..., None] * R0[..., 1]
             axis[:, :, _THETA] = axis[:, :, _D] = R0[..., 2]
             origin[:, :, _THETA] = origin[:, :, _D] = o0
@@ -191,7 +194,7 @@ class Pose:
             origin[:, :, _A] = o0 + d[:, None] * R0[..., 2]
             origin[:, :, _ALPHA] = origin[:, :, _BETA] = o1
             axis[:, :, _BETA] = R1[..., 1]  # RotY keeps y: the turned frame's y is frame i's
-        else:  # RotX(alpha), RotY(beta), TransX(a) at frame i-1's origin; RotZ(theta + q), TransZ(d) on frame i's z
+        else:
             ca, sa = np.cos(alpha)[:, None], np.sin(alpha)[:, None]
             xm = (
                 c[..., None] * R1[..., 0] - s[..., None] * R1[..., 1]

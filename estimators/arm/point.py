@@ -215,15 +215,16 @@ class PointProblem(ArmParameters):
 
     @property
     def always(self) -> np.ndarray:
-        """Columns always estimated: the base frames and the tool point (but its :attr:`held` components)."""
+        """Columns always estimated: the base frames and the tool point (but its
+        :attr:`held` components)."""
         nf = len(self.frame_names)
         tool = [k for k in range(self.nk - 3, self.nk) if k not in self.held]
         return np.r_[np.array(tool, int), np.arange(len(self.names) - nf, len(self.names))]
 
     @property
     def groups(self) -> list[np.ndarray]:
-        """Column groups the identifiable basis is found in, in order: kinematics, Hayati's beta, compliance, angle
-        terms."""
+        """Column groups the identifiable basis is found in, in order: kinematics, Hayati's
+        beta, compliance, angle terms."""
         N, nk = self.N, self.nk
         kin = np.array([5 * i + k for i in range(N) for k in range(4)])
         beta = np.array([5 * i + 4 for i in range(N)])
@@ -246,7 +247,8 @@ class PointProblem(ArmParameters):
         return 1.0 / np.sqrt(np.maximum(var, 1e-12))
 
     def start(self) -> PointState:
-        """Nominal arm; each base frame from a rigid fit of its measured points to the nominal ones."""
+        """Nominal arm; each base frame from a rigid fit of its measured points to the
+        nominal ones."""
         p = pose(self.chain, self.q).point
         R, t = np.empty((self.n_rec, 3, 3)), np.empty((self.n_rec, 3))
         for r in range(self.n_rec):
@@ -327,7 +329,8 @@ class PointProblem(ArmParameters):
         return idx, parameter_scales([self.names[i] for i in idx]) * self.prior
 
     def residuals(self, s: PointState) -> np.ndarray:
-        """Whitened residuals (3 n,) of measured minus modelled points (and the prior's rows when there is one)."""
+        """Whitened residuals (3 n,) of measured minus modelled points (and the prior's rows
+        when there is one)."""
         r = ((self.y - self.model(s)) * self.weights()).ravel()
         if self.prior is None:
             return r
@@ -369,7 +372,8 @@ class PointProblem(ArmParameters):
         return np.r_[J, Jp]
 
     def update(self, s: PointState, step: np.ndarray) -> PointState:
-        """The state moved by ``step`` (len(names),): additive for the errors, a left rotation for each base frame."""
+        """The state moved by ``step`` (len(names),): additive for the errors, a left
+        rotation for each base frame."""
         nk, nc = self.nk, self.nc
         f = step[nk + nc :].reshape(self.n_rec, 6)
         R = np.stack([rotvec_to_matrix(f[r, :3]) @ s.R[r] for r in range(self.n_rec)])
@@ -377,8 +381,8 @@ class PointProblem(ArmParameters):
         return PointState(s.delta + step[:nk], comp, R, s.t + f[:, 3:])
 
     def values(self, s: PointState) -> np.ndarray:
-        """The state as one vector (len(names),): errors, compliances and terms, then each base frame's rotation
-        (rotvec from the reference, rad) and translation (mm)."""
+        """The state as one vector (len(names),): errors, compliances and terms, then each
+        base frame's rotation (rotvec from the reference, rad) and translation (mm)."""
         assert self.R_ref is not None, "values are reported after a start"
         w = np.stack([matrix_to_rotvec(s.R[r] @ self.R_ref[r].T) for r in range(self.n_rec)])
         frames = np.c_[w, s.t].ravel()

@@ -41,7 +41,7 @@ def spherical_jacobian(y: np.ndarray) -> np.ndarray:
     return J
 
 
-# --- a tracker's spherical measurements ------------------------------------------------------------
+# --- a tracker's spherical measurements -----------------------------------------------------------
 @dataclasses.dataclass
 class TrackerState:
     """delta (5 N + 3,); base2tracker R (3, 3), t (3,) mm."""
@@ -52,8 +52,8 @@ class TrackerState:
 
 
 class TrackerProblem(ArmParameters):
-    """A laser tracker's spherical readings (range, azimuth, elevation) of the tool point, with its own base frame; the
-    seed's identification."""
+    """A laser tracker's spherical readings (range, azimuth, elevation) of the tool point, with
+    its own base frame; the seed's identification."""
 
     NUISANCE = ("tracker_rx", "tracker_ry", "tracker_rz", "tracker_x", "tracker_y", "tracker_z")
 
@@ -88,7 +88,8 @@ class TrackerProblem(ArmParameters):
 
     @property
     def names(self) -> tuple[str, ...]:
-        """Parameter names, in the column order of :meth:`jacobian`: the chain's errors, then the tracker frame."""
+        """Parameter names, in the column order of :meth:`jacobian`: the chain's errors,
+        then the tracker frame."""
         return param_names(self.N) + self.NUISANCE
 
     @property
@@ -164,7 +165,8 @@ class TrackerProblem(ArmParameters):
         return self._last[1]
 
     def residuals(self, s: TrackerState) -> np.ndarray:
-        """Residuals (3 n,) in spherical coordinates, whitened by each posture's covariance (instrument and encoders)."""
+        """Residuals (3 n,) in spherical coordinates, whitened by each posture's covariance
+        (instrument and encoders)."""
         if self._W is None:
             self.start()
         assert self._W is not None  # start() made it
@@ -199,7 +201,8 @@ class TrackerProblem(ArmParameters):
         return (Js @ Jy).reshape(len(y) * 3, -1)
 
     def update(self, s: TrackerState, step: np.ndarray) -> TrackerState:
-        """The state moved by ``step``: additive for the errors, a left rotation for the tracker frame."""
+        """The state moved by ``step``: additive for the errors, a left rotation for the
+        tracker frame."""
         nk = self.nk
         return TrackerState(
             s.delta + step[:nk],
@@ -221,8 +224,8 @@ class ConeState:
 
 
 class ConeProblem(ArmParameters):
-    """Tool points held in two kinematic cones and a length bar between them: the arm CMM's own artefacts, no external
-    instrument."""
+    """Tool points held in two kinematic cones and a length bar between them: the arm CMM's own
+    artefacts, no external instrument."""
 
     NUISANCE = ("cone_a_x", "cone_a_y", "cone_a_z", "cone_b_x", "cone_b_y", "cone_b_z")
 

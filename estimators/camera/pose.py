@@ -181,7 +181,8 @@ def board2cam_refine(
         better = ((cost_new < cost) | (size < 1e-3)) & ~done
         R[better], t[better], cost[better] = R_new[better], t_new[better], cost_new[better]
         lam = np.where(better, np.maximum(lam / 10, 1e-12), lam * 10)
-        # at a minimum: a step below the tolerance, or no damping lowers the cost and the gradient vanishes
+        # at a minimum: a step below the tolerance, or no damping lowers the cost and the gradient
+        # vanishes
         small = size < XTOL
         stuck = ~better & (lam > 1e10)
         flat = np.max(np.abs(g) / np.sqrt(np.maximum(diag, 1e-300)), axis=1) < XTOL * np.maximum(

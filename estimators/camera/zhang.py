@@ -180,7 +180,8 @@ def _initial_intrinsics(H: np.ndarray, image_size, fix_aspect: bool) -> np.ndarr
         d1 / np.linalg.norm(d1, axis=1, keepdims=True),
         d2 / np.linalg.norm(d2, axis=1, keepdims=True),
     )
-    # rows: h1 . B h2 = 0 and d1 . B d2 = 0 (|h1| = |h2| after the 45-degree turn), B = diag(a, b, 1)
+    # rows: h1 . B h2 = 0 and d1 . B d2 = 0 (|h1| = |h2| after the 45-degree turn), B = diag(a, b,
+    # 1)
     A = np.concatenate([h1[:, :2] * h2[:, :2], d1[:, :2] * d2[:, :2]])
     rhs = -np.concatenate([h1[:, 2] * h2[:, 2], d1[:, 2] * d2[:, 2]])
     if fix_aspect:
@@ -229,8 +230,8 @@ def _bundle_adjust(obj, pixels, intrinsics, R, t, names, fix_aspect, max_iter: i
     rotation and a shift), the poses eliminated from each step's normal equations.
 
     Converged when a step moves no parameter by more than ``XTOL`` of its std, or when no
-    damping finds a lower cost and the gradient vanishes. The tight ``XTOL`` keeps results to their last digits whatever
-    the start: where a looser solver stops depends on where it began."""
+    damping finds a lower cost and the gradient vanishes. The tight ``XTOL`` keeps results to their
+    last digits whatever the start: where a looser solver stops depends on where it began."""
     kept = np.isfinite(pixels).all(axis=2)
     pixels = np.where(kept[..., None], pixels, 0.0)
     cols = [INTRINSIC_NAMES.index(n) for n in names]

@@ -1,4 +1,5 @@
-"""Candidate effects of a serial arm: what its twin may have left out (calibench discover arm-cmm)."""
+"""Candidate effects of a serial arm: what its twin may have left out (calibench discover
+arm-cmm)."""
 
 from __future__ import annotations
 
@@ -33,7 +34,7 @@ class ArmDrivers(TypedDict, total=False):
     temp_c: np.ndarray | None
 
 
-# --- the arm ----------------------------------------------------------------------------------------
+# --- the arm --------------------------------------------------------------------------------------
 @dataclasses.dataclass(frozen=True)
 class Geometry(Effect):
     """Kinematic parameter errors of the chain (its identifiable combinations)."""
@@ -109,8 +110,8 @@ class EncoderEccentricity(JointEffect):
         return (
             {"joint": self.joint, "amplitude_urad": amp * 1e6, "phase_rad": phase},
             {"amplitude_urad": amp_std * 1e6},
-            f"joint {self.joint}'s encoder reads {amp * 1e6:.0f} urad off once per turn: its disc is mounted "
-            f"off-centre (eccentricity)",
+            f"joint {self.joint}'s encoder reads {amp * 1e6:.0f} urad off once per turn: its disc "
+            f"is mounted off-centre (eccentricity)",
         )
 
 
@@ -144,7 +145,8 @@ class JointCompliance(JointEffect):
         return (
             {"joint": self.joint, "urad_per_nm": c},
             {"urad_per_nm": coef_std(cov, 0)},
-            f"joint {self.joint} gives way under the gravity torque it carries: {c:.3g} urad per N m{stiff}",
+            f"joint {self.joint} gives way under the gravity torque it carries: {c:.3g} urad per "
+            f"N m{stiff}",
         )
 
 
@@ -196,8 +198,8 @@ class Transmission(JointEffect):
         }
         stds = {"amplitude_urad": [amp_std * 1e6], "harmonics": [self.harmonic_std]}
         words = (
-            f"joint {self.joint}'s angle is {amp * 1e6:.0f} urad off {self.harmonic:.2f} times per turn: a "
-            f"harmonic of its gear train or encoder"
+            f"joint {self.joint}'s angle is {amp * 1e6:.0f} urad off {self.harmonic:.2f} times "
+            f"per turn: a harmonic of its gear train or encoder"
         )
         if self.per_recording:
             # amplitude_urad stays one per harmonic (the contract's): the recordings' RMS amplitude
@@ -215,9 +217,10 @@ class Transmission(JointEffect):
                 amplitude_urad_by_recording=amp_stds,
             )
             words = (
-                f"joint {self.joint}'s angle is {min(amps):.0f}-{max(amps):.0f} urad off {self.harmonic:.2f} "
-                f"times per turn with a phase of its own in each recording: a harmonic of the motor's side of "
-                f"its gear train, whose phase is set at power-up"
+                f"joint {self.joint}'s angle is {min(amps):.0f}-{max(amps):.0f} urad off "
+                f"{self.harmonic:.2f} "
+                "times per turn with a phase of its own in each recording: a harmonic of the "
+                f"motor's side of its gear train, whose phase is set at power-up"
             )
         return params, stds, words
 
@@ -271,7 +274,8 @@ class JointTable(JointEffect):
         object.__setattr__(self, "needs", ("Jq", "q"))
 
     def bands(self, q_joint: np.ndarray) -> np.ndarray:
-        """Which band of the table each angle falls in, (n,) int, for the joint's angles ``q_joint`` (n,) rad."""
+        """Which band of the table each angle falls in, (n,) int, for the joint's angles
+        ``q_joint`` (n,) rad."""
         return np.clip(
             np.searchsorted(self.edges, q_joint, side="right") - 1, 0, len(self.edges) - 2
         )
@@ -297,8 +301,8 @@ class JointTable(JointEffect):
                 "edges_deg": edges,
             },
             {"peak_urad": coef_std(cov, k) * 1e6},
-            f"joint {self.joint}'s angle error varies with its angle in a way no candidate explains ({where}, "
-            f"{coef[k] * 1e6:+.0f} urad): modelled as a table over its angle",
+            f"joint {self.joint}'s angle error varies with its angle in a way no candidate "
+            f"explains ({where}, {coef[k] * 1e6:+.0f} urad): modelled as a table over its angle",
         )
 
 
@@ -349,5 +353,6 @@ class ArmThermalExpansion(Effect):
         return (
             {"ppm_per_k": k},
             {"ppm_per_k": coef_std(cov, 0)},
-            f"the links grow {k:.1f} ppm per kelvin of the logged temperature: thermal growth of the arm",
+            f"the links grow {k:.1f} ppm per kelvin of the logged temperature: thermal growth of "
+            "the arm",
         )

@@ -6,12 +6,12 @@ its coefficients once its shape is fixed: ``columns(drivers) -> (n, k)`` in the 
 period) are fixed by :func:`best_period` on the data they are fitted to.
 
 ``drivers`` is a dict of arrays, typed per instrument (``StageDrivers``, ``ArmDrivers``,
-``ScannerDrivers``, ``StewartDrivers`` beside each instrument's candidates): ``x``, ``y`` (commanded, mm), ``dir_x``, ``dir_y``
-(+1 / -1 / 0), ``t_s``, ``temp_c``, ``run`` for stages; for an N-joint arm ``q`` (n, N) rad,
-``J`` (n, 3, 5 N + 3) the chain's parameter Jacobian, ``Jq`` (n, 3, N) d(point) / d(q),
-``tau`` (n, N) the joints' gravity torques (N m, from the twin), ``grow`` (5 N + 3,) the chain's
-lengths in the Jacobian's layout. A missing driver means the candidate does not apply
-(``applies`` is False). Searched shapes (a transmission's harmonic) are fixed by their
+``ScannerDrivers``, ``StewartDrivers`` beside each instrument's candidates): ``x``, ``y``
+(commanded, mm), ``dir_x``, ``dir_y`` (+1 / -1 / 0), ``t_s``, ``temp_c``, ``run`` for stages; for an
+N-joint arm ``q`` (n, N) rad, ``J`` (n, 3, 5 N + 3) the chain's parameter Jacobian, ``Jq`` (n, 3, N)
+d(point) / d(q), ``tau`` (n, N) the joints' gravity torques (N m, from the twin), ``grow`` (5 N +
+3,) the chain's lengths in the Jacobian's layout. A missing driver means the candidate does not
+apply (``applies`` is False). Searched shapes (a transmission's harmonic) are fixed by their
 ``fix(r, others, rows, drivers)`` on the rows they are fitted to.
 """
 
@@ -33,23 +33,26 @@ class Effect:
 
     @property
     def key(self) -> str:
-        """A name that tells this candidate apart from the others of its kind (for de-duplication)."""
+        """A name that tells this candidate apart from the others of its kind (for
+        de-duplication)."""
         return f"{self.name}:{self.axis}"
 
     def applies(self, drivers: dict) -> bool:
-        """Whether the recording carries what this effect needs (its drivers: directions, temperatures, ...)."""
+        """Whether the recording carries what this effect needs (its drivers: directions,
+        temperatures, ...)."""
         return all(
             drivers.get(k) is not None and np.ptp(np.asarray(drivers[k], float)) > 0
             for k in self.needs
         )
 
     def columns(self, drivers: dict) -> np.ndarray:
-        """The effect's design matrix on the recording's rows, (n, k): one column per parameter, in the signal's unit
-        per parameter unit."""
+        """The effect's design matrix on the recording's rows, (n, k): one column per
+        parameter, in the signal's unit per parameter unit."""
         raise NotImplementedError
 
     def describe(self, coef: np.ndarray, cov: np.ndarray) -> tuple[dict, dict, str]:
-        """The effect in words and physical units, from its fitted coefficients (k,): what discover prints."""
+        """The effect in words and physical units, from its fitted coefficients (k,): what
+        discover prints."""
         raise NotImplementedError
 
 

@@ -1,4 +1,5 @@
-"""The linear layer of discovery: a residual signal, its terms' columns, held-out residuals, fits."""
+"""The linear layer of discovery: a residual signal, its terms' columns, held-out residuals and
+fits."""
 
 from __future__ import annotations
 
@@ -50,7 +51,8 @@ def term_columns(
 def cv_residuals(
     sig: Signal, terms: list, drivers: dict, fold: np.ndarray, cache: dict
 ) -> np.ndarray:
-    """Held-out residuals (m,): each fold predicted from a fit to the others (``fold`` per sample)."""
+    """Held-out residuals (m,): each fold predicted from a fit to the others (``fold`` per
+    sample)."""
     rows_fold = fold[sig.sample]
     out = np.empty_like(sig.r)
     for f in np.unique(rows_fold):

@@ -60,7 +60,7 @@ def reversal_profile(r, u, direction, bins: int = 10) -> tuple[np.ndarray, np.nd
 
 
 def change_point(r_time_ordered: np.ndarray) -> tuple[int, float]:
-    """CUSUM: the index of the largest shift in mean and its statistic (max |S| / (sigma sqrt n))."""
+    """CUSUM: the index of the largest shift in mean and its statistic, max |S| / (sigma sqrt n)."""
     x = r_time_ordered - r_time_ordered.mean()
     S = np.cumsum(x)
     k = int(np.argmax(np.abs(S[:-1])))
@@ -69,6 +69,7 @@ def change_point(r_time_ordered: np.ndarray) -> tuple[int, float]:
 
 
 def where_text(v: np.ndarray, label: str) -> str:
-    """The span of values ``v`` in words: "``label`` lo-hi mm" (or "= value" when they are all one)."""
+    """The span of values ``v`` in words: "``label`` lo-hi mm" (or "= value" when they are all
+    one)."""
     lo, hi = float(np.min(v)), float(np.max(v))
     return f"{label} {lo:.0f}-{hi:.0f} mm" if hi > lo else f"{label} = {lo:.0f} mm"

@@ -1,4 +1,5 @@
-"""The noise of a recording from its repeats: repeatability and the correlation of successive deviations."""
+"""The noise of a recording from its repeats: repeatability and the correlation of successive
+deviations."""
 
 from __future__ import annotations
 

@@ -42,7 +42,8 @@ class StationTable:
         return (
             {"where": self.where, "peak_mm": float(coef[k])},
             {"peak_mm": float(np.sqrt(max(cov[k, k], 0)))},
-            f"a local error of the {self.axis.upper()} reading {self.where} that no candidate effect has "
+            f"a local error of the {self.axis.upper()} reading {self.where} that no candidate "
+            "effect has "
             f"(a damaged or dirty guide, a bump in a rail): modelled as a correction table there",
         )
 

@@ -60,8 +60,8 @@ class Runout(Effect):
         return (
             {"harmonic": self.harmonic, "amplitude_mm": amp, "phase_rad": phase},
             {"amplitude_mm": amp_std},
-            f"the rotary table runs out radially {amp * 1000:.1f} um {self.harmonic} times per turn (its "
-            f"bearing's error motion, along the rail)",
+            f"the rotary table runs out radially {amp * 1000:.1f} um {self.harmonic} times per "
+            f"turn (its bearing's error motion, along the rail)",
         )
 
 
@@ -121,7 +121,8 @@ class TableEccentricity(Effect):
         return (
             {"amplitude_urad": amp * 1e6, "phase_rad": phase},
             {"amplitude_urad": amp_std * 1e6},
-            f"the table's encoder reads {amp * 1e6:.0f} urad off once per turn: its disc is mounted off-centre",
+            f"the table's encoder reads {amp * 1e6:.0f} urad off once per turn: its disc is "
+            "mounted off-centre",
         )
 
 
@@ -196,7 +197,8 @@ class AngleTable(Effect):
         return (
             {"where": self.where, "theta_deg": self.peak_deg, "peak_mm": float(coef[k])},
             {"peak_mm": coef_std(cov, k)},
-            f"a local error of the reading {self.where} that no candidate effect has (a nick or burr on the "
+            f"a local error of the reading {self.where} that no candidate effect has (a nick or "
+            "burr on the "
             f"artefact's wall, dirt in the stylus's path): modelled as a correction table there",
         )
 

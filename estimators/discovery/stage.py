@@ -85,8 +85,8 @@ class Backlash(Effect):
             f"lost motion on reversal of the {a} drive that grows along the travel: "
             f"{params['reversal_at_start_mm'] * 1000:.1f} um at {self.axis} = {lo:.0f} mm to "
             f"{params['reversal_at_end_mm'] * 1000:.1f} um at {self.axis} = {hi:.0f} mm "
-            f"({g * 100:+.1f} um per 100 mm): an elastic drive (a belt whose free span lengthens along the "
-            f"travel) against the carriage's friction",
+            f"({g * 100:+.1f} um per 100 mm): an elastic drive (a belt whose free span lengthens "
+            f"along the travel) against the carriage's friction",
         )
 
 
@@ -112,9 +112,10 @@ class Periodic(Effect):
         return (
             params,
             stderr,
-            f"a once-per-{self.period_mm:.1f} mm error of the {self.axis.upper()} axis, {amp * 1000:.1f} um "
-            f"amplitude: something in the drive turns once every {self.period_mm:.1f} mm of travel (a pulley's or "
-            f"screw's run-out, a belt's tooth pattern)",
+            f"a once-per-{self.period_mm:.1f} mm error of the {self.axis.upper()} axis, "
+            f"{amp * 1000:.1f} um "
+            f"amplitude: something in the drive turns once every {self.period_mm:.1f} mm of "
+            f"travel (a pulley's or screw's run-out, a belt's tooth pattern)",
         )
 
 
@@ -136,8 +137,8 @@ class ThermalExpansion(Effect):
         return (
             {"ppm_per_k": k},
             {"ppm_per_k": coef_std(cov, 0)},
-            f"the {self.axis.upper()} scale (or its reference) grows {k:.2f} ppm per kelvin of the logged "
-            f"temperature: thermal expansion the simulation does not have",
+            f"the {self.axis.upper()} scale (or its reference) grows {k:.2f} ppm per kelvin of "
+            f"the logged temperature: thermal expansion the simulation does not have",
         )
 
 
@@ -167,8 +168,8 @@ class ThermalDrift(Effect):
         return (
             {self.unit: k},
             {self.unit: coef_std(cov, 0)},
-            f"the whole {self.axis.upper()} axis shifts {k * 1000:+.2f} um per {per}, wherever it is: a drift "
-            f"of the reference, not of the scale",
+            f"the whole {self.axis.upper()} axis shifts {k * 1000:+.2f} um per {per}, wherever it "
+            f"is: a drift of the reference, not of the scale",
         )
 
 
@@ -201,12 +202,12 @@ class Polynomial(Effect):
         params = {f"x{i}y{j}_mm": float(c) for (i, j), c in zip(self.powers, coef)}
         stderr = {f"x{i}y{j}_mm": coef_std(cov, k) for k, (i, j) in enumerate(self.powers)}
         what = {
-            "positioning": f"the {self.axis.upper()} axis's positioning error bends more than the scene's model "
-            f"allows along its own travel",
-            "straightness": f"the {self.axis.upper()} reading follows the other axis's position beyond the "
-            f"scene's model: that axis's travel is not straight",
-            "cross_coupling": f"the {self.axis.upper()} error depends on both positions together beyond the "
-            f"scene's model",
+            "positioning": f"the {self.axis.upper()} axis's positioning error bends more than the "
+            f"scene's model allows along its own travel",
+            "straightness": f"the {self.axis.upper()} reading follows the other axis's position "
+            f"beyond the scene's model: that axis's travel is not straight",
+            "cross_coupling": f"the {self.axis.upper()} error depends on both positions together "
+            f"beyond the scene's model",
         }[self.name]
         return params, stderr, what + " (coefficients: mm at full travel)"
 

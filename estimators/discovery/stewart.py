@@ -106,8 +106,8 @@ class LegThermal(LegEffect):
         return (
             {"leg": self.leg, "ppm_per_k": k},
             {"ppm_per_k": coef_std(cov, 0)},
-            f"leg {self.leg} grows {k:.1f} ppm per kelvin of the logged temperature that its length sensor "
-            f"does not see",
+            f"leg {self.leg} grows {k:.1f} ppm per kelvin of the logged temperature that its "
+            f"length sensor does not see",
         )
 
 
@@ -133,7 +133,8 @@ class LegBacklash(LegEffect):
         return (
             {"leg": self.leg, "reversal_mm": B},
             {"reversal_mm": coef_std(cov, 0)},
-            f"leg {self.leg}'s drive loses {B * 1000:+.1f} um on reversal (its nut or coupling's backlash)",
+            f"leg {self.leg}'s drive loses {B * 1000:+.1f} um on reversal (its nut or coupling's "
+            "backlash)",
         )
 
 
@@ -157,8 +158,8 @@ class LegPitch(LegEffect):
         return (
             {"leg": self.leg, "period_mm": self.period_mm, "amplitude_mm": amp, "phase_rad": phase},
             {"period_mm": self.period_std, "amplitude_mm": amp_std},
-            f"leg {self.leg} reads {amp * 1000:.1f} um off once every {self.period_mm:.2f} mm of its length: its "
-            f"screw's periodic pitch error",
+            f"leg {self.leg} reads {amp * 1000:.1f} um off once every {self.period_mm:.2f} mm of "
+            f"its length: its screw's periodic pitch error",
         )
 
 
@@ -230,7 +231,8 @@ class LegCompliance(Effect):
         return (
             params,
             {"um_per_n": coef_std(cov, 0)},
-            f"{who} gives {c:.3g} um per N of the axial load the platform's weight puts on it{stiff}",
+            f"{who} gives {c:.3g} um per N of the axial load the platform's weight puts on "
+            f"it{stiff}",
         )
 
 

@@ -4,8 +4,9 @@ A problem holds its data and says how its parameters move the residuals; the sol
 (:mod:`calibench.estimators.identification.solver`) and the identifiable basis
 (:mod:`calibench.estimators.identification.basis`) need nothing else. A state is whatever the
 problem updates (a dataclass of arrays: joint errors, frames, poses); the solver only passes it
-back. The arm's problems (:mod:`calibench.estimators.arm.point`, :mod:`calibench.estimators.arm.tracker`)
-and the Stewart platform's joint adjustment (:mod:`calibench.estimators.stewart.joint`) implement it.
+back. The arm's problems (:mod:`calibench.estimators.arm.point`,
+:mod:`calibench.estimators.arm.tracker`) and the Stewart platform's joint adjustment
+(:mod:`calibench.estimators.stewart.joint`) implement it.
 """
 
 from __future__ import annotations

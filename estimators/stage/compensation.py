@@ -61,7 +61,10 @@ class Polynomial:
         """The model's name (``linear``, ``quadratic``, ``cubic``, ...)."""
         if self.period_mm is None:
             return f"polynomial of degree {self.degree}"
-        return f"degree-{self.degree} polynomial + period {self.period_mm:.1f} mm along {'XY'[self.along]}"
+        return (
+            f"degree-{self.degree} polynomial + period {self.period_mm:.1f} mm along "
+            f"{'XY'[self.along]}"
+        )
 
     def __call__(self, u, v) -> np.ndarray:
         return design(u, v, self.degree, self.period_mm, self.along) @ (self.coef * self._scales())
@@ -238,7 +241,8 @@ def _n_terms(c: dict) -> int:
 
 
 def fit_name(c: dict) -> str:
-    """A selected model's name in words, from its description ``c`` (degree, and period if it has one)."""
+    """A selected model's name in words, from its description ``c`` (degree, and period if it
+    has one)."""
     if c.get("period_mm") is None:
         return f"degree {c['degree']}"
     return f"degree {c['degree']} + period {c['period_mm']:.1f} mm"

@@ -6,7 +6,8 @@ l_i + reading: |R r_i + t - B_i| = l_i + L_reading (the seed's one-step equation
 
 - :func:`.tracker.trilaterate`: a point from its distances to three known points (Eq. 1), with the
   covariance propagated through the distance Jacobian (Eq. 4-5).
-- :func:`.tracker.multilaterate`: a point from its distances to three or more stations (least squares).
+- :func:`.tracker.multilaterate`: a point from its distances to three or more stations (least
+squares).
 - :func:`.tracker.locate_stations`: the tracker's stations from their lengths to three nests.
 - :func:`.tracker.poses_from_lengths`: platform poses from the lengths to three reflectors.
 - :func:`.legs.fit_sphere`: the centre and radius of the sphere through four or more non-coplanar

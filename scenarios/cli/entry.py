@@ -119,7 +119,8 @@ def _internal_error(e: Exception, out: Path | None) -> int:
     except OSError:
         said = "the traceback could not be written"
     print(
-        f"calibench: internal error ({type(e).__name__}: {str(e).splitlines()[0] if str(e) else ''}); this is a "
+        f"calibench: internal error ({type(e).__name__}: "
+        f"{str(e).splitlines()[0] if str(e) else ''}); this is a "
         f"defect of calibench, please report it; {said}",
         file=sys.stderr,
     )

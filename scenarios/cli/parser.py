@@ -88,7 +88,8 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser(
         "run",
         help="simulate a scenario, calibrate, compare with the truth",
-        description=f"Run a scenario ({names}) or all of them; writes DIR/report.json and DIR/run.rrd.",
+        description=f"Run a scenario ({names}) or all of them; writes DIR/report.json and "
+        "DIR/run.rrd.",
     )
     r.add_argument("scenario", help=f"one of: {names}; or 'all'")
     r.add_argument("--seed", type=_seed, default=0, help="random seed (default 0)")
@@ -156,7 +157,8 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument(
         "--effects",
         metavar="DISCOVERY.json|discover",
-        help="arm-cmm: add the joint-angle effects a discover run found (transmission, eccentricity, "
+        help="arm-cmm: add the joint-angle effects a discover run found (transmission, "
+        "eccentricity, "
         "a nonsmooth table) to the model; 'discover' runs the discovery here on the training rows",
     )
 

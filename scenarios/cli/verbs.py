@@ -134,7 +134,8 @@ def fit(args: argparse.Namespace) -> int:
     result = run_fit(s.name, s.fit_model, args.recordings[0], out)
     for axis, a in result["axes"].items():
         print(
-            f"{axis}: SSE {a['sse']:.4g} mm^2  R^2 {a['r2']:.4f}  RMSE {a['rmse']:.4f} mm  (n = {a['n']})"
+            f"{axis}: SSE {a['sse']:.4g} mm^2  R^2 {a['r2']:.4f}  RMSE {a['rmse']:.4f} mm  (n = "
+            f"{a['n']})"
         )
     print(f"-> {out / 'fit.json'}")
     return EXIT_OK
@@ -156,15 +157,16 @@ def _fit_arm(args: argparse.Namespace, out: Path) -> int:
     )
     f = r["fit"]
     print(
-        f"{r['arm']}, model {r['model']}: {r['samples']} training rows, {len(r['parameters'])} parameters "
+        f"{r['arm']}, model {r['model']}: {r['samples']} training rows, {len(r['parameters'])} "
+        "parameters "
         f"({len(r['dropped'])} dropped); fit mean {f['mean_mm']:.3f} mm, rms {f['rms_mm']:.3f} mm, "
         f"max {f['max_mm']:.3f} mm"
     )
     for title, block in (("held out", r.get("holdout", {})), ("test", r.get("test", {}))):
         for name, e in block.items():
             print(
-                f"  {title} {name}: mean {e['mean_mm']:.3f}  rms {e['rms_mm']:.3f}  p95 {e['p95_mm']:.3f}  "
-                f"max {e['max_mm']:.3f} mm  (n = {e['samples']})"
+                f"  {title} {name}: mean {e['mean_mm']:.3f}  rms {e['rms_mm']:.3f}  p95 "
+                f"{e['p95_mm']:.3f}  max {e['max_mm']:.3f} mm  (n = {e['samples']})"
             )
     for name, rows in r.get("flagged", {}).items():
         print(f"  left out of {name}: rows {', '.join(str(x['row']) for x in rows)} (see fit.json)")
@@ -213,8 +215,8 @@ def montecarlo(args: argparse.Namespace) -> int:
         other = [k for k in doc if k != args.scenario]
         if other:
             raise BadInput(
-                f"config {args.config}: a study of {args.scenario} takes only its [{args.scenario}] table "
-                f"(found {', '.join(other)})"
+                f"config {args.config}: a study of {args.scenario} takes only its "
+                f"[{args.scenario}] table (found {', '.join(other)})"
             )
         table = doc.get(args.scenario, {})
     s = run_study(
@@ -229,8 +231,8 @@ def montecarlo(args: argparse.Namespace) -> int:
         table=table,
     )
     print(
-        f"{s['scenario']}: {s['trials']} trials ({s['resumed']} kept from an earlier run, {s['failed']} failed); "
-        f"this run took {s['elapsed_s']:.1f} s"
+        f"{s['scenario']}: {s['trials']} trials ({s['resumed']} kept from an earlier run, "
+        f"{s['failed']} failed); this run took {s['elapsed_s']:.1f} s"
     )
     print(summary_table(s))
     if checks_table(s):
@@ -238,8 +240,8 @@ def montecarlo(args: argparse.Namespace) -> int:
     print(f"-> {out / 'summary.json'}")
     if s["failed"]:
         print(
-            f"calibench: {s['failed']} of {s['trials']} trials failed, e.g. {s['errors'][0]} (every error and its "
-            f"trials: {out / 'trials.parquet'})",
+            f"calibench: {s['failed']} of {s['trials']} trials failed, e.g. {s['errors'][0]} "
+            f"(every error and its trials: {out / 'trials.parquet'})",
             file=sys.stderr,
         )
     return EXIT_OK if s["failed"] == 0 else EXIT_CHECK_FAILED
@@ -277,17 +279,19 @@ def discover(args: argparse.Namespace) -> int:
     )
     f = d["fit"]
     print(
-        f"{d['scenario']}: {d['samples']} samples; held-out RMS {f['cv_rms_nominal'] * 1000:.2f} um with the "
+        f"{d['scenario']}: {d['samples']} samples; held-out RMS {f['cv_rms_nominal'] * 1000:.2f} "
+        "um with the "
         f"scene model, {f['cv_rms_final'] * 1000:.2f} um with what was found ({d['holdout']})"
     )
     for e in d["effects"]:
         print(
-            f"- {e['name']} ({e['axis']}): {e['physics']}; held-out RMS {e['cv_rms_before'] * 1000:.2f} -> "
-            f"{e['cv_rms_after'] * 1000:.2f} um"
+            f"- {e['name']} ({e['axis']}): {e['physics']}; held-out RMS "
+            f"{e['cv_rms_before'] * 1000:.2f} -> {e['cv_rms_after'] * 1000:.2f} um"
         )
     for c in d["confounded"]:
         print(
-            f"- cannot separate {c['effect']} ({c['axis']}): {c['why']}; to separate: {c['experiment']}"
+            f"- cannot separate {c['effect']} ({c['axis']}): {c['why']}; to separate: "
+            f"{c['experiment']}"
         )
     if d.get("verdict"):
         print(d["verdict"])
@@ -297,8 +301,8 @@ def discover(args: argparse.Namespace) -> int:
         print(d["summary"])
     if args.twin is not None:
         print(
-            f"-> {args.twin} (the twin with what was found: calibench discover {args.scenario} ... --config "
-            f"{args.twin} replays it)"
+            f"-> {args.twin} (the twin with what was found: calibench discover {args.scenario} "
+            f"... --config {args.twin} replays it)"
         )
     print(f"-> {out / 'discovery.json'}")
     return EXIT_OK
@@ -322,8 +326,10 @@ def iso230(args: argparse.Namespace) -> int:
     r = run_iso230(args.run, args.out)
     a = r["axis"]
     print(
-        f"ISO 230-2, {r['targets']} targets, {r['runs']} runs each way (um): A {a['A']:.3f}  E {a['E']:.3f}  "
-        f"M {a['M']:.3f}  R {a['R']:.3f}  B {a['B']:.3f}  (A up {a['A_up']:.3f}, down {a['A_down']:.3f})"
+        f"ISO 230-2, {r['targets']} targets, {r['runs']} runs each way (um): A {a['A']:.3f}  E "
+        f"{a['E']:.3f}  "
+        f"M {a['M']:.3f}  R {a['R']:.3f}  B {a['B']:.3f}  (A up {a['A_up']:.3f}, down "
+        f"{a['A_down']:.3f})"
     )
     print(f"-> {args.out / 'iso230.json'}")
     return EXIT_OK

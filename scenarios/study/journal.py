@@ -61,8 +61,8 @@ def load_journal(out_dir: Path) -> dict[int, dict]:
             and "seed" in row
         ):
             raise BadInput(
-                f"{path} line {k + 1} is not a finished trial of calibench's: the journal is corrupt or "
-                "another program's; remove it or use another --out"
+                f"{path} line {k + 1} is not a finished trial of calibench's: the journal is "
+                "corrupt or another program's; remove it or use another --out"
             )
         done[row["trial"]] = row
     return done
@@ -118,6 +118,7 @@ def record_study(out_dir: Path, meta: dict) -> None:
             ) from None
     if old is not None and old != meta:
         raise BadInput(
-            f"{out_dir} holds a different study ({meta_path.read_text().strip()}); use another --out"
+            f"{out_dir} holds a different study ({meta_path.read_text().strip()}); use another "
+            "--out"
         )
     meta_path.write_text(json.dumps(meta) + "\n")

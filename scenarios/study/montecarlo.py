@@ -1,4 +1,5 @@
-"""``calibench montecarlo``: accuracy studies of a scenario (CONTRACT: trials.parquet, summary.json).
+"""``calibench montecarlo``: accuracy studies of a scenario (CONTRACT: trials.parquet,
+summary.json).
 
 :func:`run_study` runs the trials a study's folder misses (``trials``: what one trial does) on a
 ``concurrent.futures.Executor`` (``executor``: a local spawn pool or a Dask cluster), appends each
@@ -100,7 +101,8 @@ def run_study(
             for _ in range(workers):
                 executor.submit(load_scenario, scenario)
             # a worker, which loads the scenario anyway, checks the config: this process then
-            # never imports the scenario's estimators, which on 2 cores would slow the workers' start
+            # never imports the scenario's estimators, which on 2 cores would slow the workers'
+            # start
             checked = executor.submit(study_config, scenario, table, arm, checked_only=True)
         _prepare(scenario, seed, fidelity, out_dir, arm, table, checked)
         t0 = time.perf_counter()
@@ -131,21 +133,22 @@ def run_study(
     summary = summarise(scenario, rows, time.perf_counter() - t0)
     if rows and all(not r["ok"] and r["error"].startswith("LinAlgError") for r in rows):
         raise BadInput(
-            f"every trial's estimate is singular: the {scenario} set-up cannot determine its parameters"
+            f"every trial's estimate is singular: the {scenario} set-up cannot determine its "
+            "parameters"
             + (" (is the arm degenerate: planar, or without length?)" if arm else "")
             + f"; e.g. {rows[0]['error']}"
         )
     if table and rows and not any(r["ok"] for r in rows):
         raise BadInput(
-            f"every trial failed with the config's values (e.g. {rows[0]['error']}): the {scenario} "
-            "set-up they describe cannot be calibrated"
+            f"every trial failed with the config's values (e.g. {rows[0]['error']}): the "
+            f"{scenario} set-up they describe cannot be calibrated"
         )
     if not summary["parameters"] and any(r["ok"] for r in rows):
         # an empty table is no result: the set-up leaves nothing to estimate (an arm of one joint,
         # whose every error the tracker's frame and the tool absorb); the journal stays
         raise BadInput(
-            f"no trial estimated a parameter it could compare with the truth: the {scenario} set-up "
-            "leaves nothing identifiable beside its frames"
+            f"no trial estimated a parameter it could compare with the truth: the {scenario} "
+            "set-up leaves nothing identifiable beside its frames"
             + (" (is the arm degenerate?)" if arm else "")
         )
     summary["resumed"] = len(rows) - sum(1 for i in todo if i in done)
@@ -186,8 +189,9 @@ def _run_todo(
     progress,
     preload: bool = False,
 ) -> None:
-    """Run the trials ``todo`` on ``executor``, appending each finished one to the journal and to ``done``.
-    ``preload``: the trials run in other processes, so this one is idle and may import the writers' modules."""
+    """Run the trials ``todo`` on ``executor``, appending each finished one to the journal and
+    to ``done``. ``preload``: the trials run in other processes, so this one is idle and may import
+    the writers' modules."""
     bar = _progress(len(todo), trials - len(todo), progress)
     if preload:
         threading.Thread(target=import_writers, daemon=True).start()

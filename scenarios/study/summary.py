@@ -172,7 +172,8 @@ def checks_table(summary: dict) -> str:
     f = lambda v: "-" if v is None else f"{v:.4g}"  # noqa: E731
     for c in summary["checks"]:
         lines.append(
-            f"| {c['name']} | {f(c['median'])} | {f(c['p95'])} | {f(c['max'])} | {c['failed_fraction']:.1%} |"
+            f"| {c['name']} | {f(c['median'])} | {f(c['p95'])} | {f(c['max'])} | "
+            f"{c['failed_fraction']:.1%} |"
         )
     return "\n".join(lines)
 
@@ -199,7 +200,8 @@ def summary_table(summary: dict) -> str:
         eff = (
             ""
             if p.get("efficiency") is None
-            else f"{p['efficiency']:.3f} ({p['efficiency_ci95'][0]:.2f}-{p['efficiency_ci95'][1]:.2f})"
+            else f"{p['efficiency']:.3f} "
+            f"({p['efficiency_ci95'][0]:.2f}-{p['efficiency_ci95'][1]:.2f})"
         )
         cov = "" if p["coverage_95"] is None else f"{p['coverage_95']:.3f}"
         lines.append(

@@ -97,7 +97,8 @@ try:
               table={{"stated_range_sigma_um": [0.0, 1.0]}})
 except BadInput as e:
     print("BadInput:", e)
-print(sorted(m for m in sys.modules if m.startswith(("calibench.estimators", "calibench.sim", "calibench.scenarios.arm"))))
+rooms = ("calibench.estimators", "calibench.sim", "calibench.scenarios.arm")
+print(sorted(m for m in sys.modules if m.startswith(rooms)))
 """
     out = subprocess.run(
         [sys.executable, "-c", code],
