@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import functools
 import json
-import os
 import re
 
 from .engine import ROOT, block
@@ -108,28 +107,13 @@ def discover_instruments():
 def null_claims() -> dict:
     """For each scenario and floor, the share of NULLS fresh null recordings (seeds 5000+, as
     benchmarks/discover.py draws them) on which discover claims any effect; the recordings
-    shared among the cores (a spawn pool: each is independent and seeded)."""
-    import concurrent.futures as cf
-    import multiprocessing
+    shared among the cores (scenarios.discover.nulls)."""
+    from calibench.scenarios.discover.nulls import null_claim_rates
 
-    from calibench.scenarios.discover.suite import null_claims as claims_on
-
-    jobs = {
-        (sc, k): (FLOORS if sc.startswith("arm") else STAGE_FLOORS)
-        for sc in ("belt-stage", "vision-stage", "arm-cmm", "arm-cmm:ur10")
-        for k in range(NULLS)
-    }
-    with cf.ProcessPoolExecutor(
-        os.cpu_count() or 1, mp_context=multiprocessing.get_context("spawn")
-    ) as pool:
-        futures = {job: pool.submit(claims_on, *job, floors) for job, floors in jobs.items()}
-        got = {job: f.result() for job, f in futures.items()}
-    count = {}
-    for (sc, k), floors in jobs.items():
-        claims = count.setdefault(sc, dict.fromkeys(floors, 0))
-        for f, claimed in zip(floors, got[sc, k]):
-            claims[f] += claimed
-    return {sc: {f: c / NULLS for f, c in claims.items()} for sc, claims in count.items()}
+    scenarios = ("belt-stage", "vision-stage", "arm-cmm", "arm-cmm:ur10")
+    return null_claim_rates(
+        {sc: (FLOORS if sc.startswith("arm") else STAGE_FLOORS) for sc in scenarios}, NULLS
+    )
 
 
 @block(seconds=400, ci=True)
