@@ -1,8 +1,8 @@
-"""The README's numbers agree with the code (issue 15): ``python -m docs.figures --check`` regenerates
-every generated block of the README (the render runs, the Monte-Carlo studies, the concealed-effect
-suite and the null sweep, the UR10 fits and discoveries, the analyses of their residuals) and
-compares every number with the README's. It runs in its own process beside the rest of the suite
-(tests/conftest.py starts it at collection): about half an hour on 2 cores.
+"""The README's numbers agree with the code (issue 15): ``python -m docs.figures --check``
+regenerates every generated block of the README (the render runs, the Monte-Carlo studies, the
+concealed-effect suite and the null sweep, the UR10 fits and discoveries, the analyses of their
+residuals) and compares every number with the README's. It runs in its own process beside the
+rest of the suite (tests/conftest.py starts it at collection): about half an hour on 2 cores.
 
 The README is the expectation and the code the truth: nothing here holds a figure. Two blocks
 are left to ``make figures``: performance and run-times (machine timings, which it rewrites and
@@ -56,7 +56,8 @@ def test_a_changed_digit_is_a_disagreement_and_a_band_is_not(figures):
 
 def test_a_rewrite_keeps_the_markers_and_reads_back(figures):
     text = (
-        "intro\n\n<!-- figures:t -->\nold 1\n<!-- /figures:t -->\n\n- item\n  <!-- figures:u -->\n  old 2\n"
+        "intro\n\n<!-- figures:t -->\nold 1\n<!-- /figures:t -->\n\n"
+        "- item\n  <!-- figures:u -->\n  old 2\n"
         "  <!-- /figures:u -->\n"
     )
     new = figures.replace(text, {"t": "| a | 3 |", "u": "new 4 " + "word " * 30})

@@ -41,7 +41,8 @@ TWIN_CASES = (
 
 @block(seconds=215, ci=True)
 def discover_suite():
-    """The concealed-effect suite (scenarios/discover_suite.py, as benchmarks/discover.py runs it)."""
+    """The concealed-effect suite (scenarios/discover_suite.py, as benchmarks/discover.py runs
+    it)."""
     from calibench.scenarios.discover.suite import SUITE, run_case, score
 
     s = score([run_case(*case) for case in SUITE])
@@ -154,7 +155,8 @@ def paper_recording():
 
 @functools.cache
 def paper_discovery(holdout: str) -> dict:
-    """discover belt-stage on the seed paper's measured tables, holding out whole rows or columns."""
+    """discover belt-stage on the seed paper's measured tables, holding out whole rows or
+    columns."""
     from calibench.scenarios.discover.command import discover_stage
 
     return discover_stage("belt-stage", paper_recording(), SEED, holdout)[0]

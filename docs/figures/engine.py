@@ -17,7 +17,7 @@ README = ROOT / "README.md"
 COMMAND = "python -m docs.figures"  # how a reader reruns a block (from the repository's root)
 
 
-# --- the registry --------------------------------------------------------------------------------
+# --- the registry ---------------------------------------------------------------------------------
 @dataclasses.dataclass(frozen=True)
 class Block:
     """One generated span of the README.
@@ -75,7 +75,7 @@ def block(
     return register
 
 
-# --- the README ------------------------------------------------------------------------------------
+# --- the README -----------------------------------------------------------------------------------
 OPEN = re.compile(r"^(?P<indent>[ \t]*)<!-- figures:(?P<name>[\w.-]+) -->[ \t]*$")
 
 
@@ -149,7 +149,7 @@ def replace(text: str, generated: dict[str, str]) -> str:
     return "\n".join(lines)
 
 
-# --- numbers and the check -------------------------------------------------------------------------
+# --- numbers and the check ------------------------------------------------------------------------
 NUMBER = re.compile(
     r"(?<![\w.])-?\d{1,3}(?:,\d{3})+(?![\d.])|(?<![\w.])-?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?"
 )
@@ -172,7 +172,8 @@ def numbers(text: str) -> list[tuple[float, str]]:
 
 
 def last_digit_unit(tok: str) -> float:
-    """One unit of a printed number's last digit: '0.0083' -> 1e-4, '2519' -> 1, '3e-10' -> 1e-10."""
+    """One unit of a printed number's last digit: '0.0083' -> 1e-4, '2519' -> 1, '3e-10' ->
+    1e-10."""
     mant, _, exp = tok.lower().partition("e")
     decimals = len(mant.partition(".")[2])
     return 10.0 ** (-decimals + (int(exp) if exp else 0))
@@ -206,7 +207,8 @@ def check(names: list[str], readme: str) -> int:
         t = time.perf_counter()
         try:
             generated = b.make()
-        except Exception as e:  # noqa: BLE001 - one block's failure is reported, the others still checked
+        # one block's failure is reported, the others still checked
+        except Exception as e:  # noqa: BLE001
             print(f"{name}: could not be generated: {type(e).__name__}: {e}", flush=True)
             bad += 1
             continue
@@ -226,7 +228,7 @@ def check(names: list[str], readme: str) -> int:
     return bad
 
 
-# --- the command line ------------------------------------------------------------------------------
+# --- the command line -----------------------------------------------------------------------------
 def main(argv: list[str] | None = None) -> int:
     """The command line (see the package's docstring); returns the exit status."""
     ap = argparse.ArgumentParser(

@@ -56,7 +56,7 @@ def need_data(*paths: Path) -> None:
         )
 
 
-# --- a scenario's run ------------------------------------------------------------------------------
+# --- a scenario's run -----------------------------------------------------------------------------
 @functools.cache
 def report(scenario: str) -> dict:
     """``calibench run SCENARIO --seed 0`` (default fidelity, render where the scenario renders):
@@ -76,7 +76,7 @@ def params(scenario: str) -> dict:
     return {p["name"]: p for p in report(scenario)["parameters"]}
 
 
-# --- the real UR10 ---------------------------------------------------------------------------------
+# --- the real UR10 --------------------------------------------------------------------------------
 def series(*letters: str) -> list[Path]:
     """The UR10's recordings ur10_X.csv."""
     paths = [UR10 / f"ur10_{x}.csv" for x in letters]
@@ -150,7 +150,7 @@ def ur10_discovery_c() -> dict:
     return json.loads(ur10_discovery_c_json().read_text())
 
 
-# --- Monte-Carlo studies ---------------------------------------------------------------------------
+# --- Monte-Carlo studies --------------------------------------------------------------------------
 @functools.cache
 def study(scenario: str, trials: int, factor: float | None = None) -> dict:
     """A Monte-Carlo study (seed 0, analytic, all cores): its summary. ``factor``: every stated

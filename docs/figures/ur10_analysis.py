@@ -167,9 +167,9 @@ def ur10_per_session():
 
 @block(seconds=90, ci=True)
 def ur10_targets():
-    """The issue's targets (0.40 mm mean, 1.3 mm max on C; 0.25 mm the aim) against the physics fit
-    on all four (and on all of C, its floor there), the fit with per-session gear harmonics, and with
-    those and the table over q2."""
+    """The issue's targets (0.40 mm mean, 1.3 mm max on C; 0.25 mm the aim) against the physics
+    fit on all four (and on all of C, its floor there), the fit with per-session gear harmonics,
+    and with those and the table over q2."""
     gear_q2_is_current()
     mean_t, max_t, aim = TARGET_MEAN_MM, TARGET_MAX_MM, AIM_MEAN_MM
     c = ur10_fit("all")["holdout"]["ur10_C.csv"]
