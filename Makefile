@@ -31,12 +31,13 @@ lint: $(VENV)/.installed
 	cd build/mypy && ../../$(BIN)/mypy --config-file ../../pyproject.toml -p calibench.estimators
 
 # The README's tables and numbers, rerun and rewritten (FIGURES="NAME ..." for some of them;
-# `$(BIN)/python docs/figures.py --list` names them); figures-check compares instead of rewriting.
+# `$(BIN)/python -m docs.figures --list` names them); figures-check compares instead of rewriting.
+# The generator is the package docs/figures/, run from the repository's root.
 figures: $(VENV)/.installed
-	$(BIN)/python docs/figures.py $(FIGURES)
+	$(BIN)/python -m docs.figures $(FIGURES)
 
 figures-check: $(VENV)/.installed
-	$(BIN)/python docs/figures.py --check $(FIGURES)
+	$(BIN)/python -m docs.figures --check $(FIGURES)
 
 clean:
 	rm -rf $(VENV) calibench-out .pytest_cache

@@ -1,31 +1,27 @@
-"""The README's numbers agree with the code (issue 15): ``docs/figures.py --check`` regenerates
-every generated block of the README (the render runs, the Monte-Carlo studies, the concealed-effect
-suite and the null sweep, the UR10 fits and discoveries, the analyses of their residuals) and
-compares every number with the README's. It runs in its own process beside the rest of the suite
-(tests/conftest.py starts it at collection): about half an hour on 2 cores.
+"""The README's numbers agree with the code (issue 15): ``python -m docs.figures --check``
+regenerates every generated block of the README (the render runs, the Monte-Carlo studies, the
+concealed-effect suite and the null sweep, the UR10 fits and discoveries, the analyses of their
+residuals) and compares every number with the README's. It runs in its own process beside the
+rest of the suite (tests/conftest.py starts it at collection): about half an hour on 2 cores.
 
 The README is the expectation and the code the truth: nothing here holds a figure. Two blocks
 are left to ``make figures``: performance and run-times (machine timings, which it rewrites and
 nothing compares).
 """
 
-import importlib.util
 import sys
 
 import pytest
 
-from tests.conftest import REPO
-
-FIGURES = REPO / "docs" / "figures.py"
+FIGURES = "docs.figures"  # the package, run as ``python -m docs.figures`` from the repository
 
 
 @pytest.fixture(scope="module")
 def figures():
-    spec = importlib.util.spec_from_file_location("readme_figures", FIGURES)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look their module up
-    spec.loader.exec_module(module)
-    return module
+    """The block engine, every block registered (the package imports them)."""
+    from docs.figures import engine
+
+    return engine
 
 
 def test_every_block_has_its_markers_and_its_generator(figures):
@@ -60,8 +56,9 @@ def test_a_changed_digit_is_a_disagreement_and_a_band_is_not(figures):
 
 def test_a_rewrite_keeps_the_markers_and_reads_back(figures):
     text = (
-        "intro\n\n<!-- figures:t -->\nold 1\n<!-- /figures:t -->\n\n- item\n  <!-- figures:u "
-        "-->\n  old 2\n  <!-- /figures:u -->\n"
+        "intro\n\n<!-- figures:t -->\nold 1\n<!-- /figures:t -->\n\n"
+        "- item\n  <!-- figures:u -->\n  old 2\n"
+        "  <!-- /figures:u -->\n"
     )
     new = figures.replace(text, {"t": "| a | 3 |", "u": "new 4 " + "word " * 30})
     assert figures.current(new, "t") == "| a | 3 |"
@@ -71,17 +68,11 @@ def test_a_rewrite_keeps_the_markers_and_reads_back(figures):
 
 
 def figures_check_command() -> list[str]:
-    """``docs/figures.py --check`` over every block the CI runs (``ci=True``)."""
-    spec = importlib.util.spec_from_file_location("readme_figures_names", FIGURES)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return [
-        sys.executable,
-        str(FIGURES),
-        "--check",
-        *[name for name, b in module.BLOCKS.items() if b.ci],
-    ]
+    """``python -m docs.figures --check`` over every block the CI runs (``ci=True``), to be run
+    in the repository's root."""
+    from docs.figures import BLOCKS
+
+    return [sys.executable, "-m", FIGURES, "--check", *[n for n, b in BLOCKS.items() if b.ci]]
 
 
 def test_the_readme_agrees_with_the_code(shared_data, request):
@@ -90,3 +81,13 @@ def test_the_readme_agrees_with_the_code(shared_data, request):
 
     code, printout = figures_check_result(request.config)
     assert code == 0, printout
+
+
+def test_the_command_line_lists_every_block_and_refuses_an_unknown_one(capsys):
+    """``python -m docs.figures --list`` names every block in order; an unknown name exits 2."""
+    from docs.figures import BLOCKS, main
+
+    assert main(["--list"]) == 0
+    listed = [line.split()[0] for line in capsys.readouterr().out.splitlines()]
+    assert listed == list(BLOCKS)
+    assert main(["--check", "no-such-block"]) == 2
