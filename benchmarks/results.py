@@ -1,5 +1,6 @@
 """The README's performance table, measured in one run on this machine: ``python
-benchmarks/results.py`` prints it (``docs/figures.py performance`` writes it into the README).
+benchmarks/results.py`` prints it (``python -m docs.figures performance`` writes it into the
+README).
 
 Each row sets calibench beside its peer measured in the same run, interleaved where it is cheap:
 the bare MuJoCo renderer for the lens render, OpenCV's classic pipeline for ``calibench camera``,

@@ -67,7 +67,7 @@ def discover_instruments():
     effects found against the concealed ones, the held-out RMS and the repeatability."""
     import numpy as np
 
-    from calibench.scenarios.discover.command import _figure
+    from calibench.scenarios.discover.figure import write_figure
     from calibench.scenarios.discover.suite import concealed_discovery
 
     def label(e):
@@ -78,7 +78,7 @@ def discover_instruments():
     for scenario, kind, seed in SHOWCASE:
         man, out, fig = concealed_discovery(scenario, kind, seed)
         name = scenario.replace(":", "_")
-        _figure(ROOT / "docs" / f"discover_{name}.png", out, fig)
+        write_figure(ROOT / "docs" / f"discover_{name}.png", out, fig)
         concealed = ", ".join(label(e) for e in man["effects"]) or "-"
         found = ", ".join(label(e) for e in out["effects"] if e["name"] != "geometry") or "-"
         f = out["fit"]
@@ -120,8 +120,8 @@ def null_claims() -> dict:
 @block(seconds=400, ci=True)
 def discover_nulls():
     """discover on 30 fresh null recordings per scenario at several floors: the false-claim rate."""
-    from calibench.estimators.discovery import FLOOR
-    from calibench.scenarios.discover.command import ARM_FLOOR
+    from calibench.estimators.discovery.select import FLOOR
+    from calibench.scenarios.discover.arm_cmm import ARM_FLOOR
 
     rates = null_claims()
     rows = [
@@ -147,7 +147,7 @@ def discover_nulls():
 
 def paper_recording():
     """The seed paper's measured belt-stage tables as a stage recording."""
-    from calibench.scenarios.discover.command import paper_belt_recording
+    from calibench.scenarios.discover.stage import paper_belt_recording
 
     need_data(DATA / "seed_belt_stage")
     return paper_belt_recording(DATA / "seed_belt_stage")
@@ -157,7 +157,7 @@ def paper_recording():
 def paper_discovery(holdout: str) -> dict:
     """discover belt-stage on the seed paper's measured tables, holding out whole rows or
     columns."""
-    from calibench.scenarios.discover.command import discover_stage
+    from calibench.scenarios.discover.stage import discover_stage
 
     return discover_stage("belt-stage", paper_recording(), SEED, holdout)[0]
 
@@ -250,7 +250,7 @@ def stewart_located():
 def growing_reversal():
     """What discover belt-stage says of the belt's growing lost motion (the suite's elastic
     recording, seed 2, as tests/scenarios/test_discover_twin.py runs it)."""
-    from calibench.scenarios.discover.command import discover_stage
+    from calibench.scenarios.discover.stage import discover_stage
     from calibench.sim.concealed import stage_recording
 
     d, _ = discover_stage("belt-stage", stage_recording("belt-stage", "elastic", 2)[0], 0)

@@ -199,7 +199,7 @@ def physics_studies():
 @block(seconds=1, ci=True)
 def coverage_bands():
     """scenarios.montecarlo.summarise's band for an honest 95 % coverage at 1000 and 200 trials."""
-    from calibench.scenarios.study.montecarlo import summarise
+    from calibench.scenarios.study.summary import summarise
 
     def band(n):  # the band summary.json writes beside every coverage, for n trials
         rows = [

@@ -4,7 +4,7 @@ nothing, and the rate is reported per scenario and floor."""
 
 from concurrent.futures import ThreadPoolExecutor
 
-from calibench.estimators.discovery import FLOOR
+from calibench.estimators.discovery.select import FLOOR
 from calibench.scenarios.discover.nulls import null_claim_rates
 
 

@@ -12,7 +12,7 @@ from calibench.scenarios.study.coverage import (
     pooled_coverage,
     worst_bias,
 )
-from calibench.scenarios.study.montecarlo import summarise
+from calibench.scenarios.study.summary import summarise
 
 N = 1000  # trials
 
