@@ -260,18 +260,20 @@ def stewart_poses(
 
 
 def _rotvec_to_matrix(w: np.ndarray) -> np.ndarray:
-    """Rotation vector (3,) rad -> matrix (3, 3), by Rodrigues' formula on scalars (scalar
-    arithmetic: the poses of every study and recording depend on its last bits)."""
+    """Rotation vector (3,) rad -> matrix (3, 3) by Rodrigues' formula on scalars: sim's own (sim
+    never imports the estimators), in the floating-point operations the platform's poses have
+    always been drawn with (every study and recording depends on their last bits)."""
     x, y, z = (float(v) for v in w)
     theta = math.sqrt(x * x + y * y + z * z)
-    if theta < 1e-8:
-        a, b = 1.0 - theta**2 / 6, 0.5 - theta**2 / 24
-    else:
-        a, b = math.sin(theta) / theta, 2 * (math.sin(0.5 * theta) / theta) ** 2
-    return np.array(
-        [
-            [1 - b * (y * y + z * z), b * x * y - a * z, b * x * z + a * y],
-            [b * x * y + a * z, 1 - b * (x * x + z * z), b * y * z - a * x],
-            [b * x * z - a * y, b * y * z + a * x, 1 - b * (x * x + y * y)],
-        ]
+    small = theta < 1e-8
+    a = 1.0 - theta**2 / 6 if small else math.sin(theta) / theta
+    b = 0.5 - theta**2 / 24 if small else 2 * (math.sin(0.5 * theta) / theta) ** 2
+    xx, yy, zz = x * x, y * y, z * z
+    ax, ay, az = a * x, a * y, a * z
+    bxy, bxz, byz = b * x * y, b * x * z, b * y * z
+    rows = (
+        (1 - b * (yy + zz), bxy - az, bxz + ay),
+        (bxy + az, 1 - b * (xx + zz), byz - ax),
+        (bxz - ay, byz + ax, 1 - b * (xx + yy)),
     )
+    return np.array(rows)

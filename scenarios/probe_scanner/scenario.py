@@ -220,24 +220,24 @@ def run(config: ProbeScannerConfig, seed: int, fidelity: str, out_dir: Path, rrd
         "lsq_rms_residual_mm": lsq.rms_mm,
         "minima": [dataclasses.asdict(f) for f in minima],
     }
-    artifacts = dict(
-        sim=sim,
-        plate=plate,
-        lens=lens,
-        contours_plate=contour_points(
+    artifacts = {
+        "sim": sim,
+        "plate": plate,
+        "lens": lens,
+        "contours_plate": contour_points(
             plate.theta_rad, plate.rho_mm, lsq.d_mm, lsq.dL_mm, lsq.alpha0_rad
         ),
-        ms=ms,
-        sweep=sweep,
-        rms_m=rms_m,
-        minima=minima,
-        contours=contours,
-        outline=outline,
-        config=config,
-        paper=paper,
-        lsq=lsq,
-        plate_outline=sim.true_outline_mm("plate"),
-    )
+        "ms": ms,
+        "sweep": sweep,
+        "rms_m": rms_m,
+        "minima": minima,
+        "contours": contours,
+        "outline": outline,
+        "config": config,
+        "paper": paper,
+        "lsq": lsq,
+        "plate_outline": sim.true_outline_mm("plate"),
+    }
     return write_outputs(report, artifacts, out_dir, rrd, "calibench.scenarios.probe_scanner")
 
 
