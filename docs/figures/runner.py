@@ -110,6 +110,12 @@ def ur10_fit(setup: str, effects: str | None = None, model: str | None = None) -
     return json.loads((out / "fit.json").read_text())
 
 
+def judged(fit: dict) -> tuple[dict, set]:
+    """A fit.json's scores of held-out rows by recording, and the recordings where those rows
+    chose the effects' structure (written under ``in_sample``): in-sample, never a result."""
+    return {**fit.get("holdout", {}), **fit.get("in_sample", {})}, set(fit.get("in_sample", {}))
+
+
 def ur10_fit_dir(setup: str, effects: str | None = None, model: str | None = None) -> Path:
     """Where :func:`ur10_fit` writes (fit.json, residuals.csv)."""
     return scratch() / "fit" / f"{setup}-{model}-{Path(effects or 'none').stem}"

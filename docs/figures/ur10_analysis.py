@@ -10,7 +10,7 @@ import re
 
 from .engine import ROOT, block
 from .fmt import span, words
-from .runner import UR10, ur10_discovery_c, ur10_fit, ur10_residuals
+from .runner import UR10, judged, ur10_discovery_c, ur10_fit, ur10_residuals
 from .ur10_fit import ALL, GEAR, GEAR_Q2, H17, SHOULDER, gear_q2_is_current, table_joints
 
 PERIODOGRAM_JOINTS = (1, 2, 3)  # the joints whose angle errors share one frequency
@@ -116,7 +116,8 @@ def ur10_after_moves():
 def ur10_one_phase():
     """calibench fit arm-cmm on all four, --holdout 0.3, without and with --effects
     docs/ur10_harmonic17.json (one phase for all series)."""
-    plain, h17 = ur10_fit("all")["holdout"], ur10_fit("all", H17)["holdout"]
+    plain = ur10_fit("all")["holdout"]
+    h17, inside = judged(ur10_fit("all", H17))
     order = ("ur10_A.csv", "ur10_D.csv", "ur10_B.csv", "ur10_C.csv")
     better = [c for c in order if h17[c]["mean_mm"] < plain[c]["mean_mm"]]
     worse = [c for c in order if c not in better]
@@ -127,6 +128,7 @@ def ur10_one_phase():
         moves[0] += " mm"
     text = (
         f"With one phase for all series (`--effects {H17}`) it brings {words(moves[: len(better)])}"
+        + (" (in-sample: the harmonic was chosen on those rows too)" if inside else "")
     )
     if worse:
         text += (
@@ -153,13 +155,14 @@ def ur10_per_session():
         for f in e["params"]["harmonics"]
     }
     discovered = sorted(h for h in harmonics if h in found and h not in seen)
-    held = ur10_fit("all", GEAR)["holdout"]
+    held, inside = judged(ur10_fit("all", GEAR))
+    scored = "in-sample" if inside else "held-out"
     worst = max(ALL, key=lambda c: held[c]["max_mm"])
     rest = max(held[c]["max_mm"] for c in ALL if c != worst)
     return (
         f"`{GEAR}` holds {words(map(str, harmonics))} cycles per turn on joints "
         f"{joints[0]}-{joints[-1]} ({words(map(str, seen))} from the periodograms, "
-        f"{words(map(str, discovered))} from discovery on C): every held-out mean falls to "
+        f"{words(map(str, discovered))} from discovery on C): every {scored} mean falls to "
         f"{span([held[c]['mean_mm'] for c in ALL], '.2f')} mm and every max but {worst[5]}'s to "
         f"{rest:.2f} mm or less; {worst[5]}'s is {held[worst]['max_mm']:.2f} mm."
     )
@@ -175,7 +178,7 @@ def ur10_targets():
     c = ur10_fit("all")["holdout"]["ur10_C.csv"]
     # C's own rows, all of them fitted: what held-out rows of C could at best average
     c_itself = ur10_fit("C", model="physics")["fit"]["mean_mm"]
-    held = ur10_fit("all", GEAR)["holdout"]
+    held, inside = judged(ur10_fit("all", GEAR))
     at = "is at" if c["mean_mm"] <= mean_t and c["max_mm"] <= max_t else "is not at"
     floor = (
         f", and cannot be: fitted to all of C's rows, none held out, it leaves them "
@@ -194,16 +197,16 @@ def ur10_targets():
         else ""
     )
     a = held["ur10_A.csv"]["mean_mm"]
-    q2 = ur10_fit("all", GEAR_Q2)["holdout"]
+    q2, inside_q2 = judged(ur10_fit("all", GEAR_Q2))
     worst = max(ALL, key=lambda x: q2[x]["max_mm"])
     # at the aim as printed: within half the last of the three decimals
     at_aim = [x[5] for x in ALL if q2[x]["mean_mm"] <= aim + 0.0005]
     return (
         f"Where that leaves the issue's targets: the physics model alone {at} {mean_t:.2f} / "
         f"{max_t} mm on C ({c['mean_mm']:.3f} / {c['max_mm']:.2f}){floor}; with the per-session "
-        f"gear harmonics {means} under {mean_t:.2f} mm mean and {maxes}, and A is "
+        f"gear harmonics{' (in-sample)' if inside else ''} {means} under {mean_t:.2f} mm mean and {maxes}, and A is "
         f"{'under' if a < aim else 'not under'} the {aim} mm aim. With the table over "
-        f"{table_joints(GEAR_Q2)} besides, the means are "
+        f"{table_joints(GEAR_Q2)} besides{' (in-sample)' if inside_q2 else ''}, the means are "
         f"{span([q2[x]['mean_mm'] for x in ALL], '.3f')} mm ({words(at_aim) if at_aim else 'none'} "
         f"at the {aim} mm aim) and the largest max is {worst[5]}'s, {q2[worst]['max_mm']:.4f} mm "
         f"({'over' if q2[worst]['max_mm'] > max_t else 'within'} the {max_t} mm)."

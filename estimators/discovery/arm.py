@@ -234,9 +234,10 @@ class TransmissionSearch:
     harmonics: np.ndarray
     axis: str = "xyz"
     name: str = "transmission"
-    per_recording: bool = (
-        False  # one harmonic, its amplitude and phase per recording (:class:`Transmission`)
-    )
+    # one harmonic, its amplitude and phase per recording (:class:`Transmission`)
+    per_recording: bool = False
+
+    takes_basis = True  # fix may be given others[rows]'s orthonormal basis (fit.cv_residuals)
 
     @property
     def key(self) -> str:
@@ -249,13 +250,19 @@ class TransmissionSearch:
         return not self.per_recording or (rec is not None and len(np.unique(rec)) > 1)
 
     def fix(
-        self, r: np.ndarray, others: np.ndarray, rows: np.ndarray, drivers: dict
+        self,
+        r: np.ndarray,
+        others: np.ndarray,
+        rows: np.ndarray,
+        drivers: dict,
+        basis: np.ndarray | None = None,
     ) -> Transmission:
-        """The best harmonic on rows ``rows`` (bool over the signal's rows) beside ``others``."""
+        """The best harmonic on rows ``rows`` (bool over the signal's rows) beside ``others``;
+        ``basis``: an orthonormal basis of ``others[rows]`` when the caller has one."""
         q = np.asarray(drivers["q"], float)[:, self.joint - 1]
         Jt = joint_column(drivers, self.joint)
         groups = np.asarray(drivers["rec"], int) if self.per_recording else None
-        h, h_std = best_harmonic(q, Jt, r, others, self.harmonics, rows, groups=groups)
+        h, h_std = best_harmonic(q, Jt, r, others, self.harmonics, rows, groups=groups, basis=basis)
         return Transmission(
             joint=self.joint, harmonic=h, harmonic_std=h_std, per_recording=self.per_recording
         )

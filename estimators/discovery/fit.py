@@ -35,6 +35,20 @@ def lstsq(X, r):
     )
 
 
+FIXED = "fixed search"  # the cache's tag of a search's columns fixed on a fold's training rows
+BASIS = "basis"  # and of the orthonormal basis of a fold's training rows beside the terms before
+
+
+def keep_fixed(cache: dict, terms: list) -> None:
+    """Drop the cached fixed searches of ``cache`` that no longer sit in ``terms``' order (after
+    a selection round: only the accepted terms' fixes are asked for again). In place."""
+    ids = tuple(id(t) for t in terms)
+    for key in [k for k in cache if isinstance(k, tuple) and k[0] in (FIXED, BASIS)]:
+        chain = key[2] + ((key[3],) if key[0] == FIXED else ())
+        if chain != ids[: len(chain)]:
+            del cache[key]
+
+
 def term_columns(
     term, drivers, sig: Signal, others: np.ndarray, train: np.ndarray | None, cache: dict
 ):
@@ -59,8 +73,27 @@ def cv_residuals(
         test = rows_fold == f
         train = ~test
         X = sig.base
+        prefix: tuple = ()
         for t in terms:
-            X = np.c_[X, term_columns(t, drivers, sig, X, train, cache)]
+            # A searched shape depends on the fold and on the terms before it, nothing else: the
+            # same search beside the same terms is fixed once (a selection round re-evaluates the
+            # accepted terms beside every candidate).
+            key = (FIXED, int(f), prefix, id(t)) if hasattr(t, "fix") else None
+            if key is not None and key in cache:
+                cols = cache[key]
+            elif key is not None and getattr(t, "takes_basis", False) and X.shape[1]:
+                # the searches beside the same terms share the basis of their training rows
+                bkey = (BASIS, int(f), prefix)
+                if bkey not in cache:
+                    cache[bkey] = np.linalg.qr(X[train])[0]
+                cols = t.fix(sig.r, X, train, drivers, basis=cache[bkey]).columns(drivers)
+                cache[key] = cols
+            else:
+                cols = term_columns(t, drivers, sig, X, train, cache)
+                if key is not None:
+                    cache[key] = cols
+            X = np.hstack([X, cols])
+            prefix += (id(t),)
         coef = lstsq(X[train], sig.r[train])
         out[test] = sig.r[test] - X[test] @ coef
     return out

@@ -19,6 +19,7 @@ def best_harmonic(
     rows: np.ndarray | None = None,
     n_peaks: int = 3,
     groups: np.ndarray | None = None,
+    basis: np.ndarray | None = None,
 ) -> tuple[float, float]:
     """The harmonic h (cycles per turn) whose angle error a sin(h q) + b cos(h q), seen through
     ``Jt`` (n, 3), best explains ``r`` (3 n,) beside ``base`` (3 n, p), on ``rows`` (3 n,) bool.
@@ -29,9 +30,15 @@ def best_harmonic(
     The grid over ``harmonics`` ranks by the residual's projection alone (the columns are not
     orthogonalised against ``base``: cheap, and the ranking barely moves); the best ``n_peaks``
     are then refined by golden section on the exact criterion. Returns h and a rough std (a
-    quarter of the grid's spacing)."""
+    quarter of the grid's spacing). ``basis``: ``base[rows]``'s orthonormal basis, where the
+    caller keeps one (every search of a selection round shares its base)."""
     rows = np.ones(len(r), bool) if rows is None else rows
-    Q = np.linalg.qr(base[rows])[0] if base.shape[1] else np.zeros((int(rows.sum()), 0))
+    if basis is not None:
+        Q = basis
+    elif base.shape[1]:
+        Q = np.linalg.qr(base[rows])[0]
+    else:
+        Q = np.zeros((int(rows.sum()), 0))
     rr = r[rows] - Q @ (Q.T @ r[rows])
     # A column is lever_i sin(h q_p(i)): the kept rows' sums it enters collapse onto the postures
     # (P sums a posture's rows, weighted by their levers), so a harmonic costs one sine per posture
@@ -46,12 +53,8 @@ def best_harmonic(
     l2 = P @ lever  # (n,)
     PQ = np.asarray(P @ Q)  # (n, p)
 
-    def explained_by(w, l2, PQ, hs: np.ndarray, project: bool, trig=None) -> np.ndarray:
-        if trig is None:
-            ph = q[:, None] * hs[None, :]  # (n, m)
-            sin, cos = np.sin(ph), np.cos(ph)
-            trig = sin, cos, sin * sin, cos * cos, sin * cos
-        sin, cos, sin2, cos2, sincos = trig
+    def explained_by(w, l2, PQ, part, hs: np.ndarray, project: bool, trig) -> np.ndarray:
+        sin, cos, sin2, cos2, sincos = (t[part] for t in trig)
         ss, cc, sc = l2 @ sin2, l2 @ cos2, l2 @ sincos
         sr, cr = w @ sin, w @ cos
         if project and PQ.shape[1]:
@@ -63,15 +66,23 @@ def best_harmonic(
             ok, (cc * sr * sr - 2 * sc * sr * cr + ss * cr * cr) / np.where(ok, det, 1), 0.0
         )
 
-    # a posture's sums belong to its group alone: each group's share is the sums masked to it
-    parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = (
-        [(w, l2, PQ)]
-        if groups is None
-        else [(w * m, l2 * m, PQ * m[:, None]) for m in (groups == g for g in np.unique(groups))]
-    )
+    # a posture's sums belong to its group alone: each group's share is the sums over its
+    # postures (a slice where they are contiguous, as recordings stacked one after another are)
+    parts: list[tuple[np.ndarray, np.ndarray, np.ndarray, slice | np.ndarray]] = []
+    for g in [None] if groups is None else np.unique(groups):
+        if g is None:
+            parts.append((w, l2, PQ, slice(None)))
+            continue
+        idx = np.flatnonzero(groups == g)
+        part = slice(idx[0], idx[-1] + 1) if idx[-1] - idx[0] + 1 == len(idx) else idx
+        parts.append((w[part], l2[part], PQ[part], part))
 
     def explained(hs: np.ndarray, project: bool, trig=None) -> np.ndarray:
-        total = sum(explained_by(*part, hs, project, trig) for part in parts)
+        if trig is None:  # the groups share the postures' angles: their sines once
+            ph = q[:, None] * hs[None, :]  # (n, m)
+            sin, cos = np.sin(ph), np.cos(ph)
+            trig = sin, cos, sin * sin, cos * cos, sin * cos
+        total = sum(explained_by(*p, hs, project, trig) for p in parts)
         assert isinstance(total, np.ndarray)  # parts is never empty: never the int start 0
         return total
 

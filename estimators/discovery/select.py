@@ -5,11 +5,14 @@ prune): the engine's decisions. The recipe: :mod:`calibench.estimators.discovery
 from __future__ import annotations
 
 import dataclasses
+import os
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from calibench.estimators.discovery.fit import Signal, cv_residuals, fit_terms, lstsq
+from calibench.estimators.discovery.fit import Signal, cv_residuals, fit_terms, keep_fixed, lstsq
 
+MAX_WORKERS = 4  # threads scoring candidates: numpy's kernels release the GIL
 FLOOR = 0.10  # practical floor: an effect must cut its axis's held-out RMS by 10 %
 Z_MIN = 5.0  # and be at least 5 standard errors from zero
 
@@ -71,11 +74,14 @@ def select(
     noise: dict,
     floor: float = FLOOR,
     z_min: float = Z_MIN,
+    workers: int | None = None,
 ) -> tuple[Discovery, dict]:
     """Forward selection of candidate effects by held-out RMS (see the module's recipe).
 
     ``candidates``: Effects and PeriodSearches, each acting on the signal whose ``axis`` it
-    names; ``noise``: axis -> Noise. Returns the discovery and the accepted terms per axis.
+    names; ``noise``: axis -> Noise; ``workers``: threads scoring a round's candidates (default
+    the cores, at most ``MAX_WORKERS``; the result is the same for any number). Returns the
+    discovery and the accepted terms per axis.
     """
     by_axis = {s.axis: s for s in signals}
     caches: dict[str, dict[str, np.ndarray]] = {a: {} for a in by_axis}  # term key -> columns
@@ -95,15 +101,19 @@ def select(
     remaining = [c for c in candidates if c.axis in by_axis]
     rejected: dict[str, str] = {}
     steps: list[Step] = []
+
+    def held_out_sse(c) -> float:
+        a = c.axis
+        return float(
+            np.sum(cv_residuals(by_axis[a], terms[a] + [c], drivers, fold, caches[a]) ** 2)
+        )
+
+    # The candidates of a round are independent (their shared caches hold the same values
+    # whichever computes them first): scored side by side, numpy's work releasing the GIL.
+    pool = ThreadPoolExecutor(max_workers=workers or min(os.cpu_count() or 1, MAX_WORKERS))
     while remaining:
-        trials = []
-        for c in remaining:
-            a = c.axis
-            sse = float(
-                np.sum(cv_residuals(by_axis[a], terms[a] + [c], drivers, fold, caches[a]) ** 2)
-            )
-            gain = 1 - np.sqrt(sse / cv_sq[a])
-            trials.append((gain, c, sse))
+        sses = list(pool.map(held_out_sse, remaining))
+        trials = [(1 - np.sqrt(sse / cv_sq[c.axis]), c, sse) for c, sse in zip(remaining, sses)]
         trials.sort(key=lambda t: -t[0])
         accepted = None
         for gain, c, sse in trials:
@@ -133,9 +143,11 @@ def select(
         before = _total_rms(cv_sq, counts)
         cv_sq[c.axis] = sse
         terms[c.axis].append(c)
+        keep_fixed(caches[c.axis], terms[c.axis])
         steps.append(Step(c, c.axis, before, _total_rms(cv_sq, counts), float(gain)))
         remaining = [r for r in remaining if r is not c and r.key not in rejected]
         rejected.pop(c.key, None)
+    pool.shutdown()
     cv_by = {a: float(np.sqrt(cv_sq[a] / counts[a])) for a in by_axis}
     return Discovery(
         steps, rejected, cv_nominal, _total_rms(cv_sq, counts), rms_nominal, cv_by

@@ -42,10 +42,12 @@ from calibench.recordings import ArmRecording, load_arm_csv
 from calibench.scenarios.arm_cmm.arms import chain_of, load_arm
 from calibench.scenarios.arm_cmm.effects import angle_terms_from_discovery
 from calibench.scenarios.arm_cmm.figure import write_fit_figure
+from calibench.scenarios.provenance import chose_by_effects, chose_or_none, entry, record_score
 from calibench.scenarios.report import BadInput
 
 SPLIT_SEED = 0  # holdout rows and new-frame registration rows: fixed, so runs compare
 REGISTER_FRACTION = 0.2
+HOLDOUT_KIND = "random rows of a training session (interpolation within the sessions fitted)"
 MAX_ROWS = 500_000  # the Jacobian (3 rows x ~50 columns a posture) stays under 1 GB
 
 
@@ -144,6 +146,7 @@ def run_arm_fit(
         raise BadInput("--arm is empty: give an ARM.toml or a built-in arm's name (arm-cmm, ur10)")
     arm = load_arm(arm_spec or "arm-cmm")
     run_discovery = str(effects) == "discover"
+    chosen_by = chose_by_effects(effects, run_discovery)
     terms = (
         angle_terms_from_discovery(effects, arm.n_joints, len(paths))
         if effects is not None and not run_discovery
@@ -296,6 +299,8 @@ def run_arm_fit(
                     train[i].xyz_mm[rows] - prob.model(s, train[i].q_rad[rows], frame=i, session=i),
                 )
             )
+    scored: dict = {}  # by path, the rows scored and, in a new frame, those registered
+    registered: dict = {}
     if holdout:
         result["holdout"] = {}
         for i, (p, rec) in enumerate(zip(paths, train)):
@@ -306,10 +311,14 @@ def run_arm_fit(
             if m.sum() == 0:
                 continue
             e = prob.model(s, rec.q_rad[m], frame=i, session=i) - rec.xyz_mm[m]
-            result["holdout"][label[p]] = {**error_statistics(e), "fraction": holdout}
+            figs = {**error_statistics(e), "fraction": holdout, "kind": HOLDOUT_KIND}
+            record_score(
+                result, "holdout", label[p], figs, np.flatnonzero(m), chosen_by(p, used[i])
+            )
+            scored[p] = np.flatnonzero(m)
             residuals.append((label[p], np.flatnonzero(m), "holdout", -e))
             figures[f"{label[p]} (held out)"] = np.linalg.norm(e, axis=1)
-    tested = {}
+    tested: dict = {}
     if tests or tests_new_frame:
         result["test"] = {}
     for p in tests:
@@ -318,7 +327,9 @@ def run_arm_fit(
         _enough_to_judge(p, keep)
         _settle_pairs(keep, fl, pairs, prob.model(s, rec.q_rad, frame=0), rec.xyz_mm, rep)
         e = prob.model(s, rec.q_rad[keep], frame=0) - rec.xyz_mm[keep]
-        result["test"][label[p]] = {**error_statistics(e), "frame": f"{label[paths[0]]}'s"}
+        figs = {**error_statistics(e), "frame": f"{label[paths[0]]}'s"}
+        record_score(result, "test", label[p], figs, np.flatnonzero(keep), chosen_by(p, None))
+        scored[p] = np.flatnonzero(keep)
         residuals.append((label[p], np.flatnonzero(keep), "test", -e))
         flagged[label[p]] = fl
         figures[label[p]] = np.linalg.norm(e, axis=1)
@@ -344,14 +355,33 @@ def run_arm_fit(
             (label[p], reg_rows, "register", rec.xyz_mm[reg_rows] - model_xyz[reg_rows])
         )
         residuals.append((label[p], np.flatnonzero(ev), "test", -e))
-        result["test"][label[p]] = {
+        figs = {
             **error_statistics(e),
             "frame": f"registered on {len(reg_rows)} rows ({100 * REGISTER_FRACTION:.0f} %, "
             f"seed {SPLIT_SEED}), figures on the other {ev.sum()}",
         }
+        record_score(result, "test", label[p], figs, np.flatnonzero(ev), chosen_by(p, None))
+        scored[p], registered[p] = np.flatnonzero(ev), reg_rows
         flagged[label[p]] = fl
         figures[label[p]] = np.linalg.norm(e, axis=1)
         tested[label[p]] = rec.q_rad
+    result["provenance"] = [
+        entry(
+            p,
+            chose=chose_or_none(chosen_by, p, used[i]),
+            fitted=rows_of[(rec_id == i) & ~outlier_rows],
+            scored=scored.get(p, ()),
+        )
+        for i, p in enumerate(paths)
+    ] + [
+        entry(
+            p,
+            chose=chose_or_none(chosen_by, p, None),
+            fitted=registered.get(p, ()),
+            scored=scored.get(p, ()),
+        )
+        for p in tests + tests_new_frame
+    ]
     result["flagged"] = {k: v for k, v in flagged.items() if v}
     comp_joints = [int(n[len("compliance") :]) for n in prob.names if n.startswith("compliance")]
     result["coverage"] = {"warnings": coverage_warnings(chain, q, tested, comp_joints)}

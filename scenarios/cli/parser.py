@@ -149,6 +149,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="arm-cmm: keep a fraction F of every training recording out of the fit (fixed seed)",
     )
     f.add_argument(
+        "--leave-one-out",
+        action="store_true",
+        help="arm-cmm: each recording a session; each scored by a calibration on the others, its "
+        "frame registered on 20 %% of its rows, figures on the rest (a new set-up's error)",
+    )
+    f.add_argument(
         "--model",
         choices=("geometry", "physics"),
         help="arm-cmm: geometry (kinematics, base, tool) or physics (and the joints' compliance "

@@ -120,6 +120,7 @@ def fit(args: argparse.Namespace) -> int:
             ("--holdout", args.holdout),
             ("--model", args.model),
             ("--effects", args.effects),
+            ("--leave-one-out", args.leave_one_out),
         )
         if v
     ]
@@ -145,6 +146,8 @@ def _fit_arm(args: argparse.Namespace, out: Path) -> int:
     """``fit arm-cmm``: the fit, its held-out and test errors; 1 when the solve did not converge."""
     from calibench.scenarios.arm_cmm.fit import run_arm_fit
 
+    if args.leave_one_out:
+        return _leave_one_out(args, out)
     r = run_arm_fit(
         args.recordings,
         args.arm,
@@ -162,12 +165,20 @@ def _fit_arm(args: argparse.Namespace, out: Path) -> int:
         f"({len(r['dropped'])} dropped); fit mean {f['mean_mm']:.3f} mm, rms {f['rms_mm']:.3f} mm, "
         f"max {f['max_mm']:.3f} mm"
     )
-    for title, block in (("held out", r.get("holdout", {})), ("test", r.get("test", {}))):
+    blocks = (
+        ("held out", r.get("holdout", {})),
+        ("test", r.get("test", {})),
+        ("in-sample", r.get("in_sample", {})),
+    )
+    for title, block in blocks:
         for name, e in block.items():
             print(
                 f"  {title} {name}: mean {e['mean_mm']:.3f}  rms {e['rms_mm']:.3f}  p95 "
                 f"{e['p95_mm']:.3f}  max {e['max_mm']:.3f} mm  (n = {e['samples']})"
+                + (f": {e['why']}" if title == "in-sample" else "")
             )
+    if r.get("holdout"):
+        print(f"  (held out: {next(iter(r['holdout'].values()))['kind']})")
     for name, rows in r.get("flagged", {}).items():
         print(f"  left out of {name}: rows {', '.join(str(x['row']) for x in rows)} (see fit.json)")
     for w in r["coverage"]["warnings"]:
@@ -176,6 +187,37 @@ def _fit_arm(args: argparse.Namespace, out: Path) -> int:
         print("  the solve did not converge: the figures are of its last iterate", file=sys.stderr)
     print(f"-> {out / 'fit.json'}")
     return EXIT_OK if r["converged"] else EXIT_CHECK_FAILED
+
+
+def _leave_one_out(args: argparse.Namespace, out: Path) -> int:
+    """``fit arm-cmm --leave-one-out``: every session scored by a calibration on the others."""
+    from calibench.scenarios.arm_cmm.sessions import leave_one_session_out
+    from calibench.scenarios.report import BadInput
+
+    given = [
+        o
+        for o, v in (
+            ("--test", args.test),
+            ("--test-new-frame", args.test_new_frame),
+            ("--holdout", args.holdout),
+        )
+        if v
+    ]
+    if given:
+        raise BadInput(
+            f"--leave-one-out scores every recording by the others: {', '.join(given)} "
+            "would be another split"
+        )
+    r = leave_one_session_out(args.recordings, args.arm, args.model, out, args.effects)
+    print(f"{r['arm']}, model {r['model']}, each session left out in turn:")
+    for name, e in r["leave_one_out"].items():
+        print(
+            f"  {name}: mean {e['mean_mm']:.3f}  rms {e['rms_mm']:.3f}  p95 {e['p95_mm']:.3f}  "
+            f"max {e['max_mm']:.3f} mm  (n = {e['samples']}; {e['frame']})"
+            + ("  in-sample" if e["in_sample"] else "")
+        )
+    print(f"-> {out / 'fit.json'}")
+    return EXIT_OK
 
 
 def montecarlo(args: argparse.Namespace) -> int:

@@ -267,7 +267,7 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
         "confounded": confounds,
         "summary": _arm_summary(arm.name, found, effects, names),
     }
-    return out, {"signals": [sig], "fitted": fitted}
+    return out, {"signals": [sig], "fitted": fitted, "rows_used": parts}
 
 
 def _shared_unless_sessions_differ(sig, found, terms: list, drivers, fold, floor: float) -> None:

@@ -34,6 +34,7 @@ import numpy as np
 
 from calibench.recordings import same_file
 from calibench.scenarios.discover.figure import write_figure
+from calibench.scenarios.provenance import entry
 from calibench.scenarios.report import BadInput
 
 # the plug-in module of each scenario, in calibench.scenarios.discover
@@ -91,6 +92,22 @@ def plugin(scenario: str) -> Plugin:
     return importlib.import_module(f"calibench.scenarios.discover.{PLUGINS[scenario]}")  # type: ignore[return-value]
 
 
+PROVENANCE_NOTE = (
+    "discover chooses the model's structure (its candidates, their frequencies and band edges) "
+    "on every row it reads, and its held-out figures (cv_rms_*) are the selection's own: "
+    "in-sample for what it chose. Score it on rows it did not read."
+)
+
+
+def discovery_provenance(paths: list[Path], rows_used: list[np.ndarray]) -> dict:
+    """discovery.json's ``provenance``: per recording (by name and content hash) the rows that
+    chose the model's structure, fitted it and scored it (all the rows discover used)."""
+    return {
+        "recordings": [entry(p, chose=r, fitted=r, scored=r) for p, r in zip(paths, rows_used)],
+        "note": PROVENANCE_NOTE,
+    }
+
+
 def run_discover(
     scenario: str,
     csv_path,
@@ -131,9 +148,13 @@ def run_discover(
 
     def once(cfg: Path | None) -> tuple[dict, dict]:
         rec = found_by.load(scenario, paths, arm)
-        return found_by.discover(scenario, rec, seed, holdout, cfg, arm)
+        out, fig = found_by.discover(scenario, rec, seed, holdout, cfg, arm)
+        if "rows_used" not in fig:  # the plug-in read every row
+            fig["rows_used"] = [np.arange(len(rec))]
+        return out, fig
 
     out, fig = once(config)
+    out["provenance"] = discovery_provenance(paths, fig["rows_used"])
     before = None
     if config is not None:  # the nominal twin's residual beside the updated one's, both replayed
         out["replayed_config"] = str(config)
