@@ -15,11 +15,44 @@ from tests.bad_input.files import (
     arm_csv,
     arm_csv_with,
     arm_rows,
+    stage_csv,
 )
 
 # (id, files to write {name: text or bytes or callable(path)}, argv with {d} for the case folder,
 #  expected exit status, a fragment the message must contain)
 CASES = [
+    # fit arm-cmm --leave-one-out: two sessions at least, and no other split beside it
+    (
+        "arm-leave-one-out-one-session",
+        {"r.csv": lambda p: p.write_text(arm_csv(*arm_rows()))},
+        ["fit", "arm-cmm", "{d}/r.csv", "--arm", "ur10", "--leave-one-out"],
+        2,
+        "at least two sessions",
+    ),
+    (
+        "arm-leave-one-out-and-holdout",
+        {"r.csv": lambda p: p.write_text(arm_csv(*arm_rows()))},
+        ["fit", "arm-cmm", "{d}/r.csv", "{d}/r.csv", "--leave-one-out", "--holdout", "0.3"],
+        2,
+        "--holdout would be another split",
+    ),
+    (
+        "arm-leave-one-out-same-name",
+        {
+            "a/r.csv": lambda p: p.write_text(arm_csv(*arm_rows())),
+            "b/r.csv": lambda p: p.write_text(arm_csv(*arm_rows())),
+        },
+        ["fit", "arm-cmm", "{d}/a/r.csv", "{d}/b/r.csv", "--arm", "ur10", "--leave-one-out"],
+        2,
+        "share a file name",
+    ),
+    (
+        "stage-leave-one-out",
+        {"r.csv": stage_csv()},
+        ["fit", "belt-stage", "{d}/r.csv", "--leave-one-out"],
+        2,
+        "--leave-one-out apply to arm-cmm only",
+    ),
     # fit arm-cmm
     ("arm-missing-file", {}, ["fit", "arm-cmm", "{d}/none.csv", "--arm", "ur10"], 2, "cannot read"),
     (

@@ -130,3 +130,30 @@ def test_an_arm_whose_axes_are_all_parallel_holds_its_tools_height(tmp_path):
     # 3-D RMS of a 3-coordinate Gaussian less the fitted parameters' share: within 15 % of sqrt(3)
     # sigma
     assert abs(fit["fit"]["rms_mm"] / (np.sqrt(3) * NOISE_MM) - 1) < 0.15, fit["fit"]
+
+
+def test_leave_one_session_out_scores_each_session_by_the_others(tmp_path):
+    """Three sessions of the twin's compliant UR10, each in its own tracker frame: every session
+    scored by a calibration on the other two, its frame registered on a fifth of its rows. The
+    model is right, so each score is the tracker's noise: the mean 3-D error of a Gaussian of
+    0.02 mm per coordinate is 0.032 mm, and the registration on ~60 rows adds a few per cent."""
+    noise = 0.02
+    sim = ArmSim("ur10", ArmTruth(stiffness_nm_per_rad=(np.inf, 2.0e5, 1.5e5) + (np.inf,) * 3))
+    rng = np.random.default_rng(5)
+    paths = []
+    for k in range(3):
+        q = sim.random_postures(300, rng)
+        R, t = rotvec_to_matrix(rng.normal(0, 1.0, 3)), rng.uniform(-2000, 2000, 3)
+        y = sim.probe_mm(q) @ R.T + t + rng.normal(0, noise, q.shape[:1] + (3,))
+        paths.append(tmp_path / f"session{k}.csv")
+        ArmRecording(q + rng.normal(0, 2e-6, q.shape), y).to_csv(paths[-1])
+    out = tmp_path / "loso"
+    args = ["fit", "arm-cmm", *map(str, paths), "--arm", "ur10", "--leave-one-out"]
+    assert main([*args, "--out", str(out)]) == 0
+    table = json.loads((out / "fit.json").read_text())["leave_one_out"]
+    assert set(table) == {p.name for p in paths}
+    for name, e in table.items():
+        assert name not in e["trained_on"] and len(e["trained_on"]) == 2
+        assert not e["in_sample"] and e["samples"] == 240  # 300 rows, 60 registered
+        assert 0.8 * 0.032 < e["mean_mm"] < 1.25 * 0.032, (name, e)
+        assert (out / name.removesuffix(".csv") / "fit.json").exists()
