@@ -60,14 +60,14 @@ def entry(path: Path, chose=(), fitted=(), scored=()) -> dict:
 
 def chosen_rows(provenance: list[dict] | None, path: Path) -> np.ndarray | None:
     """The rows of the recording at ``path`` that chose the structure, by the recorded
-    provenance (a discovery.json's ``provenance``); None when that provenance does not name this
-    recording (its content's hash)."""
+    provenance (a discovery.json's ``provenance``): none when it does not name this recording
+    (its content's hash), None when there is no provenance to say."""
     if not provenance:
         return None
     sha = file_sha256(Path(path))
     found = [e for e in provenance if e.get("sha256") == sha]
     if not found:
-        return None
+        return np.empty(0, np.int64)
     return np.unique(np.concatenate([rows_in(e["rows"]["chose"]) for e in found]))
 
 

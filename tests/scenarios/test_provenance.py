@@ -75,3 +75,13 @@ def test_effects_that_do_not_say_which_rows_chose_them_score_in_sample(shared_da
     bare.write_text(json.dumps(found))
     fit = _fit(rec, tmp_path / "f", "--effects", str(bare))
     assert "does not say" in fit["in_sample"]["session.csv"]["why"]
+
+
+def test_a_recording_the_effects_never_read_is_held_out(shared_data, tmp_path):
+    """Effects discovered on D alone leave B's held-out rows held out: B never chose."""
+    found = tmp_path / "d"
+    _discover(shared_data / "ur10_landgraf" / "ur10_D.csv", found)
+    b = tmp_path / "b.csv"
+    shutil.copy(shared_data / "ur10_landgraf" / "ur10_B.csv", b)
+    fit = _fit(b, tmp_path / "f", "--effects", str(found / "discovery.json"))
+    assert "in_sample" not in fit and fit["holdout"]["b.csv"]["samples"] > 300
