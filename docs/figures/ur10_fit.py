@@ -3,12 +3,13 @@ check's words, and trained on all four series with the effects found or given.""
 
 from __future__ import annotations
 
+import functools
 import json
 import re
 
 from .engine import ROOT, block
 from .fmt import bold_least, percent, rows_words, table, words
-from .runner import HOLDOUT, judged, ur10_discovery_c, ur10_fit
+from .runner import HOLDOUT, UR10, calibench, judged, scratch, series, ur10_discovery_c, ur10_fit
 
 ALL = ("ur10_C.csv", "ur10_B.csv", "ur10_A.csv", "ur10_D.csv")
 GEAR = "docs/ur10_gear_harmonics.json"
@@ -227,4 +228,41 @@ def ur10_all_four():
                 *cells[4],
             ],
         ],
+    )
+
+
+@functools.cache
+def ur10_sessions(effects: str | None = None) -> dict:
+    """``calibench fit arm-cmm`` on the four series with ``--leave-one-out``: its fit.json."""
+    out = scratch() / "sessions" / (effects or "physics")
+    args = ["fit", "arm-cmm", *series("A", "B", "C", "D"), "--arm", UR10 / "ur10.toml"]
+    args += ["--leave-one-out", "--out", out] + (["--effects", effects] if effects else [])
+    calibench(*args)
+    return json.loads((out / "fit.json").read_text())
+
+
+@block(seconds=500, ci=True)
+def ur10_sessions_table():
+    """calibench fit arm-cmm ur10_A.csv ur10_B.csv ur10_C.csv ur10_D.csv --leave-one-out: each
+    series scored by a calibration on the other three, with physics and with the effects discovery
+    finds on those three (--effects discover)."""
+    from calibench.scenarios.arm_cmm.fit import REGISTER_FRACTION
+
+    fits = [ur10_sessions(), ur10_sessions("discover")]
+    order = ("ur10_A.csv", "ur10_B.csv", "ur10_C.csv", "ur10_D.csv")
+    rows = []
+    for label, f in zip(("`--model physics`", "with `--effects discover`"), fits):
+        cells = [
+            f"{e['mean_mm']:.3f} / {e['max_mm']:.2f}" + (" (in-sample)" if e["in_sample"] else "")
+            for e in (f["leave_one_out"][c] for c in order)
+        ]
+        rows.append([label, *cells])
+    others = len(order) - 1
+    return table(
+        [
+            f"each series left out: trained on the other {others}, its frame registered on "
+            f"{percent(REGISTER_FRACTION)} of its rows, scored on the rest (mean / max, mm)",
+            *[c.removeprefix("ur10_").removesuffix(".csv") for c in order],
+        ],
+        rows,
     )
