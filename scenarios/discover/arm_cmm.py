@@ -92,6 +92,7 @@ def discover_arm(
 
 
 def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, dict]:
+    from calibench.estimators.arm.calibration import loaded_joints
     from calibench.estimators.arm.kinematics import pose
     from calibench.estimators.arm.screening import screen
     from calibench.estimators.discovery.arm import (
@@ -206,7 +207,12 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
     ]
     not_applicable = {}
     if drivers["tau"] is not None:
-        candidates += [JointCompliance(joint=j) for j in range(1, N + 1)]
+        # the joints fit gives a compliance (the same rule): a joint gravity hardly loads here
+        # carries none, and is named as such
+        loaded, unloaded = loaded_joints(chain, q)
+        candidates += [JointCompliance(joint=j) for j in loaded]
+        for name, why in unloaded.items():
+            not_applicable[f"joint_compliance:joint{name.removeprefix('compliance')}"] = why
     else:
         not_applicable["joint_compliance"] = (
             f"the arm file {arm.name} gives no masses: no gravity torques"

@@ -56,8 +56,8 @@ def arm_confounds(sig, terms, candidates, drivers, found) -> list[dict]:
                     "axis": "xyz",
                     "with": "geometry",
                     "why": f"within these postures joint {c.joint}'s gravity torque "
-                    f"({tau.min():.0f} to "
-                    f"{tau.max():.0f} N m) moves the point almost as the kinematic errors do: "
+                    f"({tau.min():.3g} to "
+                    f"{tau.max():.3g} N m) moves the point almost as the kinematic errors do: "
                     f"{100 * frac:.0f} % of a compliance's effect is absorbed by them, so the "
                     "recording "
                     "cannot show it, yet a calibration without it will not carry to postures "

@@ -85,3 +85,12 @@ def test_a_recording_the_effects_never_read_is_held_out(shared_data, tmp_path):
     shutil.copy(shared_data / "ur10_landgraf" / "ur10_B.csv", b)
     fit = _fit(b, tmp_path / "f", "--effects", str(found / "discovery.json"))
     assert "in_sample" not in fit and fit["holdout"]["b.csv"]["samples"] > 300
+
+
+def test_discover_names_the_joints_gravity_hardly_loads(shared_data, tmp_path):
+    """discover gives a joint a compliance candidate by fit's own rule, and names the joints it
+    does not (their torque said in N m, not rounded to zero)."""
+    found = _discover(shared_data / "ur10_landgraf" / "ur10_D.csv", tmp_path / "d")
+    said = found["not_accepted"]
+    assert "carries at most" in said["joint_compliance:joint6"]
+    assert "carries at most" not in said.get("joint_compliance:joint2", "")
