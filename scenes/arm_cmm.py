@@ -38,6 +38,10 @@ class ArmDescription:
     range_rad : (N, 2) the postures a simulation draws from.
     mass_kg : (N,) or None; com_mm : (N, 3) or None, in each link's own frame.
     tool_mm : (3,) the measured point in the flange frame (a first guess on real data).
+    coupling : (N, N) or None: an arm driven through cables or differentials, joint angles =
+        coupling @ motor angles (None: each motor turns its own joint).
+    cable_stiffness_nm_per_rad : (N,) or None: each motor's cable, seen at the motor (inf: rigid);
+        the cables stretch under the joints' loads carried back through the coupling.
     """
 
     name: str
@@ -52,6 +56,8 @@ class ArmDescription:
     com_mm: tuple | None = None
     tool_mass_kg: float = 0.0
     gravity_m_s2: tuple = (0.0, 0.0, -9.81)
+    coupling: tuple | None = None
+    cable_stiffness_nm_per_rad: tuple | None = None
     source: str = ""
 
     @property
@@ -63,6 +69,15 @@ class ArmDescription:
     def has_masses(self) -> bool:
         """Whether every joint's link has a mass and a centre of mass."""
         return self.mass_kg is not None
+
+    def motor_to_joint(self) -> np.ndarray:
+        """(N, N) joint angles = this @ motor angles (the identity without a coupling)."""
+        return np.eye(self.n_joints) if self.coupling is None else np.array(self.coupling)
+
+    def cable_compliance(self) -> np.ndarray:
+        """(N,) rad / N m of each motor's cable (0: rigid, or no cables described)."""
+        k = self.cable_stiffness_nm_per_rad
+        return np.zeros(self.n_joints) if k is None else 1.0 / np.asarray(k, float)
 
     def nominal(self) -> np.ndarray:
         """(N, 5) the drawing's a, d (mm), alpha, theta, beta (rad) per joint (beta = 0)."""
@@ -158,7 +173,7 @@ def _vector(
 
 def arm_from_table(t: dict, where: str = "arm") -> ArmDescription:
     """Validate a parsed ARM.toml; every defect is one ArmFileError naming the field."""
-    known = {"name", "convention", "gravity_m_s2", "joint", "tool"}
+    known = {"name", "convention", "gravity_m_s2", "joint", "tool", "transmission"}
     extra = set(t) - known
     if extra:
         raise ArmFileError(
@@ -234,6 +249,7 @@ def arm_from_table(t: dict, where: str = "arm") -> ArmDescription:
         raise ArmFileError(
             f"{where}: gravity_m_s2 has magnitude {np.linalg.norm(g):.3g}: expected about 9.81"
         )
+    coupling, cables = _transmission(t.get("transmission"), where, len(joints))
     return ArmDescription(
         name=name,
         convention=conv,
@@ -247,5 +263,61 @@ def arm_from_table(t: dict, where: str = "arm") -> ArmDescription:
         com_mm=tuple(com) if com else None,
         tool_mass_kg=_number(tool, "mass_kg", f"{where}: [tool]", default=0.0, lo=0.0, hi=1e4),
         gravity_m_s2=g,
+        coupling=coupling,
+        cable_stiffness_nm_per_rad=cables,
         source=where,
     )
+
+
+def _transmission(table, where: str, N: int) -> tuple[tuple | None, tuple | None]:
+    """The optional [transmission] table: (coupling (N, N) rows, cable stiffness (N,)), each None
+    when absent (a coupling without cables is rigid; cables without a coupling drive their own
+    joint)."""
+    if table is None:
+        return None, None
+    w = f"{where}: [transmission]"
+    if not isinstance(table, dict):
+        raise ArmFileError(f"{w} must be a table")
+    extra = set(table) - {"coupling", "cable_stiffness_nm_per_rad"}
+    if extra:
+        raise ArmFileError(
+            f"{w}: unknown field(s) {', '.join(sorted(extra))} (known: "
+            "cable_stiffness_nm_per_rad, coupling)"
+        )
+    coupling = None
+    if "coupling" in table:
+        rows = table["coupling"]
+        if (
+            not isinstance(rows, list)
+            or len(rows) != N
+            or not all(isinstance(r, list) and len(r) == N for r in rows)
+        ):
+            raise ArmFileError(
+                f"{w}: coupling must be {N} rows of {N} numbers (joint angles = coupling @ motor "
+                "angles), one row per joint"
+            )
+        coupling = tuple(
+            _vector({"coupling": r}, "coupling", f"{w}: row {i}", N, bound=1e3)
+            for i, r in enumerate(rows, 1)
+        )
+        cond = np.linalg.cond(np.array(coupling))
+        if not cond < 1e10:
+            raise ArmFileError(
+                f"{w}: coupling is singular (condition number {cond:.3g}): some joint angle is "
+                "not set by the motors, or two motors move the joints alike"
+            )
+    cables = None
+    if "cable_stiffness_nm_per_rad" in table:
+        v = table["cable_stiffness_nm_per_rad"]
+        ok = (
+            isinstance(v, list)
+            and len(v) == N
+            and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v)
+        )
+        if not ok or not all(x > 0 for x in v):  # NaN fails x > 0 too
+            raise ArmFileError(
+                f"{w}: cable_stiffness_nm_per_rad must be {N} positive numbers (N m / rad per "
+                f"motor; inf for a rigid cable), not {v!r}"
+            )
+        cables = tuple(float(x) for x in v)
+    return coupling, cables

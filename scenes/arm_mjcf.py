@@ -201,7 +201,9 @@ def build_mjcf(
         fromto="{ca[0]} {ca[1]} {ca[2] - 0.02} {cb[0]} {cb[1]} {cb[2] - 0.02}" size="0.008"
         rgba="0.3 0.3 0.35 1"/>"""
     reach = max(arm.reach_mm / 1000, 0.5)
-    return f"""
+    return _with_cables(
+        arm,
+        f"""
 <mujoco model={quoteattr(arm.name)}>
   <compiler angle="radian" autolimits="true"/>
   <option gravity="{g[0]:.17g} {g[1]:.17g} {g[2]:.17g}" timestep="0.0005">
@@ -218,7 +220,28 @@ def build_mjcf(
     </body>
   </worldbody>
 </mujoco>
-"""
+""",
+    )
+
+
+def _with_cables(arm: ArmDescription, xml: str) -> str:
+    """``xml`` with one fixed tendon per motor of an arm with a transmission: its length is the
+    motor's angle seen from the joints (the inverse coupling's row), its spring the cable's
+    (stiffness 0 for a rigid one; the simulation sets it and the rest lengths)."""
+    if arm.coupling is None and arm.cable_stiffness_nm_per_rad is None:
+        return xml
+    inv = np.linalg.inv(arm.motor_to_joint())
+    c = arm.cable_compliance()
+    k = np.where(c > 0, 1.0 / np.where(c > 0, c, 1.0), 0.0)
+    cables = ""
+    for m in range(arm.n_joints):
+        joints = "".join(
+            f'<joint joint="q{j + 1}" coef="{inv[m, j]:.17g}"/>'
+            for j in range(arm.n_joints)
+            if inv[m, j] != 0
+        )
+        cables += f'\n    <fixed name="cable{m + 1}" stiffness="{k[m]:.17g}">{joints}</fixed>'
+    return xml.replace("</worldbody>", f"</worldbody>\n  <tendon>{cables}\n  </tendon>", 1)
 
 
 def _key(v) -> tuple | None:

@@ -90,10 +90,13 @@ class ArmTruth:
 
     delta : (5 N + 3,) errors, or () for :func:`default_errors`.
     stiffness_nm_per_rad : (N,) per joint, or () for a rigid arm (inf is rigid too).
+    cable_stiffness_nm_per_rad : (N,) per motor of an arm with a transmission, or () for the
+        description's cables (inf: a rigid cable).
     """
 
     delta: tuple = ()
     stiffness_nm_per_rad: tuple = ()
+    cable_stiffness_nm_per_rad: tuple = ()
     tracker_pos_mm: tuple = (2200.0, -900.0, 350.0)  # the tracker's head in the base frame
     tracker_yaw_rad: float = 2.75  # it faces the arm
     tracker_tilt_rad: tuple = (0.004, -0.003)
@@ -196,6 +199,24 @@ class ArmSim:
                 f"truth.stiffness_nm_per_rad: {N} positive values (inf for a rigid joint)"
             )
         self.stiffness = k
+        self.coupling = self.arm.motor_to_joint()
+        if len(truth.cable_stiffness_nm_per_rad):
+            kc = np.asarray(truth.cable_stiffness_nm_per_rad, float)
+            if len(kc) != N or np.any(~(kc > 0)):
+                raise BadInput(
+                    f"truth.cable_stiffness_nm_per_rad: {N} positive values (inf for a rigid cable)"
+                )
+            cable_c = 1.0 / kc
+        else:
+            cable_c = self.arm.cable_compliance()
+        # joint deflection = this @ the joints' gravity torques: each joint's own spring, and each
+        # motor's cable stretched by the torque the coupling carries back to it (virtual work:
+        # motor torques = coupling.T @ joint torques), its stretch passed on to the joints
+        self.compliance = (
+            np.diag(np.where(np.isfinite(k), 1.0 / k, 0.0))
+            + (self.coupling * cable_c) @ self.coupling.T
+        )
+        self.cable_compliance = cable_c
         R, p = truth.tracker2base()
         q = np.empty(4)
         mujoco.mju_mat2Quat(q, R.ravel())
@@ -215,6 +236,10 @@ class ArmSim:
             self.data = mujoco.MjData(self.model)
         self._probe = self.model.site("probe").id
         self._jac = np.zeros((3, self.model.nv))
+        if self.model.ntendon:  # the cables' springs, for MuJoCo's own statics (a test's check)
+            self.model.tendon_stiffness[:] = np.where(
+                cable_c > 0, 1.0 / np.maximum(cable_c, 1e-300), 0.0
+            )
 
     @property
     def n_joints(self) -> int:
@@ -223,8 +248,8 @@ class ArmSim:
 
     @property
     def compliant(self) -> bool:
-        """Whether any joint has a finite stiffness (the postures then sag under gravity)."""
-        return bool(np.any(np.isfinite(self.stiffness)))
+        """Whether any joint or cable gives way (the postures then sag under gravity)."""
+        return bool(np.any(self.compliance != 0))
 
     # --- physics ----------------------------------------------------------------------------------
     def gravity_torques(self, q_rad: np.ndarray) -> np.ndarray:
@@ -254,23 +279,32 @@ class ArmSim:
     def link_angles(
         self, q_motor: np.ndarray, tol_rad: float = 1e-13, max_iter: int = 50
     ) -> np.ndarray:
-        """Where the links settle for motor angles (n, N): k (q - q_motor) = tau_gravity(q).
+        """Where the links settle for motor angles (n, N) (in joint units: coupling @ the motors'
+        angles): q - q_motor = compliance @ tau_gravity(q), the joints' springs and the cables'.
 
         Fixed-point iteration on MuJoCo's gravity torques; rigid joints stay at the motor angle.
         """
         q_motor = np.atleast_2d(np.asarray(q_motor, float))
         if not self.compliant:
             return q_motor.copy()
-        c = np.where(np.isfinite(self.stiffness), 1.0 / self.stiffness, 0.0)
+        diagonal = not np.any(self.compliance - np.diag(np.diag(self.compliance)))
+        c = np.diag(self.compliance) if diagonal else None
         q = q_motor.copy()
         for _ in range(max_iter):
-            q_new = q_motor + c * self.gravity_torques(q)
+            tau = self.gravity_torques(q)
+            q_new = q_motor + (c * tau if c is not None else tau @ self.compliance.T)
             if np.max(np.abs(q_new - q)) < tol_rad:
                 return q_new
             q = q_new
         raise RuntimeError(
             "the arm's static equilibrium did not converge (stiffness too low for its weight?)"
         )
+
+    def cable_references(self, q_motor: np.ndarray) -> None:
+        """Set the MuJoCo cables' rest lengths to motor angles ``q_motor`` (N,) (joint units):
+        each cable's length is its motor's angle seen from the joints (inverse coupling)."""
+        m = np.linalg.solve(self.coupling, np.asarray(q_motor, float))
+        self.model.tendon_lengthspring[:] = m[:, None]
 
     def settle_by_stepping(self, q_motor: np.ndarray, seconds: float = 10.0) -> np.ndarray:
         """The same equilibrium reached the long way: the model stepped to rest from the motor

@@ -204,7 +204,8 @@ def ur10_targets():
     return (
         f"Where that leaves the issue's targets: the physics model alone {at} {mean_t:.2f} / "
         f"{max_t} mm on C ({c['mean_mm']:.3f} / {c['max_mm']:.2f}){floor}; with the per-session "
-        f"gear harmonics{' (in-sample)' if inside else ''} {means} under {mean_t:.2f} mm mean and {maxes}, and A is "
+        f"gear harmonics{' (in-sample)' if inside else ''} {means} under {mean_t:.2f} mm mean "
+        f"and {maxes}, and A is "
         f"{'under' if a < aim else 'not under'} the {aim} mm aim. With the table over "
         f"{table_joints(GEAR_Q2)} besides{' (in-sample)' if inside_q2 else ''}, the means are "
         f"{span([q2[x]['mean_mm'] for x in ALL], '.3f')} mm ({words(at_aim) if at_aim else 'none'} "

@@ -45,6 +45,10 @@ PRIOR = 1.0
 OUTLIER_P = 1e-6
 CHI2_3_QUANTILE = 30.66
 CHI2_3_MEDIAN = 2.366
+# a cable is far softer than a gearbox (a cable-driven wrist: 1e3 N m / rad against a geared
+# joint's 1e5), so a motor carrying a fiftieth of the most loaded one's torque still stretches
+# its cable measurably
+CABLE_LOADED_FRACTION = 0.02
 LOADED_FRACTION = 0.1  # a joint whose gravity torque stays under 10 % of the most loaded one's
 
 
@@ -81,7 +85,9 @@ class ArmCalibration:
         return cast(PointState, self.ident.state)
 
 
-def loaded_joints(chain: Chain, q_rad: np.ndarray) -> tuple[tuple[int, ...], dict[str, str]]:
+def loaded_joints(
+    chain: Chain, q_rad: np.ndarray, fraction: float = LOADED_FRACTION
+) -> tuple[tuple[int, ...], dict[str, str]]:
     """The joints whose compliance is a parameter: those whose gravity torque over the postures
     is large enough for it to show.
 
@@ -89,11 +95,12 @@ def loaded_joints(chain: Chain, q_rad: np.ndarray) -> tuple[tuple[int, ...], dic
     ----------
     chain : the arm (no masses: no joint).
     q_rad : (n, N) postures.
+    fraction : the share of the most loaded joint's peak torque a joint needs.
 
     Returns
     -------
     (joints, why) : the joints (1-based) whose peak gravity torque is at least
-    :data:`LOADED_FRACTION` of the most loaded joint's, and {``compliance<j>``: why} for the others.
+    ``fraction`` of the most loaded joint's, and {``compliance<j>``: why} for the others.
     """
     if not chain.has_masses:
         return (), {}
@@ -102,15 +109,42 @@ def loaded_joints(chain: Chain, q_rad: np.ndarray) -> tuple[tuple[int, ...], dic
     top = max(peak.max(), 1e-12)
     keep, why = [], {}
     for j, p in enumerate(peak, 1):
-        if p >= LOADED_FRACTION * top:
+        if p >= fraction * top:
             keep.append(j)
         else:
             why[f"compliance{j}"] = (
                 f"joint {j} carries at most {p:.2g} N m of gravity torque here (under "
-                f"{100 * LOADED_FRACTION:.0f} % of the {top:.3g} N m of the most loaded joint): "
+                f"{100 * fraction:.0f} % of the {top:.3g} N m of the most loaded joint): "
                 "its compliance would not show"
             )
     return tuple(keep), why
+
+
+def loaded_motors(chain: Chain, q_rad: np.ndarray) -> tuple[tuple[int, ...], dict[str, str]]:
+    """For an arm with a transmission (``chain.coupling``): the motors whose cable compliance is a
+    parameter, by :func:`loaded_joints`' rule on the torques the coupling carries back to the
+    motors (coupling.T @ the joints' gravity torques).
+
+    Returns
+    -------
+    (motors, why) : the motors (1-based) kept, and {``cable_compliance<m>``: why} for the others.
+    """
+    if not chain.has_masses or chain.coupling is None:
+        return (), {}
+    tau = np.abs(gravity_torques(chain, q_rad) @ np.asarray(chain.coupling, float))
+    peak = tau.max(axis=0)
+    top = max(peak.max(), 1e-12)
+    keep = tuple(m for m, p in enumerate(peak, 1) if p >= CABLE_LOADED_FRACTION * top)
+    why = {
+        f"cable_compliance{m}": (
+            f"motor {m}'s cable carries at most {p:.2g} N m of gravity torque here (under "
+            f"{100 * CABLE_LOADED_FRACTION:.0f} % of the {top:.3g} N m of the most loaded motor): "
+            "its stretch would not show"
+        )
+        for m, p in enumerate(peak, 1)
+        if m not in keep
+    }
+    return keep, why
 
 
 def calibrate(
@@ -134,7 +168,9 @@ def calibrate(
     xyz_mm : (n, 3) measured points, each in its recording's instrument frame.
     recording : (n,) int, the recording (own base frame) of each row, 0 .. R - 1.
     sigma_mm : (n, 3) the instrument's stated 1-sigma per value, or None.
-    model : ``"geometry"``, or ``"physics"`` (adds the loaded joints' compliance).
+    model : ``"geometry"``, or ``"physics"`` (adds the loaded joints' compliance; for an arm
+        with a transmission, the loaded motors' cables' instead: a cable that drives one joint
+        alone is that joint's compliance under another name).
     parallel : consecutive joint pairs (1-based) with parallel axes, for the dropped
         parameters' reasons.
     robust : whether to leave out the rows no Gaussian scatter explains (step 3).
@@ -168,7 +204,13 @@ def _calibrate(
     chain, q_rad, xyz_mm, recording, sigma_mm, model, parallel, robust, prior, angle_terms
 ) -> ArmCalibration:
     """:func:`calibrate`, its singular systems not yet said."""
-    joints, why = loaded_joints(chain, q_rad) if model == "physics" else ((), {})
+    joints: tuple[int, ...] = ()
+    motors: tuple[int, ...] = ()
+    why: dict[str, str] = {}
+    if model == "physics" and chain.coupling is not None:
+        motors, why = loaded_motors(chain, q_rad)
+    elif model == "physics":
+        joints, why = loaded_joints(chain, q_rad)
     keep = np.ones(len(q_rad), bool)
     outliers = np.zeros(0, int)
     for _ in range(4):
@@ -181,6 +223,7 @@ def _calibrate(
             compliance_joints=joints,
             prior=prior,
             angle_terms=angle_terms,
+            cable_motors=motors,
         )
         held = problem.held_tool()
         n_par = len(problem.names)

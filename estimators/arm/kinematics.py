@@ -62,6 +62,8 @@ class Chain:
     com_mm : (N, 3) each link's centre of mass in its own link frame.
     tool_mass_kg : mass carried at the tool point.
     gravity_m_s2 : (3,) gravity in the base frame.
+    coupling : (N, N) joint angles = coupling @ motor angles (cables, differentials), or None
+        (each motor turns its own joint).
 
     Treat a chain as immutable, its arrays too: its nominal table is computed once and kept.
 
@@ -82,6 +84,7 @@ class Chain:
     gravity_m_s2: np.ndarray = dataclasses.field(
         default_factory=lambda: np.array([0.0, 0.0, -9.81])
     )
+    coupling: np.ndarray | None = None
 
     def __post_init__(self):
         if self.convention not in OPS:
@@ -389,7 +392,7 @@ def _scales(names: tuple) -> tuple:
         else 1e-4
         if n.startswith("angle_")
         else 1e-5
-        if n.startswith("compliance")
+        if n.startswith(("compliance", "cable_compliance"))
         else 1e-6
         if n.startswith("tilt_compliance")
         else 0.1
@@ -402,7 +405,10 @@ def geometric_columns(names) -> np.ndarray:
     identifiable basis's tolerance: a compliance's column grows with the arm's torques (a 200 kg
     arm's, 25 times an angle's), and would otherwise lift the tolerance over columns of the
     geometry that the data do determine."""
-    return np.array([not n.startswith(("compliance", "tilt_compliance")) for n in names], bool)
+    return np.array(
+        [not n.startswith(("compliance", "tilt_compliance", "cable_compliance")) for n in names],
+        bool,
+    )
 
 
 class ArmParameters:

@@ -111,6 +111,10 @@ class PointProblem(ArmParameters):
         the chain's masses); empty for a geometry-only model.
     tilt_joints : joints whose bearing tilts under the moment across their axis (rad / N m):
         everything the joint carries turns by c M_perp about the joint's origin.
+    cable_motors : motors (1-based) of an arm with a transmission (``chain.coupling``) whose
+        cable stretches (rad / N m at the motor): the joints' gravity torques carried back to the
+        motor (coupling column . tau) stretch it, and the stretch turns the joints it drives
+        (the coupling column times it).
     angle_terms : :class:`AngleTerm` s: joint-angle errors as functions of the joint's own
         angle (a discovery's transmission harmonics, an eccentricity, a table).
     prior : None, or the prior's scale: each kinematic error (not the tool, the frames or the
@@ -133,6 +137,7 @@ class PointProblem(ArmParameters):
         tilt_joints=(),
         prior: float | None = None,
         angle_terms=(),
+        cable_motors=(),
     ):
         self.chain = chain
         self.q = np.asarray(q_rad, float)
@@ -145,7 +150,10 @@ class PointProblem(ArmParameters):
         self.extra_var: float | np.ndarray = 0.0
         self.cj = np.asarray(sorted(compliance_joints), int)
         self.tj = np.asarray(sorted(tilt_joints), int)
-        self.compliance = len(self.cj) + len(self.tj) > 0
+        self.cm = np.asarray(sorted(cable_motors), int)
+        coupling = np.eye(N) if chain.coupling is None else np.asarray(chain.coupling, float)
+        self.cable_cols = coupling[:, self.cm - 1]  # (N, k): what a motor's stretch does to q
+        self.compliance = len(self.cj) + len(self.tj) + len(self.cm) > 0
         if self.compliance and not chain.has_masses:
             raise ValueError("a compliance model needs the arm's masses")
         # gravity's moments at the readings, once: the links' sag is small enough that the
@@ -153,11 +161,14 @@ class PointProblem(ArmParameters):
         if self.compliance:
             M = gravity_moments(chain, self.q)
             w, _ = joint_axes(pose(chain, self.q))
-            self.tau = np.einsum("nij,nij->ni", w, M)[:, self.cj - 1]
+            tau = np.einsum("nij,nij->ni", w, M)
+            self.tau = tau[:, self.cj - 1]
+            self.tau_motor = tau @ self.cable_cols
             Mt, wt = M[:, self.tj - 1], w[:, self.tj - 1]
             self.m_perp = Mt - np.einsum("nij,nij->ni", Mt, wt)[:, :, None] * wt
         else:
             self.tau, self.m_perp = np.zeros((n, 0)), np.zeros((n, 0, 3))
+            self.tau_motor = np.zeros((n, 0))
         if not (np.isfinite(self.q).all() and np.isfinite(self.y).all()):
             raise ValueError("point data must be finite")
         self.N = N
@@ -165,7 +176,8 @@ class PointProblem(ArmParameters):
         self.terms = tuple(angle_terms)
         self.F = self._term_functions(self.q, self.rec)
         self.na = sum(F.shape[1] for F in self.F)
-        self.nc = len(self.cj) + len(self.tj) + self.na
+        self.n_phys = len(self.cj) + len(self.tj) + len(self.cm)
+        self.nc = self.n_phys + self.na
         frame = ("rx", "ry", "rz", "x", "y", "z")
         suffix = [""] if self.n_rec == 1 else [f"_{r + 1}" for r in range(self.n_rec)]
         self.frame_names = tuple(f"base_{f}{s}" for s in suffix for f in frame)
@@ -209,6 +221,7 @@ class PointProblem(ArmParameters):
             param_names(self.N)
             + tuple(f"compliance{j}" for j in self.cj)
             + tuple(f"tilt_compliance{j}" for j in self.tj)
+            + tuple(f"cable_compliance{m}" for m in self.cm)
             + tuple(n for t in self.terms for n in t.names)
             + self.frame_names
         )
@@ -229,7 +242,7 @@ class PointProblem(ArmParameters):
         kin = np.array([5 * i + k for i in range(N) for k in range(4)])
         beta = np.array([5 * i + 4 for i in range(N)])
         out = [kin, beta]
-        n_comp = len(self.cj) + len(self.tj)
+        n_comp = self.n_phys
         if n_comp:
             out.append(np.arange(nk, nk + n_comp))
         if self.na:
@@ -262,13 +275,17 @@ class PointProblem(ArmParameters):
             self.R_ref = R.copy()
         return PointState(np.zeros(self.nk), np.zeros(self.nc), R, t)
 
-    def _q_eff(self, s: PointState, q=None, tau=None, F=None) -> np.ndarray:
+    def _q_eff(self, s: PointState, q=None, tau=None, F=None, tau_motor=None) -> np.ndarray:
         """The links' angles: the readings, sagged by compliance, less the angle terms' errors."""
-        q, tau, F = (self.q, self.tau, self.F) if q is None else (q, tau, F)
+        if q is None:
+            q, tau, F, tau_motor = self.q, self.tau, self.F, self.tau_motor
         out = q.copy()
         if self.compliance and tau is not None and len(self.cj):
             out[:, self.cj - 1] += s.comp[: len(self.cj)] * tau
         k = len(self.cj) + len(self.tj)
+        if len(self.cm) and tau_motor is not None:
+            out += (tau_motor * s.comp[k : k + len(self.cm)]) @ self.cable_cols.T
+        k += len(self.cm)
         for t, Ft in zip(self.terms, F or ()):
             out[:, t.joint - 1] -= Ft @ s.comp[k : k + Ft.shape[1]]
             k += Ft.shape[1]
@@ -291,7 +308,7 @@ class PointProblem(ArmParameters):
             q_eff, m_perp = self._q_eff(s), self.m_perp
         else:
             q_rad = np.atleast_2d(np.asarray(q_rad, float))
-            tau, m_perp = None, None
+            tau, m_perp, tau_motor = None, None, None
             if self.compliance:
                 other = PointProblem(
                     self.chain,
@@ -299,12 +316,13 @@ class PointProblem(ArmParameters):
                     np.zeros((len(q_rad), 3)),
                     compliance_joints=self.cj,
                     tilt_joints=self.tj,
+                    cable_motors=self.cm,
                 )
-                tau, m_perp = other.tau, other.m_perp
+                tau, m_perp, tau_motor = other.tau, other.m_perp, other.tau_motor
             F = self._term_functions(
                 q_rad, None if session is None else np.full(len(q_rad), session)
             )
-            q_eff = self._q_eff(s, q_rad, tau, F)
+            q_eff = self._q_eff(s, q_rad, tau, F, tau_motor)
         P = pose(self.chain, q_eff, s.delta)
         return P.point + (self._tilt(s, P, m_perp)[0] if len(self.tj) else 0.0)
 
@@ -353,6 +371,10 @@ class PointProblem(ArmParameters):
             shift, Jt = self._tilt(s, P, self.m_perp)
             cols.append(np.einsum("nij,njk->nik", R, Jt))
             p = p + shift
+        if len(self.cm):
+            Jq = Jk[:, :, [theta_index(j) for j in range(1, self.N + 1)]]  # (n, 3, N)
+            Jc = np.einsum("nij,jk,nk->nik", Jq, self.cable_cols, self.tau_motor)
+            cols.append(np.einsum("nij,njk->nik", R, Jc))
         for t, Ft in zip(self.terms, self.F):
             Jq = Jk[:, :, theta_index(t.joint)]  # (n, 3): the link turns by -Ft @ c
             cols.append(-np.einsum("nij,nj,nk->nik", R, Jq, Ft))

@@ -39,6 +39,7 @@ NOT_IN_CHAIN = {
     "name": "the arm's name, for reports and messages",
     "range_rad": "the postures a simulation draws from; a fit takes the postures it is given",
     "source": "the file the description was read from",
+    "cable_stiffness_nm_per_rad": "the twin's cables; a fit estimates their compliance itself",
 }
 
 

@@ -65,7 +65,7 @@ def calibrate(*args, **kwargs) -> ArmCalibration:
 def _unit_and_factor(name: str) -> tuple[str, float]:
     if name.startswith("angle_"):
         return "urad", 1e6
-    if name.startswith(("compliance", "tilt_compliance")):
+    if name.startswith(("compliance", "tilt_compliance", "cable_compliance")):
         return "urad_per_nm", 1e6
     if param_is_angle([name])[0] or name.startswith("base_r"):
         return "urad", 1e6

@@ -92,14 +92,12 @@ def discover_arm(
 
 
 def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, dict]:
-    from calibench.estimators.arm.calibration import loaded_joints
     from calibench.estimators.arm.kinematics import pose
     from calibench.estimators.arm.screening import screen
     from calibench.estimators.discovery.arm import (
         ArmThermalExpansion,
         EncoderEccentricity,
         Geometry,
-        JointCompliance,
         TransmissionSearch,
         joint_table,
     )
@@ -205,18 +203,8 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
         TransmissionSearch(joint=j, harmonics=harmonic_grid(q[:, j - 1]), per_recording=True)
         for j in range(1, N + 1)
     ]
-    not_applicable = {}
-    if drivers["tau"] is not None:
-        # the joints fit gives a compliance (the same rule): a joint gravity hardly loads here
-        # carries none, and is named as such
-        loaded, unloaded = loaded_joints(chain, q)
-        candidates += [JointCompliance(joint=j) for j in loaded]
-        for name, why in unloaded.items():
-            not_applicable[f"joint_compliance:joint{name.removeprefix('compliance')}"] = why
-    else:
-        not_applicable["joint_compliance"] = (
-            f"the arm file {arm.name} gives no masses: no gravity torques"
-        )
+    compliance, not_applicable, alike = compliance_candidates(chain, q, drivers, arm.name)
+    candidates += compliance
     thermal = ArmThermalExpansion()
     if thermal.applies(drivers):
         candidates.append(thermal)
@@ -244,6 +232,8 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
         found.cv_final = best[1]
     effects, fitted = describe_effects([sig], terms, found, drivers, noise)
     confounds = arm_confounds(sig, terms["xyz"], candidates, drivers, found)
+    accepted = {t.key for t in terms["xyz"]}
+    confounds += [c for key, c in alike.items() if key in accepted]
     located = locate_arm(sig, terms["xyz"], drivers, q, temp, seed)
     names = [e["name"] for e in effects if e["name"] != "geometry"]
     out = {
@@ -276,6 +266,71 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
     return out, {"signals": [sig], "fitted": fitted, "rows_used": parts}
 
 
+def compliance_candidates(chain, q: np.ndarray, drivers, name: str) -> tuple[list, dict, dict]:
+    """The compliance candidates, by fit's rules: each joint gravity loads enough
+    (:func:`~calibench.estimators.arm.calibration.loaded_joints`) and, for an arm with a
+    transmission, each loaded motor's cable (:func:`loaded_motors`; the joints then by the cables'
+    share, so that joint and cable compete on the same postures).
+
+    Returns
+    -------
+    (candidates, not_applicable, alike) : the candidates; {key: why} for those not offered;
+    {accepted joint key: confound} for a cable that drives one joint alone, which is that joint's
+    compliance under another name (said when the joint's is accepted).
+    """
+    from calibench.estimators.arm.calibration import (
+        CABLE_LOADED_FRACTION,
+        loaded_joints,
+        loaded_motors,
+    )
+    from calibench.estimators.discovery.arm import CableCompliance, JointCompliance
+
+    if drivers["tau"] is None:
+        return (
+            [],
+            {"joint_compliance": f"the arm file {name} gives no masses: no gravity torques"},
+            {},
+        )
+    cabled = chain.coupling is not None
+    loaded, unloaded = (
+        loaded_joints(chain, q, CABLE_LOADED_FRACTION) if cabled else loaded_joints(chain, q)
+    )
+    out: list = [JointCompliance(joint=j) for j in loaded]
+    why = {f"joint_compliance:joint{k.removeprefix('compliance')}": v for k, v in unloaded.items()}
+    alike = {}
+    if cabled:
+        motors, unloaded = loaded_motors(chain, q)
+        why.update(
+            {
+                f"cable_compliance:motor{k.removeprefix('cable_compliance')}": v
+                for k, v in unloaded.items()
+            }
+        )
+        C = np.asarray(chain.coupling, float)
+        for m in motors:
+            col = C[:, m - 1]
+            joints = np.flatnonzero(col) + 1
+            if len(joints) > 1:
+                out.append(CableCompliance(motor=m, column=tuple(col)))
+                continue
+            j = int(joints[0])
+            why[f"cable_compliance:motor{m}"] = (
+                f"motor {m} drives joint {j} alone: its cable's stretch is joint {j}'s compliance "
+                "under another name (one candidate for both)"
+            )
+            alike[f"joint_compliance:joint{j}"] = {
+                "effect": "joint_compliance",
+                "axis": "xyz",
+                "with": f"cable_compliance:motor{m}",
+                "why": f"motor {m} drives joint {j} alone: the stretch of its cable and the "
+                f"compliance of joint {j}'s gearing turn the joint alike, and no posture tells "
+                "them apart",
+                "experiment": f"read joint {j}'s angle at the link (a second encoder after the "
+                "cable), or measure the cable's stretch under a known torque on the bench",
+            }
+    return out, why, alike
+
+
 def _shared_unless_sessions_differ(sig, found, terms: list, drivers, fold, floor: float) -> None:
     """A harmonic with a phase per recording stays so only if it beats the same harmonic with
     one phase for all by ``floor`` of the held-out RMS (the extra coefficients otherwise fit
@@ -299,6 +354,11 @@ def _shared_unless_sessions_differ(sig, found, terms: list, drivers, fold, floor
             found.cv_final = cv_shared
 
 
+def _where(params: dict) -> str:
+    """What an effect acts on, in words: a motor's cable or a joint."""
+    return f"motor {params['motor']}" if "motor" in params else f"joint {params.get('joint', '-')}"
+
+
 def _arm_summary(name: str, found, effects: list, names: list) -> str:
     if not names:
         return (
@@ -306,7 +366,7 @@ def _arm_summary(name: str, found, effects: list, names: list) -> str:
             f"{found.cv_final * 1000:.0f} um (held out): nothing else found"
         )
     steps = "; ".join(
-        f"{e['name']} (joint {e['params'].get('joint', '-')}): {e['cv_rms_before'] * 1000:.0f} -> "
+        f"{e['name']} ({_where(e['params'])}): {e['cv_rms_before'] * 1000:.0f} -> "
         f"{e['cv_rms_after'] * 1000:.0f} um"
         for e in effects
         if e["name"] != "geometry"
@@ -336,7 +396,8 @@ def arm_truth(description, path: Path | None):
 
 def twin_tables(scenario: str, out: dict, config: Path | None, arm=None) -> tuple[dict, list[str]]:
     """The arm's twin: the chain's errors (``delta``, the identifiable ones found, the dropped
-    ones zero) and each joint's stiffness from its compliance under gravity."""
+    ones zero), each joint's stiffness from its compliance under gravity and each motor's cable
+    stiffness from its cable's."""
     import math
 
     from calibench.estimators.arm.kinematics import param_names
@@ -351,6 +412,11 @@ def twin_tables(scenario: str, out: dict, config: Path | None, arm=None) -> tupl
         if base is not None and base.stiffness_nm_per_rad
         else [math.inf] * N
     )
+    cables = (
+        list(base.cable_stiffness_nm_per_rad)
+        if base is not None and base.cable_stiffness_nm_per_rad
+        else list(description.cable_stiffness_nm_per_rad or [math.inf] * N)
+    )
     names, left = param_names(N), []
     for e in out["effects"]:
         p = e["params"]
@@ -362,9 +428,16 @@ def twin_tables(scenario: str, out: dict, config: Path | None, arm=None) -> tupl
             j = p["joint"] - 1
             c = p["urad_per_nm"] * 1e-6 + (1 / stiffness[j] if math.isfinite(stiffness[j]) else 0.0)
             stiffness[j] = 1 / c
+        elif e["name"] == "cable_compliance" and p["urad_per_nm"] > 0:
+            m = p["motor"] - 1
+            c = p["urad_per_nm"] * 1e-6 + (1 / cables[m] if math.isfinite(cables[m]) else 0.0)
+            cables[m] = 1 / c
         else:
             left.append(e["name"] + (f" (joint {p['joint']})" if "joint" in p else ""))
-    return {"arm-cmm": {"truth": {"delta": delta, "stiffness_nm_per_rad": stiffness}}}, left
+    truth = {"delta": delta, "stiffness_nm_per_rad": stiffness}
+    if description.coupling is not None or any(math.isfinite(k) for k in cables):
+        truth["cable_stiffness_nm_per_rad"] = cables
+    return {"arm-cmm": {"truth": truth}}, left
 
 
 # --- the plug-in (calibench.scenarios.discover.engine.Plugin) -------------------------------------

@@ -356,4 +356,45 @@ CASES = [
         2,
         "mass",
     ),
+    # [transmission]: a cable-driven or coupled arm's coupling and cables
+    (
+        "arm-coupling-wrong-shape",
+        {
+            "a.toml": ARM_TOML + "[transmission]\ncoupling = [[1, 0, 0], [0, 1, 0]]\n",
+            "r.csv": lambda p: p.write_text(arm_csv(*arm_rows(n_joints=2))),
+        },
+        ["fit", "arm-cmm", "{d}/r.csv", "--arm", "{d}/a.toml"],
+        2,
+        "coupling must be 2 rows of 2 numbers",
+    ),
+    (
+        "arm-coupling-singular",
+        {
+            "a.toml": ARM_TOML + "[transmission]\ncoupling = [[1, 1], [0.5, 0.5]]\n",
+            "r.csv": lambda p: p.write_text(arm_csv(*arm_rows(n_joints=2))),
+        },
+        ["discover", "arm-cmm", "{d}/r.csv", "--arm", "{d}/a.toml"],
+        2,
+        "coupling is singular",
+    ),
+    (
+        "arm-cable-stiffness-not-positive",
+        {
+            "a.toml": ARM_TOML + "[transmission]\ncable_stiffness_nm_per_rad = [1000.0, 0.0]\n",
+            "r.csv": lambda p: p.write_text(arm_csv(*arm_rows(n_joints=2))),
+        },
+        ["fit", "arm-cmm", "{d}/r.csv", "--arm", "{d}/a.toml"],
+        2,
+        "cable_stiffness_nm_per_rad must be 2 positive numbers",
+    ),
+    (
+        "arm-cable-stiffness-nan",
+        {
+            "a.toml": ARM_TOML + "[transmission]\ncable_stiffness_nm_per_rad = [1000.0, nan]\n",
+            "r.csv": lambda p: p.write_text(arm_csv(*arm_rows(n_joints=2))),
+        },
+        ["run", "arm-cmm", "--arm", "{d}/a.toml", "--out", "{d}/o"],
+        2,
+        "positive numbers",
+    ),
 ]
