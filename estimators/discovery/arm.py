@@ -37,12 +37,16 @@ class ArmDrivers(TypedDict, total=False):
 # --- the arm --------------------------------------------------------------------------------------
 @dataclasses.dataclass(frozen=True)
 class Geometry(Effect):
-    """Kinematic parameter errors of the chain (its identifiable combinations)."""
+    """Kinematic parameter errors of the chain (its identifiable combinations), about the
+    twin's."""
 
     name: str = "geometry"
     axis: str = "xyz"
     kept: tuple[int, ...] = ()
     names: tuple[str, ...] = ()
+    # fit's prior on the kinematic errors (zero mean, a machined arm's tolerances), as the
+    # engine's prior rows: the signal's noise over each error's prior std (() for none)
+    prior_weight: tuple[float, ...] = ()
 
     def __post_init__(self):
         object.__setattr__(self, "needs", ("J",))

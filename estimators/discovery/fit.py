@@ -23,6 +23,22 @@ class Signal:
     u: np.ndarray | None = None
 
 
+def prior_rows(terms_at: list[tuple], n_cols: int) -> np.ndarray:
+    """The rows (p, n_cols) a zero-mean Gaussian prior on some terms' coefficients adds to a least
+    squares whose columns are laid out as ``terms_at`` says ((term, first column, width) each):
+    one row per coefficient of a term with a ``prior_weight`` (its k weights: the signal's noise
+    over the prior's std of each coefficient, so a row weighs as one measurement of that
+    precision would). Terms without one add no rows."""
+    rows = []
+    for t, at, k in terms_at:
+        w = getattr(t, "prior_weight", ())
+        if len(w):
+            P = np.zeros((k, n_cols))
+            P[np.arange(k), at + np.arange(k)] = w
+            rows.append(P)
+    return np.vstack(rows) if rows else np.zeros((0, n_cols))
+
+
 def lstsq(X, r):
     """Least squares on scaled columns: QR with column pivoting (LAPACK's gelsy), which handles a
     rank-deficient X as the SVD does at a fraction of its cost on tall matrices."""
@@ -74,6 +90,7 @@ def cv_residuals(
         train = ~test
         X = sig.base
         prefix: tuple = ()
+        at = []
         for t in terms:
             # A searched shape depends on the fold and on the terms before it, nothing else: the
             # same search beside the same terms is fixed once (a selection round re-evaluates the
@@ -92,9 +109,11 @@ def cv_residuals(
                 cols = term_columns(t, drivers, sig, X, train, cache)
                 if key is not None:
                     cache[key] = cols
+            at.append((t, X.shape[1], cols.shape[1]))
             X = np.hstack([X, cols])
             prefix += (id(t),)
-        coef = lstsq(X[train], sig.r[train])
+        P = prior_rows(at, X.shape[1])
+        coef = lstsq(np.vstack([X[train], P]), np.r_[sig.r[train], np.zeros(len(P))])
         out[test] = sig.r[test] - X[test] @ coef
     return out
 
@@ -119,13 +138,16 @@ def fit_terms(sig: Signal, terms: list, drivers: dict, cache: dict, sigma: float
             cols = term_columns(t, drivers, sig, X, None, cache)
         fixed.append((t, X.shape[1], cols.shape[1]))
         X = np.c_[X, cols]
-    coef = lstsq(X, sig.r)
+    P = prior_rows(fixed, X.shape[1])
+    coef = lstsq(np.vstack([X, P]), np.r_[sig.r, np.zeros(len(P))])
     res = sig.r - X @ coef
     s_res = float(np.sqrt(res @ res / max(len(res) - X.shape[1], 1)))
     s = max(s_res, sigma or 0.0)
-    scale = np.linalg.norm(X, axis=0)
+    # the covariance of the estimate the prior's rows shaped: theirs beside the data's
+    XP = np.vstack([X, P])
+    scale = np.linalg.norm(XP, axis=0)
     scale[scale == 0] = 1.0
-    Xs = X / scale
+    Xs = XP / scale
     cov = np.linalg.pinv(Xs.T @ Xs) / np.outer(scale, scale) * s * s
     return fixed, coef, cov, res
 

@@ -53,6 +53,29 @@ def _coef_z(sig, terms, drivers, cache, sigma, term_index) -> float:
         return 0.0
 
 
+def small_gain(axis: str, gain: float, floor: float, z: float, z_min: float) -> str:
+    """Why a candidate below the floor is not accepted, its gain to two figures (a real effect
+    that matters little here is not scored zero) and, when its coefficients stand out of the
+    noise anyway, that it is real but too small to matter at this residual."""
+    cut = (
+        f"cuts the held-out RMS of {axis} by {100 * gain:.2g} %"
+        if gain > 0
+        else f"does not cut the held-out RMS of {axis} ({100 * -gain:.2g} % higher)"
+    )
+    text = f"{cut} (< {100 * floor:.0f} %)"
+    if z >= z_min and gain > 0:
+        text += (
+            f", though {z:.1f} standard errors from zero beside the effects before it: real, too "
+            "small to matter against what this recording leaves"
+        )
+    elif z >= z_min:
+        text += (
+            f", though {z:.1f} standard errors from zero fitted on every row: what it fits there "
+            "does not carry to postures held out"
+        )
+    return text
+
+
 def helps_everywhere(sig, terms, drivers, cache, fold, parts: int = 4, need: int = 3) -> bool:
     """A periodic error repeats: its last term must cut the held-out squared residual in at
     least ``need`` of ``parts`` stretches of the travel (a local bump helps in one)."""
@@ -118,14 +141,14 @@ def select(
         accepted = None
         for gain, c, sse in trials:
             a = c.axis
-            if gain < floor:
-                rejected.setdefault(
-                    c.key,
-                    f"cuts the held-out RMS of {a} by {100 * max(gain, 0):.1f} % "
-                    f"(< {100 * floor:.0f} %)",
-                )
-                continue
             sig_a = noise[a].sigma_mm * noise[a].inflation if noise[a].sigma_mm else None
+            if gain < floor:
+                if c.key not in rejected:
+                    z = _coef_z(
+                        by_axis[a], terms[a] + [c], drivers, caches[a], sig_a, len(terms[a])
+                    )
+                    rejected[c.key] = small_gain(a, gain, floor, z, z_min)
+                continue
             z = _coef_z(by_axis[a], terms[a] + [c], drivers, caches[a], sig_a, len(terms[a]))
             if z < z_min:
                 rejected[c.key] = f"coefficients only {z:.1f} standard errors from zero"

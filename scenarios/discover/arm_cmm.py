@@ -92,7 +92,8 @@ def discover_arm(
 
 
 def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, dict]:
-    from calibench.estimators.arm.kinematics import pose
+    from calibench.estimators.arm.calibration import PRIOR
+    from calibench.estimators.arm.kinematics import parameter_scales, pose
     from calibench.estimators.arm.screening import screen
     from calibench.estimators.discovery.arm import (
         ArmThermalExpansion,
@@ -159,8 +160,13 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
             f"{N} + 3"
         )
     chain = chain_of(arm)
+    # fit's own step (fit --model physics where the arm has masses): the same prior, identifiable
+    # basis and solve; its geometry is where the candidates' columns are taken, and its scatter
+    # sets the weight of the prior's rows (a model without the compliance would scatter more, and
+    # let the prior hold the geometry harder than fit does)
+    model = "physics" if chain.has_masses else "geometry"
     solved = calibrate(
-        chain, q, xyz, rec_id, None, "geometry", arm.parallel_pairs(), robust=False, prior=None
+        chain, q, xyz, rec_id, None, model, arm.parallel_pairs(), robust=False, prior=PRIOR
     )
     problem, basis, s = solved.problem, solved.ident.basis, solved.state
     drivers, sim = arm_drivers(arm, q, temp, t_s, truth, delta=s.delta)
@@ -189,7 +195,11 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
     )
     nk = 5 * N
     kin = tuple(int(k) for k in basis.kept if k < nk)
-    geometry = Geometry(kept=kin, names=tuple(problem.names[k] for k in kin))
+    names = tuple(problem.names[k] for k in kin)
+    # the prior's rows weigh as fit's do: the fit's scatter per value over each error's prior std
+    noise_mm = float(np.sqrt(np.mean((xyz - problem.model(s)) ** 2)))
+    weight = noise_mm / (PRIOR * parameter_scales(names)) if PRIOR else ()
+    geometry = Geometry(kept=kin, names=names, prior_weight=tuple(weight))
     # postures that move one joint only leave no kinematic error the frames and tool do not absorb
     candidates = [geometry] if kin else []
     candidates += [EncoderEccentricity(joint=j) for j in range(1, N + 1)]
