@@ -89,6 +89,7 @@ def angle_terms_from_discovery(path, n_joints: int, n_recordings: int = 1) -> li
 ARM_EFFECTS = (
     "geometry",
     "joint_compliance",
+    "cable_compliance",
     "encoder_eccentricity",
     "thermal_expansion",
     "transmission",

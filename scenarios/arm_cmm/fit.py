@@ -37,6 +37,7 @@ from calibench.estimators.arm.calibration import (
 from calibench.estimators.arm.coverage import coverage_warnings
 from calibench.estimators.arm.kinematics import param_is_angle
 from calibench.estimators.arm.screening import screen
+from calibench.estimators.arm.session import register_session, session_terms
 from calibench.estimators.rotations import matrix_to_rotvec
 from calibench.recordings import ArmRecording, load_arm_csv
 from calibench.scenarios.arm_cmm.arms import chain_of, load_arm
@@ -343,8 +344,14 @@ def run_arm_fit(
             frame = register_frame(base_pts, rec.xyz_mm, keep, REGISTER_FRACTION, SPLIT_SEED)
         except DegenerateFit as e:
             raise BadInput(f"{p}: {e}") from None
-        R, t, reg_rows, eval_rows = frame.R, frame.t, frame.register_rows, frame.judge_rows
-        model_xyz = base_pts @ R.T + t
+        reg_rows, eval_rows = frame.register_rows, frame.judge_rows
+        model_xyz = base_pts @ frame.R.T + frame.t
+        own = {}
+        if session_terms(prob.terms):
+            # what belongs to a session (a harmonic's phase set at power-up) is fitted beside its
+            # frame on the registration rows, never on the rows that score it
+            fitted, model_xyz = register_session(prob, s, rec.q_rad, rec.xyz_mm, reg_rows)
+            own = {n: float(v) * 1e6 for n, v in zip(fitted.names, fitted.coef)}
         ev = np.zeros(len(rec), bool)
         ev[eval_rows] = True
         _settle_pairs(
@@ -360,6 +367,11 @@ def run_arm_fit(
             "frame": f"registered on {len(reg_rows)} rows ({100 * REGISTER_FRACTION:.0f} %, "
             f"seed {SPLIT_SEED}), figures on the other {ev.sum()}",
         }
+        if own:
+            figs["session_terms_urad"] = own
+            figs["frame"] += (
+                f"; the session's own terms ({len(own)} coefficients) fitted on those rows too"
+            )
         record_score(result, "test", label[p], figs, np.flatnonzero(ev), chosen_by(p, None))
         scored[p], registered[p] = np.flatnonzero(ev), reg_rows
         flagged[label[p]] = fl

@@ -185,3 +185,18 @@ def test_discover_finds_nothing_on_rigid_cables(tmp_path):
     assert main(argv + ["--out", str(out)]) == 0
     disc = json.loads((out / "discovery.json").read_text())
     assert [e["name"] for e in disc["effects"]] == ["geometry"]
+
+
+def test_fit_takes_the_effects_discover_found_on_a_cabled_arm(cabled):
+    """A discovery.json that names a cable is an arm's effects file: fit --effects takes it (the
+    cable is the physics model's own parameter) and scores it as in-sample (it chose on them)."""
+    disc = cabled / "discover-for-fit"
+    rec, arm = str(cabled / "r.csv"), str(cabled / "arm.toml")
+    assert main(["discover", "arm-cmm", rec, "--arm", arm, "--out", str(disc)]) == 0
+    out = cabled / "fit-effects"
+    argv = ["fit", "arm-cmm", rec, "--arm", arm, "--holdout", "0.3", "--out", str(out)]
+    assert main(argv + ["--effects", str(disc / "discovery.json")]) == 0
+    fit = json.loads((out / "fit.json").read_text())
+    assert "r.csv" in fit["in_sample"] and "cable_compliance6" in {
+        p["name"] for p in fit["parameters"]
+    }

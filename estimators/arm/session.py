@@ -1,0 +1,91 @@
+"""A new session of a calibrated arm: what belongs to the session, fitted on its registration rows.
+
+A calibration carries the machine to a new set-up: its geometry, compliance and the joint-angle
+terms every session shares. Two things belong to the session and are unknown there: the
+instrument's frame, and the terms whose phase each power-up sets (an
+:class:`~calibench.estimators.arm.point.AngleTerm` with a ``recording``: a motor-side gear
+harmonic). :func:`register_session` fits both on the rows set aside to register the session
+(never on the rows that score it): a rigid registration first, then Gauss-Newton on the frame's
+small turn and shift and the session terms' coefficients, the machine held as calibrated.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from calibench.estimators.arm.kinematics import jacobian, pose, theta_index
+from calibench.estimators.rotations import rigid_transform, rotvec_to_matrix, skew
+
+
+@dataclasses.dataclass(frozen=True)
+class SessionFit:
+    """A session's frame and own terms.
+
+    R, t : (3, 3), (3,) mm: instrument point = R @ base point + t.
+    names : the session terms' coefficient names (``angle_<label><joint>_sin`` ...).
+    coef : (k,) their values, rad.
+    """
+
+    R: np.ndarray
+    t: np.ndarray
+    names: tuple[str, ...]
+    coef: np.ndarray
+
+
+def session_terms(terms) -> list:
+    """The terms a new session has its own coefficients of: one per per-recording term of the
+    calibration (its copies for each training session counted once), as a shared term."""
+    out: dict = {}
+    for t in terms:
+        if t.recording is not None:
+            shared = dataclasses.replace(t, recording=None)
+            out.setdefault(shared.names, shared)
+    return list(out.values())
+
+
+def session_columns(problem, state, q_rad: np.ndarray, terms) -> np.ndarray:
+    """How each session term's coefficients move the tool point in the base frame, (n, 3, k) mm
+    per rad: a joint's angle error F(q_j) @ c turns the link back by it (the Jacobian taken at
+    the readings: the sag's effect on it is second order)."""
+    J = jacobian(problem.chain, P=pose(problem.chain, q_rad, state.delta))
+    cols = [
+        -J[:, :, theta_index(t.joint)][:, :, None] * t.functions(q_rad[:, t.joint - 1])[:, None]
+        for t in terms
+    ]
+    return np.concatenate(cols, axis=2) if cols else np.zeros((len(q_rad), 3, 0))
+
+
+def register_session(
+    problem, state, q_rad: np.ndarray, xyz_mm: np.ndarray, rows: np.ndarray, iterations: int = 4
+) -> tuple[SessionFit, np.ndarray]:
+    """Fit a new session's frame and own terms on its rows ``rows``.
+
+    Parameters
+    ----------
+    problem : the calibration's :class:`~calibench.estimators.arm.point.PointProblem`.
+    state : its fitted state (the machine, held).
+    q_rad : (n, N) the session's readings; xyz_mm : (n, 3) its measured points.
+    rows : (m,) the rows to register on (at least 3, and more than the session terms).
+
+    Returns
+    -------
+    (SessionFit, (n, 3) the modelled points of every row in the session's frame)
+    """
+    terms = session_terms(problem.terms)
+    p0 = problem.base_points(state, q_rad)
+    cols = session_columns(problem, state, q_rad, terms)
+    R, t = rigid_transform(p0[rows], xyz_mm[rows])
+    c = np.zeros(cols.shape[2])
+    for _ in range(iterations if len(c) else 0):
+        p = p0[rows] + cols[rows] @ c
+        Rp = p @ R.T
+        e = xyz_mm[rows] - Rp - t
+        A = np.concatenate(
+            [-skew(Rp), np.broadcast_to(np.eye(3), (len(rows), 3, 3)), R @ cols[rows]], axis=2
+        )
+        step = np.linalg.lstsq(A.reshape(-1, A.shape[2]), e.ravel(), rcond=None)[0]
+        R, t, c = rotvec_to_matrix(step[:3]) @ R, t + step[3:6], c + step[6:]
+    names = tuple(n for term in terms for n in term.names)
+    return SessionFit(R, t, names, c), (p0 + cols @ c) @ R.T + t
