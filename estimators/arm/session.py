@@ -34,15 +34,29 @@ class SessionFit:
     coef: np.ndarray
 
 
+# the angle terms whose phase a power-up may set: a gear train's harmonics (an encoder's
+# eccentricity and a table over the angle stay with the machine)
+SESSION_LABELS = ("transmission",)
+
+
 def session_terms(terms) -> list:
     """The terms a new session has its own coefficients of: one per per-recording term of the
-    calibration (its copies for each training session counted once), as a shared term."""
+    calibration (its copies for each training session counted once), as a shared term, and a
+    correction to each shared gear harmonic (its phase may be the session's: a harmonic the
+    training sessions shared need not hold in another power-up)."""
     out: dict = {}
     for t in terms:
-        if t.recording is not None:
+        if t.recording is not None or t.label in SESSION_LABELS:
             shared = dataclasses.replace(t, recording=None)
-            out.setdefault(shared.names, shared)
+            out.setdefault(shared, shared)
     return list(out.values())
+
+
+def _names(t) -> tuple[str, ...]:
+    """A session term's coefficient names, with its harmonic (two of one joint differ by it)."""
+    if t.kind != "harmonic":
+        return t.names
+    return tuple(n.replace(f"{t.joint}_", f"{t.joint}_h{t.harmonic:g}_", 1) for n in t.names)
 
 
 def session_columns(problem, state, q_rad: np.ndarray, terms) -> np.ndarray:
@@ -87,5 +101,5 @@ def register_session(
         )
         step = np.linalg.lstsq(A.reshape(-1, A.shape[2]), e.ravel(), rcond=None)[0]
         R, t, c = rotvec_to_matrix(step[:3]) @ R, t + step[3:6], c + step[6:]
-    names = tuple(n for term in terms for n in term.names)
+    names = tuple(n for term in terms for n in _names(term))
     return SessionFit(R, t, names, c), (p0 + cols @ c) @ R.T + t

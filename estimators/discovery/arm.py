@@ -238,6 +238,12 @@ class Transmission(JointEffect):
             [cols * (rec == r)[:, None] for r in range(int(rec.max()) + 1)], axis=1
         )
 
+    @property
+    def session_refit(self) -> bool:
+        """A shared harmonic's phase may be set anew at a power-up: a new session refits it on
+        its registration rows (fit's :func:`~calibench.estimators.arm.session.session_terms`)."""
+        return not self.per_recording
+
     def describe(self, coef, cov):
         parts = [
             amplitude(*coef[k : k + 2], cov[k : k + 2, k : k + 2]) for k in range(0, len(coef), 2)

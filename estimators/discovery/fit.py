@@ -118,6 +118,53 @@ def cv_residuals(
     return out
 
 
+def session_residuals(
+    sig: Signal, terms: list, drivers: dict, session: np.ndarray, register: np.ndarray, cache: dict
+) -> np.ndarray:
+    """Residuals (m,) of whole sessions held out: each session predicted by a fit to the others.
+
+    What belongs to the held-out session alone, the columns that are zero on every training row
+    (its frame, its own phase of a harmonic, and a correction of its own to each term whose
+    ``session_refit`` says a power-up may set it anew), is unknown to the others' fit: fitted on the
+    session's ``register`` rows (bool per sample) with the rest held as the others fitted it, and
+    the session's other rows are scored. Those residuals are returned; the registration rows'
+    are NaN.
+
+    Parameters
+    ----------
+    session : (n_samples,) int, each sample's session.
+    register : (n_samples,) bool, the rows that register a held-out session.
+    """
+    rows_session, rows_register = session[sig.sample], register[sig.sample]
+    out = np.full_like(sig.r, np.nan)
+    for k in np.unique(rows_session):
+        test = rows_session == k
+        train = ~test
+        X, at, prefix = sig.base, [], ()
+        for t in terms:
+            # a search fixed on these training rows beside the same terms is fixed once
+            key = ("session", int(k), prefix, id(t)) if hasattr(t, "fix") else None
+            if key is not None and key in cache:
+                cols = cache[key]
+            else:
+                cols = term_columns(t, drivers, sig, X, train, cache)
+                if key is not None:
+                    cache[key] = cols
+            at.append((t, X.shape[1], cols.shape[1]))
+            X = np.hstack([X, cols])
+            if getattr(t, "session_refit", False):  # a correction of its own in the session
+                X = np.hstack([X, cols * test[:, None]])
+            prefix += (id(t),)
+        P = prior_rows(at, X.shape[1])
+        coef = lstsq(np.vstack([X[train], P]), np.r_[sig.r[train], np.zeros(len(P))])
+        own = ~np.any(X[train] != 0, axis=0)
+        reg, judged = test & rows_register, test & ~rows_register
+        r = sig.r - X[:, ~own] @ coef[~own]
+        c_own = lstsq(X[reg][:, own], r[reg])
+        out[judged] = r[judged] - X[judged][:, own] @ c_own
+    return out
+
+
 def rms(v) -> float:
     """Root mean square of ``v`` (m,); 0 for an empty array."""
     return float(np.sqrt(np.mean(np.square(v)))) if len(v) else 0.0

@@ -10,7 +10,15 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from calibench.estimators.discovery.fit import Signal, cv_residuals, fit_terms, keep_fixed, lstsq
+from calibench.estimators.discovery.fit import (
+    Signal,
+    cv_residuals,
+    fit_terms,
+    keep_fixed,
+    lstsq,
+    rms,
+    session_residuals,
+)
 
 MAX_WORKERS = 4  # threads scoring candidates: numpy's kernels release the GIL
 FLOOR = 0.10  # practical floor: an effect must cut its axis's held-out RMS by 10 %
@@ -233,15 +241,82 @@ def prune(
                 terms[a] = rest
                 changed = True
                 break
-    kept = {id(t) for t in terms[a]}
-    steps = [st for st in found.steps if id(st.term) in kept]
+    restep(sig, found, terms[a], drivers, fold, cache)
+
+
+def restep(sig: Signal, found: Discovery, kept: list, drivers, fold, cache: dict) -> None:
+    """Keep the steps of the terms ``kept`` (in their order) and recompute their held-out
+    figures in order, and the final one. In place."""
+    ids = {id(t) for t in kept}
+    steps = [st for st in found.steps if id(st.term) in ids]
     n = len(sig.r)
     prev = float(np.sqrt(np.sum(cv_residuals(sig, [], drivers, fold, cache) ** 2) / n))
     for i, st in enumerate(steps):
         now = float(
-            np.sqrt(np.sum(cv_residuals(sig, terms[a][: i + 1], drivers, fold, cache) ** 2) / n)
+            np.sqrt(np.sum(cv_residuals(sig, kept[: i + 1], drivers, fold, cache) ** 2) / n)
         )
         st.cv_before, st.cv_after, st.gain = prev, now, 1 - now / prev
         prev = now
     found.steps[:] = steps
     found.cv_final = prev
+
+
+def carry_to_new_sessions(
+    sig: Signal,
+    found: Discovery,
+    terms: list,
+    drivers: dict,
+    fold: np.ndarray,
+    session: np.ndarray,
+    register: np.ndarray,
+) -> dict[str, dict]:
+    """Which accepted effects belong to the machine: held out whole sessions
+    (:func:`~calibench.estimators.discovery.fit.session_residuals`: the others' fit carried to
+    the session, what is its own fitted on its ``register`` rows), an effect that carries lowers
+    the RMS of every session; one that does not belongs to the sessions it was found in and goes
+    (with the reason, worst first, until every one left carries; the first term stays:
+    everything else was found beside it). The steps are then recomputed. In place.
+
+    Returns
+    -------
+    {id(term): {"without": .., "with": ..}}: the new sessions' RMS without and with each term
+    kept (the first's not).
+    """
+    cache: dict = {}
+    rows_session = session[sig.sample]
+    sessions = np.unique(rows_session)
+
+    def new_session_rms(ts) -> np.ndarray:
+        """(sessions + 1,): each session's RMS held out whole, then all of them together."""
+        e = session_residuals(sig, ts, drivers, session, register, cache)
+        ok = np.isfinite(e)
+        return np.array([rms(e[ok & (rows_session == k)]) for k in sessions] + [rms(e[ok])])
+
+    while True:
+        full = new_session_rms(terms)
+        without = {id(t): new_session_rms([u for u in terms if u is not t]) for t in terms[1:]}
+        # an effect of the machine helps every session it is carried to, not only on average
+        ratio = {
+            i: float(np.max(full[:-1] / np.maximum(w[:-1], 1e-300))) for i, w in without.items()
+        }
+        worst = max(terms[1:], key=lambda t: ratio[id(t)], default=None)
+        if worst is None or ratio[id(worst)] < 1.0:
+            break
+        w = without[id(worst)]
+        k = int(np.argmax(full[:-1] / np.maximum(w[:-1], 1e-300)))
+        found.rejected[worst.key] = (
+            f"found within the sessions, but held out whole session {int(sessions[k]) + 1} is no "
+            f"better with it ({w[k] * 1000:.0f} um without, {full[k] * 1000:.0f} um with): it "
+            "belongs to the sessions it was found in, not to the machine"
+        )
+        terms.remove(worst)
+    restep(sig, found, terms, drivers, fold, {})
+    return {
+        id(t): {
+            "without": float(without[id(t)][-1]),
+            "with": float(full[-1]),
+            "by_session_without": without[id(t)][:-1].tolist(),
+            "by_session_with": full[:-1].tolist(),
+        }
+        for t in terms[1:]
+    }

@@ -326,9 +326,16 @@ def discover(args: argparse.Namespace) -> int:
         f"scene model, {f['cv_rms_final'] * 1000:.2f} um with what was found ({d['holdout']})"
     )
     for e in d["effects"]:
+        carry = ""
+        if "belongs" in e:
+            s = e["new_session_rms"]
+            carry = (
+                f"; belongs to the {e['belongs']} (sessions held out whole: "
+                f"{s['without'] * 1000:.0f} -> {s['with'] * 1000:.0f} um)"
+            )
         print(
             f"- {e['name']} ({e['axis']}): {e['physics']}; held-out RMS "
-            f"{e['cv_rms_before'] * 1000:.2f} -> {e['cv_rms_after'] * 1000:.2f} um"
+            f"{e['cv_rms_before'] * 1000:.2f} -> {e['cv_rms_after'] * 1000:.2f} um{carry}"
         )
     for c in d["confounded"]:
         print(

@@ -24,7 +24,8 @@ from calibench.estimators.discovery.fit import (
     rms,
 )
 from calibench.estimators.discovery.noise import Noise
-from calibench.estimators.discovery.select import Step, prune, select
+from calibench.estimators.discovery.select import Step, carry_to_new_sessions, prune, select
+from calibench.scenarios.discover.arm_cmm_compliance import compliance_candidates
 from calibench.scenarios.discover.arm_cmm_words import arm_confounds, locate_arm
 from calibench.scenarios.discover.report import describe_effects
 from calibench.scenarios.report import BadInput
@@ -240,7 +241,16 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
         terms["xyz"].append(best[0])
         found.steps.append(Step(best[0], "xyz", found.cv_final, best[1], 1 - best[1] / cv_now))
         found.cv_final = best[1]
+    carry = {}
+    if len(recs) > 1:
+        carry = carry_to_new_sessions(
+            sig, found, terms["xyz"], drivers, fold, rec_id, _register_rows(rec_id)
+        )
     effects, fitted = describe_effects([sig], terms, found, drivers, noise)
+    for st, e in zip(found.steps, effects):
+        if id(st.term) in carry:
+            e["belongs"] = "session" if getattr(st.term, "per_recording", False) else "machine"
+            e["new_session_rms"] = carry[id(st.term)]
     confounds = arm_confounds(sig, terms["xyz"], candidates, drivers, found)
     accepted = {t.key for t in terms["xyz"]}
     confounds += [c for key, c in alike.items() if key in accepted]
@@ -276,69 +286,18 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
     return out, {"signals": [sig], "fitted": fitted, "rows_used": parts}
 
 
-def compliance_candidates(chain, q: np.ndarray, drivers, name: str) -> tuple[list, dict, dict]:
-    """The compliance candidates, by fit's rules: each joint gravity loads enough
-    (:func:`~calibench.estimators.arm.calibration.loaded_joints`) and, for an arm with a
-    transmission, each loaded motor's cable (:func:`loaded_motors`; the joints then by the cables'
-    share, so that joint and cable compete on the same postures).
+REGISTER_FRACTION = 0.2  # of a session held out whole: the rows its own terms are fitted on
 
-    Returns
-    -------
-    (candidates, not_applicable, alike) : the candidates; {key: why} for those not offered;
-    {accepted joint key: confound} for a cable that drives one joint alone, which is that joint's
-    compliance under another name (said when the joint's is accepted).
-    """
-    from calibench.estimators.arm.calibration import (
-        CABLE_LOADED_FRACTION,
-        loaded_joints,
-        loaded_motors,
-    )
-    from calibench.estimators.discovery.arm import CableCompliance, JointCompliance
 
-    if drivers["tau"] is None:
-        return (
-            [],
-            {"joint_compliance": f"the arm file {name} gives no masses: no gravity torques"},
-            {},
-        )
-    cabled = chain.coupling is not None
-    loaded, unloaded = (
-        loaded_joints(chain, q, CABLE_LOADED_FRACTION) if cabled else loaded_joints(chain, q)
-    )
-    out: list = [JointCompliance(joint=j) for j in loaded]
-    why = {f"joint_compliance:joint{k.removeprefix('compliance')}": v for k, v in unloaded.items()}
-    alike = {}
-    if cabled:
-        motors, unloaded = loaded_motors(chain, q)
-        why.update(
-            {
-                f"cable_compliance:motor{k.removeprefix('cable_compliance')}": v
-                for k, v in unloaded.items()
-            }
-        )
-        C = np.asarray(chain.coupling, float)
-        for m in motors:
-            col = C[:, m - 1]
-            joints = np.flatnonzero(col) + 1
-            if len(joints) > 1:
-                out.append(CableCompliance(motor=m, column=tuple(col)))
-                continue
-            j = int(joints[0])
-            why[f"cable_compliance:motor{m}"] = (
-                f"motor {m} drives joint {j} alone: its cable's stretch is joint {j}'s compliance "
-                "under another name (one candidate for both)"
-            )
-            alike[f"joint_compliance:joint{j}"] = {
-                "effect": "joint_compliance",
-                "axis": "xyz",
-                "with": f"cable_compliance:motor{m}",
-                "why": f"motor {m} drives joint {j} alone: the stretch of its cable and the "
-                f"compliance of joint {j}'s gearing turn the joint alike, and no posture tells "
-                "them apart",
-                "experiment": f"read joint {j}'s angle at the link (a second encoder after the "
-                "cable), or measure the cable's stretch under a known torque on the bench",
-            }
-    return out, why, alike
+def _register_rows(rec_id: np.ndarray) -> np.ndarray:
+    """(n,) bool: a fixed draw of :data:`REGISTER_FRACTION` of each session's rows (fit's
+    --leave-one-out registers a new session on as many)."""
+    out = np.zeros(len(rec_id), bool)
+    rng = np.random.default_rng(0)
+    for k in np.unique(rec_id):
+        rows = rng.permutation(np.flatnonzero(rec_id == k))
+        out[rows[: max(int(round(REGISTER_FRACTION * len(rows))), 3)]] = True
+    return out
 
 
 def _shared_unless_sessions_differ(sig, found, terms: list, drivers, fold, floor: float) -> None:

@@ -204,6 +204,6 @@ def test_a_harmonic_whose_phase_each_session_sets_is_refitted_on_the_registratio
         fold = json.loads((out / f"session{k}" / "fit.json").read_text())
         own = fold["test"][f"session{k}.csv"]["session_terms_urad"]
         # the error sin(h q + ph) = cos(ph) sin(h q) + sin(ph) cos(h q), in urad
-        got = np.array([own["angle_transmission2_sin"], own["angle_transmission2_cos"]])
+        got = np.array([own["angle_transmission2_h17.3_sin"], own["angle_transmission2_h17.3_cos"]])
         want = 1e6 * amp * np.array([np.cos(ph), np.sin(ph)])
         assert np.abs(got - want).max() < 15.0, (got, want)  # ~60 rows at 20 um: a few urad
