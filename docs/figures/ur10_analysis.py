@@ -249,8 +249,9 @@ def ur10_discovery():
     absorbed = [int(re.search(r"(\d+) % of a compliance", c["why"]).group(1)) for c in comp]
     torque = next(
         (
-            re.search(r"\((-?[\d.]+(?:e[+-]?\d+)?) to (-?[\d.]+(?:e[+-]?\d+)?) N m\)", c["why"])
-            .groups()
+            re.search(
+                r"\((-?[\d.]+(?:e[+-]?\d+)?) to (-?[\d.]+(?:e[+-]?\d+)?) N m\)", c["why"]
+            ).groups()
             for c in comp
             if f"joint {SHOULDER}'s" in c["why"]
         ),
