@@ -140,7 +140,8 @@ def session_residuals(
     for k in np.unique(rows_session):
         test = rows_session == k
         train = ~test
-        X, at, prefix = sig.base, [], ()
+        X, at = sig.base, []
+        prefix: tuple = ()
         for t in terms:
             # a search fixed on these training rows beside the same terms is fixed once
             key = ("session", int(k), prefix, id(t)) if hasattr(t, "fix") else None

@@ -269,7 +269,7 @@ def carry_to_new_sessions(
     fold: np.ndarray,
     session: np.ndarray,
     register: np.ndarray,
-) -> dict[str, dict]:
+) -> dict[int, dict]:
     """Which accepted effects belong to the machine: held out whole sessions
     (:func:`~calibench.estimators.discovery.fit.session_residuals`: the others' fit carried to
     the session, what is its own fitted on its ``register`` rows), an effect that carries lowers
