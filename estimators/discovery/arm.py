@@ -299,6 +299,11 @@ class TransmissionSearch:
     takes_basis = True  # fix may be given others[rows]'s orthonormal basis (fit.cv_residuals)
 
     @property
+    def session_refit(self) -> bool:
+        """As the harmonic it fixes (:attr:`Transmission.session_refit`)."""
+        return not self.per_recording
+
+    @property
     def key(self) -> str:
         """The search's name and joint: one shared and one per-recording search per joint."""
         return f"{self.name}:joint{self.joint}" + (":per_recording" if self.per_recording else "")

@@ -141,10 +141,10 @@ def session_residuals(
         test = rows_session == k
         train = ~test
         X, at = sig.base, []
-        prefix: tuple = ()
         for t in terms:
-            # a search fixed on these training rows beside the same terms is fixed once
-            key = ("session", int(k), prefix, id(t)) if hasattr(t, "fix") else None
+            # a search is fixed once per session held out, on the first list of terms asked for
+            # (the full model: a term left out beside it moves its frequency by a hair)
+            key = ("session", int(k), id(t)) if hasattr(t, "fix") else None
             if key is not None and key in cache:
                 cols = cache[key]
             else:
@@ -155,7 +155,6 @@ def session_residuals(
             X = np.hstack([X, cols])
             if getattr(t, "session_refit", False):  # a correction of its own in the session
                 X = np.hstack([X, cols * test[:, None]])
-            prefix += (id(t),)
         P = prior_rows(at, X.shape[1])
         coef = lstsq(np.vstack([X[train], P]), np.r_[sig.r[train], np.zeros(len(P))])
         own = ~np.any(X[train] != 0, axis=0)

@@ -309,7 +309,7 @@ def carry_to_new_sessions(
             f"better with it ({w[k] * 1000:.0f} um without, {full[k] * 1000:.0f} um with): it "
             "belongs to the sessions it was found in, not to the machine"
         )
-        terms.remove(worst)
+        del terms[next(i for i, u in enumerate(terms) if u is worst)]  # by identity
     restep(sig, found, terms, drivers, fold, {})
     return {
         id(t): {

@@ -329,8 +329,9 @@ def discover(args: argparse.Namespace) -> int:
         carry = ""
         if "belongs" in e:
             s = e["new_session_rms"]
+            refit = f"{e['new_session']}; " if "new_session" in e else ""
             carry = (
-                f"; belongs to the {e['belongs']} (sessions held out whole: "
+                f"; belongs to the {e['belongs']} ({refit}sessions held out whole: "
                 f"{s['without'] * 1000:.0f} -> {s['with'] * 1000:.0f} um)"
             )
         print(
