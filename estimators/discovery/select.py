@@ -54,11 +54,11 @@ def _coef_z(sig, terms, drivers, cache, sigma, term_index) -> float:
     _, start, k = fixed[term_index]
     c, C = coef[start : start + k], cov[start : start + k, start : start + k]
     try:
-        return float(
-            np.sqrt(c @ np.linalg.solve(C, c) / k) if k > 1 else abs(c[0]) / np.sqrt(C[0, 0])
-        )
+        z2 = c @ np.linalg.solve(C, c) / k if k > 1 else c[0] ** 2 / C[0, 0]
     except np.linalg.LinAlgError:
         return 0.0
+    # a singular covariance (columns the others span) gives no evidence, not a NaN
+    return float(np.sqrt(z2)) if np.isfinite(z2) and z2 > 0 else 0.0
 
 
 def small_gain(axis: str, gain: float, floor: float, z: float, z_min: float) -> str:
