@@ -19,6 +19,15 @@ ARM_EXPERIMENTS = {
 }
 
 
+def torque_range(tau: np.ndarray) -> str:
+    """``lo to hi`` of torques (n,) N m, to three figures of the larger (a torque a thousandth of
+    it is 0, not -0.000534)."""
+    lo, hi = float(np.min(tau)), float(np.max(tau))
+    tiny = 1e-3 * max(abs(lo), abs(hi))
+    lo, hi = (0.0 if abs(v) < tiny else v for v in (lo, hi))
+    return f"{lo:.3g} to {hi:.3g}"
+
+
 def arm_confounds(sig, terms, candidates, drivers, found) -> list[dict]:
     """Candidates the data cannot tell from what was accepted, in plain words: compliance and
     eccentricity of one joint look alike when its gravity torque is nearly a sinusoid of its own
@@ -56,8 +65,8 @@ def arm_confounds(sig, terms, candidates, drivers, found) -> list[dict]:
                     "axis": "xyz",
                     "with": "geometry",
                     "why": f"within these postures joint {c.joint}'s gravity torque "
-                    f"({tau.min():.3g} to "
-                    f"{tau.max():.3g} N m) moves the point almost as the kinematic errors do: "
+                    f"({torque_range(tau)} N m) moves the point almost as the kinematic errors "
+                    "do: "
                     f"{100 * frac:.0f} % of a compliance's effect is absorbed by them, so the "
                     "recording "
                     "cannot show it, yet a calibration without it will not carry to postures "

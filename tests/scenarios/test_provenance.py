@@ -94,3 +94,12 @@ def test_discover_names_the_joints_gravity_hardly_loads(shared_data, tmp_path):
     said = found["not_accepted"]
     assert "carries at most" in said["joint_compliance:joint6"]
     assert "carries at most" not in said.get("joint_compliance:joint2", "")
+
+
+def test_torques_are_said_to_three_figures_of_the_larger():
+    """A joint's torque range in discover's words: three figures, and a value a thousandth of
+    the larger said as 0 (not -0.000534, nor the '-0 to -0' of whole numbers)."""
+    from calibench.scenarios.discover.arm_cmm_words import torque_range
+
+    assert torque_range(np.array([-108.2, -0.000534])) == "-108 to 0"
+    assert torque_range(np.array([-0.31, 0.2])) == "-0.31 to 0.2"
