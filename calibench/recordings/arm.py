@@ -14,6 +14,9 @@ ARM_REQUIRED = tuple(f"q{j}_deg" for j in range(1, 7)) + ("x_mm", "y_mm", "z_mm"
 MAX_STD_MM = (
     1000.0  # an instrument's 1-sigma of a metre is a wrong unit or a corrupt value, not a reading
 )
+# a laser tracker's or a CMM's 1-sigma of a point is micrometres; one under a tenth of one is a
+# wrong unit or a corrupt value, and a row weighted by it would outweigh every other
+MIN_STD_MM = 1e-4
 ARM_OPTIONAL = ("x_std_mm", "y_std_mm", "z_std_mm", "t_s", "temp_c")
 
 
@@ -144,6 +147,13 @@ def load_arm_csv(
             raise RecordingError(
                 f"{path} line {line[bad]}: a std of zero or below (no instrument reads exactly: "
                 "leave the std columns out to have the scatter estimated)"
+            )
+        if np.any(std < MIN_STD_MM):
+            bad = int(np.argmax(np.any(std < MIN_STD_MM, axis=1)))
+            raise RecordingError(
+                f"{path} line {line[bad]}: a std of {std[bad].min():.3g} mm (under {MIN_STD_MM:g} "
+                "mm, finer than any instrument measures a point: one such row would outweigh "
+                "every other): a wrong unit or a corrupt value"
             )
         if np.any(std > MAX_STD_MM):
             raise RecordingError(

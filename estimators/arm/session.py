@@ -36,7 +36,7 @@ class SessionFit:
 
 # the angle terms whose phase a power-up may set: a gear train's harmonics (an encoder's
 # eccentricity and a table over the angle stay with the machine)
-SESSION_LABELS = ("transmission",)
+SESSION_LABELS = ("transmission", "table")
 
 
 def session_terms(terms) -> list:

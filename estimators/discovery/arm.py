@@ -340,6 +340,7 @@ class JointTable(JointEffect):
     name: str = "nonsmooth"
     edges: tuple = ()
     span: tuple = (-np.pi, np.pi)  # the angles the data cover, for the words
+    session_refit = True  # EXPERIMENT
 
     def __post_init__(self):
         object.__setattr__(self, "needs", ("Jq", "q"))

@@ -89,6 +89,12 @@ def make_executor(workers: int | None, scheduler: str | None):
             ) from None
         return client.get_executor(), lambda interrupted=False: client.close()
     n = workers or os.cpu_count() or 1
+    # a spawned worker starts as `python -c ...`, whose import path begins with the current
+    # folder: a socket.py or pickle.py there would run in every worker before multiprocessing
+    # sets the path it was given. Python 3.11's safe path leaves the folder out (for the pool's
+    # life only: a program this one starts later keeps the user's setting).
+    safe_path = os.environ.get("PYTHONSAFEPATH")
+    os.environ["PYTHONSAFEPATH"] = "1"
     ex = cf.ProcessPoolExecutor(
         max_workers=n,
         mp_context=multiprocessing.get_context("spawn"),
@@ -96,6 +102,10 @@ def make_executor(workers: int | None, scheduler: str | None):
     )
 
     def close(interrupted: bool = False) -> None:
+        if safe_path is None:
+            os.environ.pop("PYTHONSAFEPATH", None)
+        else:
+            os.environ["PYTHONSAFEPATH"] = safe_path
         if not interrupted:
             ex.shutdown(wait=False, cancel_futures=True)
             return

@@ -11,6 +11,7 @@ from typing import TextIO
 from calibench.errors import BadInput
 
 JOURNAL = "trials.jsonl"
+ROW_START = '{"trial": '  # how every row of the journal begins
 
 
 def load_journal(out_dir: Path) -> dict[int, dict]:
@@ -50,8 +51,11 @@ def load_journal(out_dir: Path) -> dict[int, dict]:
         try:
             row = json.loads(line)
         except json.JSONDecodeError:
-            if line.startswith('{"trial": '):
-                continue  # a row torn by an interruption (a resume starts a fresh line after it)
+            last = k == len(lines) - 1 and not text.endswith("\n")
+            if last or line.startswith(ROW_START) or ROW_START.startswith(line):
+                # a row torn by an interruption, however early (a resume starts a fresh line
+                # after it): what a crash leaves, dropped, the finished trials kept
+                continue
             row = None
         if not (
             isinstance(row, dict)

@@ -23,7 +23,13 @@ from calibench.scenarios.study.executor import interrupt_flag, make_executor
 from calibench.scenarios.study.journal import load_journal, open_journal, record_study
 from calibench.scenarios.study.outputs import import_writers, write_outputs
 from calibench.scenarios.study.summary import summarise
-from calibench.scenarios.study.trials import chunk_size, load_scenario, run_trials, study_config
+from calibench.scenarios.study.trials import (
+    chunk_size,
+    load_scenario,
+    run_trials,
+    study_config,
+    trial_seed,
+)
 
 
 def run_study(
@@ -87,6 +93,13 @@ def run_study(
     if trials < 1:
         raise BadInput("--trials must be at least 1")
     done = load_journal(out_dir)
+    for i, row in done.items():
+        # study.json may be gone: each row says its trial's seed, which this study's must be
+        if row["seed"] != trial_seed(seed, i):
+            raise BadInput(
+                f"{out_dir / 'trials.jsonl'}: trial {i} was run with seed {row['seed']}, not this "
+                f"study's (--seed {seed}): the folder holds another study; use another --out"
+            )
     todo = [i for i in range(trials) if i not in done]
     # A local pool starts (and its workers load the scenario) while this process checks the config;
     # a Dask cluster is reached only once the config holds and there are trials to run.

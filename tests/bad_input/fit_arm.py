@@ -122,6 +122,27 @@ CASES = [
         2,
         "std of zero or below",
     ),
+    (  # one row's std far under any instrument's: it would outweigh every other row
+        "arm-tiny-std-one-row",
+        {
+            "r.csv": lambda p: p.write_text(
+                "\n".join(
+                    [
+                        f"{h},x_std_mm,y_std_mm,z_std_mm"
+                        for h in arm_csv(*arm_rows()).splitlines()[:1]
+                    ]
+                    + [
+                        f"{r},{'1e-300' if i == 7 else '0.01'},0.01,0.01"
+                        for i, r in enumerate(arm_csv(*arm_rows()).splitlines()[1:])
+                    ]
+                )
+                + "\n"
+            )
+        },
+        ["fit", "arm-cmm", "{d}/r.csv", "--arm", "ur10"],
+        2,
+        "line 9: a std of 1e-300 mm (under 0.0001 mm",
+    ),
     (
         "arm-partial-std",
         {"r.csv": arm_csv_with("x_std_mm", "0.01")},

@@ -78,6 +78,13 @@ CASES = [
         2,
         "trials.jsonl",
     ),
+    (  # study.json deleted, the journal another seed's: its trials are not this study's
+        "mc-journal-of-another-seed",
+        {"o/trials.jsonl": json.dumps({"trial": 0, "seed": 123, "ok": True, "error": None}) + "\n"},
+        ["montecarlo", "belt-stage", "--trials", "2", "--seed", "5", "--out", "{d}/o"],
+        2,
+        "trial 0 was run with seed 123, not this study's (--seed 5)",
+    ),
     (
         "mc-corrupt-study",
         {"o/study.json": "{not json"},

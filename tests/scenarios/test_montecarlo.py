@@ -42,6 +42,32 @@ def test_interrupted_study_keeps_finished_trials(tmp_path):
     assert trials == list(range(6))
 
 
+def test_a_row_torn_in_its_first_bytes_is_dropped_not_called_corrupt(tmp_path):
+    """A crash can cut the last row anywhere, even within its first bytes; the resume starts a
+    fresh line after it. Such rows are dropped and every finished trial kept (the message used
+    to call the journal corrupt and advise removing it, finished trials and all)."""
+    rows = [json.dumps({"trial": i, "seed": i, "ok": True, "error": None}) for i in range(2)]
+    for torn in ("{", '{"tr', '{"trial": 2, "se'):
+        (tmp_path / JOURNAL).write_text("\n".join(rows) + "\n" + torn)
+        assert sorted(load_journal(tmp_path)) == [0, 1]
+        # resumed: a fresh line follows the torn one
+        (tmp_path / JOURNAL).write_text("\n".join(rows + [torn, rows[0]]) + "\n")
+        assert sorted(load_journal(tmp_path)) == [0, 1]
+
+
+def test_workers_do_not_import_from_the_users_folder(tmp_path, monkeypatch):
+    """A socket.py in the folder a study is started from is not run by its spawned workers (a
+    worker's `python -c` used to put the folder first on its import path)."""
+    marker = tmp_path / "ran"
+    (tmp_path / "socket.py").write_text(
+        f"open({str(marker)!r}, 'w').close()\nraise ImportError('not the standard socket')\n"
+    )
+    monkeypatch.chdir(tmp_path)
+    args = ["montecarlo", "belt-stage", "--trials", "1", "--workers", "1"]
+    assert main([*args, "--fidelity", "analytic", "--out", str(tmp_path / "o")]) == 0
+    assert not marker.exists()
+
+
 def test_dask_cluster_gives_the_pool_s_results(tmp_path):
     distributed = pytest.importorskip("distributed")
     pool_dir, dask_dir = tmp_path / "pool", tmp_path / "dask"
