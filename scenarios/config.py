@@ -118,6 +118,10 @@ def load_toml(path: str | Path) -> dict:
         raise BadInput(f"config {path} is not valid TOML: not UTF-8 text") from None
     except tomllib.TOMLDecodeError as e:
         raise BadInput(f"config {path} is not valid TOML: {e}") from None
+    except RecursionError:
+        raise BadInput(
+            f"config {path} is nested too deep to read (thousands of levels): not a config"
+        ) from None
 
 
 def override(obj: Any, table: dict, where: str) -> Any:

@@ -131,6 +131,8 @@ def load_arm(spec: str | Path) -> ArmDescription:
         raise ArmFileError(f"cannot read arm {path}: {e.strerror}") from None
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
         raise ArmFileError(f"arm {path} is not valid TOML: {e}") from None
+    except RecursionError:
+        raise ArmFileError(f"arm {path} is nested too deep to read: not an arm's file") from None
     if not table:
         raise ArmFileError(f'arm {path} is empty: it describes no arm (see CONTRACT.md, "Arms")')
     _LOADED[key] = arm = arm_from_table(table, str(path))

@@ -67,12 +67,28 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as e:  # noqa: BLE001 - bad input is reported in one line
         from calibench.errors import BadInput
 
+        said = _said_as_bad_input(e)
+        if said is not None:
+            e = BadInput(said)
         if isinstance(e, BadInput):
             print(f"calibench: {e}", file=sys.stderr)
             if created is not None and created.is_dir() and not any(created.iterdir()):
                 created.rmdir()
             return EXIT_BAD_INPUT
         return _internal_error(e, getattr(args, "out", None))
+
+
+def _said_as_bad_input(e: Exception) -> str | None:
+    """The line for errors that are the input's, not calibench's: a symbolic link loop (Python
+    3.11's ``Path.resolve`` raises RuntimeError for it), a file nested too deep to read
+    (RecursionError: a TOML of thousands of nested tables)."""
+    if isinstance(e, RecursionError):
+        return (
+            "an input file is nested too deep to read (thousands of levels): not a calibench file"
+        )
+    if isinstance(e, RuntimeError) and str(e).startswith("Symlink loop"):
+        return f"{str(e).removeprefix('Symlink loop from ')}: a symbolic link loop, not a file"
+    return None
 
 
 def _check_out(out: Path | None) -> Path | None:

@@ -54,7 +54,10 @@ _fraction = _ranged(float, lambda v: 0 < v < 0.9, "a fraction between 0 and 0.9"
 _square_mm = _ranged(
     float, lambda v: 0.001 <= v <= 10_000, "a square's side from 0.001 to 10000 mm"
 )
-_board_count = _ranged(int, lambda v: v >= 2, "a board has at least 2 inner corners each way")
+# OpenCV takes a board's size as C ints; no printed board has a thousand corners a side
+_board_count = _ranged(
+    int, lambda v: 2 <= v <= 1000, "a board has 2 to 1000 inner corners each way"
+)
 
 
 def _folder(text: str) -> Path:

@@ -27,6 +27,13 @@ def _truncated_jpeg(path):
 #  expected exit status, a fragment the message must contain)
 CASES = [
     # camera
+    (  # OpenCV's C int overflowed: exit 3
+        "camera-cols-beyond-int",
+        {},
+        ["camera", "{d}/a.jpg", "--cols", "2147483648", "--rows", "6", "--square-mm", "25"],
+        2,
+        "2 to 1000 inner corners",
+    ),
     (
         "camera-no-image",
         {},

@@ -30,6 +30,13 @@ CASES = [
         2,
         "not valid TOML",
     ),
+    (  # thousands of nested arrays: tomllib's recursion runs out (was exit 3)
+        "config-nested-too-deep",
+        {"c.toml": "x = " + "[" * 50000 + "]" * 50000 + "\n"},
+        ["run", "belt-stage", "--config", "{d}/c.toml"],
+        2,
+        "nested too deep",
+    ),
     (
         "config-binary",
         {"c.toml": b"\xff\xfe\x00\x01"},

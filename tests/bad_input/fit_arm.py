@@ -418,4 +418,32 @@ CASES = [
         2,
         "positive numbers",
     ),
+    # Python 3.11's Path.resolve raises RuntimeError on a symbolic link loop: exit 2, not 3
+    (
+        "arm-symlink-loop",
+        {"loop.csv": lambda p: p.symlink_to(p.name)},
+        ["fit", "arm-cmm", "{d}/loop.csv", "--arm", "ur10"],
+        2,
+        "a symbolic link loop",
+    ),
+    (
+        "arm-test-symlink-loop",
+        {
+            "r.csv": lambda p: p.write_text(arm_csv(*arm_rows())),
+            "loop.csv": lambda p: p.symlink_to(p.name),
+        },
+        ["fit", "arm-cmm", "{d}/r.csv", "--test", "{d}/loop.csv", "--arm", "ur10"],
+        2,
+        "a symbolic link loop",
+    ),
+    (  # a TOML of thousands of nested arrays: tomllib recurses
+        "arm-file-nested-too-deep",
+        {
+            "a.toml": "x = " + "[" * 50000 + "]" * 50000 + "\n",
+            "r.csv": lambda p: p.write_text(arm_csv(*arm_rows(n_joints=2))),
+        },
+        ["fit", "arm-cmm", "{d}/r.csv", "--arm", "{d}/a.toml"],
+        2,
+        "nested too deep",
+    ),
 ]
