@@ -34,16 +34,16 @@ class SessionFit:
     coef: np.ndarray
 
 
-# the angle terms whose phase a power-up may set: a gear train's harmonics (an encoder's
-# eccentricity and a table over the angle stay with the machine)
+# the angle terms a new session refits beside its frame: a gear train's harmonics (a power-up
+# may set their phase) and a table over a joint's angle (what no law explains need not hold as
+# it did); an encoder's eccentricity stays with the machine
 SESSION_LABELS = ("transmission", "table")
 
 
 def session_terms(terms) -> list:
     """The terms a new session has its own coefficients of: one per per-recording term of the
     calibration (its copies for each training session counted once), as a shared term, and a
-    correction to each shared gear harmonic (its phase may be the session's: a harmonic the
-    training sessions shared need not hold in another power-up)."""
+    correction to each shared gear harmonic and table (:data:`SESSION_LABELS`)."""
     out: dict = {}
     for t in terms:
         if t.recording is not None or t.label in SESSION_LABELS:

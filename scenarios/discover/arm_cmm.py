@@ -252,9 +252,8 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
             e["belongs"] = "session" if getattr(st.term, "per_recording", False) else "machine"
             e["new_session_rms"] = carry[id(st.term)]
             if getattr(st.term, "session_refit", False):
-                e["new_session"] = (
-                    "its amplitude and phase refitted on the session's registration rows"
-                )
+                what = "values" if st.term.name == "nonsmooth" else "amplitude and phase"
+                e["new_session"] = f"its {what} refitted on the session's registration rows"
     confounds = arm_confounds(sig, terms["xyz"], candidates, drivers, found)
     accepted = {t.key for t in terms["xyz"]}
     confounds += [c for key, c in alike.items() if key in accepted]
