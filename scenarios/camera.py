@@ -32,7 +32,7 @@ def calibrate_photos(
         raise BadInput("camera: --radial must be 2 or 3")
     for p in paths:
         if not p.is_file():
-            raise BadInput(f"camera: no such image {p}")
+            raise BadInput(f"camera: {p}: {_not_a_file(p)}")
     twice = next((p for k, p in enumerate(paths) if any(same_file(p, q) for q in paths[:k])), None)
     if twice is not None:
         raise BadInput(f"camera: {twice} is given twice: a photo counts once")
@@ -153,3 +153,15 @@ def run_camera(
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "intrinsics.json").write_text(json.dumps(result, indent=2) + "\n")
     return result
+
+
+def _not_a_file(p: Path) -> str:
+    """Why ``p`` is not an image file, in words: a folder, a symbolic link loop, or nothing."""
+    if p.is_dir():
+        return "a folder, not an image (give the photos themselves: DIR/*.jpg)"
+    if p.is_symlink():
+        try:
+            p.resolve(strict=True)
+        except (RuntimeError, OSError):
+            return "a symbolic link that leads nowhere (a loop, or a missing target)"
+    return "no such image"

@@ -27,6 +27,20 @@ def _truncated_jpeg(path):
 #  expected exit status, a fragment the message must contain)
 CASES = [
     # camera
+    (
+        "camera-folder",
+        {"photos/a.txt": "x"},
+        ["camera", "{d}/photos", "--cols", "9", "--rows", "6", "--square-mm", "25"],
+        2,
+        "a folder, not an image",
+    ),
+    (
+        "camera-symlink-loop",
+        {"loop.jpg": lambda p: p.symlink_to(p.name)},
+        ["camera", "{d}/loop.jpg", "--cols", "9", "--rows", "6", "--square-mm", "25"],
+        2,
+        "a symbolic link that leads nowhere",
+    ),
     (  # OpenCV's C int overflowed: exit 3
         "camera-cols-beyond-int",
         {},
