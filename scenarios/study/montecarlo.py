@@ -117,11 +117,17 @@ def run_study(
             # never imports the scenario's estimators, which on 2 cores would slow the workers'
             # start
             checked = executor.submit(study_config, scenario, table, arm, checked_only=True)
+        described = (out_dir / "study.json").exists()
         _prepare(scenario, seed, fidelity, out_dir, arm, table, checked)
         t0 = time.perf_counter()
         if todo:
             if executor is None:
-                executor, close = make_executor(workers, scheduler)
+                try:
+                    executor, close = make_executor(workers, scheduler)
+                except BadInput:
+                    if not described and not done:  # no study began here: leave no trace of one
+                        (out_dir / "study.json").unlink(missing_ok=True)
+                    raise
             _run_todo(
                 executor,
                 scenario,

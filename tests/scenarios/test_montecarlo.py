@@ -68,6 +68,15 @@ def test_workers_do_not_import_from_the_users_folder(tmp_path, monkeypatch):
     assert not marker.exists()
 
 
+def test_a_scheduler_that_fails_leaves_no_study_behind(tmp_path):
+    """--scheduler that cannot be used is bad input, said before any trial: the folder is left
+    without a study.json (one left behind made the next run with other settings refused)."""
+    out = tmp_path / "o"
+    args = ["montecarlo", "belt-stage", "--trials", "2", "--fidelity", "analytic"]
+    assert main([*args, "--scheduler", "notaurl", "--out", str(out)]) == 2
+    assert not (out / "study.json").exists()
+
+
 def test_dask_cluster_gives_the_pool_s_results(tmp_path):
     distributed = pytest.importorskip("distributed")
     pool_dir, dask_dir = tmp_path / "pool", tmp_path / "dask"
