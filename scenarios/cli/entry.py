@@ -5,7 +5,9 @@ traceback in OUT/error.log, 130 interrupted)."""
 from __future__ import annotations
 
 import os
+import signal
 import sys
+import threading
 from pathlib import Path
 
 from calibench.scenarios.cli import verbs
@@ -43,6 +45,7 @@ def main(argv: list[str] | None = None) -> int:
         print("calibench: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     created = None
+    old_term = _terminate_as_interrupt()
     try:
         created = _check_out(getattr(args, "out", None))
         return {
@@ -76,6 +79,22 @@ def main(argv: list[str] | None = None) -> int:
                 created.rmdir()
             return EXIT_BAD_INPUT
         return _internal_error(e, getattr(args, "out", None))
+    finally:
+        if old_term is not None:
+            signal.signal(signal.SIGTERM, old_term)
+
+
+def _raise_interrupt(signum, frame):
+    raise KeyboardInterrupt
+
+
+def _terminate_as_interrupt():
+    """SIGTERM (what timeout, systemd and docker send) handled as Ctrl-C: one line, a study's
+    journal kept, its workers stopped. Returns the previous handler (None off the main thread,
+    where no handler can be set)."""
+    if threading.current_thread() is not threading.main_thread():
+        return None
+    return signal.signal(signal.SIGTERM, _raise_interrupt)
 
 
 def _said_as_bad_input(e: Exception) -> str | None:

@@ -11,15 +11,27 @@ import os
 import re
 import signal
 import threading
+import time
 
 from calibench.errors import BadInput
 
 
 def _ignore_interrupts() -> None:
-    """In a worker: Ctrl-C is the parent's to handle (one line), not a traceback per worker."""
+    """In a worker: Ctrl-C is the parent's to handle (one line), not a traceback per worker; and
+    the worker dies with its parent (a parent killed outright, SIGKILL, cannot stop its workers:
+    each watches for being handed to another parent and exits)."""
     import signal
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    parent = os.getppid()
+
+    def watch() -> None:
+        while True:
+            time.sleep(0.5)
+            if os.getppid() != parent:
+                os._exit(1)
+
+    threading.Thread(target=watch, daemon=True, name="calibench-parent-watch").start()
 
 
 @contextlib.contextmanager
@@ -32,18 +44,21 @@ def interrupt_flag():
     Yields
     ------
     threading.Event
-        Set once Ctrl-C came (never set outside the main thread, where SIGINT cannot be caught);
-        the previous SIGINT handler is back when the block ends.
+        Set once Ctrl-C or SIGTERM came (never set outside the main thread, where no signal
+        can be caught); the previous handlers are back when the block ends.
     """
     stop = threading.Event()
     if threading.current_thread() is not threading.main_thread():
         yield stop
         return
     old = signal.signal(signal.SIGINT, lambda signum, frame: stop.set())
+    # SIGTERM (timeout, systemd, docker) ends a study as Ctrl-C does: one line, the journal kept
+    old_term = signal.signal(signal.SIGTERM, lambda signum, frame: stop.set())
     try:
         yield stop
     finally:
         signal.signal(signal.SIGINT, old)
+        signal.signal(signal.SIGTERM, old_term)
 
 
 def make_executor(workers: int | None, scheduler: str | None):
