@@ -61,6 +61,30 @@ def interrupt_flag():
         signal.signal(signal.SIGTERM, old_term)
 
 
+CONNECT_S = 10.0  # to reach a scheduler and hear it answer as one
+
+
+def _connect(client_type, scheduler: str):
+    """A Dask client of ``scheduler``, or BadInput within about :data:`CONNECT_S`: a listener
+    that accepts and never speaks Dask held the client's own timeout open for over a minute, so
+    the connection is made on a thread given that long."""
+    got: dict = {}
+
+    def connect() -> None:
+        try:
+            got["client"] = client_type(scheduler, timeout=f"{CONNECT_S:g}s")
+        except Exception as e:  # noqa: BLE001 - said as bad input below
+            got["error"] = e
+
+    t = threading.Thread(target=connect, daemon=True, name="calibench-dask-connect")
+    t.start()
+    t.join(CONNECT_S + 5.0)
+    if "client" in got:
+        return got["client"]
+    why = got.get("error") or f"no answer as a Dask scheduler within {CONNECT_S + 5.0:g} s"
+    raise BadInput(f"--scheduler {scheduler}: cannot reach the Dask scheduler ({why})")
+
+
 def make_executor(workers: int | None, scheduler: str | None):
     """A spawn process pool, or a Dask cluster's executor.
 
@@ -96,12 +120,7 @@ def make_executor(workers: int | None, scheduler: str | None):
             raise BadInput(
                 "--scheduler needs Dask distributed: pip install 'calibench[cluster]'"
             ) from None
-        try:
-            client = Client(scheduler, timeout="10s")
-        except (OSError, ValueError, TimeoutError) as e:
-            raise BadInput(
-                f"--scheduler {scheduler}: cannot reach the Dask scheduler ({e})"
-            ) from None
+        client = _connect(Client, scheduler)
         return client.get_executor(), lambda interrupted=False: client.close()
     n = workers or os.cpu_count() or 1
     # a spawned worker starts as `python -c ...`, whose import path begins with the current

@@ -321,3 +321,23 @@ def test_a_study_takes_a_config_and_keeps_it(tmp_path):
     )  # the same folder without the config: another study
     config.write_text("[stewart]\nn_poses = 20\n")
     assert main(args + ["--config", str(config), "--out", str(tmp_path / "x")]) == 2
+
+
+def test_a_scheduler_that_does_not_speak_dask_is_said_in_time(tmp_path):
+    """A listener that accepts and says nothing (not a Dask scheduler) held the command for over
+    a minute: now one line within the connect limit and a little more."""
+    import socket
+    import time
+
+    listener = socket.socket()
+    listener.bind(("127.0.0.1", 0))
+    listener.listen()
+    port = listener.getsockname()[1]
+    t0 = time.monotonic()
+    try:
+        args = ["montecarlo", "belt-stage", "--trials", "2", "--fidelity", "analytic"]
+        rc = main([*args, "--scheduler", f"tcp://127.0.0.1:{port}", "--out", str(tmp_path / "o")])
+    finally:
+        listener.close()
+    assert rc == 2
+    assert time.monotonic() - t0 < 30
