@@ -119,13 +119,50 @@ def _labels(paths: list[Path]) -> dict[Path, str]:
     return {p: p.name if counts[p.name] == 1 else str(p) for p in paths}
 
 
+# a calibration photo needs no more (a 50-megapixel sensor is 8192 x 6144); three 10000 x 10000
+# photos took 20 GB to decode and detect in
+MAX_PIXELS = 50_000_000
+MAX_FILE_BYTES = 300_000_000
+
+
+def header_size(data: bytes) -> tuple[int, int] | None:
+    """(width, height) from a PNG's or a JPEG's header, without decoding; None for another
+    format or a header that does not say."""
+    if data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) >= 24:
+        return int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
+    if data[:2] != b"\xff\xd8":
+        return None
+    i = 2
+    while i + 9 < len(data):
+        if data[i] != 0xFF:
+            return None
+        marker = data[i + 1]
+        if 0xC0 <= marker <= 0xCF and marker not in (0xC4, 0xC8, 0xCC):  # a start of frame
+            return int.from_bytes(data[i + 7 : i + 9], "big"), int.from_bytes(
+                data[i + 5 : i + 7], "big"
+            )
+        i += 2 + int.from_bytes(data[i + 2 : i + 4], "big")
+    return None
+
+
 def _read_gray(path: Path) -> tuple[np.ndarray | None, str]:
     """The photo in grey levels, or None and why. Decoded from its bytes: imdecode refuses a
-    truncated JPEG, where imread would return its grey remainder and print libjpeg's warning."""
+    truncated JPEG, where imread would return its grey remainder and print libjpeg's warning.
+    A photo over :data:`MAX_PIXELS` (or a file over :data:`MAX_FILE_BYTES`) is refused before it
+    is decoded."""
     try:
-        data = np.frombuffer(path.read_bytes(), np.uint8)
+        if path.stat().st_size > MAX_FILE_BYTES:
+            return None, f"a file over {MAX_FILE_BYTES / 1e6:.0f} MB: not a calibration photo"
+        raw = path.read_bytes()
     except OSError as e:
         return None, f"cannot read it ({e.strerror})"
+    size = header_size(raw)
+    if size is not None and size[0] * size[1] > MAX_PIXELS:
+        return None, (
+            f"{size[0]} x {size[1]} pixels, over the {MAX_PIXELS / 1e6:.0f}-megapixel limit "
+            "(a calibration needs no more: scale the photos down)"
+        )
+    data = np.frombuffer(raw, np.uint8)
     img = cv2.imdecode(data, cv2.IMREAD_GRAYSCALE) if data.size else None
     if img is None:
         return None, "not a readable image (truncated, or not an image)"

@@ -39,6 +39,23 @@ def same_file(a: str | Path, b: str | Path) -> bool:
         return False
 
 
+def _rows(reader, path: Path, max_rows: int | None) -> list[list[str]]:
+    """The CSV's rows, refused as soon as it holds more than ``max_rows`` data rows (read on
+    only to count them, the whole file would be in memory first)."""
+    rows: list[list[str]] = []
+    data = 0
+    for r in reader:
+        rows.append(r)
+        if len(rows) > 1 and any(cell.strip() for cell in r):
+            data += 1
+            if max_rows is not None and data > max_rows:
+                raise RecordingError(
+                    f"{path}: more than {max_rows} rows; this command takes at most {max_rows}: "
+                    "decimate the recording or split it"
+                )
+    return rows
+
+
 def read_columns(
     path: str | Path, required: tuple, optional: tuple, max_rows: int | None = None
 ) -> tuple[dict[str, np.ndarray], np.ndarray]:
@@ -72,7 +89,7 @@ def read_columns(
     path = Path(path)
     try:
         with open(path, newline="", encoding="utf-8-sig") as f:
-            rows = list(csv.reader(f))
+            rows = _rows(csv.reader(f), path, max_rows)
     except IsADirectoryError:
         raise RecordingError(f"{path} is a folder, not a CSV file") from None
     except OSError as e:

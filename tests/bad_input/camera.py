@@ -41,6 +41,17 @@ CASES = [
         2,
         "a symbolic link that leads nowhere",
     ),
+    (  # a 10000 x 10000 photo (its header: nothing to decode): refused before decoding
+        "camera-too-many-pixels",
+        {
+            "big.png": b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR"
+            + (10000).to_bytes(4, "big") * 2
+            + b"\x08\x00\x00\x00\x00\x00\x00\x00\x00"
+        },
+        ["camera", "{d}/big.png", "--cols", "9", "--rows", "6", "--square-mm", "25"],
+        2,
+        "10000 x 10000 pixels, over the 50-megapixel limit",
+    ),
     (  # OpenCV's C int overflowed: exit 3
         "camera-cols-beyond-int",
         {},

@@ -203,7 +203,7 @@ CASES = [
         {"r.csv": lambda p: p.write_text(STAGE_HEAD + "\n" + "1,2,3,4\n" * 100_001)},
         ["discover", "belt-stage", "{d}/r.csv"],
         2,
-        "100001 rows",
+        "more than 100000 rows",
     ),
     (
         "discover-stage-in-um",

@@ -189,4 +189,11 @@ CASES = [
         0,
         "",
     ),
+    (  # refused as soon as the row after the limit is read, not after the whole file
+        "fit-stage-too-many-rows",
+        {"r.csv": lambda p: p.write_text(STAGE_HEAD + "\n" + "1,2,3,4\n" * 1_000_001)},
+        ["fit", "belt-stage", "{d}/r.csv"],
+        2,
+        "more than 1000000 rows",
+    ),
 ]
