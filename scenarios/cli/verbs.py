@@ -142,10 +142,30 @@ def fit(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _a_file_to_read_again(path: Path) -> None:
+    """``fit arm-cmm`` reads a recording more than once (its rows, its hash, its screening): a
+    pipe (``<(cat file.csv)``) is empty the second time, which read as missing columns."""
+    import stat
+
+    from calibench.scenarios.report import BadInput
+
+    try:
+        mode = Path(path).stat().st_mode
+    except (OSError, RuntimeError):
+        return  # said by the loader, with its reason
+    if stat.S_ISFIFO(mode) or stat.S_ISCHR(mode) or stat.S_ISSOCK(mode):
+        raise BadInput(
+            f"{path}: a pipe or a device, which can be read only once; fit reads a recording "
+            "more than once: save it to a file and give the file"
+        )
+
+
 def _fit_arm(args: argparse.Namespace, out: Path) -> int:
     """``fit arm-cmm``: the fit, its held-out and test errors; 1 when the solve did not converge."""
     from calibench.scenarios.arm_cmm.fit import run_arm_fit
 
+    for p in [*args.recordings, *(args.test or []), *(args.test_new_frame or [])]:
+        _a_file_to_read_again(p)
     if args.leave_one_out:
         return _leave_one_out(args, out)
     r = run_arm_fit(

@@ -6,6 +6,7 @@ See tests/test_bad_input.py, which runs every case.
 from __future__ import annotations
 
 import json
+import os
 
 import numpy as np
 
@@ -445,5 +446,12 @@ CASES = [
         ["fit", "arm-cmm", "{d}/r.csv", "--arm", "{d}/a.toml"],
         2,
         "nested too deep",
+    ),
+    (  # fit arm-cmm <(cat file.csv): the second read found nothing, said as missing columns
+        "arm-recording-is-a-pipe",
+        {"r.csv": lambda p: os.mkfifo(p)},
+        ["fit", "arm-cmm", "{d}/r.csv", "--arm", "ur10"],
+        2,
+        "a pipe or a device, which can be read only once",
     ),
 ]
