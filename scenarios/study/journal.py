@@ -4,6 +4,8 @@ study.json, which says which study the folder holds (one study per folder)."""
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import json
 from pathlib import Path
 from typing import TextIO
@@ -126,3 +128,23 @@ def record_study(out_dir: Path, meta: dict) -> None:
             "--out"
         )
     meta_path.write_text(json.dumps(meta) + "\n")
+
+
+@contextlib.contextmanager
+def study_lock(out_dir: Path):
+    """Hold the folder's study lock for the block: a second study started into the same folder
+    (the same command twice, say) is refused instead of doing all the work again beside the
+    first. The lock is the operating system's (``flock``): a killed study leaves none behind."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    f = open(out_dir / ".study.lock", "a")
+    try:
+        try:
+            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise BadInput(
+                f"{out_dir}: another calibench study is running in this folder; wait for it to "
+                "finish (then rerun to resume) or use another --out"
+            ) from None
+        yield
+    finally:
+        f.close()

@@ -20,7 +20,12 @@ from pathlib import Path
 
 from calibench.errors import BadInput
 from calibench.scenarios.study.executor import interrupt_flag, make_executor
-from calibench.scenarios.study.journal import load_journal, open_journal, record_study
+from calibench.scenarios.study.journal import (
+    load_journal,
+    open_journal,
+    record_study,
+    study_lock,
+)
 from calibench.scenarios.study.outputs import import_writers, write_outputs
 from calibench.scenarios.study.summary import summarise
 from calibench.scenarios.study.trials import (
@@ -92,6 +97,26 @@ def run_study(
         raise BadInput(f"unknown scenario {scenario!r} (available: {', '.join(NAMES)})")
     if trials < 1:
         raise BadInput("--trials must be at least 1")
+    with study_lock(out_dir):
+        return _run_study(
+            scenario,
+            trials,
+            seed,
+            fidelity,
+            out_dir,
+            workers,
+            scheduler,
+            executor,
+            progress,
+            arm,
+            table,
+        )
+
+
+def _run_study(
+    scenario, trials, seed, fidelity, out_dir, workers, scheduler, executor, progress, arm, table
+) -> dict:
+    """:func:`run_study` in its locked folder."""
     done = load_journal(out_dir)
     for i, row in done.items():
         # study.json may be gone: each row says its trial's seed, which this study's must be

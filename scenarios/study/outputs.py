@@ -3,13 +3,28 @@ study.rrd."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
+import os
 from pathlib import Path
 
 import numpy as np
 
 from calibench.scenarios.study.summary import checks_table, summary_table
+
+
+@contextlib.contextmanager
+def replaced(path: Path):
+    """A temporary name beside ``path`` to write to, renamed over ``path`` when the block ends
+    (an interrupted write leaves the old file whole; a symbolic link planted at ``path`` is
+    replaced, not followed out of the folder). The temporary file goes if the block fails."""
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
 
 
 def write_outputs(out_dir: Path, rows: list[dict], summary: dict) -> None:
@@ -38,8 +53,10 @@ def write_outputs(out_dir: Path, rows: list[dict], summary: dict) -> None:
         }
     )
     table = {k: [r.get(k) for r in rows] for k in keys + cols}
-    pq.write_table(pa.table(table), out_dir / "trials.parquet")
-    (out_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    with replaced(out_dir / "trials.parquet") as tmp:
+        pq.write_table(pa.table(table), tmp)
+    with replaced(out_dir / "summary.json") as tmp:
+        tmp.write_text(json.dumps(summary, indent=2) + "\n")
     if summary["parameters"]:
         _figure(out_dir, rows, summary)
         _log(out_dir, summary)
@@ -100,7 +117,8 @@ def _figure(out_dir: Path, rows: list[dict], summary: dict) -> None:
     ax.set_xticks(range(len(names)), names, rotation=90, fontsize=7)
     ax.set(ylim=(0, 1.05), ylabel="coverage of +-1.96 std", title="coverage per parameter")
     ax.legend(loc="lower right")
-    fig.savefig(out_dir / "study.png", dpi=90)
+    with replaced(out_dir / "study.png") as tmp:
+        fig.savefig(tmp, dpi=90, format="png")
     plt.close(fig)
 
 

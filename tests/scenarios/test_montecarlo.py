@@ -341,3 +341,28 @@ def test_a_scheduler_that_does_not_speak_dask_is_said_in_time(tmp_path):
         listener.close()
     assert rc == 2
     assert time.monotonic() - t0 < 30
+
+
+def test_a_second_study_into_the_same_folder_is_refused_while_the_first_runs(tmp_path):
+    """Two identical studies into one --out both did all the work: the second is now refused
+    with one line while the first holds the folder, and runs once the first is done."""
+    from calibench.scenarios.study.journal import study_lock
+
+    out = tmp_path / "o"
+    args = ["montecarlo", "belt-stage", "--trials", "2", "--fidelity", "analytic"]
+    with study_lock(out):  # the first study, still running
+        assert main([*args, "--workers", "1", "--out", str(out)]) == 2
+    assert main([*args, "--workers", "1", "--out", str(out)]) == 0
+
+
+def test_outputs_replace_a_planted_link_instead_of_following_it(tmp_path):
+    """An output written in place followed a symbolic link planted at its name out of --out;
+    now each output is written beside it and renamed over the name (the link itself)."""
+    out, outside = tmp_path / "o", tmp_path / "outside.json"
+    outside.write_text("untouched")
+    out.mkdir()
+    (out / "summary.json").symlink_to(outside)
+    args = ["montecarlo", "belt-stage", "--trials", "2", "--fidelity", "analytic"]
+    assert main([*args, "--workers", "1", "--out", str(out)]) == 0
+    assert outside.read_text() == "untouched"
+    assert not (out / "summary.json").is_symlink()
