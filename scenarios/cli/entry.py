@@ -4,6 +4,7 @@ traceback in OUT/error.log, 130 interrupted)."""
 
 from __future__ import annotations
 
+import errno
 import os
 import signal
 import sys
@@ -98,9 +99,16 @@ def _terminate_as_interrupt():
 
 
 def _said_as_bad_input(e: Exception) -> str | None:
-    """The line for errors that are the input's, not calibench's: a symbolic link loop (Python
-    3.11's ``Path.resolve`` raises RuntimeError for it), a file nested too deep to read
+    """The line for errors that are the user's to fix, not calibench's: a full disk, a symbolic
+    link loop (Python 3.11's ``Path.resolve`` raises RuntimeError for it), a file nested too deep
+    to read
     (RecursionError: a TOML of thousands of nested tables)."""
+    if isinstance(e, OSError) and e.errno in (errno.ENOSPC, errno.EDQUOT):
+        where = f" writing {e.filename}" if e.filename else ""
+        return (
+            f"the disk is full{where}: free some space and rerun (what was finished is kept; a "
+            "study resumes)"
+        )
     if isinstance(e, RecursionError):
         return (
             "an input file is nested too deep to read (thousands of levels): not a calibench file"

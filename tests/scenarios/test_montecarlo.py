@@ -366,3 +366,21 @@ def test_outputs_replace_a_planted_link_instead_of_following_it(tmp_path):
     assert main([*args, "--workers", "1", "--out", str(out)]) == 0
     assert outside.read_text() == "untouched"
     assert not (out / "summary.json").is_symlink()
+
+
+def test_a_full_disk_is_one_line_and_keeps_the_trials(tmp_path, monkeypatch, capsys):
+    """A full disk is the user's to fix: one line (it printed an internal error and an empty
+    error.log), the journal of finished trials kept for the rerun."""
+    import errno
+
+    from calibench.scenarios.study import montecarlo
+
+    def full(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device", str(tmp_path / "o" / "x.parquet"))
+
+    monkeypatch.setattr(montecarlo, "write_outputs", full)
+    args = ["montecarlo", "belt-stage", "--trials", "2", "--fidelity", "analytic"]
+    assert main([*args, "--workers", "1", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "the disk is full writing" in err[0], err
+    assert sorted(load_journal(tmp_path / "o")) == [0, 1]
