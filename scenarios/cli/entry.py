@@ -101,8 +101,7 @@ def _terminate_as_interrupt():
 def _said_as_bad_input(e: Exception) -> str | None:
     """The line for errors that are the user's to fix, not calibench's: a full disk, a symbolic
     link loop (Python 3.11's ``Path.resolve`` raises RuntimeError for it), a file nested too deep
-    to read
-    (RecursionError: a TOML of thousands of nested tables)."""
+    to read (RecursionError: a TOML of thousands of nested tables)."""
     if isinstance(e, OSError) and e.errno in (errno.ENOSPC, errno.EDQUOT):
         where = f" writing {e.filename}" if e.filename else ""
         return (
