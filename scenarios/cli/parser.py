@@ -182,8 +182,20 @@ def build_parser() -> argparse.ArgumentParser:
     mc.add_argument("--trials", type=_trials, required=True, help="number of trials")
     mc.add_argument("--workers", type=_workers, help="local worker processes (default: all cores)")
     mc.add_argument(
-        "--scheduler", help="address of a Dask scheduler (tcp://host:8786) instead of local workers"
+        "--scheduler",
+        help="address of a Dask scheduler instead of local workers: tls://host:8786 with the "
+        "--tls-* files (tcp:// is unauthenticated pickle: a trusted network only)",
     )
+    for flag, key, what in (
+        ("--tls-ca-file", "ca-file", "the certificate authority that signed the cluster's"),
+        ("--tls-cert", "client.cert", "this client's certificate"),
+        ("--tls-key", "client.key", "this client's private key"),
+    ):
+        mc.add_argument(
+            flag,
+            type=Path,
+            help=f"--scheduler tls://: {what} (PEM; or Dask's config distributed.comm.tls.{key})",
+        )
     mc.add_argument("--seed", type=_seed, default=0, help="study seed (default 0)")
     mc.add_argument(
         "--out", type=_folder, help="output folder (default ./calibench-out/<scenario>-montecarlo)"

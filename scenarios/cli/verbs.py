@@ -291,6 +291,11 @@ def montecarlo(args: argparse.Namespace) -> int:
         args.scheduler,
         arm=arm,
         table=table,
+        tls={
+            "ca_file": args.tls_ca_file,
+            "cert": args.tls_cert,
+            "key": args.tls_key,
+        },
     )
     print(
         f"{s['scenario']}: {s['trials']} trials ({s['resumed']} kept from an earlier run, "

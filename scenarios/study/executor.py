@@ -12,6 +12,7 @@ import re
 import signal
 import threading
 import time
+from pathlib import Path
 
 from calibench.errors import BadInput
 
@@ -64,7 +65,7 @@ def interrupt_flag():
 CONNECT_S = 10.0  # to reach a scheduler and hear it answer as one
 
 
-def _connect(client_type, scheduler: str):
+def _connect(make_client, scheduler: str):
     """A Dask client of ``scheduler``, or BadInput within about :data:`CONNECT_S`: a listener
     that accepts and never speaks Dask held the client's own timeout open for over a minute, so
     the connection is made on a thread given that long."""
@@ -72,7 +73,7 @@ def _connect(client_type, scheduler: str):
 
     def connect() -> None:
         try:
-            got["client"] = client_type(scheduler, timeout=f"{CONNECT_S:g}s")
+            got["client"] = make_client(scheduler, f"{CONNECT_S:g}s")
         except Exception as e:  # noqa: BLE001 - said as bad input below
             got["error"] = e
 
@@ -85,7 +86,40 @@ def _connect(client_type, scheduler: str):
     raise BadInput(f"--scheduler {scheduler}: cannot reach the Dask scheduler ({why})")
 
 
-def make_executor(workers: int | None, scheduler: str | None):
+def _security(scheduler: str, tls: dict):
+    """Dask's Security for ``scheduler``: for tls://, the given files over Dask's config, and a
+    clear line when neither says where they are; None for another protocol (Dask's config)."""
+    if not scheduler.startswith("tls://"):
+        if any(tls.values()):
+            raise BadInput(f"--tls-* files given, but --scheduler {scheduler} is not tls://")
+        return None
+    import dask.config
+    from distributed.security import Security
+
+    def pick(key: str, conf: str):
+        v = tls.get(key) or dask.config.get(f"distributed.comm.tls.{conf}", None)
+        if v and not Path(v).is_file():
+            raise BadInput(f"--scheduler {scheduler}: {v} (TLS {key}) is not a file")
+        return str(v) if v else None
+
+    ca, cert, key = (
+        pick("ca_file", "ca-file"),
+        pick("cert", "client.cert"),
+        pick("key", "client.key"),
+    )
+    if not (ca and cert):
+        raise BadInput(
+            f"--scheduler {scheduler}: TLS needs the cluster's certificate authority and this "
+            "client's certificate: --tls-ca-file, --tls-cert (and --tls-key unless the "
+            "certificate holds it), or Dask's config distributed.comm.tls.ca-file and "
+            ".client.cert/.client.key"
+        )
+    return Security(
+        tls_ca_file=ca, tls_client_cert=cert, tls_client_key=key, require_encryption=True
+    )
+
+
+def make_executor(workers: int | None, scheduler: str | None, tls: dict | None = None):
     """A spawn process pool, or a Dask cluster's executor.
 
     Parameters
@@ -94,6 +128,9 @@ def make_executor(workers: int | None, scheduler: str | None):
         Local worker processes (default: one per core); ignored with ``scheduler``.
     scheduler : str, optional
         A Dask scheduler's address (``tcp://host:8786``, ``tls://...``).
+    tls : dict, optional
+        For ``tls://``: ``ca_file``, ``cert``, ``key`` paths (None each: Dask's config
+        ``distributed.comm.tls.ca-file``, ``.client.cert``, ``.client.key``).
 
     Returns
     -------
@@ -120,7 +157,10 @@ def make_executor(workers: int | None, scheduler: str | None):
             raise BadInput(
                 "--scheduler needs Dask distributed: pip install 'calibench[cluster]'"
             ) from None
-        client = _connect(Client, scheduler)
+        security = _security(scheduler, tls or {})
+        client = _connect(
+            lambda address, timeout: Client(address, timeout=timeout, security=security), scheduler
+        )
         return client.get_executor(), lambda interrupted=False: client.close()
     n = workers or os.cpu_count() or 1
     # a spawned worker starts as `python -c ...`, whose import path begins with the current

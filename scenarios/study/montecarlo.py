@@ -49,6 +49,7 @@ def run_study(
     progress: bool | None = None,
     arm: str | None = None,
     table: dict | None = None,
+    tls: dict | None = None,
 ) -> dict:
     """Run the missing trials of a study, journal them as they finish, write the outputs.
 
@@ -78,6 +79,8 @@ def run_study(
     table : dict, optional
         Config overrides of the scenario (a ``--config`` file's table), the same for every trial
         and recorded in study.json, so a resumed study cannot mix two configs.
+    tls : dict, optional
+        ``--scheduler tls://``'s files: ``ca_file``, ``cert``, ``key`` (None for Dask's config).
 
     Returns
     -------
@@ -110,11 +113,23 @@ def run_study(
             progress,
             arm,
             table,
+            tls,
         )
 
 
 def _run_study(
-    scenario, trials, seed, fidelity, out_dir, workers, scheduler, executor, progress, arm, table
+    scenario,
+    trials,
+    seed,
+    fidelity,
+    out_dir,
+    workers,
+    scheduler,
+    executor,
+    progress,
+    arm,
+    table,
+    tls,
 ) -> dict:
     """:func:`run_study` in its locked folder."""
     done = load_journal(out_dir)
@@ -148,7 +163,7 @@ def _run_study(
         if todo:
             if executor is None:
                 try:
-                    executor, close = make_executor(workers, scheduler)
+                    executor, close = make_executor(workers, scheduler, tls)
                 except BadInput:
                     if not described and not done:  # no study began here: leave no trace of one
                         (out_dir / "study.json").unlink(missing_ok=True)

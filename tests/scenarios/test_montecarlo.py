@@ -384,3 +384,56 @@ def test_a_full_disk_is_one_line_and_keeps_the_trials(tmp_path, monkeypatch, cap
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "the disk is full writing" in err[0], err
     assert sorted(load_journal(tmp_path / "o")) == [0, 1]
+
+
+def _self_signed(tmp_path):
+    """A self-signed certificate and its key (PEM), by the openssl command, which serves as the
+    cluster's authority, the scheduler's, the workers' and the client's certificate."""
+    import shutil
+
+    if shutil.which("openssl") is None:
+        pytest.skip("the openssl command makes the test's certificates")
+    cert, key = tmp_path / "cert.pem", tmp_path / "key.pem"
+    subprocess.run(
+        ["openssl", "req", "-x509", "-newkey", "rsa:2048", "-nodes", "-days", "1"]
+        + ["-subj", "/CN=localhost", "-keyout", str(key), "-out", str(cert)],
+        check=True,
+        capture_output=True,
+    )
+    return cert, key
+
+
+def test_a_tls_cluster_gives_the_pool_s_results(tmp_path):
+    """--scheduler tls:// with the certificate files on the command line, against a local
+    cluster that requires encryption (self-signed certificates): the same trials as the local
+    pool, bit for bit; without the files, one line that says which are missing."""
+    distributed = pytest.importorskip("distributed")
+    from distributed.security import Security
+
+    cert, key = _self_signed(tmp_path)
+    files = {
+        f"tls_{who}_{k}": str(v)
+        for who in ("scheduler", "worker", "client")
+        for k, v in (("cert", cert), ("key", key))
+    }
+    security = Security(tls_ca_file=str(cert), require_encryption=True, **files)
+    pool_dir = tmp_path / "pool"
+    run_study("arm-cmm", 4, 11, "analytic", pool_dir, workers=2, progress=False)
+    args = ["montecarlo", "arm-cmm", "--trials", "4", "--seed", "11", "--fidelity", "analytic"]
+    with distributed.LocalCluster(
+        n_workers=2,
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=None,
+        protocol="tls",
+        security=security,
+    ) as cluster:
+        address = cluster.scheduler_address
+        assert address.startswith("tls://")
+        assert main([*args, "--scheduler", address, "--out", str(tmp_path / "none")]) == 2
+        tls = ["--tls-ca-file", str(cert), "--tls-cert", str(cert), "--tls-key", str(key)]
+        assert main([*args, "--scheduler", address, *tls, "--out", str(tmp_path / "tls")]) == 0
+    a, ta = _estimates(pool_dir)
+    b, tb = _estimates(tmp_path / "tls")
+    assert ta == tb
+    np.testing.assert_array_equal(a, b)
