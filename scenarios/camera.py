@@ -163,7 +163,14 @@ def _read_gray(path: Path) -> tuple[np.ndarray | None, str]:
             "(a calibration needs no more: scale the photos down)"
         )
     data = np.frombuffer(raw, np.uint8)
-    img = cv2.imdecode(data, cv2.IMREAD_GRAYSCALE) if data.size else None
+    # OpenCV's decoders print their own warnings (a float TIFF: a dozen lines); the photo's
+    # fate is said once, in the rejected list
+    level = cv2.utils.logging.getLogLevel()
+    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)
+    try:
+        img = cv2.imdecode(data, cv2.IMREAD_GRAYSCALE) if data.size else None
+    finally:
+        cv2.utils.logging.setLogLevel(level)
     if img is None:
         return None, "not a readable image (truncated, or not an image)"
     return img, ""

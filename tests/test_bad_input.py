@@ -202,3 +202,18 @@ def test_ctrl_c_during_a_study_is_one_line_and_keeps_the_trials(tmp_path):
     ], err
     rows = [json.loads(line) for line in journal.read_text().splitlines() if line.strip()]
     assert rows and all(r["ok"] for r in rows)
+
+
+def test_a_float_tiff_is_one_line_without_opencvs_warnings(tmp_path, capfd):
+    """OpenCV's TIFF decoder printed its own warnings (a dozen lines, at the file descriptor)
+    beside calibench's one line; they are silenced while a photo is decoded."""
+    import cv2
+    import numpy as np
+
+    from calibench.scenarios.cli import main
+
+    cv2.imwrite(str(tmp_path / "f.tiff"), np.random.default_rng(0).random((48, 64)).astype("f4"))
+    args = ["camera", str(tmp_path / "f.tiff"), "--cols", "9", "--rows", "6", "--square-mm", "25"]
+    assert main([*args, "--out", str(tmp_path / "o")]) == 2
+    err = capfd.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "f.tiff: not a readable image" in err[0], err
