@@ -50,15 +50,9 @@ def load_stewart_csv(path: str | Path, max_rows: int | None = None) -> StewartRe
         i = int(np.argmax(~np.isin(direction, (-1.0, 0.0, 1.0)).all(axis=1)))
         raise RecordingError(f"{path} line {line[i]}: a dir_ column is not -1, 0 or +1")
     ang = np.stack([cols[c] for c in ("rx_deg", "ry_deg", "rz_deg")], axis=1)
-    if np.abs(ang).max() > 360:
-        raise RecordingError(
-            f"{path}: an angle of {np.abs(ang).max():.3g} deg in rx/ry/rz: not degrees"
-        )
+    _in_range(path, line, ang, 360, "an angle of {:.3g} deg in rx/ry/rz", "not degrees")
     t = np.stack([cols[c] for c in ("x_mm", "y_mm", "z_mm")], axis=1)
-    if np.abs(t).max() > 1e6:
-        raise RecordingError(
-            f"{path}: a coordinate of {np.abs(t).max():.3g} mm (over a kilometre): wrong unit"
-        )
+    _in_range(path, line, t, 1e6, "a coordinate of {:.3g} mm (over a kilometre)", "wrong unit")
     return StewartRecording(
         np.stack([cols[c] for c in legs], axis=1),
         Rotation.from_euler("XYZ", ang, degrees=True).as_matrix(),
@@ -67,4 +61,20 @@ def load_stewart_csv(path: str | Path, max_rows: int | None = None) -> StewartRe
         cols.get("temp_c"),
         direction,
         cols.get("load_n"),
+    )
+
+
+def _in_range(path, line: np.ndarray, values: np.ndarray, limit: float, what: str, unit: str):
+    """Refuse values (n, k) beyond ``limit``: a few rows are corrupt rows, named by their line;
+    most rows beyond it are a wrong unit."""
+    bad = np.any(np.abs(values) > limit, axis=1)
+    if not bad.any():
+        return
+    worst = float(np.abs(values[bad]).max())
+    if bad.mean() > 0.5:
+        raise RecordingError(f"{path}: {what.format(worst)} in most rows: {unit}")
+    rows = ", ".join(str(int(x)) for x in line[bad][:5]) + (" ..." if bad.sum() > 5 else "")
+    raise RecordingError(
+        f"{path} line{'s' if bad.sum() > 1 else ''} {rows}: {what.format(worst)}, where the other "
+        "rows are in range: a corrupt row"
     )

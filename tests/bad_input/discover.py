@@ -41,6 +41,10 @@ def _corrupt_leg(rows, head):
     rows[50, head.index("l3_mm")] = -500.0
 
 
+def _corrupt_pose(rows, head):
+    rows[80, head.index("ry_deg")] = 9.9e9  # one row's pose corrupt, the others in degrees
+
+
 def _angles_in_radians(rows, head):
     for c in ("rx_deg", "ry_deg", "rz_deg"):
         rows[:, head.index(c)] = np.radians(rows[:, head.index(c)])
@@ -316,5 +320,12 @@ CASES = [
         ["discover", "stewart", "{d}/r.csv"],
         2,
         "a wrong unit",
+    ),
+    (  # one corrupt pose was blamed on the unit of the whole file
+        "discover-stewart-corrupt-pose",
+        {"r.csv": stewart_with(_corrupt_pose)},
+        ["discover", "stewart", "{d}/r.csv"],
+        2,
+        "line 82: an angle of 9.9e+09 deg in rx/ry/rz, where the other rows are in range",
     ),
 ]
