@@ -35,15 +35,16 @@ class SessionFit:
 
 
 # the angle terms a new session refits beside its frame: a gear train's harmonics (a power-up
-# may set their phase) and a table over a joint's angle (what no law explains need not hold as
-# it did); an encoder's eccentricity stays with the machine
-SESSION_LABELS = ("transmission", "table")
+# may set their phase); an encoder's eccentricity and a table over a joint's angle stay with the
+# machine (a table's bands refitted on a fifth of a session's rows, unregularised, put a band
+# that few of them reach far off: a max of 19.8 mm on the UR10's A left out)
+SESSION_LABELS = ("transmission",)
 
 
 def session_terms(terms) -> list:
     """The terms a new session has its own coefficients of: one per per-recording term of the
     calibration (its copies for each training session counted once), as a shared term, and a
-    correction to each shared gear harmonic and table (:data:`SESSION_LABELS`)."""
+    correction to each shared gear harmonic (:data:`SESSION_LABELS`)."""
     out: dict = {}
     for t in terms:
         if t.recording is not None or t.label in SESSION_LABELS:

@@ -340,10 +340,6 @@ class JointTable(JointEffect):
     name: str = "nonsmooth"
     edges: tuple = ()
     span: tuple = (-np.pi, np.pi)  # the angles the data cover, for the words
-    # what no law explains need not hold in another session as it did in these: a new session
-    # refits the bands its registration rows reach (fit's session terms; found on the UR10,
-    # where the table over q2 carries to a session held out whole only so)
-    session_refit = True
 
     def __post_init__(self):
         object.__setattr__(self, "needs", ("Jq", "q"))
