@@ -293,6 +293,13 @@ CASES = [
         2,
         "would overwrite it",
     ),
+    (  # Python 3.11's Path.resolve raises RuntimeError on a symbolic link loop: exit 2, not 3
+        "discover-twin-symlink-loop",
+        {"r.csv": "turn,theta_deg,rho_mm\n0,0,20\n", "loop.toml": lambda p: p.symlink_to(p.name)},
+        ["discover", "probe-scanner", "{d}/r.csv", "--twin", "{d}/loop.toml"],
+        2,
+        "a symbolic link loop",
+    ),
     (
         "discover-config-without-the-scenario",
         {"r.csv": "turn,theta_deg,rho_mm\n0,0,20\n", "c.toml": "[stewart]\ntranslation_mm = 5.0\n"},
