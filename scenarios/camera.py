@@ -37,24 +37,26 @@ def calibrate_photos(
     if twice is not None:
         raise BadInput(f"camera: {twice} is given twice: a photo counts once")
     names = _labels(paths)
-    images, rejected = {}, {}
+    # one photo decoded at a time, only its corners kept: memory stays that of one photo
+    found, sizes, rejected = {}, {}, {}
     for p in paths:
         img, why = _read_gray(p)
         if img is None:
             rejected[names[p]] = why
-        else:
-            images[p] = img
+            continue
+        sizes[p] = img.shape[::-1]
+        found[p] = find_chessboard_corners(img, cols, rows)
+        del img
     # the size most photos share is the camera's: one odd photo, first or not, is the one rejected
-    sizes = [img.shape[::-1] for img in images.values()]
-    size = max(set(sizes), key=sizes.count) if sizes else None
+    counts = list(sizes.values())
+    size = max(set(counts), key=counts.count) if counts else None
     used, points, left_out = [], [], {}
-    for p, img in images.items():
-        if img.shape[::-1] != size:
+    for p, corners in found.items():
+        if sizes[p] != size:
             rejected[names[p]] = (
-                f"size {img.shape[1]}x{img.shape[0]} differs from the others' {size[0]}x{size[1]}"
+                f"size {sizes[p][0]}x{sizes[p][1]} differs from the others' {size[0]}x{size[1]}"
             )
             continue
-        corners = find_chessboard_corners(img, cols, rows)
         if corners is None:
             rejected[names[p]] = f"no {cols}x{rows} chessboard found"
             continue
@@ -73,12 +75,19 @@ def calibrate_photos(
         used.append(names[p])
         points.append(corners)
     if len(used) < 3:
+        no_board = found and all(c is None for c in found.values())
         why = "; ".join(f"{k}: {v}" for k, v in list(rejected.items())[:3])
         more = f" and {len(rejected) - 3} more" if len(rejected) > 3 else ""
         raise BadInput(
             f"camera: {len(used)} usable view(s) of the {cols}x{rows} board among {len(paths)} "
             "image(s), "
-            f"a calibration needs at least 3 distinct ones" + (f" ({why}{more})" if why else "")
+            f"a calibration needs at least 3 distinct ones"
+            + (f" ({why}{more})" if why else "")
+            + (
+                _COUNT_INNER.format(cols=cols, rows=rows, c=cols - 1, r=rows - 1)
+                if no_board
+                else ""
+            )
         )
     board = Chessboard(cols=cols, rows=rows, square_mm=square_mm)
     try:
@@ -121,6 +130,11 @@ def _labels(paths: list[Path]) -> dict[Path, str]:
 
 # a calibration photo needs no more (a 50-megapixel sensor is 8192 x 6144); three 10000 x 10000
 # photos took 20 GB to decode and detect in
+# the usual slip when no photo shows the board: its squares counted instead of its inner corners
+_COUNT_INNER = (
+    "; --cols and --rows count inner corners, where four squares meet: a board of "
+    "{cols} x {rows} squares has --cols {c} --rows {r}"
+)
 MAX_PIXELS = 50_000_000
 MAX_FILE_BYTES = 300_000_000
 

@@ -9,6 +9,9 @@ import numpy as np
 from calibench.recordings.csv_io import RecordingError, read_columns
 from calibench.recordings.records import AxisRun
 
+# readings of one run: ISO 230-2 asks for 5 runs each way, so a million is 100,000 targets
+MAX_ROWS = 1_000_000
+
 
 def load_axis_run(path: str | Path) -> AxisRun:
     """Read a bidirectional run (CONTRACT, "iso230").
@@ -26,11 +29,12 @@ def load_axis_run(path: str | Path) -> AxisRun:
     Raises
     ------
     RecordingError
-        A missing column, a direction other than +1 / -1, a deviation over a metre.
+        A missing column, a direction other than +1 / -1, a deviation over a metre, over
+        :data:`MAX_ROWS` readings.
     """
     path = Path(path)
     cols, line = read_columns(
-        path, ("target_mm", "run", "direction"), ("deviation_um", "actual_mm")
+        path, ("target_mm", "run", "direction"), ("deviation_um", "actual_mm"), MAX_ROWS
     )
     if "deviation_um" in cols:
         dev = cols["deviation_um"]

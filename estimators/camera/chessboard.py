@@ -22,6 +22,10 @@ _SB_FLAGS = cv2.CALIB_CB_ACCURACY | cv2.CALIB_CB_EXHAUSTIVE
 # no CALIB_CB_FAST_CHECK: with OpenCV 5.0 it makes a board's detection 3-4x slower (13 photos:
 # 220 ms against 55 ms), and a photo without a board goes on to the sector detector anyway
 _CLASSIC_FLAGS = cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE
+# px: the detectors look for the board on a copy whose longer side is at most this (their time
+# and memory grow with the image: a 50-megapixel photo took 30 s and 3.5 GB); the saddle
+# refinement then works at full resolution, so the corners lose nothing
+DETECT_MAX_SIDE = 2048
 
 
 def to_gray(image: np.ndarray) -> np.ndarray:
@@ -38,15 +42,22 @@ def find_chessboard_corners(image: np.ndarray, cols: int, rows: int) -> np.ndarr
     either way the corners are then refined to the image's saddle points.
     """
     gray = to_gray(image)
+    small = gray
+    if max(gray.shape) > DETECT_MAX_SIDE:
+        f = DETECT_MAX_SIDE / max(gray.shape)
+        small = cv2.resize(gray, None, fx=f, fy=f, interpolation=cv2.INTER_AREA)
     # the classic detector finds most boards in a few ms; the saddle refinement below makes its
     # rough corners as good as the sector detector's, which costs 20-30x more and is kept for
     # the photos the classic one misses
-    ok, corners = cv2.findChessboardCorners(gray, (cols, rows), flags=_CLASSIC_FLAGS)
+    ok, corners = cv2.findChessboardCorners(small, (cols, rows), flags=_CLASSIC_FLAGS)
     if not ok:
-        ok, corners = cv2.findChessboardCornersSB(gray, (cols, rows), flags=_SB_FLAGS)
+        ok, corners = cv2.findChessboardCornersSB(small, (cols, rows), flags=_SB_FLAGS)
         if not ok:
             return None
     corners = corners.reshape(-1, 2).astype(np.float64)
+    if small is not gray:  # pixel centres: (u + 0.5) scales with the image
+        scale = np.array([gray.shape[1] / small.shape[1], gray.shape[0] / small.shape[0]])
+        corners = (corners + 0.5) * scale - 0.5
     corners = refine_saddle(gray, corners, saddle_half_window(corners, cols, rows))
     return canonical_order(gray, corners, cols, rows)
 

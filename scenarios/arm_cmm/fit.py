@@ -406,16 +406,17 @@ def run_arm_fit(
             f"{', '.join(label[p] for p in paths if label[p] not in stated)} not: the stated std "
             "are not used, every row is weighted by the fitted scatter of its recording"
         )
+    result["implausible"] = None
     if result["fit"]["rms_mm"] > PLAUSIBLE_RMS_MM:
-        result["coverage"]["warnings"].insert(
-            0,
-            (
-                f"the fit leaves {result['fit']['rms_mm']:.3g} mm RMS, far beyond any arm's or "
-                "instrument's error: is "
-                f"the arm description right (--arm; this fit used {arm.name}) and are the columns "
-                "in degrees and mm?"
-            ),
+        # a calibration cannot be this far off: the exit status says it failed (1), not only a
+        # warning among others
+        result["implausible"] = (
+            f"the fit leaves {result['fit']['rms_mm']:.3g} mm RMS, far beyond any arm's or "
+            "instrument's error: is "
+            f"the arm description right (--arm; this fit used {arm.name}) and are the columns "
+            "in degrees and mm?"
         )
+        result["coverage"]["warnings"].insert(0, result["implausible"])
     elif tests:
         # a plausible fit and a same-frame test hundreds of times off it: the test's tracker stood
         # elsewhere

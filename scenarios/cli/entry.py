@@ -11,7 +11,7 @@ import sys
 import threading
 from pathlib import Path
 
-from calibench.scenarios.cli import verbs
+from calibench.scenarios.cli import folders, verbs
 from calibench.scenarios.cli.parser import build_parser
 from calibench.scenarios.cli.status import (
     EXIT_BAD_INPUT,
@@ -48,7 +48,9 @@ def main(argv: list[str] | None = None) -> int:
     created = None
     old_term = _terminate_as_interrupt()
     try:
+        _default_out(args)
         created = _check_out(getattr(args, "out", None))
+        _claim(args)
         return {
             "run": verbs.run,
             "fit": verbs.fit,
@@ -76,8 +78,8 @@ def main(argv: list[str] | None = None) -> int:
             e = BadInput(said)
         if isinstance(e, BadInput):
             print(f"calibench: {e}", file=sys.stderr)
-            if created is not None and created.is_dir() and not any(created.iterdir()):
-                created.rmdir()
+            if created is not None and created.is_dir():
+                _remove_if_only_marked(created)
             return EXIT_BAD_INPUT
         return _internal_error(e, getattr(args, "out", None))
     finally:
@@ -96,6 +98,35 @@ def _terminate_as_interrupt():
     if threading.current_thread() is not threading.main_thread():
         return None
     return signal.signal(signal.SIGTERM, _raise_interrupt)
+
+
+def _default_out(args) -> None:
+    """--out's default: the command's own folder (``run all``: one per scenario under
+    ./calibench-out)."""
+    if not hasattr(args, "out") or args.out is not None:
+        return
+    scenario = getattr(args, "scenario", None)
+    if args.command == "run" and scenario == "all":
+        args.out = Path("calibench-out")
+    else:
+        args.out = folders.default_out(args.command, scenario)
+
+
+def _claim(args) -> None:
+    """The folder made this command's (``run all`` claims each scenario's in turn)."""
+    if not hasattr(args, "out") or (args.command == "run" and args.scenario == "all"):
+        return
+    folders.claim(args.out, args.command, getattr(args, "scenario", None), args.force)
+
+
+def _remove_if_only_marked(created: Path) -> None:
+    """A folder this command created and left holding nothing but its mark: removed, as if
+    the command had not run."""
+    left = list(created.iterdir())
+    if all(p.name == folders.MARK for p in left):
+        for p in left:
+            p.unlink()
+        created.rmdir()
 
 
 def _said_as_bad_input(e: Exception) -> str | None:

@@ -67,6 +67,17 @@ def _folder(text: str) -> Path:
     return Path(text)
 
 
+def _out(p: argparse.ArgumentParser, default: str) -> None:
+    """--out and --force: each command writes to a folder of its own."""
+    p.add_argument("--out", type=_folder, help=f"output folder (default ./calibench-out/{default})")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="replace the results --out holds (another command's, another study's) instead of "
+        "refusing; a study starts anew",
+    )
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``calibench`` command's parser: every verb, its options and their checks.
 
@@ -96,7 +107,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     r.add_argument("scenario", help=f"one of: {names}; or 'all'")
     r.add_argument("--seed", type=_seed, default=0, help="random seed (default 0)")
-    r.add_argument("--out", type=_folder, help="output folder (default ./calibench-out/<scenario>)")
+    _out(r, "<scenario>")
     r.add_argument(
         "--fidelity",
         choices=("render", "analytic"),
@@ -124,7 +135,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     f.add_argument("scenario", help=f"one of: {fit_names}")
     f.add_argument("recordings", type=Path, nargs="+", metavar="RECORDING", help="CSV recording(s)")
-    f.add_argument("--out", type=_folder, help="output folder (default ./calibench-out/<scenario>)")
+    _out(f, "<scenario>-fit")
     f.add_argument(
         "--arm", help="arm-cmm: ARM.toml or a built-in arm (arm-cmm, ur10); default the seed's arm"
     )
@@ -197,9 +208,7 @@ def build_parser() -> argparse.ArgumentParser:
             help=f"--scheduler tls://: {what} (PEM; or Dask's config distributed.comm.tls.{key})",
         )
     mc.add_argument("--seed", type=_seed, default=0, help="study seed (default 0)")
-    mc.add_argument(
-        "--out", type=_folder, help="output folder (default ./calibench-out/<scenario>-montecarlo)"
-    )
+    _out(mc, "<scenario>-montecarlo")
     mc.add_argument(
         "--fidelity",
         choices=("render", "analytic"),
@@ -231,9 +240,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="CSV in the CONTRACT's format for the scenario (arm-cmm: "
         "one or more, each with its own base frame)",
     )
-    d.add_argument(
-        "--out", type=_folder, help="output folder (default ./calibench-out/<scenario>-discover)"
-    )
+    _out(d, "<scenario>-discover")
     d.add_argument(
         "--seed", type=_seed, default=0, help="seed of the permutation tests (default 0)"
     )
@@ -271,9 +278,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--radial", type=int, choices=(2, 3), default=3, help="radial terms k1..k3 (default 3)"
     )
     c.add_argument("--no-tangential", action="store_true", help="no tangential terms p1, p2")
-    c.add_argument(
-        "--out", type=_folder, default=Path("calibench-out/camera"), help="output folder"
-    )
+    _out(c, "camera")
     i = sub.add_parser(
         "iso230",
         help="ISO 230-2 evaluation of a real bidirectional run of one axis",
@@ -281,9 +286,7 @@ def build_parser() -> argparse.ArgumentParser:
         "deviation_um or actual_mm) as ISO 230-2:2014; writes DIR/iso230.json and DIR/iso230.png.",
     )
     i.add_argument("run", type=Path, metavar="RUN.csv", help="the run, one row per reading")
-    i.add_argument(
-        "--out", type=_folder, default=Path("calibench-out/iso230"), help="output folder"
-    )
+    _out(i, "iso230")
     if PLANNED:
         p.epilog = f"Scenarios planned but not built yet: {', '.join(PLANNED)}."
     return p

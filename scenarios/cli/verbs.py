@@ -9,6 +9,7 @@ import sys
 import time
 from pathlib import Path
 
+from calibench.scenarios.cli.folders import claim
 from calibench.scenarios.cli.status import EXIT_CHECK_FAILED, EXIT_OK
 
 
@@ -69,10 +70,10 @@ def run(args: argparse.Namespace) -> int:
         check_cones(configs["arm-cmm"])  # and cones it cannot reach
     status = EXIT_OK
     for s in scenarios:
-        if args.out is None:
-            out = Path("calibench-out") / s.name
-        else:
-            out = args.out / s.name if args.scenario == "all" else args.out
+        out = args.out
+        if args.scenario == "all":
+            out = args.out / s.name
+            claim(out, "run", s.name, args.force)
         t0 = time.perf_counter()
         how = f"seed {args.seed}, {args.fidelity}" if s.renders else f"seed {args.seed}"
         print(f"calibench: {s.name} ({how})", file=sys.stderr, flush=True)
@@ -103,12 +104,13 @@ def fit(args: argparse.Namespace) -> int:
     Returns
     -------
     int
-        0 when the fit is done, 1 when the arm's solve did not converge.
+        0 when the fit is done, 1 when the arm's solve did not converge or its fit is far
+        beyond any arm's error (a wrong description, wrong units).
     """
     from calibench.scenarios.report import BadInput
 
     s = _scenario(args.scenario)
-    out = args.out or Path("calibench-out") / s.name
+    out = args.out
     if s.name == "arm-cmm":
         return _fit_arm(args, out)
     arm_only = [
@@ -206,6 +208,9 @@ def _fit_arm(args: argparse.Namespace, out: Path) -> int:
     if not r["converged"]:
         print("  the solve did not converge: the figures are of its last iterate", file=sys.stderr)
     print(f"-> {out / 'fit.json'}")
+    if r["implausible"]:
+        print(f"calibench: fit arm-cmm failed: {r['implausible']}", file=sys.stderr)
+        return EXIT_CHECK_FAILED
     return EXIT_OK if r["converged"] else EXIT_CHECK_FAILED
 
 
@@ -258,7 +263,7 @@ def montecarlo(args: argparse.Namespace) -> int:
     from calibench.scenarios.study.summary import checks_table, summary_table
 
     _known(args.scenario)
-    out = args.out or Path("calibench-out") / f"{args.scenario}-montecarlo"
+    out = args.out
     arm = None
     if args.arm is not None:
         from calibench.scenarios.report import BadInput
@@ -329,7 +334,7 @@ def discover(args: argparse.Namespace) -> int:
     """
     from calibench.scenarios.discover.engine import run_discover
 
-    out = args.out or Path("calibench-out") / f"{args.scenario}-discover"
+    out = args.out
     if args.arm is not None and args.scenario != "arm-cmm":
         from calibench.scenarios.report import BadInput
 

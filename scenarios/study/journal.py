@@ -125,7 +125,7 @@ def record_study(out_dir: Path, meta: dict) -> None:
     if old is not None and old != meta:
         raise BadInput(
             f"{out_dir} holds a different study ({meta_path.read_text().strip()}); use another "
-            "--out"
+            "--out, or --force to replace it"
         )
     meta_path.write_text(json.dumps(meta) + "\n")
 

@@ -138,7 +138,8 @@ def _run_study(
         if row["seed"] != trial_seed(seed, i):
             raise BadInput(
                 f"{out_dir / 'trials.jsonl'}: trial {i} was run with seed {row['seed']}, not this "
-                f"study's (--seed {seed}): the folder holds another study; use another --out"
+                f"study's (--seed {seed}): the folder holds another study; use another --out, or "
+                "--force to replace it"
             )
     todo = [i for i in range(trials) if i not in done]
     # A local pool starts (and its workers load the scenario) while this process checks the config;
@@ -188,7 +189,15 @@ def _run_study(
     finally:
         if close is not None:
             close(failed)
-    rows = [done[i] for i in sorted(done) if i < trials]
+    # a study never shrinks below its journal: trials an earlier, longer run finished stay in
+    # the summary (each trial is the same whatever --trials says, so they are this study's)
+    rows = [done[i] for i in sorted(done)]
+    if len(rows) > trials:
+        print(
+            f"calibench: {out_dir} holds {len(rows)} finished trials of this study: the summary "
+            f"covers them all (--trials {trials} asked; --force starts the study anew)",
+            file=sys.stderr,
+        )
     summary = summarise(scenario, rows, time.perf_counter() - t0)
     if rows and all(not r["ok"] and r["error"].startswith("LinAlgError") for r in rows):
         raise BadInput(

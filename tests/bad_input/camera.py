@@ -15,6 +15,16 @@ def png(path, size=(480, 640), value=128):
     return path
 
 
+def board_png(path, squares=(10, 7), px=40):
+    """A flat chessboard of ``squares`` (columns, rows) squares, ``px`` pixels each, on white."""
+    import cv2
+
+    i, j = np.indices((squares[1] * px, squares[0] * px)) // px
+    board = np.where((i + j) % 2 == 0, 0, 255).astype(np.uint8)
+    cv2.imwrite(str(path), cv2.copyMakeBorder(board, 60, 60, 60, 60, cv2.BORDER_CONSTANT, 255))
+    return path
+
+
 def _truncated_jpeg(path):
     import cv2
 
@@ -27,6 +37,14 @@ def _truncated_jpeg(path):
 #  expected exit status, a fragment the message must contain)
 CASES = [
     # camera
+    (  # a 10 x 7 board of squares given as its squares: it has 9 x 6 inner corners
+        "camera-board-counted-in-squares",
+        {f"b{k}.png": board_png for k in range(3)},
+        ["camera", "{d}/b0.png", "{d}/b1.png", "{d}/b2.png", "--cols", "10", "--rows", "7"]
+        + ["--square-mm", "25"],
+        2,
+        "--cols and --rows count inner corners",
+    ),
     (
         "camera-folder",
         {"photos/a.txt": "x"},

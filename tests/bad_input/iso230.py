@@ -10,6 +10,27 @@ from __future__ import annotations
 CASES = [
     # iso230
     ("iso-missing", {}, ["iso230", "{d}/none.csv"], 2, "cannot read"),
+    (  # real and simulated results never share a folder
+        "iso-out-holds-another-command-s-results",
+        {"r.csv": "target_mm,run,direction,deviation_um\n0,1,1,1\n", "o/fit.json": "{}"},
+        ["iso230", "{d}/r.csv", "--out", "{d}/o"],
+        2,
+        "holds the results of `calibench fit`",
+    ),
+    (
+        "iso-out-with-a-corrupt-mark",
+        {"r.csv": "target_mm,run,direction,deviation_um\n0,1,1,1\n", "o/.calibench.json": "{"},
+        ["iso230", "{d}/r.csv", "--out", "{d}/o"],
+        2,
+        "does not say which command wrote",
+    ),
+    (  # refused as soon as the row after the limit is read, not after the whole file
+        "iso-too-many-rows",
+        {"r.csv": "target_mm,run,direction,deviation_um\n" + "0,1,1,1\n" * 1_000_001},
+        ["iso230", "{d}/r.csv"],
+        2,
+        "more than 1000000 rows",
+    ),
     (
         "iso-no-deviation",
         {"r.csv": "target_mm,run,direction\n0,1,1\n"},

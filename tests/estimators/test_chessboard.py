@@ -94,3 +94,30 @@ def test_a_gross_corner_is_found_and_only_it():
         bad = found.copy()
         bad[k] += 3.0 * np.array([np.cos(k), np.sin(k)])
         assert [i for i, _ in gross_corners(bad, BOARD.cols, BOARD.rows)] == [k]
+
+
+def test_a_large_photo_is_searched_small_and_refined_at_full_resolution(monkeypatch):
+    """A 7.7-megapixel raster (the 640 x 480 pose scaled by 5): the detectors see a copy whose
+    longer side is DETECT_MAX_SIDE (their memory grows with the image: a 50-megapixel photo took
+    3.5 GB), and the corners, mapped back and refined on the full image, are as close to the
+    truth as on a small photo (RMS under 0.05 px; measured 0.012)."""
+    from calibench.estimators.camera import chessboard
+
+    seen = []
+    classic = cv2.findChessboardCorners
+
+    def spy(gray, *args, **kwargs):
+        seen.append(gray.shape)
+        return classic(gray, *args, **kwargs)
+
+    monkeypatch.setattr(chessboard.cv2, "findChessboardCorners", spy)
+    f = 5
+    K5 = np.diag([f, f, 1.0]) @ K
+    R = cv2.Rodrigues(np.array([0.5, -0.3, 0.2]))[0]
+    t = np.array([0.0, 0.0, 600.0]) - R @ BOARD.corners_mm().mean(axis=0)
+    img = raster_chessboard(BOARD, K5, R, t, size=(640 * f, 480 * f), supersample=2)
+    found = find_chessboard_corners(img, BOARD.cols, BOARD.rows)
+    assert seen and max(seen[0]) == chessboard.DETECT_MAX_SIDE
+    assert found is not None
+    err = np.linalg.norm(found - project(BOARD.corners_mm(), K5, R, t), axis=1)
+    assert np.sqrt(np.mean(err**2)) < 0.05

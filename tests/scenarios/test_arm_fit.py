@@ -420,3 +420,17 @@ def test_bad_input_is_one_line_and_exit_2(series, tmp_path, capsys, case):
         "unknown_arm": "no such file",
     }[case]
     assert expect in err.lower(), err
+
+
+def test_a_fit_far_beyond_any_arm_s_error_exits_1_with_the_reason(series, tmp_path, capsys):
+    """The UR10's recording fitted as the seed's arm (the description left out): the fit is
+    off by tens of millimetres, which no calibration leaves; exit 1, the reason on stderr and in
+    fit.json, not only a warning among others."""
+    _, paths = series
+    out = tmp_path / "wrong-arm"
+    code = main(["fit", "arm-cmm", str(paths["train"]), "--arm", "arm-cmm", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 1
+    assert "fit arm-cmm failed" in err and "is the arm description right" in err
+    fit = json.loads((out / "fit.json").read_text())
+    assert fit["fit"]["rms_mm"] > 10.0 and fit["implausible"].startswith("the fit leaves")

@@ -1,0 +1,135 @@
+"""Whose results an output folder holds.
+
+Each command writes to a folder of its own (``calibench-out/<scenario>`` for ``run``,
+``<scenario>-fit``, ``<scenario>-discover``, ``<scenario>-montecarlo``, ``camera``, ``iso230``):
+simulated and real results never share one. A folder says who wrote it in :data:`MARK`; one that
+holds another command's results (or, made before the mark, another command's main file) is
+refused unless ``--force`` says to replace them, and then only calibench's own outputs are
+removed, never a user's other files.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import json
+from pathlib import Path
+
+from calibench.errors import BadInput
+
+MARK = ".calibench.json"
+
+# each command's main output: who wrote a folder made before MARK existed
+MAIN_FILE = {
+    "report.json": "run",
+    "fit.json": "fit",
+    "discovery.json": "discover",
+    "study.json": "montecarlo",
+    "trials.jsonl": "montecarlo",
+    "intrinsics.json": "camera",
+    "iso230.json": "iso230",
+}
+
+# what --force removes: every file a command of calibench's writes, by name
+OUTPUTS = (
+    *MAIN_FILE,
+    MARK,
+    "summary.json",
+    "trials.parquet",
+    "study.png",
+    "study.rrd",
+    "run.rrd",
+    "error.log",
+    "fit.png",
+    "residuals.csv",
+    "discovery.png",
+    "iso230.png",
+    "arm_cmm.png",
+    "error_map.png",
+    "probe_scanner.png",
+    "stewart.png",
+    "vision_stage.png",
+    "x_axis_error_mm.csv",
+    "y_axis_error_mm.csv",
+)
+
+
+def default_out(command: str, scenario: str | None) -> Path:
+    """The command's own folder under ./calibench-out."""
+    if scenario is None:
+        return Path("calibench-out") / command
+    if command == "run":
+        return Path("calibench-out") / scenario
+    return Path("calibench-out") / f"{scenario}-{command}"
+
+
+def owner(folder: Path) -> tuple[str, str | None] | None:
+    """(command, scenario) whose results ``folder`` holds, or None for a folder of none."""
+    try:
+        mark = json.loads((folder / MARK).read_text())
+        return str(mark["command"]), mark.get("scenario")
+    except FileNotFoundError:
+        pass
+    except (OSError, ValueError, KeyError, TypeError):
+        raise BadInput(
+            f"{folder / MARK} does not say which command wrote {folder} (corrupt?): remove it or "
+            "use another --out"
+        ) from None
+    found = next((cmd for name, cmd in MAIN_FILE.items() if (folder / name).is_file()), None)
+    return None if found is None else (found, None)
+
+
+def _said(command: str, scenario: str | None) -> str:
+    return f"`calibench {command}{'' if scenario is None else ' ' + scenario}`"
+
+
+def claim(folder: Path, command: str, scenario: str | None, force: bool) -> None:
+    """Make ``folder`` this command's: refused if it holds another command's results, unless
+    ``force``, which removes them first (calibench's outputs only).
+
+    Parameters
+    ----------
+    folder : Path
+        The command's --out (it exists and is writable).
+    command, scenario : str
+        The command writing there (``scenario`` None for camera and iso230).
+    force : bool
+        Replace another command's results instead of refusing.
+
+    Raises
+    ------
+    BadInput
+        The folder holds another command's results and ``force`` is not given.
+    """
+    folder.mkdir(parents=True, exist_ok=True)
+    held = owner(folder)
+    mine = (command, scenario)
+    same = held is not None and held[0] == command and held[1] in (None, scenario)
+    if held is not None and not same:
+        if not force:
+            raise BadInput(
+                f"--out {folder} holds the results of {_said(*held)}; {_said(*mine)} would mix "
+                "its own with them: give another --out, or --force to replace them"
+            )
+        clear(folder)
+    elif force:
+        clear(folder)
+    (folder / MARK).write_text(json.dumps({"command": command, "scenario": scenario}) + "\n")
+
+
+def clear(folder: Path) -> None:
+    """Remove calibench's outputs from ``folder`` (:data:`OUTPUTS`), nothing else; refused
+    while a study runs there (its lock is held)."""
+    lock = folder / ".study.lock"
+    if lock.is_file():
+        with open(lock, "a") as f:
+            try:
+                fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                raise BadInput(
+                    f"{folder}: a calibench study is running in this folder; --force would "
+                    "remove its trials under it: wait for it, or use another --out"
+                ) from None
+    for name in OUTPUTS:
+        path = folder / name
+        if path.is_file() or path.is_symlink():
+            path.unlink()
