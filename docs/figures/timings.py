@@ -28,6 +28,17 @@ def performance():
     return performance_table(DATA)
 
 
+@block(seconds=600, ci=False, timing=True)
+def memory():
+    """benchmarks/memory.py: the peak memory of each verb that reads a file, on its largest
+    accepted input (machine figures: regenerated, never checked)."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from memory import table as memory_table
+
+    need_data(DATA / "opencv_left")
+    return memory_table(DATA)
+
+
 def timed(fn) -> float:
     """Seconds ``fn()`` takes."""
     t = time.perf_counter()

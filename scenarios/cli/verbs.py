@@ -332,6 +332,7 @@ def discover(args: argparse.Namespace) -> int:
     int
         0 when the discovery ran.
     """
+    from calibench.scenarios.discover.confirm import status_words
     from calibench.scenarios.discover.engine import run_discover
 
     out = args.out
@@ -355,6 +356,11 @@ def discover(args: argparse.Namespace) -> int:
         "um with the "
         f"scene model, {f['cv_rms_final'] * 1000:.2f} um with what was found ({d['holdout']})"
     )
+    for loc in d.get("located", []):
+        print(
+            f"- located: {loc['signal']} follows {loc['driver']}, {loc['where']} (score "
+            f"{loc['score']:.2f}, p {loc['p_value']:.3f})"
+        )
     for e in d["effects"]:
         carry = ""
         if "belongs" in e:
@@ -364,9 +370,11 @@ def discover(args: argparse.Namespace) -> int:
                 f"; belongs to the {e['belongs']} ({refit}sessions held out whole: "
                 f"{s['without'] * 1000:.0f} -> {s['with'] * 1000:.0f} um)"
             )
+        said = status_words(e, d.get("holdout_schemes", []))
         print(
             f"- {e['name']} ({e['axis']}): {e['physics']}; held-out RMS "
             f"{e['cv_rms_before'] * 1000:.2f} -> {e['cv_rms_after'] * 1000:.2f} um{carry}"
+            + (f"; {said}" if said else "")
         )
     for c in d["confounded"]:
         print(

@@ -33,6 +33,7 @@ from typing import Protocol
 import numpy as np
 
 from calibench.recordings import same_file
+from calibench.scenarios.discover.confirm import confirm
 from calibench.scenarios.discover.figure import write_figure
 from calibench.scenarios.provenance import entry
 from calibench.scenarios.report import BadInput
@@ -151,14 +152,17 @@ def run_discover(
         out, fig = found_by.discover(scenario, rec, seed, holdout, cfg, arm)
         if "rows_used" not in fig:  # the plug-in read every row
             fig["rows_used"] = [np.arange(len(rec))]
+        fig["recording"] = rec
         return out, fig
 
     out, fig = once(config)
+    confirm(found_by, scenario, fig.pop("recording"), seed, holdout, config, arm, out)
     out["provenance"] = discovery_provenance(paths, fig["rows_used"])
     before = None
     if config is not None:  # the nominal twin's residual beside the updated one's, both replayed
         out["replayed_config"] = str(config)
         nominal, before = once(None)
+        before.pop("recording")
         out["nominal_twin_fit"] = nominal["fit"]
     if twin is not None:
         tables, left = found_by.twin_tables(scenario, out, config, arm)

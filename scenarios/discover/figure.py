@@ -1,5 +1,6 @@
 """discovery.png: each signal's residual before (the scene model alone) and after (with the
-accepted effects), or the nominal twin's and the updated twin's replays side by side.
+accepted effects), or the nominal twin's and the updated twin's replays side by side. The panels
+are in-sample (fitted on every row) and say so; the title gives the held-out figures.
 """
 
 from __future__ import annotations
@@ -30,13 +31,17 @@ def write_figure(path: Path, out: dict, fig: dict, before_fig: dict | None = Non
     def alone(sig):
         return sig.r - sig.base @ lstsq(sig.base, sig.r) if sig.base.shape[1] else sig.r
 
-    titles = ("scene model only", "with the accepted effects")
+    # the panels show the fit on every row (in-sample); the held-out figures go in the title
+    titles = ("scene model only, in-sample", "with the accepted effects, in-sample")
     for k, (row, s) in enumerate(zip(axes, sigs)):
         before = alone(s)
         after = fig["fitted"][s.axis]
         if before_fig is not None:
             before, after = alone(before_fig["signals"][k]), before
-            titles = ("the nominal twin, replayed", "the updated twin, replayed")
+            titles = (
+                "the nominal twin, replayed, in-sample",
+                "the updated twin, replayed, in-sample",
+            )
         if "x" in fig and s.u is not None:
             for ax, v, title in ((row[0], before, titles[0]), (row[1], after, titles[1])):
                 lim = np.max(np.abs(before)) * 1000
@@ -64,7 +69,16 @@ def write_figure(path: Path, out: dict, fig: dict, before_fig: dict | None = Non
     f.suptitle(
         f"{out['scenario']}: "
         + ("replayed with the updated twin; " if before_fig is not None else "")
-        + (", ".join(f"{e['name']} ({e['axis']})" for e in out["effects"]) or "nothing missing")
+        + (
+            ", ".join(
+                f"{e['name']} ({e['axis']})"
+                + (" not confirmed" if e.get("status") == "not confirmed" else "")
+                for e in out["effects"]
+            )
+            or "nothing missing"
+        )
+        + f"\nheld out ({out['holdout']}): {out['fit']['cv_rms_nominal'] * 1000:.1f} -> "
+        f"{out['fit']['cv_rms_final'] * 1000:.1f} um; the panels: fitted on every row (in-sample)"
     )
     f.savefig(path, dpi=80)
     plt.close(f)
