@@ -12,6 +12,7 @@ import numpy as np
 from calibench.estimators.camera.chessboard import find_chessboard_corners, gross_corners
 from calibench.estimators.camera.zhang import CalibrationError, calibrate_camera
 from calibench.recordings import same_file
+from calibench.scenarios.camera_figure import coverage, write_camera_figure
 from calibench.scenarios.report import BadInput
 from calibench.scenes.checkerboard import Chessboard
 
@@ -24,8 +25,12 @@ def calibrate_photos(
     fix_aspect: bool = False,
     radial: int = 3,
     tangential: bool = True,
+    corners_out: dict | None = None,
 ) -> dict:
-    """Detect the board in every photo, calibrate on those where it is found."""
+    """Detect the board in every photo, calibrate on those where it is found.
+
+    ``corners_out``, when given, receives each used photo's corners, (cols * rows, 2) px (NaN
+    where left out), by the photo's name."""
     if cols < 2 or rows < 2 or square_mm <= 0:
         raise BadInput("camera: --cols and --rows must be >= 2 and --square-mm > 0")
     if radial not in (2, 3):
@@ -100,16 +105,21 @@ def calibrate_photos(
             tangential=tangential,
         )
     except CalibrationError as e:
-        raise BadInput(f"camera: {e}") from None
+        remedy = _NOT_CONVERGED if "did not converge" in str(e) else ""
+        raise BadInput(f"camera: {e}{remedy}") from None
     except cv2.error as e:  # OpenCV's own assertions on degenerate view sets
         raise BadInput(
             f"camera: the views are degenerate for calibration (OpenCV: "
             f"{str(e).strip().splitlines()[-1][:120]}): tilt the board differently in each photo"
         ) from None
+    if corners_out is not None:
+        corners_out.update(zip(used, points))
+    dist = calib.dist.ravel().tolist()
     return {
         "image_size": list(size),
         "K": calib.K.tolist(),
-        "dist": calib.dist.tolist(),
+        "dist": dist,
+        "distortion": dict(zip(DIST_NAMES, dist)),
         "std": calib.std,
         "rms_px": calib.rms_px,
         "per_view_rms_px": dict(zip(used, map(float, calib.per_view_rms_px))),
@@ -130,6 +140,14 @@ def _labels(paths: list[Path]) -> dict[Path, str]:
 
 # a calibration photo needs no more (a 50-megapixel sensor is 8192 x 6144); three 10000 x 10000
 # photos took 20 GB to decode and detect in
+# OpenCV's order of the distortion coefficients (radial k1 k2, tangential p1 p2, radial k3)
+DIST_NAMES = ("k1", "k2", "p1", "p2", "k3")
+# what to change when the solve wanders: the views, or the model they cannot determine
+_NOT_CONVERGED = (
+    ": the views do not pin the model down; tilt the board 20-45 degrees in different "
+    "directions, bring it into the image's corners, or fit less (--radial 2, --no-tangential, "
+    "--fix-aspect)"
+)
 # the usual slip when no photo shows the board: its squares counted instead of its inner corners
 _COUNT_INNER = (
     "; --cols and --rows count inner corners, where four squares meet: a board of "
@@ -205,11 +223,17 @@ def run_camera(
     paths : the photos; cols, rows : inner corners per row and per column; square_mm : a
     square's side (mm). Returns intrinsics.json's content: K (3, 3) px, dist (k1, k2, p1, p2,
     k3), each parameter's std, the RMS reprojection error (px), the photos used and rejected
-    (with why). Raises BadInput when fewer than 3 distinct views of the board remain.
+    (with why); camera.png beside it (:func:`write_camera_figure`). Raises BadInput when fewer
+    than 3 distinct views of the board remain.
     """
-    result = calibrate_photos(paths, cols, rows, square_mm, fix_aspect, radial, tangential)
+    corners: dict = {}
+    result = calibrate_photos(
+        paths, cols, rows, square_mm, fix_aspect, radial, tangential, corners_out=corners
+    )
+    result["corner_coverage"] = coverage(corners, tuple(result["image_size"]))
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "intrinsics.json").write_text(json.dumps(result, indent=2) + "\n")
+    write_camera_figure(out_dir / "camera.png", result, corners)
     return result
 
 

@@ -51,7 +51,7 @@ def main(argv: list[str] | None = None) -> int:
         _default_out(args)
         created = _check_out(getattr(args, "out", None))
         _claim(args)
-        return {
+        status = {
             "run": verbs.run,
             "fit": verbs.fit,
             "camera": verbs.camera,
@@ -59,6 +59,8 @@ def main(argv: list[str] | None = None) -> int:
             "discover": verbs.discover,
             "iso230": verbs.iso230,
         }[args.command](args)
+        _mark(args)
+        return status
     except BrokenPipeError:  # the reader went away (| head): nothing to say
         sys.stderr.close()
         return EXIT_OK
@@ -78,8 +80,8 @@ def main(argv: list[str] | None = None) -> int:
             e = BadInput(said)
         if isinstance(e, BadInput):
             print(f"calibench: {e}", file=sys.stderr)
-            if created is not None and created.is_dir():
-                _remove_if_only_marked(created)
+            if created is not None and created.is_dir() and not any(created.iterdir()):
+                created.rmdir()
             return EXIT_BAD_INPUT
         return _internal_error(e, getattr(args, "out", None))
     finally:
@@ -119,14 +121,10 @@ def _claim(args) -> None:
     folders.claim(args.out, args.command, getattr(args, "scenario", None), args.force)
 
 
-def _remove_if_only_marked(created: Path) -> None:
-    """A folder this command created and left holding nothing but its mark: removed, as if
-    the command had not run."""
-    left = list(created.iterdir())
-    if all(p.name == folders.MARK for p in left):
-        for p in left:
-            p.unlink()
-        created.rmdir()
+def _mark(args) -> None:
+    """The folder's results said to be this command's (``run all``: said per scenario)."""
+    if hasattr(args, "out") and not (args.command == "run" and args.scenario == "all"):
+        folders.mark(args.out, args.command, getattr(args, "scenario", None))
 
 
 def _said_as_bad_input(e: Exception) -> str | None:

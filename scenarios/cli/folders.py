@@ -42,6 +42,7 @@ OUTPUTS = (
     "fit.png",
     "residuals.csv",
     "discovery.png",
+    "camera.png",
     "iso230.png",
     "arm_cmm.png",
     "error_map.png",
@@ -83,8 +84,9 @@ def _said(command: str, scenario: str | None) -> str:
 
 
 def claim(folder: Path, command: str, scenario: str | None, force: bool) -> None:
-    """Make ``folder`` this command's: refused if it holds another command's results, unless
-    ``force``, which removes them first (calibench's outputs only).
+    """Check that ``folder`` may take this command's results: refused if it holds another
+    command's, unless ``force``, which removes them first (calibench's outputs only).
+    :func:`mark` says whose they are once written.
 
     Parameters
     ----------
@@ -113,6 +115,11 @@ def claim(folder: Path, command: str, scenario: str | None, force: bool) -> None
         clear(folder)
     elif force:
         clear(folder)
+
+
+def mark(folder: Path, command: str, scenario: str | None) -> None:
+    """Say in ``folder`` that this command's results are there (once it has written them: a
+    command refused as bad input leaves no claim on a folder)."""
     (folder / MARK).write_text(json.dumps({"command": command, "scenario": scenario}) + "\n")
 
 

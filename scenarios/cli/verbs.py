@@ -9,7 +9,7 @@ import sys
 import time
 from pathlib import Path
 
-from calibench.scenarios.cli.folders import claim
+from calibench.scenarios.cli.folders import claim, mark
 from calibench.scenarios.cli.status import EXIT_CHECK_FAILED, EXIT_OK
 
 
@@ -83,6 +83,8 @@ def run(args: argparse.Namespace) -> int:
             raise BadInput(f"{s.name}: {e}") from None
         report.elapsed_s = time.perf_counter() - t0
         path = report.write(out)
+        if args.scenario == "all":
+            mark(out, "run", s.name)
         print(report.table())
         print(
             f"\n{s.name}: {'ok' if report.ok else 'FAILED'} in {report.elapsed_s:.1f} s -> {path}"
@@ -437,6 +439,7 @@ def camera(args: argparse.Namespace) -> int:
         0 when the calibration ran.
     """
     from calibench.scenarios.camera import run_camera
+    from calibench.scenarios.camera_figure import COVERAGE_GRID, COVERAGE_WARN
 
     r = run_camera(
         args.images,
@@ -453,10 +456,22 @@ def camera(args: argparse.Namespace) -> int:
         f"fx {K[0][0]:.3f}  fy {K[1][1]:.3f}  cx {K[0][2]:.3f}  cy {K[1][2]:.3f}  "
         f"rms {r['rms_px']:.3f} px  ({len(r['used'])} used, {len(r['rejected'])} rejected)"
     )
+    print("distortion: " + "  ".join(f"{k} {v:+.5g}" for k, v in r["distortion"].items()))
+    cover = r["corner_coverage"]
+    print(
+        f"the corners cover {cover:.0%} of the image (cells of an {COVERAGE_GRID} x "
+        f"{COVERAGE_GRID} grid)"
+        + (
+            ": the distortion is extrapolated where the board never went; add photos with "
+            "the board near the image's edges and corners"
+            if cover < COVERAGE_WARN
+            else ""
+        )
+    )
     for photo, corners in r["corners_left_out"].items():
         print(
             f"  {photo}: left out corner(s) "
             + ", ".join(f"{c['corner']} ({c['off_grid_px']} px off the grid)" for c in corners)
         )
-    print(f"-> {args.out / 'intrinsics.json'}")
+    print(f"-> {args.out / 'intrinsics.json'}, {args.out / 'camera.png'}")
     return EXIT_OK

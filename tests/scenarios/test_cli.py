@@ -126,6 +126,36 @@ def test_camera_on_opencv_left_meets_the_reference(shared_data, tmp_path):
     assert set(r["per_view_rms_px"]) == set(r["used"])
     assert {"fx", "fy", "cx", "cy"} <= set(r["std"])
     assert r["corners_left_out"] == {}  # no gross corner in OpenCV's sample
+    assert list(r["distortion"]) == ["k1", "k2", "p1", "p2", "k3"]
+    assert list(r["distortion"].values()) == r["dist"]
+    # OpenCV's sample keeps the board in the image's middle: its edges are never reached
+    assert 0.3 < r["corner_coverage"] < 0.9
+    assert (tmp_path / "camera.png").stat().st_size > 10_000
+
+
+def test_corner_coverage_counts_the_cells_the_board_reached():
+    from calibench.scenarios.camera_figure import COVERAGE_GRID, coverage
+
+    size = (640, 480)
+    step = np.array(size) / COVERAGE_GRID
+    centres = (np.indices((COVERAGE_GRID, COVERAGE_GRID)).reshape(2, -1).T + 0.5) * step
+    assert coverage({"all": centres}, size) == 1.0
+    one = {"a": np.full((54, 2), 10.0), "b": np.array([[np.nan, np.nan], [700.0, 10.0]])}
+    assert coverage(one, size) == 1 / COVERAGE_GRID**2  # NaN and outside the image not counted
+
+
+def test_a_calibration_that_does_not_converge_says_what_to_change(shared_data, monkeypatch):
+    import calibench.scenarios.camera as cam
+    from calibench.errors import BadInput
+    from calibench.estimators.camera.zhang import CalibrationError
+
+    def wanders(*args, **kwargs):
+        raise CalibrationError("the calibration did not converge in 100 iterations")
+
+    monkeypatch.setattr(cam, "calibrate_camera", wanders)
+    photos = sorted((shared_data / "opencv_left").glob("left*.jpg"))
+    with pytest.raises(BadInput, match="tilt the board .*--radial 2, --no-tangential"):
+        cam.calibrate_photos(photos, 9, 6, 25.0)
 
 
 def test_camera_leaves_out_a_gross_corner_and_says_which(shared_data, tmp_path, monkeypatch):
