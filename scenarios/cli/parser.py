@@ -120,6 +120,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     r.add_argument("--no-rrd", action="store_true", help="do not write the rerun recording")
     r.add_argument(
+        "--save-images",
+        type=_folder,
+        metavar="DIR",
+        help="belt-stage: also write the run's rendered views to DIR with truth.json (the "
+        "camera's true intrinsics, each view's exact corners), to test a calibration tool on",
+    )
+    r.add_argument(
         "--arm",
         help="arm-cmm: ARM.toml or a built-in arm (arm-cmm, ur10) instead of the seed's arm",
     )

@@ -58,6 +58,8 @@ def run(args: argparse.Namespace) -> int:
     if unknown:
         raise BadInput(f"config {args.config}: unknown scenario table(s) {', '.join(unknown)}")
     configs = {s.name: override(s.config(), table.get(s.name, {}), s.name) for s in scenarios}
+    if args.save_images is not None and args.scenario != "belt-stage":
+        raise BadInput(f"--save-images applies to belt-stage, not {args.scenario}")
     if args.arm is not None:
         if "arm-cmm" not in configs:
             raise BadInput(f"--arm applies to arm-cmm, not {args.scenario}")
@@ -91,6 +93,15 @@ def run(args: argparse.Namespace) -> int:
         )
         if not report.ok:
             status = EXIT_CHECK_FAILED
+    if args.save_images is not None:
+        from calibench.scenarios.belt_stage.images import save_rendered_views
+
+        truth = save_rendered_views(configs["belt-stage"], args.seed, args.save_images)
+        print(
+            f"-> {args.save_images}: {len(truth['corners_px'])} rendered views and truth.json "
+            f"(calibench camera {args.save_images}/view*.png --cols {truth['board']['cols']} "
+            f"--rows {truth['board']['rows']} --square-mm {truth['board']['square_mm']:g})"
+        )
     return status
 
 
