@@ -22,17 +22,48 @@ class Noise:
         return float(np.sqrt((1 + rho) / (1 - rho)))
 
 
-def repeatability(r: np.ndarray, station: np.ndarray, order: np.ndarray) -> Noise:
-    """Pooled scatter about each station's mean (stations visited at least twice); ``station``
-    (n,) ids, ``order`` (n,) the time order for the lag-1 correlation."""
+def repeatability(
+    r: np.ndarray, station: np.ndarray, order: np.ndarray, block: np.ndarray | None = None
+) -> Noise:
+    """Pooled scatter about each station's mean (stations visited at least twice).
+
+    Parameters
+    ----------
+    r : (n,) the residual.
+    station : (n,) ids: what was commanded (readings of one station are repeats).
+    order : (n,) the time order, for the lag-1 correlation.
+    block : (n,) ids, optional
+        Short stretches of time (a turn, a pass): each block's own offset is taken out beside the
+        stations' means, so a drift from block to block is not counted as scatter (taken across
+        blocks, the repeatability would contain the drift, and the drift would look like noise).
+
+    Returns
+    -------
+    Noise
+        ``sigma_mm`` None when fewer than 3 degrees of freedom are left.
+    """
     ids, inv, counts = np.unique(station, return_inverse=True, return_counts=True)
     rep = counts[inv] >= 2
-    if rep.sum() - np.sum(counts >= 2) < 3:
-        return Noise(None, 0.0, 0)
-    means = np.bincount(inv, weights=r) / counts
-    dev = (r - means[inv])[rep]
     dof = int(rep.sum() - np.sum(counts >= 2))
-    sigma = float(np.sqrt(dev @ dev / dof))
-    seq = (r - means[inv])[np.argsort(order)][rep[np.argsort(order)]]
+    dev = r - (np.bincount(inv, weights=r) / counts)[inv]
+    if block is not None:
+        b_inv = np.unique(block, return_inverse=True)[1].ravel()
+        n_blocks = int(np.unique(b_inv[rep]).size) if rep.any() else 0
+        dof -= max(n_blocks - 1, 0)
+        # the two-way (station + block) means by alternating projections: exact for a balanced
+        # design (every station once per block) after one sweep, a few for gaps
+        for _ in range(10):
+            shift = np.bincount(b_inv[rep], weights=dev[rep], minlength=b_inv.max() + 1)
+            shift /= np.maximum(np.bincount(b_inv[rep], minlength=b_inv.max() + 1), 1)
+            dev = dev - shift[b_inv]
+            back = np.bincount(inv, weights=dev * rep, minlength=len(ids)) / counts
+            dev = dev - back[inv]
+            if np.abs(shift).max(initial=0.0) < 1e-15 and np.abs(back).max(initial=0.0) < 1e-15:
+                break
+    if dof < 3:
+        return Noise(None, 0.0, 0)
+    sigma = float(np.sqrt(dev[rep] @ dev[rep] / dof))
+    idx = np.argsort(order)
+    seq = dev[idx][rep[idx]]
     lag1 = float(np.corrcoef(seq[:-1], seq[1:])[0, 1]) if len(seq) > 3 else 0.0
     return Noise(sigma, lag1 if np.isfinite(lag1) else 0.0, dof)

@@ -167,6 +167,45 @@ class ProbeOffset(Effect):
 
 
 @dataclasses.dataclass(frozen=True)
+class ProbeDrift(Effect):
+    """The probe's zero drifting with the logged temperature (mm/K), or with time (mm/h) when no
+    temperature is logged: the same angle reads differently turn after turn. Held out by whole
+    turns, a drift is predicted from the held-out turn's own temperature or time."""
+
+    name: str = "thermal_drift"
+    axis: str = AXIS
+    driver: str = "temp_c"
+
+    def __post_init__(self):
+        object.__setattr__(self, "needs", (self.driver,))
+
+    @property
+    def key(self) -> str:
+        """One candidate per driver."""
+        return f"thermal_drift:{self.driver}"
+
+    @property
+    def unit(self) -> str:
+        """The coefficient's unit: mm per kelvin, or mm per hour."""
+        return "mm_per_h" if self.driver == "t_s" else "mm_per_k"
+
+    def columns(self, d):
+        v = np.asarray(d[self.driver], float)
+        v = v / 3600 if self.driver == "t_s" else v
+        return (v - v.mean())[:, None]
+
+    def describe(self, coef, cov):
+        k = float(coef[0])
+        per = "hour" if self.driver == "t_s" else "kelvin"
+        return (
+            {self.unit: k},
+            {self.unit: coef_std(cov, 0)},
+            f"the probe's zero drifts {k * 1000:+.2f} um per {per}: every angle reads "
+            f"differently turn after turn (a thermal drift of the probe or its mount)",
+        )
+
+
+@dataclasses.dataclass(frozen=True)
 class AngleTable(Effect):
     """``nonsmooth``: a free correction in each flagged band of the table's angle (a nick or a
     burr on the artefact's wall, dirt on the stylus's path), a lookup table, not a law.
@@ -206,11 +245,14 @@ class AngleTable(Effect):
 def scanner_candidates(symmetry: int = 4, top: int = 30, n_runout: int = 3) -> list:
     """Every scanner candidate: runout searches over harmonics 1..``top`` except the multiples of
     the artefact's ``symmetry`` (a square's form error repeats four times a turn: a runout there
-    cannot be told from it), the encoder's eccentricity, the probe's scale and offset
-    (``nonsmooth`` is looked for after them, on what they leave)."""
+    cannot be told from it), the encoder's eccentricity, the probe's scale and offset, its zero's
+    drift with temperature or time (where the recording logs them; ``nonsmooth`` is looked for
+    after them, on what they leave)."""
     harmonics = tuple(k for k in range(1, top + 1) if k % symmetry)
     return [RunoutSearch(harmonics=harmonics, rank=k) for k in range(1, n_runout + 1)] + [
         TableEccentricity(),
         ProbeScale(),
         ProbeOffset(),
+        ProbeDrift(driver="temp_c"),
+        ProbeDrift(driver="t_s"),
     ]

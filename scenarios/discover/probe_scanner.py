@@ -211,7 +211,8 @@ def discover_scanner(rec, seed: int = 0, floor: float = FLOOR, config=None) -> t
     ].ravel()
     order = rec.t_s if rec.t_s is not None else np.arange(n, dtype=float)
     first = sig.r - geo @ lstsq(geo, sig.r)
-    noise = {AXIS: repeatability(first, station, order)}
+    # within a turn: a drift from turn to turn is not scatter (and must stay visible as a drift)
+    noise = {AXIS: repeatability(first, station, order, rec.turn)}
     candidates = scanner_candidates()
     found, terms = select([sig], candidates, drivers, fold, noise, floor=floor)
     prune(sig, found, terms, drivers, fold, floor)
@@ -222,7 +223,7 @@ def discover_scanner(rec, seed: int = 0, floor: float = FLOOR, config=None) -> t
         terms[AXIS].append(table)
         found.cv_final = after
     effects, fitted = describe_effects([sig], terms, found, drivers, noise)
-    after_noise = {AXIS: repeatability(fitted[AXIS], station, order)}
+    after_noise = {AXIS: repeatability(fitted[AXIS], station, order, rec.turn)}
     confounds = []
     symmetric = Runout(harmonic=4)
     frac = confounded(sig, terms[AXIS], symmetric, drivers, {})
@@ -274,7 +275,7 @@ def discover_scanner(rec, seed: int = 0, floor: float = FLOOR, config=None) -> t
         },
         "not_accepted": found.rejected,
         "confounded": confounds,
-        "verdict": verdict(found.cv_final, after_noise, bool(effects)),
+        "verdict": verdict(found.cv_final, after_noise, bool(effects), located),
     }
     return out, {
         "signals": [sig],

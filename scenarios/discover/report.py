@@ -36,10 +36,11 @@ def one_axis_fit(axis: str, rms_nominal: float, found, noise: dict, after_noise:
     }
 
 
-def verdict(cv_final_mm: float, noise: dict, found_any: bool) -> str:
+def verdict(cv_final_mm: float, noise: dict, found_any: bool, located: list | None = None) -> str:
     """What is left after the accepted effects, in words: the final held-out RMS (per
     coordinate) against the repeatability from repeats (``noise``: axis -> Noise, after the
-    effects). Never a silent stop: unexplained structure, or no repeats to judge by, is said."""
+    effects). Never a silent stop: unexplained structure, or no repeats to judge by, is said;
+    and never "nothing missing" beside structure ``located`` found (the two would contradict)."""
     sig = [nz.sigma_mm for nz in noise.values() if nz.sigma_mm]
     left = cv_final_mm * 1000
     if not sig:
@@ -52,6 +53,13 @@ def verdict(cv_final_mm: float, noise: dict, found_any: bool) -> str:
         return (
             f"unexplained: {left:.2f} um held out against {floor:.2f} um of repeatability; the "
             "recording holds structure no candidate explains"
+        )
+    if not found_any and located:
+        drivers = ", ".join(sorted({d["driver"] for d in located}))
+        return (
+            f"near the repeatability ({left:.2f} um held out, {floor:.2f} um from repeats), yet "
+            f"the residual follows {drivers} (located): structure no candidate cuts by the "
+            "acceptance floor, not noise"
         )
     what = (
         "the accepted effects explain" if found_any else "nothing missing: the scene model explains"

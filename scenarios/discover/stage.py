@@ -204,7 +204,7 @@ def discover_stage(
         "temp_mean_c": None if rec.temp_c is None else float(np.mean(rec.temp_c)),
         "not_accepted": found.rejected,
         "confounded": confounds,
-        "verdict": verdict(found.cv_final, after, bool(effects)),
+        "verdict": verdict(found.cv_final, after, bool(effects), located),
     }
     return out, {"signals": signals, "fitted": fitted, "x": x, "y": y}
 

@@ -381,7 +381,7 @@ def discover_stewart(
         "temp_mean_c": None if rec.temp_c is None else float(np.mean(rec.temp_c)),
         "not_accepted": found.rejected,
         "confounded": confounds,
-        "verdict": verdict(found.cv_final, after_noise, bool(names)),
+        "verdict": verdict(found.cv_final, after_noise, bool(names), located),
     }
     return out, {
         "signals": [sig],

@@ -75,6 +75,7 @@ SUITE = (
             ("scale", 1),
             ("bump", 2),
             ("combined", 1),
+            ("drift", 2),
         )
         for s in range(seeds)
     ]
@@ -129,6 +130,7 @@ KINDS = (
     "pitch",
     "mixed",
     "elastic",
+    "drift",
 )
 
 

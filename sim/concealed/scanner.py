@@ -2,7 +2,7 @@
 
 Kinds: ``null``, ``runout`` (the table's radial error motion), ``eccentricity`` (the table
 encoder's), ``scale`` (the probe's), ``bump`` (a nick in the plate's wall), ``combined`` (runout,
-eccentricity and scale).
+eccentricity and scale), ``drift`` (the probe's mount warming behind the logged air).
 """
 
 from __future__ import annotations
@@ -11,7 +11,8 @@ import numpy as np
 
 from calibench.recordings import ScannerRecording
 
-SCANNER_KINDS = ("null", "runout", "eccentricity", "scale", "bump", "combined")
+SCANNER_KINDS = ("null", "runout", "eccentricity", "scale", "bump", "combined", "drift")
+DRIFT_TURNS = 8  # a drift shows over turns: the drift recordings are twice as long
 
 
 def scanner_recording(kind: str, seed: int, turns: int = 4) -> tuple[ScannerRecording, dict]:
@@ -25,7 +26,11 @@ def scanner_recording(kind: str, seed: int, turns: int = 4) -> tuple[ScannerReco
       what the encoder reads;
     - ``scale``: the probe's linear encoder reads 0.1-0.3 % long;
     - ``bump``: a nick in the plate's wall 10-25 um deep, 0.5-1.5 deg wide;
-    - ``combined``: runout, eccentricity and scale together.
+    - ``combined``: runout, eccentricity and scale together;
+    - ``drift``: the room warms 1-2 K over the recording (a first-order rise); the probe's
+      mount follows the air with its own lag (25-60 s) and its growth moves the probe's zero by
+      4-8 um per kelvin of the mount: the zero drifts turn after turn, not linearly in the
+      logged temperature (the lag), so no candidate writes it down exactly.
 
     Parameters
     ----------
@@ -56,6 +61,7 @@ def scanner_recording(kind: str, seed: int, turns: int = 4) -> tuple[ScannerReco
         raise ValueError(f"unknown kind {kind!r} (known: {', '.join(SCANNER_KINDS)})")
     rng = np.random.default_rng(seed)
     g = ProbeScannerGeometry()
+    turns = DRIFT_TURNS if kind == "drift" else turns
     truth = ProbeScannerTruth(
         d_mm=rng.uniform(7.6, 8.4),
         dL_mm=rng.uniform(2.7, 3.3),
@@ -102,12 +108,23 @@ def scanner_recording(kind: str, seed: int, turns: int = 4) -> tuple[ScannerReco
         s = rng.uniform(1000, 3000)
         rho *= 1 + s * 1e-6
         effects.append({"name": "scale", "axis": "rho", "params": {"ppm": s}})
+    t = np.arange(len(rho)) * 10.0 / m  # ten seconds a turn
+    air = 20.0 + np.cumsum(rng.normal(0, 1e-3, len(rho)))
+    if kind == "drift":
+        rise, tau_air = rng.uniform(1.0, 2.0), rng.uniform(20, 60)
+        air += rise * (1 - np.exp(-t / tau_air))
+        tau_mount, k = rng.uniform(25, 60), rng.uniform(4, 8) / 1000
+        # the mount's temperature: the air's, through a first-order lag (exact per sample step)
+        a = np.exp(-np.diff(t, prepend=t[0]) / tau_mount)
+        mount = np.empty_like(air)
+        mount[0] = air[0]
+        for i in range(1, len(air)):
+            mount[i] = a[i] * mount[i - 1] + (1 - a[i]) * air[i]
+        rho += k * (mount - mount[0])
+        effects.append({"name": "thermal_drift", "axis": "rho", "params": {"mm_per_k": k}})
     q = truth.quantum_um / 1000
     rho = np.round((rho + rng.normal(0, truth.probe_noise_um / 1000, len(rho))) / q) * q
-    t = np.arange(len(rho)) * 10.0 / m  # ten seconds a turn
-    rec = ScannerRecording(
-        turn, nominal, rho, t, np.round(20.0 + np.cumsum(rng.normal(0, 1e-3, len(rho))), 3)
-    )
+    rec = ScannerRecording(turn, nominal, rho, t, np.round(air, 3))
     noise = float(np.hypot(truth.probe_noise_um, truth.quantum_um / np.sqrt(12)))
     return rec, {
         "scenario": "probe-scanner",
