@@ -1,7 +1,8 @@
-"""The concealed-effect suite (issues 8, 13, 14 and 36): 67 blinded recordings through discover (the two
-stages, the seed's arm and a UR10 with compliance made by MuJoCo's physics, the probe scanner, the
-Stewart platform with leg compliance under MuJoCo's statics), scored against their sealed
-manifests only afterwards (see scenarios/discover_suite.py)."""
+"""The concealed-effect suite (issues 8, 13, 14 and 36): 67 blinded recordings through discover
+(the two stages, the seed's arm and a UR10 with compliance made by MuJoCo's physics, the probe
+scanner with a drift behind a thermal lag, the Stewart platform with leg compliance under
+MuJoCo's statics), scored against their sealed manifests only afterwards (see
+scenarios/discover/suite.py)."""
 
 from collections import Counter
 
