@@ -54,8 +54,8 @@ def repeatability(
         # design (every station once per block) after one sweep, a few for gaps
         for _ in range(10):
             n_b = np.bincount(b_inv[rep], minlength=b_inv.max() + 1)
-            shift = np.bincount(b_inv[rep], weights=dev[rep], minlength=b_inv.max() + 1)
-            shift = shift / np.maximum(n_b, 1)
+            total = np.bincount(b_inv[rep], weights=dev[rep], minlength=b_inv.max() + 1)
+            shift = total / np.maximum(n_b, 1)
             dev = dev - shift[b_inv]
             back = np.bincount(inv, weights=dev * rep, minlength=len(ids)) / counts
             dev = dev - back[inv]
