@@ -17,7 +17,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from calibench.scenarios.belt_stage.scenario import BeltStageConfig, _record
+from calibench.scenarios.belt_stage.scenario import BeltStageConfig, record_views
 from calibench.scenes.camera import PinholeCamera
 from calibench.sim.belt_stage import PULSES_PER_MM, BeltStageSim, intrinsic_view_poses
 
@@ -41,7 +41,7 @@ def save_rendered_views(config: BeltStageConfig, seed: int, folder: Path) -> dic
     size = (g.camera.width, g.camera.height)
     try:
         poses = intrinsic_view_poses(g, config.n_intrinsic_views, rng)
-        calib, calib_true = _record(
+        calib, calib_true = record_views(
             sim, "render", config, rng, size, [("calib", *p) for p in poses]
         )
         sim.park_calib_board()
@@ -50,7 +50,7 @@ def save_rendered_views(config: BeltStageConfig, seed: int, folder: Path) -> dic
         x_pulses = np.rint(xs.ravel() * PULSES_PER_MM).astype(np.int64)
         y_pulses = np.rint(ys.ravel() * PULSES_PER_MM).astype(np.int64)
         steps = [("station", xp, yp) for xp, yp in zip(x_pulses, y_pulses)]
-        stations, station_true = _record(sim, "render", config, rng, size, steps)
+        stations, station_true = record_views(sim, "render", config, rng, size, steps)
     finally:
         sim.close()
     folder.mkdir(parents=True, exist_ok=True)

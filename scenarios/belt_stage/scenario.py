@@ -243,7 +243,7 @@ def run(config: BeltStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: b
     try:
         # 1. intrinsic views ------------------------------------------------------------------
         poses = intrinsic_view_poses(g, config.n_intrinsic_views, rng)
-        calib_views, calib_true = _record(
+        calib_views, calib_true = record_views(
             sim, fidelity, config, rng, size, [("calib", R, t) for R, t in poses]
         )
         sim.park_calib_board()
@@ -257,7 +257,7 @@ def run(config: BeltStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: b
         if len(home) != 1:
             raise BadInput("the station grid must contain the home station (0, 0) once")
         ref = int(home[0])
-        station_views, station_true = _record(
+        station_views, station_true = record_views(
             sim,
             fidelity,
             config,
@@ -401,7 +401,7 @@ def run(config: BeltStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: b
 TOL_SIGMA = 5.0  # parameter tolerance, in the estimator's own standard deviations
 
 
-def _record(
+def record_views(
     sim: BeltStageSim, fidelity: str, config: BeltStageConfig, rng: np.random.Generator, size, steps
 ) -> tuple[CameraViews, np.ndarray]:
     """Drive the sim through ``steps`` and record what the camera gives the estimators.

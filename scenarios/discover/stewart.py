@@ -6,8 +6,9 @@ the readings, then Gauss-Newton on the six frame parameters). What is left, leg 
 searched: the hinge geometry, each leg's thermal growth, lost motion on reversal, its screw's
 pitch error, and the legs' compliance under the axial loads the twin's statics (MuJoCo) give.
 
-Repeats: poses the tracker found at the same place (within 20 um and 20 urad) approached the
-same way by every leg are one station.
+Repeats: poses commanded alike (every leg's reading within 4 sqrt(2) of the readings' stated
+noise) and approached the same way by every leg are one station; the tracker's measured pose
+would split them by its own noise.
 """
 
 from __future__ import annotations
@@ -144,19 +145,24 @@ def twin_drivers(
     return drivers, res, frame
 
 
-def stations(rec, tol_mm: float = 0.02, tol_rad: float = 2e-5) -> np.ndarray:
-    """Station id (n,) per pose: the same place within the tolerances and, with directions,
-    approached the same way by every leg."""
-    from scipy.spatial import cKDTree
-    from scipy.spatial.transform import Rotation
+# two readings of one commanded leg length differ by the readings' noise times sqrt(2): 4 of
+# those (a repeat is never split by noise, and the legs' micrometres tell commanded poses apart)
+REPEAT_TOL_SIGMA = 4 * np.sqrt(2)
 
-    rv = Rotation.from_matrix(rec.R).as_rotvec()
-    key = np.c_[rec.t_mm / tol_mm, rv / tol_rad]
+
+def stations(rec, tol_mm: float) -> np.ndarray:
+    """Station id (n,) per pose: poses whose six leg readings (what was commanded) agree within
+    ``tol_mm`` and, with directions, approached the same way by every leg. Not the tracker's
+    measured pose: its noise (tens of micrometres at a few metres) would split true repeats and
+    keep only the lucky ones, and the repeatability would come out too small."""
+    from scipy.spatial import cKDTree
+
+    key = np.asarray(rec.readings_mm, float) / tol_mm
     if rec.direction is not None:
         key = np.c_[key, 1e6 * rec.direction]
     tree = cKDTree(key)
     ids = np.arange(len(key))
-    for i, j in sorted(tree.query_pairs(1.0)):
+    for i, j in sorted(tree.query_pairs(1.0, p=np.inf)):
         ids[j] = min(ids[j], ids[i])
     return np.unique(ids, return_inverse=True)[1].ravel()
 
@@ -317,7 +323,8 @@ def discover_stewart(
             f"{n} poses: discover stewart needs at least 60 (42 hinge parameters and the "
             "tracker's frame)"
         )
-    distinct = len(np.unique(stations(rec)))
+    repeat_tol = REPEAT_TOL_SIGMA * config.truth.reading_noise_um / 1000
+    distinct = len(np.unique(stations(rec, repeat_tol)))
     if distinct < MIN_DISTINCT_POSES:
         raise BadInput(
             f"{distinct} distinct poses among {n}: the hinges need at least {MIN_DISTINCT_POSES} "
@@ -335,7 +342,7 @@ def discover_stewart(
         drivers, r, frame = twin_drivers(rec, g, Rf, tf, rec.load_n, truth)
     sig = Signal("reading - twin", AXIS, r, frame, np.repeat(np.arange(n), 6))
     fold = np.minimum(np.arange(n) * 5 // n, 4)
-    station = np.repeat(stations(rec), 6) * 6 + np.tile(np.arange(6), n)
+    station = np.repeat(stations(rec, repeat_tol), 6) * 6 + np.tile(np.arange(6), n)
     order = (
         np.repeat(rec.t_s if rec.t_s is not None else np.arange(n, dtype=float), 6)
         + np.tile(np.arange(6), n) * 1e-3
