@@ -21,13 +21,15 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import importlib
 import os
-import sys
 from collections.abc import Callable
 
 import numpy as np
 import pytest
+
+from tests import sabotage_faults as more
+from tests.sabotage_faults import replace as _replace
+from tests.sabotage_faults import wrap as _wrap
 
 ENV = "CALIBENCH_SABOTAGE"
 
@@ -42,46 +44,6 @@ class Fault:
     apply: Callable[[pytest.MonkeyPatch], None]
     targets: tuple[str, ...]
     uncaught: str = ""
-
-
-def _replace(mp: pytest.MonkeyPatch, module: str, name: str, new) -> None:
-    """Set ``module.name`` to ``new``, and every loaded calibench module's own binding of the
-    original (``from module import name``): modules imported later take the new one from ``module``.
-
-    Parameters
-    ----------
-    mp : the session's MonkeyPatch (undone at the end of the session).
-    module : dotted name of the module that defines ``name``.
-    name : the attribute to replace.
-    new : its replacement, usually a wrapper of the original.
-    """
-    mod = importlib.import_module(module)
-    old = getattr(mod, name)
-    mp.setattr(mod, name, new)
-    for other in list(sys.modules.values()):
-        if (
-            other is not mod
-            and getattr(other, "__name__", "").startswith("calibench.")
-            and getattr(other, name, None) is old
-        ):
-            mp.setattr(other, name, new)
-
-
-def _wrap(mp: pytest.MonkeyPatch, module: str, name: str, change: Callable) -> None:
-    """Replace the function ``module.name`` by one that returns ``change(result, *args, **kwargs)``.
-
-    Parameters
-    ----------
-    mp, module, name : as :func:`_replace`.
-    change : takes the real function's result (and its arguments) and returns the faulty one.
-    """
-    real = getattr(importlib.import_module(module), name)
-
-    @functools.wraps(real)
-    def faulty(*args, **kwargs):
-        return change(real(*args, **kwargs), *args, **kwargs)
-
-    _replace(mp, module, name, faulty)
 
 
 # --- 1. the arm's DH model -----------------------------------------------------------------------
@@ -309,6 +271,55 @@ FAULTS: dict[str, Fault] = {
         (
             "tests/estimators/test_arm_identification.py::test_a_solve_that_cannot_descend_is_not_called_converged",
         ),
+    ),
+    # --- issue 36: faults a reviewer tried (their apply functions in tests/sabotage_faults.py)
+    "stage_locate_p_0p5": Fault(
+        "the stages' located structure listed at p <= 0.5, not 0.01 (a null then locates some)",
+        more.stage_locate_p_0p5,
+        (
+            "tests/scenarios/test_discover.py::test_thermal_expansion_without_a_temperature_change_is_called_confounded",
+        ),
+    ),
+    "interferometer_sign_flipped": Fault(
+        "the vision stage's interferometer deviations target - actual, ISO 230-2 on them",
+        more.interferometer_sign_flipped,
+        (
+            "tests/scenarios/test_vision_stage.py::test_interferometer_deviations_are_actual_minus_target",
+        ),
+    ),
+    "coverage_z_2p0": Fault(
+        "a study's coverage_95 counted within 2.0 std, not 1.96",
+        more.coverage_z(2.0),
+        ("tests/scenarios/test_montecarlo.py::test_coverage_counts_errors_within_1p96_std",),
+    ),
+    "coverage_z_1p645": Fault(
+        "a study's coverage_95 counted within 1.645 std, not 1.96",
+        more.coverage_z(1.645),
+        ("tests/scenarios/test_montecarlo.py::test_coverage_counts_errors_within_1p96_std",),
+    ),
+    "belt_yaw_std_10x": Fault(
+        "the belt stage's reported board-yaw std (propagated_std's 13th value) 10 x",
+        more.belt_yaw_std_10x,
+        (
+            "tests/estimators/test_belt_maps.py::test_maps_recover_the_injected_errors_and_yaw_within_their_std",
+        ),
+    ),
+    "arm_tracker_noise_without_distance": Fault(
+        "the simulated laser tracker's range noise a alone, without its b L term",
+        more.arm_tracker_noise_without_distance,
+        ("tests/sim/test_arm_tracker.py::test_range_scatter_grows_with_distance_as_a_plus_b_l",),
+    ),
+    "stewart_pitch_amplitude_2x": Fault(
+        "a Stewart leg's pitch error reported with twice its fitted amplitude",
+        more.stewart_pitch_amplitude_2x,
+        (
+            "tests/estimators/test_discovery.py::test_stewart_pitch_effect_reports_the_injected_amplitude_and_phase",
+        ),
+    ),
+    "stewart_csv_leg_shifted": Fault(
+        "a Stewart CSV read back with leg 3's readings 0.1 um long",
+        more.stewart_csv_leg_shifted,
+        ("tests/test_recordings.py::test_stewart_csv_round_trip_keeps_every_column",),
     ),
 }
 

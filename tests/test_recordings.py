@@ -1,9 +1,15 @@
-"""Stage recordings: CSV round trip and one clear error per defect."""
+"""Stage and Stewart recordings: CSV round trip and one clear error per defect."""
 
 import numpy as np
 import pytest
 
-from calibench.recordings import RecordingError, StageRecording, load_stage_csv
+from calibench.recordings import (
+    RecordingError,
+    StageRecording,
+    StewartRecording,
+    load_stage_csv,
+    load_stewart_csv,
+)
 
 
 def test_csv_round_trip_keeps_optional_columns(tmp_path):
@@ -22,6 +28,30 @@ def test_csv_round_trip_keeps_optional_columns(tmp_path):
         np.testing.assert_allclose(getattr(back, name), getattr(rec, name), rtol=1e-8)
     assert back.t_s is None and back.temp_c is None
     np.testing.assert_allclose(back.x_err_mm, rec.x_meas_mm - rec.x_cmd_mm, rtol=1e-7)
+
+
+def test_stewart_csv_round_trip_keeps_every_column(tmp_path):
+    """Written with ten significant digits and read back: each leg's reading, the pose and the
+    optional columns to that rounding (relative 5e-10; 1e-9 allowed), the directions exactly."""
+    from scipy.spatial.transform import Rotation
+
+    rng = np.random.default_rng(4)
+    n = 25
+    rec = StewartRecording(
+        readings_mm=rng.uniform(450, 650, (n, 6)),
+        R=Rotation.from_rotvec(rng.normal(0, 0.05, (n, 3))).as_matrix(),
+        t_mm=rng.uniform(-50, 50, (n, 3)) + [0, 0, 600],
+        t_s=np.arange(n) * 3.0,
+        temp_c=rng.uniform(19, 21, n),
+        direction=rng.choice([-1.0, 0.0, 1.0], (n, 6)),
+        load_n=rng.uniform(0, 200, n),
+    )
+    rec.to_csv(tmp_path / "p.csv")
+    back = load_stewart_csv(tmp_path / "p.csv")
+    for name in ("readings_mm", "t_mm", "t_s", "temp_c", "load_n"):
+        np.testing.assert_allclose(getattr(back, name), getattr(rec, name), rtol=1e-9)
+    np.testing.assert_allclose(back.R, rec.R, atol=1e-9)
+    assert np.array_equal(back.direction, rec.direction)
 
 
 @pytest.mark.parametrize(

@@ -36,6 +36,10 @@ from calibench.scenarios.discover.report import describe_effects, verdict
 from calibench.scenarios.report import BadInput
 
 STAGE_DEGREE = {"belt-stage": 2, "vision-stage": 3}
+# the located structure: a residual against a driver is listed where its permutation p-value is at
+# most this (and its binned R^2 at least LOCATE_MIN_SCORE)
+LOCATE_P = 0.01
+LOCATE_MIN_SCORE = 0.02
 
 
 EXPERIMENTS = {
@@ -268,7 +272,7 @@ def _locate_stage(signals, drivers, seed):
             score, p = permutation_p(
                 r, np.asarray(v, float), passes, name in ("t_s", "temp_c"), rng
             )
-            if p > 0.01 or score < 0.02:
+            if p > LOCATE_P or score < LOCATE_MIN_SCORE:
                 continue
             out.append(
                 {

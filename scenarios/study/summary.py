@@ -5,6 +5,10 @@ from __future__ import annotations
 
 import numpy as np
 
+# coverage_95 counts the trials whose |error| is at most this many reported std: the normal
+# distribution's two-sided 95 % point (1.959964, to the three digits the studies have always used)
+Z_95 = 1.96
+
 
 def chi2_ppf(p: np.ndarray, df: int) -> np.ndarray:
     """scipy.stats.chi2.ppf by its own formula, without importing scipy.stats (a second of
@@ -99,7 +103,7 @@ def summarise(scenario: str, rows: list[dict], elapsed_s: float) -> dict:
                 "bias": float(np.mean(err)),
                 "rmse": float(np.sqrt(np.mean(err**2))),
                 "mean_std": float(np.mean(std)) if has_std else None,
-                "coverage_95": float(np.mean(np.abs(err) <= 1.96 * std)) if has_std else None,
+                "coverage_95": float(np.mean(np.abs(err) <= Z_95 * std)) if has_std else None,
                 # where an honest coverage of 0.95 lands 95 % of the time with this many trials
                 "coverage_95_expected": list(
                     binom_ppf(np.array([0.025, 0.975]), len(err), 0.95) / len(err)

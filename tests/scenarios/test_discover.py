@@ -241,10 +241,14 @@ def test_an_eccentric_shoulder_encoder_is_not_called_compliance():
 
 
 def test_thermal_expansion_without_a_temperature_change_is_called_confounded(tmp_path):
+    """A null belt-stage recording: nothing concealed, so nothing located either (its 12 tests of
+    a residual against a driver at p <= 0.01 each: at most 12 % of nulls locate anything by
+    chance, and this seed is not one of them), and thermal expansion is called confounded."""
     rec, manifest = stage_recording("belt-stage", "null", 3)
     from calibench.scenarios.discover.stage import discover_stage
 
     d, _ = discover_stage("belt-stage", rec)
+    assert d["located"] == [], d["located"]
     assert any(
         c["effect"] == "thermal_expansion" and "several K" in c["experiment"]
         for c in d["confounded"]
@@ -293,6 +297,7 @@ def test_what_is_left_is_judged_against_the_repeatability(monkeypatch):
 
     null, _ = stage_recording("vision-stage", "null", 5)
     d, _ = disc.discover_stage("vision-stage", null)
+    assert d["located"] == [], d["located"]  # nothing concealed, nothing located
     assert d["verdict"].startswith("nothing missing") and "um from repeats" in d["verdict"]
     rec, _ = stage_recording("vision-stage", "backlash", 7)
     monkeypatch.setattr(disc, "stage_candidates", lambda drivers: [])

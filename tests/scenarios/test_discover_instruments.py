@@ -30,6 +30,7 @@ def test_scanner_csv_round_trip(tmp_path):
 def test_stewart_csv_round_trip(tmp_path):
     rec, manifest = stewart_recording("null", 3, n_poses=30)
     back = load_stewart_csv(write_blinded(tmp_path, "p", rec, manifest))
+    assert np.allclose(back.readings_mm, rec.readings_mm, rtol=1e-9, atol=0)
     assert np.allclose(back.R, rec.R, atol=1e-9) and np.allclose(back.t_mm, rec.t_mm, atol=1e-6)
     assert np.array_equal(back.direction, rec.direction) and np.allclose(back.load_n, rec.load_n)
 

@@ -222,6 +222,26 @@ def test_summary_statistics():
     assert p["mean_std"] == 1.0 and p["coverage_95"] == pytest.approx(0.75)
 
 
+def test_coverage_counts_errors_within_1p96_std():
+    """coverage_95 is the share of |error| <= 1.96 std: errors placed at 0.5, 1.8, 1.98 and 2.5
+    std (std 2 mm) lie inside 1.96 for two of four, inside 2.0 for three, inside 1.645 for one;
+    an exact count, no noise: each constant gives its own answer."""
+    errs = np.array([0.5, -1.8, 1.98, -2.5]) * 2.0
+    rows = [
+        {
+            "trial": i,
+            "ok": True,
+            "p.truth": 1.0,
+            "p.estimate": 1.0 + e,
+            "p.std": 2.0,
+            "p.unit": "mm",
+        }
+        for i, e in enumerate(errs)
+    ]
+    (p,) = summarise("x", rows, 1.0)["parameters"]
+    assert p["coverage_95"] == 0.5
+
+
 @pytest.mark.parametrize("n", [1, 2, 7, 20, 60, 199, 200, 1000, 4000])
 def test_quantiles_equal_scipy_stats(n):
     """The summary's chi2 and binomial quantiles, computed without scipy.stats, equal its own."""

@@ -98,3 +98,28 @@ def test_fit_cubic_on_a_recording(tmp_path):
     for k, truth in (("a1", 2e-4), ("a4", -1e-6), ("a6", 3e-9)):
         assert abs(a["coef"][k] - truth) <= 5 * a["std"][k]
     assert a["rmse"] == pytest.approx(1e-4, rel=0.2)
+
+
+def test_interferometer_deviations_are_actual_minus_target():
+    """ISO 230-2's deviation is actual minus target. A machine that runs 100 ppm long along each
+    axis and stops 3 um short of the target on the way down (a known, signed error; no noise,
+    the model compensates nothing): every deviation is +0.1 um per mm beyond the first target,
+    less 3 um down, to the readings' rounding (1e-9 um)."""
+    from calibench.scenarios.vision_stage.procedure import interferometer_test
+
+    scale, lost_mm = 1e-4, 3e-3
+
+    class Machine:
+        def move_path(self, commands, read, axis, noise_um):
+            up = np.r_[1.0, np.sign(np.diff(commands[:, axis]))] > 0
+            at = commands[:, axis] * (1 + scale) - np.where(up, 0.0, lost_mm)
+            return at[read]
+
+    config = vision_stage.VisionStageConfig(runs=2)
+    targets = np.array([10.0, 35.0, 62.0, 90.0])
+    lines = [(0, 50.0, targets), (1, 40.0, targets)]
+    for line in interferometer_test(Machine(), config, lines, lambda s: np.zeros_like(s)):
+        want = np.outer(scale * (targets - targets[0]) * 1000, np.ones(config.runs))
+        np.testing.assert_allclose(line["dev_up_um"], want, atol=1e-9)
+        np.testing.assert_allclose(line["dev_down_um"], want - 3.0, atol=1e-9)
+        np.testing.assert_allclose(line["iso"].reversal_i, 3.0, atol=1e-9)  # up minus down

@@ -1,0 +1,143 @@
+"""The faults' tools and more faults for ``tests/sabotage.py`` (issue 36): how a fault replaces a
+library function everywhere it is bound, and the newer faults' ``apply(monkeypatch)``, kept here
+so that FAULTS, in ``tests/sabotage.py``, stays within the house's length of a file. Each fault
+changes one figure, constant or reading by a small, precise amount."""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import importlib
+import sys
+from collections.abc import Callable
+
+import numpy as np
+import pytest
+
+
+def replace(mp: pytest.MonkeyPatch, module: str, name: str, new) -> None:
+    """Set ``module.name`` to ``new``, and every loaded calibench module's own binding of the
+    original (``from module import name``): modules imported later take the new one from ``module``.
+
+    Parameters
+    ----------
+    mp : the session's MonkeyPatch (undone at the end of the session).
+    module : dotted name of the module that defines ``name``.
+    name : the attribute to replace.
+    new : its replacement, usually a wrapper of the original.
+    """
+    mod = importlib.import_module(module)
+    old = getattr(mod, name)
+    mp.setattr(mod, name, new)
+    for other in list(sys.modules.values()):
+        if (
+            other is not mod
+            and getattr(other, "__name__", "").startswith("calibench.")
+            and getattr(other, name, None) is old
+        ):
+            mp.setattr(other, name, new)
+
+
+def wrap(mp: pytest.MonkeyPatch, module: str, name: str, change: Callable) -> None:
+    """Replace the function ``module.name`` by one that returns ``change(result, *args, **kwargs)``.
+
+    Parameters
+    ----------
+    mp, module, name : as :func:`replace`.
+    change : takes the real function's result (and its arguments) and returns the faulty one.
+    """
+    real = getattr(importlib.import_module(module), name)
+
+    @functools.wraps(real)
+    def faulty(*args, **kwargs):
+        return change(real(*args, **kwargs), *args, **kwargs)
+
+    replace(mp, module, name, faulty)
+
+
+def stage_locate_p_0p5(mp: pytest.MonkeyPatch) -> None:
+    """The stages' localisation lists a residual against a driver at p <= 0.5, not 0.01."""
+    from calibench.scenarios.discover import stage
+
+    mp.setattr(stage, "LOCATE_P", 0.5)
+
+
+def interferometer_sign_flipped(mp: pytest.MonkeyPatch) -> None:
+    """The interferometer's deviations target minus actual (each line's, and ISO 230-2's figures
+    evaluated on them)."""
+    from calibench.estimators.stage import iso230_2
+
+    def flip(lines, *a, **k):
+        out = []
+        for ln in lines:
+            up, down = -ln["dev_up_um"], -ln["dev_down_um"]
+            iso = iso230_2.evaluate(ln["targets_mm"], up, down)
+            out.append({**ln, "dev_up_um": up, "dev_down_um": down, "iso": iso})
+        return out
+
+    wrap(mp, "calibench.scenarios.vision_stage.procedure", "interferometer_test", flip)
+
+
+def coverage_z(z: float):
+    """A fault counting coverage_95 within ``z`` std instead of 1.96."""
+
+    def apply(mp: pytest.MonkeyPatch) -> None:
+        from calibench.scenarios.study import summary
+
+        mp.setattr(summary, "Z_95", z)
+
+    return apply
+
+
+def belt_yaw_std_10x(mp: pytest.MonkeyPatch) -> None:
+    """The belt stage's reported board-yaw std (propagated_std's 13th value) 10 x."""
+
+    def inflate(std, *a, **k):
+        std = np.array(std, float)
+        std[12] *= 10.0
+        return std
+
+    wrap(mp, "calibench.estimators.stage.belt_maps", "propagated_std", inflate)
+
+
+def arm_tracker_noise_without_distance(mp: pytest.MonkeyPatch) -> None:
+    """The simulated laser tracker's range noise a, not a + b L (its stated sigma untouched)."""
+    from calibench.sim.arm_cmm import ArmSim
+
+    real = ArmSim.tracker
+
+    @functools.wraps(real)
+    def tracker(self, q_motor, rng):
+        truth = self.truth
+        self.truth = dataclasses.replace(truth, range_noise_um=(truth.range_noise_um[0], 0.0))
+        try:
+            return real(self, q_motor, rng)
+        finally:
+            self.truth = truth
+
+    mp.setattr(ArmSim, "tracker", tracker)
+
+
+def stewart_pitch_amplitude_2x(mp: pytest.MonkeyPatch) -> None:
+    """A Stewart leg's pitch error reported with twice its fitted amplitude."""
+    from calibench.estimators.discovery.stewart import LegPitch
+
+    real = LegPitch.describe
+
+    @functools.wraps(real)
+    def describe(self, coef, cov):
+        params, std, words = real(self, coef, cov)
+        return {**params, "amplitude_mm": 2 * params["amplitude_mm"]}, std, words
+
+    mp.setattr(LegPitch, "describe", describe)
+
+
+def stewart_csv_leg_shifted(mp: pytest.MonkeyPatch) -> None:
+    """A Stewart CSV read back with leg 3's readings 0.1 um long."""
+
+    def shift(rec, *a, **k):
+        readings = rec.readings_mm.copy()
+        readings[:, 2] += 1e-4
+        return dataclasses.replace(rec, readings_mm=readings)
+
+    wrap(mp, "calibench.recordings.stewart", "load_stewart_csv", shift)
