@@ -8,6 +8,7 @@ from typing import TypedDict
 
 import numpy as np
 
+from calibench.estimators.arm.session import SESSION_PRIOR_RAD
 from calibench.estimators.discovery.effect import Effect, amplitude, coef_std
 from calibench.estimators.discovery.harmonics import best_harmonic
 
@@ -238,6 +239,9 @@ class Transmission(JointEffect):
             [cols * (rec == r)[:, None] for r in range(int(rec.max()) + 1)], axis=1
         )
 
+    # the std of a session's correction, as register_session's (fit.session_residuals)
+    session_prior = SESSION_PRIOR_RAD
+
     @property
     def session_refit(self) -> bool:
         """A shared harmonic's phase may be set anew at a power-up: a new session refits it on
@@ -297,6 +301,7 @@ class TransmissionSearch:
     per_recording: bool = False
 
     takes_basis = True  # fix may be given others[rows]'s orthonormal basis (fit.cv_residuals)
+    session_prior = SESSION_PRIOR_RAD  # as the harmonic it fixes
 
     @property
     def session_refit(self) -> bool:

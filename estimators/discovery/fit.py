@@ -127,8 +127,9 @@ def session_residuals(
     (its frame, its own phase of a harmonic, and a correction of its own to each term whose
     ``session_refit`` says a power-up may set it anew), is unknown to the others' fit: fitted on the
     session's ``register`` rows (bool per sample) with the rest held as the others fitted it, and
-    the session's other rows are scored. Those residuals are returned; the registration rows'
-    are NaN.
+    the session's other rows are scored. A correction carries a zero-mean prior of the term's
+    ``session_prior`` (its coefficients' std, toward the value the others fitted). Those
+    residuals are returned; the registration rows' are NaN.
 
     Parameters
     ----------
@@ -140,7 +141,7 @@ def session_residuals(
     for k in np.unique(rows_session):
         test = rows_session == k
         train = ~test
-        X, at = sig.base, []
+        X, at, held = sig.base, [], []
         for t in terms:
             # a search is fixed once per session held out, on the first list of terms asked for
             # (the full model: a term left out beside it moves its frequency by a hair)
@@ -154,13 +155,21 @@ def session_residuals(
             at.append((t, X.shape[1], cols.shape[1]))
             X = np.hstack([X, cols])
             if getattr(t, "session_refit", False):  # a correction of its own in the session
+                std = getattr(t, "session_prior", np.inf)  # inf: no prior
+                held += [(X.shape[1] + i, std) for i in range(cols.shape[1])]
                 X = np.hstack([X, cols * test[:, None]])
         P = prior_rows(at, X.shape[1])
         coef = lstsq(np.vstack([X[train], P]), np.r_[sig.r[train], np.zeros(len(P))])
         own = ~np.any(X[train] != 0, axis=0)
         reg, judged = test & rows_register, test & ~rows_register
         r = sig.r - X[:, ~own] @ coef[~own]
-        c_own = lstsq(X[reg][:, own], r[reg])
+        # a correction's zero-mean prior (the others' value), as rows weighted by their fit's
+        # scatter per value: the estimator register_session scores a new session with
+        noise = rms(r[train])
+        Q = np.zeros((len(held), int(own.sum())))
+        for row, (col, std) in enumerate(held):
+            Q[row, np.searchsorted(np.flatnonzero(own), col)] = noise / std
+        c_own = lstsq(np.vstack([X[reg][:, own], Q]), np.r_[r[reg], np.zeros(len(Q))])
         out[judged] = r[judged] - X[judged][:, own] @ c_own
     return out
 
