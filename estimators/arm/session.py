@@ -35,10 +35,11 @@ class SessionFit:
 
 
 # the angle terms a new session refits beside its frame: a gear train's harmonics (a power-up
-# may set their phase); an encoder's eccentricity and a table over a joint's angle stay with the
-# machine (a table's bands refitted on a fifth of a session's rows, unregularised, put a band
-# that few of them reach far off: a max of 19.8 mm on the UR10's A left out)
-SESSION_LABELS = ("transmission",)
+# may set their phase) and a table over a joint's angle (what no law explains need not hold as
+# it did), both held to the machine's values by SESSION_PRIOR_RAD (unregularised, a table's
+# bands refitted on a fifth of a session's rows put a band few of them reach far off: a max of
+# 19.8 mm on the UR10's A left out); an encoder's eccentricity stays with the machine
+SESSION_LABELS = ("transmission", "table")
 
 # The prior std (rad) of a session's correction to a shared term's coefficient, zero mean (the
 # machine's value): a session moves a term by a fraction of it, and unregularised a coefficient

@@ -345,6 +345,10 @@ class JointTable(JointEffect):
     name: str = "nonsmooth"
     edges: tuple = ()
     span: tuple = (-np.pi, np.pi)  # the angles the data cover, for the words
+    # what no law explains need not hold in another session as it did in these: a new session
+    # refits the bands its registration rows reach, held to the others' values by the prior
+    session_refit = True
+    session_prior = SESSION_PRIOR_RAD
 
     def __post_init__(self):
         object.__setattr__(self, "needs", ("Jq", "q"))
