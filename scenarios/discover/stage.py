@@ -32,6 +32,7 @@ from calibench.estimators.discovery.stage import (
     polynomial_candidates,
     stage_candidates,
 )
+from calibench.scenarios.discover.folds import block_folds
 from calibench.scenarios.discover.report import describe_effects, verdict
 from calibench.scenarios.report import BadInput
 
@@ -88,7 +89,8 @@ def folds_for(rec_run, x, y, holdout: str | None) -> tuple[np.ndarray, str]:
         return np.unique(y, return_inverse=True)[1], "leave one row (y) out"
     if holdout == "columns":
         return np.unique(x, return_inverse=True)[1], "leave one column (x) out"
-    return np.minimum(np.arange(len(x)) * 5 // len(x), 4), "five contiguous blocks"
+    fold, scheme = block_folds(np.c_[x, y], "samples")
+    return fold, scheme.replace("five contiguous blocks of samples", "five contiguous blocks")
 
 
 # --- stages --------------------------------------------------------------------------------------

@@ -22,6 +22,7 @@ from calibench.estimators.discovery.locate import binned_r2, permutation_p
 from calibench.estimators.discovery.noise import repeatability
 from calibench.estimators.discovery.select import prune, select
 from calibench.estimators.discovery.stewart import AXIS, StewartDrivers, stewart_candidates
+from calibench.scenarios.discover.folds import block_folds
 from calibench.scenarios.report import BadInput
 
 # The platform's practical floor: 4 % of the held-out RMS. One leg's effect shows on a sixth of
@@ -341,7 +342,7 @@ def discover_stewart(
         Rf, tf = register(dataclasses.replace(rec, readings_mm=rec.readings_mm - own), g)
         drivers, r, frame = twin_drivers(rec, g, Rf, tf, rec.load_n, truth)
     sig = Signal("reading - twin", AXIS, r, frame, np.repeat(np.arange(n), 6))
-    fold = np.minimum(np.arange(n) * 5 // n, 4)
+    fold, scheme = block_folds(rec.readings_mm, "poses")
     station = np.repeat(stations(rec, repeat_tol), 6) * 6 + np.tile(np.arange(6), n)
     order = (
         np.repeat(rec.t_s if rec.t_s is not None else np.arange(n, dtype=float), 6)
@@ -381,7 +382,7 @@ def discover_stewart(
         "located": located,
         "effects": effects,
         **one_axis_fit(AXIS, np.sqrt(np.mean(r**2)), found, noise, after_noise),
-        "holdout": "five contiguous blocks of poses",
+        "holdout": scheme,
         "scene_model": "the nominal platform (drawing hinges, rigid legs) at the tracker's poses, "
         "the tracker's frame registered",
         "tracker_frame": {"R": Rf.tolist(), "t_mm": tf.tolist()},
@@ -455,7 +456,7 @@ def twin_tables(scenario: str, out: dict, config: Path | None, arm=None) -> tupl
 
 
 # --- the plug-in (calibench.scenarios.discover.engine.Plugin) -------------------------------------
-HOLDOUTS: tuple[str, ...] = ()  # its own folds: contiguous blocks of poses
+HOLDOUTS: tuple[str, ...] = ()  # its own folds: blocks of poses (folds.block_folds)
 MANY_RECORDINGS = False
 
 
