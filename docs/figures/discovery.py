@@ -92,7 +92,7 @@ def discover_instruments():
         rows.append(
             [
                 f"{scenario.replace('arm-cmm:ur10', 'arm-cmm (UR10)')}, {kind} "
-                f"([figure](docs/discover_{name}.png))",
+                f"([figure](discover_{name}.png))",  # beside its page, docs/discover.md
                 concealed,
                 found,
                 f"{1000 * before:.2f} -> {1000 * f['cv_rms_final']:.2f}",

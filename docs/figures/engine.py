@@ -14,6 +14,23 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 README = ROOT / "README.md"
+PAGES = ROOT / "docs"  # the pages the README links to (docs/*.md) hold blocks too
+
+
+def pages() -> list[Path]:
+    """The README and its pages, each of which may hold generated blocks."""
+    return [README, *sorted(PAGES.glob("*.md"))]
+
+
+def block_pages() -> dict[str, Path]:
+    """Each block's page: the README or a docs/*.md page (a block in two places is refused)."""
+    out: dict[str, Path] = {}
+    for page in pages():
+        for name in spans(page.read_text(), page.name):
+            if name in out:
+                raise ValueError(f"block {name} appears in {out[name].name} and {page.name}")
+            out[name] = page
+    return out
 COMMAND = "python -m docs.figures"  # how a reader reruns a block (from the repository's root)
 
 
@@ -79,9 +96,9 @@ def block(
 OPEN = re.compile(r"^(?P<indent>[ \t]*)<!-- figures:(?P<name>[\w.-]+) -->[ \t]*$")
 
 
-def spans(text: str) -> dict[str, tuple[int, int, str]]:
-    """Each block of the README: (first content line, closing marker's line, indentation), lines
-    counted from 0."""
+def spans(text: str, page: str = "README.md") -> dict[str, tuple[int, int, str]]:
+    """Each block of a page (``page`` names it in errors): (first content line, closing
+    marker's line, indentation), lines counted from 0."""
     lines = text.split("\n")
     out = {}
     for i, line in enumerate(lines):
@@ -99,10 +116,10 @@ def spans(text: str) -> dict[str, tuple[int, int, str]]:
         )
         if close is None:
             raise ValueError(
-                f"README.md: <!-- figures:{name} --> has no closing <!-- /figures:{name} -->"
+                f"{page}: <!-- figures:{name} --> has no closing <!-- /figures:{name} -->"
             )
         if name in out:
-            raise ValueError(f"README.md: block {name} appears twice")
+            raise ValueError(f"{page}: block {name} appears twice")
         out[name] = (i + 1, close, m["indent"])
     return out
 
@@ -196,9 +213,11 @@ def disagreements(b: Block, readme: str, generated: str) -> list[str]:
     return out
 
 
-def check(names: list[str], readme: str) -> int:
-    """Regenerate the named blocks and compare with the README; the number of disagreements."""
+def check(names: list[str], where: dict[str, Path]) -> int:
+    """Regenerate the named blocks and compare with their pages (``where``: block -> page); the
+    number of disagreements."""
     bad = 0
+    texts = {page: page.read_text() for page in set(where.values())}
     for name in names:
         b = BLOCKS[name]
         if b.timing:
@@ -212,6 +231,7 @@ def check(names: list[str], readme: str) -> int:
             print(f"{name}: could not be generated: {type(e).__name__}: {e}", flush=True)
             bad += 1
             continue
+        readme = texts[where[name]]
         found = disagreements(b, current(readme, name), generated)
         for line in found:
             print(line)
@@ -244,30 +264,30 @@ def main(argv: list[str] | None = None) -> int:
         for b in BLOCKS.values():
             print(f"{b.name:24s} {b.seconds:6.0f} s  {'test' if b.ci else 'make '}  {b.what}")
         return 0
-    readme = README.read_text()
-    in_readme = spans(readme)
+    in_pages = block_pages()
     unknown = [n for n in args.names if n not in BLOCKS]
     if unknown:
         print(f"unknown block(s): {', '.join(unknown)} ({COMMAND} --list)", file=sys.stderr)
         return 2
     names = args.names or list(BLOCKS)
-    orphans = [n for n in in_readme if n not in BLOCKS]
-    missing = [n for n in names if n not in in_readme]
+    orphans = [n for n in in_pages if n not in BLOCKS]
+    missing = [n for n in names if n not in in_pages]
     if orphans or missing:
         for n in orphans:
-            print(f"README.md has a block {n} that docs/figures does not generate")
+            print(f"{in_pages[n].name} has a block {n} that docs/figures does not generate")
         for n in missing:
-            print(f"README.md has no markers for block {n}")
+            print(f"no page has markers for block {n}")
         return 1
     if args.check:
-        bad = check(names, readme)
+        bad = check(names, in_pages)
         print(f"{len(names)} blocks checked: {'all agree' if not bad else f'{bad} numbers differ'}")
         return 1 if bad else 0
     for name in names:
         t = time.perf_counter()
         text = BLOCKS[name].make()
-        # written at once (an interrupted run keeps what it made), into the README as it is now
-        README.write_text(replace(README.read_text(), {name: text}))
-        print(f"{name}: rewritten ({time.perf_counter() - t:.0f} s)", flush=True)
-    print(f"README.md: {len(names)} blocks rewritten")
+        # written at once (an interrupted run keeps what it made), into the page as it is now
+        page = in_pages[name]
+        page.write_text(replace(page.read_text(), {name: text}))
+        print(f"{name}: rewritten in {page.name} ({time.perf_counter() - t:.0f} s)", flush=True)
+    print(f"{len(names)} blocks rewritten")
     return 0

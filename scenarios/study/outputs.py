@@ -112,14 +112,30 @@ def _figure(out_dir: Path, rows: list[dict], summary: dict) -> None:
     ax.set(title=f"{summary['scenario']}: {len(good)} trials", xlabel="normalised error")
     ax = axes[1]
     names = [p["name"] for p in with_std]
-    ax.bar(range(len(names)), [p["coverage_95"] for p in with_std], color="tab:green")
-    ax.axhspan(0.93, 0.97, color="k", alpha=0.1, label="0.93-0.97")
+    lo, hi = coverage_band(len(good))
+    cover = [p["coverage_95"] for p in with_std]
+    colours = ["tab:green" if lo <= c <= hi else "tab:red" for c in cover]
+    ax.bar(range(len(names)), cover, color=colours)
+    ax.axhspan(
+        lo,
+        hi,
+        color="k",
+        alpha=0.1,
+        label=f"{lo:.2f}-{hi:.2f}: 0.95 within {len(good)} trials' scatter (red: outside)",
+    )
     ax.set_xticks(range(len(names)), names, rotation=90, fontsize=7)
     ax.set(ylim=(0, 1.05), ylabel="coverage of +-1.96 std", title="coverage per parameter")
     ax.legend(loc="lower right")
     with replaced(out_dir / "study.png") as tmp:
         fig.savefig(tmp, dpi=90, format="png")
     plt.close(fig)
+
+
+def coverage_band(trials: int) -> tuple[float, float]:
+    """Where an honest std's coverage of 95 % intervals lands over ``trials`` trials: 0.95 within
+    two binomial standard deviations."""
+    half = 2 * math.sqrt(0.95 * 0.05 / max(trials, 1))
+    return max(0.95 - half, 0.0), min(0.95 + half, 1.0)
 
 
 def import_writers() -> None:
