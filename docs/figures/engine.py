@@ -31,6 +31,8 @@ def block_pages() -> dict[str, Path]:
                 raise ValueError(f"block {name} appears in {out[name].name} and {page.name}")
             out[name] = page
     return out
+
+
 COMMAND = "python -m docs.figures"  # how a reader reruns a block (from the repository's root)
 
 
