@@ -33,6 +33,7 @@ from calibench.estimators.discovery.probe_scanner import (
     ProbeOffset,
     Runout,
     ScannerDrivers,
+    TableEccentricity,
     scanner_candidates,
 )
 from calibench.estimators.discovery.select import FLOOR, Step, prune, select
@@ -252,6 +253,7 @@ def discover_scanner(rec, seed: int = 0, floor: float = FLOOR, config=None) -> t
                 "experiment": EXPERIMENTS["offset"],
             }
         )
+    confounds += _look_alikes(sig, terms[AXIS], drivers)
     located = _locate(sig, drivers, rec, seed)
     out = {
         "scenario": "probe-scanner",
@@ -282,6 +284,46 @@ def discover_scanner(rec, seed: int = 0, floor: float = FLOOR, config=None) -> t
         "fitted": fitted,
         "abscissa": (np.degrees(np.mod(th, 2 * np.pi)), "table angle (deg)"),
     }
+
+
+# an encoder's eccentricity and a once-per-turn runout, told apart by an artefact whose reading
+# has no slope along the turn: there the eccentricity moves nothing, the runout shows in full
+SEPARATE_BY_A_RING = (
+    "measure a round artefact (a ring gauge) too: an encoder's eccentricity moves a round "
+    "artefact's reading not at all, a once-per-turn runout moves it in full"
+)
+
+
+def _look_alikes(sig, terms: list, drivers) -> list[dict]:
+    """Accepted effects another candidate would reproduce almost wholly on this artefact (an
+    encoder's eccentricity and a once-per-turn runout on the square plate): said as confounded,
+    with the experiment that separates them, not left as a confident name."""
+    out = []
+    pairs = (("runout", TableEccentricity(), "encoder_eccentricity"),)
+    pairs += (("encoder_eccentricity", Runout(harmonic=1), "runout (once per turn)"),)
+    for name, other, other_name in pairs:
+        accepted = [t for t in terms if t.name == name and getattr(t, "harmonic", 1) == 1]
+        if not accepted or any(
+            t.name == other.name and getattr(t, "harmonic", 1) == 1 for t in terms
+        ):
+            continue
+        frac = confounded(sig, terms, other, drivers, {})
+        if frac > LOOK_ALIKE:
+            out.append(
+                {
+                    "effect": name,
+                    "axis": AXIS,
+                    "with": other_name,
+                    "why": f"on this artefact the calibrated rail and the {name.replace('_', ' ')} "
+                    f"found reproduce {100 * frac:.0f} % of an {other_name.replace('_', ' ')}: "
+                    "the recording cannot say which it is",
+                    "experiment": SEPARATE_BY_A_RING,
+                }
+            )
+    return out
+
+
+LOOK_ALIKE = 0.9  # the share of a candidate's signal the accepted model reproduces: confounded
 
 
 def _locate(sig, drivers, rec, seed) -> list[dict]:
