@@ -13,6 +13,7 @@ from pathlib import Path
 from calibench.scenarios.report import Report
 
 RRD = "run.rrd"
+FIGURE = "figure.png"  # every scenario's run figure has this one name, beside report.json
 
 
 def write_outputs(

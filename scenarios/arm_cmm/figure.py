@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from calibench.scenarios.harness import FIGURE
 from calibench.scenarios.report import Report
 
 
@@ -49,7 +50,7 @@ def write_figure(out_dir: Path, report: Report, artifacts: dict) -> None:
         xlabel="posture", ylabel="|measured - modelled| (mm)", title="arm-cmm: residual per posture"
     )
     ax.legend()
-    fig.savefig(out_dir / "arm_cmm.png", dpi=90)
+    fig.savefig(out_dir / FIGURE, dpi=90)
     plt.close(fig)
 
 

@@ -13,6 +13,7 @@ import numpy as np
 
 from calibench.scenarios import rrlog
 from calibench.scenarios.arm_cmm.figure import posture_residuals
+from calibench.scenarios.harness import FIGURE
 
 
 def log_run(path: Path, report, a: dict) -> None:
@@ -63,7 +64,7 @@ def log_run(path: Path, report, a: dict) -> None:
             rec, "probe/all_measured", measured_base / 1000, rrlog.BLUE, radius=0.003, static=True
         )
         rrlog.log_text(rec, "report", f"# arm-cmm, seed {report.seed}\n\n" + report.table())
-        png = path.parent / "arm_cmm.png"
+        png = path.parent / FIGURE
         if png.exists():
             rrlog.log_figure(rec, "figures/arm_cmm", png)
     finally:

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from calibench.scenarios.harness import FIGURE
 from calibench.scenarios.report import Report
 
 
@@ -57,5 +58,5 @@ def write_figure(out_dir: Path, report: Report, a: dict) -> None:
         ylabel="|position error| (mm)",
     )
     ax.legend(loc="center right")
-    fig.savefig(out_dir / "error_map.png", dpi=90)
+    fig.savefig(out_dir / FIGURE, dpi=90)
     plt.close(fig)

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from calibench.scenarios import rrlog
+from calibench.scenarios.harness import FIGURE
 from calibench.sim.belt_stage import PULSES_PER_MM
 
 ARROW_GAIN = 20.0  # error arrows are drawn 20 x their size
@@ -107,7 +108,7 @@ def log_run(path: Path, report, a: dict) -> None:
             f"Error arrows x{ARROW_GAIN:g} (check_after x{10 * ARROW_GAIN:g}); stage "
             f"commands in pulses ({PULSES_PER_MM:g} per mm).\n\n" + report.table(),
         )
-        png = path.parent / "error_map.png"
+        png = path.parent / FIGURE
         if png.exists():
             rrlog.log_figure(rec, "figures/error_map", png)
     finally:

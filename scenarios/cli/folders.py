@@ -44,7 +44,8 @@ OUTPUTS = (
     "discovery.png",
     "camera.png",
     "iso230.png",
-    "arm_cmm.png",
+    "figure.png",
+    "arm_cmm.png",  # the runs' figures' names before figure.png
     "error_map.png",
     "probe_scanner.png",
     "stewart.png",

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from calibench.scenarios.harness import FIGURE
 from calibench.scenarios.report import Report
 
 
@@ -79,5 +80,5 @@ def write_figure(out_dir: Path, report: Report, a: dict) -> None:
         title="the rim, before and after calibration",
     )
     ax.legend(fontsize=8, loc="upper right")
-    fig.savefig(out_dir / "probe_scanner.png", dpi=90)
+    fig.savefig(out_dir / FIGURE, dpi=90)
     plt.close(fig)

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from calibench.scenarios import rrlog
+from calibench.scenarios.harness import FIGURE
 
 
 def log_run(path: Path, report, a: dict) -> None:
@@ -95,7 +96,7 @@ def log_run(path: Path, report, a: dict) -> None:
                 static=True,
             )
         rrlog.log_text(rec, "report", f"# probe-scanner, seed {report.seed}\n\n" + report.table())
-        png = path.parent / "probe_scanner.png"
+        png = path.parent / FIGURE
         if png.exists():
             rrlog.log_figure(rec, "figures/probe_scanner", png)
     finally:

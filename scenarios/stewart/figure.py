@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from calibench.scenarios.harness import FIGURE
 from calibench.scenarios.report import Report
 
 
@@ -47,5 +48,5 @@ def write_figure(out_dir: Path, report: Report, artifacts: dict) -> None:
         ylabel="(estimate - truth) / std",
         title="one-step calibration: error in units of its std",
     )
-    fig.savefig(out_dir / "stewart.png", dpi=90)
+    fig.savefig(out_dir / FIGURE, dpi=90)
     plt.close(fig)

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from calibench.scenarios.harness import FIGURE
 from calibench.scenarios.report import Report
 
 
@@ -72,5 +73,5 @@ def write_figure(out_dir: Path, report: Report, a: dict) -> None:
         ylabel="mean bidirectional deviation (um)",
     )
     ax.legend()
-    fig.savefig(out_dir / "vision_stage.png", dpi=90)
+    fig.savefig(out_dir / FIGURE, dpi=90)
     plt.close(fig)

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from calibench.scenarios import rrlog
+from calibench.scenarios.harness import FIGURE
 from calibench.scenes.camera import MJ_TO_CV
 
 ARROW_GAIN = 1000.0  # um-sized errors drawn 1000 x (1 um -> 1 mm)
@@ -88,7 +89,7 @@ def log_run(path: Path, report, a: dict) -> None:
             f"# vision-stage, seed {report.seed}, {report.fidelity}\n\n"
             f"Error arrows x{ARROW_GAIN:g}.\n\n" + report.table(),
         )
-        png = path.parent / "vision_stage.png"
+        png = path.parent / FIGURE
         if png.exists():
             rrlog.log_figure(rec, "figures/vision_stage", png)
     finally:

@@ -37,7 +37,7 @@ def test_render_run_meets_the_acceptance(render_run):
     assert checks["check_rms_after_mm"]["value"] <= 0.1
     assert checks["check_rms_before_mm"]["value"] > 1.0  # the injected maps are mm-sized
     assert rep["rrd"] == "run.rrd" and (out / "run.rrd").is_file()
-    assert (out / "error_map.png").is_file()
+    assert (out / "figure.png").is_file()
 
 
 @pytest.mark.render

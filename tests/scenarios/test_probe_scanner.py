@@ -25,7 +25,7 @@ def test_run_meets_the_acceptance(tmp_path):
     ranges = rep["info"]["m_meeting_requirement_rms_over_turns"]
     longest = max(ranges, key=lambda r: r[1] - r[0])
     assert longest[0] <= 50 <= longest[1] and longest[0] >= 20 and longest[1] <= 95
-    assert (tmp_path / "probe_scanner.png").is_file()
+    assert (tmp_path / "figure.png").is_file()
     paths = entity_paths(tmp_path / "run.rrd")
     expected = {
         "/world/turntable",

@@ -35,7 +35,7 @@ def test_run_meets_the_acceptance(tmp_path):
         "/report",
         "/figures/stewart",
     }
-    assert (tmp_path / "stewart.png").stat().st_size > 20_000
+    assert (tmp_path / "figure.png").stat().st_size > 20_000
     assert expected <= paths, expected - paths
 
 
