@@ -282,7 +282,8 @@ def run_arm_fit(
     result["sigma_model_mm_by_recording"] = {
         label[p]: float(np.sqrt(v)) for p, v in zip(paths, extra)
     }
-    figures = {"training": np.linalg.norm(e_fit, axis=1)}
+    # each curve says what its rows are: the fit's own (in-sample) or rows it never saw
+    figures = {"training rows (in-sample)": np.linalg.norm(e_fit, axis=1)}
     residuals = []  # (file, row, role, measured - modelled (n, 3))
     outlier_rows = np.zeros(len(q), bool)
     outlier_rows[cal.outliers] = True
@@ -333,7 +334,7 @@ def run_arm_fit(
         scored[p] = np.flatnonzero(keep)
         residuals.append((label[p], np.flatnonzero(keep), "test", -e))
         flagged[label[p]] = fl
-        figures[label[p]] = np.linalg.norm(e, axis=1)
+        figures[f"{label[p]} (test)"] = np.linalg.norm(e, axis=1)
         tested[label[p]] = rec.q_rad
     for p in tests_new_frame:
         rec = judged[p]
@@ -375,7 +376,7 @@ def run_arm_fit(
         record_score(result, "test", label[p], figs, np.flatnonzero(ev), chosen_by(p, None))
         scored[p], registered[p] = np.flatnonzero(ev), reg_rows
         flagged[label[p]] = fl
-        figures[label[p]] = np.linalg.norm(e, axis=1)
+        figures[f"{label[p]} (new frame: scored rows)"] = np.linalg.norm(e, axis=1)
         tested[label[p]] = rec.q_rad
     result["provenance"] = [
         entry(
