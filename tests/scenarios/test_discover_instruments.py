@@ -103,20 +103,19 @@ def test_stewart_compliance_under_mujocos_statics(tmp_path):
     assert abs(c[0]["params"]["um_per_n"] - truth) < 5 * c[0]["stderr"]["um_per_n"] + 0.05 * truth
 
 
-def test_stewart_thermal_growth_raises_the_repeatability_until_found(tmp_path):
-    """A leg warming over the recording makes its repeats disagree; once thermal growth is
-    accepted the repeatability falls back to the instruments' noise."""
+def test_stewart_thermal_growth_is_found_and_leaves_the_noise(tmp_path):
+    """A leg warming over the recording: found on its leg at its rate, located against
+    temperature and time, and what is left held out is the instruments' noise (under 1.5 times
+    a null recording's held-out RMS, 2.8 um). Repeats are grouped by the legs' readings (what
+    was commanded): here the warming leg's readings move with the temperature, so its visits
+    at other temperatures are other commands, and the drift cannot hide in the repeatability."""
     rec, manifest = stewart_recording("thermal", 1020)
     d = _discover(tmp_path, "stewart", rec, manifest)
     t = manifest["effects"][0]["params"]
     e = d["effects"][1]
     assert (e["name"], e["params"]["leg"]) == ("thermal_expansion", t["leg"])
     assert abs(e["params"]["ppm_per_k"] - t["ppm_per_k"]) < 5 * e["stderr"]["ppm_per_k"]
-    before, after = (
-        d["noise"]["legs"]["repeatability_mm"],
-        d["noise_after_effects"]["legs"]["repeatability_mm"],
-    )
-    assert before > 1.5 * after and after < 0.003
+    assert d["fit"]["cv_rms_final"] < 1.5 * 0.0028
     assert {(x["leg"], x["driver"]) for x in d["located"]} == {
         (t["leg"], "temp_c"),
         (t["leg"], "t_s"),
