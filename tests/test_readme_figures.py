@@ -4,9 +4,9 @@ concealed-effect suite and the null sweep, the UR10 fits and discoveries, the an
 residuals) and compares every number with the README's. It runs in its own process beside the
 rest of the suite (tests/conftest.py starts it at collection): about half an hour on 2 cores.
 
-The README is the expectation and the code the truth: nothing here holds a figure. Two blocks
-are left to ``make figures``: performance and run-times (machine timings, which it rewrites and
-nothing compares).
+The README (and its docs/*.md pages) is the expectation and the code the truth: nothing here
+holds a figure. Three blocks are left to ``make figures``: performance, memory and run-times
+(machine timings and peak memory, which it rewrites and nothing compares).
 """
 
 import sys

@@ -1,13 +1,13 @@
 """The README's numbers, generated: ``python -m docs.figures`` (or ``make figures``), from the
 repository's root.
 
-Every table or sentence of README.md that reports what calibench computes sits between two marker
-lines, ``<!-- figures:NAME -->`` and ``<!-- /figures:NAME -->``. Each NAME is a block here: a
-function that runs the calibench command or Python API behind those numbers (every one
-deterministic from its seed) and returns the block's markdown. The markers stay; the text between
-them is rewritten.
+Every table or sentence of README.md and its pages (docs/*.md) that reports what calibench
+computes sits between two marker lines, ``<!-- figures:NAME -->`` and
+``<!-- /figures:NAME -->``. Each NAME is a block here: a function that runs the calibench command
+or Python API behind those numbers (every one deterministic from its seed) and returns the
+block's markdown. The markers stay; the text between them is rewritten.
 
-    python -m docs.figures                    # rewrite every block of README.md
+    python -m docs.figures                    # rewrite every block (README.md, docs/*.md)
     python -m docs.figures NAME...            # rewrite these blocks only
     python -m docs.figures --check [NAME...]  # regenerate and compare with README.md: each number
                                               # beyond its block's tolerance is printed, exit 1
