@@ -15,6 +15,7 @@ from typing import TypedDict
 import numpy as np
 
 from calibench.estimators.discovery.effect import Effect, amplitude, coef_std
+from calibench.estimators.discovery.stage import ThermalDrift
 
 
 class ScannerDrivers(TypedDict, total=False):
@@ -167,32 +168,20 @@ class ProbeOffset(Effect):
 
 
 @dataclasses.dataclass(frozen=True)
-class ProbeDrift(Effect):
+class ProbeDrift(ThermalDrift):
     """The probe's zero drifting with the logged temperature (mm/K), or with time (mm/h) when no
-    temperature is logged: the same angle reads differently turn after turn. Held out by whole
-    turns, a drift is predicted from the held-out turn's own temperature or time."""
+    temperature is logged: the stages' drift (its columns and unit) on the probe's reading, so
+    the same angle reads differently turn after turn. Held out by whole turns, a drift is
+    predicted from the held-out turn's own temperature or time."""
 
     name: str = "thermal_drift"
     axis: str = AXIS
     driver: str = "temp_c"
 
-    def __post_init__(self):
-        object.__setattr__(self, "needs", (self.driver,))
-
     @property
     def key(self) -> str:
         """One candidate per driver."""
         return f"thermal_drift:{self.driver}"
-
-    @property
-    def unit(self) -> str:
-        """The coefficient's unit: mm per kelvin, or mm per hour."""
-        return "mm_per_h" if self.driver == "t_s" else "mm_per_k"
-
-    def columns(self, d):
-        v = np.asarray(d[self.driver], float)
-        v = v / 3600 if self.driver == "t_s" else v
-        return (v - v.mean())[:, None]
 
     def describe(self, coef, cov):
         k = float(coef[0])

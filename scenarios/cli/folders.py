@@ -10,7 +10,6 @@ removed, never a user's other files.
 
 from __future__ import annotations
 
-import fcntl
 import json
 from pathlib import Path
 
@@ -127,16 +126,13 @@ def mark(folder: Path, command: str, scenario: str | None) -> None:
 def clear(folder: Path) -> None:
     """Remove calibench's outputs from ``folder`` (:data:`OUTPUTS`), nothing else; refused
     while a study runs there (its lock is held)."""
-    lock = folder / ".study.lock"
-    if lock.is_file():
-        with open(lock, "a") as f:
-            try:
-                fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except BlockingIOError:
-                raise BadInput(
-                    f"{folder}: a calibench study is running in this folder; --force would "
-                    "remove its trials under it: wait for it, or use another --out"
-                ) from None
+    from calibench.scenarios.study.journal import study_running
+
+    if study_running(folder):
+        raise BadInput(
+            f"{folder}: a calibench study is running in this folder; --force would remove its "
+            "trials under it: wait for it, or use another --out"
+        )
     for name in OUTPUTS:
         path = folder / name
         if path.is_file() or path.is_symlink():

@@ -130,6 +130,19 @@ def record_study(out_dir: Path, meta: dict) -> None:
     meta_path.write_text(json.dumps(meta) + "\n")
 
 
+def study_running(out_dir: Path) -> bool:
+    """Whether a study holds ``out_dir``'s lock now (:func:`study_lock`)."""
+    lock = out_dir / ".study.lock"
+    if not lock.is_file():
+        return False
+    with open(lock, "a") as f:
+        try:
+            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            return True
+    return False
+
+
 @contextlib.contextmanager
 def study_lock(out_dir: Path):
     """Hold the folder's study lock for the block: a second study started into the same folder
