@@ -151,13 +151,18 @@ def _run_study(
         checked = None
         if early:
             workers = min(workers or os.cpu_count() or 1, len(todo))  # no idle processes to start
-            executor, close = make_executor(workers, None)
-            for _ in range(workers):
-                executor.submit(load_scenario, scenario)
-            # a worker, which loads the scenario anyway, checks the config: this process then
-            # never imports the scenario's estimators, which on 2 cores would slow the workers'
-            # start
-            checked = executor.submit(study_config, scenario, table, arm, checked_only=True)
+            # a signal landing while a worker is spawned cuts its start-up data short, and the
+            # worker prints a traceback: it is held until the pool has started
+            with interrupt_flag() as stop:
+                executor, close = make_executor(workers, None)
+                for _ in range(workers):
+                    executor.submit(load_scenario, scenario)
+                # a worker, which loads the scenario anyway, checks the config: this process
+                # then never imports the scenario's estimators, which on 2 cores would slow the
+                # workers' start
+                checked = executor.submit(study_config, scenario, table, arm, checked_only=True)
+            if stop.is_set():
+                raise KeyboardInterrupt
         described = (out_dir / "study.json").exists()
         _prepare(scenario, seed, fidelity, out_dir, arm, table, checked)
         t0 = time.perf_counter()
@@ -266,11 +271,13 @@ def _run_todo(
     try:
         with open_journal(out_dir) as journal:
             k = chunk_size(len(todo), fidelity)
-            futures = [
-                executor.submit(run_trials, scenario, seed, todo[j : j + k], fidelity, arm, table)
-                for j in range(0, len(todo), k)
-            ]
-            with interrupt_flag() as stop:
+            with interrupt_flag() as stop:  # a submit may spawn a worker: see _run_study
+                futures = [
+                    executor.submit(
+                        run_trials, scenario, seed, todo[j : j + k], fidelity, arm, table
+                    )
+                    for j in range(0, len(todo), k)
+                ]
                 pending = set(futures)
                 while pending:
                     if stop.is_set():
