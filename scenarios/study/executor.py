@@ -119,7 +119,7 @@ def _security(scheduler: str, tls: dict):
     )
 
 
-def make_executor(workers: int | None, scheduler: str | None, tls: dict | None = None):
+def make_executor(workers: int | None, scheduler: str | None, tls: dict | None = None, warm=None):
     """A spawn process pool, or a Dask cluster's executor.
 
     Parameters
@@ -131,6 +131,9 @@ def make_executor(workers: int | None, scheduler: str | None, tls: dict | None =
     tls : dict, optional
         For ``tls://``: ``ca_file``, ``cert``, ``key`` paths (None each: Dask's config
         ``distributed.comm.tls.ca-file``, ``.client.cert``, ``.client.key``).
+    warm : callable, optional
+        With ``scheduler``: run once on every worker of the cluster as soon as it is reached
+        (the scenario's imports), while this process prepares the study.
 
     Returns
     -------
@@ -161,7 +164,20 @@ def make_executor(workers: int | None, scheduler: str | None, tls: dict | None =
         client = _connect(
             lambda address, timeout: Client(address, timeout=timeout, security=security), scheduler
         )
-        return client.get_executor(), lambda interrupted=False: client.close()
+        warming = []
+        if warm is not None:  # held until close: a released future's task is cancelled
+            warming = [
+                client.submit(warm, workers=[w], pure=False, allow_other_workers=False)
+                for w in client.scheduler_info().get("workers", {})
+            ]
+
+        def close_client(interrupted: bool = False) -> None:
+            warming.clear()
+            client.close()
+
+        executor = client.get_executor()
+        executor.dask_workers = len(client.scheduler_info().get("workers", {}))
+        return executor, close_client
     n = workers or os.cpu_count() or 1
     # a spawned worker starts as `python -c ...`, whose import path begins with the current
     # folder: a socket.py or pickle.py there would run in every worker before multiprocessing

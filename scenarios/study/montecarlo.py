@@ -11,6 +11,7 @@ from the journal (``summary``, ``outputs``).
 from __future__ import annotations
 
 import concurrent.futures as cf
+import functools
 import json
 import os
 import sys
@@ -169,7 +170,9 @@ def _run_study(
         if todo:
             if executor is None:
                 try:
-                    executor, close = make_executor(workers, scheduler, tls)
+                    executor, close = make_executor(
+                        workers, scheduler, tls, warm=functools.partial(load_scenario, scenario)
+                    )
                 except BadInput:
                     if not described and not done:  # no study began here: leave no trace of one
                         (out_dir / "study.json").unlink(missing_ok=True)
@@ -270,7 +273,7 @@ def _run_todo(
         threading.Thread(target=import_writers, daemon=True).start()
     try:
         with open_journal(out_dir) as journal:
-            k = chunk_size(len(todo), fidelity)
+            k = chunk_size(len(todo), fidelity, getattr(executor, "dask_workers", None))
             with interrupt_flag() as stop:  # a submit may spawn a worker: see _run_study
                 futures = [
                     executor.submit(
