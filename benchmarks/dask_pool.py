@@ -67,7 +67,8 @@ def main() -> None:
     r = compare(trials, workers)
     print(
         f"arm-cmm, {r['trials']} analytic trials, {r['workers']} workers: "
-        f"pool {r['pool_s']:.1f} s, Dask {r['dask_s']:.1f} s, ratio {r['dask_s'] / r['pool_s']:.2f} (goal <= 1.10); "
+        f"pool {r['pool_s']:.1f} s, Dask {r['dask_s']:.1f} s, "
+        f"ratio {r['dask_s'] / r['pool_s']:.2f} (goal <= 1.10); "
         f"results {'identical' if r['same'] else 'DIFFER'}"
     )
 
