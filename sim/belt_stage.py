@@ -29,6 +29,9 @@ from calibench.sim.renderer import LensRenderer
 from calibench.sim.stage_drive import BeltDrive, DriveErrors, ElasticBelt, travel_direction
 
 PULSES_PER_MM = 250.0  # 25,000 pulses = 100 mm
+# around the board's border in an area-of-interest read-out: wider than the blur's reach (3 psf)
+# and than any error of predicting the board's place from the command (a few px)
+WINDOW_MARGIN_PX = 16
 
 # Magnitude of the paper's Table 3 fits (Eq. 20-21, with the typesetting slips corrected),
 # units mm, mm/mm, mm/mm^2; c0 = 0 by homing.
@@ -209,17 +212,37 @@ class BeltStageSim:
         rng: np.random.Generator | None = None,
         noise_dn: float = 0.0,
         psf_px: float = 0.0,
+        window: tuple[int, int, int, int] | None = None,
     ) -> np.ndarray:
         """What the camera sees, through its lens: (height, width, 3) uint8.
 
         ``calib`` shows the free calibration board and hides the stage's, so each image holds
         exactly one board. ``psf_px`` (1-sigma, px) is the optics' blur and ``noise_dn`` (grey
-        levels, 1-sigma, drawn from ``rng``) the sensor's noise.
+        levels, 1-sigma, drawn from ``rng``) the sensor's noise. ``window`` (u0, v0, u1, v1) px
+        reads out that area of interest only (:meth:`LensRenderer.render`).
         """
         if self.renderer is None:
             raise RuntimeError("this simulator was built without a renderer")
         self.renderer.show_groups({STAGE_BOARD_GROUP: not calib, CALIB_BOARD_GROUP: calib})
-        return self.renderer.render(self.data, rng, noise_dn, psf_px)
+        return self.renderer.render(self.data, rng, noise_dn, psf_px, window)
+
+    def board_window(self, calib: bool = False) -> tuple[int, int, int, int]:
+        """The area of interest (u0, v0, u1, v1) px, half-open, that holds the board now with its
+        white border and :data:`WINDOW_MARGIN_PX` around it: where a camera reading out an area
+        of interest would put it, the board's position being predicted by the stage's command to
+        far better than the margin."""
+        c = self.true_corners_px(calib)
+        b = self.geometry.board
+        grid = c.reshape(b.rows, b.cols, 2)
+        square = max(
+            np.abs(np.diff(grid, axis=1)).sum(axis=-1).max(),
+            np.abs(np.diff(grid, axis=0)).sum(axis=-1).max(),
+        )
+        lo = np.floor(c.min(axis=0) - 2 * square - WINDOW_MARGIN_PX).astype(int)
+        hi = np.ceil(c.max(axis=0) + 2 * square + WINDOW_MARGIN_PX).astype(int)
+        cam = self.geometry.camera
+        lo, hi = np.maximum(lo, 0), np.minimum(hi, [cam.width, cam.height])
+        return int(lo[0]), int(lo[1]), int(hi[0]), int(hi[1])
 
     def close(self) -> None:
         """Free the renderer's GL context."""

@@ -243,8 +243,9 @@ def run(config: BeltStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: b
     try:
         # 1. intrinsic views ------------------------------------------------------------------
         poses = intrinsic_view_poses(g, config.n_intrinsic_views, rng)
+        windowed = out_dir is None  # a study's trial: no image is kept
         calib_views, calib_true = record_views(
-            sim, fidelity, config, rng, size, [("calib", R, t) for R, t in poses]
+            sim, fidelity, config, rng, size, [("calib", R, t) for R, t in poses], windowed
         )
         sim.park_calib_board()
         used = np.isfinite(calib_views.corners_px).all(axis=(1, 2))
@@ -264,6 +265,7 @@ def run(config: BeltStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: b
             rng,
             size,
             [("station", xp, yp) for xp, yp in zip(x_pulses, y_pulses)],
+            windowed,
         )
         if not np.isfinite(station_views.corners_px).all():
             missed = [
@@ -402,12 +404,20 @@ TOL_SIGMA = 5.0  # parameter tolerance, in the estimator's own standard deviatio
 
 
 def record_views(
-    sim: BeltStageSim, fidelity: str, config: BeltStageConfig, rng: np.random.Generator, size, steps
+    sim: BeltStageSim,
+    fidelity: str,
+    config: BeltStageConfig,
+    rng: np.random.Generator,
+    size,
+    steps,
+    windowed: bool = False,
 ) -> tuple[CameraViews, np.ndarray]:
     """Drive the sim through ``steps`` and record what the camera gives the estimators.
 
     Returns the views (images and detected corners, NaN where undetected) and the true
-    corner projections (n_views, n_corners, 2), which stay in the scenario.
+    corner projections (n_views, n_corners, 2), which stay in the scenario. ``windowed``: each
+    view is read out over the board's area of interest only (a study's trial, which keeps no
+    image: the same corners at a fraction of the render), and no image is kept.
     """
     board = config.geometry.board
     names, images, corners, frames = [], [], [], []
@@ -421,11 +431,14 @@ def record_views(
             names.append(f"x{a / PULSES_PER_MM:g}_y{b / PULSES_PER_MM:g}")
         frames.append(sim.view_frame(calib=kind == "calib"))
         if fidelity == "render":
-            img = sim.render(
-                calib=kind == "calib", rng=rng, noise_dn=config.pixel_noise_dn, psf_px=config.psf_px
-            )
-            images.append(img)
+            calib = kind == "calib"
+            window = sim.board_window(calib) if windowed else None
+            img = sim.render(calib, rng, config.pixel_noise_dn, config.psf_px, window)
             c = find_chessboard_corners(img, board.cols, board.rows)
+            if window is None:
+                images.append(img)
+            elif c is not None:  # the window's pixels to the image's
+                c = c + window[:2]
             corners.append(np.full((board.n_corners, 2), np.nan) if c is None else c)
     true = sim.corners_px(frames)
     if fidelity != "render":  # every view's noise at once: the same draws as view by view

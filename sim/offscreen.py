@@ -1,0 +1,78 @@
+"""One offscreen GL context that renders a model's camera at any size up to its buffer.
+
+``mujoco.Renderer`` renders one size per context, and a context costs the upload of the model's
+textures (0.4 s for the belt stage's board on 2 cores): an area-of-interest read-out, whose size
+changes from view to view, would pay it again for each size. This renders any viewport of the
+one buffer, with the same calls as ``mujoco.Renderer`` (so a full frame is the same pixels).
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+
+class Offscreen:
+    """A model's offscreen renderer: any (width, height) within ``vis.global_.offwidth`` x
+    ``offheight``.
+
+    Parameters
+    ----------
+    model : mujoco.MjModel
+        The model; its offscreen buffer bounds the sizes.
+    max_geom : int
+        The scene's capacity (``mujoco.Renderer``'s default).
+    """
+
+    def __init__(self, model: mujoco.MjModel, max_geom: int = 10000):
+        self.model = model
+        self.max_size = (int(model.vis.global_.offwidth), int(model.vis.global_.offheight))
+        self._gl = mujoco.GLContext(*self.max_size)
+        self._gl.make_current()
+        self._context = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_150.value)
+        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, self._context)
+        self._scene = mujoco.MjvScene(model=model, maxgeom=max_geom)
+        self._camera = mujoco.MjvCamera()
+        self._camera.type = mujoco.mjtCamera.mjCAMERA_FIXED
+
+    def render(
+        self,
+        data: mujoco.MjData,
+        camera_id: int,
+        option: mujoco.MjvOption,
+        width: int,
+        height: int,
+    ) -> np.ndarray:
+        """The camera's view now, (height, width, 3) uint8, rows from the top.
+
+        Raises
+        ------
+        ValueError
+            The size exceeds the model's offscreen buffer.
+        """
+        if width > self.max_size[0] or height > self.max_size[1]:
+            raise ValueError(f"a {width}x{height} render exceeds the {self.max_size} buffer")
+        self._gl.make_current()
+        self._camera.fixedcamid = camera_id
+        mujoco.mjv_updateScene(
+            self.model,
+            data,
+            option,
+            None,
+            self._camera,
+            mujoco.mjtCatBit.mjCAT_ALL.value,
+            self._scene,
+        )
+        rect = mujoco.MjrRect(0, 0, width, height)
+        mujoco.mjr_render(rect, self._scene, self._context)
+        pixels = np.empty((height, width, 3), np.uint8)
+        mujoco.mjr_readPixels(pixels, None, rect, self._context)
+        return np.flipud(pixels)
+
+    def close(self) -> None:
+        """Free the render context, then the GL context (idempotent)."""
+        if self._context is not None:
+            self._gl.make_current()
+            self._context.free()
+            self._context = None
+            self._gl.free()
