@@ -68,16 +68,33 @@ def find_dark_circle(
             best, best_d = (np.array([cx, cy]), r), d
     if best is None:
         return None
-    dark = float(np.median(img[mask > 0]))
-    bright = float(np.median(img[mask == 0]))
+    dark, bright = _median_where(img, mask > 0), _median_where(img, mask == 0)
     if bright - dark < 20:
         return None
-    smooth = ndimage.gaussian_filter(img.astype(np.float32), smooth_px)
-    edge = radial_edge_points(smooth, best[0], best[1], (dark + bright) / 2, n_rays)
+    # the profiles reach radius + half-width; the filter's kernel 4 sigma beyond, and the sampling
+    # a pixel: the block around them filters to the same values as the whole image
+    reach = best[1] + max(6.0, 0.15 * best[1]) + 4 * smooth_px + 3
+    lo = np.maximum(np.floor(best[0] - reach).astype(int), 0)
+    hi = np.minimum(np.ceil(best[0] + reach).astype(int) + 1, [w, h])
+    block = img[lo[1] : hi[1], lo[0] : hi[0]].astype(np.float32)
+    smooth = ndimage.gaussian_filter(block, smooth_px)
+    edge = radial_edge_points(smooth, best[0] - lo, best[1], (dark + bright) / 2, n_rays)
+    edge = edge + lo
     if len(edge) < 0.8 * n_rays:
         return None
     centre, axes, rms = fit_conic_centre(edge)
     return CircleFit(centre=centre, radius_px=float(np.mean(axes)), rms_px=rms, n_edge=len(edge))
+
+
+def _median_where(img: np.ndarray, where: np.ndarray) -> float:
+    """``np.median(img[where])`` of a uint8 image, from its histogram (a tenth of the time)."""
+    if img.dtype != np.uint8:
+        return float(np.median(img[where]))
+    counts = np.cumsum(np.bincount(img[where], minlength=256))
+    n = int(counts[-1])
+    lower = int(np.searchsorted(counts, (n - 1) // 2, side="right"))
+    upper = int(np.searchsorted(counts, n // 2, side="right"))
+    return (lower + upper) / 2
 
 
 def radial_edge_points(
