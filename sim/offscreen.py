@@ -12,6 +12,16 @@ import mujoco
 import numpy as np
 
 
+def gl_renderer(model: mujoco.MjModel) -> str:
+    """The GL_RENDERER string of an offscreen context for ``model`` (a GPU's name, or Mesa's
+    llvmpipe when the frames are rasterised on the CPU)."""
+    screen = Offscreen(model)
+    try:
+        return screen.renderer
+    finally:
+        screen.close()
+
+
 class Offscreen:
     """A model's offscreen renderer: any (width, height) within ``vis.global_.offwidth`` x
     ``offheight``.
@@ -34,6 +44,10 @@ class Offscreen:
         self._scene = mujoco.MjvScene(model=model, maxgeom=max_geom)
         self._camera = mujoco.MjvCamera()
         self._camera.type = mujoco.mjtCamera.mjCAMERA_FIXED
+        from OpenGL import GL  # PyOpenGL, MuJoCo's EGL binding's own dependency
+
+        name = GL.glGetString(GL.GL_RENDERER)
+        self.renderer = name.decode() if isinstance(name, bytes) else str(name)
 
     def render(
         self,

@@ -39,6 +39,7 @@ class LensRenderer:
         # their corners came out identical with and without it, at twice the render's cost
         model.vis.quality.offsamples = 0
         self._offscreen = Offscreen(model)
+        self.gl_renderer = self._offscreen.renderer  # what rasterises: a GPU, or llvmpipe (CPU)
         map_x, map_y = lens.distortion_maps(self.pad)
         self._coords = np.stack([map_y, map_x]).astype(np.float64)
         self._remap = bilinear_matrix(self._coords, (h, w))

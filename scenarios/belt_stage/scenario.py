@@ -375,6 +375,8 @@ def run(config: BeltStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: b
             },
             "stations": len(cmd),
         }
+        if sim.renderer is not None:  # a GPU's name, or llvmpipe's: frames made on the CPU
+            report.info["renderer"] = sim.renderer.gl_renderer
         artifacts = {
             "sim": sim,
             "calib": calib,

@@ -88,8 +88,9 @@ def run(args: argparse.Namespace) -> int:
         if args.scenario == "all":
             mark(out, "run", s.name)
         print(report.table())
+        gl = f", rendered by {report.info['renderer']}" if "renderer" in report.info else ""
         print(
-            f"\n{s.name}: {'ok' if report.ok else 'FAILED'} in {report.elapsed_s:.1f} s -> {path}"
+            f"\n{s.name}: {'ok' if report.ok else 'FAILED'} in {report.elapsed_s:.1f} s{gl} -> {path}"
         )
         if not report.ok:
             status = EXIT_CHECK_FAILED

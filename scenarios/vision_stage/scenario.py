@@ -245,6 +245,8 @@ def run(config: VisionStageConfig, seed: int, fidelity: str, out_dir: Path, rrd:
             cubic_true,
             verification,
         )
+        if sim.renderer is not None:  # a GPU's name, or llvmpipe's: frames made on the CPU
+            report.info["renderer"] = sim.renderer.gl_renderer
         artifacts = dict(
             sim=sim,
             readings=readings,
