@@ -89,9 +89,8 @@ def run(args: argparse.Namespace) -> int:
             mark(out, "run", s.name)
         print(report.table())
         gl = f", rendered by {report.info['renderer']}" if "renderer" in report.info else ""
-        print(
-            f"\n{s.name}: {'ok' if report.ok else 'FAILED'} in {report.elapsed_s:.1f} s{gl} -> {path}"
-        )
+        verdict = "ok" if report.ok else "FAILED"
+        print(f"\n{s.name}: {verdict} in {report.elapsed_s:.1f} s{gl} -> {path}")
         if not report.ok:
             status = EXIT_CHECK_FAILED
     if args.save_images is not None:
