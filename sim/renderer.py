@@ -108,6 +108,10 @@ class LensRenderer:
         wb = min(-(-(int(np.ceil(cols.max())) + 2 - c0) // 32) * 32, W)
         r0, c0 = min(r0, H - hb), min(c0, W - wb)
         ideal = self._render_block(data, r0, c0, wb, hb)
+        if not self.lens.dist.any():  # the pinhole's pixels: the block's, shifted by the pad
+            p = self.pad
+            crop = ideal[v0 + p - r0 : v1 + p - r0, u0 + p - c0 : u1 + p - c0]
+            return _sensor(crop.astype(np.float32), rng, noise_dn, psf_px)
         rr = np.clip(rows, 0, H - 1) - r0
         cc = np.clip(cols, 0, W - 1) - c0
         ri = np.minimum(np.floor(rr).astype(np.int64), hb - 1)

@@ -351,11 +351,17 @@ class VisionStageSim:
         ) * 1000
 
     # --- instruments ------------------------------------------------------------------------------
-    def render(self, noise_dn: float = 0.0, psf_px: float = 0.0) -> np.ndarray:
-        """The microscope's image, (h, w, 3) uint8, with sensor noise and blur."""
+    def render(
+        self,
+        noise_dn: float = 0.0,
+        psf_px: float = 0.0,
+        window: tuple[int, int, int, int] | None = None,
+    ) -> np.ndarray:
+        """The microscope's image, (h, w, 3) uint8, with sensor noise and blur; ``window``
+        (u0, v0, u1, v1) px reads out that area of interest only (:meth:`LensRenderer.render`)."""
         if self.renderer is None:
             raise RuntimeError("this simulator was built without a renderer")
-        return self.renderer.render(self.data, self.rng, noise_dn, psf_px)
+        return self.renderer.render(self.data, self.rng, noise_dn, psf_px, window)
 
     def interferometer_mm(self, axis: int, noise_um: float = 0.05) -> float:
         """A laser interferometer's reading along machine axis ``axis`` (0 = X, 1 = Y): the

@@ -195,7 +195,7 @@ def run(config: VisionStageConfig, seed: int, fidelity: str, out_dir: Path, rrd:
     sim = VisionStageSim(
         g, config.truth, np.random.default_rng(rng.integers(2**63)), render=fidelity == "render"
     )
-    scope = Microscope(sim, config, fidelity)
+    scope = Microscope(sim, config, fidelity, windowed=out_dir is None)
     try:
         # 1. alignment ---------------------------------------------------------------------------
         phi_est, phi_true, s00 = align_plate(sim, scope, config, rng)

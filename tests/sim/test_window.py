@@ -46,3 +46,32 @@ def test_window_is_the_full_frames_crop(sim):
 def test_window_outside_the_image_is_refused(sim):
     with pytest.raises(ValueError, match="outside"):
         sim.render(window=(600, 0, 700, 100))
+
+
+def test_vision_window_finds_the_same_circle():
+    """The microscope's read-out around its circle: the detector's centre as on the full frame
+    (noise off, blur on), far inside its 0.002 px noise."""
+    from calibench.estimators.camera.circles import find_dark_circle
+    from calibench.scenes.vision_stage import VisionStageGeometry
+    from calibench.sim.vision_stage import VisionStageSim, VisionStageTruth
+
+    g = VisionStageGeometry()
+    vs = VisionStageSim(g, VisionStageTruth(), np.random.default_rng(0))
+    try:
+        seen = 0
+        for d in np.array([[0.0, 0.0], [0.4, -0.3], [15.0, 15.0], [45.2, 29.7], [90.0, 150.0]]):
+            vs.move(*(np.array(g.plate_origin_reading_mm) + d))
+            full = find_dark_circle(vs.render(psf_px=0.8))
+            if full is None:
+                continue
+            seen += 1
+            centre = np.array([g.camera.cx, g.camera.cy])
+            r = full.radius_px + 48
+            lo = np.maximum(np.floor(full.centre - r).astype(int), 0)
+            hi = np.minimum(np.ceil(full.centre + r).astype(int), [g.camera.width, g.camera.height])
+            img = vs.render(psf_px=0.8, window=(lo[0], lo[1], hi[0], hi[1]))
+            win = find_dark_circle(img, near=centre - lo)
+            assert np.abs(win.centre + lo - full.centre).max() < 2e-4
+        assert seen >= 2
+    finally:
+        vs.close()
