@@ -2,8 +2,10 @@
 
 - ``calibench camera`` as a whole command (a fresh Python: imports, photos, intrinsics.json,
   camera.png) against OpenCV's classic pipeline as a whole script, alternated;
-- a study's fixed cost: ``calibench montecarlo arm-cmm --trials 2`` as a whole command (start,
-  imports, the pool, the outputs and figure), and the arm's whole-command rate at 1000 trials;
+- a study's fixed cost: ``calibench montecarlo arm-cmm --trials 1000`` as a whole command less
+  its trials' own time over the cores (start, imports, the pool, the outputs and figure), beside
+  its floor (a fresh Python, a worker's imports, the figure library's), and the same command's
+  rate;
 - render-fidelity studies of the belt and vision stages (trials/s, whole study in this process);
 - a study through a local Dask cluster against the local pool, the same workers
   (``dask_pool.py``);
@@ -58,16 +60,28 @@ def camera_command(data: Path, rounds: int = 5) -> dict:
     return {"ours_s": float(np.median(ours)), "peer_s": float(np.median(peer)), "n": len(photos)}
 
 
-def study_command(trials: int, rounds: int = 1) -> float:
-    """Seconds of ``calibench montecarlo arm-cmm --trials N`` as a whole command, a fresh folder
-    each time (median of ``rounds``)."""
-    times = []
-    for _ in range(rounds):
-        with tempfile.TemporaryDirectory() as d:
-            times.append(
-                _timed(CLI + ["montecarlo", "arm-cmm", "--trials", str(trials), "--out", d + "/s"])
-            )
-    return float(np.median(times))
+def study_command(trials: int) -> dict:
+    """``calibench montecarlo arm-cmm --trials N`` as a whole command: its seconds, and its fixed
+    cost, those seconds less the trials' own (their summed time over the cores)."""
+    import json
+
+    with tempfile.TemporaryDirectory() as d:
+        whole = _timed(CLI + ["montecarlo", "arm-cmm", "--trials", str(trials), "--out", d + "/s"])
+        rows = (Path(d) / "s" / "trials.jsonl").read_text().splitlines()
+        busy = sum(json.loads(r)["elapsed_s"] for r in rows if r.strip())
+    return {"whole_s": whole, "fixed_s": whole - busy / min(os.cpu_count() or 1, trials)}
+
+
+def floor() -> dict:
+    """What a study cannot start without, each in a fresh Python: a worker's imports for the
+    arm's trials (numpy, scipy, MuJoCo, the estimators), and the figure's library."""
+    worker = "from calibench.scenarios.study.trials import load_scenario; load_scenario('arm-cmm')"
+    figure = "import matplotlib; matplotlib.use('Agg'); import matplotlib.pyplot"
+    return {
+        "python_s": float(np.median([_timed([sys.executable, "-c", "pass"]) for _ in range(3)])),
+        "worker_s": float(np.median([_timed([sys.executable, "-c", worker]) for _ in range(3)])),
+        "figure_s": float(np.median([_timed([sys.executable, "-c", figure]) for _ in range(3)])),
+    }
 
 
 def rendered_rate(scenario: str, trials: int) -> float:
@@ -78,6 +92,41 @@ def rendered_rate(scenario: str, trials: int) -> float:
         t = time.perf_counter()
         run_study(scenario, trials, 0, "render", Path(d), progress=False)
         return trials / (time.perf_counter() - t)
+
+
+def vision_floor() -> dict:
+    """The vision stage's rendered trial as frames: how many one trial renders, and MuJoCo's bare
+    render of one (the microscope's padded frame, nothing after it), so that the cores can do
+    at most cores / (frames x bare) trials/s whatever follows the render."""
+    from calibench.scenarios.study.trials import run_trial
+    from calibench.sim import renderer as lens
+
+    frames = []
+    original = lens.LensRenderer.render
+
+    def counted(self, *args, **kwargs):
+        frames.append(1)
+        return original(self, *args, **kwargs)
+
+    lens.LensRenderer.render = counted
+    try:
+        run_trial("vision-stage", 0, 0, "render")
+    finally:
+        lens.LensRenderer.render = original
+    from calibench.scenes.vision_stage import VisionStageGeometry
+    from calibench.sim.vision_stage import VisionStageSim, VisionStageTruth
+
+    sim = VisionStageSim(VisionStageGeometry(), VisionStageTruth(), np.random.default_rng(0))
+    r = sim.renderer
+    w, h = r._size
+    times = []
+    for _ in range(21):
+        t = time.perf_counter()
+        r._offscreen.render(sim.data, r.camera_id, r.option, w, h)
+        times.append(time.perf_counter() - t)
+    sim.close()
+    bare = float(np.median(times[1:]))
+    return {"frames": len(frames), "bare_ms": 1000 * bare}
 
 
 def renderer() -> str:
@@ -95,10 +144,11 @@ def measure(data: Path) -> dict:
     from dask_pool import compare
 
     out = {"camera": camera_command(data), "renderer": renderer()}
-    out["fixed_s"] = study_command(2, rounds=3)
-    out["arm_rate"] = 1000 / study_command(1000)
+    arm = study_command(1000)
+    out["fixed_s"], out["arm_rate"], out["floor"] = arm["fixed_s"], 1000 / arm["whole_s"], floor()
     out["belt-stage"] = rendered_rate("belt-stage", 8)
     out["vision-stage"] = rendered_rate("vision-stage", 2)
+    out["vision_floor"] = vision_floor()
     out["dask"] = compare(4000)
     return out
 
@@ -116,10 +166,12 @@ def rows(m: dict) -> list[tuple[str, str, str, str]]:
             f"{c['ours_s'] / c['peer_s']:.2f}x (goal {GOALS['camera_ratio']}x)",
         ),
         (
-            "a study's fixed cost: `calibench montecarlo arm-cmm --trials 2` (start, imports, "
-            "pool, outputs, figure)",
+            "a study's fixed cost: the arm's 1000-trial study less its trials' time over the "
+            "cores (start, imports, pool, outputs, figure)",
             f"{m['fixed_s']:.2f} s",
-            "",
+            f"its floor, each in a fresh Python: Python {m['floor']['python_s']:.2f} s, a "
+            f"worker's imports {m['floor']['worker_s']:.2f} s, the figure's library "
+            f"{m['floor']['figure_s']:.2f} s",
             f"goal {GOALS['fixed_s']:g} s",
         ),
         (
@@ -129,12 +181,21 @@ def rows(m: dict) -> list[tuple[str, str, str, str]]:
             f"goal {GOALS['arm_rate']:g} trials/s",
         ),
     ]
-    for name in ("belt-stage", "vision-stage"):
+    vf = m["vision_floor"]
+    ceiling = (cores or 1) / (vf["frames"] * vf["bare_ms"] / 1000)
+    for name, peer in (
+        ("belt-stage", ""),
+        (
+            "vision-stage",
+            f"its ceiling: {vf['frames']} frames a trial x MuJoCo's bare frame "
+            f"{vf['bare_ms']:.1f} ms = {ceiling:.2f} trials/s on {cores} cores",
+        ),
+    ):
         out.append(
             (
                 f"Monte Carlo, {name}, rendered (area-of-interest read-out), {cores} cores",
                 f"{m[name]:.2f} trials/s",
-                "",
+                peer,
                 f"goal {GOALS[name]:g} trials/s",
             )
         )
