@@ -156,14 +156,19 @@ class LensRenderer:
 
 def _sensor(img: np.ndarray, rng, noise_dn: float, psf_px: float) -> np.ndarray:
     """The optics' blur, the sensor's noise and its quantisation of an image (h, w, 3) float32."""
+    grey = np.array_equal(img[..., 0], img[..., 1]) and np.array_equal(img[..., 0], img[..., 2])
+    if grey:  # a grey scene (the circle plate's): one channel's work, the same pixels
+        img = np.ascontiguousarray(img[..., 0])
     if psf_px > 0:
         img = cv2.GaussianBlur(img, (0, 0), psf_px)
     if noise_dn > 0:
         if rng is None:
             raise ValueError("sensor noise needs a random generator")
         # one noise field for the three channels: a monochrome sensor seen as RGB
-        img = img + rng.normal(0.0, noise_dn, img.shape[:2])[..., None].astype(np.float32)
-    return np.clip(np.rint(img), 0, 255).astype(np.uint8)
+        noise = rng.normal(0.0, noise_dn, img.shape[:2]).astype(np.float32)
+        img = img + (noise if grey else noise[..., None])
+    out = np.clip(np.rint(img), 0, 255).astype(np.uint8)
+    return np.repeat(out[..., None], 3, axis=2) if grey else out
 
 
 def bilinear_matrix(coords: np.ndarray, shape: tuple[int, int]):

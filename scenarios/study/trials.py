@@ -164,8 +164,32 @@ def run_trials(
     """
     from threadpoolctl import threadpool_limits
 
+    _loosen_malloc_trim()
     with threadpool_limits(1):
         return [run_trial(scenario, study_seed, i, fidelity, arm, table) for i in indices]
+
+
+# glibc's heap trimming threshold in a worker that was started with a small one
+TRIM_THRESHOLD_BYTES = 32 << 20
+_TRIM_SET: list[bool] = []
+
+
+def _loosen_malloc_trim() -> None:
+    """Dask's nanny starts its workers with MALLOC_TRIM_THRESHOLD_=65536 (its
+    ``pre-spawn-environ``), so glibc hands freed heap back to the kernel at every 64 KiB and
+    takes it back on the next trial: the arm's trials, many small arrays each, ran 12 % slower
+    there than in the local pool (benchmarks/dask_pool.py). Once per process, where that
+    variable is set, the threshold is raised to :data:`TRIM_THRESHOLD_BYTES` (glibc's
+    ``mallopt``); elsewhere, and off glibc, nothing changes."""
+    if _TRIM_SET or not os.environ.get("MALLOC_TRIM_THRESHOLD_"):
+        return
+    _TRIM_SET.append(True)
+    try:
+        import ctypes
+
+        ctypes.CDLL("libc.so.6").mallopt(-1, TRIM_THRESHOLD_BYTES)  # -1: M_TRIM_THRESHOLD
+    except (OSError, AttributeError):  # not glibc
+        pass
 
 
 DASK_CHUNK = 64  # a Dask task costs a few ms of scheduling and messages: about 1 % of 64 trials
