@@ -43,6 +43,12 @@ class LensRenderer:
         map_x, map_y = lens.distortion_maps(self.pad)
         self._coords = np.stack([map_y, map_x]).astype(np.float64)
         self._remap = bilinear_matrix(self._coords, (h, w))
+        # each sensor pixel's sample in the ideal image: its cell (row, column) and the bilinear
+        # weights within it, for the area-of-interest read-out
+        inside = np.clip(self._coords, 0, np.array([h - 1, w - 1], float)[:, None, None])
+        cells = np.floor(inside)
+        self._cells = cells.astype(np.int64)
+        self._weights = (inside - cells).astype(np.float32)
         self._padded_sensor = np.array([w, h], float) * PIXEL_PITCH_M
         self.option = mujoco.MjvOption()
 
@@ -99,24 +105,22 @@ class LensRenderer:
             raise ValueError(
                 f"window {window} outside the {self.lens.width}x{self.lens.height} image"
             )
-        rows, cols = self._coords[0, v0:v1, u0:u1], self._coords[1, v0:v1, u0:u1]
+        rows, cols = self._cells[0][v0:v1, u0:u1], self._cells[1][v0:v1, u0:u1]
         W, H = self._size
-        # the block sampled, rounded up to 32 px so that few renderers serve every window
-        r0 = max(int(np.floor(rows.min())) - 1, 0)
-        c0 = max(int(np.floor(cols.min())) - 1, 0)
-        hb = min(-(-(int(np.ceil(rows.max())) + 2 - r0) // 32) * 32, H)
-        wb = min(-(-(int(np.ceil(cols.max())) + 2 - c0) // 32) * 32, W)
+        # the block sampled (the bilinear neighbours and a pixel more), in 32 px steps
+        r0 = max(int(rows.min()) - 1, 0)
+        c0 = max(int(cols.min()) - 1, 0)
+        hb = min(-(-(int(rows.max()) + 3 - r0) // 32) * 32, H)
+        wb = min(-(-(int(cols.max()) + 3 - c0) // 32) * 32, W)
         r0, c0 = min(r0, H - hb), min(c0, W - wb)
         ideal = self._render_block(data, r0, c0, wb, hb)
         if not self.lens.dist.any():  # the pinhole's pixels: the block's, shifted by the pad
             p = self.pad
             crop = ideal[v0 + p - r0 : v1 + p - r0, u0 + p - c0 : u1 + p - c0]
             return _sensor(crop.astype(np.float32), rng, noise_dn, psf_px)
-        rr = np.clip(rows, 0, H - 1) - r0
-        cc = np.clip(cols, 0, W - 1) - c0
-        ri = np.minimum(np.floor(rr).astype(np.int64), hb - 1)
-        ci = np.minimum(np.floor(cc).astype(np.int64), wb - 1)
-        fr, fc = (rr - ri).astype(np.float32), (cc - ci).astype(np.float32)
+        ri = np.minimum(rows - r0, hb - 1)
+        ci = np.minimum(cols - c0, wb - 1)
+        fr, fc = self._weights[0][v0:v1, u0:u1], self._weights[1][v0:v1, u0:u1]
         down = np.where(ri + 1 < hb, wb, 0)  # the next row's offset, none on the last
         right = (ci + 1 < wb).astype(np.int64)
         flat = ideal.reshape(-1, 3).astype(np.float32)
