@@ -19,31 +19,9 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from opencv_classic import opencv  # noqa: F401 - the peer, also used by results.py
 
 from calibench.scenarios.camera import calibrate_photos
-
-
-def opencv(paths, cols, rows, square_mm):
-    """OpenCV's textbook calibration: (fx, rms)."""
-    obj = np.zeros((cols * rows, 3), np.float32)
-    obj[:, :2] = np.mgrid[:cols, :rows].T.reshape(-1, 2) * square_mm
-    objs, imgs, size = [], [], None
-    for p in paths:
-        img = cv2.imread(str(p), cv2.IMREAD_GRAYSCALE)
-        size = img.shape[::-1]
-        ok, c = cv2.findChessboardCorners(img, (cols, rows))
-        if ok:
-            c = cv2.cornerSubPix(
-                img,
-                c,
-                (5, 5),
-                (-1, -1),
-                (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 1e-3),
-            )
-            objs.append(obj)
-            imgs.append(c)
-    rms, K, *_ = cv2.calibrateCamera(objs, imgs, size, None, None, flags=cv2.CALIB_FIX_ASPECT_RATIO)
-    return K[0, 0], rms
 
 
 def main():

@@ -146,7 +146,7 @@ def measure(data: Path) -> dict:
     out = {"camera": camera_command(data), "renderer": renderer()}
     arm = study_command(1000)
     out["fixed_s"], out["arm_rate"], out["floor"] = arm["fixed_s"], 1000 / arm["whole_s"], floor()
-    out["belt-stage"] = rendered_rate("belt-stage", 8)
+    out["belt-stage"] = rendered_rate("belt-stage", 16)
     out["vision-stage"] = rendered_rate("vision-stage", 2)
     out["vision_floor"] = vision_floor()
     out["dask"] = compare(4000)

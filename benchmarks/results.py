@@ -86,7 +86,7 @@ def render(n: int = 16) -> dict:
 
 def camera(data: Path, rounds: int = 5) -> dict:
     """ms for OpenCV's 13 sample photos: calibench camera against OpenCV's classic pipeline."""
-    from camera import opencv
+    from opencv_classic import opencv
 
     from calibench.scenarios.camera import calibrate_photos
 
