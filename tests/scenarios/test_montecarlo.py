@@ -77,16 +77,27 @@ def test_a_scheduler_that_fails_leaves_no_study_behind(tmp_path):
     assert not (out / "study.json").exists()
 
 
+def test_tasks_carry_more_trials_through_dask():
+    from calibench.scenarios.study.trials import DASK_CHUNK, chunk_size
+
+    assert chunk_size(4000, "analytic") == 16
+    assert chunk_size(4000, "analytic", dask_workers=2) == DASK_CHUNK
+    assert chunk_size(160, "analytic", dask_workers=2) == 10  # 8 tasks or more a worker
+    assert chunk_size(4000, "render", dask_workers=2) == 1
+
+
 def test_dask_cluster_gives_the_pool_s_results(tmp_path):
+    """The same trials, bit for bit, whatever the tasks' sizes (2 trials a task in the pool, 10
+    through Dask here)."""
     distributed = pytest.importorskip("distributed")
     pool_dir, dask_dir = tmp_path / "pool", tmp_path / "dask"
-    run_study("arm-cmm", 4, 11, "analytic", pool_dir, workers=2, progress=False)
+    run_study("arm-cmm", 160, 11, "analytic", pool_dir, workers=2, progress=False)
     with distributed.LocalCluster(
         n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
     ) as cluster:
         run_study(
             "arm-cmm",
-            4,
+            160,
             11,
             "analytic",
             dask_dir,

@@ -75,3 +75,30 @@ def test_vision_window_finds_the_same_circle():
         assert seen >= 2
     finally:
         vs.close()
+
+
+def test_offscreen_full_frame_is_mujocos_renderer():
+    """sim/offscreen.py makes the same calls as mujoco.Renderer: the same pixels, to the bit."""
+    import mujoco
+
+    from calibench.sim.offscreen import Offscreen
+
+    s = BeltStageSim(BeltStageGeometry(), BeltStageTruth(), render=False)
+    try:
+        s.move(120_000, 100_000)
+        cam = s.model.camera("overhead").id
+        w, h = 320, 240
+        ours = Offscreen(s.model)
+        theirs = mujoco.Renderer(s.model, h, w)
+        try:
+            theirs.update_scene(s.data, camera=cam)
+            np.testing.assert_array_equal(
+                ours.render(s.data, cam, mujoco.MjvOption(), w, h), theirs.render()
+            )
+            with pytest.raises(ValueError, match="exceeds"):
+                ours.render(s.data, cam, mujoco.MjvOption(), ours.max_size[0] + 1, h)
+        finally:
+            ours.close()
+            theirs.close()
+    finally:
+        s.close()
