@@ -139,7 +139,7 @@ def board2cam_refine(
     Raises ValueError when a view does not converge.
     """
     from calibench.estimators.camera.projection import project
-    from calibench.estimators.rotations import rotvecs_to_matrices
+    from calibench.estimators.rotations import rotvecs_to_matrices_scipy
 
     obj = np.asarray(board_points, float)
     pix = np.asarray(pixels, float)
@@ -167,7 +167,7 @@ def board2cam_refine(
             ..., 0
         ]
         step[done] = 0.0
-        R_new = rotvecs_to_matrices(step[:, :3]) @ R
+        R_new = rotvecs_to_matrices_scipy(step[:, :3]) @ R
         t_new = t + step[:, 3:]
         r_new, _ = residuals(R_new, t_new, False)
         cost_new = np.sum(r_new * r_new, axis=1)

@@ -15,7 +15,7 @@ import numpy as np
 
 from calibench.estimators.camera.pose import board2cam_from_homography, homographies
 from calibench.estimators.camera.projection import INTRINSICS, project
-from calibench.estimators.rotations import matrix_to_rotvec, rotvecs_to_matrices
+from calibench.estimators.rotations import matrices_to_rotvecs_scipy, rotvecs_to_matrices_scipy
 
 INTRINSIC_NAMES = INTRINSICS  # fx, fy, cx, cy, k1, k2, p1, p2, k3
 
@@ -127,7 +127,7 @@ def calibrate_camera(
         per_view_rms_px=np.sqrt(
             np.nanmean(np.sum(views[0] ** 2, axis=2), axis=1)
         ),  # over each view's kept corners
-        rvecs=matrix_to_rotvec(fit.R),
+        rvecs=matrices_to_rotvecs_scipy(fit.R),
         tvecs=fit.t,
         image_size=(image_size[0], image_size[1]),
     )
@@ -261,7 +261,7 @@ def _bundle_adjust(obj, pixels, intrinsics, R, t, names, fix_aspect, max_iter: i
             x_new[cols] += di
             if fix_aspect:
                 x_new[1] = x_new[0]
-            R_new = rotvecs_to_matrices(de[:, :3]) @ R
+            R_new = rotvecs_to_matrices_scipy(de[:, :3]) @ R
             t_new = t + de[:, 3:]
             r_new, _, _ = _design(
                 x_new, R_new, t_new, obj, pixels, kept, names, fix_aspect, jacobians=False
@@ -302,7 +302,7 @@ def _state(calib: CameraCalibration) -> tuple[np.ndarray, np.ndarray, np.ndarray
     R (n_views, 3, 3), t (n_views, 3)."""
     K = calib.K
     intrinsics = np.r_[K[0, 0], K[1, 1], K[0, 2], K[1, 2], np.r_[calib.dist, np.zeros(5)][:5]]
-    return intrinsics, rotvecs_to_matrices(calib.rvecs), np.asarray(calib.tvecs, float)
+    return intrinsics, rotvecs_to_matrices_scipy(calib.rvecs), np.asarray(calib.tvecs, float)
 
 
 def _reprojections(

@@ -85,3 +85,28 @@ def test_rigid_transform_recovers_a_known_pose():
     np.testing.assert_allclose(Rs, [R, R2], atol=1e-12)
     np.testing.assert_allclose(ts, [t, np.zeros(3)], atol=1e-9)
     assert np.linalg.det(rigid_transform(src, src * [-1.0, 1.0, 1.0])[0]) == pytest.approx(1.0)
+
+
+def test_scipy_order_is_scipys_to_the_bit():
+    """The camera's rotations are scipy's arithmetic without its import: the same bits at every
+    angle, the small-angle series (below 1e-3 rad) and near pi included."""
+    from scipy.spatial.transform import Rotation
+
+    from calibench.estimators.rotations import (
+        matrices_to_rotvecs_scipy,
+        rotvecs_to_matrices_scipy,
+    )
+
+    rng = np.random.default_rng(7)
+    for top in (1e-7, 1e-3, 0.3, 3.14159):
+        u = rng.normal(size=(500, 3))
+        w = u / np.linalg.norm(u, axis=1, keepdims=True) * rng.uniform(0, top, (500, 1))
+        R = Rotation.from_rotvec(w).as_matrix()
+        np.testing.assert_array_equal(rotvecs_to_matrices_scipy(w), R)
+        np.testing.assert_array_equal(
+            matrices_to_rotvecs_scipy(R), Rotation.from_matrix(R).as_rotvec()
+        )
+    skewed = R + 1e-6  # not orthonormal: scipy projects it first, and so does this
+    np.testing.assert_array_equal(
+        matrices_to_rotvecs_scipy(skewed), Rotation.from_matrix(skewed).as_rotvec()
+    )
