@@ -12,6 +12,18 @@ import mujoco
 import numpy as np
 
 
+def _renderer_name() -> str:
+    """GL_RENDERER of the current context; "unknown" where PyOpenGL cannot ask (a name is a
+    report's detail, never a reason for a render to fail)."""
+    try:
+        from OpenGL import GL  # PyOpenGL, MuJoCo's EGL binding's own dependency
+
+        name = GL.glGetString(GL.GL_RENDERER)
+    except Exception:  # noqa: BLE001 - any binding's failure is the same "unknown"
+        return "unknown"
+    return name.decode() if isinstance(name, bytes) else "unknown"
+
+
 def gl_renderer(model: mujoco.MjModel) -> str:
     """The GL_RENDERER string of an offscreen context for ``model`` (a GPU's name, or Mesa's
     llvmpipe when the frames are rasterised on the CPU)."""
@@ -44,10 +56,7 @@ class Offscreen:
         self._scene = mujoco.MjvScene(model=model, maxgeom=max_geom)
         self._camera = mujoco.MjvCamera()
         self._camera.type = mujoco.mjtCamera.mjCAMERA_FIXED
-        from OpenGL import GL  # PyOpenGL, MuJoCo's EGL binding's own dependency
-
-        name = GL.glGetString(GL.GL_RENDERER)
-        self.renderer = name.decode() if isinstance(name, bytes) else str(name)
+        self.renderer = _renderer_name()
 
     def render(
         self,
