@@ -38,6 +38,7 @@ def test_render_run_meets_the_acceptance(render_run):
     assert checks["check_rms_before_mm"]["value"] > 1.0  # the injected maps are mm-sized
     assert rep["rrd"] == "run.rrd" and (out / "run.rrd").is_file()
     assert (out / "figure.png").is_file()
+    assert rep["info"]["renderer"]  # what made the frames: a GPU, or llvmpipe on the CPU
 
 
 @pytest.mark.render
