@@ -19,7 +19,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from opencv_classic import opencv  # noqa: F401 - the peer, also used by results.py
+from opencv_classic import opencv  # the peer, a whole script of its own in goals.py
 
 from calibench.scenarios.camera import calibrate_photos
 
