@@ -311,6 +311,19 @@ class StewartRecording:
     def __len__(self) -> int:
         return len(self.readings_mm)
 
+    def subset(self, rows: np.ndarray) -> StewartRecording:
+        """The recording restricted to ``rows``: indices (k,) or a boolean mask (n,)."""
+        pick = lambda v: None if v is None else v[rows]  # noqa: E731
+        return StewartRecording(
+            self.readings_mm[rows],
+            self.R[rows],
+            self.t_mm[rows],
+            pick(self.t_s),
+            pick(self.temp_c),
+            pick(self.direction),
+            pick(self.load_n),
+        )
+
     def to_csv(self, path) -> None:
         """Write the CONTRACT's Stewart CSV: l1_mm..l6_mm, the pose (x_mm, y_mm, z_mm, rx_deg,
         ry_deg, rz_deg: XYZ intrinsic Euler angles) and what is present of t_s, temp_c,

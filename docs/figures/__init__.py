@@ -50,6 +50,7 @@ MODULES = (
     "montecarlo",
     "timings",
     "discovery",
+    "discovery_unwritten",
     "real_data",
 )
 for _module in MODULES:

@@ -8,6 +8,8 @@ import dataclasses
 import numpy as np
 from scipy import linalg
 
+from calibench.estimators.discovery.robust import long_run_cov, wider
+
 
 @dataclasses.dataclass
 class Signal:
@@ -179,11 +181,21 @@ def rms(v) -> float:
     return float(np.sqrt(np.mean(np.square(v)))) if len(v) else 0.0
 
 
-def fit_terms(sig: Signal, terms: list, drivers: dict, cache: dict, sigma: float | None):
+def fit_terms(
+    sig: Signal,
+    terms: list,
+    drivers: dict,
+    cache: dict,
+    sigma: float | None,
+    robust: bool = False,
+):
     """All-data fit: fixed shapes (periods refined), coefficients, covariance, residual.
 
     The covariance takes the larger of the repeatability and the residual scatter (inflated
     for correlation by the caller through ``sigma``), so a poor model cannot look precise.
+    ``robust``: each coefficient's variance is also at least the sandwich's over batches of
+    consecutive samples (:mod:`robust`), so a slow drift the noise model does not know of cannot
+    make a term look precise either.
     """
     fixed, X = [], sig.base
     for t in terms:
@@ -205,6 +217,8 @@ def fit_terms(sig: Signal, terms: list, drivers: dict, cache: dict, sigma: float
     scale[scale == 0] = 1.0
     Xs = XP / scale
     cov = np.linalg.pinv(Xs.T @ Xs) / np.outer(scale, scale) * s * s
+    if robust:
+        cov = wider(cov, long_run_cov(X, res, sig.sample, P))
     return fixed, coef, cov, res
 
 

@@ -68,3 +68,18 @@ def repeatability(
     seq = dev[idx][rep[idx]]
     lag1 = float(np.corrcoef(seq[:-1], seq[1:])[0, 1]) if len(seq) > 3 else 0.0
     return Noise(sigma, lag1 if np.isfinite(lag1) else 0.0, dof)
+
+
+GROSS_SIGMAS = 8.0  # no Gaussian reading gets this far (1 in 8e14); a gross one does
+
+
+def gross_samples(res: np.ndarray, sample: np.ndarray) -> np.ndarray:
+    """Samples holding a reading beyond :data:`GROSS_SIGMAS` robust standard deviations (1.4826
+    times the median absolute residual) of the residual ``res`` (m,), ``sample`` (m,) each row's
+    sample: gross readings (a bubble in the beam, a missed count), not noise. Returns (n,) bool
+    over the samples 0 .. max(sample)."""
+    scale = 1.4826 * np.median(np.abs(res - np.median(res)))
+    bad = np.abs(res - np.median(res)) > GROSS_SIGMAS * max(scale, 1e-300)
+    out = np.zeros(int(sample.max()) + 1 if len(sample) else 0, bool)
+    out[sample[bad]] = True
+    return out

@@ -77,7 +77,7 @@ def describe_effects(signals, terms, found, drivers, noise):
     for a, sig in by_axis.items():
         nz = noise.get(a)
         sigma = nz.sigma_mm * nz.inflation if nz is not None and nz.sigma_mm else None
-        fixed, coef, cov, res = fit_terms(sig, terms[a], drivers, {}, sigma)
+        fixed, coef, cov, res = fit_terms(sig, terms[a], drivers, {}, sigma, robust=True)
         fitted[a] = res
         for term, (t, start, k) in zip(
             terms[a], fixed

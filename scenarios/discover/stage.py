@@ -20,6 +20,7 @@ from calibench.estimators.discovery.fit import (
     Signal,
     confounded,
     cv_residuals,
+    fit_terms,
     lstsq,
 )
 from calibench.estimators.discovery.locate import change_point, permutation_p, reversal_profile
@@ -60,6 +61,14 @@ def poly_base(x: np.ndarray, y: np.ndarray, degree: int, span: tuple[float, floa
     """The scene's error model as columns: monomials x^i y^j, i + j <= degree (scaled)."""
     u, v = x / max(span[0], 1e-9), y / max(span[1], 1e-9)
     return np.stack([u**i * v ** (k - i) for k in range(degree + 1) for i in range(k + 1)], axis=1)
+
+
+def _pass_offsets(run, n: int) -> np.ndarray:
+    """(n, passes - 1) indicator columns of every pass but the first; (n, 0) with one pass."""
+    if run is None:
+        return np.zeros((n, 0))
+    ids = np.unique(run, return_inverse=True)[1].ravel()
+    return (ids[:, None] == np.arange(1, ids.max() + 1)[None, :]).astype(float)
 
 
 def folds_for(rec_run, x, y, holdout: str | None) -> tuple[np.ndarray, str]:
@@ -173,7 +182,21 @@ def discover_stage(
             found.steps.append(Step(table, s.axis, float(before), float(after), 0.0))
             found.cv_final = float(after)
 
-    effects, fitted = describe_effects(signals, terms, found, drivers, noise)
+    # The effects are described by a fit that also gives each pass its own offset (a pass's
+    # offset shared by all its readings would otherwise pass into any term that changes from pass
+    # to pass, a temperature's, with a standard error that ignores it), and their standard errors
+    # scale with the repeatability left after them and the passes' offsets (the first estimate
+    # holds what they explain). The verdict, the figure and the report's repeatability keep the
+    # passes' offsets: held out by pass, so is the residual they are compared with.
+    fitted = {s.axis: fit_terms(s, terms[s.axis], drivers, {}, None)[3] for s in signals}
+    after = {a: repeatability(fitted[a], key, order) for a in fitted}
+    offsets = _pass_offsets(rec.run, n)
+    described = [dataclasses.replace(s, base=np.c_[s.base, offsets]) for s in signals]
+    within = {
+        s.axis: repeatability(fit_terms(s, terms[s.axis], drivers, {}, None)[3], key, order)
+        for s in described
+    }
+    effects, _ = describe_effects(described, terms, found, drivers, within)
     for e in effects:
         if e["name"] == "backlash" and e["axis"] in growing:
             e["grows_along_travel"] = True
@@ -182,9 +205,6 @@ def discover_stage(
                 f" (held out on {e['axis']}: {growing[e['axis']][0] * 1000:.2f} um with a constant "
                 f"reversal, {growing[e['axis']][1] * 1000:.2f} um with one that grows)"
             )
-    # the repeatability again, after the accepted effects: an effect that drifts between passes
-    # (temperature, a creeping offset) inflates the first estimate
-    after = {a: repeatability(fitted[a], key, order) for a in fitted}
     located = _locate_stage(signals, drivers, seed)
     confounds = _confounds(signals, terms, found, candidates, drivers, rec)
     out = {

@@ -19,7 +19,7 @@ import numpy as np
 
 from calibench.estimators.discovery.fit import Signal, confounded, lstsq
 from calibench.estimators.discovery.locate import binned_r2, permutation_p
-from calibench.estimators.discovery.noise import repeatability
+from calibench.estimators.discovery.noise import GROSS_SIGMAS, gross_samples, repeatability
 from calibench.estimators.discovery.select import prune, select
 from calibench.estimators.discovery.stewart import AXIS, StewartDrivers, stewart_candidates
 from calibench.scenarios.discover.folds import block_folds
@@ -311,7 +311,27 @@ def _where(r, v, name, leg) -> str:
 def discover_stewart(
     rec, seed: int = 0, floor: float = STEWART_FLOOR, config=None
 ) -> tuple[dict, dict]:
-    """discovery.json's content for a Stewart recording, and what the figure needs."""
+    """discovery.json's content for a Stewart recording, and what the figure needs.
+
+    Poses with a gross reading (a leg's residual beyond ``GROSS_SIGMAS`` robust standard
+    deviations after the model: a tracker that lost a reflector's beam for a moment) are set
+    aside and the discovery is run again without them; the report names them."""
+    out, fig = _discover_stewart(rec, seed, floor, config)
+    gross = gross_samples(fig["fitted"][AXIS], fig["signals"][0].sample)
+    if gross.any() and gross.sum() <= GROSS_SHARE * len(rec):
+        out, fig = _discover_stewart(rec.subset(~gross), seed, floor, config)
+        out["set_aside"] = {
+            "poses": np.flatnonzero(gross).tolist(),
+            "why": f"a leg's residual beyond {GROSS_SIGMAS:g} robust standard deviations: gross "
+            "readings, not noise",
+        }
+    return out, fig
+
+
+GROSS_SHARE = 0.2  # more than this are no longer outliers: the model is what is wrong
+
+
+def _discover_stewart(rec, seed: int, floor: float, config) -> tuple[dict, dict]:
     from calibench.scenarios.discover.report import describe_effects, one_axis_fit, verdict
     from calibench.scenarios.stewart.scenario import StewartConfig
     from calibench.sim.stewart import leg_effects_mm

@@ -10,12 +10,16 @@ from __future__ import annotations
 import numpy as np
 
 from calibench.recordings import ScannerRecording
+from calibench.sim.concealed.noise import reading_noise
+from calibench.sim.concealed.unwritten import UNWRITTEN_SCANNER_KINDS, thin_wall_deflection
 
 SCANNER_KINDS = ("null", "runout", "eccentricity", "scale", "bump", "combined", "drift")
 DRIFT_TURNS = 8  # a drift shows over turns: the drift recordings are twice as long
 
 
-def scanner_recording(kind: str, seed: int, turns: int = 4) -> tuple[ScannerRecording, dict]:
+def scanner_recording(
+    kind: str, seed: int, turns: int = 4, noise: str = "gaussian"
+) -> tuple[ScannerRecording, dict]:
     """A blinded probe-scanner recording: ``turns`` turns over the calibration plate, the rail
     as built (its d, dL, alpha0 and the plate's clamping drawn about the design), each reading
     MuJoCo's ray at the table's true angle, with the concealed effect of ``kind``:
@@ -35,11 +39,13 @@ def scanner_recording(kind: str, seed: int, turns: int = 4) -> tuple[ScannerReco
     Parameters
     ----------
     kind : str
-        One of ``SCANNER_KINDS``.
+        One of ``SCANNER_KINDS`` or of the second suite's ``unwritten.UNWRITTEN_SCANNER_KINDS``.
     seed : int
         Every draw's seed: the same seed gives the same recording, bit for bit.
     turns : int
         How many turns, each of the scanner's samples per turn.
+    noise : str
+        The probe's reading noise, one of ``noise.NOISE_KINDS`` (``gaussian``: as assumed).
 
     Returns
     -------
@@ -57,7 +63,7 @@ def scanner_recording(kind: str, seed: int, turns: int = 4) -> tuple[ScannerReco
     from calibench.scenes.probe_scanner import ProbeScannerGeometry
     from calibench.sim.probe_scanner import ProbeScannerSim, ProbeScannerTruth
 
-    if kind not in SCANNER_KINDS:
+    if kind not in SCANNER_KINDS + UNWRITTEN_SCANNER_KINDS:
         raise ValueError(f"unknown kind {kind!r} (known: {', '.join(SCANNER_KINDS)})")
     rng = np.random.default_rng(seed)
     g = ProbeScannerGeometry()
@@ -104,6 +110,10 @@ def scanner_recording(kind: str, seed: int, turns: int = 4) -> tuple[ScannerReco
                 "params": {"theta_deg": th0, "width_deg": w, "depth_mm": h},
             }
         )
+    if kind == "thin_wall":  # the second suite's: no candidate writes it down
+        push, truth_wall = thin_wall_deflection(rng, true_theta)
+        rho += push
+        effects.append(truth_wall)
     if "scale" in wanted:
         s = rng.uniform(1000, 3000)
         rho *= 1 + s * 1e-6
@@ -123,13 +133,16 @@ def scanner_recording(kind: str, seed: int, turns: int = 4) -> tuple[ScannerReco
         rho += k * (mount - mount[0])
         effects.append({"name": "thermal_drift", "axis": "rho", "params": {"mm_per_k": k}})
     q = truth.quantum_um / 1000
-    rho = np.round((rho + rng.normal(0, truth.probe_noise_um / 1000, len(rho))) / q) * q
+    rho = (
+        np.round((rho + reading_noise(noise, rng, rho.shape, truth.probe_noise_um / 1000)) / q) * q
+    )
     rec = ScannerRecording(turn, nominal, rho, t, np.round(air, 3))
-    noise = float(np.hypot(truth.probe_noise_um, truth.quantum_um / np.sqrt(12)))
+    sigma_um = float(np.hypot(truth.probe_noise_um, truth.quantum_um / np.sqrt(12)))
     return rec, {
         "scenario": "probe-scanner",
         "kind": kind,
         "seed": seed,
         "effects": effects,
-        "noise_um": noise,
+        "noise_um": sigma_um,
+        "noise": noise,
     }

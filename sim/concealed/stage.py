@@ -14,6 +14,8 @@ import dataclasses
 import numpy as np
 
 from calibench.recordings import StageRecording
+from calibench.sim.concealed.noise import reading_noise
+from calibench.sim.concealed.unwritten import UNWRITTEN_STAGE_KINDS, stage_effect
 from calibench.sim.replay import replay_stage
 from calibench.sim.stage_drive import travel_direction
 
@@ -92,7 +94,9 @@ def stage_commands(plan: StagePlan) -> dict:
     }
 
 
-def stage_recording(scenario: str, kind: str, seed: int) -> tuple[StageRecording, dict]:
+def stage_recording(
+    scenario: str, kind: str, seed: int, noise: str = "gaussian"
+) -> tuple[StageRecording, dict]:
     """A blinded stage recording: the twin replayed along the plan's lines, the as-built map, a
     wandering room temperature, each pass's offset and the reference's noise, with the concealed
     effect of ``kind``.
@@ -102,9 +106,13 @@ def stage_recording(scenario: str, kind: str, seed: int) -> tuple[StageRecording
     scenario : str
         ``belt-stage`` or ``vision-stage`` (a key of ``PLANS``).
     kind : str
-        One of ``STAGE_KINDS`` (``elastic`` for the belt stage only).
+        One of ``STAGE_KINDS`` (``elastic`` for the belt stage only) or of the second suite's
+        ``unwritten.UNWRITTEN_STAGE_KINDS``.
     seed : int
         Every draw's seed: the same seed gives the same recording, bit for bit.
+    noise : str
+        The reference's reading noise, one of ``noise.NOISE_KINDS`` (``gaussian``: as every
+        estimator assumes).
 
     Returns
     -------
@@ -119,7 +127,7 @@ def stage_recording(scenario: str, kind: str, seed: int) -> tuple[StageRecording
     ValueError
         An unknown kind, or ``elastic`` on the vision stage.
     """
-    if kind not in STAGE_KINDS:
+    if kind not in STAGE_KINDS + UNWRITTEN_STAGE_KINDS:
         raise ValueError(f"unknown kind {kind!r}")
     rng = np.random.default_rng(seed)
     plan = PLANS[scenario]
@@ -191,9 +199,13 @@ def stage_recording(scenario: str, kind: str, seed: int) -> tuple[StageRecording
                 "params": {"x_mm": x0, "width_mm": w, "height_mm": h},
             }
         )
+    if kind in UNWRITTEN_STAGE_KINDS:  # the second suite's: no candidate writes them down
+        more, truths, T = stage_effect(kind, rng, c, plan.travel_mm, T)
+        err += more
+        effects += truths
     run = c["run"].astype(int)
     err += rng.normal(0, PASS_OFFSET_UM / 1000, (plan.passes, 2))[run]
-    err += rng.normal(0, REFERENCE_NOISE_UM / 1000, (n, 2))
+    err += reading_noise(noise, rng, (n, 2), REFERENCE_NOISE_UM / 1000)
     meas = pos + err
     rec = StageRecording(
         x_cmd_mm=x,
@@ -212,6 +224,7 @@ def stage_recording(scenario: str, kind: str, seed: int) -> tuple[StageRecording
         "seed": seed,
         "effects": effects,
         "noise_um": REFERENCE_NOISE_UM,
+        "noise": noise,
     }
 
 

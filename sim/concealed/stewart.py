@@ -9,6 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 from calibench.recordings import StewartRecording
+from calibench.sim.concealed.noise import reading_noise
+from calibench.sim.concealed.unwritten import UNWRITTEN_STEWART_KINDS, stewart_effect
 from calibench.sim.stewart import stewart_poses
 
 STEWART_KINDS = ("null", "thermal", "backlash", "pitch", "compliance")
@@ -18,7 +20,9 @@ STEWART_TRANSLATION_MM = 150.0
 STEWART_ROTATION_DEG = 10.0
 
 
-def stewart_recording(kind: str, seed: int, n_poses: int = 100) -> tuple[StewartRecording, dict]:
+def stewart_recording(
+    kind: str, seed: int, n_poses: int = 100, noise: str = "gaussian"
+) -> tuple[StewartRecording, dict]:
     """A blinded Stewart recording: ``n_poses`` poses visited, then visited again in reverse
     order (so every leg approaches each pose both ways), a payload of 0, 500 or 1000 N on the
     platform in turn, the platform as built (hinge errors of the scenario's size), the tracker
@@ -34,11 +38,14 @@ def stewart_recording(kind: str, seed: int, n_poses: int = 100) -> tuple[Stewart
     Parameters
     ----------
     kind : str
-        One of ``STEWART_KINDS``.
+        One of ``STEWART_KINDS`` or of the second suite's ``unwritten.UNWRITTEN_STEWART_KINDS``.
     seed : int
         Every draw's seed: the same seed gives the same recording, bit for bit.
     n_poses : int
         How many poses (each visited twice: the recording has 2 ``n_poses`` rows).
+    noise : str
+        The legs' and the tracker's reading noise, one of ``noise.NOISE_KINDS`` (``gaussian``:
+        as assumed).
 
     Returns
     -------
@@ -59,7 +66,7 @@ def stewart_recording(kind: str, seed: int, n_poses: int = 100) -> tuple[Stewart
     from calibench.scenes.stewart import StewartGeometry
     from calibench.sim.stewart import StewartSim, StewartTruth
 
-    if kind not in STEWART_KINDS:
+    if kind not in STEWART_KINDS + UNWRITTEN_STEWART_KINDS:
         raise ValueError(f"unknown kind {kind!r} (known: {', '.join(STEWART_KINDS)})")
     rng = np.random.default_rng(seed)
     g = StewartGeometry()
@@ -111,16 +118,22 @@ def stewart_recording(kind: str, seed: int, n_poses: int = 100) -> tuple[Stewart
             c * (1 + 0.05 * rng.standard_normal(6)) * 1e-3 * force
         )  # the screw reads what the leg gave
         effects.append({"name": "leg_compliance", "axis": "legs", "params": {"um_per_n": c}})
-    readings += rng.normal(0, 1e-3, readings.shape)
+    if kind in UNWRITTEN_STEWART_KINDS:  # the second suite's: no candidate writes it down
+        more, truth = stewart_effect(kind, rng, direction, leg)
+        readings += more
+        effects.append(truth)
+    readings += reading_noise(noise, rng, readings.shape, 1e-3)
     # the tracker's frame: turned about the vertical and set beside the machine
     R_tr = Rotation.from_rotvec(
         np.r_[rng.normal(0, 0.01, 2), rng.uniform(-np.pi, np.pi)]
     ).as_matrix()
     t_tr = np.r_[rng.uniform(1500, 3000), rng.uniform(-1000, 1000), rng.uniform(-800, 0)]
+    # the tracker's noise, in time order: (n, reflectors, 3)
+    tracker_noise = reading_noise(noise, rng, (n, len(g.reflectors_mm), 3), 2e-3)
     R_meas, t_meas = np.empty((n, 3, 3)), np.empty((n, 3))
     for k, (R, t) in enumerate(poses):
         world = g.reflectors_mm @ R.T + t
-        seen = (world @ R_tr.T + t_tr) + rng.normal(0, 2e-3, world.shape)
+        seen = (world @ R_tr.T + t_tr) + tracker_noise[k]
         # the tracker's own pose solution (scipy's Kabsch, not the estimators')
         c_seen, c_refl = seen.mean(axis=0), g.reflectors_mm.mean(axis=0)
         R_meas[k] = Rotation.align_vectors(seen - c_seen, g.reflectors_mm - c_refl)[0].as_matrix()
@@ -136,4 +149,5 @@ def stewart_recording(kind: str, seed: int, n_poses: int = 100) -> tuple[Stewart
         "seed": seed,
         "effects": effects,
         "noise_um": 2.3,
+        "noise": noise,
     }

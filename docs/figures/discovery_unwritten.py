@@ -1,0 +1,73 @@
+"""The second concealed-effect suite's blocks (issue 36): effects no candidate writes down, under
+misspecified noise, and the coverage of discover's stated standard errors."""
+
+from __future__ import annotations
+
+from .engine import block
+from .fmt import table
+from .runner import COVERAGE_PCT
+
+COVERAGE_SEEDS = 8  # recordings per family and noise (benchmarks/discover_coverage.py's default
+# is 10: the block's figures are these)
+
+
+@block(seconds=330, ci=False)
+def discover_unwritten():
+    """The second suite (scenarios/discover/suite_unwritten.py, as
+    tests/scenarios/test_discover_unwritten.py runs it): per instrument."""
+    from calibench.scenarios.discover.suite_unwritten import (
+        UNWRITTEN_SUITE,
+        run_unwritten,
+        score_unwritten,
+    )
+
+    scores = score_unwritten([run_unwritten(*case) for case in UNWRITTEN_SUITE])
+    rows = [
+        [
+            scenario,
+            str(s["recordings"]),
+            f"{s['detection']:.0%}",
+            f"{s['null_false_claim_rate']:.0%}",
+            str(s["spurious_claims"]),
+            f"{s['improved']:.0%}",
+        ]
+        for scenario, s in scores.items()
+    ]
+    return table(
+        [
+            "instrument",
+            "recordings",
+            "detection (nearest named effect, where it lives)",
+            "nulls with a false claim",
+            "false claims beside real effects",
+            "effect recordings improved held out",
+        ],
+        rows,
+    )
+
+
+@block(seconds=620, ci=False)
+def discover_coverage():
+    """discover's stated intervals against the truth, under each reading noise
+    (scenarios/discover/coverage.py, as benchmarks/discover_coverage.py runs it)."""
+    import numpy as np
+
+    from calibench.scenarios.discover.coverage import coverage_study
+
+    rows = []
+    for c in coverage_study(COVERAGE_SEEDS):
+        z_rms = float(np.sqrt(np.mean(c.z**2))) if len(c.z) else float("nan")
+        rows.append(
+            [c.scenario, c.noise, str(len(c.z)), f"{c.coverage:.2f}", f"{z_rms:.2f}", str(c.missed)]
+        )
+    return table(
+        [
+            f"family ({COVERAGE_SEEDS} recordings each)",
+            "reading noise",
+            "parameters",
+            f"coverage of the stated {COVERAGE_PCT} % intervals",
+            "RMS of (estimate - truth) / stated std",
+            "effects missed",
+        ],
+        rows,
+    )

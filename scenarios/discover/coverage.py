@@ -1,0 +1,83 @@
+"""Do discover's standard errors cover the truth when the noise is not as assumed?
+
+A Monte-Carlo study over blinded recordings whose concealed effects have a parameter with a
+truth (a reversal, a thermal coefficient, a periodic error's amplitude, a runout's, a scale's),
+each recording made with one of the reading-noise kinds of ``sim.concealed.noise``. For every
+effect found, z = (estimate - truth) / stated std; the coverage is the share with |z| <= 1.96.
+Used by benchmarks/discover_coverage.py and its test.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from calibench.scenarios.discover.probe_scanner import discover_scanner
+from calibench.scenarios.discover.stage import discover_stage
+from calibench.sim.concealed import scanner_recording, stage_recording
+from calibench.sim.concealed.noise import NOISE_KINDS
+
+Z_95 = 1.959963984540054  # the two-sided 95 % normal quantile
+# the parameter of each effect whose truth the recordings know
+COVERED = {
+    "backlash": "reversal_mm",
+    "thermal_expansion": "ppm_per_k",
+    "periodic": "amplitude_mm",
+    "runout": "amplitude_mm",
+    "scale": "ppm",
+}
+CASES = (("belt-stage", "combined"), ("vision-stage", "combined"), ("probe-scanner", "runout"))
+SEED0 = 7000  # the study's recordings: apart from the suites'
+
+
+@dataclasses.dataclass
+class Coverage:
+    """One family's figures: ``z`` (k,) the found effects' standardised errors, ``missed`` the
+    concealed effects not found."""
+
+    scenario: str
+    noise: str
+    z: np.ndarray
+    missed: int
+
+    @property
+    def coverage(self) -> float:
+        """Share of |z| <= 1.96 (NaN with no effect found)."""
+        return float(np.mean(np.abs(self.z) <= Z_95)) if len(self.z) else float("nan")
+
+
+def case_z(scenario: str, kind: str, noise: str, seed: int) -> tuple[list[float], int]:
+    """One recording through discover: the standardised errors of the covered parameters found,
+    and how many concealed effects were not found."""
+    if scenario == "probe-scanner":
+        rec, manifest = scanner_recording(kind, seed, noise=noise)
+        out, _ = discover_scanner(rec, 0)
+    else:
+        rec, manifest = stage_recording(scenario, kind, seed, noise=noise)
+        out, _ = discover_stage(scenario, rec, 0)
+    z, missed = [], 0
+    for t in manifest["effects"]:
+        name = COVERED.get(t["name"])
+        if name is None:
+            continue
+        hit = [e for e in out["effects"] if e["name"] == t["name"] and e["axis"] == t["axis"]]
+        if not hit or name not in hit[0]["stderr"]:
+            missed += 1
+            continue
+        z.append((hit[0]["params"][name] - t["params"][name]) / hit[0]["stderr"][name])
+    return z, missed
+
+
+def coverage_study(seeds: int, noises: tuple[str, ...] = NOISE_KINDS) -> list[Coverage]:
+    """Every case of :data:`CASES` under every noise of ``noises``, ``seeds`` recordings each."""
+    out = []
+    for scenario, kind in CASES:
+        for noise in noises:
+            z, missed = [], 0
+            for s in range(seeds):
+                zs, m = case_z(scenario, kind, noise, SEED0 + s)
+                z += zs
+                missed += m
+            out.append(Coverage(scenario, noise, np.array(z), missed))
+    return out

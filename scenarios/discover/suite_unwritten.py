@@ -1,0 +1,158 @@
+"""The second concealed-effect suite: effects no candidate writes down, under noise that is not
+as assumed (issue 36).
+
+Each recording carries one effect of ``sim.concealed.unwritten`` (or none: a null) and reading
+noise of one misspecified kind (``t3``, ``drift``, ``outliers``, by the case's seed), and goes
+through ``discover`` blind. Scoring, against the sealed manifest afterwards:
+
+- detection: the truth's ``nearest`` named effect found on its axis; a ``nonsmooth`` also
+  located where the effect lives (a stage: its largest deviation within a tenth of the travel of
+  the joint; the scanner: on the thin arc, 2 deg of slack);
+- false claims: an effect found that is neither a truth's nearest (on its axis and leg, where it
+  lives) nor named ``alike`` by it (on a null: any effect);
+- held-out improvement: the held-out RMS after the accepted effects below that of the scene
+  model (after its calibrated geometry, where it has one).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections import defaultdict
+
+from calibench.scenarios.discover.probe_scanner import discover_scanner
+from calibench.scenarios.discover.stage import discover_stage
+from calibench.scenarios.discover.stewart import discover_stewart
+from calibench.sim.concealed import PLANS, scanner_recording, stage_recording, stewart_recording
+from calibench.sim.concealed.noise import MISSPECIFIED
+
+SEEDS = 3  # per kind: each kind sees every misspecified noise once
+NULL_SEEDS = 6  # per instrument: every misspecified noise twice
+UNWRITTEN_SUITE = tuple(
+    (scenario, kind, s)
+    for scenario, kinds in (
+        ("belt-stage", ("null", "presliding", "lagged_thermal", "rail_step")),
+        ("vision-stage", ("null", "presliding", "lagged_thermal", "rail_step")),
+        ("probe-scanner", ("null", "thin_wall")),
+        ("stewart", ("null", "stick_slip")),
+    )
+    for kind in kinds
+    # the platform's recordings take 20-40 s each: one null per noise
+    for s in range(NULL_SEEDS if kind == "null" and scenario != "stewart" else SEEDS)
+)
+SEED0 = 9000  # the recordings' seeds: apart from the first suite's and the coverage study's
+NOT_CONCEALED = ("geometry",)
+
+
+def case_noise(seed: int) -> str:
+    """The case's reading noise: the misspecified kinds in turn."""
+    return MISSPECIFIED[seed % len(MISSPECIFIED)]
+
+
+@dataclasses.dataclass
+class UnwrittenResult:
+    scenario: str
+    kind: str
+    seed: int
+    noise: str
+    truth: list
+    found: list
+    detected: int
+    false_claims: int
+    cv_before: float
+    cv_after: float
+
+
+def _located(scenario: str, t: dict, f: dict) -> bool:
+    """Whether a found ``nonsmooth`` sits where the truth's effect lives."""
+    where = str(f["params"].get("where", ""))
+    if scenario == "probe-scanner":
+        at = float(where.split("largest at ")[1].split(" deg")[0])
+        off = (at - t["params"]["theta_deg"] + 180) % 360 - 180
+        return abs(off) <= t["params"]["width_deg"] / 2 + 2.0
+    at = float(where.split("largest at x = ")[1].split(" mm")[0])
+    return abs(at - t["params"]["x_mm"]) <= 0.1 * PLANS[scenario].travel_mm[0]
+
+
+def _matches(scenario: str, t: dict, f: dict) -> bool:
+    if f["name"] != t["nearest"] or f["axis"] != t["axis"]:
+        return False
+    if "leg" in t["params"] and f["params"].get("leg") != t["params"]["leg"]:
+        return False
+    return f["name"] != "nonsmooth" or _located(scenario, t, f)
+
+
+def _explained(scenario: str, truth: list, f: dict) -> bool:
+    """Whether a found effect is a truth's nearest, where it lives, or named ``alike`` by it."""
+    return any(
+        _matches(scenario, t, f) or (f["name"] in t.get("alike", ()) and f["axis"] == t["axis"])
+        for t in truth
+    )
+
+
+def run_unwritten(scenario: str, kind: str, seed: int) -> UnwrittenResult:
+    """One case through discover, scored against its manifest."""
+    noise, rec_seed = case_noise(seed), SEED0 + 100 * seed + len(kind)
+    if scenario == "probe-scanner":
+        rec, manifest = scanner_recording(kind, rec_seed, noise=noise)
+        out, _ = discover_scanner(rec, seed)
+    elif scenario == "stewart":
+        rec, manifest = stewart_recording(kind, rec_seed, noise=noise)
+        out, _ = discover_stewart(rec, seed)
+    else:
+        rec, manifest = stage_recording(scenario, kind, rec_seed, noise=noise)
+        out, _ = discover_stage(scenario, rec, seed)
+    truth = manifest["effects"]
+    found = [e for e in out["effects"] if e["name"] not in NOT_CONCEALED]
+    detected = sum(any(_matches(scenario, t, f) for f in found) for t in truth)
+    false = sum(not _explained(scenario, truth, f) for f in found)
+    geo = [e for e in out["effects"] if e["name"] in NOT_CONCEALED]
+    before = geo[-1]["cv_rms_after"] if geo else out["fit"]["cv_rms_nominal"]
+    return UnwrittenResult(
+        scenario,
+        kind,
+        seed,
+        noise,
+        truth,
+        found,
+        detected,
+        false,
+        before,
+        out["fit"]["cv_rms_final"],
+    )
+
+
+def score_unwritten(results: list[UnwrittenResult]) -> dict:
+    """Per instrument: recordings, detection, the share of null recordings with a false claim,
+    false claims beside real effects, and the share of effect recordings improved held out."""
+    by = defaultdict(list)
+    for r in results:
+        by[r.scenario].append(r)
+    out = {}
+    for scenario, rs in by.items():
+        nulls = [r for r in rs if r.kind == "null"]
+        real = [r for r in rs if r.kind != "null"]
+        concealed = sum(len(r.truth) for r in real)
+        out[scenario] = {
+            "recordings": len(rs),
+            "detection": sum(r.detected for r in real) / max(concealed, 1),
+            "null_false_claim_rate": sum(r.false_claims > 0 for r in nulls) / max(len(nulls), 1),
+            "spurious_claims": sum(r.false_claims for r in real),
+            "improved": sum(r.cv_after < r.cv_before for r in real) / max(len(real), 1),
+        }
+    return out
+
+
+def unwritten_table(results: list[UnwrittenResult]) -> str:
+    """The suite's cases as a Markdown table."""
+    lines = [
+        "| scenario | kind | noise | concealed (nearest named) | found | held out (um) |",
+        "|---|---|---|---|---|---|",
+    ]
+    for r in results:
+        truth = ", ".join(f"{t['name']} -> {t['nearest']}({t['axis']})" for t in r.truth) or "-"
+        found = ", ".join(f"{f['name']}({f['axis']})" for f in r.found) or "-"
+        lines.append(
+            f"| {r.scenario} | {r.kind} | {r.noise} | {truth} | {found} | "
+            f"{1000 * r.cv_before:.2f} -> {1000 * r.cv_after:.2f} |"
+        )
+    return "\n".join(lines)

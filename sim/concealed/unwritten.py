@@ -1,0 +1,168 @@
+"""Concealed effects that no candidate writes down: the second suite's.
+
+The first suite's effects are, for the most part, the very formulas of the candidates that find
+them (a reversal of +-B/2, k dT u, A sin(h q + phi)). These are made by mechanisms the candidate
+library does not contain, so discovery can only name the nearest effect it knows, or say where
+the residual lives; each truth carries that ``nearest`` name for the suite to score.
+
+Stages:
+
+- ``presliding``: the drive's friction builds up over a presliding distance after each reversal
+  (Dahl's model), so the lost motion is reached gradually, not at once: e = dir B/2 (1 - 2
+  exp(-s / lambda)), s the travel since the last reversal. Nearest: ``backlash``.
+- ``lagged_thermal``: the scale's own temperature follows the logged air through a first-order
+  lag of 15-40 min, so its expansion is not proportional to the logged temperature. Nearest:
+  ``thermal_expansion`` on each axis.
+- ``rail_step``: the X rail is two segments joined with a step in straightness (smoothed over a
+  few mm), not a bump. Nearest: ``nonsmooth`` on y, located at the joint (its smooth part may
+  be named ``straightness`` beside it).
+
+Stewart platform:
+
+- ``stick_slip``: one leg's hinges stick and slip: the leg comes to rest anywhere within its
+  friction band, so what it loses on a reversal differs from one visit to the next (30-100 % of
+  a 10-20 um band). Nearest: ``backlash`` on that leg.
+
+Probe scanner:
+
+- ``thin_wall``: the plate's wall is ground thin over an arc; the stylus's spring pushes it out
+  by the force over the wall's bending stiffness, which falls as the thickness cubed. Nearest:
+  ``nonsmooth``, located on the arc.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+UNWRITTEN_STAGE_KINDS = ("presliding", "lagged_thermal", "rail_step")
+UNWRITTEN_SCANNER_KINDS = ("thin_wall",)
+UNWRITTEN_STEWART_KINDS = ("stick_slip",)
+
+
+def first_order_lag(t: np.ndarray, u: np.ndarray, tau: float) -> np.ndarray:
+    """``u`` (n,) seen through a first-order lag of time constant ``tau`` (the step exact for
+    each sample interval of ``t`` (n,)); starts settled at ``u[0]``."""
+    a = np.exp(-np.diff(t, prepend=t[0]) / tau)
+    out = np.empty_like(u)
+    out[0] = u[0]
+    for i in range(1, len(u)):  # a recursion: each sample needs the last
+        out[i] = a[i] * out[i - 1] + (1 - a[i]) * u[i]
+    return out
+
+
+def travel_since_reversal(u: np.ndarray, direction: np.ndarray) -> np.ndarray:
+    """Distance (n,) each axis has travelled since its last reversal: ``u`` (n,) its commanded
+    position, ``direction`` (n,) +-1 the way it last moved."""
+    n = len(u)
+    change = np.r_[True, direction[1:] != direction[:-1]]
+    start = np.maximum.accumulate(np.where(change, np.arange(n), 0))
+    turned_at = u[np.maximum(start - 1, 0)]  # the reversal: the station before the new direction
+    return np.abs(u - turned_at)
+
+
+def stage_effect(
+    kind: str,
+    rng: np.random.Generator,
+    c: dict,
+    travel_mm: tuple[float, float],
+    temp_c: np.ndarray,
+) -> tuple[np.ndarray, list[dict], np.ndarray]:
+    """The error (n, 2) mm of an unwritten stage effect, its truth and the logged temperature.
+
+    Parameters
+    ----------
+    kind : str
+        One of :data:`UNWRITTEN_STAGE_KINDS`.
+    rng : numpy.random.Generator
+        The recording's generator.
+    c : dict
+        The plan's commands (``stage_commands``): ``x``, ``y``, ``dir_x``, ``dir_y``, ``t_s``.
+    travel_mm : tuple of float
+        (X, Y) travel.
+    temp_c : (n,) the logged air temperature before the effect.
+
+    Returns
+    -------
+    err : (n, 2) ndarray
+    effects : list of dict
+        The truth, each with ``nearest`` (the named effect discovery should report).
+    temp_c : (n,) ndarray
+        The logged temperature (a warming room for ``lagged_thermal``).
+    """
+    x, y, t = c["x"], c["y"], c["t_s"]
+    err = np.zeros((len(x), 2))
+    if kind == "presliding":
+        a = str(rng.choice(["x", "y"]))
+        B, lam = rng.uniform(8, 15) / 1000, rng.uniform(3, 10)
+        u, d = c[a], c[f"dir_{a}"]
+        s = travel_since_reversal(u, d)
+        err[:, "xy".index(a)] = d * B / 2 * (1 - 2 * np.exp(-s / lam))
+        truth = {"name": "presliding_friction", "axis": a, "nearest": "backlash"}
+        return err, [{**truth, "params": {"reversal_mm": B, "presliding_mm": lam}}], temp_c
+    if kind == "lagged_thermal":
+        rise, tau_air = rng.uniform(2, 5), t[-1] / rng.uniform(1.5, 3)
+        temp_c = temp_c + rise * (1 - np.exp(-t / tau_air))
+        tau_scale, k = rng.uniform(15, 40) * 60, rng.uniform(10, 25)
+        scale_c = first_order_lag(t, temp_c, tau_scale)
+        effects = []
+        for i, (a, u) in enumerate((("x", x), ("y", y))):
+            err[:, i] = k * 1e-6 * (scale_c - scale_c[0]) * u
+            effects.append(
+                {
+                    "name": "lagged_thermal_expansion",
+                    "axis": a,
+                    "nearest": "thermal_expansion",
+                    "params": {"ppm_per_k": k, "lag_s": tau_scale},
+                }
+            )
+        return err, effects, temp_c
+    if kind == "rail_step":
+        x0, h, w = rng.uniform(0.25, 0.75) * travel_mm[0], rng.uniform(6, 12) / 1000, 2.0
+        err[:, 1] = h / 2 * (1 + np.tanh((x - x0) / w))
+        # a step is also a straightness error: its smooth part may be named so beside it
+        truth = {
+            "name": "rail_step",
+            "axis": "y",
+            "nearest": "nonsmooth",
+            "alike": ["straightness"],
+        }
+        return err, [{**truth, "params": {"x_mm": x0, "step_mm": h, "width_mm": w}}], temp_c
+    raise ValueError(f"unknown kind {kind!r}")
+
+
+def thin_wall_deflection(
+    rng: np.random.Generator, theta_rad: np.ndarray
+) -> tuple[np.ndarray, dict]:
+    """How far (n,) mm the stylus pushes the plate's wall out at ``theta_rad`` (n,), where an
+    arc of 15-40 deg is ground down to 55-70 % of the wall's thickness (a raised-cosine
+    profile), and the truth. The push is the stylus force over the wall's bending stiffness,
+    which goes as the thickness cubed; 4-10 um at the thinnest, nothing at full thickness."""
+    th0, width = rng.uniform(0, 360), rng.uniform(15, 40)
+    thinnest, push_um = rng.uniform(0.55, 0.70), rng.uniform(4, 10)
+    off = (np.degrees(theta_rad) - th0 + 180) % 360 - 180
+    window = np.where(np.abs(off) < width / 2, 0.5 * (1 + np.cos(2 * np.pi * off / width)), 0.0)
+    thickness = 1 - (1 - thinnest) * window  # relative to the rest of the wall
+    # compliance ~ thickness^-3, scaled so the thinnest point gives push_um beyond the rest
+    dz = (thickness**-3 - 1) / (thinnest**-3 - 1) * push_um / 1000
+    truth = {
+        "name": "thin_wall",
+        "axis": "rho",
+        "nearest": "nonsmooth",
+        "params": {"theta_deg": th0, "width_deg": width, "push_mm": push_um / 1000},
+    }
+    return dz, truth
+
+
+def stewart_effect(
+    kind: str, rng: np.random.Generator, direction: np.ndarray, leg: int
+) -> tuple[np.ndarray, dict]:
+    """The error (n, 6) mm of an unwritten Stewart effect on ``leg`` (1-6), and its truth.
+    ``direction`` (n, 6): the way each leg last moved (+-1)."""
+    if kind != "stick_slip":
+        raise ValueError(f"unknown kind {kind!r}")
+    band = rng.uniform(10, 20) / 1000
+    rest = rng.uniform(0.3, 1.0, len(direction))  # where in the band each visit stopped
+    err = np.zeros(direction.shape)
+    err[:, leg - 1] = direction[:, leg - 1] * band / 2 * rest
+    truth = {"name": "stick_slip", "axis": "legs", "nearest": "backlash"}
+    return err, {**truth, "params": {"leg": leg, "band_mm": band}}
