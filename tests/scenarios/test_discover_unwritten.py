@@ -1,8 +1,9 @@
 """The second concealed-effect suite (issue 36): effects no candidate writes down (presliding
 friction, a scale that warms behind a lag, a rail joined with a step, a Stewart leg whose hinges
-stick and slip, a plate's wall that gives where it is thin), each under noise that breaks the estimators' assumption (Student t with 3
-degrees of freedom, a slow drift, gross outliers), through discover blind and scored against the
-sealed manifests afterwards (scenarios/discover/suite_unwritten.py)."""
+stick and slip, a plate's wall that gives where it is thin), each under noise that breaks the
+estimators' assumption (Student t with 3 degrees of freedom, a slow drift, gross outliers),
+through discover blind and scored against the sealed manifests afterwards
+(scenarios/discover/suite_unwritten.py)."""
 
 from calibench.scenarios.discover.suite_unwritten import (
     UNWRITTEN_SUITE,
