@@ -11,7 +11,7 @@ COVERAGE_SEEDS = 8  # recordings per family and noise (benchmarks/discover_cover
 # is 10: the block's figures are these)
 
 
-@block(seconds=330, ci=False)
+@block(seconds=100, ci=True)
 def discover_unwritten():
     """The second suite (scenarios/discover/suite_unwritten.py, as
     tests/scenarios/test_discover_unwritten.py runs it): per instrument."""
