@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
+from calibench.scenarios import cvplot
+
 COVERAGE_GRID = 8  # the image cut into 8 x 8 cells for the coverage figure
 # below this share of the cells the console says to add photos near the edges (the usual advice:
 # the board should reach every part of the image across the photos)
@@ -31,39 +33,6 @@ def coverage(corners: dict, size: tuple[int, int]) -> float:
 
 
 WIDTH, HEIGHT = 1100, 460  # camera.png, px
-_FONT = 0  # cv2.FONT_HERSHEY_SIMPLEX
-_INK, _GREY = (0, 0, 0), (200, 200, 200)
-
-
-def _text(img, text, xy, scale=0.45, color=_INK, anchor="left") -> None:
-    import cv2
-
-    (w, _), _ = cv2.getTextSize(text, _FONT, scale, 1)
-    x = xy[0] - {"left": 0, "centre": w // 2, "right": w}[anchor]
-    cv2.putText(img, text, (int(x), int(xy[1])), _FONT, scale, color, 1, cv2.LINE_AA)
-
-
-def _vertical_text(img, text, bottom_centre, scale=0.38) -> None:
-    """A label read from bottom to top, its end at ``bottom_centre`` (x, y) px."""
-    import cv2
-
-    (w, h), base = cv2.getTextSize(text, _FONT, scale, 1)
-    tile = np.full((h + base + 2, w + 2, 3), 255, np.uint8)
-    cv2.putText(tile, text, (1, h + 1), _FONT, scale, _INK, 1, cv2.LINE_AA)
-    tile = cv2.rotate(tile, cv2.ROTATE_90_COUNTERCLOCKWISE)
-    x0 = int(bottom_centre[0] - tile.shape[1] / 2)
-    y0 = int(bottom_centre[1] - tile.shape[0])
-    y0c, x0c = max(y0, 0), max(x0, 0)
-    part = tile[y0c - y0 :, x0c - x0 :][: img.shape[0] - y0c, : img.shape[1] - x0c]
-    img[y0c : y0c + part.shape[0], x0c : x0c + part.shape[1]] = np.minimum(
-        img[y0c : y0c + part.shape[0], x0c : x0c + part.shape[1]], part
-    )
-
-
-def _tick(top: float) -> float:
-    """A round tick step (1, 2 or 5 times a power of ten) giving 3 to 7 ticks up to ``top``."""
-    power = 10.0 ** np.floor(np.log10(top / 4))
-    return next(m * power for m in (1, 2, 5, 10) if top / (m * power) <= 7)
 
 
 def _bars(img, box, per_view: dict, rms_px: float) -> None:
@@ -74,25 +43,25 @@ def _bars(img, box, per_view: dict, rms_px: float) -> None:
     x0, y0, x1, y1 = box
     names = list(per_view)
     top = 1.15 * max([rms_px, *per_view.values()]) or 1.0
-    tick = _tick(top)
+    tick = cvplot.tick(top)
 
     def y(v):
         return int(y1 - (y1 - y0) * v / top)
 
-    cv2.rectangle(img, (x0, y0), (x1, y1), _INK, 1)
+    cv2.rectangle(img, (x0, y0), (x1, y1), cvplot.INK, 1)
     for v in np.arange(0.0, top, tick):
-        cv2.line(img, (x0 - 4, y(v)), (x0, y(v)), _INK, 1)
-        _text(img, f"{v:.3g}", (x0 - 7, y(v) + 4), 0.38, anchor="right")
+        cv2.line(img, (x0 - 4, y(v)), (x0, y(v)), cvplot.INK, 1)
+        cvplot.text(img, f"{v:.3g}", (x0 - 7, y(v) + 4), 0.38, anchor="right")
     step = (x1 - x0) / max(len(names), 1)
     for k, name in enumerate(names):
         left = int(x0 + (k + 0.15) * step)
         right = max(int(x0 + (k + 0.85) * step), left + 1)
         cv2.rectangle(img, (left, y(per_view[name])), (right, y1), (180, 119, 31), -1)
-        _vertical_text(img, name[-14:], (int(x0 + (k + 0.5) * step), y1 + 80))
+        cvplot.vertical_text(img, name[-14:], (int(x0 + (k + 0.5) * step), y1 + 80))
     for xa in range(x0, x1, 12):  # the dashed line of the whole calibration
-        cv2.line(img, (xa, y(rms_px)), (min(xa + 6, x1), y(rms_px)), _INK, 1)
-    _text(img, f"all photos {rms_px:.3f} px", (x1 - 6, y(rms_px) - 6), 0.42, anchor="right")
-    _text(
+        cv2.line(img, (xa, y(rms_px)), (min(xa + 6, x1), y(rms_px)), cvplot.INK, 1)
+    cvplot.text(img, f"all photos {rms_px:.3f} px", (x1 - 6, y(rms_px) - 6), 0.42, anchor="right")
+    cvplot.text(
         img,
         "each photo's fit: RMS reprojection error (px)",
         ((x0 + x1) // 2, y0 - 10),
@@ -112,9 +81,11 @@ def _corners(img, box, corners: dict, size: tuple[int, int]) -> None:
     ox, oy = x0 + ((x1 - x0) - scale * w) / 2, y0 + ((y1 - y0) - scale * h) / 2
     for k in range(1, COVERAGE_GRID):
         gx, gy = int(ox + scale * w * k / COVERAGE_GRID), int(oy + scale * h * k / COVERAGE_GRID)
-        cv2.line(img, (gx, int(oy)), (gx, int(oy + scale * h)), _GREY, 1)
-        cv2.line(img, (int(ox), gy), (int(ox + scale * w), gy), _GREY, 1)
-    cv2.rectangle(img, (int(ox), int(oy)), (int(ox + scale * w), int(oy + scale * h)), _INK, 1)
+        cv2.line(img, (gx, int(oy)), (gx, int(oy + scale * h)), cvplot.GREY, 1)
+        cv2.line(img, (int(ox), gy), (int(ox + scale * w), gy), cvplot.GREY, 1)
+    cv2.rectangle(
+        img, (int(ox), int(oy)), (int(ox + scale * w), int(oy + scale * h)), cvplot.INK, 1
+    )
     n = max(len(corners) - 1, 1)
     ramp = np.arange(256, dtype=np.uint8).reshape(-1, 1)
     palette = cv2.applyColorMap(ramp, cv2.COLORMAP_VIRIDIS)[:, 0]
@@ -125,7 +96,7 @@ def _corners(img, box, corners: dict, size: tuple[int, int]) -> None:
         for u, v in np.round(np.c_[ox + scale * c[:, 0], oy + scale * c[:, 1]]).astype(int):
             cv2.circle(img, (int(u), int(v)), 2, color, -1, cv2.LINE_AA)
     share = coverage(corners, size)
-    _text(
+    cvplot.text(
         img,
         f"where the corners lie: {share:.0%} of the image's {COVERAGE_GRID} x "
         f"{COVERAGE_GRID} cells (grey)",
@@ -133,7 +104,9 @@ def _corners(img, box, corners: dict, size: tuple[int, int]) -> None:
         0.5,
         anchor="centre",
     )
-    _text(img, f"u 0-{w} px, v 0-{h} px (v down)", ((x0 + x1) // 2, y1 + 22), 0.42, anchor="centre")
+    cvplot.text(
+        img, f"u 0-{w} px, v 0-{h} px (v down)", ((x0 + x1) // 2, y1 + 22), 0.42, anchor="centre"
+    )
 
 
 def write_camera_figure(path: Path, result: dict, corners: dict) -> None:
@@ -141,11 +114,10 @@ def write_camera_figure(path: Path, result: dict, corners: dict) -> None:
     every corner used, in the image's pixels, coloured by photo, and the coverage. Drawn with
     OpenCV, which the command has loaded anyway: a plotting library's import would double the
     whole command's time (issue 39)."""
-    import cv2
 
     img = np.full((HEIGHT, WIDTH, 3), 255, np.uint8)
     w, h = result["image_size"]
-    _text(
+    cvplot.text(
         img,
         f"{len(result['per_view_rms_px'])} photos, {w} x {h}: fx {result['K'][0][0]:.1f}, fy "
         f"{result['K'][1][1]:.1f} px; "
@@ -156,5 +128,4 @@ def write_camera_figure(path: Path, result: dict, corners: dict) -> None:
     )
     _bars(img, (70, 70, 520, 350), result["per_view_rms_px"], result["rms_px"])
     _corners(img, (580, 70, 1080, 420), corners, (w, h))
-    if not cv2.imwrite(str(path), img):
-        raise OSError(f"cannot write {path}")
+    cvplot.write_png(path, img)

@@ -222,6 +222,23 @@ def fit_terms(
     return fixed, coef, cov, res
 
 
+def refined(sig: Signal, fixed: list, drivers: dict) -> list | None:
+    """The fixed terms of :func:`fit_terms`, each shape that can refine itself (a period) refined
+    beside every other term's columns; None when none can. In the selection a searched shape is
+    fixed beside the terms accepted before it only, so one accepted later (a thermal slope of the
+    same axis) leaves it a few of its std off, and every coefficient's std too narrow."""
+    if not any(hasattr(t, "refine") for t, _, _ in fixed):
+        return None
+    cols = [t.columns(drivers) for t, _, _ in fixed]
+    out = []
+    for i, (t, _, _) in enumerate(fixed):
+        if hasattr(t, "refine"):
+            others = np.hstack([sig.base] + [c for j, c in enumerate(cols) if j != i])
+            t = t.refine(sig.r, others, drivers)
+        out.append(t)
+    return out
+
+
 def confounded(
     sig: Signal, terms: list, candidate, drivers: dict, cache: dict, limit: float = 0.9
 ) -> float:

@@ -231,13 +231,16 @@ class AngleTable(Effect):
         )
 
 
-def scanner_candidates(symmetry: int = 4, top: int = 30, n_runout: int = 3) -> list:
+def scanner_candidates(
+    symmetry: int = 4, top: int = 30, n_runout: int = 3, told_apart: tuple = ()
+) -> list:
     """Every scanner candidate: runout searches over harmonics 1..``top`` except the multiples of
     the artefact's ``symmetry`` (a square's form error repeats four times a turn: a runout there
-    cannot be told from it), the encoder's eccentricity, the probe's scale and offset, its zero's
+    cannot be told from it) not in ``told_apart`` (those recordings of the plate turned on the
+    table separate), the encoder's eccentricity, the probe's scale and offset, its zero's
     drift with temperature or time (where the recording logs them; ``nonsmooth`` is looked for
     after them, on what they leave)."""
-    harmonics = tuple(k for k in range(1, top + 1) if k % symmetry)
+    harmonics = tuple(k for k in range(1, top + 1) if k % symmetry or k in told_apart)
     return [RunoutSearch(harmonics=harmonics, rank=k) for k in range(1, n_runout + 1)] + [
         TableEccentricity(),
         ProbeScale(),

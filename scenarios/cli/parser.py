@@ -245,7 +245,8 @@ def build_parser() -> argparse.ArgumentParser:
         type=Path,
         nargs="+",
         help="CSV in the CONTRACT's format for the scenario (arm-cmm: "
-        "one or more, each with its own base frame)",
+        "one or more, each with its own base frame; probe-scanner: one, or several of one "
+        "machine with the plate turned on the table between them)",
     )
     _out(d, "<scenario>-discover")
     d.add_argument(

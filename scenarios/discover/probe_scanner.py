@@ -37,9 +37,13 @@ from calibench.estimators.discovery.probe_scanner import (
     scanner_candidates,
 )
 from calibench.estimators.discovery.select import FLOOR, Step, prune, select
+from calibench.scenarios.discover.scanner_sessions import SYMMETRY, TOP_HARMONIC, assemble
 from calibench.scenarios.report import BadInput
 
 BIN_DEG = 1.0  # the nonsmooth table's bands of the table's angle
+# located on the turn: the bands whose median residual (smoothed over LOCAL_SMOOTH bands) reaches
+# half the largest, named when they cover at most LOCAL_SPAN of the turn
+LOCAL_SMOOTH, LOCAL_SPAN = 5, 1 / 3
 EXPERIMENTS = {
     "offset": "measure a gauge of known size (a ring): the probe's zero and the rail's dL are one "
     "column on one artefact",
@@ -83,6 +87,12 @@ def twin_table(out: dict) -> dict:
     return {"probe-scanner": {"truth": truth}}
 
 
+# start angles of the rail's fit: the plate at rest, then turned by each 15 deg of its 90 deg
+# symmetry; a fit within RAIL_FITS_MM (RMS) of the readings ends the search
+PLATE_TURNS_RAD = tuple(np.deg2rad([0, 15, 30, 45, 60, 75, -15, -30, -45]))
+RAIL_FITS_MM = 0.05
+
+
 def scene_model(rec, config) -> tuple[object, np.ndarray, np.ndarray, np.ndarray]:
     """The calibrated rail and plate, the twin's reading at each encoder angle (n,) mm, the
     model's columns d rho / d(d, dL, alpha0, cx, cy) (n, 5) and d rho / d theta (n,)."""
@@ -94,12 +104,20 @@ def scene_model(rec, config) -> tuple[object, np.ndarray, np.ndarray, np.ndarray
 
     g, nom = config.geometry, config.nominal
     a, rc = g.plate.half_side_mm, g.plate.corner_radius_mm
-    start = ScannerCalibration(nom.d_mm, nom.dL_mm, nom.alpha0_rad, np.zeros(2))
     th = rec.theta_rad
-    try:
-        cal = calibrate_lsq(th, rec.rho_mm, a, rc, start)
-    except np.linalg.LinAlgError:  # readings no rail can give: the normal matrix has no inverse
-        cal = None
+    cal = None
+    # the plate as clamped at rest first; a plate turned on the table (a second recording) from
+    # start angles a quarter of its symmetry apart
+    for turn in PLATE_TURNS_RAD:
+        start = ScannerCalibration(nom.d_mm, nom.dL_mm, nom.alpha0_rad + turn, np.zeros(2))
+        try:
+            fit = calibrate_lsq(th, rec.rho_mm, a, rc, start)
+        except np.linalg.LinAlgError:  # readings no rail can give: no inverse normal matrix
+            continue
+        if np.isfinite(fit.rms_mm) and (cal is None or fit.rms_mm < cal.rms_mm):
+            cal = fit
+        if cal is not None and cal.rms_mm < RAIL_FITS_MM:
+            break
     if cal is None or not np.isfinite(cal.rms_mm) or cal.rms_mm > 1.0:
         fit_rms = "no fit" if cal is None else f"rms {cal.rms_mm:.3g} mm"
         raise BadInput(
@@ -179,20 +197,29 @@ def _runs(bands: np.ndarray) -> list[str]:
 
 
 def discover_scanner(rec, seed: int = 0, floor: float = FLOOR, config=None) -> tuple[dict, dict]:
-    """discovery.json's content for a probe-scanner recording, and what the figure needs."""
+    """discovery.json's content for a probe-scanner recording (or a list of recordings of one
+    machine, fitted together: :mod:`.scanner_sessions`), and what the figure needs."""
     from calibench.scenarios.discover.report import describe_effects, one_axis_fit, verdict
     from calibench.scenarios.probe_scanner.scenario import ProbeScannerConfig
 
     config = config or ProbeScannerConfig()
+    recs = list(rec) if isinstance(rec, (list, tuple)) else [rec]
+    for k, r in enumerate(recs):
+        which = f"recording {k + 1}: " if len(recs) > 1 else ""
+        if len(r) < 200:
+            raise BadInput(
+                f"{which}{len(r)} samples: discover probe-scanner needs at least 200 (a turn)"
+            )
+        if np.ptp(np.mod(r.theta_rad, 2 * np.pi)) < np.deg2rad(300):
+            raise BadInput(
+                f"{which}the samples cover less than 300 deg of the table: discover needs "
+                "whole turns"
+            )
+    sessions = assemble(recs, config, scene_model)
+    rec, cal = sessions.rec, sessions.cals[0]
+    rho_twin, geo, slope = sessions.rho_twin, sessions.geo, sessions.slope
     n = len(rec)
     turns = np.unique(rec.turn)
-    if n < 200:
-        raise BadInput(f"{n} samples: discover probe-scanner needs at least 200 (a turn)")
-    if np.ptp(np.mod(rec.theta_rad, 2 * np.pi)) < np.deg2rad(300):
-        raise BadInput(
-            "the samples cover less than 300 deg of the table: discover needs whole turns"
-        )
-    cal, rho_twin, geo, slope = scene_model(rec, config)
     th = rec.theta_rad
     drivers: ScannerDrivers = {
         "theta": th,
@@ -207,14 +234,13 @@ def discover_scanner(rec, seed: int = 0, floor: float = FLOOR, config=None) -> t
         fold, scheme = np.searchsorted(turns, rec.turn), "leave one turn out"
     else:
         fold, scheme = np.arange(n) % 5, "five interleaved folds of the samples (one turn)"
-    station = np.unique(np.round(np.degrees(np.mod(th, 2 * np.pi)), 6), return_inverse=True)[
-        1
-    ].ravel()
+    angle = np.round(np.degrees(np.mod(th, 2 * np.pi)), 6)
+    station = np.unique(np.c_[sessions.rec_id, angle], axis=0, return_inverse=True)[1].ravel()
     order = rec.t_s if rec.t_s is not None else np.arange(n, dtype=float)
     first = sig.r - geo @ lstsq(geo, sig.r)
     # within a turn: a drift from turn to turn is not scatter (and must stay visible as a drift)
     noise = {AXIS: repeatability(first, station, order, rec.turn)}
-    candidates = scanner_candidates()
+    candidates = scanner_candidates(told_apart=sessions.form_harmonics)
     found, terms = select([sig], candidates, drivers, fold, noise, floor=floor)
     prune(sig, found, terms, drivers, fold, floor)
     table = find_angle_table(sig, terms[AXIS], drivers, noise[AXIS], fold, floor)
@@ -226,21 +252,23 @@ def discover_scanner(rec, seed: int = 0, floor: float = FLOOR, config=None) -> t
     effects, fitted = describe_effects([sig], terms, found, drivers, noise)
     after_noise = {AXIS: repeatability(fitted[AXIS], station, order, rec.turn)}
     confounds = []
-    symmetric = Runout(harmonic=4)
-    frac = confounded(sig, terms[AXIS], symmetric, drivers, {})
-    confounds.append(
-        {
-            "effect": "runout",
-            "axis": AXIS,
-            "with": "the square's form",
-            "why": "a runout 4, 8, ... times a turn repeats with the square plate's sides: it "
-            "cannot be "
-            f"told from the plate's form error ({100 * frac:.0f} % of a fourfold runout is what "
-            "the calibrated rail already does), so those harmonics are not searched",
-            "experiment": "measure a round artefact (a ring gauge) to see the table's runout at "
-            "every harmonic",
-        }
-    )
+    hidden = [
+        h for h in range(SYMMETRY, TOP_HARMONIC + 1, SYMMETRY) if h not in sessions.form_harmonics
+    ]
+    if hidden:
+        frac = confounded(sig, terms[AXIS], Runout(harmonic=hidden[0]), drivers, {})
+        confounds.append(
+            {
+                "effect": "runout",
+                "axis": AXIS,
+                "with": "the square's form",
+                "why": f"a runout {', '.join(map(str, hidden))} times a turn repeats with the "
+                "square plate's sides: on these recordings it cannot be told from the plate's "
+                f"form error ({100 * frac:.0f} % of a runout {hidden[0]} times a turn is what the "
+                "calibrated rail already does), so those harmonics are not searched",
+                "experiment": TURN_THE_PLATE,
+            }
+        )
     frac = confounded(sig, terms[AXIS], ProbeOffset(), drivers, {})
     if frac > 0.9:
         confounds.append(
@@ -277,21 +305,54 @@ def discover_scanner(rec, seed: int = 0, floor: float = FLOOR, config=None) -> t
         },
         "not_accepted": found.rejected,
         "confounded": confounds,
+        **_sessions_said(sessions),
         "verdict": verdict(found.cv_final, after_noise, bool(effects), located),
     }
     return out, {
         "signals": [sig],
         "fitted": fitted,
         "abscissa": (np.degrees(np.mod(th, 2 * np.pi)), "table angle (deg)"),
+        "rows_used": [np.arange(len(r)) for r in recs],
     }
 
 
-# an encoder's eccentricity and a once-per-turn runout, told apart by an artefact whose reading
-# has no slope along the turn: there the eccentricity moves nothing, the runout shows in full
-SEPARATE_BY_A_RING = (
-    "measure a round artefact (a ring gauge) too: an encoder's eccentricity moves a round "
-    "artefact's reading not at all, a once-per-turn runout moves it in full"
+# The table's errors stay with its angle, the plate's form turns with the plate: a second
+# recording with the plate turned separates a runout at the square's harmonics from that form.
+TURN_THE_PLATE = (
+    "turn the plate on the table by 45 deg and record again (a fourfold form then turns by half "
+    "its period against the table); `calibench discover probe-scanner first.csv turned.csv` "
+    "fits the two together and tells the table's runout from the plate's form at each harmonic "
+    "the turn moves"
 )
+# An encoder's eccentricity is an angle error. Its effect on the reading is what a shift of the
+# artefact's centre does along its wall, and a once-per-turn radial motion is what a shift does
+# across it: with the artefact's centre calibrated in every recording (it must be), no artefact
+# and no turn of it tells the two apart (a turned plate was tried: 99.8 % confounded as
+# before). Only an angle reference sees the eccentricity.
+SEPARATE_BY_AN_ANGLE_REFERENCE = (
+    "compare the table's angle with an angle reference (a polygon and an autocollimator), or "
+    "read the encoder with a second head opposite the first (their mean cancels an "
+    "eccentricity); a once-per-turn radial motion is the artefact's centring on any artefact "
+    "and is calibrated with it"
+)
+
+
+def _sessions_said(sessions) -> dict:
+    """discovery.json's ``recordings`` where several were fitted together: each one's samples,
+    rail and plate turn, and the square's harmonics their turns told apart from a runout."""
+    if len(sessions.cals) == 1:
+        return {}
+    return {
+        "recordings": [
+            {
+                "samples": int(np.sum(sessions.rec_id == k)),
+                "rail": {"d_mm": c.d_mm, "dL_mm": c.dL_mm, "alpha0_rad": c.alpha0_rad},
+                "plate_turn_deg": turn,
+            }
+            for k, (c, turn) in enumerate(zip(sessions.cals, sessions.turns_deg))
+        ],
+        "form_told_apart": list(sessions.form_harmonics),
+    }
 
 
 def _look_alikes(sig, terms: list, drivers) -> list[dict]:
@@ -317,13 +378,38 @@ def _look_alikes(sig, terms: list, drivers) -> list[dict]:
                     "why": f"on this artefact the calibrated rail and the {name.replace('_', ' ')} "
                     f"found reproduce {100 * frac:.0f} % of an {other_name.replace('_', ' ')}: "
                     "the recording cannot say which it is",
-                    "experiment": SEPARATE_BY_A_RING,
+                    "experiment": SEPARATE_BY_AN_ANGLE_REFERENCE,
                 }
             )
     return out
 
 
 LOOK_ALIKE = 0.9  # the share of a candidate's signal the accepted model reproduces: confounded
+
+
+def _where_on_turn(r: np.ndarray, theta_deg: np.ndarray) -> str:
+    """Where on the turn the residual ``r`` (n,) lives: the bands of the angle whose median
+    (smoothed over LOCAL_SMOOTH bands) reaches half the largest, said as angles when they cover
+    at most LOCAL_SPAN of the turn in at most three runs, else "over the whole turn" (a runout,
+    an eccentricity: a sinusoid is above half its peak over two thirds of the turn)."""
+    n_bins = int(round(360 / BIN_DEG))
+    band = np.floor(np.asarray(theta_deg, float) / BIN_DEG).astype(int) % n_bins
+    # medians, not means: one gross reading would otherwise make its band stand out
+    order = np.lexsort((r, band))
+    counts = np.bincount(band, minlength=n_bins)
+    start = np.r_[0, np.cumsum(counts)[:-1]]
+    full = counts > 0
+    mid = np.zeros(n_bins)
+    lo, hi = start + (counts - 1) // 2, start + counts // 2
+    mid[full] = 0.5 * (r[order][lo[full]] + r[order][hi[full]])
+    pad = np.r_[mid[-LOCAL_SMOOTH:], mid, mid[:LOCAL_SMOOTH]]
+    smooth = np.abs(np.convolve(pad, np.ones(LOCAL_SMOOTH) / LOCAL_SMOOTH, "same"))
+    smooth = smooth[LOCAL_SMOOTH:-LOCAL_SMOOTH]
+    bands = np.flatnonzero(smooth >= 0.5 * smooth.max())
+    runs = _runs(bands) if len(bands) else []
+    if not runs or len(bands) > LOCAL_SPAN * n_bins or len(runs) > 3:
+        return "over the whole turn"
+    return f"at table angles {', '.join(runs)} deg"
 
 
 def _locate(sig, drivers, rec, seed) -> list[dict]:
@@ -347,7 +433,7 @@ def _locate(sig, drivers, rec, seed) -> list[dict]:
                     "driver": name,
                     "score": score,
                     "p_value": p,
-                    "where": "over the whole turn" if name == "theta_deg" else f"follows {name}",
+                    "where": _where_on_turn(r, v) if name == "theta_deg" else f"follows {name}",
                 }
             )
     return sorted(out, key=lambda d: -d["score"])
@@ -355,15 +441,17 @@ def _locate(sig, drivers, rec, seed) -> list[dict]:
 
 # --- the plug-in (calibench.scenarios.discover.engine.Plugin) -------------------------------------
 HOLDOUTS: tuple[str, ...] = ()  # its own folds: whole turns (or interleaved samples of one)
-MANY_RECORDINGS = False
+MANY_RECORDINGS = True  # the same machine with the plate turned: fitted together
 
 
 def load(scenario: str, paths: list, arm=None):
-    """The scanner recording at ``paths[0]`` (CONTRACT: turn, theta_deg, rho_mm)."""
+    """The scanner recording(s) at ``paths`` (CONTRACT: turn, theta_deg, rho_mm): one, or a
+    list of several of the same machine."""
     from calibench.recordings import load_scanner_csv
     from calibench.scenarios.discover.engine import MAX_ROWS
 
-    return load_scanner_csv(paths[0], MAX_ROWS)
+    recs = [load_scanner_csv(p, MAX_ROWS) for p in paths]
+    return recs[0] if len(recs) == 1 else recs
 
 
 def discover(scenario: str, rec, seed: int, holdout, config, arm=None) -> tuple[dict, dict]:

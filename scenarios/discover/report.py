@@ -8,6 +8,7 @@ import numpy as np
 
 from calibench.estimators.discovery.fit import (
     fit_terms,
+    refined,
 )
 
 UNEXPLAINED_RATIO = 1.5  # held-out RMS over repeatability beyond which something is left
@@ -78,6 +79,9 @@ def describe_effects(signals, terms, found, drivers, noise):
         nz = noise.get(a)
         sigma = nz.sigma_mm * nz.inflation if nz is not None and nz.sigma_mm else None
         fixed, coef, cov, res = fit_terms(sig, terms[a], drivers, {}, sigma, robust=True)
+        again = refined(sig, fixed, drivers)
+        if again is not None:
+            fixed, coef, cov, res = fit_terms(sig, again, drivers, {}, sigma, robust=True)
         fitted[a] = res
         for term, (t, start, k) in zip(
             terms[a], fixed

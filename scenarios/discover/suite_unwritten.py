@@ -8,8 +8,9 @@ through ``discover`` blind. Scoring, against the sealed manifest afterwards:
 - detection: the truth's ``nearest`` named effect found on its axis; a ``nonsmooth`` also
   located where the effect lives (a stage: its largest deviation within a tenth of the travel of
   the joint; the scanner: on the thin arc, 2 deg of slack);
-- false claims: an effect found that is neither a truth's nearest (on its axis and leg, where it
-  lives) nor named ``alike`` by it (on a null: any effect);
+- false claims: an effect found that is neither a truth's nearest (on its axis, leg or joint,
+  where it lives) nor named ``alike`` by it (on a null: any effect; an arm's calibrated
+  ``geometry`` is the scene model's, not a claim);
 - held-out improvement: the held-out RMS after the accepted effects below that of the scene
   model (after its calibrated geometry, where it has one).
 """
@@ -19,10 +20,17 @@ from __future__ import annotations
 import dataclasses
 from collections import defaultdict
 
+from calibench.scenarios.discover.arm_cmm import discover_arm
 from calibench.scenarios.discover.probe_scanner import discover_scanner
 from calibench.scenarios.discover.stage import discover_stage
 from calibench.scenarios.discover.stewart import discover_stewart
-from calibench.sim.concealed import PLANS, scanner_recording, stage_recording, stewart_recording
+from calibench.sim.concealed import (
+    PLANS,
+    arm_recording,
+    scanner_recording,
+    stage_recording,
+    stewart_recording,
+)
 from calibench.sim.concealed.noise import MISSPECIFIED
 
 SEEDS = 3  # per kind: each kind sees every misspecified noise once
@@ -34,6 +42,7 @@ UNWRITTEN_SUITE = tuple(
         ("vision-stage", ("null", "presliding", "lagged_thermal", "rail_step")),
         ("probe-scanner", ("null", "thin_wall")),
         ("stewart", ("null", "stick_slip")),
+        ("arm-cmm", ("null", "harmonic_drive")),
     )
     for kind in kinds
     # the platform's recordings take 20-40 s each: one null per noise
@@ -76,8 +85,9 @@ def _located(scenario: str, t: dict, f: dict) -> bool:
 def _matches(scenario: str, t: dict, f: dict) -> bool:
     if f["name"] != t["nearest"] or f["axis"] != t["axis"]:
         return False
-    if "leg" in t["params"] and f["params"].get("leg") != t["params"]["leg"]:
-        return False
+    for where in ("leg", "joint"):
+        if where in t["params"] and f["params"].get(where) != t["params"][where]:
+            return False
     return f["name"] != "nonsmooth" or _located(scenario, t, f)
 
 
@@ -98,6 +108,9 @@ def run_unwritten(scenario: str, kind: str, seed: int) -> UnwrittenResult:
     elif scenario == "stewart":
         rec, manifest = stewart_recording(kind, rec_seed, noise=noise)
         out, _ = discover_stewart(rec, seed)
+    elif scenario == "arm-cmm":
+        rec, manifest = arm_recording(kind, rec_seed, noise=noise)
+        out, _ = discover_arm(rec, seed)
     else:
         rec, manifest = stage_recording(scenario, kind, rec_seed, noise=noise)
         out, _ = discover_stage(scenario, rec, seed)

@@ -5,12 +5,10 @@ from __future__ import annotations
 
 import contextlib
 import json
-import math
 import os
 from pathlib import Path
 
-import numpy as np
-
+from calibench.scenarios.study.figure import write_study_figure
 from calibench.scenarios.study.summary import checks_table, summary_table
 
 
@@ -58,7 +56,8 @@ def write_outputs(out_dir: Path, rows: list[dict], summary: dict) -> None:
     with replaced(out_dir / "summary.json") as tmp:
         tmp.write_text(json.dumps(summary, indent=2) + "\n")
     if summary["parameters"]:
-        _figure(out_dir, rows, summary)
+        with replaced(out_dir / "study.png") as tmp:
+            write_study_figure(tmp, rows, summary)
         _log(out_dir, summary)
 
 
@@ -78,73 +77,10 @@ def _log(out_dir: Path, summary: dict) -> None:
         rrlog.close(rec)
 
 
-def _figure(out_dir: Path, rows: list[dict], summary: dict) -> None:
-    """study.png: normalised errors against N(0, 1), and each parameter's coverage."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    good = [r for r in rows if r["ok"]]
-    with_std = [p for p in summary["parameters"] if p["coverage_95"] is not None]
-    # margins set by hand: the constrained layout measured every rotated name, a third of the time
-    fig, axes = plt.subplots(1, 2, figsize=(14, 4.5))
-    fig.subplots_adjust(left=0.05, right=0.99, top=0.93, bottom=0.25, wspace=0.15)
-    ax = axes[0]
-    z = [
-        (r[f"{p['name']}.estimate"] - r[f"{p['name']}.truth"]) / r[f"{p['name']}.std"]
-        for p in with_std
-        for r in good
-        if r.get(f"{p['name']}.std")
-    ]
-    if z:
-        ax.hist(
-            np.clip(z, -6, 6),
-            bins=60,
-            density=True,
-            color="tab:blue",
-            alpha=0.6,
-            label="(estimate - truth) / std",
-        )
-        x = np.linspace(-6, 6, 200)
-        ax.plot(x, np.exp(-x * x / 2) / math.sqrt(2 * math.pi), "k", label="N(0, 1): an honest std")
-        ax.legend()
-    ax.set(title=f"{summary['scenario']}: {len(good)} trials", xlabel="normalised error")
-    ax = axes[1]
-    names = [p["name"] for p in with_std]
-    lo, hi = coverage_band(len(good))
-    cover = [p["coverage_95"] for p in with_std]
-    colours = ["tab:green" if lo <= c <= hi else "tab:red" for c in cover]
-    ax.bar(range(len(names)), cover, color=colours)
-    ax.axhspan(
-        lo,
-        hi,
-        color="k",
-        alpha=0.1,
-        label=f"{lo:.2f}-{hi:.2f}: 0.95 within {len(good)} trials' scatter (red: outside)",
-    )
-    ax.set_xticks(range(len(names)), names, rotation=90, fontsize=7)
-    ax.set(ylim=(0, 1.05), ylabel="coverage of +-1.96 std", title="coverage per parameter")
-    ax.legend(loc="lower right")
-    with replaced(out_dir / "study.png") as tmp:
-        fig.savefig(tmp, dpi=90, format="png")
-    plt.close(fig)
-
-
-def coverage_band(trials: int) -> tuple[float, float]:
-    """Where an honest std's coverage of 95 % intervals lands over ``trials`` trials: 0.95 within
-    two binomial standard deviations."""
-    half = 2 * math.sqrt(0.95 * 0.05 / max(trials, 1))
-    return max(0.95 - half, 0.0), min(0.95 + half, 1.0)
-
-
 def import_writers() -> None:
     """Load what :func:`write_outputs` needs while the workers run: on 2 cores a fast study's
     outputs would otherwise wait a second or two for these imports after its last trial."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot  # noqa: F401
+    import cv2  # noqa: F401
     import pyarrow.parquet  # noqa: F401
     import scipy.special  # noqa: F401
 

@@ -14,6 +14,8 @@ import numpy as np
 
 from calibench.errors import BadInput
 from calibench.recordings import ArmRecording
+from calibench.sim.concealed.noise import reading_noise
+from calibench.sim.concealed.unwritten import UNWRITTEN_ARM_KINDS, harmonic_drive_angles
 
 ARM_KINDS = ("null", "eccentricity", "thermal", "compliance", "transmission")
 
@@ -28,6 +30,7 @@ def arm_recording(
     harmonic: float | None = None,
     phase_rad: float | None = None,
     amplitude_urad: float | None = None,
+    noise: str = "gaussian",
 ) -> tuple[ArmRecording, dict]:
     """A blinded arm recording: the twin with its default as-built errors (Table 1 for the seed's
     arm), probed at ``n`` postures by a reference of ``noise_um`` 1-sigma per coordinate that
@@ -38,7 +41,8 @@ def arm_recording(
       whole number: a reduction's ratio);
     - ``thermal``: the links and tool grow with the logged temperature;
     - ``compliance``: the two most loaded joints given way under gravity (stiffness drawn so the
-      largest sag is 100-300 urad), the links settled where MuJoCo's physics puts them.
+      largest sag is 100-300 urad), the links settled where MuJoCo's physics puts them;
+    - the second suite's ``harmonic_drive`` (:func:`unwritten.harmonic_drive_angles`).
 
     Parameters
     ----------
@@ -57,6 +61,8 @@ def arm_recording(
     harmonic, phase_rad, amplitude_urad : float or None
         The gear's cycles per turn, phase (rad) and amplitude (urad); None: each drawn (given,
         sessions of one gear train can be recorded).
+    noise : str
+        The reference's reading noise, one of ``noise.NOISE_KINDS`` (``gaussian``: as stated).
 
     Returns
     -------
@@ -76,7 +82,7 @@ def arm_recording(
     from calibench.scenes.arm_cmm import load_arm
     from calibench.sim.arm_cmm import ArmSim, ArmTruth
 
-    if kind not in ARM_KINDS:
+    if kind not in ARM_KINDS + UNWRITTEN_ARM_KINDS:
         raise ValueError(f"unknown kind {kind!r} (known: {', '.join(ARM_KINDS)})")
     rng = np.random.default_rng(seed)
     description = load_arm(arm)
@@ -161,11 +167,17 @@ def arm_recording(
             )
         sim = ArmSim(description, dataclasses.replace(truth, stiffness_nm_per_rad=tuple(k)))
         xyz = sim.probe_mm(q)  # MuJoCo's gravity torques, the links at their equilibrium
+    elif kind in UNWRITTEN_ARM_KINDS:  # the second suite's: no candidate writes it down
+        if not description.has_masses:
+            raise BadInput(f"the arm {description.name} has no masses: no load on its gears")
+        q_link, effect = harmonic_drive_angles(sim, q, rng)
+        effects.append(effect)
+        xyz = sim.probe_mm(q_link)
     else:
         xyz = sim.probe_mm(q)
     R, p = truth.tracker2base()
     xyz = (xyz - p) @ R  # the instrument reports in its own frame
-    xyz = xyz + rng.normal(0, noise_um / 1000, xyz.shape)
+    xyz = xyz + reading_noise(noise, rng, xyz.shape, noise_um / 1000)
     return (
         ArmRecording(q_read, xyz, t, np.round(T, 3)),
         {
@@ -175,5 +187,6 @@ def arm_recording(
             "seed": seed,
             "effects": effects,
             "noise_um": noise_um,
+            "noise": noise,
         },
     )

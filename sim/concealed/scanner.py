@@ -18,7 +18,13 @@ DRIFT_TURNS = 8  # a drift shows over turns: the drift recordings are twice as l
 
 
 def scanner_recording(
-    kind: str, seed: int, turns: int = 4, noise: str = "gaussian"
+    kind: str,
+    seed: int,
+    turns: int = 4,
+    noise: str = "gaussian",
+    plate_turn_deg: float = 0.0,
+    harmonic: int | None = None,
+    form_um: float = 0.0,
 ) -> tuple[ScannerRecording, dict]:
     """A blinded probe-scanner recording: ``turns`` turns over the calibration plate, the rail
     as built (its d, dL, alpha0 and the plate's clamping drawn about the design), each reading
@@ -46,6 +52,15 @@ def scanner_recording(
         How many turns, each of the scanner's samples per turn.
     noise : str
         The probe's reading noise, one of ``noise.NOISE_KINDS`` (``gaussian``: as assumed).
+    plate_turn_deg : float
+        The plate turned on the table by this much about the table's axis (its clamping offset
+        turned with it): a second recording of the same machine, its errors the same draws, its
+        angle jitter and reading noise fresh. 0: the recording as always.
+    harmonic : int or None
+        The ``runout``'s harmonic (4: the one the square's own form looks like); None: drawn.
+    form_um : float
+        The plate's own form error: its wall off by this much, four times around the plate (its
+        sides bowed), turning with the plate; the twin's plate is perfect. 0: none.
 
     Returns
     -------
@@ -68,19 +83,34 @@ def scanner_recording(
     rng = np.random.default_rng(seed)
     g = ProbeScannerGeometry()
     turns = DRIFT_TURNS if kind == "drift" else turns
-    truth = ProbeScannerTruth(
-        d_mm=rng.uniform(7.6, 8.4),
-        dL_mm=rng.uniform(2.7, 3.3),
-        alpha0_rad=rng.uniform(0.30, 0.40),
-        plate_centre_mm=tuple(float(v) for v in rng.normal(0, 0.1, 2)),
+    d, dL, alpha0, centre = (
+        rng.uniform(7.6, 8.4),
+        rng.uniform(2.7, 3.3),
+        rng.uniform(0.30, 0.40),
+        rng.normal(0, 0.1, 2),
     )
+    # the plate turned by phi on the table: to the rail it stands as the plate at rest seen from
+    # a rail turned back by phi, its clamping offset turned with it
+    phi = np.deg2rad(plate_turn_deg)
+    centre = np.array([[np.cos(phi), -np.sin(phi)], [np.sin(phi), np.cos(phi)]]) @ centre
+    truth = ProbeScannerTruth(
+        d_mm=d,
+        dL_mm=dL,
+        alpha0_rad=alpha0 - phi,
+        plate_centre_mm=tuple(float(v) for v in centre),
+    )
+    # a turned plate's recording is another session: its own jitter and noise, the same machine
+    session = rng if not plate_turn_deg else np.random.default_rng([seed, 1 + round(1e6 * phi)])
     sim = ProbeScannerSim(g, truth)
     m = g.samples_per_turn
     nominal = np.tile(np.arange(m) * 2 * np.pi / m, turns)
     turn = np.repeat(np.arange(turns), m)
     wanted = {"combined": ("runout", "eccentricity", "scale")}.get(kind, (kind,))
     effects = []
-    true_theta = nominal + rng.normal(0, np.deg2rad(truth.angle_jitter_deg), len(nominal))
+    jitter = rng.normal(0, np.deg2rad(truth.angle_jitter_deg), len(nominal))
+    if session is not rng:
+        jitter = session.normal(0, np.deg2rad(truth.angle_jitter_deg), len(nominal))
+    true_theta = nominal + jitter
     if "eccentricity" in wanted:
         A, ph = rng.uniform(150, 400) * 1e-6, rng.uniform(0, 2 * np.pi)
         true_theta -= A * np.sin(nominal + ph)  # the encoder reads A sin ahead of the table
@@ -95,6 +125,7 @@ def scanner_recording(
             rng.uniform(3, 8) / 1000,
             rng.uniform(0, 2 * np.pi),
         )
+        k = k if harmonic is None else int(harmonic)
         rho -= A * np.sin(k * true_theta + ph)
         effects.append(
             {"name": "runout", "axis": "rho", "params": {"harmonic": k, "amplitude_mm": A}}
@@ -110,6 +141,9 @@ def scanner_recording(
                 "params": {"theta_deg": th0, "width_deg": w, "depth_mm": h},
             }
         )
+    if form_um:  # the same plate in every session: its phase from the seed alone
+        psi = np.random.default_rng([seed, 7]).uniform(0, 2 * np.pi)
+        rho += form_um / 1000 * np.sin(4 * (true_theta + truth.alpha0_rad) + psi)
     if kind == "thin_wall":  # the second suite's: no candidate writes it down
         push, truth_wall = thin_wall_deflection(rng, true_theta)
         rho += push
@@ -134,7 +168,8 @@ def scanner_recording(
         effects.append({"name": "thermal_drift", "axis": "rho", "params": {"mm_per_k": k}})
     q = truth.quantum_um / 1000
     rho = (
-        np.round((rho + reading_noise(noise, rng, rho.shape, truth.probe_noise_um / 1000)) / q) * q
+        np.round((rho + reading_noise(noise, session, rho.shape, truth.probe_noise_um / 1000)) / q)
+        * q
     )
     rec = ScannerRecording(turn, nominal, rho, t, np.round(air, 3))
     sigma_um = float(np.hypot(truth.probe_noise_um, truth.quantum_um / np.sqrt(12)))
@@ -145,4 +180,6 @@ def scanner_recording(
         "effects": effects,
         "noise_um": sigma_um,
         "noise": noise,
+        "plate_turn_deg": plate_turn_deg,
+        "form_um": form_um,
     }

@@ -23,6 +23,14 @@ Stewart platform:
   friction band, so what it loses on a reversal differs from one visit to the next (30-100 % of
   a 10-20 um band). Nearest: ``backlash`` on that leg.
 
+Arms:
+
+- ``harmonic_drive``: the most loaded joint's strain-wave gear winds up under gravity's torque
+  (MuJoCo's inverse dynamics at the settled posture) with the catalogue's three stiffness
+  segments (K1 to T1, K2 to T2, K3 beyond), not one linear spring, and its kinematic error's
+  harmonic grows and shifts with the torque. Nearest: ``joint_compliance`` on that joint (a
+  ``transmission`` there is alike).
+
 Probe scanner:
 
 - ``thin_wall``: the plate's wall is ground thin over an arc; the stylus's spring pushes it out
@@ -37,6 +45,11 @@ import numpy as np
 UNWRITTEN_STAGE_KINDS = ("presliding", "lagged_thermal", "rail_step")
 UNWRITTEN_SCANNER_KINDS = ("thin_wall",)
 UNWRITTEN_STEWART_KINDS = ("stick_slip",)
+UNWRITTEN_ARM_KINDS = ("harmonic_drive",)
+# a strain-wave gear's catalogue stiffness: K2 and K3 over K1, above T1 and T2 (shares of the
+# largest torque); Harmonic Drive's CSF series run about 1 : 1.6 : 1.8
+GEAR_STIFFENING = (1.0, 1.6, 2.0)
+GEAR_KNEES = (0.2, 0.6)
 
 
 def first_order_lag(t: np.ndarray, u: np.ndarray, tau: float) -> np.ndarray:
@@ -166,3 +179,56 @@ def stewart_effect(
     err[:, leg - 1] = direction[:, leg - 1] * band / 2 * rest
     truth = {"name": "stick_slip", "axis": "legs", "nearest": "backlash"}
     return err, {**truth, "params": {"leg": leg, "band_mm": band}}
+
+
+def _windup(torque: np.ndarray, knees: tuple, k1: float) -> np.ndarray:
+    """A strain-wave gear's wind-up (rad) under ``torque`` (n,) N m: K1 up to the first knee, K2
+    to the second, K3 beyond (:data:`GEAR_STIFFENING` times K1)."""
+    t = np.abs(torque)
+    k = [k1 * s for s in GEAR_STIFFENING]
+    lo, hi = knees
+    angle = np.minimum(t, lo) / k[0]
+    angle += np.clip(t - lo, 0.0, hi - lo) / k[1] + np.maximum(t - hi, 0.0) / k[2]
+    return np.sign(torque) * angle
+
+
+def harmonic_drive_angles(sim, q_motor: np.ndarray, rng: np.random.Generator):
+    """The links' true angles (n, N) of a rigid twin ``sim`` (an ``ArmSim``) whose most loaded
+    joint turns through a strain-wave gear: wound up by gravity's torque where the links settle
+    (fixed point on MuJoCo's inverse dynamics), plus a kinematic error at 8-40 cycles per turn
+    whose amplitude grows by up to 80 % and whose phase shifts by up to 0.5 rad with the torque.
+    Returns the angles and the truth."""
+    tau = sim.gravity_torques(q_motor)
+    j = int(np.argmax(np.abs(tau).max(axis=0)))
+    t_max = float(np.abs(tau[:, j]).max())
+    windup = rng.uniform(100, 300) * 1e-6  # at the largest torque
+    knees = (GEAR_KNEES[0] * t_max, GEAR_KNEES[1] * t_max)
+    k1 = float(_windup(np.array([t_max]), knees, 1.0)[0]) / windup
+    h, a0, ph = rng.uniform(8, 40), rng.uniform(60, 120) * 1e-6, rng.uniform(0, 2 * np.pi)
+    q = q_motor.copy()
+    for _ in range(20):
+        t = sim.gravity_torques(q)[:, j]
+        load = t / t_max
+        new = q_motor.copy()
+        new[:, j] += _windup(t, knees, k1) + a0 * (1 + 0.8 * np.abs(load)) * np.sin(
+            h * q_motor[:, j] + ph + 0.5 * load
+        )
+        done = np.abs(new - q).max() < 1e-12
+        q = new
+        if done:
+            break
+    truth = {
+        "name": "harmonic_drive",
+        "axis": "xyz",
+        "nearest": "joint_compliance",
+        "alike": ["transmission"],
+        "params": {
+            "joint": j + 1,
+            "windup_urad": windup * 1e6,
+            "k1_nm_per_rad": k1,
+            "harmonic": h,
+            "amplitude_urad": a0 * 1e6,
+            "phase_rad": ph,
+        },
+    }
+    return q, truth

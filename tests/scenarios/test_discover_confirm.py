@@ -38,7 +38,7 @@ def test_a_periodic_error_of_the_twin_is_confirmed_under_rows_and_columns(tmp_pa
 
 def test_the_paper_belt_stage_s_x_terms_are_not_confirmed(tmp_path, capsys):
     """The seed paper's measured stage (examples/belt_stage_paper.csv: one pass, 11 x 11
-    stations): held out by rows, a 221 mm periodic term in X passes; held out by columns it does
+    stations): held out by rows, a 223 mm periodic term in X passes; held out by columns it does
     not carry to an unseen column. The console says NOT CONFIRMED beside it and prints the
     located Y structure, the real finding (README, "The paper's measured belt stage")."""
     assert main(["discover", "belt-stage", str(EXAMPLE), "--out", str(tmp_path / "d")]) == 0

@@ -3,7 +3,7 @@ and what each column means."""
 
 import numpy as np
 
-from calibench.scenarios.study.outputs import coverage_band
+from calibench.scenarios.study.figure import coverage_band
 from calibench.scenarios.study.summary import TABLE_NOTE, summary_table
 
 

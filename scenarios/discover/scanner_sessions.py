@@ -1,0 +1,127 @@
+"""Several probe-scanner recordings of one machine, fitted together: the plate turned on the
+table between them tells a runout that repeats with the square's sides from the plate's own
+form.
+
+On one recording a runout 4, 8, ... times a turn cannot be told from the square plate's form
+error (it repeats four times around the plate too). The table's errors stay with the table's
+angle, the plate's form turns with the plate: with the plate turned by phi between two
+recordings, the form's harmonic h moves by h phi against the runout's, and where that is far
+from a whole turn the two are separate unknowns of one fit. The rail and the plate's clamping are
+calibrated per recording (block-diagonal scene columns); the plate's form at each such harmonic
+is a nuisance shared by the recordings, in the plate's own angle (the table's angle plus the
+recording's calibrated rail angle).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+from scipy.linalg import block_diag
+
+from calibench.recordings import ScannerRecording
+
+SYMMETRY = 4  # the square plate's form repeats four times a turn
+TOP_HARMONIC = 30  # runouts are searched up to this many times a turn
+# a harmonic of the plate's form is told from the table's runout when the recordings' plate
+# turns move it by at least this much against the runout (wrapped to +-180 deg)
+MIN_FORM_PHASE_DEG = 45.0
+
+
+@dataclasses.dataclass
+class Sessions:
+    """The recordings end to end, with their per-recording scene models.
+
+    Attributes
+    ----------
+    rec : ScannerRecording
+        (n,) every sample: turns renumbered to stay apart, times run on from one recording to
+        the next.
+    rec_id : ndarray
+        (n,) which recording each sample came from.
+    cals : list
+        Each recording's calibrated rail and plate (``ScannerCalibration``).
+    rho_twin, slope : ndarray
+        (n,) the twin's reading and its slope d rho / d theta.
+    geo : ndarray
+        (n, p) the scene model's free columns: each recording's rail and plate, and the plate's
+        form at each harmonic of ``form_harmonics``.
+    form_harmonics : tuple of int
+        The square's harmonics the plate's turns tell from a runout (searched as runouts).
+    """
+
+    rec: ScannerRecording
+    rec_id: np.ndarray
+    cals: list
+    rho_twin: np.ndarray
+    slope: np.ndarray
+    geo: np.ndarray
+    form_harmonics: tuple[int, ...]
+
+    @property
+    def turns_deg(self) -> list[float]:
+        """Each recording's plate turn against the first's, deg (from the calibrated rails,
+        wrapped into the square's quarter turn, +-45 deg)."""
+        a0 = self.cals[0].alpha0_rad
+        return [float((np.degrees(a0 - c.alpha0_rad) + 45.0) % 90.0 - 45.0) for c in self.cals]
+
+
+def joined(recs: list[ScannerRecording]) -> tuple[ScannerRecording, np.ndarray]:
+    """The recordings end to end (turns renumbered, times running on), and each sample's
+    recording id."""
+    if len(recs) == 1:
+        return recs[0], np.zeros(len(recs[0]), int)
+    turn, t, offset_turn, offset_t = [], [], 0, 0.0
+    for r in recs:
+        turn.append(np.searchsorted(np.unique(r.turn), r.turn) + offset_turn)
+        offset_turn = int(turn[-1].max()) + 1
+        if r.t_s is not None:
+            t.append(r.t_s - r.t_s[0] + offset_t)
+            step = float(np.median(np.diff(r.t_s))) if len(r) > 1 else 1.0
+            offset_t = float(t[-1].max()) + step
+    has = all(r.t_s is not None for r in recs), all(r.temp_c is not None for r in recs)
+    rec = ScannerRecording(
+        np.concatenate(turn),
+        np.concatenate([r.theta_rad for r in recs]),
+        np.concatenate([r.rho_mm for r in recs]),
+        np.concatenate(t) if has[0] else None,
+        np.concatenate([r.temp_c for r in recs]) if has[1] else None,
+    )
+    return rec, np.repeat(np.arange(len(recs)), [len(r) for r in recs])
+
+
+def separable(rail_angles: np.ndarray) -> tuple[int, ...]:
+    """The multiples of the square's symmetry up to TOP_HARMONIC at which recordings with these
+    calibrated rail angles (rad) tell the plate's form from a runout."""
+    out = []
+    for h in range(SYMMETRY, TOP_HARMONIC + 1, SYMMETRY):
+        d = h * (rail_angles[:, None] - rail_angles[None, :])
+        wrapped = np.abs((np.degrees(d) + 180.0) % 360.0 - 180.0)
+        if wrapped.max(initial=0.0) >= MIN_FORM_PHASE_DEG:
+            out.append(h)
+    return tuple(out)
+
+
+def assemble(recs: list[ScannerRecording], config, scene_model) -> Sessions:
+    """The recordings' scene models, joined: ``scene_model(rec, config)`` per recording (its
+    calibration, twin reading, rail columns, slope), the rail columns block-diagonal, and the
+    plate's form columns at the harmonics the recordings' plate turns separate."""
+    models = [scene_model(r, config) for r in recs]
+    rec, rec_id = joined(recs)
+    cals = [m[0] for m in models]
+    geo = block_diag(*[m[2] for m in models]) if len(models) > 1 else models[0][2]
+    rails = np.array([c.alpha0_rad for c in cals])
+    form = separable(rails) if len(recs) > 1 else ()
+    if form:
+        plate_angle = rec.theta_rad + rails[rec_id]
+        cols = [f(h * plate_angle) for h in form for f in (np.sin, np.cos)]
+        geo = np.c_[geo, np.stack(cols, axis=1)]
+    return Sessions(
+        rec,
+        rec_id,
+        cals,
+        np.concatenate([m[1] for m in models]),
+        np.concatenate([m[3] for m in models]),
+        geo,
+        form,
+    )
