@@ -130,6 +130,15 @@ def _links(arm: ArmDescription, values: np.ndarray | None, tool_mm) -> _Links:
     )
 
 
+def _across(link: np.ndarray) -> np.ndarray:
+    """Two unit axes (2, 3) across a link running along ``link`` (3,) and across each other."""
+    u = link / np.linalg.norm(link)
+    other = np.eye(3)[int(np.argmin(np.abs(u)))]
+    a = np.cross(u, other)
+    a /= np.linalg.norm(a)
+    return np.stack([a, np.cross(u, a)])
+
+
 def _g(v) -> str:
     """Floats as MJCF text that parses back to the same doubles."""
     return " ".join(f"{x:.17g}" for x in np.atleast_1d(v))
@@ -143,10 +152,15 @@ def build_mjcf(
     tracker_pos_m=None,
     tracker_quat=None,
     cones_m=None,
+    bend: tuple[int, float] | None = None,
 ) -> str:
     """MJCF of ``arm`` built with as-built ``values`` (N, 5): a, d (mm), alpha, theta, beta (rad)
     per joint (nominal when None), the tool point ``tool_mm`` (3,), each hinge's spring
-    ``stiffness_nm_per_rad`` (N,) (none when None or inf), the tracker's pose and the cones."""
+    ``stiffness_nm_per_rad`` (N,) (none when None or inf), the tracker's pose and the cones.
+    ``bend``: (link j, stiffness N m / rad): link j made of two segments joined halfway by two
+    hinges ``bend{j}a``, ``bend{j}b`` across it, each with that spring (a link that bends under
+    the load it carries, either way; the second suite's), the rest of the chain on the outer
+    segment."""
     N = arm.n_joints
     k = (
         np.full(N, np.inf)
@@ -166,13 +180,30 @@ def build_mjcf(
         )
         # armature 0.1 kg m^2: a geared motor's rotor seen through its reduction; with the 0.5 ms
         # step it keeps a stiff joint's spring stable when the model is stepped
-        body += f"""
+        link_at = _g(L.post_t[i])
+        if bend is not None and bend[0] == i + 1:  # the outer segment, on a spring halfway
+            across = _across(L.post_t[i])
+            body += f"""
       <body name="joint{i + 1}" pos="{_g(L.pre_t[i])}" quat="{_g(L.pre_quat[i])}">
         <joint name="q{i + 1}" type="hinge" axis="0 0 1" damping="2" armature="0.1"{spring}/>
         <inertial pos="{_g(L.com[i])}" mass="{L.mass[i]:.17g}"
             diaginertia="{_g([L.inertia[i]] * 3)}"/>
         {geom}
-        <body name="link{i + 1}" pos="{_g(L.post_t[i])}" quat="{_g(L.post_quat[i])}">"""
+        <body name="bend{i + 1}" pos="{_g(L.post_t[i] / 2)}">
+        <joint name="bend{i + 1}a" type="hinge" axis="{_g(across[0])}" stiffness="{bend[1]:.17g}"/>
+        <joint name="bend{i + 1}b" type="hinge" axis="{_g(across[1])}" stiffness="{bend[1]:.17g}"/>
+        <inertial pos="0 0 0" mass="1e-6" diaginertia="1e-9 1e-9 1e-9"/>"""
+            link_at = _g(L.post_t[i] / 2)
+            close = "\n        </body>" + close
+        else:
+            body += f"""
+      <body name="joint{i + 1}" pos="{_g(L.pre_t[i])}" quat="{_g(L.pre_quat[i])}">
+        <joint name="q{i + 1}" type="hinge" axis="0 0 1" damping="2" armature="0.1"{spring}/>
+        <inertial pos="{_g(L.com[i])}" mass="{L.mass[i]:.17g}"
+            diaginertia="{_g([L.inertia[i]] * 3)}"/>
+        {geom}"""
+        body += f"""
+        <body name="link{i + 1}" pos="{link_at}" quat="{_g(L.post_quat[i])}">"""
         close = "\n        </body>\n      </body>" + close
     tool_mass = max(arm.tool_mass_kg, 1e-6)
     body += f"""

@@ -46,7 +46,8 @@ LOCATE_MIN_SCORE = 0.02
 
 EXPERIMENTS = {
     "thermal_expansion": "let the machine's temperature change by several K during the test (or "
-    "repeat it warm and cold): only then does thermal expansion differ from a plain scale error",
+    "repeat it warm and cold and give both to discover: `calibench discover SCENARIO cold.csv "
+    "warm.csv`): only then does thermal expansion differ from a plain scale error",
     "thermal_drift": "hold the temperature steady for part of the test, or vary it independently "
     "of time",
     "backlash": "approach every station from both directions",
@@ -448,20 +449,31 @@ def _stage_drives(out: dict, truth) -> tuple[dict, list[str]]:
 
 # --- the plug-in (calibench.scenarios.discover.engine.Plugin) -------------------------------------
 HOLDOUTS = ("pass", "rows", "columns", "blocks")  # --holdout's schemes (folds_for)
-MANY_RECORDINGS = False
+MANY_RECORDINGS = True  # the same machine, cold and warm: fitted together (stage_sessions)
 
 
 def load(scenario: str, paths: list, arm=None):
-    """The stage recording at ``paths[0]`` (CONTRACT: commanded and measured x, y)."""
+    """The stage recording(s) at ``paths`` (CONTRACT: commanded and measured x, y): one, or a
+    list of several of the same machine."""
     from calibench.recordings import load_stage_csv
     from calibench.scenarios.discover.engine import MAX_ROWS
 
-    return load_stage_csv(paths[0], MAX_ROWS)
+    recs = [load_stage_csv(p, MAX_ROWS) for p in paths]
+    return recs[0] if len(recs) == 1 else recs
 
 
 def discover(scenario: str, rec, seed: int, holdout, config, arm=None) -> tuple[dict, dict]:
-    """:func:`discover_stage` with the twin of the ``run --config`` file ``config``."""
-    return discover_stage(scenario, rec, seed, holdout, truth=stage_truth(scenario, config))
+    """:func:`discover_stage` with the twin of the ``run --config`` file ``config``; several
+    recordings of one machine are joined (:func:`stage_sessions.joined`) and discovered as one
+    with each one's passes its own."""
+    from calibench.scenarios.discover.stage_sessions import joined
+
+    recs = list(rec) if isinstance(rec, (list, tuple)) else [rec]
+    out, fig = discover_stage(
+        scenario, joined(recs), seed, holdout, truth=stage_truth(scenario, config)
+    )
+    fig["rows_used"] = [np.arange(len(r)) for r in recs]
+    return out, fig
 
 
 def twin_tables(scenario: str, found: dict, config, arm=None) -> tuple[dict, list[str]]:

@@ -15,7 +15,11 @@ import numpy as np
 from calibench.errors import BadInput
 from calibench.recordings import ArmRecording
 from calibench.sim.concealed.noise import reading_noise
-from calibench.sim.concealed.unwritten import UNWRITTEN_ARM_KINDS, harmonic_drive_angles
+from calibench.sim.concealed.unwritten import (
+    UNWRITTEN_ARM_KINDS,
+    bent_link_points,
+    harmonic_drive_angles,
+)
 
 ARM_KINDS = ("null", "eccentricity", "thermal", "compliance", "transmission")
 
@@ -42,7 +46,8 @@ def arm_recording(
     - ``thermal``: the links and tool grow with the logged temperature;
     - ``compliance``: the two most loaded joints given way under gravity (stiffness drawn so the
       largest sag is 100-300 urad), the links settled where MuJoCo's physics puts them;
-    - the second suite's ``harmonic_drive`` (:func:`unwritten.harmonic_drive_angles`).
+    - the second suite's ``harmonic_drive`` (:func:`unwritten.harmonic_drive_angles`) and
+      ``link_bending`` (:func:`unwritten.bent_link_points`).
 
     Parameters
     ----------
@@ -170,9 +175,12 @@ def arm_recording(
     elif kind in UNWRITTEN_ARM_KINDS:  # the second suite's: no candidate writes it down
         if not description.has_masses:
             raise BadInput(f"the arm {description.name} has no masses: no load on its gears")
-        q_link, effect = harmonic_drive_angles(sim, q, rng)
+        if kind == "harmonic_drive":
+            q_link, effect = harmonic_drive_angles(sim, q, rng)
+            xyz = sim.probe_mm(q_link)
+        else:
+            xyz, effect = bent_link_points(sim, q, rng)
         effects.append(effect)
-        xyz = sim.probe_mm(q_link)
     else:
         xyz = sim.probe_mm(q)
     R, p = truth.tracker2base()

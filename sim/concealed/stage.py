@@ -95,7 +95,12 @@ def stage_commands(plan: StagePlan) -> dict:
 
 
 def stage_recording(
-    scenario: str, kind: str, seed: int, noise: str = "gaussian"
+    scenario: str,
+    kind: str,
+    seed: int,
+    noise: str = "gaussian",
+    rise_k: float | None = None,
+    warmer_k: float = 0.0,
 ) -> tuple[StageRecording, dict]:
     """A blinded stage recording: the twin replayed along the plan's lines, the as-built map, a
     wandering room temperature, each pass's offset and the reference's noise, with the concealed
@@ -113,6 +118,13 @@ def stage_recording(
     noise : str
         The reference's reading noise, one of ``noise.NOISE_KINDS`` (``gaussian``: as every
         estimator assumes).
+    rise_k : float or None
+        ``thermal``'s rise of the room over the recording, K; None: drawn (2-5 K).
+    warmer_k : float
+        The room this much warmer than in the seed's first recording: a second recording of
+        the same machine (its errors the same draws, its temperature's wander, pass offsets and
+        noise fresh), its expansion counted from the first's temperature. 0: the recording as
+        always.
 
     Returns
     -------
@@ -148,6 +160,11 @@ def stage_recording(
     for k in range(2):
         err[:, k] += rng.normal(0, 0.02, 6) @ np.stack([np.ones(n), u, v, u * u, u * v, v * v])
     T = 20.0 + np.cumsum(rng.normal(0, 0.002, n))  # a quiet room: the logged temperature wanders
+    # a warmer session: the same machine, its own wander, pass offsets and noise
+    session = rng if not warmer_k else np.random.default_rng([seed, 1 + round(1000 * warmer_k)])
+    if warmer_k:
+        T = 20.0 + warmer_k + np.cumsum(session.normal(0, 0.002, n))
+    reference = T[0] - warmer_k  # what the machine's scale is calibrated at
     wanted = {
         "combined": ("backlash", "periodic", "thermal"),
         "mixed": ("backlash", "periodic", "thermal"),
@@ -169,12 +186,13 @@ def stage_recording(
         )
     if "thermal" in wanted:
         rise, tau = rng.uniform(2, 5), c["t_s"][-1] / rng.uniform(1.5, 3)
+        rise = rise if rise_k is None else rise_k
         T = T + rise * (1 - np.exp(-c["t_s"] / tau))
         k = rng.uniform(10, 25)  # ppm/K: the scale's mismatch with the part (aluminium vs glass)
         for a, u_a in (("x", x), ("y", y)):
             if kind == "mixed" and a != pick[0]:  # all three on one axis
                 continue
-            err[:, axis_of[a]] += k * 1e-6 * (T - T[0]) * u_a
+            err[:, axis_of[a]] += k * 1e-6 * (T - reference) * u_a
             effects.append(
                 {
                     "name": "thermal_expansion",
@@ -204,8 +222,8 @@ def stage_recording(
         err += more
         effects += truths
     run = c["run"].astype(int)
-    err += rng.normal(0, PASS_OFFSET_UM / 1000, (plan.passes, 2))[run]
-    err += reading_noise(noise, rng, (n, 2), REFERENCE_NOISE_UM / 1000)
+    err += session.normal(0, PASS_OFFSET_UM / 1000, (plan.passes, 2))[run]
+    err += reading_noise(noise, session, (n, 2), REFERENCE_NOISE_UM / 1000)
     meas = pos + err
     rec = StageRecording(
         x_cmd_mm=x,
@@ -225,6 +243,7 @@ def stage_recording(
         "effects": effects,
         "noise_um": REFERENCE_NOISE_UM,
         "noise": noise,
+        "warmer_k": warmer_k,
     }
 
 

@@ -30,6 +30,11 @@ Arms:
   segments (K1 to T1, K2 to T2, K3 beyond), not one linear spring, and its kinematic error's
   harmonic grows and shifts with the torque. Nearest: ``joint_compliance`` on that joint (a
   ``transmission`` there is alike).
+- ``link_bending``: the longest loaded link is two segments joined halfway by springs across
+  it (a segmented body in MuJoCo, not a joint spring): it bends under the gravity load of all
+  it carries, where MuJoCo's statics put it, by 100-300 urad at most. Nearest:
+  ``joint_compliance`` on the nearest joint on either side whose axis lies across the link (a
+  compliance on any other joint is alike).
 
 Probe scanner:
 
@@ -45,7 +50,8 @@ import numpy as np
 UNWRITTEN_STAGE_KINDS = ("presliding", "lagged_thermal", "rail_step")
 UNWRITTEN_SCANNER_KINDS = ("thin_wall",)
 UNWRITTEN_STEWART_KINDS = ("stick_slip",)
-UNWRITTEN_ARM_KINDS = ("harmonic_drive",)
+UNWRITTEN_ARM_KINDS = ("harmonic_drive", "link_bending")
+BEND_MIN_LINK_MM = 100.0  # a link this long at least, to bend
 # a strain-wave gear's catalogue stiffness: K2 and K3 over K1, above T1 and T2 (shares of the
 # largest torque); Harmonic Drive's CSF series run about 1 : 1.6 : 1.8
 GEAR_STIFFENING = (1.0, 1.6, 2.0)
@@ -232,3 +238,97 @@ def harmonic_drive_angles(sim, q_motor: np.ndarray, rng: np.random.Generator):
         },
     }
     return q, truth
+
+
+def bent_link_points(sim, q_motor: np.ndarray, rng: np.random.Generator):
+    """The tool points (n, 3) mm, base frame, of the twin ``sim`` (an ``ArmSim``, rigid) with
+    its most loaded long link bent halfway under gravity: a MuJoCo model of the same as-built
+    arm whose link j is two segments on springs across it (``build_mjcf(..., bend=)``), the
+    springs' angles solved at each posture where they hold MuJoCo's gravity torque on them
+    (fixed point on inverse dynamics), the motors at ``q_motor`` (n, N). Returns the points and
+    the truth."""
+    import mujoco
+
+    from calibench.errors import BadInput
+    from calibench.scenes.arm_mjcf import build_mjcf
+
+    arm, N = sim.arm, sim.n_joints
+    values = arm.nominal() + sim.delta[: 5 * N].reshape(N, 5)
+    tool = np.asarray(arm.tool_mm) + sim.delta[5 * N :]
+    length = np.hypot(values[:, 0], values[:, 1])
+    tau = np.abs(sim.gravity_torques(q_motor)).max(axis=0)
+    long = np.flatnonzero(length >= BEND_MIN_LINK_MM)
+    if not len(long):
+        raise BadInput(f"the arm {arm.name} has no link {BEND_MIN_LINK_MM:g} mm long to bend")
+    # the longest link under load: a beam's bend grows with the square of its length
+    loaded = long[tau[long] >= 0.1 * tau.max()]
+    j = int(loaded[np.argmax(length[loaded])]) if len(loaded) else int(long[np.argmax(tau[long])])
+
+    def settle(k: float) -> tuple[np.ndarray, np.ndarray]:
+        model = mujoco.MjModel.from_xml_string(build_mjcf(arm, values, tool, bend=(j + 1, k)))
+        data = mujoco.MjData(model)
+        hinge = [model.joint(f"q{i + 1}").qposadr[0] for i in range(N)]
+        springs = [model.joint(f"bend{j + 1}{s}") for s in "ab"]
+        at, dof = [b.qposadr[0] for b in springs], [b.dofadr[0] for b in springs]
+        probe, rne = model.site("probe").id, np.zeros(model.nv)
+        points, angles = np.empty((len(q_motor), 3)), np.empty((len(q_motor), 2))
+        for i, q in enumerate(q_motor):
+            data.qpos[:] = 0.0
+            data.qpos[hinge] = q
+            data.qvel[:] = 0.0
+            for _ in range(50):
+                mujoco.mj_kinematics(model, data)
+                mujoco.mj_comPos(model, data)
+                mujoco.mj_comVel(model, data)
+                mujoco.mj_rne(model, data, 0, rne)
+                new = -rne[dof] / k  # the springs hold gravity's torque on them
+                done = np.abs(new - data.qpos[at]).max() < 1e-13
+                data.qpos[at] = new
+                if done:
+                    break
+            mujoco.mj_kinematics(model, data)
+            points[i], angles[i] = data.site_xpos[probe] * 1000, data.qpos[at]
+        return points, angles
+
+    # the stiffness that gives the drawn largest bend: the torque on the springs scales with k
+    sag = rng.uniform(100, 300) * 1e-6
+    _, trial = settle(1e9)
+    k = 1e9 * np.hypot(*trial.T).max() / sag
+    points, angles = settle(k)
+    nearest = _joints_across(arm, values, tool, j)
+    truth = {
+        "name": "link_bending",
+        "axis": "xyz",
+        "nearest": "joint_compliance",
+        "alike": ["joint_compliance"],
+        "params": {
+            "joint": nearest,  # a compliance on any of them is the nearest named effect
+            "link": j + 1,
+            "stiffness_nm_per_rad": float(k),
+            "largest_bend_urad": float(np.hypot(*angles.T).max() * 1e6),
+        },
+    }
+    return points, truth
+
+
+def _joints_across(arm, values: np.ndarray, tool: np.ndarray, j: int) -> list[int]:
+    """The joints (1-based) whose compliance looks like link j's (0-based) bend: the nearest on
+    each side of the bend whose axis lies across the link (within 60 deg of square to it) at the
+    arm's zero posture; a joint along the link would only twist it."""
+    import mujoco
+
+    from calibench.scenes.arm_mjcf import build_mjcf
+
+    model = mujoco.MjModel.from_xml_string(build_mjcf(arm, values, tool))
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    u = data.xpos[model.body(f"link{j + 1}").id] - data.xpos[model.body(f"joint{j + 1}").id]
+    u /= np.linalg.norm(u)
+    across = [
+        i + 1
+        for i in range(arm.n_joints)
+        if abs(data.xaxis[model.joint(f"q{i + 1}").id] @ u) < np.cos(np.deg2rad(30))
+    ]
+    inner = [i for i in across if i <= j + 1]
+    outer = [i for i in across if i > j + 1]
+    return ([inner[-1]] if inner else []) + ([outer[0]] if outer else [])
