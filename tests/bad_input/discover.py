@@ -160,9 +160,16 @@ CASES = [
         "distinct postures",
     ),
     (
-        "discover-two-stage-recordings",
+        "discover-same-recording-twice",
         {"r.csv": stage_csv()},
         ["discover", "belt-stage", "{d}/r.csv", "{d}/r.csv"],
+        2,
+        "given twice",
+    ),
+    (
+        "discover-two-stewart-recordings",
+        {"r.csv": stage_csv(), "s.csv": stage_csv()},
+        ["discover", "stewart", "{d}/r.csv", "{d}/s.csv"],
         2,
         "one recording",
     ),
