@@ -141,6 +141,21 @@ def _within(q: np.ndarray, lim: np.ndarray) -> np.ndarray | None:
     return out if np.all((out >= lim[:, 0]) & (out <= lim[:, 1])) else None
 
 
+def gravity_at_rest(model: mujoco.MjModel, data: mujoco.MjData, out: np.ndarray) -> np.ndarray:
+    """The torque gravity puts on every degree of freedom at ``data.qpos``, at rest: MuJoCo's
+    inverse dynamics, written into ``out`` (nv,) N m (or N m per rad of a spring's hinge) and
+    returned. Sets ``data.qvel`` to zero."""
+    data.qvel[:] = 0.0
+    mujoco.mj_kinematics(model, data)
+    mujoco.mj_comPos(model, data)
+    # the bodies' velocities at rest: rne's velocity products read cvel, which a step before
+    # (settle_by_stepping) leaves at the last state's
+    mujoco.mj_comVel(model, data)
+    mujoco.mj_rne(model, data, 0, out)
+    np.negative(out, out=out)  # qfrc_bias at rest holds gravity: gravity's own is its negative
+    return out
+
+
 # one reusable (model, data) per thread and setup, for :class:`ArmSim`'s ``reuse``
 _TWINS = threading.local()
 
@@ -257,18 +272,11 @@ class ArmSim:
         q = np.atleast_2d(q_rad)
         out = np.empty(q.shape)
         model, data, rne = self.model, self.data, self._rne
-        data.qvel[:] = 0.0
         qpos = data.qpos
         for i in range(len(q)):
             qpos[:] = q[i]
-            mujoco.mj_kinematics(model, data)
-            mujoco.mj_comPos(model, data)
-            # the bodies' velocities at rest: rne's velocity products read cvel, which a step
-            # before (settle_by_stepping) leaves at the last state's
-            mujoco.mj_comVel(model, data)
-            mujoco.mj_rne(model, data, 0, rne)
-            out[i] = rne
-        return -out  # qfrc_bias at rest holds gravity: gravity's own torque is its negative
+            out[i] = gravity_at_rest(model, data, rne)
+        return out
 
     @property
     def _rne(self) -> np.ndarray:

@@ -20,6 +20,7 @@ import numpy as np
 from scipy.linalg import block_diag
 
 from calibench.recordings import ScannerRecording
+from calibench.recordings.joining import labels_end_to_end, times_end_to_end
 
 SYMMETRY = 4  # the square plate's form repeats four times a turn
 TOP_HARMONIC = 30  # runouts are searched up to this many times a turn
@@ -71,20 +72,12 @@ def joined(recs: list[ScannerRecording]) -> tuple[ScannerRecording, np.ndarray]:
     recording id."""
     if len(recs) == 1:
         return recs[0], np.zeros(len(recs[0]), int)
-    turn, t, offset_turn, offset_t = [], [], 0, 0.0
-    for r in recs:
-        turn.append(np.searchsorted(np.unique(r.turn), r.turn) + offset_turn)
-        offset_turn = int(turn[-1].max()) + 1
-        if r.t_s is not None:
-            t.append(r.t_s - r.t_s[0] + offset_t)
-            step = float(np.median(np.diff(r.t_s))) if len(r) > 1 else 1.0
-            offset_t = float(t[-1].max()) + step
     has = all(r.t_s is not None for r in recs), all(r.temp_c is not None for r in recs)
     rec = ScannerRecording(
-        np.concatenate(turn),
+        labels_end_to_end([r.turn for r in recs]),
         np.concatenate([r.theta_rad for r in recs]),
         np.concatenate([r.rho_mm for r in recs]),
-        np.concatenate(t) if has[0] else None,
+        times_end_to_end([r.t_s for r in recs]) if has[0] else None,
         np.concatenate([r.temp_c for r in recs]) if has[1] else None,
     )
     return rec, np.repeat(np.arange(len(recs)), [len(r) for r in recs])

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from calibench.recordings import StageRecording
+from calibench.recordings.joining import labels_end_to_end, times_end_to_end
 from calibench.scenarios.report import BadInput
 
 
@@ -28,15 +29,6 @@ def joined(recs: list[StageRecording]) -> StageRecording:
             "some recordings log temp_c and some do not: discover needs the temperature in all "
             "of them, or in none"
         )
-    runs, times, first_run, start = [], [], 0, 0.0
-    for r in recs:
-        run = np.zeros(len(r)) if r.run is None else np.asarray(r.run, float)
-        ids = np.unique(run, return_inverse=True)[1]
-        runs.append(ids + first_run)
-        first_run += int(ids.max()) + 1
-        if r.t_s is not None:
-            times.append(r.t_s - r.t_s[0] + start)
-            start = float(times[-1].max()) + (float(np.median(np.diff(r.t_s))) if len(r) > 1 else 1)
 
     def cat(name: str):
         return np.concatenate([getattr(r, name) for r in recs]) if all(has[name]) else None
@@ -46,9 +38,11 @@ def joined(recs: list[StageRecording]) -> StageRecording:
         y_cmd_mm=np.concatenate([r.y_cmd_mm for r in recs]),
         x_meas_mm=np.concatenate([r.x_meas_mm for r in recs]),
         y_meas_mm=np.concatenate([r.y_meas_mm for r in recs]),
-        t_s=np.concatenate(times) if all(has["t_s"]) else None,
+        t_s=times_end_to_end([r.t_s for r in recs]) if all(has["t_s"]) else None,
         dir_x=cat("dir_x"),
         dir_y=cat("dir_y"),
         temp_c=cat("temp_c"),
-        run=np.concatenate(runs).astype(float),
+        run=labels_end_to_end([np.zeros(len(r)) if r.run is None else r.run for r in recs]).astype(
+            float
+        ),
     )

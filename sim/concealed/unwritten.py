@@ -251,6 +251,7 @@ def bent_link_points(sim, q_motor: np.ndarray, rng: np.random.Generator):
 
     from calibench.errors import BadInput
     from calibench.scenes.arm_mjcf import build_mjcf
+    from calibench.sim.arm_cmm import gravity_at_rest
 
     arm, N = sim.arm, sim.n_joints
     values = arm.nominal() + sim.delta[: 5 * N].reshape(N, 5)
@@ -275,13 +276,8 @@ def bent_link_points(sim, q_motor: np.ndarray, rng: np.random.Generator):
         for i, q in enumerate(q_motor):
             data.qpos[:] = 0.0
             data.qpos[hinge] = q
-            data.qvel[:] = 0.0
             for _ in range(50):
-                mujoco.mj_kinematics(model, data)
-                mujoco.mj_comPos(model, data)
-                mujoco.mj_comVel(model, data)
-                mujoco.mj_rne(model, data, 0, rne)
-                new = -rne[dof] / k  # the springs hold gravity's torque on them
+                new = gravity_at_rest(model, data, rne)[dof] / k  # the springs hold it
                 done = np.abs(new - data.qpos[at]).max() < 1e-13
                 data.qpos[at] = new
                 if done:

@@ -167,6 +167,22 @@ CASES = [
         "given twice",
     ),
     (
+        "discover-stage-temp-in-one",
+        {
+            "r.csv": stage_csv(),
+            "warm.csv": lambda p: p.write_text(
+                "\n".join(
+                    f"{line},temp_c" if i == 0 else f"{line},{20 + 0.01 * i:.2f}"
+                    for i, line in enumerate(stage_csv().splitlines())
+                )
+                + "\n"
+            ),
+        },
+        ["discover", "belt-stage", "{d}/r.csv", "{d}/warm.csv"],
+        2,
+        "temperature in all",
+    ),
+    (
         "discover-two-stewart-recordings",
         {"r.csv": stage_csv(), "s.csv": stage_csv()},
         ["discover", "stewart", "{d}/r.csv", "{d}/s.csv"],
