@@ -40,7 +40,7 @@ def discover_unwritten():
             "detection (nearest named effect, where it lives)",
             "nulls with a false claim",
             "false claims beside real effects",
-            "effect recordings improved held out",
+            "effect recordings improved on the selection's folds (in-sample)",
         ],
         rows,
     )

@@ -11,8 +11,9 @@ through ``discover`` blind. Scoring, against the sealed manifest afterwards:
 - false claims: an effect found that is neither a truth's nearest (on its axis, leg or joint,
   where it lives) nor named ``alike`` by it (on a null: any effect; an arm's calibrated
   ``geometry`` is the scene model's, not a claim);
-- held-out improvement: the held-out RMS after the accepted effects below that of the scene
-  model (after its calibrated geometry, where it has one).
+- improvement: the selection's held-out RMS after the accepted effects below that of the scene
+  model (after its calibrated geometry, where it has one). In-sample for the structure: the
+  selection accepts only what lowers it on those folds.
 """
 
 from __future__ import annotations
@@ -139,7 +140,8 @@ def run_unwritten(scenario: str, kind: str, seed: int) -> UnwrittenResult:
 
 def score_unwritten(results: list[UnwrittenResult]) -> dict:
     """Per instrument: recordings, detection, the share of null recordings with a false claim,
-    false claims beside real effects, and the share of effect recordings improved held out."""
+    false claims beside real effects, and the share of effect recordings improved on the
+    selection's folds (in-sample for the structure)."""
     by = defaultdict(list)
     for r in results:
         by[r.scenario].append(r)
@@ -161,7 +163,7 @@ def score_unwritten(results: list[UnwrittenResult]) -> dict:
 def unwritten_table(results: list[UnwrittenResult]) -> str:
     """The suite's cases as a Markdown table."""
     lines = [
-        "| scenario | kind | noise | concealed (nearest named) | found | held out (um) |",
+        "| scenario | kind | noise | concealed (nearest named) | found | selection's folds (um) |",
         "|---|---|---|---|---|---|",
     ]
     for r in results:
