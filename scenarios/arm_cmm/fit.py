@@ -38,7 +38,7 @@ from calibench.estimators.arm.coverage import coverage_warnings
 from calibench.estimators.arm.kinematics import param_is_angle
 from calibench.estimators.arm.screening import screen
 from calibench.estimators.arm.session import register_session, session_terms
-from calibench.estimators.rotations import matrix_to_rotvec
+from calibench.estimators.rotations import matrix_to_rotvec, rigid_transform
 from calibench.recordings import ArmRecording, load_arm_csv
 from calibench.scenarios.arm_cmm.arms import chain_of, load_arm
 from calibench.scenarios.arm_cmm.effects import angle_terms_from_discovery
@@ -139,10 +139,14 @@ def run_arm_fit(
     model: str | None,
     out_dir: Path,
     effects: Path | str | None = None,
+    register_on_scored: bool = False,
 ) -> dict:
     """The ``fit arm-cmm`` command: fit.json's content (also written to ``out_dir``). ``effects``:
     a discovery.json whose joint-angle effects join the model, or ``"discover"``: run the
-    discovery here, on the training rows only (held-out rows never shape the model)."""
+    discovery here, on the training rows only (held-out rows never shape the model).
+    ``register_on_scored``: a new frame (and its session's terms) fitted on every usable row, the
+    scored ones too: the floor any registration could reach, written as in-sample (not a
+    command-line option: a measurement, never a result)."""
     if arm_spec is not None and not str(arm_spec).strip():
         raise BadInput("--arm is empty: give an ARM.toml or a built-in arm's name (arm-cmm, ur10)")
     arm = load_arm(arm_spec or "arm-cmm")
@@ -347,12 +351,15 @@ def run_arm_fit(
             raise BadInput(f"{p}: {e}") from None
         reg_rows, eval_rows = frame.register_rows, frame.judge_rows
         model_xyz = base_pts @ frame.R.T + frame.t
-        own = {}
+        own, on = {}, np.union1d(reg_rows, eval_rows) if register_on_scored else reg_rows
         if session_terms(prob.terms):
             # what belongs to a session (a harmonic's phase set at power-up) is fitted beside its
             # frame on the registration rows, never on the rows that score it
-            fitted, model_xyz = register_session(prob, s, rec.q_rad, rec.xyz_mm, reg_rows)
+            fitted, model_xyz = register_session(prob, s, rec.q_rad, rec.xyz_mm, on)
             own = {n: float(v) * 1e6 for n, v in zip(fitted.names, fitted.coef)}
+        elif register_on_scored:
+            R, t = rigid_transform(base_pts[on], rec.xyz_mm[on])
+            model_xyz = base_pts @ R.T + t
         ev = np.zeros(len(rec), bool)
         ev[eval_rows] = True
         _settle_pairs(
@@ -373,8 +380,12 @@ def run_arm_fit(
             figs["frame"] += (
                 f"; the session's own terms ({len(own)} coefficients) fitted on those rows too"
             )
-        record_score(result, "test", label[p], figs, np.flatnonzero(ev), chosen_by(p, None))
-        scored[p], registered[p] = np.flatnonzero(ev), reg_rows
+        if register_on_scored:
+            why = "its frame and own terms were fitted on these rows: a floor, not a result"
+            result.setdefault("in_sample", {})[label[p]] = {**figs, "was": "test", "why": why}
+        else:
+            record_score(result, "test", label[p], figs, np.flatnonzero(ev), chosen_by(p, None))
+        scored[p], registered[p] = np.flatnonzero(ev), on
         flagged[label[p]] = fl
         figures[f"{label[p]} (new frame: scored rows)"] = np.linalg.norm(e, axis=1)
         tested[label[p]] = rec.q_rad

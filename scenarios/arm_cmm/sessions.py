@@ -27,10 +27,13 @@ def leave_one_session_out(
     model: str | None,
     out_dir: Path,
     effects: Path | str | None = None,
+    register_on_scored: bool = False,
 ) -> dict:
     """Every session scored by a calibration on the others: fit.json's content (also written to
     ``out_dir``), with ``leave_one_out`` {session: its figures (mm), the sessions trained on,
-    its frame's registration, and whether the score is in-sample}."""
+    its frame's registration, and whether the score is in-sample}. ``register_on_scored``: each
+    left-out session's frame and own terms fitted on the rows that score it too (in-sample: the
+    floor any registration of the others' calibration could reach)."""
     if len(paths) < 2:
         raise BadInput(
             f"--leave-one-out: {len(paths)} recording; it needs at least two sessions, one to "
@@ -43,7 +46,9 @@ def leave_one_session_out(
     for k, left in enumerate(paths):
         train = [p for i, p in enumerate(paths) if i != k]
         fold_dir = out_dir / Path(left).stem
-        r = run_arm_fit(train, arm_spec, [], [left], None, model, fold_dir, effects)
+        r = run_arm_fit(
+            train, arm_spec, [], [left], None, model, fold_dir, effects, register_on_scored
+        )
         scored = r.get("test", {}).get(names[k]) or r["in_sample"][names[k]]
         table[names[k]] = {
             **{f: scored[f] for f in FIGURES},
