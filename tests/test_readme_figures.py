@@ -5,9 +5,11 @@ residuals) and compares every number with the README's. It runs in its own proce
 rest of the suite (tests/conftest.py starts it at collection): about half an hour on 2 cores.
 
 The README (and its docs/*.md pages) is the expectation and the code the truth: nothing here
-holds a figure. Four blocks are left to ``make figures``: performance, memory and run-times
-(machine timings and peak memory, which it rewrites and nothing compares), and discover-coverage
-(96 discoveries, ten minutes on 2 cores: ``make figures-check FIGURES=discover-coverage``).
+holds a figure. Five blocks are left to ``make figures``: performance, memory and run-times
+(machine timings and peak memory, which it rewrites and nothing compares), discover-coverage
+(96 discoveries, ten minutes on 2 cores: ``make figures-check FIGURES=discover-coverage``) and
+ur10-sessions-floor (four more leave-one-session-out folds, eleven minutes:
+``make figures-check FIGURES=ur10-sessions-floor``).
 """
 
 import sys

@@ -436,3 +436,63 @@ class ArmThermalExpansion(Effect):
             f"the links grow {k:.1f} ppm per kelvin of the logged temperature: thermal growth of "
             "the arm",
         )
+
+
+@dataclasses.dataclass(frozen=True)
+class ArmDrift(Effect):
+    """The measured points drift as a whole, wherever the arm is: the instrument's stand or the
+    arm's base growing with the logged temperature (mm/K, ``driver`` ``temp_c``), or with time
+    (``t_s``: a slope in mm/h at mid-recording and a bend in mm/h^2, a warm-up is no straight
+    line). Each recording drifts about its own mean (its own frame takes the rest)."""
+
+    name: str = "thermal_drift"
+    axis: str = "xyz"
+    driver: str = "temp_c"
+
+    def __post_init__(self):
+        object.__setattr__(self, "needs", (self.driver, "rec"))
+
+    @property
+    def key(self) -> str:
+        """One candidate per driver."""
+        return f"thermal_drift:{self.driver}"
+
+    def applies(self, drivers):
+        v = drivers.get(self.driver)
+        return v is not None and np.ptp(np.asarray(v, float)) > 0
+
+    def _centred(self, d) -> np.ndarray:
+        v = np.asarray(d[self.driver], float) / (3600 if self.driver == "t_s" else 1)
+        rec = np.asarray(d["rec"])
+        ids = np.unique(rec, return_inverse=True)[1].reshape(-1)
+        return v - (np.bincount(ids, v) / np.bincount(ids))[ids]
+
+    def columns(self, d):
+        v = self._centred(d)
+        shapes = [v] if self.driver == "temp_c" else [v, v**2 - np.mean(v**2)]
+        # (n, 3, 3 k): each shape along x, y and z in turn, stacked posture by posture
+        cols = np.einsum("nk,ij->nikj", np.stack(shapes, axis=1), np.eye(3))
+        return cols.reshape(3 * len(v), 3 * len(shapes))
+
+    @property
+    def unit(self) -> str:
+        """The slope's unit: mm per kelvin (temperature) or mm per hour (time)."""
+        return "mm_per_h" if self.driver == "t_s" else "mm_per_k"
+
+    def describe(self, coef, cov):
+        slope = np.asarray(coef[:3], float)
+        k = float(np.linalg.norm(slope))
+        J = slope / k if k > 0 else np.zeros(3)  # d|slope| / d(slope)
+        params = {self.unit: k, **{f"{a}_{self.unit}": float(c) for a, c in zip("xyz", slope)}}
+        stderr = {self.unit: float(np.sqrt(max(J @ cov[:3, :3] @ J, 0.0)))}
+        stderr |= {f"{a}_{self.unit}": coef_std(cov, i) for i, a in enumerate("xyz")}
+        per = "hour at mid-recording" if self.driver == "t_s" else "kelvin of the logged air"
+        if self.driver == "t_s":
+            params["mm_per_h2"] = float(np.linalg.norm(coef[3:6]))
+        return (
+            params,
+            stderr,
+            f"the measured points drift {k * 1000:.2f} um per {per}, wherever the arm is "
+            f"(x {slope[0] * 1000:+.2f}, y {slope[1] * 1000:+.2f}, z {slope[2] * 1000:+.2f} um): "
+            "the instrument's stand or the arm's base moving, not the arm's geometry",
+        )

@@ -112,6 +112,39 @@ class LegThermal(LegEffect):
 
 
 @dataclasses.dataclass(frozen=True)
+class LegDrift(LegEffect):
+    """The leg's reading drifts with time (mm/h), wherever the leg is: its length sensor's zero
+    (a read head warming, a scale's mount creeping). Offered when the recording carries ``t_s``;
+    a drift that follows the logged temperature is the leg's ``thermal_expansion`` (the two are
+    one column when the legs barely change length)."""
+
+    name: str = "thermal_drift"
+
+    def __post_init__(self):
+        object.__setattr__(self, "needs", ("t_s",))
+
+    def applies(self, drivers):
+        t = drivers.get("t_s")
+        return t is not None and np.ptp(np.asarray(t, float)) > 0
+
+    def columns(self, d):
+        t = np.asarray(d["t_s"], float) / 3600
+        t = t - t.mean()
+        # a slope and a bend: a zero that settles (a warm-up) is no straight line in time
+        return on_leg(np.stack([t, t**2 - np.mean(t**2)], axis=1), self.leg)
+
+    def describe(self, coef, cov):
+        k, bend = float(coef[0]), float(coef[1])
+        return (
+            {"leg": self.leg, "mm_per_h": k, "mm_per_h2": bend},
+            {"mm_per_h": coef_std(cov, 0), "mm_per_h2": coef_std(cov, 1)},
+            f"leg {self.leg}'s reading drifts {k * 1000:+.2f} um per hour at mid-recording "
+            f"({bend * 1000:+.2f} um per hour squared) wherever the leg is: its length sensor's "
+            "zero moves (a read head warming up, a scale's mount creeping)",
+        )
+
+
+@dataclasses.dataclass(frozen=True)
 class LegBacklash(LegEffect):
     """Lost motion of the leg's drive on reversal: the reading +B/2 after extending, -B/2 after
     retracting."""
@@ -240,7 +273,7 @@ def stewart_candidates(drivers: dict) -> list:
     """Every Stewart candidate the recording's columns support."""
     out: list[Effect | LegPitchSearch] = [HingeGeometry()]
     for leg in range(1, 7):
-        out += [LegThermal(leg=leg), LegBacklash(leg=leg)]
+        out += [LegThermal(leg=leg), LegBacklash(leg=leg), LegDrift(leg=leg)]
         L = np.asarray(drivers["L"], float)[:, leg - 1]
         span = float(np.ptp(L))
         if span > 10.0:  # periods from 2 mm to a third of the span, uniform in frequency

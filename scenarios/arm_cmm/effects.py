@@ -92,6 +92,7 @@ ARM_EFFECTS = (
     "cable_compliance",
     "encoder_eccentricity",
     "thermal_expansion",
+    "thermal_drift",
     "transmission",
     "nonsmooth",
 )

@@ -97,6 +97,7 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
     from calibench.estimators.arm.kinematics import parameter_scales, pose
     from calibench.estimators.arm.screening import screen
     from calibench.estimators.discovery.arm import (
+        ArmDrift,
         ArmThermalExpansion,
         EncoderEccentricity,
         Geometry,
@@ -216,9 +217,7 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
     ]
     compliance, not_applicable, alike = compliance_candidates(chain, q, drivers, arm.name)
     candidates += compliance
-    thermal = ArmThermalExpansion()
-    if thermal.applies(drivers):
-        candidates.append(thermal)
+    candidates += [ArmThermalExpansion(), ArmDrift(driver="temp_c"), ArmDrift(driver="t_s")]
     candidates = [c for c in candidates if not hasattr(c, "applies") or c.applies(drivers)]
     # five contiguous blocks of each recording: every fold holds out a fifth of each setup
     fold = np.concatenate([np.minimum(np.arange(len(k)) * 5 // len(k), 4) for k in parts])

@@ -16,6 +16,7 @@ ARM_EXPERIMENTS = {
     "encoder_eccentricity": "take postures at the same gravity torque over the joint's whole turn",
     "transmission": "measure over a wider range of the joint's angle at a finer step",
     "thermal_expansion": "let the arm's temperature change by several K during the recording",
+    "thermal_drift": "measure one posture again at the start, middle and end of the recording",
 }
 
 

@@ -31,15 +31,15 @@ STEWART_FLOOR = 0.04
 # A pose whose leg disagrees with the nominal platform by more than this is no calibration error:
 # the hinges' errors are tenths of a millimetre, the legs' compliance and growth micrometres.
 MAX_LEG_RESIDUAL_MM = 10.0
-MIN_DISTINCT_POSES = (
-    20  # 42 hinge parameters and the frame's 6 from 6 readings a pose, with room for the folds
-)
+# 42 hinge parameters and the frame's 6 from 6 readings a pose, with room for the folds
+MIN_DISTINCT_POSES = 20
 EXPERIMENTS = {
     "leg_compliance": "add a known payload to the platform, or hold poses that load the legs "
     "differently",
     "thermal_expansion": "let the machine's temperature change by several K during the recording",
     "backlash": "approach each pose with every leg extending, then retracting",
     "periodic": "measure at a finer step of the legs' lengths",
+    "thermal_drift": "return to one pose at the start, middle and end of the recording",
 }
 
 

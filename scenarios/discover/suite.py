@@ -9,8 +9,9 @@ Scoring:
   is the twin's own model being calibrated, not a concealed effect, and is not counted);
 - parameters: within 25 % of the truth (a period within 5 %, a runout's harmonic exactly, a
   bump's or nick's place within 3 widths, a joint's compliance within 3 of its standard errors);
-- held-out improvement: where the concealed effects dominate the residual (held-out RMS of the
-  scene model at least 2.5 x the reference noise), cv_rms after / before <= 0.5.
+- improvement: where the concealed effects dominate the residual (held-out RMS of the scene
+  model at least 2.5 x the reference noise), cv_rms after / before <= 0.5, on the selection's
+  own folds: in-sample for the structure the selection chose on them.
 """
 
 from __future__ import annotations

@@ -44,8 +44,8 @@ UNWRITTEN_SUITE = tuple(
         ("belt-stage", ("null", "presliding", "lagged_thermal", "rail_step")),
         ("vision-stage", ("null", "presliding", "lagged_thermal", "rail_step")),
         ("probe-scanner", ("null", "thin_wall")),
-        ("stewart", ("null", "stick_slip")),
-        ("arm-cmm", ("null", "harmonic_drive", "link_bending")),
+        ("stewart", ("null", "stick_slip", "sensor_warmup")),
+        ("arm-cmm", ("null", "harmonic_drive", "link_bending", "pedestal_warmup")),
     )
     for kind in kinds
     # the platform's recordings take 20-40 s each: one null per noise

@@ -19,6 +19,7 @@ from calibench.sim.concealed.unwritten import (
     UNWRITTEN_ARM_KINDS,
     bent_link_points,
     harmonic_drive_angles,
+    pedestal_warmup_points,
 )
 
 ARM_KINDS = ("null", "eccentricity", "thermal", "compliance", "transmission")
@@ -172,6 +173,9 @@ def arm_recording(
             )
         sim = ArmSim(description, dataclasses.replace(truth, stiffness_nm_per_rad=tuple(k)))
         xyz = sim.probe_mm(q)  # MuJoCo's gravity torques, the links at their equilibrium
+    elif kind == "pedestal_warmup":  # the second suite's: an exponential in time
+        xyz, effect = pedestal_warmup_points(sim, q, t, rng)
+        effects.append(effect)
     elif kind in UNWRITTEN_ARM_KINDS:  # the second suite's: no candidate writes it down
         if not description.has_masses:
             raise BadInput(f"the arm {description.name} has no masses: no load on its gears")

@@ -119,7 +119,7 @@ def stewart_recording(
         )  # the screw reads what the leg gave
         effects.append({"name": "leg_compliance", "axis": "legs", "params": {"um_per_n": c}})
     if kind in UNWRITTEN_STEWART_KINDS:  # the second suite's: no candidate writes it down
-        more, truth = stewart_effect(kind, rng, direction, leg)
+        more, truth = stewart_effect(kind, rng, direction, leg, t_s)
         readings += more
         effects.append(truth)
     readings += reading_noise(noise, rng, readings.shape, 1e-3)

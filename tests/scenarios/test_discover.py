@@ -240,6 +240,27 @@ def test_an_eccentric_shoulder_encoder_is_not_called_compliance():
         assert names == [("encoder_eccentricity", 2)], (arm, names)
 
 
+def test_a_pedestal_warming_up_is_a_drift_of_the_points_in_time():
+    """The arm's pedestal rising as a first-order lag from power-on (an exponential in time no
+    candidate writes down), under Gaussian noise: named ``thermal_drift`` driven by time and
+    nothing else, upward, at the warm-up's mean slope over the recording (a slope and a bend
+    fitted to an exponential: within a factor of 1.5), and not along x or y beyond 4 std."""
+    import numpy as np
+
+    from calibench.scenarios.discover.arm_cmm import discover_arm
+
+    rec, manifest = arm_recording("pedestal_warmup", 21)
+    d, _ = discover_arm(rec)
+    t = manifest["effects"][0]["params"]
+    found = [e for e in d["effects"] if e["name"] != "geometry"]
+    assert [e["name"] for e in found] == ["thermal_drift"], found
+    p, s = found[0]["params"], found[0]["stderr"]
+    span_h = float(np.ptp(rec.t_s)) / 3600
+    mean_slope = t["rise_mm"] * (1 - np.exp(-span_h * 3600 / t["tau_s"])) / span_h
+    assert 1 / 1.5 < p["z_mm_per_h"] / mean_slope < 1.5, (p, mean_slope)
+    assert abs(p["x_mm_per_h"]) < 4 * s["x_mm_per_h"] and abs(p["y_mm_per_h"]) < 4 * s["y_mm_per_h"]
+
+
 def test_thermal_expansion_without_a_temperature_change_is_called_confounded(tmp_path):
     """A null belt-stage recording: nothing concealed, so nothing located either (its 12 tests of
     a residual against a driver at p <= 0.01 each: at most 12 % of nulls locate anything by

@@ -122,6 +122,26 @@ def test_stewart_thermal_growth_is_found_and_leaves_the_noise(tmp_path):
     }
 
 
+def test_stewart_sensor_warming_up_is_a_drift_in_time_on_its_leg(tmp_path):
+    """A leg's length sensor settling from power-on as a first-order lag (an exponential in
+    time that no candidate writes down), under Gaussian noise: named ``thermal_drift`` on that
+    leg and nothing else, not the leg's ``thermal_expansion`` (the temperature only wanders),
+    and what is left held out is the instruments' noise (as the thermal leg's, above)."""
+    rec, manifest = stewart_recording("sensor_warmup", 1031)
+    d = _discover(tmp_path, "stewart", rec, manifest)
+    t = manifest["effects"][0]["params"]
+    assert [(e["name"], e["params"].get("leg")) for e in d["effects"]] == [
+        ("geometry", None),
+        ("thermal_drift", t["leg"]),
+    ]
+    # the warm-up's mean slope over the recording, against the one found (a slope and a bend
+    # fitted to an exponential: its slope at mid-recording within a factor of two of the mean)
+    span_h = float(np.ptp(rec.t_s)) / 3600
+    mean_slope = t["shift_mm"] * (1 - np.exp(-span_h * 3600 / t["tau_s"])) / span_h
+    assert 0.5 < d["effects"][1]["params"]["mm_per_h"] / mean_slope < 2.0
+    assert d["fit"]["cv_rms_final"] < 1.5 * 0.0028
+
+
 def test_stewart_pitch_located_along_its_leg(tmp_path):
     """A screw's pitch error of a few mm shows as structure along that leg's length only."""
     rec, manifest = stewart_recording("pitch", 2)
