@@ -57,7 +57,8 @@ def discover_suite():
         f"{s['null_false_claim_rate']:.0%}, spurious claims beside real ones "
         f"{s['spurious_claims']}, parameters within limits {s['params_within_limit']:.0%} "
         f"(worst: {worst}), cv after/before <= {RATIO_LIMIT:g} in {s['ratios_ok']:.0%} of "
-        f"{s['n_dominated']} dominated recordings (worst {s['worst_ratio']:.2f})."
+        f"{s['n_dominated']} dominated recordings (worst {s['worst_ratio']:.2f}; on the "
+        "selection's own folds: in-sample for the structure it chose)."
     )
 
 
