@@ -487,8 +487,9 @@ class ArmDrift(Effect):
         stderr = {self.unit: float(np.sqrt(max(J @ cov[:3, :3] @ J, 0.0)))}
         stderr |= {f"{a}_{self.unit}": coef_std(cov, i) for i, a in enumerate("xyz")}
         per = "hour at mid-recording" if self.driver == "t_s" else "kelvin of the logged air"
-        if self.driver == "t_s":
-            params["mm_per_h2"] = float(np.linalg.norm(coef[3:6]))
+        if self.driver == "t_s":  # the bend, per axis
+            params |= {f"{a}_mm_per_h2": float(c) for a, c in zip("xyz", coef[3:6])}
+            stderr |= {f"{a}_mm_per_h2": coef_std(cov, 3 + i) for i, a in enumerate("xyz")}
         return (
             params,
             stderr,

@@ -115,8 +115,8 @@ class LegThermal(LegEffect):
 class LegDrift(LegEffect):
     """The leg's reading drifts with time (mm/h), wherever the leg is: its length sensor's zero
     (a read head warming, a scale's mount creeping). Offered when the recording carries ``t_s``;
-    a drift that follows the logged temperature is the leg's ``thermal_expansion`` (the two are
-    one column when the legs barely change length)."""
+    a drift that follows the logged temperature is the leg's ``thermal_expansion`` (nearly one
+    column with this one when the temperature follows time and the legs barely change length)."""
 
     name: str = "thermal_drift"
 

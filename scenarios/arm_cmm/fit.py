@@ -144,9 +144,9 @@ def run_arm_fit(
     """The ``fit arm-cmm`` command: fit.json's content (also written to ``out_dir``). ``effects``:
     a discovery.json whose joint-angle effects join the model, or ``"discover"``: run the
     discovery here, on the training rows only (held-out rows never shape the model).
-    ``register_on_scored``: a new frame (and its session's terms) fitted on every usable row, the
-    scored ones too: the floor any registration could reach, written as in-sample (not a
-    command-line option: a measurement, never a result)."""
+    ``register_on_scored``: a new frame (and its session's terms) fitted by least squares on the
+    rows that score it: the lowest RMS any registration leaves there, written as in-sample (not
+    a command-line option: a measurement, never a result)."""
     if arm_spec is not None and not str(arm_spec).strip():
         raise BadInput("--arm is empty: give an ARM.toml or a built-in arm's name (arm-cmm, ur10)")
     arm = load_arm(arm_spec or "arm-cmm")
@@ -351,7 +351,9 @@ def run_arm_fit(
             raise BadInput(f"{p}: {e}") from None
         reg_rows, eval_rows = frame.register_rows, frame.judge_rows
         model_xyz = base_pts @ frame.R.T + frame.t
-        own, on = {}, np.union1d(reg_rows, eval_rows) if register_on_scored else reg_rows
+        # the floor (register_on_scored): frame and own terms fitted on the scored rows
+        # themselves, by least squares, so no registration leaves them a lower RMS
+        own, on = {}, eval_rows if register_on_scored else reg_rows
         if session_terms(prob.terms):
             # what belongs to a session (a harmonic's phase set at power-up) is fitted beside its
             # frame on the registration rows, never on the rows that score it
@@ -366,15 +368,20 @@ def run_arm_fit(
             ev, fl, [pr for pr in pairs if ev[pr[0]] and ev[pr[1]]], model_xyz, rec.xyz_mm, rep
         )
         e = model_xyz[ev] - rec.xyz_mm[ev]
+        if not register_on_scored:
+            residuals.append(
+                (label[p], reg_rows, "register", rec.xyz_mm[reg_rows] - model_xyz[reg_rows])
+            )
         residuals.append(
-            (label[p], reg_rows, "register", rec.xyz_mm[reg_rows] - model_xyz[reg_rows])
+            (label[p], np.flatnonzero(ev), "in_sample" if register_on_scored else "test", -e)
         )
-        residuals.append((label[p], np.flatnonzero(ev), "test", -e))
         figs = {
             **error_statistics(e),
             "frame": f"registered on {len(reg_rows)} rows ({100 * REGISTER_FRACTION:.0f} %, "
             f"seed {SPLIT_SEED}), figures on the other {ev.sum()}",
         }
+        if register_on_scored:
+            figs["frame"] = f"registered on the {len(on)} rows it scores (in-sample: the floor)"
         if own:
             figs["session_terms_urad"] = own
             figs["frame"] += (
@@ -454,7 +461,8 @@ def _write_residuals(path: Path, parts: list, e_train: np.ndarray) -> None:
     """residuals.csv: every row the fit modelled, as measured minus modelled (mm) in its
     recording's frame: ``file, row`` (0-based, the recording's order), ``role`` (train: in the
     fit; left_out: a training row the fit left out; holdout; register: a new frame's
-    registration rows; test), ``ex_mm, ey_mm, ez_mm``. For analyses of what the model leaves
+    registration rows; test; in_sample: scored rows a new frame was fitted on, the floor),
+    ``ex_mm, ey_mm, ez_mm``. For analyses of what the model leaves
     out (periodic errors, drift along the row order)."""
     lines = ["file,row,role,ex_mm,ey_mm,ez_mm"]
     at = 0

@@ -32,8 +32,8 @@ def leave_one_session_out(
     """Every session scored by a calibration on the others: fit.json's content (also written to
     ``out_dir``), with ``leave_one_out`` {session: its figures (mm), the sessions trained on,
     its frame's registration, and whether the score is in-sample}. ``register_on_scored``: each
-    left-out session's frame and own terms fitted on the rows that score it too (in-sample: the
-    floor any registration of the others' calibration could reach)."""
+    left-out session's frame and own terms fitted by least squares on the rows that score it
+    (in-sample: the lowest RMS any registration of the others' calibration leaves there)."""
     if len(paths) < 2:
         raise BadInput(
             f"--leave-one-out: {len(paths)} recording; it needs at least two sessions, one to "
