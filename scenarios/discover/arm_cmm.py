@@ -27,6 +27,7 @@ from calibench.estimators.discovery.noise import Noise
 from calibench.estimators.discovery.select import Step, carry_to_new_sessions, prune, select
 from calibench.scenarios.discover.arm_cmm_compliance import compliance_candidates
 from calibench.scenarios.discover.arm_cmm_words import arm_confounds, locate_arm
+from calibench.scenarios.discover.fresh import structure
 from calibench.scenarios.discover.report import describe_effects
 from calibench.scenarios.report import BadInput
 
@@ -285,7 +286,12 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
         "confounded": confounds,
         "summary": _arm_summary(arm.name, found, effects, names),
     }
-    return out, {"signals": [sig], "fitted": fitted, "rows_used": parts}
+    return out, {
+        "signals": [sig],
+        "fitted": fitted,
+        "rows_used": parts,
+        **structure(terms, drivers, fold),
+    }
 
 
 REGISTER_FRACTION = 0.2  # of a session held out whole: the rows its own terms are fitted on

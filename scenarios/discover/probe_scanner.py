@@ -37,6 +37,7 @@ from calibench.estimators.discovery.probe_scanner import (
     scanner_candidates,
 )
 from calibench.estimators.discovery.select import FLOOR, Step, prune, select
+from calibench.scenarios.discover.fresh import structure
 from calibench.scenarios.discover.scanner_sessions import SYMMETRY, TOP_HARMONIC, assemble
 from calibench.scenarios.report import BadInput
 
@@ -313,6 +314,7 @@ def discover_scanner(rec, seed: int = 0, floor: float = FLOOR, config=None) -> t
         "fitted": fitted,
         "abscissa": (np.degrees(np.mod(th, 2 * np.pi)), "table angle (deg)"),
         "rows_used": [np.arange(len(r)) for r in recs],
+        **structure(terms, drivers, fold),
     }
 
 

@@ -21,12 +21,20 @@ from scipy.linalg import block_diag
 
 from calibench.recordings import ScannerRecording
 from calibench.recordings.joining import labels_end_to_end, times_end_to_end
+from calibench.scenarios.report import BadInput
 
 SYMMETRY = 4  # the square plate's form repeats four times a turn
 TOP_HARMONIC = 30  # runouts are searched up to this many times a turn
 # a harmonic of the plate's form is told from the table's runout when the recordings' plate
 # turns move it by at least this much against the runout (wrapped to +-180 deg)
 MIN_FORM_PHASE_DEG = 45.0
+# How far one machine's rail (d and dL) may calibrate apart between its recordings: the same
+# scanner and plate, turned or repeated, agree within 2 um under any noise of the suites, and
+# within 35 um where a fourfold runout and the plate's own form are taken in part by each
+# recording's rail (test_a_fourfold_runout_is_told_from_the_plate_s_form_by_turning_the_plate);
+# another scanner's rail, drawn over its tolerances (d 7.6-8.4, dL 2.7-3.3 mm), lies further than
+# this from the first's in 93 % of draws, and another plate's size moves d by its difference.
+SAME_RAIL_MM = 0.1
 
 
 @dataclasses.dataclass
@@ -102,6 +110,7 @@ def assemble(recs: list[ScannerRecording], config, scene_model) -> Sessions:
     models = [scene_model(r, config) for r in recs]
     rec, rec_id = joined(recs)
     cals = [m[0] for m in models]
+    same_rail(cals)
     geo = block_diag(*[m[2] for m in models]) if len(models) > 1 else models[0][2]
     rails = np.array([c.alpha0_rad for c in cals])
     form = separable(rails) if len(recs) > 1 else ()
@@ -118,3 +127,18 @@ def assemble(recs: list[ScannerRecording], config, scene_model) -> Sessions:
         geo,
         form,
     )
+
+
+def same_rail(cals: list) -> None:
+    """BadInput unless every recording's rail (d, dL) calibrates to the first's within
+    :data:`SAME_RAIL_MM`: a turned plate moves alpha0 and the clamping, never the rail."""
+    for k, c in enumerate(cals[1:], 2):
+        off = max(abs(c.d_mm - cals[0].d_mm), abs(c.dL_mm - cals[0].dL_mm))
+        if off > SAME_RAIL_MM:
+            raise BadInput(
+                f"recording {k} is not of the same machine and plate as the first: its rail "
+                f"calibrates to d = {c.d_mm:.4f}, dL = {c.dL_mm:.4f} mm against "
+                f"{cals[0].d_mm:.4f}, {cals[0].dL_mm:.4f} (one scanner's, the plate turned or "
+                f"not, agree within {1000 * SAME_RAIL_MM:g} um): another scanner or another "
+                "artefact"
+            )

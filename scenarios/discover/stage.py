@@ -34,6 +34,7 @@ from calibench.estimators.discovery.stage import (
     stage_candidates,
 )
 from calibench.scenarios.discover.folds import block_folds
+from calibench.scenarios.discover.fresh import structure
 from calibench.scenarios.discover.report import describe_effects, verdict
 from calibench.scenarios.report import BadInput
 
@@ -233,7 +234,13 @@ def discover_stage(
         "confounded": confounds,
         "verdict": verdict(found.cv_final, after, bool(effects), located),
     }
-    return out, {"signals": signals, "fitted": fitted, "x": x, "y": y}
+    return out, {
+        "signals": signals,
+        "fitted": fitted,
+        "x": x,
+        "y": y,
+        **structure(terms, drivers, fold),
+    }
 
 
 def _grow_backlash(signals, terms, found, drivers, fold, noise, floor) -> dict:
@@ -466,9 +473,10 @@ def discover(scenario: str, rec, seed: int, holdout, config, arm=None) -> tuple[
     """:func:`discover_stage` with the twin of the ``run --config`` file ``config``; several
     recordings of one machine are joined (:func:`stage_sessions.joined`) and discovered as one
     with each one's passes its own."""
-    from calibench.scenarios.discover.stage_sessions import joined
+    from calibench.scenarios.discover.stage_sessions import joined, same_machine
 
     recs = list(rec) if isinstance(rec, (list, tuple)) else [rec]
+    same_machine(recs, STAGE_DEGREE[scenario])
     out, fig = discover_stage(
         scenario, joined(recs), seed, holdout, truth=stage_truth(scenario, config)
     )

@@ -46,3 +46,64 @@ def joined(recs: list[StageRecording]) -> StageRecording:
             float
         ),
     )
+
+
+# The most two recordings' error maps may differ beyond a scale and a zero, as the RMS over the
+# rows (mm): the same machine, repeated or 4 K warmer, differs by 0.03-0.09 um under every noise of
+# the suites (a slow drift included); another machine of the same model, its as-built map drawn
+# anew, by 0.66-2.4 um. (An F test against the residual does not separate them: a slow drift
+# projects onto the map's curvature, and the same machine under it reaches F = 70.)
+SAME_MAP_MM = 0.3e-3
+
+
+def map_difference(recs: list[StageRecording], degree: int) -> np.ndarray:
+    """How far the recordings' error maps of ``degree`` in (x, y) differ beyond what each may
+    have of its own (its scale and zero: the terms of degree 0 and 1, a warmer room, a re-homed
+    axis): one map shared against each recording's own, each pass its own offset in both.
+
+    Returns
+    -------
+    rms_mm : (n_recordings,) ndarray
+        Each recording's map difference, the RMS over its rows and axes of what the shared map
+        leaves beyond the separate maps (mm).
+    """
+    from calibench.scenarios.discover.stage import poly_base
+
+    rec = joined(recs)
+    which = np.repeat(np.arange(len(recs)), [len(r) for r in recs])
+    span = (max(np.ptp(rec.x_cmd_mm), 1.0), max(np.ptp(rec.y_cmd_mm), 1.0))
+    P = poly_base(rec.x_cmd_mm, rec.y_cmd_mm, degree, span)
+    own = [(which == k).astype(float)[:, None] for k in range(len(recs))]
+    passes = np.unique(rec.run, return_inverse=True)[1].ravel()
+    offsets = (passes[:, None] == np.arange(passes.max() + 1)[None, :]).astype(float)
+    shared = np.hstack([P] + [P[:, :3] * o for o in own[1:]] + [offsets])
+    separate = np.hstack([P * o for o in own] + [offsets])
+    sq = {}
+    for name, X in (("shared", shared), ("separate", separate)):
+        sq[name] = sum(
+            (e - X @ np.linalg.lstsq(X, e, rcond=None)[0]) ** 2
+            for e in (rec.x_meas_mm - rec.x_cmd_mm, rec.y_meas_mm - rec.y_cmd_mm)
+        )
+    extra = sq["shared"] - sq["separate"]  # a row's may be negative, a recording's is not
+    return np.array([np.sqrt(max(np.mean(extra[which == k]), 0.0) / 2) for k in range(len(recs))])
+
+
+def same_machine(recs: list[StageRecording], degree: int) -> None:
+    """BadInput unless every recording's error map is the first's, up to its own scale and zero
+    (:func:`map_difference`): a recording of another machine would be fitted as this one's."""
+    if len(recs) < 2:
+        return
+    rms_mm = map_difference(recs, degree)
+    k = int(np.argmax(rms_mm))
+    if rms_mm[k] > SAME_MAP_MM:
+        who = (
+            "the two recordings are not of the same machine: their error maps differ"
+            if len(recs) == 2
+            else f"recording {k + 1} is not of the same machine as the others: its error map "
+            "differs from theirs"
+        )
+        raise BadInput(
+            f"{who} by {1000 * rms_mm[k]:.2f} um RMS beyond a scale and a zero (one "
+            f"machine's, warmer or not, agree within {1000 * SAME_MAP_MM:g} um): give "
+            "recordings of one stage"
+        )

@@ -14,7 +14,7 @@ import numpy as np
 
 from calibench.errors import BadInput
 from calibench.recordings import ArmRecording
-from calibench.sim.concealed.noise import reading_noise
+from calibench.sim.concealed.noise import repeat_noise
 from calibench.sim.concealed.unwritten import (
     UNWRITTEN_ARM_KINDS,
     bent_link_points,
@@ -36,6 +36,7 @@ def arm_recording(
     phase_rad: float | None = None,
     amplitude_urad: float | None = None,
     noise: str = "gaussian",
+    repeat: int = 0,
 ) -> tuple[ArmRecording, dict]:
     """A blinded arm recording: the twin with its default as-built errors (Table 1 for the seed's
     arm), probed at ``n`` postures by a reference of ``noise_um`` 1-sigma per coordinate that
@@ -69,6 +70,9 @@ def arm_recording(
         sessions of one gear train can be recorded).
     noise : str
         The reference's reading noise, one of ``noise.NOISE_KINDS`` (``gaussian``: as stated).
+    repeat : int
+        The same arm probed again at the same postures: its errors the same draws, the encoders'
+        and the reference's noise fresh (``k`` > 0: the ``k``-th repeat; 0: the first).
 
     Returns
     -------
@@ -98,7 +102,8 @@ def arm_recording(
     q = sim.random_postures(n, rng)
     t = np.arange(n) * 20.0
     T = 20.0 + np.cumsum(rng.normal(0, 0.002, n))
-    q_read = q + rng.normal(0, truth.encoder_noise_urad * 1e-6, q.shape)
+    noisy = repeat_noise(noise, rng, seed, repeat)
+    q_read = q + noisy(q.shape, truth.encoder_noise_urad * 1e-6, "gaussian")
     effects = []
     if kind == "eccentricity":
         j, A, ph = (
@@ -189,7 +194,7 @@ def arm_recording(
         xyz = sim.probe_mm(q)
     R, p = truth.tracker2base()
     xyz = (xyz - p) @ R  # the instrument reports in its own frame
-    xyz = xyz + reading_noise(noise, rng, xyz.shape, noise_um / 1000)
+    xyz = xyz + noisy(xyz.shape, noise_um / 1000)
     return (
         ArmRecording(q_read, xyz, t, np.round(T, 3)),
         {
@@ -200,5 +205,6 @@ def arm_recording(
             "effects": effects,
             "noise_um": noise_um,
             "noise": noise,
+            "repeat": repeat,
         },
     )

@@ -67,3 +67,19 @@ def reading_noise(
         flat.flat[at] += jump
         return flat.reshape(shape)
     return white
+
+
+def repeat_noise(kind: str, rng: np.random.Generator, seed: int, repeat: int):
+    """The noise of a recording, or of its ``repeat``-th repeat (the same machine again).
+
+    Returns ``noisy(shape, sigma, kind=kind)``: :func:`reading_noise` drawn from ``rng``, and in
+    a repeat (``repeat`` > 0) drawn again from the repeat's own generator and that returned:
+    the first recording's draw is made anyway, so every draw of the machine after it stays the
+    same (the machine is the same; only its noise is fresh)."""
+    again = np.random.default_rng([seed, 100 + repeat]) if repeat else None
+
+    def noisy(shape: tuple[int, ...], sigma: float, of: str = kind) -> np.ndarray:
+        first = reading_noise(of, rng, shape, sigma)
+        return first if again is None else reading_noise(of, again, shape, sigma)
+
+    return noisy

@@ -25,6 +25,7 @@ def scanner_recording(
     plate_turn_deg: float = 0.0,
     harmonic: int | None = None,
     form_um: float = 0.0,
+    repeat: int = 0,
 ) -> tuple[ScannerRecording, dict]:
     """A blinded probe-scanner recording: ``turns`` turns over the calibration plate, the rail
     as built (its d, dL, alpha0 and the plate's clamping drawn about the design), each reading
@@ -61,6 +62,9 @@ def scanner_recording(
     form_um : float
         The plate's own form error: its wall off by this much, four times around the plate (its
         sides bowed), turning with the plate; the twin's plate is perfect. 0: none.
+    repeat : int
+        The same machine and plate recorded again: its errors and the room the same draws, its
+        angle jitter and reading noise fresh (``k`` > 0: the ``k``-th repeat; 0: the first).
 
     Returns
     -------
@@ -99,8 +103,12 @@ def scanner_recording(
         alpha0_rad=alpha0 - phi,
         plate_centre_mm=tuple(float(v) for v in centre),
     )
-    # a turned plate's recording is another session: its own jitter and noise, the same machine
-    session = rng if not plate_turn_deg else np.random.default_rng([seed, 1 + round(1e6 * phi)])
+    # a turned plate's recording, or a repeat, is another session: its own jitter and noise, the
+    # same machine
+    session = rng
+    if plate_turn_deg or repeat:
+        again = [100 + repeat] if repeat else []
+        session = np.random.default_rng([seed, 1 + round(1e6 * phi), *again])
     sim = ProbeScannerSim(g, truth)
     m = g.samples_per_turn
     nominal = np.tile(np.arange(m) * 2 * np.pi / m, turns)
@@ -182,4 +190,5 @@ def scanner_recording(
         "noise": noise,
         "plate_turn_deg": plate_turn_deg,
         "form_um": form_um,
+        "repeat": repeat,
     }

@@ -101,6 +101,7 @@ def stage_recording(
     noise: str = "gaussian",
     rise_k: float | None = None,
     warmer_k: float = 0.0,
+    repeat: int = 0,
 ) -> tuple[StageRecording, dict]:
     """A blinded stage recording: the twin replayed along the plan's lines, the as-built map, a
     wandering room temperature, each pass's offset and the reference's noise, with the concealed
@@ -125,6 +126,10 @@ def stage_recording(
         the same machine (its errors the same draws, its temperature's wander, pass offsets and
         noise fresh), its expansion counted from the first's temperature. 0: the recording as
         always.
+    repeat : int
+        The same machine recorded again along the same plan: its errors and the room the same
+        draws, its pass offsets and noise fresh (``k`` > 0: the ``k``-th repeat; 0: the first
+        recording). What a structure chosen on the first is scored on.
 
     Returns
     -------
@@ -160,8 +165,12 @@ def stage_recording(
     for k in range(2):
         err[:, k] += rng.normal(0, 0.02, 6) @ np.stack([np.ones(n), u, v, u * u, u * v, v * v])
     T = 20.0 + np.cumsum(rng.normal(0, 0.002, n))  # a quiet room: the logged temperature wanders
-    # a warmer session: the same machine, its own wander, pass offsets and noise
-    session = rng if not warmer_k else np.random.default_rng([seed, 1 + round(1000 * warmer_k)])
+    # a warmer session or a repeat: the same machine, its own pass offsets and noise (a warmer
+    # one its own wander too)
+    session = rng
+    if warmer_k or repeat:
+        again = [100 + repeat] if repeat else []
+        session = np.random.default_rng([seed, 1 + round(1000 * warmer_k), *again])
     if warmer_k:
         T = 20.0 + warmer_k + np.cumsum(session.normal(0, 0.002, n))
     reference = T[0] - warmer_k  # what the machine's scale is calibrated at
@@ -244,6 +253,7 @@ def stage_recording(
         "noise_um": REFERENCE_NOISE_UM,
         "noise": noise,
         "warmer_k": warmer_k,
+        "repeat": repeat,
     }
 
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from calibench.recordings import StewartRecording
-from calibench.sim.concealed.noise import reading_noise
+from calibench.sim.concealed.noise import repeat_noise
 from calibench.sim.concealed.unwritten import UNWRITTEN_STEWART_KINDS, stewart_effect
 from calibench.sim.stewart import stewart_poses
 
@@ -21,7 +21,7 @@ STEWART_ROTATION_DEG = 10.0
 
 
 def stewart_recording(
-    kind: str, seed: int, n_poses: int = 100, noise: str = "gaussian"
+    kind: str, seed: int, n_poses: int = 100, noise: str = "gaussian", repeat: int = 0
 ) -> tuple[StewartRecording, dict]:
     """A blinded Stewart recording: ``n_poses`` poses visited, then visited again in reverse
     order (so every leg approaches each pose both ways), a payload of 0, 500 or 1000 N on the
@@ -46,6 +46,10 @@ def stewart_recording(
     noise : str
         The legs' and the tracker's reading noise, one of ``noise.NOISE_KINDS`` (``gaussian``:
         as assumed).
+    repeat : int
+        The same platform recorded again at the same poses from the same tracker station: its
+        errors the same draws, the legs' and the tracker's noise fresh (``k`` > 0: the ``k``-th
+        repeat; 0: the first).
 
     Returns
     -------
@@ -69,6 +73,7 @@ def stewart_recording(
     if kind not in STEWART_KINDS + UNWRITTEN_STEWART_KINDS:
         raise ValueError(f"unknown kind {kind!r} (known: {', '.join(STEWART_KINDS)})")
     rng = np.random.default_rng(seed)
+    noisy = repeat_noise(noise, rng, seed, repeat)
     g = StewartGeometry()
     sim = StewartSim(g, StewartTruth(), rng)
     poses = stewart_poses(n_poses, rng, g, STEWART_TRANSLATION_MM, STEWART_ROTATION_DEG)
@@ -122,14 +127,14 @@ def stewart_recording(
         more, truth = stewart_effect(kind, rng, direction, leg, t_s)
         readings += more
         effects.append(truth)
-    readings += reading_noise(noise, rng, readings.shape, 1e-3)
+    readings += noisy(readings.shape, 1e-3)
     # the tracker's frame: turned about the vertical and set beside the machine
     R_tr = Rotation.from_rotvec(
         np.r_[rng.normal(0, 0.01, 2), rng.uniform(-np.pi, np.pi)]
     ).as_matrix()
     t_tr = np.r_[rng.uniform(1500, 3000), rng.uniform(-1000, 1000), rng.uniform(-800, 0)]
     # the tracker's noise, in time order: (n, reflectors, 3)
-    tracker_noise = reading_noise(noise, rng, (n, len(g.reflectors_mm), 3), 2e-3)
+    tracker_noise = noisy((n, len(g.reflectors_mm), 3), 2e-3)
     R_meas, t_meas = np.empty((n, 3, 3)), np.empty((n, 3))
     for k, (R, t) in enumerate(poses):
         world = g.reflectors_mm @ R.T + t
@@ -150,4 +155,5 @@ def stewart_recording(
         "effects": effects,
         "noise_um": 2.3,
         "noise": noise,
+        "repeat": repeat,
     }

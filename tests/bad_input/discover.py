@@ -33,6 +33,19 @@ def stewart_with(spoil):
     return write
 
 
+def simulated(kind: str, *args, **kw):
+    """A writer of a simulated recording of ``kind`` (``stage``, ``scanner``): the concealed
+    suite's recording function's, its arguments passed on."""
+
+    def write(path):
+        from calibench.sim.concealed import scanner_recording, stage_recording
+
+        make = {"stage": stage_recording, "scanner": scanner_recording}[kind]
+        make(*args, **kw)[0].to_csv(path)
+
+    return write
+
+
 def _identical(rows, head):
     rows[:] = rows[0]
 
@@ -181,6 +194,26 @@ CASES = [
         ["discover", "belt-stage", "{d}/r.csv", "{d}/warm.csv"],
         2,
         "temperature in all",
+    ),
+    (
+        "discover-stage-other-machine",
+        {
+            "a.csv": simulated("stage", "belt-stage", "null", 5),
+            "b.csv": simulated("stage", "belt-stage", "null", 8),
+        },
+        ["discover", "belt-stage", "{d}/a.csv", "{d}/b.csv"],
+        2,
+        "not of the same machine: their error maps differ",
+    ),
+    (
+        "discover-scanner-other-machine",
+        {
+            "a.csv": simulated("scanner", "null", 1),
+            "b.csv": simulated("scanner", "null", 2, plate_turn_deg=30.0),
+        },
+        ["discover", "probe-scanner", "{d}/a.csv", "{d}/b.csv"],
+        2,
+        "recording 2 is not of the same machine and plate",
     ),
     (
         "discover-two-stewart-recordings",

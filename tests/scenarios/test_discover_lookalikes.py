@@ -122,3 +122,38 @@ def test_recordings_that_log_the_temperature_unevenly_are_refused(tmp_path, caps
     assert main([*args, "--out", str(tmp_path / "d")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "temp_c" in err[0], err
+
+
+def test_a_second_recording_is_taken_only_from_the_same_machine():
+    """What separates look-alikes must be the same machine: a stage recording's error map beyond
+    its scale and zero, and a scanner's rail, agree between recordings of one machine (repeated,
+    4 K warmer, the plate turned; each noise of the suites) well within the limits, and another
+    machine of the same model (its as-built errors drawn anew) beyond them (a scanner's rail
+    tolerances let 7 % of pairs of scanners agree within the limit: these do not)."""
+    from calibench.scenarios.discover.scanner_sessions import SAME_RAIL_MM
+    from calibench.scenarios.discover.stage_sessions import SAME_MAP_MM, map_difference
+    from calibench.scenarios.probe_scanner.scenario import ProbeScannerConfig
+
+    for scenario, degree in (("belt-stage", 2), ("vision-stage", 3)):
+        for seed, noise in ((11, "t3"), (12, "drift"), (13, "outliers")):
+            first, _ = stage_recording(scenario, "combined", seed, noise=noise)
+            for again in (
+                stage_recording(scenario, "combined", seed, noise=noise, repeat=1)[0],
+                stage_recording(scenario, "combined", seed, noise=noise, warmer_k=4.0)[0],
+            ):
+                assert map_difference([first, again], degree).max() < SAME_MAP_MM / 2
+            other, _ = stage_recording(scenario, "combined", seed + 50, noise=noise)
+            assert map_difference([first, other], degree).max() > 1.5 * SAME_MAP_MM
+
+    from calibench.scenarios.discover.probe_scanner import scene_model
+
+    config = ProbeScannerConfig()
+    for seed, noise in ((11, "t3"), (12, "drift"), (13, "outliers")):
+        first = scene_model(scanner_recording("runout", seed, noise=noise)[0], config)[0]
+        for kw in ({"repeat": 1}, {"plate_turn_deg": 30.0}):
+            again = scene_model(scanner_recording("runout", seed, noise=noise, **kw)[0], config)[0]
+            assert abs(again.d_mm - first.d_mm) < SAME_RAIL_MM / 4
+            assert abs(again.dL_mm - first.dL_mm) < SAME_RAIL_MM / 4
+        other = scene_model(scanner_recording("runout", seed + 50, noise=noise)[0], config)[0]
+        off = max(abs(other.d_mm - first.d_mm), abs(other.dL_mm - first.dL_mm))
+        assert off > SAME_RAIL_MM, (seed, off)

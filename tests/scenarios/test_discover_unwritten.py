@@ -32,6 +32,12 @@ def test_unwritten_effects_under_misspecified_noise():
         assert s["null_false_claim_rate"] <= 0.05, (scenario, s)
         assert s["spurious_claims"] <= 1, (scenario, s)
         assert s["improved"] == 1.0, (scenario, s)
+        # held out for the structure too: a fresh recording of the same machine (rows that
+        # chose nothing) is predicted better with what the first chose, on every effect recording
+        assert s["improved_fresh"] == 1.0, (scenario, s)
+        assert s["nulls_worse_fresh"] == 0, (scenario, s)
+    for r in results:  # the same plan: every chosen effect carries to the fresh recording
+        assert r.fresh.not_carried == [], (r.scenario, r.kind, r.fresh)
 
 
 def _angles(where: str) -> set[int]:
