@@ -9,7 +9,7 @@ from typing import TypedDict
 import numpy as np
 
 from calibench.estimators.arm.session import SESSION_PRIOR_RAD
-from calibench.estimators.discovery.effect import Effect, amplitude, coef_std
+from calibench.estimators.discovery.effect import Effect, amplitude, coef_std, drift_vector
 from calibench.estimators.discovery.harmonics import best_harmonic
 
 
@@ -480,16 +480,9 @@ class ArmDrift(Effect):
         return "mm_per_h" if self.driver == "t_s" else "mm_per_k"
 
     def describe(self, coef, cov):
-        slope = np.asarray(coef[:3], float)
-        k = float(np.linalg.norm(slope))
-        J = slope / k if k > 0 else np.zeros(3)  # d|slope| / d(slope)
-        params = {self.unit: k, **{f"{a}_{self.unit}": float(c) for a, c in zip("xyz", slope)}}
-        stderr = {self.unit: float(np.sqrt(max(J @ cov[:3, :3] @ J, 0.0)))}
-        stderr |= {f"{a}_{self.unit}": coef_std(cov, i) for i, a in enumerate("xyz")}
+        params, stderr, slope = drift_vector(coef, cov, self.unit)
+        k = params[self.unit]
         per = "hour at mid-recording" if self.driver == "t_s" else "kelvin of the logged air"
-        if self.driver == "t_s":  # the bend, per axis
-            params |= {f"{a}_mm_per_h2": float(c) for a, c in zip("xyz", coef[3:6])}
-            stderr |= {f"{a}_mm_per_h2": coef_std(cov, 3 + i) for i, a in enumerate("xyz")}
         return (
             params,
             stderr,

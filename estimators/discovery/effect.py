@@ -66,3 +66,30 @@ def amplitude(s: float, c: float, cov: np.ndarray) -> tuple[float, float, float]
     amp = float(np.hypot(s, c))
     g = np.array([s, c]) / max(amp, 1e-300)  # d amp / d (s, c)
     return amp, float(np.sqrt(max(g @ cov[:2, :2] @ g, 0.0))), float(np.arctan2(c, s))
+
+
+def drift_vector(
+    coef: np.ndarray, cov: np.ndarray, unit: str, sign: float = 1.0
+) -> tuple[dict, dict, np.ndarray]:
+    """A drift of a whole (points, poses) along x, y, z: its slope's norm and components, and
+    with 6 coefficients a bend per axis (``mm_per_h2``), each with its std.
+
+    Args:
+        coef: (3,) or (6,) the slope's x, y, z, then the bend's.
+        cov: (k, k) their covariance.
+        unit: the slope's unit (``mm_per_k``, ``mm_per_h``).
+        sign: -1 where the coefficients are the correction, not the drift.
+
+    Returns:
+        params, stderr (dicts by name) and the slope (3,).
+    """
+    slope = sign * np.asarray(coef[:3], float)
+    k = float(np.linalg.norm(slope))
+    J = slope / k if k > 0 else np.zeros(3)  # d|slope| / d(slope): the sign squares out
+    params = {unit: k, **{f"{a}_{unit}": float(c) for a, c in zip("xyz", slope)}}
+    stderr = {unit: float(np.sqrt(max(J @ cov[:3, :3] @ J, 0.0)))}
+    stderr |= {f"{a}_{unit}": coef_std(cov, i) for i, a in enumerate("xyz")}
+    if len(coef) >= 6:
+        params |= {f"{a}_mm_per_h2": sign * float(c) for a, c in zip("xyz", coef[3:6])}
+        stderr |= {f"{a}_mm_per_h2": coef_std(cov, 3 + i) for i, a in enumerate("xyz")}
+    return params, stderr, slope

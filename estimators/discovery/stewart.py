@@ -15,14 +15,15 @@ from typing import TypedDict
 
 import numpy as np
 
-from calibench.estimators.discovery.effect import Effect, amplitude, coef_std
+from calibench.estimators.discovery.effect import Effect, amplitude, coef_std, drift_vector
 
 
 class StewartDrivers(TypedDict, total=False):
     """What a platform's candidates see, pose by pose (n poses, 6 legs): the legs' lengths
     ``L`` (n, 6) mm, the hinge geometry's Jacobian ``J_geo`` (n, 6, 42), the legs' directions of
     travel ``dir`` (n, 6) or None, their axial forces ``force`` (n, 6) N from the twin's statics,
-    ``temp_c`` and ``t_s`` (n,) or None."""
+    ``temp_c`` and ``t_s`` (n,) or None, the tracker frame's columns ``frame`` (6 n, 6): d(reading)
+    / d(turn, shift) of the frame the tracker's poses were registered in."""
 
     L: np.ndarray
     J_geo: np.ndarray
@@ -30,6 +31,7 @@ class StewartDrivers(TypedDict, total=False):
     force: np.ndarray | None
     temp_c: np.ndarray | None
     t_s: np.ndarray | None
+    frame: np.ndarray
 
 
 AXIS = "legs"
@@ -269,6 +271,57 @@ class LegCompliance(Effect):
         )
 
 
+@dataclasses.dataclass(frozen=True)
+class TrackerDrift(Effect):
+    """The tracker's poses drift as a whole, whatever the legs do: its stand warming or settling,
+    or its distances read long as the air it measures through changes (a scale about the tracker,
+    metres away, is a shift of the platform along its line of sight). The platform's measured
+    position moves with the logged temperature (mm/K, ``driver`` ``temp_c``) or with time
+    (``t_s``: mm/h at mid-recording and a bend in mm/h^2), about the registered frame."""
+
+    name: str = "thermal_drift"
+    axis: str = AXIS
+    driver: str = "temp_c"
+
+    def __post_init__(self):
+        object.__setattr__(self, "needs", (self.driver, "frame"))
+
+    @property
+    def key(self) -> str:
+        """One candidate per driver."""
+        return f"thermal_drift:tracker:{self.driver}"
+
+    def applies(self, drivers):
+        v = drivers.get(self.driver)
+        return v is not None and np.ptp(np.asarray(v, float)) > 0 and "frame" in drivers
+
+    @property
+    def unit(self) -> str:
+        """The slope's unit: mm per kelvin (temperature) or mm per hour (time)."""
+        return "mm_per_h" if self.driver == "t_s" else "mm_per_k"
+
+    def columns(self, d):
+        v = np.asarray(d[self.driver], float) / (3600 if self.driver == "t_s" else 1)
+        v = v - v.mean()
+        shapes = [v] if self.driver == "temp_c" else [v, v**2 - np.mean(v**2)]
+        shift = np.asarray(d["frame"], float)[:, 3:6]  # d(reading) / d(the frame's shift)
+        return np.hstack([np.repeat(s, 6)[:, None] * shift for s in shapes])
+
+    def describe(self, coef, cov):
+        # the coefficients shift the frame back onto the readings: the poses drifted the other way
+        params, stderr, slope = drift_vector(coef, cov, self.unit, sign=-1.0)
+        k = params[self.unit]
+        per = "hour at mid-recording" if self.driver == "t_s" else "kelvin of the logged air"
+        return (
+            {"tracker": True, **params},
+            stderr,
+            f"the tracker's poses drift {k * 1000:.2f} um per {per} as a whole (x "
+            f"{slope[0] * 1000:+.2f}, y {slope[1] * 1000:+.2f}, z {slope[2] * 1000:+.2f} um in the "
+            "base frame), whatever the legs do: the tracker's stand moving, or its distances "
+            "scaled by air it no longer compensates, not the platform",
+        )
+
+
 def stewart_candidates(drivers: dict) -> list:
     """Every Stewart candidate the recording's columns support."""
     out: list[Effect | LegPitchSearch] = [HingeGeometry()]
@@ -280,4 +333,5 @@ def stewart_candidates(drivers: dict) -> list:
             f = np.arange(3 / span, 0.5, 1 / (5 * span))
             out.append(LegPitchSearch(leg, 1 / f))
     out += [LegCompliance(leg=0)] + [LegCompliance(leg=leg) for leg in range(1, 7)]
+    out += [TrackerDrift(driver="temp_c"), TrackerDrift(driver="t_s")]
     return [c for c in out if not hasattr(c, "applies") or c.applies(drivers)]

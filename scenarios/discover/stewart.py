@@ -143,6 +143,7 @@ def twin_drivers(
         "temp_c": rec.temp_c,
         "t_s": rec.t_s,
         "force": force,
+        "frame": frame,
     }
     return drivers, res, frame
 

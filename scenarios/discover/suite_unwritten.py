@@ -49,7 +49,7 @@ UNWRITTEN_SUITE = tuple(
         ("belt-stage", ("null", "presliding", "lagged_thermal", "rail_step")),
         ("vision-stage", ("null", "presliding", "lagged_thermal", "rail_step")),
         ("probe-scanner", ("null", "thin_wall")),
-        ("stewart", ("null", "stick_slip", "sensor_warmup")),
+        ("stewart", ("null", "stick_slip", "sensor_warmup", "tracker_air")),
         ("arm-cmm", ("null", "harmonic_drive", "link_bending", "pedestal_warmup")),
     )
     for kind in kinds

@@ -10,7 +10,11 @@ import numpy as np
 
 from calibench.recordings import StewartRecording
 from calibench.sim.concealed.noise import repeat_noise
-from calibench.sim.concealed.unwritten import UNWRITTEN_STEWART_KINDS, stewart_effect
+from calibench.sim.concealed.unwritten import (
+    UNWRITTEN_STEWART_KINDS,
+    stewart_effect,
+    tracker_air,
+)
 from calibench.sim.stewart import stewart_poses
 
 STEWART_KINDS = ("null", "thermal", "backlash", "pitch", "compliance")
@@ -123,7 +127,7 @@ def stewart_recording(
             c * (1 + 0.05 * rng.standard_normal(6)) * 1e-3 * force
         )  # the screw reads what the leg gave
         effects.append({"name": "leg_compliance", "axis": "legs", "params": {"um_per_n": c}})
-    if kind in UNWRITTEN_STEWART_KINDS:  # the second suite's: no candidate writes it down
+    if kind in UNWRITTEN_STEWART_KINDS and kind != "tracker_air":  # the second suite's
         more, truth = stewart_effect(kind, rng, direction, leg, t_s)
         readings += more
         effects.append(truth)
@@ -135,10 +139,15 @@ def stewart_recording(
     t_tr = np.r_[rng.uniform(1500, 3000), rng.uniform(-1000, 1000), rng.uniform(-800, 0)]
     # the tracker's noise, in time order: (n, reflectors, 3)
     tracker_noise = noisy((n, len(g.reflectors_mm), 3), 2e-3)
+    range_scale = np.zeros(n)  # the tracker's distances read long by this share
+    if kind == "tracker_air":
+        T, range_scale, distance, truth = tracker_air(rng, T, t_s)
+        t_tr = t_tr * distance / np.linalg.norm(t_tr)  # set back along the same bearing
+        effects.append(truth)
     R_meas, t_meas = np.empty((n, 3, 3)), np.empty((n, 3))
     for k, (R, t) in enumerate(poses):
         world = g.reflectors_mm @ R.T + t
-        seen = (world @ R_tr.T + t_tr) + tracker_noise[k]
+        seen = (world @ R_tr.T + t_tr) * (1 + range_scale[k]) + tracker_noise[k]
         # the tracker's own pose solution (scipy's Kabsch, not the estimators')
         c_seen, c_refl = seen.mean(axis=0), g.reflectors_mm.mean(axis=0)
         R_meas[k] = Rotation.align_vectors(seen - c_seen, g.reflectors_mm - c_refl)[0].as_matrix()

@@ -22,6 +22,12 @@ Stewart platform:
 - ``stick_slip``: one leg's hinges stick and slip: the leg comes to rest anywhere within its
   friction band, so what it loses on a reversal differs from one visit to the next (30-100 % of
   a 10-20 um band). Nearest: ``backlash`` on that leg.
+- ``sensor_warmup``: one leg's length sensor settling from power-on (:func:`stewart_effect`).
+  Nearest: ``thermal_drift`` on that leg.
+- ``tracker_air``: the laser tracker reads every distance long by the air's index change as
+  the room warms, its compensation left at the start (:func:`tracker_air`). Nearest: the
+  tracker's ``thermal_drift`` (any ``thermal_drift`` on the legs; a leg's ``thermal_expansion``
+  is alike).
 
 Arms:
 
@@ -49,7 +55,8 @@ import numpy as np
 
 UNWRITTEN_STAGE_KINDS = ("presliding", "lagged_thermal", "rail_step")
 UNWRITTEN_SCANNER_KINDS = ("thin_wall",)
-UNWRITTEN_STEWART_KINDS = ("stick_slip", "sensor_warmup")
+UNWRITTEN_STEWART_KINDS = ("stick_slip", "sensor_warmup", "tracker_air")
+AIR_INDEX_PER_K = 0.93e-6  # air's refractive index falls this much per K near 20 C, 1 atm
 UNWRITTEN_ARM_KINDS = ("harmonic_drive", "link_bending", "pedestal_warmup")
 BEND_MIN_LINK_MM = 100.0  # a link this long at least, to bend
 # a strain-wave gear's catalogue stiffness: K2 and K3 over K1, above T1 and T2 (shares of the
@@ -200,6 +207,39 @@ def stewart_effect(
     err[:, leg - 1] = direction[:, leg - 1] * band / 2 * rest
     truth = {"name": "stick_slip", "axis": "legs", "nearest": "backlash"}
     return err, {**truth, "params": {"leg": leg, "band_mm": band}}
+
+
+def tracker_air(
+    rng: np.random.Generator, temp_c: np.ndarray, t_s: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, float, dict]:
+    """A tracker set back 5-10 m in the hall whose air compensation stays at the session's start
+    (its weather station unplugged): the room warms by 3-6 K
+    (a first-order rise, time constant half the recording), the air's refractive index falls
+    :data:`AIR_INDEX_PER_K` per K and every distance the tracker measures reads long by as much
+    (a scale about the tracker's own origin, metres away). The logged temperature rises with the
+    room. Nearest: ``thermal_drift`` on the legs (every leg: each sees the platform's apparent
+    shift along the tracker's line of sight as its own direction takes it).
+
+    Returns
+    -------
+    temp_c : (n,) ndarray
+        The logged temperature, risen.
+    range_scale : (n,) ndarray
+        The share by which each pose's distances read long.
+    range_mm : float
+        How far from the platform the tracker stands.
+    truth : dict
+    """
+    rise, distance = rng.uniform(3, 6), rng.uniform(5000, 10000)
+    warm = rise * (1 - np.exp(-(t_s - t_s[0]) / (np.ptp(t_s) / 2)))
+    truth = {
+        "name": "tracker_air",
+        "axis": "legs",
+        "nearest": "thermal_drift",
+        "alike": ("thermal_expansion",),
+        "params": {"ppm_per_k": AIR_INDEX_PER_K * 1e6, "rise_k": rise, "range_mm": distance},
+    }
+    return temp_c + warm, AIR_INDEX_PER_K * warm, distance, truth
 
 
 def _windup(torque: np.ndarray, knees: tuple, k1: float) -> np.ndarray:

@@ -142,6 +142,33 @@ def test_stewart_sensor_warming_up_is_a_drift_in_time_on_its_leg(tmp_path):
     assert d["fit"]["cv_rms_final"] < 1.5 * 0.0028
 
 
+def test_a_tracker_reading_through_warming_air_is_a_drift_of_its_poses(tmp_path):
+    """A tracker 5-10 m away whose air compensation stays at the start while the room warms
+    3-6 K: every distance it measures reads long by 0.93 ppm per K (the air's refractive index),
+    a scale about the tracker that no candidate writes down; to the platform it is a shift along
+    the line of sight. Named ``thermal_drift`` of the tracker's poses (no leg's own effect), its
+    slope the index times the tracker's distance: within 3 of its standard errors and 15 % (the
+    platform stands up to 0.8 m off the base's origin, along which the distance is drawn)."""
+    rec, manifest = stewart_recording("tracker_air", 1041)
+    d = _discover(tmp_path, "stewart", rec, manifest)
+    t = manifest["effects"][0]["params"]
+    assert [(e["name"], e["params"].get("tracker")) for e in d["effects"]] == [
+        ("geometry", None),
+        ("thermal_drift", True),
+    ], d["effects"]
+    e = d["effects"][1]
+    want = t["ppm_per_k"] * 1e-6 * t["range_mm"]
+    # it follows the logged air: the temperature's candidate, not time's
+    assert abs(e["params"]["mm_per_k"] - want) < 3 * e["stderr"]["mm_per_k"] + 0.15 * want, e
+    # reading long moves the poses away from the tracker, along its line of sight (the tracker
+    # stands at the registered frame's origin, in the base frame)
+    R, tf = np.array(d["tracker_frame"]["R"]), np.array(d["tracker_frame"]["t_mm"])
+    away = np.mean(rec.t_mm @ R.T + tf, axis=0) - tf
+    slope = np.array([e["params"][f"{a}_mm_per_k"] for a in "xyz"])
+    assert slope @ away / (np.linalg.norm(slope) * np.linalg.norm(away)) > 0.9, (slope, away)
+    assert d["fit"]["cv_rms_final"] < 1.5 * 0.0028
+
+
 def test_stewart_pitch_located_along_its_leg(tmp_path):
     """A screw's pitch error of a few mm shows as structure along that leg's length only."""
     rec, manifest = stewart_recording("pitch", 2)

@@ -1,11 +1,12 @@
 """The second concealed-effect suite (issue 36): effects no candidate writes down (presliding
 friction, a scale that warms behind a lag, a rail joined with a step, a Stewart leg whose hinges
-stick and slip, a plate's wall that gives where it is thin, an arm's strain-wave gear that
-stiffens as it winds up and whose kinematic error grows with the load, an arm link of two
-segments on springs that bends under what it carries), each under noise that
-breaks the estimators' assumption (Student t with 3 degrees of freedom, a slow drift, gross
-outliers), through discover blind and scored against the sealed manifests afterwards
-(scenarios/discover/suite_unwritten.py)."""
+stick and slip, a Stewart leg's sensor warming up, a laser tracker reading through warming air,
+a plate's wall that gives where it is thin, an arm's strain-wave gear that stiffens as it winds
+up and whose kinematic error grows with the load, an arm link of two segments on springs that
+bends under what it carries, an arm's pedestal warming up), each under noise that breaks the
+estimators' assumption (Student t with 3 degrees of freedom, a slow drift, gross outliers),
+through discover blind and scored against the sealed manifests afterwards, and its structure
+scored again on a fresh recording of each machine (scenarios/discover/suite_unwritten.py)."""
 
 import numpy as np
 
