@@ -1,6 +1,6 @@
 """Do discover's standard errors cover under noise it does not assume? ``python
 benchmarks/discover_coverage.py [SEEDS]`` (default 10 recordings per stage family and noise,
-three times as many for the scanner).
+three times as many for the scanner), shared over every core.
 
 Prints, per family (the belt and vision stages' combined backlash + periodic + thermal, the
 probe scanner's runout) and per reading noise (``gaussian`` as assumed; ``t3``, ``drift``,
@@ -9,6 +9,7 @@ probe scanner's runout) and per reading noise (``gaussian`` as assumed; ``t3``, 
 the spread), and the concealed effects missed. The machine and the time are printed with them.
 """
 
+import os
 import platform
 import sys
 import time
@@ -20,7 +21,8 @@ from calibench.scenarios.discover.coverage import coverage_study
 
 def main(seeds: int) -> None:
     t = time.perf_counter()
-    rows = coverage_study(seeds)
+    workers = os.cpu_count() or 1
+    rows = coverage_study(seeds, workers=workers)
     print(
         "| family | noise | recordings | effects | coverage of the 95 % intervals | z RMS "
         "| missed |"
@@ -35,7 +37,7 @@ def main(seeds: int) -> None:
     print(
         f"\n{seeds} recordings per stage row (the scanner's: three times as many) in "
         f"{time.perf_counter() - t:.0f} s on "
-        f"{platform.processor() or platform.machine()}, one process"
+        f"{platform.processor() or platform.machine()}, {workers} processes"
     )
 
 

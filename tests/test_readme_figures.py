@@ -7,7 +7,8 @@ rest of the suite (tests/conftest.py starts it at collection): about half an hou
 The README (and its docs/*.md pages) is the expectation and the code the truth: nothing here
 holds a figure. Five blocks are left to ``make figures``: performance, memory and run-times
 (machine timings and peak memory, which it rewrites and nothing compares), discover-coverage
-(96 discoveries, ten minutes on 2 cores: ``make figures-check FIGURES=discover-coverage``) and
+(640 discoveries over every core, under an hour on 2: ``make figures-check
+FIGURES=discover-coverage``) and
 ur10-sessions-floor (four more leave-one-session-out folds, eleven minutes:
 ``make figures-check FIGURES=ur10-sessions-floor``).
 """

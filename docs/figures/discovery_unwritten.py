@@ -7,7 +7,7 @@ from .engine import block
 from .fmt import table
 from .runner import COVERAGE_PCT
 
-COVERAGE_SEEDS = 16  # recordings per stage family and noise (the scanner's: three times as many;
+COVERAGE_SEEDS = 32  # recordings per stage family and noise (the scanner's: three times as many;
 # benchmarks/discover_coverage.py's default is 10: the block's figures are these)
 
 
@@ -48,16 +48,18 @@ def discover_unwritten():
     )
 
 
-@block(seconds=900, ci=False)
+@block(seconds=3100, ci=False)
 def discover_coverage():
     """discover's stated intervals against the truth, under each reading noise
     (scenarios/discover/coverage.py, as benchmarks/discover_coverage.py runs it)."""
+    import os
+
     import numpy as np
 
     from calibench.scenarios.discover.coverage import coverage_study
 
     rows = []
-    for c in coverage_study(COVERAGE_SEEDS):
+    for c in coverage_study(COVERAGE_SEEDS, workers=os.cpu_count() or 1):
         z_rms = float(np.sqrt(np.mean(c.z**2))) if len(c.z) else float("nan")
         rows.append(
             [

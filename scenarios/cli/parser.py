@@ -246,8 +246,9 @@ def build_parser() -> argparse.ArgumentParser:
         nargs="+",
         help="CSV in the CONTRACT's format for the scenario (arm-cmm: "
         "one or more, each with its own base frame; probe-scanner: one, or several of one "
-        "machine with the plate turned on the table between them; the stages: one, or several "
-        "of one machine, e.g. cold and warm)",
+        "machine with the plate turned on the table between them; the stages and stewart: "
+        "one, or several of one machine, e.g. cold and warm, each stewart recording from its "
+        "own tracker station)",
     )
     _out(d, "<scenario>-discover")
     d.add_argument(

@@ -29,6 +29,11 @@ from calibench.scenarios.discover.arm_cmm_compliance import compliance_candidate
 from calibench.scenarios.discover.arm_cmm_words import arm_confounds, locate_arm
 from calibench.scenarios.discover.fresh import structure
 from calibench.scenarios.discover.report import describe_effects
+from calibench.scenarios.discover.same_machine import (
+    SAME_ARM_MM,
+    own_geometry_rms,
+    refuse_another,
+)
 from calibench.scenarios.report import BadInput
 
 
@@ -242,6 +247,9 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
         found.steps.append(Step(best[0], "xyz", found.cv_final, best[1], 1 - best[1] / cv_now))
         found.cv_final = best[1]
     carry = {}
+    if len(recs) > 1 and geometry in candidates:
+        moved, left = own_geometry_rms(sig, terms["xyz"], geometry, drivers, rec_id)
+        refuse_another(moved, left, SAME_ARM_MM, "arm", "link errors")
     if len(recs) > 1:
         carry = carry_to_new_sessions(
             sig, found, terms["xyz"], drivers, fold, rec_id, _register_rows(rec_id)

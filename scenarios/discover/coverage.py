@@ -9,7 +9,9 @@ Used by benchmarks/discover_coverage.py and its test.
 
 from __future__ import annotations
 
+import concurrent.futures as cf
 import dataclasses
+import multiprocessing
 
 import numpy as np
 
@@ -76,16 +78,40 @@ def case_z(scenario: str, kind: str, noise: str, seed: int) -> tuple[list[float]
     return z, missed
 
 
-def coverage_study(seeds: int, noises: tuple[str, ...] = NOISE_KINDS) -> list[Coverage]:
+def coverage_study(
+    seeds: int, noises: tuple[str, ...] = NOISE_KINDS, workers: int = 1
+) -> list[Coverage]:
     """Every case of :data:`CASES` under every noise of ``noises``, ``seeds`` recordings each
-    (times the case's own factor)."""
-    out = []
-    for scenario, kind, factor in CASES:
-        for noise in noises:
-            z, missed = [], 0
-            for s in range(seeds * factor):
-                zs, m = case_z(scenario, kind, noise, SEED0 + s)
-                z += zs
-                missed += m
-            out.append(Coverage(scenario, noise, np.array(z), missed, seeds * factor))
+    (times the case's own factor).
+
+    Parameters
+    ----------
+    seeds : int
+        Recordings per stage family and noise.
+    noises : tuple of str
+        Reading-noise kinds of ``sim.concealed.noise``.
+    workers : int
+        Processes the recordings are shared over (spawned: a forked child of a process that made
+        a GL context hangs); 1 runs them here. Each recording is seeded, so the figures are the
+        same, recording for recording, whatever the count.
+
+    Returns
+    -------
+    list of Coverage
+        One per case and noise, in the order of :data:`CASES` then ``noises``.
+    """
+    families = [(sc, kind, noise, seeds * f) for sc, kind, f in CASES for noise in noises]
+    jobs = [(sc, kind, noise, SEED0 + s) for sc, kind, noise, n in families for s in range(n)]
+    if workers > 1:
+        ctx = multiprocessing.get_context("spawn")
+        with cf.ProcessPoolExecutor(workers, mp_context=ctx) as pool:
+            got = list(pool.map(case_z, *zip(*jobs)))
+    else:
+        got = [case_z(*job) for job in jobs]
+    out, k = [], 0
+    for sc, _, noise, n in families:
+        z = [v for zs, _ in got[k : k + n] for v in zs]
+        missed = sum(m for _, m in got[k : k + n])
+        out.append(Coverage(sc, noise, np.array(z), missed, n))
+        k += n
     return out

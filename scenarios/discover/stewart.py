@@ -23,7 +23,13 @@ from calibench.estimators.discovery.select import prune, select
 from calibench.estimators.discovery.stewart import AXIS, StewartDrivers, stewart_candidates
 from calibench.scenarios.discover.folds import block_folds
 from calibench.scenarios.discover.fresh import structure
+from calibench.scenarios.discover.same_machine import (
+    SAME_PLATFORM_MM,
+    own_geometry_rms,
+    refuse_another,
+)
 from calibench.scenarios.discover.stewart_locate import locate
+from calibench.scenarios.discover.stewart_sessions import frame_per_recording, joined
 from calibench.scenarios.report import BadInput
 
 # The platform's practical floor: 4 % of the held-out RMS. One leg's effect shows on a sixth of
@@ -37,7 +43,8 @@ MIN_DISTINCT_POSES = 20
 EXPERIMENTS = {
     "leg_compliance": "add a known payload to the platform, or hold poses that load the legs "
     "differently",
-    "thermal_expansion": "let the machine's temperature change by several K during the recording",
+    "thermal_expansion": "let the machine's temperature change by several K during the recording, "
+    "or record it again warm (discover takes both)",
     "backlash": "approach each pose with every leg extending, then retracting",
     "periodic": "measure at a finer step of the legs' lengths",
     "thermal_drift": "return to one pose at the start, middle and end of the recording",
@@ -215,27 +222,53 @@ def _geometry_columns(rec, g, R, t):
 def discover_stewart(
     rec, seed: int = 0, floor: float = STEWART_FLOOR, config=None
 ) -> tuple[dict, dict]:
-    """discovery.json's content for a Stewart recording, and what the figure needs.
+    """discovery.json's content for a Stewart recording (or several of one platform: a list,
+    fitted together by :mod:`stewart_sessions`), and what the figure needs.
 
     Poses with a gross reading (a leg's residual beyond ``GROSS_SIGMAS`` robust standard
     deviations after the model: a tracker that lost a reflector's beam for a moment) are set
     aside and the discovery is run again without them; the report names them."""
-    out, fig = _discover_stewart(rec, seed, floor, config)
+    from calibench.scenarios.stewart.scenario import StewartConfig
+
+    config = config or StewartConfig()
+    recs = list(rec) if isinstance(rec, (list, tuple)) else [rec]
+    for k, r in enumerate(recs):
+        if len(recs) > 1 and len(r) < MIN_DISTINCT_POSES:
+            raise BadInput(
+                f"recording {k + 1} has {len(r)} poses: each needs at least {MIN_DISTINCT_POSES} "
+                "for its tracker's frame"
+            )
+    if len(recs) > 1:
+        rec, rec_id = joined(recs, config.geometry, _registered)
+    else:
+        rec, rec_id = recs[0], np.zeros(len(recs[0]), int)
+    out, fig = _discover_stewart(rec, rec_id, seed, floor, config)
     gross = gross_samples(fig["fitted"][AXIS], fig["signals"][0].sample)
     if gross.any() and gross.sum() <= GROSS_SHARE * len(rec):
-        out, fig = _discover_stewart(rec.subset(~gross), seed, floor, config)
+        out, fig = _discover_stewart(rec.subset(~gross), rec_id[~gross], seed, floor, config)
         out["set_aside"] = {
             "poses": np.flatnonzero(gross).tolist(),
             "why": f"a leg's residual beyond {GROSS_SIGMAS:g} robust standard deviations: gross "
-            "readings, not noise",
+            "readings, not noise"
+            + (" (poses numbered through the recordings in order)" if len(recs) > 1 else ""),
         }
+    if not gross.any() or gross.sum() > GROSS_SHARE * len(rec):
+        gross = np.zeros(len(rec), bool)
+    # the rows the discovery read, per recording (provenance): a pose set aside is not among them
+    fig["rows_used"] = [np.flatnonzero(~gross[rec_id == k]) for k in range(len(recs))]
     return out, fig
+
+
+def _registered(rec, g) -> tuple[np.ndarray, np.ndarray]:
+    Rf, tf = register(rec, g)
+    _check_registered(rec, g, Rf, tf)
+    return Rf, tf
 
 
 GROSS_SHARE = 0.2  # more than this are no longer outliers: the model is what is wrong
 
 
-def _discover_stewart(rec, seed: int, floor: float, config) -> tuple[dict, dict]:
+def _discover_stewart(rec, rec_id, seed: int, floor: float, config) -> tuple[dict, dict]:
     from calibench.scenarios.discover.report import describe_effects, one_axis_fit, verdict
     from calibench.scenarios.stewart.scenario import StewartConfig
     from calibench.sim.stewart import leg_effects_mm
@@ -265,8 +298,14 @@ def _discover_stewart(rec, seed: int, floor: float, config) -> tuple[dict, dict]
         own = leg_effects_mm(truth, drivers["L"], drivers["force"], rec.direction, rec.temp_c)
         Rf, tf = register(dataclasses.replace(rec, readings_mm=rec.readings_mm - own), g)
         drivers, r, frame = twin_drivers(rec, g, Rf, tf, rec.load_n, truth)
+    if rec_id.max() > 0:  # each recording's tracker frame: what its registration left
+        frame = frame_per_recording(frame, rec_id)
     sig = Signal("reading - twin", AXIS, r, frame, np.repeat(np.arange(n), 6))
     fold, scheme = block_folds(rec.readings_mm, "poses")
+    if rec_id.max() > 0:  # each recording's own blocks: every fold holds out part of each
+        parts = [block_folds(rec.readings_mm[rec_id == k], "poses") for k in np.unique(rec_id)]
+        fold = np.concatenate([f for f, _ in parts])
+        scheme = parts[0][1] + " of each recording"
     station = np.repeat(stations(rec, repeat_tol), 6) * 6 + np.tile(np.arange(6), n)
     order = (
         np.repeat(rec.t_s if rec.t_s is not None else np.arange(n, dtype=float), 6)
@@ -278,6 +317,9 @@ def _discover_stewart(rec, seed: int, floor: float, config) -> tuple[dict, dict]
     noise = {AXIS: repeatability(first, station, order)}
     found, terms = select([sig], candidates, drivers, fold, noise, floor=floor)
     prune(sig, found, terms, drivers, fold, floor)
+    if rec_id.max() > 0:
+        moved, left = own_geometry_rms(sig, terms[AXIS], geo, drivers, rec_id)
+        refuse_another(moved, left, SAME_PLATFORM_MM, "platform", "hinges")
     effects, fitted = describe_effects([sig], terms, found, drivers, noise)
     after_noise = {AXIS: repeatability(fitted[AXIS], station, order)}
     confounds = []
@@ -286,7 +328,20 @@ def _discover_stewart(rec, seed: int, floor: float, config) -> tuple[dict, dict]
         if c.key in accepted or not hasattr(c, "columns") or c.name == "geometry":
             continue
         frac = confounded(sig, terms[AXIS], c, drivers, {})
-        if frac > 0.9:
+        if c.name == "thermal_expansion" and np.ptp(rec.temp_c) < 1.0:
+            if not any(e["effect"] == c.name for e in confounds):  # alike for every leg: once
+                confounds.append(
+                    {
+                        "effect": c.name,
+                        "axis": AXIS,
+                        "with": "the legs' length scales and the hinges",
+                        "why": f"the temperature moved only {np.ptp(rec.temp_c):.2f} K, so a "
+                        "leg's growth with it is a scale of its length, which the hinges take "
+                        "in part",
+                        "experiment": EXPERIMENTS[c.name],
+                    }
+                )
+        elif frac > 0.9:
             confounds.append(
                 {
                     "effect": c.name,
@@ -315,6 +370,8 @@ def _discover_stewart(rec, seed: int, floor: float, config) -> tuple[dict, dict]
         "confounded": confounds,
         "verdict": verdict(found.cv_final, after_noise, bool(names), located),
     }
+    if rec_id.max() > 0:
+        out["recordings"] = int(rec_id.max()) + 1
     return out, {
         "signals": [sig],
         "fitted": fitted,
@@ -382,15 +439,17 @@ def twin_tables(scenario: str, out: dict, config: Path | None, arm=None) -> tupl
 
 # --- the plug-in (calibench.scenarios.discover.engine.Plugin) -------------------------------------
 HOLDOUTS: tuple[str, ...] = ()  # its own folds: blocks of poses (folds.block_folds)
-MANY_RECORDINGS = False
+MANY_RECORDINGS = True  # one platform, warm and cold, say: fitted together (stewart_sessions)
 
 
 def load(scenario: str, paths: list, arm=None):
-    """The platform recording at ``paths[0]`` (CONTRACT: l1_mm .. l6_mm and the tracker's pose)."""
+    """The platform's recordings at ``paths`` (CONTRACT: l1_mm .. l6_mm and the tracker's pose):
+    one, or a list of several."""
     from calibench.recordings import load_stewart_csv
     from calibench.scenarios.discover.engine import MAX_ROWS
 
-    return load_stewart_csv(paths[0], MAX_ROWS)
+    recs = [load_stewart_csv(p, MAX_ROWS) for p in paths]
+    return recs[0] if len(recs) == 1 else recs
 
 
 def discover(scenario: str, rec, seed: int, holdout, config, arm=None) -> tuple[dict, dict]:

@@ -37,6 +37,7 @@ def arm_recording(
     amplitude_urad: float | None = None,
     noise: str = "gaussian",
     repeat: int = 0,
+    machine: int = 0,
 ) -> tuple[ArmRecording, dict]:
     """A blinded arm recording: the twin with its default as-built errors (Table 1 for the seed's
     arm), probed at ``n`` postures by a reference of ``noise_um`` 1-sigma per coordinate that
@@ -73,6 +74,9 @@ def arm_recording(
     repeat : int
         The same arm probed again at the same postures: its errors the same draws, the encoders'
         and the reference's noise fresh (``k`` > 0: the ``k``-th repeat; 0: the first).
+    machine : int
+        Which arm of the description's drawing: 0 the one with its default as-built errors,
+        ``k`` > 0 another, its errors drawn with seed ``k`` (``sim.arm_cmm.drawn_errors``).
 
     Returns
     -------
@@ -90,14 +94,14 @@ def arm_recording(
         ``compliance`` on an arm without masses.
     """
     from calibench.scenes.arm_cmm import load_arm
-    from calibench.sim.arm_cmm import ArmSim, ArmTruth
+    from calibench.sim.arm_cmm import ArmSim, ArmTruth, drawn_errors
 
     if kind not in ARM_KINDS + UNWRITTEN_ARM_KINDS:
         raise ValueError(f"unknown kind {kind!r} (known: {', '.join(ARM_KINDS)})")
     rng = np.random.default_rng(seed)
     description = load_arm(arm)
     N = description.n_joints
-    truth = ArmTruth()
+    truth = ArmTruth(delta=drawn_errors(description, machine) if machine else ())
     sim = ArmSim(description, truth)
     q = sim.random_postures(n, rng)
     t = np.arange(n) * 20.0
@@ -206,5 +210,6 @@ def arm_recording(
             "noise_um": noise_um,
             "noise": noise,
             "repeat": repeat,
+            "machine": machine,
         },
     )

@@ -25,7 +25,13 @@ STEWART_ROTATION_DEG = 10.0
 
 
 def stewart_recording(
-    kind: str, seed: int, n_poses: int = 100, noise: str = "gaussian", repeat: int = 0
+    kind: str,
+    seed: int,
+    n_poses: int = 100,
+    noise: str = "gaussian",
+    repeat: int = 0,
+    rise_k: float | None = None,
+    warmer_k: float = 0.0,
 ) -> tuple[StewartRecording, dict]:
     """A blinded Stewart recording: ``n_poses`` poses visited, then visited again in reverse
     order (so every leg approaches each pose both ways), a payload of 0, 500 or 1000 N on the
@@ -54,6 +60,11 @@ def stewart_recording(
         The same platform recorded again at the same poses from the same tracker station: its
         errors the same draws, the legs' and the tracker's noise fresh (``k`` > 0: the ``k``-th
         repeat; 0: the first).
+    rise_k : float or None
+        ``thermal``: how far the temperature rises during the recording, K (None: drawn, 2-5).
+    warmer_k : float
+        The room this much warmer than on the first recording, K (with ``repeat``: the same
+        platform recorded warm; its legs' growth counts from the first recording's start).
 
     Returns
     -------
@@ -98,10 +109,12 @@ def stewart_recording(
     readings = L - sim.l0
     leg = int(rng.integers(1, 7))
     effects = []
+    T_ref, T = T[0], T + warmer_k
     if kind == "thermal":
         rise, k = rng.uniform(2, 5), rng.uniform(10, 25)
+        rise = rise if rise_k is None else rise_k
         T = T + rise * (1 - np.exp(-t_s / (t_s[-1] / 2)))
-        readings[:, leg - 1] -= k * 1e-6 * (T - T[0]) * L[:, leg - 1]
+        readings[:, leg - 1] -= k * 1e-6 * (T - T_ref) * L[:, leg - 1]
         effects.append(
             {"name": "thermal_expansion", "axis": "legs", "params": {"leg": leg, "ppm_per_k": k}}
         )

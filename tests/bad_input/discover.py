@@ -34,13 +34,18 @@ def stewart_with(spoil):
 
 
 def simulated(kind: str, *args, **kw):
-    """A writer of a simulated recording of ``kind`` (``stage``, ``scanner``): the concealed
-    suite's recording function's, its arguments passed on."""
+    """A writer of a simulated recording of ``kind`` (``stage``, ``scanner``, ``arm``,
+    ``stewart``): the concealed suite's recording function's, its arguments passed on."""
 
     def write(path):
-        from calibench.sim.concealed import scanner_recording, stage_recording
+        from calibench.sim import concealed
 
-        make = {"stage": stage_recording, "scanner": scanner_recording}[kind]
+        make = {
+            "stage": concealed.stage_recording,
+            "scanner": concealed.scanner_recording,
+            "arm": concealed.arm_recording,
+            "stewart": concealed.stewart_recording,
+        }[kind]
         make(*args, **kw)[0].to_csv(path)
 
     return write
@@ -216,11 +221,24 @@ CASES = [
         "recording 2 is not of the same machine and plate",
     ),
     (
-        "discover-two-stewart-recordings",
-        {"r.csv": stage_csv(), "s.csv": stage_csv()},
-        ["discover", "stewart", "{d}/r.csv", "{d}/s.csv"],
+        "discover-arm-other-machine",
+        {
+            "a.csv": simulated("arm", "null", 40, n=120, arm="ur10"),
+            "b.csv": simulated("arm", "null", 41, n=120, arm="ur10", machine=3),
+        },
+        ["discover", "arm-cmm", "{d}/a.csv", "{d}/b.csv", "--arm", "ur10"],
         2,
-        "one recording",
+        "recording 2 is not of recording 1's arm",
+    ),
+    (
+        "discover-stewart-other-machine",
+        {
+            "a.csv": simulated("stewart", "null", 100, n_poses=40),
+            "b.csv": simulated("stewart", "null", 200, n_poses=40),
+        },
+        ["discover", "stewart", "{d}/a.csv", "{d}/b.csv"],
+        2,
+        "recording 2 is not of recording 1's platform",
     ),
     (
         "discover-holdout-choice",
