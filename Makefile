@@ -10,6 +10,9 @@ $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
 	$(BIN)/python -m pip install -q -e '.[test,lint]'
+	# an editable install compiles nothing, and where PYTHONDONTWRITEBYTECODE is set every command
+	# would compile each module it imports at its start
+	$(BIN)/python -m compileall -q -j 0 calibench estimators scenarios scenes sim
 	touch $@
 
 demo: $(VENV)/.installed
