@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from calibench.recordings.joining import times_end_to_end
 from calibench.recordings.records import StewartRecording
 
 
@@ -49,14 +50,7 @@ def joined(recs: list, geometry, register) -> tuple[StewartRecording, np.ndarray
         cols = [getattr(r, name) for r in recs]
         return None if any(c is None for c in cols) else np.concatenate(cols)
 
-    t_s = None
-    if all(r.t_s is not None for r in recs):
-        parts, end = [], 0.0
-        for r in recs:
-            step = float(np.median(np.diff(r.t_s))) if len(r.t_s) > 1 else 0.0
-            parts.append(r.t_s - r.t_s[0] + end)
-            end = parts[-1][-1] + step
-        t_s = np.concatenate(parts)
+    t_s = times_end_to_end([r.t_s for r in recs]) if all(r.t_s is not None for r in recs) else None
     rec = StewartRecording(
         np.vstack([r.readings_mm for r in recs]),
         np.concatenate(R_all),
