@@ -261,6 +261,17 @@ class ScannerRecording:
     def __len__(self) -> int:
         return len(self.rho_mm)
 
+    def subset(self, rows: np.ndarray) -> ScannerRecording:
+        """The recording restricted to ``rows``: indices (k,) or a boolean mask (n,)."""
+        pick = lambda v: None if v is None else v[rows]  # noqa: E731
+        return ScannerRecording(
+            self.turn[rows],
+            self.theta_rad[rows],
+            self.rho_mm[rows],
+            pick(self.t_s),
+            pick(self.temp_c),
+        )
+
     def to_csv(self, path) -> None:
         """Write the CONTRACT's probe-scanner CSV: turn, theta_deg, rho_mm and what is present of
         t_s, temp_c (ten significant digits).

@@ -199,25 +199,43 @@ class AngleTable(Effect):
     """``nonsmooth``: a free correction in each flagged band of the table's angle (a nick or a
     burr on the artefact's wall, dirt on the stylus's path), a lookup table, not a law.
 
-    ``band`` (n,) the band of each sample, -1 outside the flagged region."""
+    ``table_id`` (360 / ``bin_deg``,) the table's column of each band of the angle, -1 outside
+    the flagged region: a law of the angle, so it carries to another recording of the artefact
+    (its own samples, any of them set aside)."""
 
     name: str = "nonsmooth"
     axis: str = AXIS
-    band: np.ndarray | None = None  # a default only because Effect's fields have defaults
-    n: int = 0
+    table_id: np.ndarray | None = None  # a default only because Effect's fields have defaults
+    bin_deg: float = 1.0
     where: str = ""
     peak_deg: float = 0.0
+
+    def __post_init__(self):
+        object.__setattr__(self, "needs", ("theta",))
 
     @property
     def key(self) -> str:
         """One table."""
         return "nonsmooth:rho"
 
+    @property
+    def n(self) -> int:
+        """The table's entries."""
+        assert self.table_id is not None, "an AngleTable is built with its bands"
+        return int(np.sum(self.table_id >= 0))
+
+    def column_of(self, d) -> np.ndarray:
+        """Each sample's column of the table, (n,), -1 outside the flagged region."""
+        assert self.table_id is not None, "an AngleTable is built with its bands"
+        n_bins = len(self.table_id)
+        deg = np.degrees(np.mod(np.asarray(d["theta"], float), 2 * np.pi))
+        return self.table_id[np.floor(deg / self.bin_deg).astype(int) % n_bins]
+
     def columns(self, d):
-        assert self.band is not None, "an AngleTable is built with its bands"
-        X = np.zeros((len(self.band), self.n))
-        ok = self.band >= 0
-        X[np.flatnonzero(ok), self.band[ok]] = 1.0
+        band = self.column_of(d)
+        X = np.zeros((len(band), self.n))
+        ok = band >= 0
+        X[np.flatnonzero(ok), band[ok]] = 1.0
         return X
 
     def describe(self, coef, cov):

@@ -38,6 +38,7 @@ from calibench.estimators.discovery.probe_scanner import (
 )
 from calibench.estimators.discovery.select import FLOOR, Step, prune, select
 from calibench.scenarios.discover.fresh import structure
+from calibench.scenarios.discover.gross import without_gross
 from calibench.scenarios.discover.scanner_sessions import SYMMETRY, TOP_HARMONIC, assemble
 from calibench.scenarios.report import BadInput
 
@@ -176,10 +177,10 @@ def find_angle_table(
         f"deg, {means[peak] * 1000:+.1f} um)"
     )
     table = AngleTable(
-        band=table_id[band], n=int(region.sum()), where=where, peak_deg=(peak + 0.5) * BIN_DEG
+        table_id=table_id, bin_deg=BIN_DEG, where=where, peak_deg=(peak + 0.5) * BIN_DEG
     )
     # judged where it acts: a nick a degree wide barely moves the whole turn's RMS
-    inside = table.band >= 0
+    inside = table_id[band] >= 0
     cache = {}
     before = rms(cv_residuals(sig, terms, drivers, fold, cache)[inside])
     after = rms(cv_residuals(sig, terms + [table], drivers, fold, cache)[inside])
@@ -199,12 +200,18 @@ def _runs(bands: np.ndarray) -> list[str]:
 
 def discover_scanner(rec, seed: int = 0, floor: float = FLOOR, config=None) -> tuple[dict, dict]:
     """discovery.json's content for a probe-scanner recording (or a list of recordings of one
-    machine, fitted together: :mod:`.scanner_sessions`), and what the figure needs."""
-    from calibench.scenarios.discover.report import describe_effects, one_axis_fit, verdict
+    machine, fitted together: :mod:`.scanner_sessions`), and what the figure needs; samples with
+    a gross reading (dust under the stylus, a missed count) set aside (:mod:`.gross`)."""
     from calibench.scenarios.probe_scanner.scenario import ProbeScannerConfig
 
     config = config or ProbeScannerConfig()
     recs = list(rec) if isinstance(rec, (list, tuple)) else [rec]
+    return without_gross(lambda rs: _discover_scanner(rs, seed, floor, config), recs, "samples")
+
+
+def _discover_scanner(recs: list, seed: int, floor: float, config) -> tuple[dict, dict]:
+    from calibench.scenarios.discover.report import describe_effects, one_axis_fit, verdict
+
     for k, r in enumerate(recs):
         which = f"recording {k + 1}: " if len(recs) > 1 else ""
         if len(r) < 200:
@@ -313,7 +320,6 @@ def discover_scanner(rec, seed: int = 0, floor: float = FLOOR, config=None) -> t
         "signals": [sig],
         "fitted": fitted,
         "abscissa": (np.degrees(np.mod(th, 2 * np.pi)), "table angle (deg)"),
-        "rows_used": [np.arange(len(r)) for r in recs],
         **structure(terms, drivers, fold),
     }
 

@@ -18,11 +18,12 @@ from pathlib import Path
 import numpy as np
 
 from calibench.estimators.discovery.fit import Signal, confounded, lstsq
-from calibench.estimators.discovery.noise import GROSS_SIGMAS, gross_samples, repeatability
+from calibench.estimators.discovery.noise import repeatability
 from calibench.estimators.discovery.select import prune, select
 from calibench.estimators.discovery.stewart import AXIS, StewartDrivers, stewart_candidates
 from calibench.scenarios.discover.folds import block_folds
 from calibench.scenarios.discover.fresh import structure
+from calibench.scenarios.discover.gross import without_gross
 from calibench.scenarios.discover.same_machine import (
     SAME_PLATFORM_MM,
     own_geometry_rms,
@@ -238,34 +239,19 @@ def discover_stewart(
                 f"recording {k + 1} has {len(r)} poses: each needs at least {MIN_DISTINCT_POSES} "
                 "for its tracker's frame"
             )
-    if len(recs) > 1:
-        rec, rec_id = joined(recs, config.geometry, _registered)
-    else:
-        rec, rec_id = recs[0], np.zeros(len(recs[0]), int)
-    out, fig = _discover_stewart(rec, rec_id, seed, floor, config)
-    gross = gross_samples(fig["fitted"][AXIS], fig["signals"][0].sample)
-    if gross.any() and gross.sum() <= GROSS_SHARE * len(rec):
-        out, fig = _discover_stewart(rec.subset(~gross), rec_id[~gross], seed, floor, config)
-        out["set_aside"] = {
-            "poses": np.flatnonzero(gross).tolist(),
-            "why": f"a leg's residual beyond {GROSS_SIGMAS:g} robust standard deviations: gross "
-            "readings, not noise"
-            + (" (poses numbered through the recordings in order)" if len(recs) > 1 else ""),
-        }
-    if not gross.any() or gross.sum() > GROSS_SHARE * len(rec):
-        gross = np.zeros(len(rec), bool)
-    # the rows the discovery read, per recording (provenance): a pose set aside is not among them
-    fig["rows_used"] = [np.flatnonzero(~gross[rec_id == k]) for k in range(len(recs))]
-    return out, fig
+
+    def run(rs: list) -> tuple[dict, dict]:
+        if len(rs) == 1:
+            return _discover_stewart(rs[0], np.zeros(len(rs[0]), int), seed, floor, config)
+        return _discover_stewart(*joined(rs, config.geometry, _registered), seed, floor, config)
+
+    return without_gross(run, recs, "poses")
 
 
 def _registered(rec, g) -> tuple[np.ndarray, np.ndarray]:
     Rf, tf = register(rec, g)
     _check_registered(rec, g, Rf, tf)
     return Rf, tf
-
-
-GROSS_SHARE = 0.2  # more than this are no longer outliers: the model is what is wrong
 
 
 def _discover_stewart(rec, rec_id, seed: int, floor: float, config) -> tuple[dict, dict]:
