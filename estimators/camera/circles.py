@@ -16,6 +16,8 @@ import cv2
 import numpy as np
 from scipy import ndimage
 
+SEARCH_MARGIN_PX = 5.0  # beyond the blob's contour, each way: where a ray's crossing is sought
+
 
 @dataclasses.dataclass(frozen=True)
 class CircleFit:
@@ -65,7 +67,7 @@ def find_dark_circle(
             continue  # too small, or not round
         d = np.hypot(cx - near[0], cy - near[1])
         if d < best_d:
-            best, best_d = (np.array([cx, cy]), r), d
+            best, best_d = (np.array([cx, cy]), r, pts), d
     if best is None:
         return None
     dark, bright = _median_where(img, mask > 0), _median_where(img, mask == 0)
@@ -78,7 +80,17 @@ def find_dark_circle(
     hi = np.minimum(np.ceil(best[0] + reach).astype(int) + 1, [w, h])
     block = img[lo[1] : hi[1], lo[0] : hi[0]].astype(np.float32)
     smooth = ndimage.gaussian_filter(block, smooth_px)
-    edge = radial_edge_points(smooth, best[0] - lo, best[1], (dark + bright) / 2, n_rays)
+    # the contour of the blob bounds where the edge can be: the rays search between its nearest
+    # and farthest points, a margin each way (the same points as a search of the whole width)
+    dist = np.hypot(*(best[2] - best[0]).T)
+    edge = radial_edge_points(
+        smooth,
+        best[0] - lo,
+        best[1],
+        (dark + bright) / 2,
+        n_rays,
+        within=(dist.min() - SEARCH_MARGIN_PX, dist.max() + SEARCH_MARGIN_PX),
+    )
     edge = edge + lo
     if len(edge) < 0.8 * n_rays:
         return None
@@ -105,31 +117,67 @@ def radial_edge_points(
     n_rays: int,
     half_width: float | None = None,
     step: float = 0.25,
+    within: tuple[float, float] | None = None,
 ) -> np.ndarray:
     """Where each radial ray crosses ``level`` near ``radius``, shape (n_found, 2) px.
 
     Profiles are sampled bilinearly every ``step`` px over +-``half_width`` around the radius;
-    the crossing is linearly interpolated between the two samples that bracket the level.
+    the crossing is the first from below the level to at or above it going outwards, linearly
+    interpolated between the two samples that bracket it.
+
+    ``within`` (inner, outer) px: where the caller expects the crossings. The samples inside
+    ``inner`` are skipped when no pixel they read reaches the level (none of them can then hold
+    the first crossing), and the rays are sampled out to ``outer`` first; a ray without its
+    crossing there is sampled over the whole width. The points are those of the whole width's
+    search, at a fraction of its samples.
     """
     hw = half_width if half_width is not None else max(6.0, 0.15 * radius)
     ang = np.linspace(0, 2 * np.pi, n_rays, endpoint=False)
     d = np.stack([np.cos(ang), np.sin(ang)], axis=1)  # (n_rays, 2)
     rr = np.arange(radius - hw, radius + hw + step / 2, step)  # (n_samples,)
-    pts = centre + d[:, None, :] * rr[None, :, None]  # (n_rays, n_samples, 2)
+    k_lo, k_hi = 0, len(rr) - 1
+    if within is not None:
+        k_lo = int(np.clip(np.floor((within[0] - rr[0]) / step), 0, len(rr) - 1))
+        k_hi = int(np.clip(np.ceil((within[1] - rr[0]) / step), k_lo + 1, len(rr) - 1))
+        if k_lo > 0 and not _below_within(image, centre, rr[k_lo], level):
+            k_lo = 0
+    k, r_edge = _first_crossings(image, centre, d, rr[k_lo : k_hi + 1], level, step)
+    if k_lo > 0 or k_hi < len(rr) - 1:
+        again = np.flatnonzero(k < 0)
+        if len(again):  # no crossing where expected: the whole width, as without ``within``
+            k[again], r_edge[again] = _first_crossings(image, centre, d[again], rr, level, step)
+    rows = np.flatnonzero(k >= 0)
+    return centre + d[rows] * r_edge[rows, None]
+
+
+def _first_crossings(
+    image: np.ndarray, centre: np.ndarray, d: np.ndarray, rr: np.ndarray, level: float, step: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Each ray's (``d`` (n_rays, 2)) first upward crossing of ``level`` among its samples at
+    radii ``rr`` (n_samples,): the sample before it (-1 where none) and its radius (n_rays,)."""
+    rows = centre[1] + d[:, 1:] * rr  # (n_rays, n_samples)
+    cols = centre[0] + d[:, :1] * rr
     prof = ndimage.map_coordinates(
-        image, [pts[..., 1].ravel(), pts[..., 0].ravel()], order=1, mode="nearest"
-    ).reshape(pts.shape[:2])
+        image, [rows.ravel(), cols.ravel()], order=1, mode="nearest"
+    ).reshape(rows.shape)
     above = prof >= level
-    # first dark-to-bright transition going outwards
     trans = (~above[:, :-1]) & above[:, 1:]
     ok = trans.any(axis=1)
     k = np.argmax(trans, axis=1)
-    rows = np.flatnonzero(ok)
-    k = k[rows]
-    p0, p1 = prof[rows, k], prof[rows, k + 1]
-    frac = (level - p0) / (p1 - p0)
-    r_edge = rr[k] + frac * step
-    return centre + d[rows] * r_edge[:, None]
+    at = np.arange(len(k))
+    p0, p1 = prof[at, k], prof[at, k + 1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r_edge = rr[k] + (level - p0) / (p1 - p0) * step
+    return np.where(ok, k, -1), r_edge
+
+
+def _below_within(image: np.ndarray, centre: np.ndarray, radius: float, level: float) -> bool:
+    """Whether every pixel of ``image`` that a bilinear sample within ``radius`` of ``centre``
+    reads (its four neighbours: within radius + sqrt 2) is below ``level``."""
+    disc = np.zeros(image.shape, np.uint8)
+    reach = int(np.ceil(radius + np.sqrt(2) + 1))  # and the centre's rounding
+    cv2.circle(disc, (int(round(centre[0])), int(round(centre[1]))), reach, 255, -1)
+    return bool(cv2.minMaxLoc(image, disc)[1] < level)
 
 
 def fit_conic_centre(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:

@@ -4,7 +4,11 @@ import cv2
 import numpy as np
 import pytest
 
-from calibench.estimators.camera.circles import ellipse_centre_bias, find_dark_circle
+from calibench.estimators.camera.circles import (
+    ellipse_centre_bias,
+    find_dark_circle,
+    radial_edge_points,
+)
 from tests.estimators.synthetic import raster_disc
 
 F = 150.0 / 0.0104
@@ -51,3 +55,28 @@ def test_no_whole_circle_gives_none():
     assert find_dark_circle(np.full((576, 768), 200, np.uint8)) is None
     cut = _image(np.eye(3), np.array([3.0, 0.0, 150.0]), rng)  # centre 2900 px off: only an arc
     assert find_dark_circle(cut) is None
+
+
+def test_a_search_near_the_contour_finds_the_whole_widths_points():
+    """The rays sampled between the blob contour's radii alone give the points of a search over
+    the whole width, bit for bit: as they stand; with a bright speck inside the disc (the
+    samples inside are then all taken); and with the radii where no crossing is (each ray then
+    searched over the whole width)."""
+    rng = np.random.default_rng(13)
+    t = np.array([0.1, -0.05, 150.0])
+    img = _image(np.eye(3), t, rng).astype(np.float32)
+    centre, r = (K @ t)[:2] / t[2], 2.5 * F / 150
+    level = (20 + 230) / 2
+    full = radial_edge_points(img, centre, r, level, 720)
+    assert len(full) == 720
+    got = radial_edge_points(img, centre, r, level, 720, within=(r - 5, r + 5))
+    assert np.array_equal(got, full)
+    speck = img.copy()
+    v, u = int(centre[1]), int(centre[0] + r - 20)
+    speck[v - 1 : v + 2, u - 1 : u + 2] = 255.0
+    expect = radial_edge_points(speck, centre, r, level, 720)
+    assert not np.array_equal(expect, full)  # the speck's ray crosses there first
+    got = radial_edge_points(speck, centre, r, level, 720, within=(r - 5, r + 5))
+    assert np.array_equal(got, expect)
+    got = radial_edge_points(img, centre, r, level, 720, within=(r + 10, r + 12))
+    assert np.array_equal(got, full)
