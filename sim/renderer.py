@@ -107,16 +107,22 @@ class LensRenderer:
             )
         rows, cols = self._cells[0][v0:v1, u0:u1], self._cells[1][v0:v1, u0:u1]
         W, H = self._size
+        p = self.pad
+        if self.lens.dist.any():
+            (r_lo, r_hi), (c_lo, c_hi) = (rows.min(), rows.max()), (cols.min(), cols.max())
+        else:  # a pinhole's cells are the window's pixels shifted by the pad
+            (r_lo, r_hi), (c_lo, c_hi) = (v0 + p, v1 - 1 + p), (u0 + p, u1 - 1 + p)
         # the block sampled (the bilinear neighbours and a pixel more), in 32 px steps
-        r0 = max(int(rows.min()) - 1, 0)
-        c0 = max(int(cols.min()) - 1, 0)
-        hb = min(-(-(int(rows.max()) + 3 - r0) // 32) * 32, H)
-        wb = min(-(-(int(cols.max()) + 3 - c0) // 32) * 32, W)
+        r0 = max(int(r_lo) - 1, 0)
+        c0 = max(int(c_lo) - 1, 0)
+        hb = min(-(-(int(r_hi) + 3 - r0) // 32) * 32, H)
+        wb = min(-(-(int(c_hi) + 3 - c0) // 32) * 32, W)
         r0, c0 = min(r0, H - hb), min(c0, W - wb)
         ideal = self._render_block(data, r0, c0, wb, hb)
         if not self.lens.dist.any():  # the pinhole's pixels: the block's, shifted by the pad
-            p = self.pad
             crop = ideal[v0 + p - r0 : v1 + p - r0, u0 + p - c0 : u1 + p - c0]
+            if _is_grey(crop):  # one channel through the sensor: the same pixels, a third the work
+                crop = crop[..., 0]
             return _sensor(crop.astype(np.float32), rng, noise_dn, psf_px)
         ri = np.minimum(rows - r0, hb - 1)
         ci = np.minimum(cols - c0, wb - 1)
@@ -158,10 +164,16 @@ class LensRenderer:
         self._offscreen.close()
 
 
+def _is_grey(img: np.ndarray) -> bool:
+    """Whether an (h, w, 3) image's three channels are the same."""
+    return np.array_equal(img[..., 0], img[..., 1]) and np.array_equal(img[..., 0], img[..., 2])
+
+
 def _sensor(img: np.ndarray, rng, noise_dn: float, psf_px: float) -> np.ndarray:
-    """The optics' blur, the sensor's noise and its quantisation of an image (h, w, 3) float32."""
-    grey = np.array_equal(img[..., 0], img[..., 1]) and np.array_equal(img[..., 0], img[..., 2])
-    if grey:  # a grey scene (the circle plate's): one channel's work, the same pixels
+    """The optics' blur, the sensor's noise and its quantisation of an image (h, w, 3) float32,
+    or (h, w) of a grey one; returns (h, w, 3) uint8."""
+    grey = img.ndim == 2 or _is_grey(img)
+    if img.ndim == 3 and grey:  # a grey scene (the circle plate's): one channel's work
         img = np.ascontiguousarray(img[..., 0])
     if psf_px > 0:
         img = cv2.GaussianBlur(img, (0, 0), psf_px)
@@ -172,7 +184,7 @@ def _sensor(img: np.ndarray, rng, noise_dn: float, psf_px: float) -> np.ndarray:
         noise = rng.normal(0.0, noise_dn, img.shape[:2]).astype(np.float32)
         img = img + (noise if grey else noise[..., None])
     out = np.clip(np.rint(img), 0, 255).astype(np.uint8)
-    return np.repeat(out[..., None], 3, axis=2) if grey else out
+    return cv2.cvtColor(out, cv2.COLOR_GRAY2RGB) if grey else out
 
 
 def bilinear_matrix(coords: np.ndarray, shape: tuple[int, int]):

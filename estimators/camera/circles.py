@@ -70,7 +70,7 @@ def find_dark_circle(
             best, best_d = (np.array([cx, cy]), r, pts), d
     if best is None:
         return None
-    dark, bright = _median_where(img, mask > 0), _median_where(img, mask == 0)
+    dark, bright = medians_in_and_out(img, mask)
     if bright - dark < 20:
         return None
     # the profiles reach radius + half-width; the filter's kernel 4 sigma beyond, and the sampling
@@ -79,7 +79,10 @@ def find_dark_circle(
     lo = np.maximum(np.floor(best[0] - reach).astype(int), 0)
     hi = np.minimum(np.ceil(best[0] + reach).astype(int) + 1, [w, h])
     block = img[lo[1] : hi[1], lo[0] : hi[0]].astype(np.float32)
-    smooth = ndimage.gaussian_filter(block, smooth_px)
+    # scipy's gaussian_filter (truncate 4, mirrored edges) as OpenCV's, 8x faster: within 1e-4
+    # grey levels of it in float32, and the rays never read the edges the two treat alike
+    taps = 2 * int(4 * smooth_px + 0.5) + 1
+    smooth = cv2.GaussianBlur(block, (taps, taps), smooth_px, borderType=cv2.BORDER_REFLECT)
     # the contour of the blob bounds where the edge can be: the rays search between its nearest
     # and farthest points, a margin each way (the same points as a search of the whole width)
     dist = np.hypot(*(best[2] - best[0]).T)
@@ -98,14 +101,22 @@ def find_dark_circle(
     return CircleFit(centre=centre, radius_px=float(np.mean(axes)), rms_px=rms, n_edge=len(edge))
 
 
-def _median_where(img: np.ndarray, where: np.ndarray) -> float:
-    """``np.median(img[where])`` of a uint8 image, from its histogram (a tenth of the time)."""
+def medians_in_and_out(img: np.ndarray, mask: np.ndarray) -> tuple[float, float]:
+    """The medians of ``img`` where the uint8 ``mask`` is set and where it is not, from the
+    histograms of a uint8 image (OpenCV's: a fifth of numpy's indexing)."""
     if img.dtype != np.uint8:
-        return float(np.median(img[where]))
-    counts = np.cumsum(np.bincount(img[where], minlength=256))
-    n = int(counts[-1])
-    lower = int(np.searchsorted(counts, (n - 1) // 2, side="right"))
-    upper = int(np.searchsorted(counts, n // 2, side="right"))
+        return float(np.median(img[mask > 0])), float(np.median(img[mask == 0]))
+    inside = cv2.calcHist([img], [0], mask, [256], [0, 256]).ravel().astype(np.int64)
+    every = cv2.calcHist([img], [0], None, [256], [0, 256]).ravel().astype(np.int64)
+    return _histogram_median(inside), _histogram_median(every - inside)
+
+
+def _histogram_median(counts: np.ndarray) -> float:
+    """``np.median`` of the values whose (256,) histogram is ``counts``."""
+    cumulative = np.cumsum(counts)
+    n = int(cumulative[-1])
+    lower = int(np.searchsorted(cumulative, (n - 1) // 2, side="right"))
+    upper = int(np.searchsorted(cumulative, n // 2, side="right"))
     return (lower + upper) / 2
 
 

@@ -22,9 +22,11 @@ from calibench.sim.vision_stage import VisionStageSim
 if TYPE_CHECKING:
     from calibench.scenarios.vision_stage.scenario import VisionStageConfig
 
-# beyond the circle's rim in an area-of-interest read-out: the detector's ray profiles reach
-# 0.15 radius past it, and the blur a few px more
-WINDOW_MARGIN_PX = 48
+# beyond the circle's rim in an area-of-interest read-out: the detector searches the rim's
+# contour +-5 px (the contour within a pixel of the rim), reads its smoothed image there (a
+# 4 px kernel, a bilinear pixel), and the optics' blur reflected at the read-out's edge reaches
+# 4 px in: 1 + 5 + 4 + 1 + 4 < 16
+WINDOW_MARGIN_PX = 16
 # measure_rulers lays each ruler over the travel less this (its ends clear)
 RULER_SHORTER_BY_MM = 10.0
 
@@ -105,6 +107,27 @@ def servo(
             return s + off, n
         s = s + off
     raise ValueError(f"servo did not settle near reading {reading}")
+
+
+def predicted_correction(corrections: np.ndarray, k: int, nx: int) -> np.ndarray:
+    """Where circle ``k`` of the grid will be found, as the correction its nominal reading will
+    need, from the circles already servoed (row by row, ``nx`` a row): the error field is smooth,
+    so the last two of the row extrapolated, or the circle below at a row's start.
+
+    Args:
+        corrections: (k, 2) reading less nominal reading (mm) of each circle servoed so far.
+        k: the circle about to be servoed.
+        nx: circles in a row.
+
+    Returns:
+        (2,) the predicted correction (mm): zero for the first circle.
+    """
+    col = k % nx
+    if col >= 2:
+        return 2 * corrections[k - 1] - corrections[k - 2]
+    if col == 1:
+        return corrections[k - 1]
+    return corrections[k - nx] if k >= nx else np.zeros(2)
 
 
 def align_plate(sim, scope, config, rng):

@@ -80,3 +80,16 @@ def test_a_search_near_the_contour_finds_the_whole_widths_points():
     assert np.array_equal(got, expect)
     got = radial_edge_points(img, centre, r, level, 720, within=(r + 10, r + 12))
     assert np.array_equal(got, full)
+
+
+def testmedians_in_and_out_are_numpys():
+    """The detector's dark and bright levels from histograms: numpy's medians, odd and even
+    counts alike (an even count's median halfway between its two middle values)."""
+    from calibench.estimators.camera.circles import medians_in_and_out
+
+    rng = np.random.default_rng(3)
+    for shape in ((31, 17), (32, 18)):
+        img = rng.integers(0, 256, shape).astype(np.uint8)
+        mask = np.where(rng.random(shape) < 0.4, 255, 0).astype(np.uint8)
+        dark, bright = medians_in_and_out(img, mask)
+        assert dark == np.median(img[mask > 0]) and bright == np.median(img[mask == 0])

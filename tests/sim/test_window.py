@@ -52,6 +52,7 @@ def test_vision_window_finds_the_same_circle():
     """The microscope's read-out around its circle: the detector's centre as on the full frame
     (noise off, blur on), far inside its 0.002 px noise."""
     from calibench.estimators.camera.circles import find_dark_circle
+    from calibench.scenarios.vision_stage.procedure import WINDOW_MARGIN_PX
     from calibench.scenes.vision_stage import VisionStageGeometry
     from calibench.sim.vision_stage import VisionStageSim, VisionStageTruth
 
@@ -66,7 +67,7 @@ def test_vision_window_finds_the_same_circle():
                 continue
             seen += 1
             centre = np.array([g.camera.cx, g.camera.cy])
-            r = full.radius_px + 48
+            r = full.radius_px + WINDOW_MARGIN_PX
             lo = np.maximum(np.floor(full.centre - r).astype(int), 0)
             hi = np.minimum(np.ceil(full.centre + r).astype(int), [g.camera.width, g.camera.height])
             img = vs.render(psf_px=0.8, window=(lo[0], lo[1], hi[0], hi[1]))
