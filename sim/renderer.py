@@ -181,7 +181,7 @@ def _sensor(img: np.ndarray, rng, noise_dn: float, psf_px: float) -> np.ndarray:
         if rng is None:
             raise ValueError("sensor noise needs a random generator")
         # one noise field for the three channels: a monochrome sensor seen as RGB
-        noise = rng.normal(0.0, noise_dn, img.shape[:2]).astype(np.float32)
+        noise = rng.standard_normal(img.shape[:2], np.float32) * np.float32(noise_dn)
         img = img + (noise if grey else noise[..., None])
     out = np.clip(np.rint(img), 0, 255).astype(np.uint8)
     return cv2.cvtColor(out, cv2.COLOR_GRAY2RGB) if grey else out
