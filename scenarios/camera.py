@@ -4,6 +4,7 @@ intrinsics.json)."""
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import cv2
@@ -11,8 +12,8 @@ import numpy as np
 
 from calibench.estimators.camera.chessboard import find_chessboard_corners, gross_corners
 from calibench.estimators.camera.zhang import CalibrationError, calibrate_camera
-from calibench.recordings import same_file
 from calibench.scenarios.camera_figure import coverage, write_camera_figure
+from calibench.scenarios.cvplot import warm_fonts
 from calibench.scenarios.report import BadInput
 from calibench.scenes.checkerboard import Chessboard
 
@@ -38,20 +39,16 @@ def calibrate_photos(
     for p in paths:
         if not p.is_file():
             raise BadInput(f"camera: {p}: {_not_a_file(p)}")
-    twice = next((p for k, p in enumerate(paths) if any(same_file(p, q) for q in paths[:k])), None)
+    twice = _first_repeat(paths)
     if twice is not None:
         raise BadInput(f"camera: {twice} is given twice: a photo counts once")
     names = _labels(paths)
-    # one photo decoded at a time, only its corners kept: memory stays that of one photo
     found, sizes, rejected = {}, {}, {}
-    for p in paths:
-        img, why = _read_gray(p)
-        if img is None:
+    for p, (size, corners, why) in zip(paths, _detect_all(paths, cols, rows)):
+        if size is None:
             rejected[names[p]] = why
             continue
-        sizes[p] = img.shape[::-1]
-        found[p] = find_chessboard_corners(img, cols, rows)
-        del img
+        sizes[p], found[p] = size, corners
     # the size most photos share is the camera's: one odd photo, first or not, is the one rejected
     counts = list(sizes.values())
     size = max(set(counts), key=counts.count) if counts else None
@@ -130,6 +127,57 @@ def calibrate_photos(
     }
 
 
+def _detect_all(paths: list[Path], cols: int, rows: int) -> list[tuple]:
+    """Each photo's (size (w, h), corners or None, "") or (None, None, why it is refused), in
+    order. A photo per core at a time (OpenCV's decoding and detection release the GIL), only
+    its corners kept: memory stays that of a few photos."""
+    import threading
+
+    out: list = [None] * len(paths)
+    failed: list[BaseException] = []
+
+    def detect(every: int, first: int) -> None:
+        try:
+            for k in range(first, len(paths), every):
+                img, why = _read_gray(paths[k])
+                if img is None:
+                    out[k] = None, None, why
+                else:
+                    out[k] = img.shape[::-1], find_chessboard_corners(img, cols, rows), ""
+        except BaseException as e:  # raised where the caller sees it, as without threads
+            failed.append(e)
+
+    # OpenCV's decoders print their own warnings (a float TIFF: a dozen lines); a photo's fate
+    # is said once, in the rejected list. Set once: the level is the process's, not a thread's
+    level = cv2.utils.logging.getLogLevel()
+    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)
+    n = min(os.cpu_count() or 1, len(paths), 4)
+    threads = [threading.Thread(target=detect, args=(n, i)) for i in range(1, n)]
+    try:
+        for t in threads:
+            t.start()
+        detect(n, 0)
+        for t in threads:
+            t.join()
+    finally:
+        cv2.utils.logging.setLogLevel(level)
+    if failed:
+        raise failed[0]
+    return out
+
+
+def _first_repeat(paths: list[Path]) -> Path | None:
+    """The first of ``paths`` (existing files) that names a photo named before it, through links
+    too: each file's identity (device, inode) taken once, not each pair's paths resolved."""
+    seen = set()
+    for p in paths:
+        st = p.stat()
+        if (st.st_dev, st.st_ino) in seen:
+            return p
+        seen.add((st.st_dev, st.st_ino))
+    return None
+
+
 def _labels(paths: list[Path]) -> dict[Path, str]:
     """Each photo's name in intrinsics.json: its file name, or its path where two share a name."""
     counts = {}
@@ -195,14 +243,7 @@ def _read_gray(path: Path) -> tuple[np.ndarray | None, str]:
             "(a calibration needs no more: scale the photos down)"
         )
     data = np.frombuffer(raw, np.uint8)
-    # OpenCV's decoders print their own warnings (a float TIFF: a dozen lines); the photo's
-    # fate is said once, in the rejected list
-    level = cv2.utils.logging.getLogLevel()
-    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)
-    try:
-        img = cv2.imdecode(data, cv2.IMREAD_GRAYSCALE) if data.size else None
-    finally:
-        cv2.utils.logging.setLogLevel(level)
+    img = cv2.imdecode(data, cv2.IMREAD_GRAYSCALE) if data.size else None
     if img is None:
         return None, "not a readable image (truncated, or not an image)"
     return img, ""
@@ -227,12 +268,14 @@ def run_camera(
     than 3 distinct views of the board remain.
     """
     corners: dict = {}
+    fonts = warm_fonts()
     result = calibrate_photos(
         paths, cols, rows, square_mm, fix_aspect, radial, tangential, corners_out=corners
     )
     result["corner_coverage"] = coverage(corners, tuple(result["image_size"]))
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "intrinsics.json").write_text(json.dumps(result, indent=2) + "\n")
+    fonts.join()
     write_camera_figure(out_dir / "camera.png", result, corners)
     return result
 

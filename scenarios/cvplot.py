@@ -12,6 +12,18 @@ FONT = 0  # cv2.FONT_HERSHEY_SIMPLEX
 INK, GREY = (0, 0, 0), (200, 200, 200)  # BGR
 
 
+def warm_fonts():
+    """Start OpenCV's first text call (its fonts' set-up, about 20 ms) in a thread, so that a
+    command's figure does not wait for it; join the returned thread before drawing."""
+    import threading
+
+    import cv2
+
+    thread = threading.Thread(target=cv2.getTextSize, args=("0", FONT, 0.45, 1), daemon=True)
+    thread.start()
+    return thread
+
+
 def text(img, label: str, xy, scale=0.45, color=INK, anchor="left") -> None:
     """``label`` with its baseline at ``xy`` (x, y) px, anchored left, centre or right."""
     import cv2
