@@ -155,7 +155,7 @@ def _run_study(
             # a signal landing while a worker is spawned cuts its start-up data short, and the
             # worker prints a traceback: it is held until the pool has started
             with interrupt_flag() as stop:
-                executor, close = make_executor(workers, None)
+                executor, close = make_executor(workers, None, renders=fidelity == "render")
                 for _ in range(workers):
                     executor.submit(load_scenario, scenario)
                 # a worker, which loads the scenario anyway, checks the config: this process
