@@ -15,6 +15,18 @@ from calibench.recordings.csv_io import RecordingError, write_csv
 STEWART_POSE = ("x_mm", "y_mm", "z_mm", "rx_deg", "ry_deg", "rz_deg")
 
 
+def _rows_of(recording, rows: np.ndarray):
+    """A recording whose every field is an array of its rows (or None, absent) restricted to
+    ``rows``: indices (k,) or a boolean mask (n,)."""
+    return dataclasses.replace(
+        recording,
+        **{
+            f.name: None if (v := getattr(recording, f.name)) is None else v[rows]
+            for f in dataclasses.fields(recording)
+        },
+    )
+
+
 @dataclasses.dataclass
 class CameraViews:
     """Views of a chessboard by one camera.
@@ -138,14 +150,7 @@ class ArmRecording:
         ArmRecording
             The k rows, every present field with them.
         """
-        pick = lambda v: None if v is None else v[rows]  # noqa: E731
-        return ArmRecording(
-            self.q_rad[rows],
-            self.xyz_mm[rows],
-            pick(self.t_s),
-            pick(self.temp_c),
-            pick(self.xyz_std_mm),
-        )
+        return _rows_of(self, rows)
 
     def to_csv(self, path) -> None:
         """Write the CONTRACT's arm CSV: q1_deg..qN_deg, x_mm, y_mm, z_mm and what is present of
@@ -263,14 +268,7 @@ class ScannerRecording:
 
     def subset(self, rows: np.ndarray) -> ScannerRecording:
         """The recording restricted to ``rows``: indices (k,) or a boolean mask (n,)."""
-        pick = lambda v: None if v is None else v[rows]  # noqa: E731
-        return ScannerRecording(
-            self.turn[rows],
-            self.theta_rad[rows],
-            self.rho_mm[rows],
-            pick(self.t_s),
-            pick(self.temp_c),
-        )
+        return _rows_of(self, rows)
 
     def to_csv(self, path) -> None:
         """Write the CONTRACT's probe-scanner CSV: turn, theta_deg, rho_mm and what is present of
@@ -324,16 +322,7 @@ class StewartRecording:
 
     def subset(self, rows: np.ndarray) -> StewartRecording:
         """The recording restricted to ``rows``: indices (k,) or a boolean mask (n,)."""
-        pick = lambda v: None if v is None else v[rows]  # noqa: E731
-        return StewartRecording(
-            self.readings_mm[rows],
-            self.R[rows],
-            self.t_mm[rows],
-            pick(self.t_s),
-            pick(self.temp_c),
-            pick(self.direction),
-            pick(self.load_n),
-        )
+        return _rows_of(self, rows)
 
     def to_csv(self, path) -> None:
         """Write the CONTRACT's Stewart CSV: l1_mm..l6_mm, the pose (x_mm, y_mm, z_mm, rx_deg,
