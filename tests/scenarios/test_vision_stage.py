@@ -64,7 +64,7 @@ def test_rrd_holds_table_plate_images_centres_and_fields(render_run):
 @pytest.mark.render
 def test_analytic_centre_noise_agrees_with_the_renders(render_run):
     """The analytic fidelity's centre noise is calibrated on renders: within 10 % (seed 0:
-    0.00175 px rendered against 0.00184 modelled)."""
+    0.00181 px rendered against 0.00184 modelled)."""
     _, _, rep = render_run
     modelled = vision_stage.VisionStageConfig().centre_noise_px * np.sqrt(2)
     assert _checks(rep)["circle_centre_rms_px"] == pytest.approx(modelled, rel=0.10)
