@@ -144,15 +144,16 @@ def _detect_all(paths: list[Path], cols: int, rows: int) -> list[tuple]:
                     out[k] = None, None, why
                 else:
                     out[k] = img.shape[::-1], find_chessboard_corners(img, cols, rows), ""
-        except BaseException as e:  # raised where the caller sees it, as without threads
+        except Exception as e:  # raised in the caller, as without threads (Ctrl-C is at once)
             failed.append(e)
 
     # OpenCV's decoders print their own warnings (a float TIFF: a dozen lines); a photo's fate
     # is said once, in the rejected list. Set once: the level is the process's, not a thread's
     level = cv2.utils.logging.getLogLevel()
     cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)
-    n = min(os.cpu_count() or 1, len(paths), 4)
-    threads = [threading.Thread(target=detect, args=(n, i)) for i in range(1, n)]
+    n = max(min(os.cpu_count() or 1, len(paths), 4), 1)
+    # daemons: an interrupted command exits without waiting for their photos
+    threads = [threading.Thread(target=detect, args=(n, i), daemon=True) for i in range(1, n)]
     try:
         for t in threads:
             t.start()

@@ -17,6 +17,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from calibench.estimators.quantiles import nanmedian, percentile
+
 # Histogram normalisation doubles the sector detector's error on renders: not used.
 _SB_FLAGS = cv2.CALIB_CB_ACCURACY | cv2.CALIB_CB_EXHAUSTIVE
 # no CALIB_CB_FAST_CHECK: with OpenCV 5.0 it makes a board's detection 3-4x slower (13 photos:
@@ -69,18 +71,7 @@ def saddle_half_window(corners: np.ndarray, cols: int, rows: int) -> int:
         np.linalg.norm(np.diff(grid, axis=1), axis=2).ravel(),
         np.linalg.norm(np.diff(grid, axis=0), axis=2).ravel(),
     ]
-    return int(np.clip(np.round(0.3 * _tenth_percentile(steps)), 2, 10))
-
-
-def _tenth_percentile(x: np.ndarray) -> float:
-    """``np.percentile(x, 10)`` of a 1-D array, bit for bit (its linear interpolation): without
-    its call to ``np.unique``, which imports ``numpy.ma`` (40 ms of a command's start)."""
-    s = np.sort(x)
-    h = 0.1 * (len(s) - 1)
-    lo = int(np.floor(h))
-    t = h - lo
-    a, b = s[lo], s[min(lo + 1, len(s) - 1)]
-    return float(b - (b - a) * (1 - t) if t >= 0.5 else a + (b - a) * t)
+    return int(np.clip(np.round(0.3 * percentile(steps, 10)), 2, 10))
 
 
 def refine_saddle(
@@ -204,15 +195,6 @@ def grid_residuals(
     return np.where(w.sum(axis=1) >= 8, np.linalg.norm(offset, axis=1), np.nan)
 
 
-def _nanmedian(x: np.ndarray) -> float:
-    """``np.nanmedian`` of a 1-D array with a number in it, bit for bit (the middle value, or
-    the mean of the two): without its check for masked arrays, which imports ``numpy.ma``."""
-    v = x[~np.isnan(x)]
-    lo, hi = (len(v) - 1) // 2, len(v) // 2
-    part = np.partition(v, [lo, hi])
-    return float((part[lo] + part[hi]) / 2)
-
-
 def gross_corners(
     corners: np.ndarray, cols: int, rows: int, limit_px: float = 1.5
 ) -> list[tuple[int, float]]:
@@ -230,7 +212,7 @@ def gross_corners(
     while len(found) < n // 4:
         r = grid_residuals(corners, cols, rows, left)
         r[left] = np.nan
-        if np.all(np.isnan(r)) or np.nanmax(r) <= max(limit_px, 5 * _nanmedian(r)):
+        if np.all(np.isnan(r)) or np.nanmax(r) <= max(limit_px, 5 * nanmedian(r)):
             break
         worst = np.argsort(np.where(np.isnan(r), -np.inf, r))[::-1][:6]
 

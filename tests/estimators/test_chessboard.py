@@ -121,22 +121,3 @@ def test_a_large_photo_is_searched_small_and_refined_at_full_resolution(monkeypa
     assert found is not None
     err = np.linalg.norm(found - project(BOARD.corners_mm(), K5, R, t), axis=1)
     assert np.sqrt(np.mean(err**2)) < 0.05
-
-
-def test_saddle_half_window_is_the_tenth_percentile_step():
-    """The half window is 0.3 of the 10th percentile of the grid's steps (numpy's, bit for bit:
-    it is computed without np.percentile, whose call imports numpy.ma), within 2-10 px."""
-    from calibench.estimators.camera.chessboard import saddle_half_window
-
-    rng = np.random.default_rng(11)
-    for cols, rows in ((9, 6), (4, 3), (7, 7)):
-        for pitch in rng.uniform(5, 40, 20):
-            grid = np.stack(np.meshgrid(np.arange(cols), np.arange(rows)), axis=2) * pitch
-            corners = (grid + rng.normal(0, 0.05 * pitch, grid.shape)).reshape(-1, 2)
-            g = corners.reshape(rows, cols, 2)
-            steps = np.r_[
-                np.linalg.norm(np.diff(g, axis=1), axis=2).ravel(),
-                np.linalg.norm(np.diff(g, axis=0), axis=2).ravel(),
-            ]
-            expected = int(np.clip(np.round(0.3 * np.percentile(steps, 10)), 2, 10))
-            assert saddle_half_window(corners, cols, rows) == expected

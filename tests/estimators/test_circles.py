@@ -82,7 +82,7 @@ def test_a_search_near_the_contour_finds_the_whole_widths_points():
     assert np.array_equal(got, full)
 
 
-def testmedians_in_and_out_are_numpys():
+def test_medians_in_and_out_are_numpys():
     """The detector's dark and bright levels from histograms: numpy's medians, odd and even
     counts alike (an even count's median halfway between its two middle values)."""
     from calibench.estimators.camera.circles import medians_in_and_out
