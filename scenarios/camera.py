@@ -12,6 +12,7 @@ import numpy as np
 
 from calibench.estimators.camera.chessboard import find_chessboard_corners, gross_corners
 from calibench.estimators.camera.zhang import CalibrationError, calibrate_camera
+from calibench.files import first_repeat
 from calibench.scenarios.camera_figure import coverage, write_camera_figure
 from calibench.scenarios.cvplot import warm_fonts
 from calibench.scenarios.report import BadInput
@@ -39,7 +40,7 @@ def calibrate_photos(
     for p in paths:
         if not p.is_file():
             raise BadInput(f"camera: {p}: {_not_a_file(p)}")
-    twice = _first_repeat(paths)
+    twice = first_repeat(paths)
     if twice is not None:
         raise BadInput(f"camera: {twice} is given twice: a photo counts once")
     names = _labels(paths)
@@ -165,18 +166,6 @@ def _detect_all(paths: list[Path], cols: int, rows: int) -> list[tuple]:
     if failed:
         raise failed[0]
     return out
-
-
-def _first_repeat(paths: list[Path]) -> Path | None:
-    """The first of ``paths`` (existing files) that names a photo named before it, through links
-    too: each file's identity (device, inode) taken once, not each pair's paths resolved."""
-    seen = set()
-    for p in paths:
-        st = p.stat()
-        if (st.st_dev, st.st_ino) in seen:
-            return p
-        seen.add((st.st_dev, st.st_ino))
-    return None
 
 
 def _labels(paths: list[Path]) -> dict[Path, str]:

@@ -11,9 +11,10 @@ a recording without importing the simulation.
 - ``stage``, ``arm``, ``scanner``, ``stewart``, ``axis_run``: each format's loader and its checks.
 """
 
+from calibench.files import same_file
 from calibench.recordings.arm import ARM_OPTIONAL, ARM_REQUIRED, MAX_STD_MM, load_arm_csv
 from calibench.recordings.axis_run import load_axis_run
-from calibench.recordings.csv_io import RecordingError, read_columns, same_file, write_csv
+from calibench.recordings.csv_io import RecordingError, read_columns, write_csv
 from calibench.recordings.records import (
     STEWART_POSE,
     ArmRecording,

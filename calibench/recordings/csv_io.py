@@ -20,25 +20,6 @@ class RecordingError(BadInput):
     """A recording that cannot be used as it is (missing column, NaN, unreadable file)."""
 
 
-def same_file(a: str | Path, b: str | Path) -> bool:
-    """Whether two paths name one file (through links too).
-
-    Parameters
-    ----------
-    a, b : str or Path
-        The two paths; one that does not exist yet is the other only if it resolves to it.
-
-    Returns
-    -------
-    bool
-        True when both name the same file.
-    """
-    try:
-        return Path(a).resolve() == Path(b).resolve() or Path(a).samefile(b)
-    except OSError:
-        return False
-
-
 def _rows(reader, path: Path, max_rows: int | None) -> list[list[str]]:
     """The CSV's rows, refused as soon as it holds more than ``max_rows`` data rows (read on
     only to count them, the whole file would be in memory first)."""

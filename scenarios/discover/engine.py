@@ -32,7 +32,7 @@ from typing import Protocol
 
 import numpy as np
 
-from calibench.recordings import same_file
+from calibench.files import first_repeat, same_file
 from calibench.scenarios.discover.confirm import confirm
 from calibench.scenarios.discover.figure import write_figure
 from calibench.scenarios.provenance import entry
@@ -125,9 +125,9 @@ def run_discover(
     ``twin``: where to write the twin updated with what was found (the same format). Writes
     ``out_dir``/discovery.json and discovery.png; returns discovery.json's content."""
     paths = list(csv_path) if isinstance(csv_path, (list, tuple)) else [csv_path]
-    for i, p in enumerate(paths):  # a recording given twice would count its rows twice
-        if any(same_file(p, q) for q in paths[:i]):
-            raise BadInput(f"{p} is given twice: each recording once")
+    twice = first_repeat(paths)  # a recording given twice would count its rows twice
+    if twice is not None:
+        raise BadInput(f"{twice} is given twice: each recording once")
     many = scenario in PLUGINS and plugin(scenario).MANY_RECORDINGS
     if not many and len(paths) != 1:
         raise BadInput(f"discover {scenario}: one recording, not {len(paths)}")
