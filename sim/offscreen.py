@@ -49,6 +49,10 @@ class Offscreen:
     def __init__(self, model: mujoco.MjModel, max_geom: int = 10000):
         self.model = model
         self.max_size = (int(model.vis.global_.offwidth), int(model.vis.global_.offheight))
+        if not model.light_castshadow.any():
+            # no light casts a shadow, so no shadow pass: the shadow map (4096 px square by
+            # default) would be allocated for nothing, and it was most of a context's cost
+            model.vis.quality.shadowsize = 0
         self._gl = mujoco.GLContext(*self.max_size)
         self._gl.make_current()
         self._context = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_150.value)

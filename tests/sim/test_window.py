@@ -79,7 +79,9 @@ def test_vision_window_finds_the_same_circle():
 
 
 def test_offscreen_full_frame_is_mujocos_renderer():
-    """sim/offscreen.py makes the same calls as mujoco.Renderer: the same pixels, to the bit."""
+    """sim/offscreen.py makes the same calls as mujoco.Renderer: the same pixels, to the bit,
+    though it allocates no shadow map where no light casts a shadow (mujoco.Renderer, made first,
+    has the model's 4096 px one)."""
     import mujoco
 
     from calibench.sim.offscreen import Offscreen
@@ -89,8 +91,10 @@ def test_offscreen_full_frame_is_mujocos_renderer():
         s.move(120_000, 100_000)
         cam = s.model.camera("overhead").id
         w, h = 320, 240
-        ours = Offscreen(s.model)
+        assert s.model.vis.quality.shadowsize == 4096 and not s.model.light_castshadow.any()
         theirs = mujoco.Renderer(s.model, h, w)
+        ours = Offscreen(s.model)
+        assert s.model.vis.quality.shadowsize == 0
         try:
             theirs.update_scene(s.data, camera=cam)
             np.testing.assert_array_equal(
@@ -103,3 +107,16 @@ def test_offscreen_full_frame_is_mujocos_renderer():
             theirs.close()
     finally:
         s.close()
+
+
+def test_a_lens_sampling_is_made_once_and_shared_read_only():
+    """Every renderer of one lens samples the ideal render alike: its maps are made once per
+    process (a study's trials), and no renderer can change them for the others."""
+    from calibench.scenes.camera import PinholeCamera
+    from calibench.sim.renderer import lens_sampling
+
+    a = lens_sampling(PinholeCamera(), 8)
+    assert lens_sampling(PinholeCamera(), 8) is a
+    assert lens_sampling(PinholeCamera(k1=-0.1), 8) is not a
+    with pytest.raises(ValueError, match="read-only"):
+        a.cells[0, 0, 0] = 1
