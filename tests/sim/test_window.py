@@ -120,3 +120,38 @@ def test_a_lens_sampling_is_made_once_and_shared_read_only():
     assert lens_sampling(PinholeCamera(k1=-0.1), 8) is not a
     with pytest.raises(ValueError, match="read-only"):
         a.cells[0, 0, 0] = 1
+
+
+def test_offscreens_in_one_gl_context_render_their_own_frames():
+    """Render contexts made one after another in the thread's one GL context (a study worker's
+    trials): each renders its own model's frame, interleaved or after the other is closed, the
+    pixels of a renderer with a GL context of its own."""
+    import mujoco
+
+    from calibench.sim.offscreen import Offscreen
+
+    sims = [BeltStageSim(BeltStageGeometry(), BeltStageTruth(), render=False) for _ in range(2)]
+    try:
+        for s, x in zip(sims, (0, 200_000)):
+            s.move(x, x // 2)
+        cam = sims[0].model.camera("overhead").id
+        w, h = 320, 240
+        alone = []
+        for s in sims:
+            r = mujoco.Renderer(s.model, h, w)
+            r.update_scene(s.data, camera=cam)
+            alone.append(r.render())
+            r.close()
+        assert not np.array_equal(*alone)
+        screens = [Offscreen(s.model) for s in sims]
+        assert screens[0]._gl is screens[1]._gl
+        opt = mujoco.MjvOption()
+        for _ in range(2):
+            for s, screen, frame in zip(sims, screens, alone):
+                np.testing.assert_array_equal(screen.render(s.data, cam, opt, w, h), frame)
+        screens[0].close()
+        np.testing.assert_array_equal(screens[1].render(sims[1].data, cam, opt, w, h), alone[1])
+        screens[1].close()
+    finally:
+        for s in sims:
+            s.close()
