@@ -5,9 +5,10 @@ README).
 Each row sets calibench beside its peer measured in the same run, interleaved where it is cheap:
 the bare MuJoCo renderer for the lens render, OpenCV's classic pipeline for ``calibench camera``,
 pybotics' approach (scipy's Levenberg-Marquardt over the same residuals with a finite-difference
-Jacobian) for the arm's identification; and each scenario's analytic Monte-Carlo study as a whole
-command on all cores, beside issue 16's goal; then issue 39's goals (``goals.py``): whole commands,
-a study's fixed cost, rendered studies, Dask against the pool, and the renderer in use.
+Jacobian) for the arm's identification; and each scenario's analytic Monte-Carlo study on all
+cores, run from this process (its pool's start in, a fresh Python's imports not: the arm's whole
+command is issue 39's row), beside issue 16's goal; then issue 39's goals (``goals.py``): whole
+commands, a study's fixed cost, rendered studies, Dask against the pool, and the renderer in use.
 
 pybotics itself (3.1.2, its ``OptimizationHandler`` with every chain parameter free) did not
 converge on a UR10 of 100 postures in 2000 evaluations (6 minutes) here, so it is not a row.
@@ -107,7 +108,8 @@ def camera(data: Path, rounds: int = 5) -> dict:
 
 
 def studies() -> dict:
-    """Whole-command trials/s of each scenario's analytic study on all cores (pool start-up in)."""
+    """Trials/s of each scenario's analytic study on all cores, run from this process: the pool's
+    start and the outputs in, a fresh Python's start and imports not."""
     from calibench.scenarios.study.montecarlo import run_study
 
     out = {}
@@ -167,8 +169,8 @@ def table(data: Path) -> str:
     for name, s in st.items():
         rows.append(
             (
-                f"Monte Carlo, {name}, analytic, {s['trials']} trials (whole command, "
-                f"{os.cpu_count()} cores)",
+                f"Monte Carlo, {name}, analytic, {s['trials']} trials ({os.cpu_count()} cores, "
+                "a study from a running Python: its pool's start in)",
                 f"{s['rate']:.1f} trials/s",
                 f"goal {s['goal']} trials/s",
                 f"{s['rate'] / s['goal']:.2f} of the goal",
