@@ -7,6 +7,7 @@ camera`` imports it without the recordings' readers).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 
@@ -29,7 +30,7 @@ def same_file(a: str | Path, b: str | Path) -> bool:
         return False
 
 
-def first_repeat(paths: list[str | Path]) -> Path | None:
+def first_repeat(paths: Sequence[str | Path]) -> Path | None:
     """The first of ``paths`` that names a file named before it, through links too.
 
     Each file's identity (device, inode) is taken once, not each pair's paths resolved (27 ms
@@ -37,7 +38,7 @@ def first_repeat(paths: list[str | Path]) -> Path | None:
 
     Parameters
     ----------
-    paths : list of str or Path
+    paths : sequence of str or Path
         The files, in the order given.
 
     Returns

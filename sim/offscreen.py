@@ -1,9 +1,10 @@
-"""One offscreen GL context that renders a model's camera at any size up to its buffer.
+"""One offscreen render context that renders a model's camera at any size up to its buffer.
 
 ``mujoco.Renderer`` renders one size per context, and a context costs the upload of the model's
 textures (0.4 s for the belt stage's board on 2 cores): an area-of-interest read-out, whose size
 changes from view to view, would pay it again for each size. This renders any viewport of the
 one buffer, with the same calls as ``mujoco.Renderer`` (so a full frame is the same pixels).
+The render contexts of a thread are made in one GL context, kept for the process.
 """
 
 from __future__ import annotations
@@ -13,19 +14,23 @@ import threading
 import mujoco
 import numpy as np
 
-# This thread's GL contexts by buffer size, kept for the process: MuJoCo's render contexts are
-# made in one after another, as a study worker's trials make theirs (a fresh GL context's first
-# render context costs 0.1 s on llvmpipe, its shaders compiled; the next ones 8 ms). mujoco.egl
-# terminates the display at exit, which frees them.
+# This thread's GL contexts, kept for the process: MuJoCo's render contexts are made in one after
+# another, as a study worker's trials make theirs (a fresh GL context's first render context
+# costs 0.1 s on llvmpipe, its shaders compiled; the next ones 8-30 ms). mujoco.egl terminates
+# the display at exit, which frees them.
 _GL = threading.local()
 
 
 def _gl_context(width: int, height: int) -> mujoco.GLContext:
-    """This thread's GL context for buffers of ``width`` x ``height``, made on first use."""
+    """This thread's GL context for buffers up to ``width`` x ``height``, made on first use: one
+    for every size under EGL, which renders to the render context's own buffers; one per size
+    under OSMesa and GLFW, whose context has a buffer (or window) of its size."""
+    egl = mujoco.GLContext.__module__.startswith("mujoco.egl")
+    key = None if egl else (width, height)
     contexts = _GL.__dict__.setdefault("contexts", {})
-    gl = contexts.get((width, height))
+    gl = contexts.get(key)
     if gl is None:
-        gl = contexts[(width, height)] = mujoco.GLContext(width, height)
+        gl = contexts[key] = mujoco.GLContext(width, height)
     return gl
 
 
@@ -53,7 +58,10 @@ def gl_renderer(model: mujoco.MjModel) -> str:
 
 class Offscreen:
     """A model's offscreen renderer: any (width, height) within ``vis.global_.offwidth`` x
-    ``offheight``.
+    ``offheight``, in the thread that made it (its GL context is that thread's).
+
+    Where no light of the model casts a shadow when it is made, it renders without a shadow map
+    (one cast later is not drawn by it).
 
     Parameters
     ----------
@@ -66,13 +74,18 @@ class Offscreen:
     def __init__(self, model: mujoco.MjModel, max_geom: int = 10000):
         self.model = model
         self.max_size = (int(model.vis.global_.offwidth), int(model.vis.global_.offheight))
-        if not model.light_castshadow.any():
-            # no light casts a shadow, so no shadow pass: the shadow map (4096 px square by
-            # default) would be allocated for nothing, and it was most of a context's cost
-            model.vis.quality.shadowsize = 0
         self._gl = _gl_context(*self.max_size)
         self._gl.make_current()
-        self._context = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_150.value)
+        # no light casts a shadow, so no shadow pass: the shadow map (4096 px square by default)
+        # would be allocated for nothing, and it was most of a render context's cost; MuJoCo
+        # reads the size only here, so the caller's model keeps its own
+        shadow = int(model.vis.quality.shadowsize)
+        if not model.light_castshadow.any():
+            model.vis.quality.shadowsize = 0
+        try:
+            self._context = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_150.value)
+        finally:
+            model.vis.quality.shadowsize = shadow
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, self._context)
         self._scene = mujoco.MjvScene(model=model, maxgeom=max_geom)
         self._camera = mujoco.MjvCamera()
