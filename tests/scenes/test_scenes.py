@@ -197,3 +197,15 @@ def test_an_arm_s_name_is_text_in_its_mjcf():
     arm = dataclasses.replace(load_arm("ur10"), name='UR10" evil="<x>&')
     model = mujoco.MjModel.from_xml_string(build_mjcf(arm))
     assert model.names.split(b"\0")[0] == b'UR10" evil="<x>&'  # the model's name comes first
+
+
+def test_arm_names_are_quoted_as_saxutils_quotes_them():
+    """scenes/arm_mjcf.py writes an arm's name into the MJCF without importing saxutils (27 ms
+    of a study worker's start): the same characters as saxutils' quoteattr, every case of it."""
+    from xml.sax.saxutils import quoteattr as saxutils_quoteattr
+
+    from calibench.scenes.arm_mjcf import quoteattr
+
+    names = ["ur10", "a&b", "<x>", 'say "hi"', "it's", "both ' and \" here", "t\tn\nr\r", ""]
+    for name in names + ["&amp;", "\"&'<>\n"]:
+        assert quoteattr(name) == saxutils_quoteattr(name), name
