@@ -155,3 +155,28 @@ def test_offscreens_in_one_gl_context_render_their_own_frames():
     finally:
         for s in sims:
             s.close()
+
+
+def test_a_grey_scene_through_a_distorted_lens_is_sampled_as_one_channel():
+    """The circle plate (a grey scene) seen through a barrel lens: the one-channel sampling of a
+    grey ideal image gives three equal channels, and the area of interest is the full frame's
+    crop (two bilinear sums of the same samples: a rounding flip of a grey level at most)."""
+    import dataclasses
+
+    from calibench.scenes.vision_stage import VisionStageGeometry
+    from calibench.sim.vision_stage import VisionStageSim, VisionStageTruth
+
+    g = VisionStageGeometry()
+    g = dataclasses.replace(g, camera=dataclasses.replace(g.camera, k1=-0.12, k2=0.08, p1=4e-4))
+    vs = VisionStageSim(g, VisionStageTruth(), np.random.default_rng(0))
+    try:
+        vs.move(*(np.array(g.plate_origin_reading_mm) + [0.4, -0.3]))
+        full = vs.render()
+        assert (full[..., 0] == full[..., 1]).all() and (full[..., 0] == full[..., 2]).all()
+        assert full.min() < 64 < 192 < full.max()  # a dark circle on a light plate: not blank
+        w = (100, 80, 300, 260)
+        win = vs.render(window=w)
+        d = np.abs(win.astype(int) - full[80:260, 100:300])
+        assert d.max() <= 1 and (d > 0).mean() < 1e-3
+    finally:
+        vs.close()
