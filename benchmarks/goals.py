@@ -97,6 +97,30 @@ def floor() -> dict:
     }
 
 
+def arm_trial_ms(n: int = 200) -> float:
+    """ms of one analytic arm trial in this process, warm (the median of ``n`` trials' own
+    times, as each study row records them): the unit of the arm study's ceiling."""
+    from calibench.scenarios.study.trials import run_trial
+
+    run_trial("arm-cmm", 0, 0, "analytic")  # the scenario's imports and first model
+    times = []
+    for seed in range(1, n + 1):
+        t = time.perf_counter()
+        run_trial("arm-cmm", seed, 0, "analytic")
+        times.append(time.perf_counter() - t)
+    return 1000 * float(np.median(times))
+
+
+def arm_ceiling(m: dict, trials: int = 1000) -> float:
+    """The most trials/s the arm's whole command could reach at this run's trial cost: a fresh
+    Python and one worker's imports (the workers start together), then ``trials`` trials shared
+    by the cores with nothing else running (no contention, no journal, no outputs, no figure): an
+    upper bound, which the command's own rate stays under."""
+    cores = os.cpu_count() or 1
+    start = m["floor"]["python_s"] + m["floor"]["worker_s"]
+    return trials / (start + trials * m["arm_trial_ms"] / 1000 / min(cores, trials))
+
+
 def rendered_rate(scenario: str, trials: int) -> float:
     """Trials/s of a render-fidelity study of ``scenario`` (whole study, all cores)."""
     from calibench.scenarios.study.montecarlo import run_study
@@ -172,6 +196,7 @@ def measure(data: Path) -> dict:
     out = {"camera": camera_command(data), "renderer": renderer()}
     arm = study_command(1000)
     out["fixed_s"], out["arm_rate"], out["floor"] = arm["fixed_s"], 1000 / arm["whole_s"], floor()
+    out["arm_trial_ms"] = arm_trial_ms()
     for name, n in RENDERED_TRIALS.items():
         out[name] = rendered_rate(name, n)
     out["vision_floor"] = vision_floor()
@@ -203,7 +228,9 @@ def rows(m: dict) -> list[tuple[str, str, str, str]]:
         (
             f"`calibench montecarlo arm-cmm --trials 1000`, whole command, {cores} cores",
             f"{m['arm_rate']:.0f} trials/s",
-            "",
+            f"its ceiling at this run's trial ({m['arm_trial_ms']:.1f} ms in one process): a "
+            f"fresh Python and a worker's imports, then 1000 trials over {cores} cores with "
+            f"nothing else running, {arm_ceiling(m):.0f} trials/s",
             f"goal {GOALS['arm_rate']:g} trials/s",
         ),
     ]
