@@ -245,8 +245,7 @@ class LensRenderer:
 
 def _is_grey(img: np.ndarray) -> bool:
     """Whether an (h, w, 3) image's three channels are the same. A sparse grid of its pixels is
-    compared first: a colour image (the belt's) is told apart without the whole comparison, a
-    millisecond of each frame."""
+    compared first: a colour image (the belt's) is told apart without the whole comparison."""
     for a in (img[::16, ::16], img):
         if not (np.array_equal(a[..., 0], a[..., 1]) and np.array_equal(a[..., 0], a[..., 2])):
             return False
