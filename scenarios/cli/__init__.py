@@ -1,10 +1,10 @@
 """The ``calibench`` command line (CONTRACT.md). Bad input: one line on stderr, exit status 2.
 
 ``parser`` declares the verbs and their options, ``entry`` holds ``main`` (exit statuses, bad
-input in one line, internal errors to OUT/error.log), ``verbs`` one handler per verb and
-``status`` the exit statuses.
+input in one line, internal errors to OUT/error.log) and ``command`` (the executable around it),
+``verbs`` one handler per verb and ``status`` the exit statuses.
 """
 
-from calibench.scenarios.cli.entry import main
+from calibench.scenarios.cli.entry import command, main
 
-__all__ = ["main"]
+__all__ = ["command", "main"]

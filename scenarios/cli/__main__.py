@@ -1,8 +1,6 @@
 """``python -m calibench.scenarios.cli``: the ``calibench`` command."""
 
-import sys
-
-from calibench.scenarios.cli.entry import main
+from calibench.scenarios.cli.entry import command
 
 if __name__ == "__main__":
-    sys.exit(main())
+    command()

@@ -66,6 +66,9 @@ def interrupt_flag():
         signal.signal(signal.SIGTERM, old_term)
 
 
+# a local pool's workers are started with these (make_executor)
+WORKER_ENV = {"PYTHONSAFEPATH": "1", "OPENBLAS_NUM_THREADS": "1"}
+
 CONNECT_S = 10.0  # to reach a scheduler and hear it answer as one
 
 
@@ -191,12 +194,14 @@ def make_executor(
         executor.dask_workers = len(client.scheduler_info().get("workers", {}))
         return executor, close_client
     n = workers or os.cpu_count() or 1
-    # a spawned worker starts as `python -c ...`, whose import path begins with the current
-    # folder: a socket.py or pickle.py there would run in every worker before multiprocessing
-    # sets the path it was given. Python 3.11's safe path leaves the folder out (for the pool's
-    # life only: a program this one starts later keeps the user's setting).
-    safe_path = os.environ.get("PYTHONSAFEPATH")
-    os.environ["PYTHONSAFEPATH"] = "1"
+    # The workers' environment, for the pool's life only (a program this one starts later keeps
+    # the user's settings). A spawned worker starts as `python -c ...`, whose import path begins
+    # with the current folder: a socket.py or pickle.py there would run in every worker before
+    # multiprocessing sets the path it was given; Python 3.11's safe path leaves the folder out.
+    # Each worker's trials use one BLAS thread (run_trials), so OpenBLAS need not start a thread
+    # per core when numpy loads: 80 ms of CPU a worker, which on 2 cores the start waits for.
+    saved = {k: os.environ.get(k) for k in WORKER_ENV}
+    os.environ.update(WORKER_ENV)
     ex = cf.ProcessPoolExecutor(
         max_workers=n,
         mp_context=multiprocessing.get_context("spawn"),
@@ -205,10 +210,11 @@ def make_executor(
     )
 
     def close(interrupted: bool = False) -> None:
-        if safe_path is None:
-            os.environ.pop("PYTHONSAFEPATH", None)
-        else:
-            os.environ["PYTHONSAFEPATH"] = safe_path
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
         if not interrupted:
             ex.shutdown(wait=False, cancel_futures=True)
             return

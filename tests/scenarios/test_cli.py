@@ -250,3 +250,34 @@ def test_version_and_internal_errors(tmp_path, capsys, monkeypatch):
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "internal error" in err and "RuntimeError" in err
     assert "Traceback" in (tmp_path / "error.log").read_text()
+
+
+def test_the_command_ends_with_main_s_status_and_its_output_whole(tmp_path):
+    """The executable skips the interpreter's teardown (entry.command): the status is still
+    main's, what it printed to a pipe is all there (the help in full, bad input's one line), and
+    a study's outputs are written and closed (its recording too)."""
+    import subprocess
+    import sys
+
+    import pyarrow.parquet as pq
+
+    from calibench.scenarios.cli.parser import build_parser
+
+    cli = [sys.executable, "-m", "calibench.scenarios.cli"]
+    shown = subprocess.run([*cli, "--help"], capture_output=True, text=True)
+    assert shown.returncode == 0
+    assert shown.stdout == build_parser().format_help()
+    bad = subprocess.run([*cli, "run", "no-such-scenario"], capture_output=True, text=True)
+    assert bad.returncode == 2 and bad.stdout == ""
+    assert len(bad.stderr.splitlines()) == 1 and "unknown scenario" in bad.stderr
+    out = tmp_path / "study"
+    done = subprocess.run(
+        [*cli, "montecarlo", "arm-cmm", "--trials", "6", "--out", str(out)],
+        capture_output=True,
+        text=True,
+    )
+    assert done.returncode == 0, done.stderr
+    assert "arm-cmm" in done.stdout  # the coverage table, printed last
+    assert pq.read_table(out / "trials.parquet").num_rows == 6
+    assert json.loads((out / "summary.json").read_text())["trials"] == 6
+    assert (out / "study.rrd").stat().st_size > 0
