@@ -98,10 +98,13 @@ def command() -> None:
     study's workers joined, rerun's and multiprocessing's exit handlers run, stdout and stderr
     flushed), freeing every loaded module's objects one by one (rerun, pyarrow, scipy, MuJoCo) is
     0.2 s that a user waits for nothing. Every file calibench writes is closed by then (each is
-    written in a ``with`` block, a recording by ``rrlog.close``).
+    written in a ``with`` block, a recording by ``rrlog.close``). Under a tracer or a profiler
+    (coverage, cProfile), whose exit handlers were registered before this one and write their
+    data after it, the process exits as usual.
     """
     status: list[int] = []
-    atexit.register(_end_now, status)  # registered first, so run last of the exit handlers
+    if sys.gettrace() is None and sys.getprofile() is None and "coverage" not in sys.modules:
+        atexit.register(_end_now, status)  # registered first, so run last of the exit handlers
     status.append(main())
     sys.exit(status[0])
 

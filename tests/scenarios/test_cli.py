@@ -281,3 +281,26 @@ def test_the_command_ends_with_main_s_status_and_its_output_whole(tmp_path):
     assert pq.read_table(out / "trials.parquet").num_rows == 6
     assert json.loads((out / "summary.json").read_text())["trials"] == 6
     assert (out / "study.rrd").stat().st_size > 0
+
+
+def test_the_command_under_a_profiler_exits_as_usual():
+    """A tracer's or profiler's exit handler, registered before the command's, still runs (it
+    writes the coverage or profile); without one the command's handler ends the process first."""
+    import subprocess
+    import sys
+
+    def ran(watched: bool) -> str:
+        code = (
+            "import atexit, sys\n"
+            "atexit.register(print, 'the earlier handler ran')\n"
+            + ("sys.setprofile(lambda *a: None)\n" if watched else "")
+            + "sys.argv = ['calibench', 'run', 'no-such-scenario']\n"
+            "from calibench.scenarios.cli import command\n"
+            "command()\n"
+        )
+        done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+        assert done.returncode == 2 and "unknown scenario" in done.stderr
+        return done.stdout
+
+    assert ran(watched=True) == "the earlier handler ran\n"
+    assert ran(watched=False) == ""
