@@ -120,14 +120,8 @@ def write_study_figure(path: Path, rows: list[dict], summary: dict) -> None:
     """
     good = [r for r in rows if r["ok"]]
     with_std = [p for p in summary["parameters"] if p["coverage_95"] is not None]
-    z = np.array(
-        [
-            (r[f"{p['name']}.estimate"] - r[f"{p['name']}.truth"]) / r[f"{p['name']}.std"]
-            for p in with_std
-            for r in good
-            if r.get(f"{p['name']}.std")
-        ]
-    )
+    keys = [tuple(f"{p['name']}.{x}" for x in ("estimate", "truth", "std")) for p in with_std]
+    z = np.array([(r[e] - r[t]) / r[s] for e, t, s in keys for r in good if r.get(s)])
     img = np.full((HEIGHT, WIDTH, 3), 255, np.uint8)
     _histogram(img, (60, 40, 600, 300), z, f"{summary['scenario']}: {len(good)} trials")
     _coverage(
