@@ -206,7 +206,7 @@ def measure(data: Path) -> dict:
     for name, n in RENDERED_TRIALS.items():
         out[name] = rendered_rate(name, n)
     out["vision_floor"] = vision_floor()
-    out["dask"] = compare(4000)
+    out["dask"] = compare()
     return out
 
 
@@ -267,8 +267,8 @@ def rows(m: dict) -> list[tuple[str, str, str, str]]:
     out += [
         (
             f"Monte Carlo, arm-cmm, {dk['trials']} trials through a local Dask cluster of "
-            f"{dk['workers']} one-thread workers ({dk['rounds']} rounds in turn with the pool: "
-            "medians)",
+            f"{dk['workers']} one-thread workers ({dk['rounds']} rounds in turn with the pool, "
+            "each first in every other: medians)",
             f"{dk['dask_s']:.1f} s",
             f"the local pool of {dk['workers']} {dk['pool_s']:.1f} s"
             + ("" if dk["same"] else " (RESULTS DIFFER)"),
