@@ -75,8 +75,9 @@ def camera_command(data: Path, rounds: int = 5) -> dict:
 
 def study_command(trials: int, rounds: int = 3) -> dict:
     """``calibench montecarlo arm-cmm --trials N`` as a whole command: its seconds, and its fixed
-    cost, those seconds less the trials' own (their summed time over the cores); the run of
-    median seconds of ``rounds`` (one run on a shared 2-core machine varies by a tenth)."""
+    cost, those seconds less the trials' own (their summed time over the cores). Of ``rounds``
+    runs, the one with the median seconds: one run on a shared 2-core machine can be a third off
+    the next."""
     import json
 
     runs = []

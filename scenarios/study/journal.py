@@ -74,6 +74,12 @@ def load_journal(out_dir: Path) -> dict[int, dict]:
     return done
 
 
+def row_keys(rows: list[dict]) -> set[str]:
+    """Every key any of ``rows`` holds: a thousand trials' rows hold a hundred each, so one set
+    union in C, not a loop per row."""
+    return set().union(*rows)
+
+
 def open_journal(out_dir: Path) -> TextIO:
     """The journal, opened to append finished trials to; a last line that an interruption tore is
     closed first, so the next row starts on a line of its own.

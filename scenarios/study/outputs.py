@@ -9,6 +9,7 @@ import os
 from pathlib import Path
 
 from calibench.scenarios.study.figure import write_study_figure
+from calibench.scenarios.study.journal import row_keys
 from calibench.scenarios.study.summary import checks_table, summary_table
 
 
@@ -43,9 +44,7 @@ def write_outputs(out_dir: Path, rows: list[dict], summary: dict) -> None:
 
     keys = ["trial", "seed", "ok", "error", "elapsed_s"]
     cols = sorted(
-        k
-        for k in set().union(*rows)  # every row's keys at once (C's set union)
-        if k not in keys and k != "traceback" and not k.endswith(".unit")
+        k for k in row_keys(rows) if k not in keys and k != "traceback" and not k.endswith(".unit")
     )
     table = {k: [r.get(k) for r in rows] for k in keys + cols}
     with replaced(out_dir / "trials.parquet") as tmp:

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from calibench.scenarios.study.journal import row_keys
+
 # coverage_95 counts the trials whose |error| is at most this many reported std: the normal
 # distribution's two-sided 95 % point (1.959964, to the three digits the studies have always used)
 Z_95 = 1.96
@@ -77,8 +79,7 @@ def summarise(scenario: str, rows: list[dict], elapsed_s: float) -> dict:
         ``efficiency``, ``efficiency_ci95``), ``checks`` and the first ten distinct ``errors``.
     """
     good = [r for r in rows if r["ok"]]
-    # the keys of all rows at once (C's set union): a thousand trials' rows hold a hundred each
-    keys = set().union(*good)
+    keys = row_keys(good)
     names = sorted(k[: -len(".estimate")] for k in keys if k.endswith(".estimate"))
     params = []
     for n in names:
@@ -122,18 +123,16 @@ def summarise(scenario: str, rows: list[dict], elapsed_s: float) -> dict:
         "failed": len(rows) - len(good),
         "elapsed_s": round(elapsed_s, 3),
         "parameters": params,
-        "checks": _check_summary(good),
+        "checks": _check_summary(good, keys),
         "errors": sorted({r["error"] for r in rows if not r["ok"]})[:10],
     }
 
 
-def _check_summary(good: list[dict]) -> list[dict]:
-    """Each check's median, 95th percentile and worst value over the good trials, and the
-    fraction of trials that failed it."""
+def _check_summary(good: list[dict], keys: set[str]) -> list[dict]:
+    """Each check's median, 95th percentile and worst value over the good trials (whose keys are
+    ``keys``), and the fraction of trials that failed it."""
     names = sorted(
-        k[len("check.") :]
-        for k in set().union(*good)
-        if k.startswith("check.") and not k.endswith(".ok")
+        k[len("check.") :] for k in keys if k.startswith("check.") and not k.endswith(".ok")
     )
     out = []
     for n in names:
