@@ -292,9 +292,8 @@ def test_every_default_config_and_sampled_truth_passes_the_checks():
     for name, s in SCENARIOS.items():
         module = sys.modules[s.run.__module__]
         config = override(s.config(), {}, name)
-        if hasattr(module, "check_config"):
-            module.check_config(config)
+        # the arm's config checks itself when made; what remains is that its cones are in reach
+        check = module.check_cones if name == "arm-cmm" else module.check_config
+        check(config)
         for k in range(50):
-            sampled = module.prior(config, np.random.default_rng(trial_seed(0, k)))
-            if hasattr(module, "check_config"):
-                module.check_config(sampled)
+            check(module.prior(config, np.random.default_rng(trial_seed(0, k))))

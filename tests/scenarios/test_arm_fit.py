@@ -13,6 +13,9 @@ from calibench.scenarios.cli import main
 from calibench.sim.arm_cmm import ArmSim, ArmTruth
 
 NOISE_MM = 0.02
+# the mean length of an isotropic Gaussian 3-vector of NOISE_MM per coordinate (a Maxwell
+# distribution's mean, sqrt(8 / pi) sigma): a right model's mean held-out 3-D error
+MEAN_3D_MM = NOISE_MM * np.sqrt(8 / np.pi)
 STIFFNESS = (np.inf, 2.0e5, 1.5e5, np.inf, np.inf, np.inf)  # N m / rad: joints 2 and 3 give way
 
 
@@ -77,10 +80,10 @@ def test_physics_recovers_the_twins_stiffness_and_carries_to_other_frames(series
         p = par[f"compliance{j}"]
         assert p["unit"] == "urad_per_nm"
         assert abs(p["estimate"] - 1e6 / STIFFNESS[j - 1]) < 3 * p["std"], p
-    # the noise is 0.02 mm per coordinate: a mean 3-D error of about 0.03 mm where the model is
-    # right
+    # where the model is right the held-out error is the tracker's noise (MEAN_3D_MM); the
+    # other frame's registration on ~60 rows adds a few per cent
     for name in ("test.csv", "other.csv"):
-        assert phys["test"][name]["mean_mm"] < 0.06, phys["test"][name]
+        assert 0.8 < phys["test"][name]["mean_mm"] / MEAN_3D_MM < 1.25, phys["test"][name]
     assert "registered on" in phys["test"]["other.csv"]["frame"]
     res = _residuals(tmp_path / "physics")
     for name in ("test.csv", "other.csv"):
@@ -137,7 +140,7 @@ def test_holdout_keeps_rows_out_and_reports_them(series, tmp_path):
     assert set(r["holdout"]) == {"train.csv", "test.csv"}
     assert set(r["bases"]) == {"train.csv", "test.csv"}
     for name, h in r["holdout"].items():
-        assert h["mean_mm"] < 0.06
+        assert 0.8 < h["mean_mm"] / MEAN_3D_MM < 1.25, (name, h)
         assert abs(h["samples"] - 0.3 * 300 * (2 if name == "train.csv" else 1)) <= 3
     # residuals.csv: each row once, held-out rows never in the fit, their figures those of fit.json
     res = _residuals(out)
@@ -233,7 +236,7 @@ def test_per_recording_harmonics_get_a_phase_in_each_training_recording(series, 
     for p in terms.values():
         assert abs(p["estimate"]) < 3 * p["std"]
     for h in r["holdout"].values():
-        assert h["mean_mm"] < 0.06
+        assert 0.8 < h["mean_mm"] / MEAN_3D_MM < 1.25, h
 
 
 def test_training_on_half_the_workspace_warns(series, tmp_path):

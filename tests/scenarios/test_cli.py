@@ -118,6 +118,9 @@ def test_camera_on_opencv_left_meets_the_reference(shared_data, tmp_path):
     )
     r = json.loads((tmp_path / "intrinsics.json").read_text())
     K = np.array(r["K"])
+    # not our std (0.4 px) but the corner detector's own spread: OpenCV's pipeline on these
+    # photos with cornerSubPix's 5 x 5 window (benchmarks/opencv_classic.py) gives fx 532.8, the
+    # shipped reference 535.9; the detectors differ by 0.6 % in fx and a few px in the centre
     assert abs(K[0, 0] / 535.916 - 1) < 0.01 and K[0, 0] == pytest.approx(K[1, 1])
     assert np.hypot(K[0, 2] - 342.283, K[1, 2] - 235.571) < 3
     assert r["rms_px"] < 0.5
@@ -161,7 +164,9 @@ def test_a_calibration_that_does_not_converge_says_what_to_change(shared_data, m
 def test_camera_leaves_out_a_gross_corner_and_says_which(shared_data, tmp_path, monkeypatch):
     """A detector's 9.2 px error on one corner of one photo (the size the sector detector made
     on a steep real view): the corner is named and left out, the other 53 of that photo kept,
-    and the calibration stays at OpenCV's reference; kept in, it raises the RMS by over 0.05 px."""
+    and the calibration is the clean photos' to a twentieth of its std (one corner of 702 left
+    out); kept in, it raises the RMS by over 0.05 px and moves the calibration by over half a
+    std."""
     import calibench.scenarios.camera as cam
 
     real = cam.find_chessboard_corners
@@ -175,7 +180,6 @@ def test_camera_leaves_out_a_gross_corner_and_says_which(shared_data, tmp_path, 
 
     images = sorted((shared_data / "opencv_left").glob("*.jpg"))
     first = real(__import__("cv2").imread(str(images[0]), 0), 9, 6)[0]
-    monkeypatch.setattr(cam, "find_chessboard_corners", one_gross)
     args = [
         "camera",
         *map(str, images),
@@ -187,15 +191,24 @@ def test_camera_leaves_out_a_gross_corner_and_says_which(shared_data, tmp_path, 
         "25",
         "--fix-aspect",
     ]
+    assert main(args + ["--out", str(tmp_path / "clean")]) == 0
+    clean = json.loads((tmp_path / "clean" / "intrinsics.json").read_text())
+    monkeypatch.setattr(cam, "find_chessboard_corners", one_gross)
     assert main(args + ["--out", str(tmp_path)]) == 0
     r = json.loads((tmp_path / "intrinsics.json").read_text())
     assert [c["corner"] for c in r["corners_left_out"][images[0].name]] == [20]
     assert len(r["corners_left_out"]) == 1
-    assert abs(r["K"][0][0] / 535.916 - 1) < 0.01 and r["rms_px"] < 0.5
+
+    def shift(res):  # the largest move of fx, cx, cy from the clean photos', in their std
+        K, Kc = np.array(res["K"]), np.array(clean["K"])
+        moved = [K[0, 0] - Kc[0, 0], K[0, 2] - Kc[0, 2], K[1, 2] - Kc[1, 2]]
+        return max(abs(m) / clean["std"][k] for m, k in zip(moved, ("fx", "cx", "cy")))
+
+    assert shift(r) < 0.05 and r["rms_px"] < 0.5
     monkeypatch.setattr(cam, "gross_corners", lambda *a, **k: [])
     assert main(args + ["--out", str(tmp_path / "kept")]) == 0
     kept = json.loads((tmp_path / "kept" / "intrinsics.json").read_text())
-    assert kept["rms_px"] > r["rms_px"] + 0.05
+    assert kept["rms_px"] > r["rms_px"] + 0.05 and shift(kept) > 0.5
 
 
 def test_camera_on_boofcv_chess_meets_the_reference(shared_data, tmp_path):
@@ -235,10 +248,7 @@ def test_version_and_internal_errors(tmp_path, capsys, monkeypatch):
     traceback in OUT/error.log."""
     import calibench
 
-    try:
-        main(["--version"])
-    except SystemExit as e:  # argparse's version action exits
-        assert e.code == 0
+    assert main(["--version"]) == 0  # argparse's exit, turned into main's status
     assert calibench.__version__ in capsys.readouterr().out
     from calibench.scenarios.arm_cmm import fit as arm_fit
 
