@@ -66,3 +66,16 @@ def figures_check_result(config) -> tuple[int, str]:
     proc.wait()
     log.seek(0)
     return proc.returncode, log.read()
+
+
+@pytest.fixture(scope="session")
+def stewart_null_rms() -> float:
+    """The Stewart platform's noise as discover measures it: the cross-validated RMS (mm) of a null
+    recording (no effect concealed, nothing chosen beyond the scene model's geometry, so held out
+    for every structure), the level a found effect should leave behind."""
+    from calibench.scenarios.discover.stewart import discover_stewart
+    from calibench.sim.concealed import stewart_recording
+
+    out, _ = discover_stewart(stewart_recording("null", 4)[0], 0)
+    assert [e["name"] for e in out["effects"]] == ["geometry"]
+    return out["fit"]["cv_rms_final"]

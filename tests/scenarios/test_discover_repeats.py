@@ -14,8 +14,9 @@ def test_a_null_platform_under_a_noisy_tracker_is_judged_at_its_noise():
     """A null recording (every pose visited twice) seen by a tracker with 15 um and 50 urad of
     pose noise: the repeats group as they do without that noise (the visits approached the same
     way by every leg, a fifth of them here, pair up; the others are not repeats), the
-    repeatability is the scatter the tracker's noise puts on the legs' residuals (so the
-    held-out RMS is within 15 % of it), and the verdict is not "unexplained"."""
+    repeatability is the scatter the tracker's noise puts on the legs' residuals (so the RMS in
+    discover's folds, where only the scene model was chosen, is within 15 % of it), and the
+    verdict is not "unexplained"."""
     rec, _ = stewart_recording("null", 5000)
     rng = np.random.default_rng(9)
     turn = Rotation.from_rotvec(rng.normal(0, 5e-5, (len(rec), 3)))
