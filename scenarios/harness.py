@@ -21,7 +21,8 @@ def write_outputs(
 ) -> Report:
     """Write ``package``'s figure (``package.figure.write_figure(out_dir, report, artifacts)``)
     into ``out_dir``, and with ``rrd`` its rerun recording (``package.viewer.log_run``) as
-    ``out_dir/run.rrd``; nothing when ``out_dir`` is None (a Monte-Carlo trial).
+    ``out_dir/run.rrd`` (without, a former run's is removed); nothing when ``out_dir`` is None
+    (a Monte-Carlo trial).
 
     Parameters
     ----------
@@ -41,4 +42,6 @@ def write_outputs(
     if rrd:
         importlib.import_module(f"{package}.viewer").log_run(out_dir / RRD, report, artifacts)
         report.rrd = RRD
+    else:  # a former run's recording left beside this report would pass for this run's
+        (out_dir / RRD).unlink(missing_ok=True)
     return report

@@ -6,6 +6,8 @@ import contextlib
 import dataclasses
 from collections.abc import Callable
 
+from calibench.errors import BadInput
+
 
 @dataclasses.dataclass(frozen=True)
 class Scenario:
@@ -67,6 +69,19 @@ _TABLE = {
 }
 NAMES: tuple[str, ...] = tuple(_TABLE)
 FIT_MODELS = {name: row[2] for name, row in _TABLE.items() if row[2]}
+RENDERING: tuple[str, ...] = tuple(name for name, row in _TABLE.items() if row[3])
+
+
+def check_fidelity(name: str, fidelity: str | None) -> None:
+    """``--fidelity render`` asked of a scenario without a camera: one line (BadInput), not a
+    run or study labelled render whose sensors were never rendered."""
+    if fidelity == "render" and name not in RENDERING:
+        raise BadInput(
+            f"--fidelity render applies to the scenarios with a camera ({', '.join(RENDERING)}); "
+            f"{name}'s instruments are geometric, its one fidelity analytic"
+        )
+
+
 _built: dict[str, Scenario] = {}
 
 

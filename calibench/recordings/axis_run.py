@@ -11,6 +11,9 @@ from calibench.recordings.records import AxisRun
 
 # readings of one run: ISO 230-2 asks for 5 runs each way, so a million is 100,000 targets
 MAX_ROWS = 1_000_000
+# a file with both deviation_um and actual_mm: how far they may differ (um), their rounding's
+# room (actual_mm to 4 decimals is 0.05 um off at most), not a second reading's
+AGREE_UM = 0.5
 
 
 def load_axis_run(path: str | Path) -> AxisRun:
@@ -19,7 +22,8 @@ def load_axis_run(path: str | Path) -> AxisRun:
     Parameters
     ----------
     path : str or Path
-        The CSV: target_mm, run, direction and either deviation_um or actual_mm.
+        The CSV: target_mm, run, direction and either deviation_um or actual_mm (both: they
+        must agree within AGREE_UM).
 
     Returns
     -------
@@ -38,6 +42,14 @@ def load_axis_run(path: str | Path) -> AxisRun:
     )
     if "deviation_um" in cols:
         dev = cols["deviation_um"]
+        if "actual_mm" in cols:  # both given: they must say the same, else which one is meant?
+            off = np.abs(dev - (cols["actual_mm"] - cols["target_mm"]) * 1000.0)
+            bad = int(np.argmax(off))
+            if off[bad] > AGREE_UM:
+                raise RecordingError(
+                    f"{path} line {line[bad]}: deviation_um and actual_mm - target_mm differ by "
+                    f"{off[bad]:.3g} um; give one of the two columns"
+                )
     elif "actual_mm" in cols:
         dev = (cols["actual_mm"] - cols["target_mm"]) * 1000.0
     else:

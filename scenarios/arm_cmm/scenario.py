@@ -296,7 +296,6 @@ def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool
             None,
             note="; ".join(f"{k}: {v}" for k, v in ident.basis.dropped.items()),
         ),
-        Check("identification_s", ident_s, 1.0, note="one identification, 50 postures"),
         # a solve that ran out of iterations would report its last iterate as if it were the answer
         Check(
             "solves_not_converged",
@@ -306,6 +305,8 @@ def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool
         ),
     ]
     report.info = {
+        # a time is the machine's, not a check: a loaded machine would fail a right result
+        "identification_s": ident_s,
         "dropped_tracker": ident.basis.dropped,
         "dropped_cone": cone_basis.dropped,
         "whitened_rms_tracker": ident.rms,

@@ -50,7 +50,7 @@ def main(argv: list[str] | None = None) -> int:
     old_term = _terminate_as_interrupt()
     try:
         _default_out(args)
-        created = _check_out(getattr(args, "out", None))
+        created = folders.writable_folder(getattr(args, "out", None))
         _claim(args)
         status = {
             "run": verbs.run,
@@ -176,34 +176,6 @@ def _said_as_bad_input(e: Exception) -> str | None:
     if isinstance(e, RuntimeError) and str(e).startswith("Symlink loop"):
         return f"{str(e).removeprefix('Symlink loop from ')}: a symbolic link loop, not a file"
     return None
-
-
-def _check_out(out: Path | None) -> Path | None:
-    """--out must be a folder calibench can write: said before any work. Returns the folder if
-    this call created it (removed again if the command ends in bad input, empty)."""
-    if out is None:
-        return None
-    from calibench.scenarios.report import BadInput
-
-    out = Path(out)
-    try:
-        for parent in [out, *out.parents]:
-            if parent.exists() and not parent.is_dir():
-                raise BadInput(f"--out {out}: {parent} is a file, not a folder")
-        created = None if out.exists() else out
-    except OSError as e:  # a name too long for the file system, a folder that cannot be read
-        raise BadInput(
-            f"--out {str(out)[:80]}{'...' if len(str(out)) > 80 else ''}: cannot write there "
-            f"({e.strerror})"
-        ) from None
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        probe = out / ".calibench-write-test"
-        probe.touch()
-        probe.unlink()
-    except OSError as e:
-        raise BadInput(f"--out {out}: cannot write there ({e.strerror})") from None
-    return created
 
 
 def _internal_error(e: Exception, out: Path | None) -> int:

@@ -137,3 +137,30 @@ def clear(folder: Path) -> None:
         path = folder / name
         if path.is_file() or path.is_symlink():
             path.unlink()
+
+
+def writable_folder(out: Path | None, option: str = "--out") -> Path | None:
+    """``out`` must be a folder calibench can write: said before any work, in one line naming
+    ``option``. Makes it; returns it if this call created it (a command ending in bad input
+    removes it again, empty), else None."""
+    if out is None:
+        return None
+    out = Path(out)
+    try:
+        for parent in [out, *out.parents]:
+            if parent.exists() and not parent.is_dir():
+                raise BadInput(f"{option} {out}: {parent} is a file, not a folder")
+        created = None if out.exists() else out
+    except OSError as e:  # a name too long for the file system, a folder that cannot be read
+        raise BadInput(
+            f"{option} {str(out)[:80]}{'...' if len(str(out)) > 80 else ''}: cannot write there "
+            f"({e.strerror})"
+        ) from None
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        probe = out / ".calibench-write-test"
+        probe.touch()
+        probe.unlink()
+    except OSError as e:
+        raise BadInput(f"{option} {out}: cannot write there ({e.strerror})") from None
+    return created

@@ -111,9 +111,9 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument(
         "--fidelity",
         choices=("render", "analytic"),
-        default="render",
         help="render: pixels through MuJoCo's renderer and the real detector; "
-        "analytic: exact projection plus detector noise (default render)",
+        "analytic: exact projection plus detector noise (default render where the scenario "
+        "has a camera; the others have one fidelity, analytic)",
     )
     r.add_argument(
         "--config", type=Path, help="TOML file with one table per scenario overriding its defaults"

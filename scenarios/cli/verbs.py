@@ -9,8 +9,9 @@ import sys
 import time
 from pathlib import Path
 
-from calibench.scenarios.cli.folders import claim, mark
+from calibench.scenarios.cli.folders import claim, mark, writable_folder
 from calibench.scenarios.cli.status import EXIT_CHECK_FAILED, EXIT_OK
+from calibench.scenarios.registry import check_fidelity
 
 
 def _scenario(name: str):
@@ -53,13 +54,18 @@ def run(args: argparse.Namespace) -> int:
 
     names = list(NAMES) if args.scenario == "all" else [args.scenario]
     scenarios = [_scenario(n) for n in names]
+    if args.scenario != "all":  # all: rendered where a scenario has a camera
+        check_fidelity(args.scenario, args.fidelity)
+    fidelity = args.fidelity or "render"
     table = load_toml(args.config) if args.config else {}
     unknown = [k for k in table if k not in NAMES]
     if unknown:
         raise BadInput(f"config {args.config}: unknown scenario table(s) {', '.join(unknown)}")
     configs = {s.name: override(s.config(), table.get(s.name, {}), s.name) for s in scenarios}
-    if args.save_images is not None and args.scenario != "belt-stage":
-        raise BadInput(f"--save-images applies to belt-stage, not {args.scenario}")
+    if args.save_images is not None:
+        if args.scenario != "belt-stage":
+            raise BadInput(f"--save-images applies to belt-stage, not {args.scenario}")
+        writable_folder(args.save_images, "--save-images")  # said before the run, not after
     if args.arm is not None:
         if "arm-cmm" not in configs:
             raise BadInput(f"--arm applies to arm-cmm, not {args.scenario}")
@@ -77,10 +83,10 @@ def run(args: argparse.Namespace) -> int:
             out = args.out / s.name
             claim(out, "run", s.name, args.force)
         t0 = time.perf_counter()
-        how = f"seed {args.seed}, {args.fidelity}" if s.renders else f"seed {args.seed}"
+        how = f"seed {args.seed}, {fidelity}" if s.renders else f"seed {args.seed}"
         print(f"calibench: {s.name} ({how})", file=sys.stderr, flush=True)
         try:
-            report = s.execute(configs[s.name], args.seed, args.fidelity, out, not args.no_rrd)
+            report = s.execute(configs[s.name], args.seed, fidelity, out, not args.no_rrd)
         except BadInput as e:
             raise BadInput(f"{s.name}: {e}") from None
         report.elapsed_s = time.perf_counter() - t0
@@ -140,7 +146,8 @@ def fit(args: argparse.Namespace) -> int:
         if v
     ]
     if arm_only:
-        raise BadInput(f"fit {s.name}: {', '.join(arm_only)} apply to arm-cmm only")
+        verb = "applies" if len(arm_only) == 1 else "apply"
+        raise BadInput(f"fit {s.name}: {', '.join(arm_only)} {verb} to arm-cmm only")
     if s.fit_model is None:
         raise BadInput(f"fit: scenario {s.name!r} has no fit model")
     if len(args.recordings) != 1:
@@ -276,6 +283,12 @@ def montecarlo(args: argparse.Namespace) -> int:
     from calibench.scenarios.study.summary import checks_table, summary_table
 
     _known(args.scenario)
+    check_fidelity(args.scenario, args.fidelity)
+    tls = {"ca_file": args.tls_ca_file, "cert": args.tls_cert, "key": args.tls_key}
+    if args.scheduler is None and any(tls.values()):
+        from calibench.scenarios.report import BadInput
+
+        raise BadInput("--tls-* files are for a Dask cluster's --scheduler tls://...; none given")
     out = args.out
     arm = None
     if args.arm is not None:
@@ -309,11 +322,7 @@ def montecarlo(args: argparse.Namespace) -> int:
         args.scheduler,
         arm=arm,
         table=table,
-        tls={
-            "ca_file": args.tls_ca_file,
-            "cert": args.tls_cert,
-            "key": args.tls_key,
-        },
+        tls=tls,
     )
     print(
         f"{s['scenario']}: {s['trials']} trials ({s['resumed']} kept from an earlier run, "

@@ -25,6 +25,13 @@ CASES = [
     ("run-seed-float", {}, ["run", "belt-stage", "--seed", "1.5"], 2, "--seed"),
     ("run-seed-huge", {}, ["run", "belt-stage", "--seed", "1" + "0" * 30], 2, "--seed"),
     ("run-fidelity", {}, ["run", "belt-stage", "--fidelity", "photoreal"], 2, "invalid choice"),
+    (  # no camera: a report labelled render whose sensors were never rendered would mislead
+        "run-render-without-a-camera",
+        {},
+        ["run", "stewart", "--fidelity", "render"],
+        2,
+        "stewart's instruments are geometric",
+    ),
     (
         "run-out-is-file",
         {"f.txt": "x"},
@@ -40,6 +47,20 @@ CASES = [
         "--out",
     ),
     ("run-out-unwritable", {}, ["run", "belt-stage", "--out", "/proc/calibench-out"], 2, "--out"),
+    (  # said before the run, not after it as an internal error
+        "run-save-images-is-file",
+        {"f.txt": "x"},
+        ["run", "belt-stage", "--save-images", "{d}/f.txt", "--out", "{d}/o"],
+        2,
+        "--save-images",
+    ),
+    (
+        "run-save-images-unwritable",
+        {},
+        ["run", "belt-stage", "--save-images", "/proc/calibench-views", "--out", "{d}/o"],
+        2,
+        "--save-images /proc/calibench-views: cannot write there",
+    ),
     (
         "run-out-name-too-long",
         {},

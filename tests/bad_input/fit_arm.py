@@ -52,7 +52,7 @@ CASES = [
         {"r.csv": stage_csv()},
         ["fit", "belt-stage", "{d}/r.csv", "--leave-one-out"],
         2,
-        "--leave-one-out apply to arm-cmm only",
+        "--leave-one-out applies to arm-cmm only",
     ),
     # fit arm-cmm
     ("arm-missing-file", {}, ["fit", "arm-cmm", "{d}/none.csv", "--arm", "ur10"], 2, "cannot read"),

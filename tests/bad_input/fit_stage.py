@@ -136,9 +136,9 @@ CASES = [
     (
         "fit-arm-options-on-stage",
         {"r.csv": stage_csv()},
-        ["fit", "belt-stage", "{d}/r.csv", "--holdout", "0.3"],
+        ["fit", "belt-stage", "{d}/r.csv", "--holdout", "0.3", "--model", "physics"],
         2,
-        "apply to arm-cmm only",
+        "--holdout, --model apply to arm-cmm only",
     ),
     (
         "fit-no-model",

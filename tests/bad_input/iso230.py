@@ -38,6 +38,13 @@ CASES = [
         2,
         "deviation_um",
     ),
+    (  # both columns, saying different things: which one is meant?
+        "iso-deviation-and-actual-disagree",
+        {"r.csv": "target_mm,run,direction,deviation_um,actual_mm\n10,1,1,1.0,10.5\n"},
+        ["iso230", "{d}/r.csv"],
+        2,
+        "deviation_um and actual_mm - target_mm differ by 499 um",
+    ),
     (
         "iso-direction-0",
         {"r.csv": "target_mm,run,direction,deviation_um\n0,1,0,1\n"},

@@ -12,6 +12,20 @@ import json
 CASES = [
     # montecarlo
     ("mc-trials-zero", {}, ["montecarlo", "belt-stage", "--trials", "0"], 2, "--trials"),
+    (  # a certificate for no cluster: the local pool would run and the file be ignored
+        "mc-tls-without-a-scheduler",
+        {},
+        ["montecarlo", "stewart", "--trials", "2", "--tls-ca-file", "{d}/ca.pem"],
+        2,
+        "--tls-* files are for a Dask cluster's --scheduler",
+    ),
+    (  # a study labelled render whose trials were analytic
+        "mc-render-without-a-camera",
+        {},
+        ["montecarlo", "arm-cmm", "--trials", "2", "--fidelity", "render"],
+        2,
+        "--fidelity render applies to the scenarios with a camera (belt-stage, vision-stage)",
+    ),
     ("mc-trials-negative", {}, ["montecarlo", "belt-stage", "--trials", "-3"], 2, "--trials"),
     ("mc-trials-missing", {}, ["montecarlo", "belt-stage"], 2, "--trials"),
     ("mc-trials-huge", {}, ["montecarlo", "belt-stage", "--trials", "1000000000"], 2, "--trials"),

@@ -314,3 +314,13 @@ def test_the_command_under_a_profiler_exits_as_usual():
 
     assert ran(watched=True) == "the earlier handler ran\n"
     assert ran(watched=False) == ""
+
+
+def test_a_run_without_its_recording_removes_a_former_one(tmp_path):
+    """``--no-rrd`` into a folder where a run wrote run.rrd before: the old recording does not
+    stay beside the new report, which names none."""
+    assert main(["run", "stewart", "--out", str(tmp_path)]) == 0
+    assert (tmp_path / "run.rrd").exists()
+    assert main(["run", "stewart", "--no-rrd", "--out", str(tmp_path)]) == 0
+    assert not (tmp_path / "run.rrd").exists()
+    assert "rrd" not in json.loads((tmp_path / "report.json").read_text())

@@ -30,14 +30,16 @@ def _write(path, column="deviation_um", seed=0):
         for j, o in enumerate(offsets):
             for d, m, k in ((+1, up[i], K_UP), (-1, down[i], K_DOWN)):
                 dev = m + k * o
-                value = dev if column == "deviation_um" else t + dev / 1000
-                rows.append(f"{t:g},{j + 1},{d},{value:.9f}")
+                values = {"deviation_um": [dev], "actual_mm": [t + dev / 1000]}
+                values["both"] = values["deviation_um"] + values["actual_mm"]
+                rows.append(f"{t:g},{j + 1},{d}," + ",".join(f"{v:.9f}" for v in values[column]))
     rows = list(np.random.default_rng(seed).permutation(rows))
-    path.write_text(f"target_mm,run,direction,{column}\n" + "\n".join(rows) + "\n")
+    header = "deviation_um,actual_mm" if column == "both" else column
+    path.write_text(f"target_mm,run,direction,{header}\n" + "\n".join(rows) + "\n")
     return path
 
 
-@pytest.mark.parametrize("column", ["deviation_um", "actual_mm"])
+@pytest.mark.parametrize("column", ["deviation_um", "actual_mm", "both"])
 def test_iso230_finds_the_known_axis(tmp_path, column):
     up, down, reversal = _axis()
     s_up, s_down = K_UP * np.sqrt(2.5), K_DOWN * np.sqrt(2.5)
@@ -47,7 +49,7 @@ def test_iso230_finds_the_known_axis(tmp_path, column):
     )
     r = json.loads((tmp_path / "out" / "iso230.json").read_text())
     a = r["axis"]
-    tol = 1e-6 if column == "deviation_um" else 1e-3  # actual_mm is written to 1 nm
+    tol = 1e-3 if column == "actual_mm" else 1e-6  # actual_mm is written to 1 nm
     assert (r["targets"], r["runs"], r["unit"]) == (9, 5, "um")
     assert a["B"] == pytest.approx(np.abs(reversal).max(), abs=tol)
     assert a["E_up"] == pytest.approx(np.ptp(up), abs=tol)
