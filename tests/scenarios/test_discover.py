@@ -35,8 +35,13 @@ def test_arm_discovery(tmp_path):
     d = json.loads((tmp_path / "discovery.json").read_text())
     names = [e["name"] for e in d["effects"]]
     assert names[:2] == ["geometry", "encoder_eccentricity"]
-    ecc = d["effects"][1]["params"]
-    assert ecc["joint"] == manifest["effects"][0]["params"]["joint"]
+    ecc, se = d["effects"][1]["params"], d["effects"][1]["stderr"]["amplitude_urad"]
+    truth = manifest["effects"][0]["params"]
+    assert ecc["joint"] == truth["joint"]
+    # its size and phase too, within 3 of the standard errors discover reports (a phase's is
+    # the amplitude's over the amplitude)
+    assert abs(ecc["amplitude_urad"] - truth["amplitude_urad"]) < 3 * se, (ecc, se)
+    assert abs(ecc["phase_rad"] - truth["phase_rad"]) < 3 * se / truth["amplitude_urad"], ecc
 
 
 def test_ur10_compliance_from_mujocos_physics_is_named_with_its_joints(tmp_path):
