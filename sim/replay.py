@@ -10,8 +10,11 @@ import dataclasses
 import numpy as np
 
 
-def stage_travel_mm(scenario: str) -> tuple[float, float]:
-    """The stage twin's travel in x and y (mm), from its home at 0."""
+def stage_travel_mm(scenario: str, geometry=None) -> tuple[float, float]:
+    """The stage twin's travel in x and y (mm), from its home at 0. ``geometry``: the twin's
+    (a ``--config`` file's; default: the scenario's own)."""
+    if geometry is not None:
+        return geometry.travel_mm
     if scenario == "belt-stage":
         from calibench.scenes.belt_stage import BeltStageGeometry
 
@@ -24,18 +27,23 @@ def stage_travel_mm(scenario: str) -> tuple[float, float]:
 
 
 def replay_stage(
-    scenario: str, x: np.ndarray, y: np.ndarray, temp_c: np.ndarray | None = None, truth=None
+    scenario: str,
+    x: np.ndarray,
+    y: np.ndarray,
+    temp_c: np.ndarray | None = None,
+    truth=None,
+    geometry=None,
 ) -> np.ndarray:
     """Where the twin's carriage / table really is for each command in turn, (n, 2) mm from
-    where it was homed. ``truth``: the twin's as-built parameters (default: the scenario's
-    defaults, without random positioning); ``temp_c`` (n,): the room's temperature at each
-    station, for a twin whose drives expand."""
+    where it was homed. ``truth`` and ``geometry``: the twin's as-built parameters and its
+    nominal geometry (default: the scenario's defaults, without random positioning);
+    ``temp_c`` (n,): the room's temperature at each station, for a twin whose drives expand."""
     temps = [None] * len(x) if temp_c is None else np.asarray(temp_c, float)
     if scenario == "belt-stage":
         from calibench.scenes.belt_stage import BeltStageGeometry
         from calibench.sim.belt_stage import PULSES_PER_MM, BeltStageSim, BeltStageTruth
 
-        sim = BeltStageSim(BeltStageGeometry(), truth or BeltStageTruth(), render=False)
+        sim = BeltStageSim(geometry or BeltStageGeometry(), truth or BeltStageTruth(), render=False)
         home = sim.carriage_mm()
         out = np.empty((len(x), 2))
         for i, (a, b, T) in enumerate(zip(x, y, temps)):
@@ -47,7 +55,8 @@ def replay_stage(
         from calibench.sim.vision_stage import VisionStageSim, VisionStageTruth
 
         truth = dataclasses.replace(truth or VisionStageTruth(), repeatability_um=0.0)
-        sim = VisionStageSim(VisionStageGeometry(), truth, np.random.default_rng(0), render=False)
+        g = geometry or VisionStageGeometry()
+        sim = VisionStageSim(g, truth, np.random.default_rng(0), render=False)
         home = sim.true_point_mm(0.0, 0.0)
         out = np.empty((len(x), 2))
         for i, (a, b, T) in enumerate(zip(x, y, temps)):

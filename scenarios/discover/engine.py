@@ -164,9 +164,14 @@ def run_discover(
     before = None
     if config is not None:  # the nominal twin's residual beside the updated one's, both replayed
         out["replayed_config"] = str(config)
-        nominal, before = once(None)
-        before.pop("recording")
-        out["nominal_twin_fit"] = nominal["fit"]
+        try:
+            nominal, before = once(None)
+        except BadInput as e:  # the config's geometry reaches where the nominal twin cannot
+            out["nominal_twin_fit"] = None
+            out["nominal_twin_not_replayed"] = str(e)
+        else:
+            before.pop("recording")
+            out["nominal_twin_fit"] = nominal["fit"]
     if twin is not None:
         tables, left = found_by.twin_tables(scenario, out, config, arm)
         note = f"the twin of {paths[0]} updated by calibench discover"
@@ -181,11 +186,16 @@ def run_discover(
 
 
 def write_toml(path: Path, tables: dict, comment: str) -> None:
-    """A config file (nested tables of numbers and lists of numbers) for ``run --config``."""
+    """A config file (nested tables of numbers, booleans, strings and lists of them) for ``run
+    --config``."""
 
     def value(v):
         if isinstance(v, (list, tuple)):
             return "[" + ", ".join(value(x) for x in v) + "]"
+        if isinstance(v, (bool, np.bool_)):  # before int: a bool is one
+            return "true" if v else "false"
+        if isinstance(v, str):  # a user's own table carried over (JSON's escapes are TOML's)
+            return json.dumps(v)
         return repr(int(v)) if isinstance(v, (int, np.integer)) else repr(float(v))
 
     lines = [f"# {comment}"]

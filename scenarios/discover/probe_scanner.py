@@ -71,24 +71,6 @@ def _twin(config, cal):
     return ProbeScannerSim(config.geometry, truth)
 
 
-def twin_table(out: dict) -> dict:
-    """``discover --twin``: the accepted effects as parameters of the scanner's simulation (the
-    ``[probe-scanner.truth]`` table of a ``run --config`` file), with the calibrated rail."""
-    truth = dict(out["twin_rail"])
-    runout = [e["params"] for e in out["effects"] if e["name"] == "runout"]
-    if runout:
-        truth["runout_harmonics"] = [int(p["harmonic"]) for p in runout]
-        truth["runout_mm"] = [p["amplitude_mm"] for p in runout]
-        truth["runout_phase_rad"] = [p["phase_rad"] for p in runout]
-    for e in out["effects"]:
-        if e["name"] == "encoder_eccentricity":
-            truth["encoder_eccentricity_urad"] = e["params"]["amplitude_urad"]
-            truth["encoder_eccentricity_phase_rad"] = e["params"]["phase_rad"]
-        elif e["name"] == "scale":
-            truth["probe_scale_ppm"] = e["params"]["ppm"]
-    return {"probe-scanner": {"truth": truth}}
-
-
 # start angles of the rail's fit: the plate at rest, then turned by each 15 deg of its 90 deg
 # symmetry; a fit within RAIL_FITS_MM (RMS) of the readings ends the search
 PLATE_TURNS_RAD = tuple(np.deg2rad([0, 15, 30, 45, 60, 75, -15, -30, -45]))
@@ -474,10 +456,18 @@ def discover(scenario: str, rec, seed: int, holdout, config, arm=None) -> tuple[
 
 
 def twin_tables(scenario: str, found: dict, config, arm=None) -> tuple[dict, list[str]]:
-    """The twin's tables (:func:`twin_table`) and the accepted effects it cannot carry."""
+    """The twin's tables (:func:`~calibench.scenarios.discover.scanner_twin.twin_table`) and the
+    accepted effects it cannot carry."""
     left = [
         e["name"]
         for e in found["effects"]
         if e["name"] not in ("runout", "encoder_eccentricity", "scale")
     ]
-    return twin_table(found), left
+    from calibench.scenarios.config import load_toml
+
+    # the replayed config's twin as given (its geometry, the rest of its truth) under the update
+    given = load_toml(config).get("probe-scanner", {}) if config is not None else {}
+    from calibench.scenarios.discover.scanner_twin import twin_table
+
+    table = twin_table(found, given.get("truth"))
+    return {"probe-scanner": {**given, **table["probe-scanner"]}}, left

@@ -112,17 +112,19 @@ def discover_stage(
     holdout: str | None = None,
     floor: float = FLOOR,
     truth=None,
+    geometry=None,
 ) -> tuple[dict, dict]:
-    """discovery.json's content for a stage recording, and what the figure needs. ``truth``:
-    the twin's as-built parameters (a ``--config`` file's; default: the scenario's own)."""
+    """discovery.json's content for a stage recording, and what the figure needs. ``truth`` and
+    ``geometry``: the twin's as-built parameters and nominal geometry (a ``--config`` file's;
+    default: the scenario's own)."""
     from calibench.sim.replay import replay_stage
 
     n = len(rec)
     x, y = rec.x_cmd_mm, rec.y_cmd_mm
     if n < 20:
         raise BadInput(f"{n} stations: discover needs at least 20")
-    _within_travel(scenario, x, y)
-    sim = replay_stage(scenario, x, y, rec.temp_c, truth)
+    _within_travel(scenario, x, y, geometry)
+    sim = replay_stage(scenario, x, y, rec.temp_c, truth, geometry)
     drivers: StageDrivers = {
         "x": x,
         "y": y,
@@ -273,12 +275,12 @@ def _grow_backlash(signals, terms, found, drivers, fold, noise, floor) -> dict:
     return out
 
 
-def _within_travel(scenario: str, x: np.ndarray, y: np.ndarray) -> None:
+def _within_travel(scenario: str, x: np.ndarray, y: np.ndarray, geometry=None) -> None:
     """BadInput when a commanded station lies beyond the twin's travel (by more than 5 % of it):
     the twin cannot replay it, and a recording there is in another unit or of another stage."""
     from calibench.sim.replay import stage_travel_mm
 
-    travel = stage_travel_mm(scenario)
+    travel = stage_travel_mm(scenario, geometry)
     for axis, v, t in (("x", x, travel[0]), ("y", y, travel[1])):
         if v.min() < -0.05 * t or v.max() > 1.05 * t:
             raise BadInput(
@@ -414,10 +416,13 @@ def _config(scenario: str, path: Path | None):
     return cfg
 
 
-def stage_truth(scenario: str, path: Path | None):
-    """The stage twin's as-built truth for ``discover``: the config file's, or None (the
-    defaults)."""
-    return None if path is None else _config(scenario, path).truth
+def stage_twin(scenario: str, path: Path | None) -> dict:
+    """The stage twin's as-built truth and nominal geometry for ``discover``
+    (:func:`discover_stage`'s keywords): the config file's, or none (the defaults)."""
+    if path is None:
+        return {}
+    cfg = _config(scenario, path)
+    return {"truth": cfg.truth, "geometry": cfg.geometry}
 
 
 def _stage_drives(out: dict, truth) -> tuple[dict, list[str]]:
@@ -477,9 +482,7 @@ def discover(scenario: str, rec, seed: int, holdout, config, arm=None) -> tuple[
 
     recs = list(rec) if isinstance(rec, (list, tuple)) else [rec]
     same_machine(recs, STAGE_DEGREE[scenario])
-    out, fig = discover_stage(
-        scenario, joined(recs), seed, holdout, truth=stage_truth(scenario, config)
-    )
+    out, fig = discover_stage(scenario, joined(recs), seed, holdout, **stage_twin(scenario, config))
     fig["rows_used"] = [np.arange(len(r)) for r in recs]
     return out, fig
 
@@ -487,5 +490,10 @@ def discover(scenario: str, rec, seed: int, holdout, config, arm=None) -> tuple[
 def twin_tables(scenario: str, found: dict, config, arm=None) -> tuple[dict, list[str]]:
     """Each axis's drive errors with the accepted effects written in, on top of ``config``'s
     twin, and the accepted effects the drives cannot carry."""
+    from calibench.scenarios.config import load_toml
+
     drives, left = _stage_drives(found, _config(scenario, config).truth)
-    return {scenario: {"truth": drives}}, left
+    # the config's twin as given (its geometry, the rest of its truth), the drives rewritten:
+    # the file replays the machine discover replayed, not the default one with these drives
+    given = load_toml(config).get(scenario, {}) if config is not None else {}
+    return {scenario: {**given, "truth": {**given.get("truth", {}), **drives}}}, left

@@ -3,6 +3,7 @@ CONTRACT's CSV, read back, the concealed effect named with its parameters within
 derived from the standard error discover reports; nothing named on a null."""
 
 import json
+import tomllib
 
 import numpy as np
 
@@ -219,6 +220,8 @@ def test_scanner_twin_updated_and_replayed(tmp_path):
                 str(path),
                 "--config",
                 str(twin),
+                "--twin",
+                str(tmp_path / "again.toml"),
                 "--out",
                 str(tmp_path / "b"),
             ]
@@ -227,6 +230,13 @@ def test_scanner_twin_updated_and_replayed(tmp_path):
     )
     replayed = json.loads((tmp_path / "b" / "discovery.json").read_text())
     assert replayed["effects"] == []
+    # updated again with nothing found, the twin keeps what the first discovery wrote into it
+    first, again = (
+        tomllib.loads(t.read_text())["probe-scanner"]["truth"]
+        for t in (twin, tmp_path / "again.toml")
+    )
+    for key in ("runout_harmonics", "runout_mm", "runout_phase_rad", "probe_scale_ppm"):
+        assert np.allclose(again[key], first[key], rtol=1e-12, atol=0), key
     assert abs(replayed["fit"]["cv_rms_nominal"] / found["fit"]["cv_rms_final"] - 1) < 0.2
     assert (
         found["fit"]["cv_rms_nominal"] > 2 * found["fit"]["cv_rms_final"]

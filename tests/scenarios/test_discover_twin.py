@@ -5,6 +5,7 @@ reported (within 20 %). The scanner's twin is tested in test_discover_instrument
 
 import json
 
+import numpy as np
 import pytest
 
 from calibench.scenarios.cli import main
@@ -159,3 +160,43 @@ def test_arm_twin_carries_joint_compliance(tmp_path):
         assert abs(1e6 / k[t["params"]["joint"] - 1] / t["params"]["urad_per_nm"] - 1) < 0.25
     assert replayed["effects"] == []
     assert abs(replayed["fit"]["cv_rms_nominal"] / found["fit"]["cv_rms_final"] - 1) < 0.2
+
+
+def test_a_config_s_geometry_is_the_twin_discover_replays(tmp_path):
+    """A belt stage of 1.5 m x 1 m (a run --config's geometry): a null recording of it reaching
+    1.38 m in x is refused by the default twin (1 m of travel) and discovered against the
+    configured one, where nothing is missing; the twin discover writes keeps that geometry and
+    the config's other truth, so that it replays the same machine."""
+    import dataclasses
+    import tomllib
+
+    from calibench.scenes.belt_stage import BeltStageGeometry
+    from calibench.sim.replay import replay_stage
+
+    rec, manifest = stage_recording("belt-stage", "null", 5)
+    x = 2.8 * rec.x_cmd_mm  # the plan spans half the default's 1 m: here 1.38 m
+    # the null's own departures from its twin (smooth map and noise), on the wider machine's
+    left = np.c_[rec.x_meas_mm, rec.y_meas_mm] - replay_stage(
+        "belt-stage", rec.x_cmd_mm, rec.y_cmd_mm
+    )
+    g = BeltStageGeometry(travel_mm=(1500.0, 1000.0), camera_height_mm=2600.0)
+    pos = replay_stage("belt-stage", x, rec.y_cmd_mm, geometry=g) + left
+    wide = dataclasses.replace(rec, x_cmd_mm=x, x_meas_mm=pos[:, 0], y_meas_mm=pos[:, 1])
+    path = write_blinded(tmp_path, "wide", wide, manifest)
+    config = tmp_path / "c.toml"
+    config.write_text(
+        "[belt-stage.geometry]\ntravel_mm = [1500.0, 1000.0]\ncamera_height_mm = 2600.0\n\n"
+        "[belt-stage.truth]\nboard_yaw_rad = 0.002\n"
+    )
+    argv = ["discover", "belt-stage", str(path)]
+    assert main(argv + ["--out", str(tmp_path / "default")]) == 2  # beyond the default's travel
+    twin = tmp_path / "twin.toml"
+    out = tmp_path / "configured"
+    assert main(argv + ["--config", str(config), "--twin", str(twin), "--out", str(out)]) == 0
+    d = json.loads((out / "discovery.json").read_text())
+    assert d["effects"] == []
+    # the nominal twin (the defaults) cannot replay 1.38 m: said, not a failed command
+    assert d["nominal_twin_fit"] is None and "0-1000 mm" in d["nominal_twin_not_replayed"]
+    written = tomllib.loads(twin.read_text())["belt-stage"]
+    assert written["geometry"] == {"travel_mm": [1500.0, 1000.0], "camera_height_mm": 2600.0}
+    assert written["truth"]["board_yaw_rad"] == 0.002 and "drive_x" in written["truth"]
