@@ -12,8 +12,9 @@ from calibench.recordings.records import AxisRun
 # readings of one run: ISO 230-2 asks for 5 runs each way, so a million is 100,000 targets
 MAX_ROWS = 1_000_000
 # a file with both deviation_um and actual_mm: how far they may differ (um), their rounding's
-# room (actual_mm to 4 decimals is 0.05 um off at most), not a second reading's
-AGREE_UM = 0.5
+# room (actual_mm to 3 decimals is up to 0.5 um off, deviation_um's own rounding besides), not
+# a second reading's
+AGREE_UM = 1.0
 
 
 def load_axis_run(path: str | Path) -> AxisRun:

@@ -46,11 +46,14 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("calibench: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
-    created = None
+    created: list[Path | None] = []
     old_term = _terminate_as_interrupt()
     try:
         _default_out(args)
-        created = folders.writable_folder(getattr(args, "out", None))
+        # the folders a command writes, checked before any work (made, and removed again if
+        # the command ends in bad input and they are still empty)
+        created.append(folders.writable_folder(getattr(args, "out", None)))
+        created.append(folders.writable_folder(getattr(args, "save_images", None), "--save-images"))
         _claim(args)
         status = {
             "run": verbs.run,
@@ -81,8 +84,9 @@ def main(argv: list[str] | None = None) -> int:
             e = BadInput(said)
         if isinstance(e, BadInput):
             print(f"calibench: {e}", file=sys.stderr)
-            if created is not None and created.is_dir() and not any(created.iterdir()):
-                created.rmdir()
+            for made in created:
+                if made is not None and made.is_dir() and not any(made.iterdir()):
+                    made.rmdir()
             return EXIT_BAD_INPUT
         return _internal_error(e, getattr(args, "out", None))
     finally:

@@ -9,7 +9,7 @@ import sys
 import time
 from pathlib import Path
 
-from calibench.scenarios.cli.folders import claim, mark, writable_folder
+from calibench.scenarios.cli.folders import claim, mark
 from calibench.scenarios.cli.status import EXIT_CHECK_FAILED, EXIT_OK
 from calibench.scenarios.registry import check_fidelity
 
@@ -62,10 +62,8 @@ def run(args: argparse.Namespace) -> int:
     if unknown:
         raise BadInput(f"config {args.config}: unknown scenario table(s) {', '.join(unknown)}")
     configs = {s.name: override(s.config(), table.get(s.name, {}), s.name) for s in scenarios}
-    if args.save_images is not None:
-        if args.scenario != "belt-stage":
-            raise BadInput(f"--save-images applies to belt-stage, not {args.scenario}")
-        writable_folder(args.save_images, "--save-images")  # said before the run, not after
+    if args.save_images is not None and args.scenario != "belt-stage":
+        raise BadInput(f"--save-images applies to belt-stage, not {args.scenario}")
     if args.arm is not None:
         if "arm-cmm" not in configs:
             raise BadInput(f"--arm applies to arm-cmm, not {args.scenario}")

@@ -422,7 +422,9 @@ def twin_tables(scenario: str, out: dict, config: Path | None, arm=None) -> tupl
     truth = {"delta": delta, "stiffness_nm_per_rad": stiffness}
     if description.coupling is not None or any(math.isfinite(k) for k in cables):
         truth["cable_stiffness_nm_per_rad"] = cables
-    return {"arm-cmm": {"truth": truth}}, left
+    from calibench.scenarios.discover.twin_merge import carried, given_tables
+
+    return {"arm-cmm": carried(given_tables(config, "arm-cmm"), {"truth": truth})}, left
 
 
 # --- the plug-in (calibench.scenarios.discover.engine.Plugin) -------------------------------------

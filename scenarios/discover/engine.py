@@ -195,7 +195,7 @@ def write_toml(path: Path, tables: dict, comment: str) -> None:
         if isinstance(v, (bool, np.bool_)):  # before int: a bool is one
             return "true" if v else "false"
         if isinstance(v, str):  # a user's own table carried over (JSON's escapes are TOML's)
-            return json.dumps(v)
+            return json.dumps(v, ensure_ascii=False).replace("\x7f", "\\u007f")
         return repr(int(v)) if isinstance(v, (int, np.integer)) else repr(float(v))
 
     lines = [f"# {comment}"]

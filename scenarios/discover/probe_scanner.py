@@ -458,16 +458,15 @@ def discover(scenario: str, rec, seed: int, holdout, config, arm=None) -> tuple[
 def twin_tables(scenario: str, found: dict, config, arm=None) -> tuple[dict, list[str]]:
     """The twin's tables (:func:`~calibench.scenarios.discover.scanner_twin.twin_table`) and the
     accepted effects it cannot carry."""
+    from calibench.scenarios.discover.scanner_twin import twin_table
+    from calibench.scenarios.discover.twin_merge import carried, given_tables
+
     left = [
         e["name"]
         for e in found["effects"]
         if e["name"] not in ("runout", "encoder_eccentricity", "scale")
     ]
-    from calibench.scenarios.config import load_toml
-
     # the replayed config's twin as given (its geometry, the rest of its truth) under the update
-    given = load_toml(config).get("probe-scanner", {}) if config is not None else {}
-    from calibench.scenarios.discover.scanner_twin import twin_table
-
-    table = twin_table(found, given.get("truth"))
-    return {"probe-scanner": {**given, **table["probe-scanner"]}}, left
+    given = given_tables(config, "probe-scanner")
+    table = twin_table(found, given.get("truth"))["probe-scanner"]
+    return {"probe-scanner": carried(given, table)}, left

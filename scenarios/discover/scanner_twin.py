@@ -13,14 +13,13 @@ def twin_table(out: dict, given: dict | None = None) -> dict:
     is what that twin left, so a run-out of a harmonic it had, or its eccentricity, adds as a
     phasor and a scale adds its ppm (to first order, as the effects are small)."""
     truth = {**(given or {}), **out["twin_rail"]}
-    runout = {
-        int(k): a * np.exp(1j * ph)
-        for k, a, ph in zip(
-            truth.get("runout_harmonics", ()),
-            truth.get("runout_mm", ()),
-            truth.get("runout_phase_rad", ()),
-        )
-    }
+    runout: dict[int, complex] = {}
+    for k, a, ph in zip(
+        truth.get("runout_harmonics", ()),
+        truth.get("runout_mm", ()),
+        truth.get("runout_phase_rad", ()),
+    ):  # a harmonic the twin lists twice is the sum of both (the simulation adds them)
+        runout[int(k)] = runout.get(int(k), 0) + a * np.exp(1j * ph)
     had = set(runout)
     raw = {}  # a harmonic the twin did not have: as found
     for p in (e["params"] for e in out["effects"] if e["name"] == "runout"):

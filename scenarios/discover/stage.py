@@ -36,6 +36,7 @@ from calibench.estimators.discovery.stage import (
 from calibench.scenarios.discover.folds import block_folds
 from calibench.scenarios.discover.fresh import structure
 from calibench.scenarios.discover.report import describe_effects, verdict
+from calibench.scenarios.discover.twin_merge import carried, given_tables, stage_drives
 from calibench.scenarios.report import BadInput
 
 STAGE_DEGREE = {"belt-stage": 2, "vision-stage": 3}
@@ -425,40 +426,6 @@ def stage_twin(scenario: str, path: Path | None) -> dict:
     return {"truth": cfg.truth, "geometry": cfg.geometry}
 
 
-def _stage_drives(out: dict, truth) -> tuple[dict, list[str]]:
-    """Each axis's ``DriveErrors`` with the accepted effects written in (on top of ``truth``'s)."""
-    drives, left = {}, []
-    for a in ("x", "y"):
-        d = getattr(truth, f"drive_{a}")
-        for e in (e for e in out["effects"] if e["axis"] == a):
-            p = e["params"]
-            if e["name"] == "backlash":
-                home = p.get("reversal_at_home_mm", p["reversal_mm"])
-                d = dataclasses.replace(
-                    d,
-                    reversal_at_home_um=d.reversal_at_home_um + home * 1000,
-                    reversal_growth_um_per_m=d.reversal_growth_um_per_m
-                    + p.get("growth_mm_per_m", 0.0) * 1000,
-                )
-            elif e["name"] == "periodic":
-                d = dataclasses.replace(
-                    d,
-                    periodic_um=p["amplitude_mm"] * 1000,
-                    period_mm=p["period_mm"],
-                    periodic_phase_rad=p["phase_rad"],
-                )
-            elif e["name"] == "thermal_expansion" and out.get("temp_mean_c") is not None:
-                d = dataclasses.replace(
-                    d,
-                    thermal_ppm_per_k=d.thermal_ppm_per_k + p["ppm_per_k"],
-                    reference_temp_c=out["temp_mean_c"],
-                )
-            else:
-                left.append(f"{e['name']} ({a})")
-        drives[f"drive_{a}"] = dataclasses.asdict(d)
-    return drives, left
-
-
 # --- the plug-in (calibench.scenarios.discover.engine.Plugin) -------------------------------------
 HOLDOUTS = ("pass", "rows", "columns", "blocks")  # --holdout's schemes (folds_for)
 MANY_RECORDINGS = True  # the same machine, cold and warm: fitted together (stage_sessions)
@@ -490,10 +457,5 @@ def discover(scenario: str, rec, seed: int, holdout, config, arm=None) -> tuple[
 def twin_tables(scenario: str, found: dict, config, arm=None) -> tuple[dict, list[str]]:
     """Each axis's drive errors with the accepted effects written in, on top of ``config``'s
     twin, and the accepted effects the drives cannot carry."""
-    from calibench.scenarios.config import load_toml
-
-    drives, left = _stage_drives(found, _config(scenario, config).truth)
-    # the config's twin as given (its geometry, the rest of its truth), the drives rewritten:
-    # the file replays the machine discover replayed, not the default one with these drives
-    given = load_toml(config).get(scenario, {}) if config is not None else {}
-    return {scenario: {**given, "truth": {**given.get("truth", {}), **drives}}}, left
+    drives, left = stage_drives(found, _config(scenario, config).truth)
+    return {scenario: carried(given_tables(config, scenario), {"truth": drives})}, left

@@ -371,6 +371,12 @@ def twin_tables(scenario: str, out: dict, config: Path | None, arm=None) -> tupl
     import numpy as np
 
     from calibench.scenarios.config import load_toml, override
+    from calibench.scenarios.discover.twin_merge import (
+        carried,
+        given_tables,
+        periodic_on_top,
+        thermal_on_top,
+    )
     from calibench.scenarios.stewart.scenario import StewartConfig
 
     cfg = StewartConfig()
@@ -404,23 +410,38 @@ def twin_tables(scenario: str, out: dict, config: Path | None, arm=None) -> tupl
             for k in range(6) if i < 0 else (i,):
                 leg["leg_compliance_um_per_n"][k] += p["um_per_n"]
         elif e["name"] == "thermal_expansion" and out.get("temp_mean_c") is not None:
-            leg["leg_thermal_ppm_per_k"][i] += p["ppm_per_k"]
-            ref = out["temp_mean_c"]
+            k = leg["leg_thermal_ppm_per_k"]
+            both = thermal_on_top(k[i], ref, p["ppm_per_k"], out["temp_mean_c"])
+            # the legs share one reference temperature: another leg's expansion fixes it
+            if both is None or (any(k[j] for j in range(6) if j != i) and both[1] != ref):
+                left.append(f"{e['name']} (leg {i + 1})")
+            else:
+                k[i], ref = both
         elif e["name"] == "backlash":
             leg["leg_reversal_um"][i] += p["reversal_mm"] * 1000
-        elif e["name"] == "periodic":
-            leg["leg_pitch_um"][i] = p["amplitude_mm"] * 1000
-            leg["leg_pitch_lead_mm"][i] = p["period_mm"]
-            leg["leg_pitch_phase_rad"][i] = p["phase_rad"]
+        elif e["name"] == "periodic" and (
+            both := periodic_on_top(
+                leg["leg_pitch_um"][i],
+                leg["leg_pitch_lead_mm"][i],
+                leg["leg_pitch_phase_rad"][i],
+                p["amplitude_mm"] * 1000,
+                p["period_mm"],
+                p["phase_rad"],
+            )
+        ):
+            leg["leg_pitch_um"][i], leg["leg_pitch_lead_mm"][i], leg["leg_pitch_phase_rad"][i] = (
+                both
+            )
         else:
-            left.append(e["name"])
+            left.append(e["name"] + (f" (leg {i + 1})" if i >= 0 else ""))
     truth = {**leg, "reference_temp_c": ref}
     geometry = {
         "platform_hinges_mm": r.tolist(),
         "base_hinges_mm": B.tolist(),
         "initial_lengths_mm": l0.tolist(),
     }
-    return {"stewart": {"geometry": geometry, "truth": truth}}, left
+    written = {"geometry": geometry, "truth": truth}
+    return {"stewart": carried(given_tables(config, "stewart"), written)}, left
 
 
 # --- the plug-in (calibench.scenarios.discover.engine.Plugin) -------------------------------------

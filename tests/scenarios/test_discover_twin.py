@@ -186,7 +186,8 @@ def test_a_config_s_geometry_is_the_twin_discover_replays(tmp_path):
     config = tmp_path / "c.toml"
     config.write_text(
         "[belt-stage.geometry]\ntravel_mm = [1500.0, 1000.0]\ncamera_height_mm = 2600.0\n\n"
-        "[belt-stage.truth]\nboard_yaw_rad = 0.002\n"
+        "[belt-stage.truth]\nboard_yaw_rad = 0.002\n\n"
+        "[belt-stage.truth.drive_x]\nreference_temp_c = 21.0\n"  # a drive given in part
     )
     argv = ["discover", "belt-stage", str(path)]
     assert main(argv + ["--out", str(tmp_path / "default")]) == 2  # beyond the default's travel
@@ -199,4 +200,10 @@ def test_a_config_s_geometry_is_the_twin_discover_replays(tmp_path):
     assert d["nominal_twin_fit"] is None and "0-1000 mm" in d["nominal_twin_not_replayed"]
     written = tomllib.loads(twin.read_text())["belt-stage"]
     assert written["geometry"] == {"travel_mm": [1500.0, 1000.0], "camera_height_mm": 2600.0}
-    assert written["truth"]["board_yaw_rad"] == 0.002 and "drive_x" in written["truth"]
+    assert written["truth"]["board_yaw_rad"] == 0.002
+    assert written["truth"]["drive_x"]["reference_temp_c"] == 21.0  # and the rest of that drive
+    assert written["truth"]["drive_x"]["periodic_um"] == 0.0
+    # the written twin is a config discover takes back: the same machine, nothing left
+    again = tmp_path / "again"
+    assert main(argv + ["--config", str(twin), "--out", str(again)]) == 0
+    assert json.loads((again / "discovery.json").read_text())["effects"] == []
