@@ -25,7 +25,7 @@ from calibench.scenes.belt_stage import (
     build_mjcf,
 )
 from calibench.scenes.camera import MJ_TO_CV, world_to_cv_camera
-from calibench.sim.renderer import LensRenderer
+from calibench.sim.renderer import Exposure, LensRenderer
 from calibench.sim.stage_drive import BeltDrive, DriveErrors, ElasticBelt, travel_direction
 
 PULSES_PER_MM = 250.0  # 25,000 pulses = 100 mm
@@ -221,10 +221,27 @@ class BeltStageSim:
         levels, 1-sigma, drawn from ``rng``) the sensor's noise. ``window`` (u0, v0, u1, v1) px
         reads out that area of interest only (:meth:`LensRenderer.render`).
         """
+        return self._lens().develop(self.capture(calib, rng, noise_dn, psf_px, window))
+
+    def capture(
+        self,
+        calib: bool = False,
+        rng: np.random.Generator | None = None,
+        noise_dn: float = 0.0,
+        psf_px: float = 0.0,
+        window: tuple[int, int, int, int] | None = None,
+    ) -> Exposure:
+        """:meth:`render`'s GL work and noise draws (on this thread): the frame that
+        ``renderer.develop`` makes the image of, on any thread. The arguments: :meth:`render`'s.
+        """
+        lens = self._lens()
+        lens.show_groups({STAGE_BOARD_GROUP: not calib, CALIB_BOARD_GROUP: calib})
+        return lens.capture(self.data, rng, noise_dn, psf_px, window)
+
+    def _lens(self) -> LensRenderer:
         if self.renderer is None:
             raise RuntimeError("this simulator was built without a renderer")
-        self.renderer.show_groups({STAGE_BOARD_GROUP: not calib, CALIB_BOARD_GROUP: calib})
-        return self.renderer.render(self.data, rng, noise_dn, psf_px, window)
+        return self.renderer
 
     def board_window(self, calib: bool = False) -> tuple[int, int, int, int]:
         """The area of interest (u0, v0, u1, v1) px, half-open, that holds the board now with its

@@ -5,6 +5,7 @@ One ``LensRenderer`` per process (a GL context does not survive ``fork``: use sp
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from typing import TYPE_CHECKING
 
@@ -83,6 +84,33 @@ def lens_sampling(lens: PinholeCamera, pad: int) -> LensSampling:
     return LensSampling(lens, pad)
 
 
+@dataclasses.dataclass(frozen=True)
+class Exposure:
+    """One frame as the GL context gave it, its sensor noise drawn: what
+    :meth:`LensRenderer.develop` makes the image of, on any thread.
+
+    Attributes
+    ----------
+    ideal : ndarray, (H, W, 3) uint8
+        The ideal (distortion-free) render, supersampled: of the whole padded sensor, or of the
+        block of it that ``window`` samples.
+    window : tuple of int or None
+        The area of interest (u0, v0, u1, v1) px, half-open; None for the whole image.
+    block : tuple of int or None
+        Where ``ideal`` lies in the padded ideal image: (row, column) of its first pixel.
+    noise : ndarray, (h, w) float32, or None
+        The sensor's noise (grey levels) over the image, drawn in the frames' order.
+    psf_px : float
+        The optics' blur, 1-sigma px.
+    """
+
+    ideal: np.ndarray
+    window: tuple[int, int, int, int] | None
+    block: tuple[int, int] | None
+    noise: np.ndarray | None
+    psf_px: float
+
+
 class LensRenderer:
     """Renders a MuJoCo camera as seen through ``lens`` (intrinsics and distortion).
 
@@ -135,47 +163,96 @@ class LensRenderer:
         ``rng``) before quantisation. ``window`` (u0, v0, u1, v1) px, half-open, reads out that
         area of the sensor only, as a machine-vision camera's area of interest does: the image
         is then (v1 - v0, u1 - u0, 3), and only the part of the ideal image it needs is rendered.
+        :meth:`capture` then :meth:`develop`.
         """
-        if window is not None:
-            return self._render_window(data, rng, noise_dn, psf_px, window)
+        return self.develop(self.capture(data, rng, noise_dn, psf_px, window))
+
+    def capture(
+        self,
+        data: mujoco.MjData,
+        rng: np.random.Generator | None = None,
+        noise_dn: float = 0.0,
+        psf_px: float = 0.0,
+        window: tuple[int, int, int, int] | None = None,
+    ) -> Exposure:
+        """What needs the GL context (this renderer's thread) and the generator: the ideal
+        render and the sensor's noise, drawn now so that frames developed out of order, on other
+        threads, have the noise they would have had in order. The arguments: :meth:`render`'s."""
+        if noise_dn > 0 and rng is None:
+            raise ValueError("sensor noise needs a random generator")
+        if window is None:
+            ideal, block = self._render_full(data), None
+            shape = (self.lens.height, self.lens.width)
+            if self.lens.dist.any():
+                self._sampling.remap()  # made here, once, not by two developing threads
+        else:
+            ideal, block = self._render_window(data, window)
+            shape = (window[3] - window[1], window[2] - window[0])
+        noise = None
+        if noise_dn > 0:
+            assert rng is not None
+            noise = rng.standard_normal(shape, np.float32) * np.float32(noise_dn)
+        return Exposure(ideal, window, block, noise, psf_px)
+
+    def develop(self, exposure: Exposure) -> np.ndarray:
+        """The image (h, w, 3) uint8 of a captured frame: the supersampled render averaged down,
+        the lens's distortion, the optics' blur, the sensor's noise and its quantisation. Reads
+        only what every frame shares (read-only), so frames may be developed on any thread."""
+        ideal = exposure.ideal
+        if self.supersample > 1:
+            h, w = ideal.shape[0] // self.supersample, ideal.shape[1] // self.supersample
+            ideal = cv2.resize(ideal, (w, h), interpolation=cv2.INTER_AREA)
+        if exposure.window is None:
+            img = self._through_lens(ideal)
+        else:
+            assert exposure.block is not None
+            img = self._window_through_lens(ideal, exposure.window, exposure.block)
+        return _sensor(img, exposure.noise, exposure.psf_px)
+
+    def _render_full(self, data) -> np.ndarray:
+        """The whole padded sensor's ideal render, supersampled."""
         sensor = self.model.cam_sensorsize[self.camera_id].copy()
         self.model.cam_sensorsize[self.camera_id] = self._padded_sensor
         try:
             k = self.supersample
-            ideal = self._offscreen.render(
+            return self._offscreen.render(
                 data, self.camera_id, self.option, self._size[0] * k, self._size[1] * k
             )
         finally:
             self.model.cam_sensorsize[self.camera_id] = sensor
-        if self.supersample > 1:
-            ideal = cv2.resize(ideal, self._size, interpolation=cv2.INTER_AREA)
+
+    def _through_lens(self, ideal: np.ndarray) -> np.ndarray:
+        """The whole image, float32 (h, w, 3) or (h, w), from the padded ideal one."""
         if not self.lens.dist.any():
             p = self.pad
-            img = ideal[p : p + self.lens.height, p : p + self.lens.width].astype(np.float32)
-        else:
-            # Float bilinear sampling (cv2.remap quantises positions to 1/32 px) as one sparse
-            # product: map_coordinates' order-1 sums, weights computed once per lens
-            remap = self._sampling.remap()
-            shape = (self.lens.height, self.lens.width)
-            if _is_grey(ideal):  # one channel through the lens: the same pixels, a third the work
-                img = (remap @ ideal[..., 0].ravel().astype(np.float64)).astype(np.float32)
-                img = img.reshape(shape)
-            else:
-                img = (remap @ ideal.reshape(-1, 3).astype(np.float64)).astype(np.float32)
-                img = img.reshape(shape + (3,))
-        return _sensor(img, rng, noise_dn, psf_px)
+            return ideal[p : p + self.lens.height, p : p + self.lens.width].astype(np.float32)
+        # Float bilinear sampling (cv2.remap quantises positions to 1/32 px) as one sparse
+        # product: map_coordinates' order-1 sums, weights computed once per lens
+        remap = self._sampling.remap()
+        shape = (self.lens.height, self.lens.width)
+        if _is_grey(ideal):  # one channel through the lens: the same pixels, a third the work
+            img = (remap @ ideal[..., 0].ravel().astype(np.float64)).astype(np.float32)
+            return img.reshape(shape)
+        img = (remap @ ideal.reshape(-1, 3).astype(np.float64)).astype(np.float32)
+        return img.reshape(shape + (3,))
 
-    def _render_window(self, data, rng, noise_dn, psf_px, window) -> np.ndarray:
-        """:meth:`render`'s area of interest: the ideal image rendered over the block of the
+    def _window_cells(self, window):
+        """The window's pixels' cells in the padded ideal image: rows and columns (h, w) int32."""
+        u0, v0, u1, v1 = window
+        cells = self._sampling.cells
+        return cells[0][v0:v1, u0:u1], cells[1][v0:v1, u0:u1]
+
+    def _render_window(self, data, window) -> tuple[np.ndarray, tuple[int, int]]:
+        """:meth:`capture`'s area of interest: the ideal image rendered over the block of the
         padded sensor that the window's distorted pixels sample, with the camera's principal
-        point moved so that this block is exactly that part of the full render."""
+        point moved so that this block is exactly that part of the full render. Returns the
+        block (supersampled) and its first pixel's (row, column)."""
         u0, v0, u1, v1 = (int(x) for x in window)
         if not (0 <= u0 < u1 <= self.lens.width and 0 <= v0 < v1 <= self.lens.height):
             raise ValueError(
                 f"window {window} outside the {self.lens.width}x{self.lens.height} image"
             )
-        cells, weights = self._sampling.cells, self._sampling.weights
-        rows, cols = cells[0][v0:v1, u0:u1], cells[1][v0:v1, u0:u1]
+        rows, cols = self._window_cells((u0, v0, u1, v1))
         W, H = self._size
         p = self.pad
         if self.lens.dist.any():
@@ -188,12 +265,22 @@ class LensRenderer:
         hb = min(-(-(int(r_hi) + 3 - r0) // 32) * 32, H)
         wb = min(-(-(int(c_hi) + 3 - c0) // 32) * 32, W)
         r0, c0 = min(r0, H - hb), min(c0, W - wb)
-        ideal = self._render_block(data, r0, c0, wb, hb)
+        return self._render_block(data, r0, c0, wb, hb), (r0, c0)
+
+    def _window_through_lens(self, ideal: np.ndarray, window, block) -> np.ndarray:
+        """The window's image, float32 (h, w, 3) or (h, w), from the ideal block (hb, wb, 3)
+        whose first pixel is ``block`` (row, column) of the padded ideal image."""
+        u0, v0, u1, v1 = (int(x) for x in window)
+        r0, c0 = block
+        hb, wb = ideal.shape[:2]
+        p = self.pad
         if not self.lens.dist.any():  # the pinhole's pixels: the block's, shifted by the pad
             crop = ideal[v0 + p - r0 : v1 + p - r0, u0 + p - c0 : u1 + p - c0]
             if _is_grey(crop):  # one channel through the sensor: the same pixels, a third the work
                 crop = crop[..., 0]
-            return _sensor(crop.astype(np.float32), rng, noise_dn, psf_px)
+            return crop.astype(np.float32)
+        rows, cols = self._window_cells((u0, v0, u1, v1))
+        weights = self._sampling.weights
         ri = np.minimum(rows - r0, hb - 1)
         ci = np.minimum(cols - c0, wb - 1)
         fr, fc = weights[0][v0:v1, u0:u1], weights[1][v0:v1, u0:u1]
@@ -213,10 +300,11 @@ class LensRenderer:
             top = gc * flat[i00] + fc * flat[i01]
             low = gc * flat[i10] + fc * flat[i11]
             img[..., ch] = gr * top + fr * low
-        return _sensor(img[..., 0] if len(planes) == 1 else img, rng, noise_dn, psf_px)
+        return img[..., 0] if len(planes) == 1 else img
 
     def _render_block(self, data, r0: int, c0: int, wb: int, hb: int) -> np.ndarray:
-        """The ideal padded render's block of rows r0:r0+hb, columns c0:c0+wb, (hb, wb, 3)."""
+        """The ideal padded render's block of rows r0:r0+hb, columns c0:c0+wb, supersampled:
+        (k hb, k wb, 3)."""
         k = self.supersample
         cam = self.camera_id
         sensor = self.model.cam_sensorsize[cam].copy()
@@ -234,8 +322,6 @@ class LensRenderer:
         finally:
             self.model.cam_sensorsize[cam] = sensor
             self.model.cam_intrinsic[cam] = intrinsic
-        if k > 1:
-            block = cv2.resize(block, (wb, hb), interpolation=cv2.INTER_AREA)
         return block
 
     def close(self) -> None:
@@ -252,21 +338,18 @@ def _is_grey(img: np.ndarray) -> bool:
     return True
 
 
-def _sensor(img: np.ndarray, rng, noise_dn: float, psf_px: float) -> np.ndarray:
-    """The optics' blur, the sensor's noise and its quantisation of an image (h, w, 3) float32,
-    or (h, w) of a grey one; returns (h, w, 3) uint8."""
+def _sensor(img: np.ndarray, noise: np.ndarray | None, psf_px: float) -> np.ndarray:
+    """The optics' blur, the sensor's noise (h, w) float32 grey levels, and its quantisation of an
+    image (h, w, 3) float32, or (h, w) of a grey one; returns (h, w, 3) uint8."""
     grey = img.ndim == 2 or _is_grey(img)
     if img.ndim == 3 and grey:  # a grey scene (the circle plate's): one channel's work
         img = np.ascontiguousarray(img[..., 0])
     if psf_px > 0:
         img = cv2.GaussianBlur(img, (0, 0), psf_px)
-    if noise_dn > 0:
-        if rng is None:
-            raise ValueError("sensor noise needs a random generator")
-        # one noise field for the three channels: a monochrome sensor seen as RGB
-        noise = rng.standard_normal(img.shape[:2], np.float32) * np.float32(noise_dn)
-        # the colour field's three planes made by OpenCV: numpy's broadcast over a last axis of 3
-        # is three times slower
+    if noise is not None:
+        # one noise field for the three channels: a monochrome sensor seen as RGB; the colour
+        # field's three planes made by OpenCV (numpy's broadcast over a last axis of 3 is three
+        # times slower)
         img = img + (noise if grey else cv2.merge((noise, noise, noise)))
     out = np.clip(np.rint(img), 0, 255).astype(np.uint8)
     return cv2.cvtColor(out, cv2.COLOR_GRAY2RGB) if grey else out

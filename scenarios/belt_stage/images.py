@@ -17,9 +17,11 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from calibench.scenarios.belt_stage.scenario import BeltStageConfig, record_views
+from calibench.scenarios.belt_stage.scenario import BeltStageConfig
+from calibench.scenarios.belt_stage.views import record_views
 from calibench.scenes.camera import PinholeCamera
 from calibench.sim.belt_stage import PULSES_PER_MM, BeltStageSim, intrinsic_view_poses
+from calibench.sim.developing import frame_workers
 
 
 def save_rendered_views(config: BeltStageConfig, seed: int, folder: Path) -> dict:
@@ -41,8 +43,9 @@ def save_rendered_views(config: BeltStageConfig, seed: int, folder: Path) -> dic
     size = (g.camera.width, g.camera.height)
     try:
         poses = intrinsic_view_poses(g, config.n_intrinsic_views, rng)
+        workers = frame_workers()
         calib, calib_true = record_views(
-            sim, "render", config, rng, size, [("calib", *p) for p in poses]
+            sim, "render", config, rng, size, [("calib", *p) for p in poses], False, workers
         )
         sim.park_calib_board()
         # the stations as the run drives them (scenario.run, step 2)
@@ -50,7 +53,9 @@ def save_rendered_views(config: BeltStageConfig, seed: int, folder: Path) -> dic
         x_pulses = np.rint(xs.ravel() * PULSES_PER_MM).astype(np.int64)
         y_pulses = np.rint(ys.ravel() * PULSES_PER_MM).astype(np.int64)
         steps = [("station", xp, yp) for xp, yp in zip(x_pulses, y_pulses)]
-        stations, station_true = record_views(sim, "render", config, rng, size, steps)
+        stations, station_true = record_views(
+            sim, "render", config, rng, size, steps, False, workers
+        )
     finally:
         sim.close()
     folder.mkdir(parents=True, exist_ok=True)

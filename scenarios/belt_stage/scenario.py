@@ -25,7 +25,6 @@ from pathlib import Path
 import numpy as np
 
 from calibench.errors import BadInput
-from calibench.estimators.camera.chessboard import find_chessboard_corners
 from calibench.estimators.camera.zhang import calibrate_camera
 from calibench.estimators.stage.belt_maps import (
     MAP_INTRINSICS,
@@ -34,9 +33,9 @@ from calibench.estimators.stage.belt_maps import (
     propagated_std,
 )
 from calibench.estimators.stage.error_map import COEF_NAMES, compensated_command
-from calibench.recordings import CameraViews
+from calibench.scenarios.belt_stage.views import record_views
 from calibench.scenarios.harness import write_outputs
-from calibench.scenarios.report import Check, Parameter, Report, progress
+from calibench.scenarios.report import Check, Parameter, Report
 from calibench.scenes.belt_stage import BeltStageGeometry
 from calibench.scenes.checkerboard import TEXTURE_PX_PER_SQUARE
 from calibench.sim.belt_stage import (
@@ -46,6 +45,7 @@ from calibench.sim.belt_stage import (
     BeltStageTruth,
     intrinsic_view_poses,
 )
+from calibench.sim.developing import frame_workers
 
 NAME = "belt-stage"
 
@@ -243,9 +243,12 @@ def run(config: BeltStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: b
     try:
         # 1. intrinsic views ------------------------------------------------------------------
         poses = intrinsic_view_poses(g, config.n_intrinsic_views, rng)
-        windowed = out_dir is None  # a study's trial: no image is kept
+        # a study's trial keeps no image, and its processes fill the cores: the views are read
+        # out over the board's area only and developed in turn
+        windowed = out_dir is None
+        workers = 0 if windowed else frame_workers()
         calib_views, calib_true = record_views(
-            sim, fidelity, config, rng, size, [("calib", R, t) for R, t in poses], windowed
+            sim, fidelity, config, rng, size, [("calib", R, t) for R, t in poses], windowed, workers
         )
         sim.park_calib_board()
         used = np.isfinite(calib_views.corners_px).all(axis=(1, 2))
@@ -266,6 +269,7 @@ def run(config: BeltStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: b
             size,
             [("station", xp, yp) for xp, yp in zip(x_pulses, y_pulses)],
             windowed,
+            workers,
         )
         if not np.isfinite(station_views.corners_px).all():
             missed = [
@@ -403,52 +407,6 @@ def run(config: BeltStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: b
 
 
 TOL_SIGMA = 5.0  # parameter tolerance, in the estimator's own standard deviations
-
-
-def record_views(
-    sim: BeltStageSim,
-    fidelity: str,
-    config: BeltStageConfig,
-    rng: np.random.Generator,
-    size,
-    steps,
-    windowed: bool = False,
-) -> tuple[CameraViews, np.ndarray]:
-    """Drive the sim through ``steps`` and record what the camera gives the estimators.
-
-    Returns the views (images and detected corners, NaN where undetected) and the true
-    corner projections (n_views, n_corners, 2), which stay in the scenario. ``windowed``: each
-    view is read out over the board's area of interest only (a study's trial, which keeps no
-    image: the same corners at a fraction of the render), and no image is kept.
-    """
-    board = config.geometry.board
-    names, images, corners, frames = [], [], [], []
-    steps = list(steps)
-    for kind, a, b in progress(steps, "rendering" if fidelity == "render" else "views", len(steps)):
-        if kind == "calib":
-            sim.place_calib_board(a, b)
-            names.append(f"view{len(names):02d}")
-        else:
-            sim.move(a, b)
-            names.append(f"x{a / PULSES_PER_MM:g}_y{b / PULSES_PER_MM:g}")
-        frames.append(sim.view_frame(calib=kind == "calib"))
-        if fidelity == "render":
-            calib = kind == "calib"
-            window = sim.board_window(calib) if windowed else None
-            img = sim.render(calib, rng, config.pixel_noise_dn, config.psf_px, window)
-            c = find_chessboard_corners(img, board.cols, board.rows)
-            if window is None:
-                images.append(img)
-            elif c is not None:  # the window's pixels to the image's
-                c = c + window[:2]
-            corners.append(np.full((board.n_corners, 2), np.nan) if c is None else c)
-    true = sim.corners_px(frames)
-    if fidelity != "render":  # every view's noise at once: the same draws as view by view
-        corners = true + rng.normal(0, config.corner_noise_px, true.shape)
-    views = CameraViews(
-        image_size=size, names=names, images=images or None, corners_px=np.array(corners)
-    )
-    return views, true
 
 
 def _vector_rms(d: np.ndarray) -> float:

@@ -1,0 +1,87 @@
+"""Frames developed on worker threads (sim.developing): the same results in the same order as
+developed in turn, whatever the number of threads, for a toy development and for the belt
+stage's rendered views (images and corners, bit for bit)."""
+
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from calibench.scenarios.belt_stage.scenario import BeltStageConfig
+from calibench.scenarios.belt_stage.views import record_views
+from calibench.sim.belt_stage import BeltStageSim, intrinsic_view_poses
+from calibench.sim.developing import IN_FLIGHT_PER_WORKER, develop_all, usable_cores
+
+
+def test_results_keep_the_captures_order_and_the_capture_waits_for_the_oldest():
+    """Developments that finish out of order (the early ones slowest) come back in order; no
+    more than IN_FLIGHT_PER_WORKER per worker are ever captured and not yet developed."""
+    captured, developed = [], []
+    lock = threading.Lock()
+
+    def captures():
+        for i in range(20):
+            with lock:
+                assert len(captured) - len(developed) <= IN_FLIGHT_PER_WORKER * 3
+                captured.append(i)
+            yield i
+
+    def develop(i):
+        time.sleep(0.002 * (20 - i) % 0.013)
+        with lock:
+            developed.append(i)
+        return i * i
+
+    assert develop_all(captures(), develop, 3) == [i * i for i in range(20)]
+    assert sorted(developed) == list(range(20))
+
+
+def test_a_failed_development_is_raised_on_the_capturing_thread():
+    def develop(i):
+        if i == 3:
+            raise ValueError("no board")
+        return i
+
+    with pytest.raises(ValueError, match="no board"):
+        develop_all(range(8), develop, 2)
+
+
+def test_no_workers_develops_on_this_thread():
+    names = develop_all(range(3), lambda _: threading.current_thread().name, 0)
+    assert names == [threading.current_thread().name] * 3
+
+
+def test_usable_cores_is_at_least_one():
+    assert usable_cores() >= 1
+
+
+@pytest.mark.render
+def test_rendered_views_are_the_same_whatever_the_threads():
+    """Three tilted views and two stations rendered with the sensor's noise and blur, developed
+    in turn and on two threads: the same images and corners, bit for bit (the noise is drawn
+    on the capturing thread, in the views' order)."""
+    config = BeltStageConfig()
+    g = config.geometry
+    size = (g.camera.width, g.camera.height)
+    sim = BeltStageSim(g, config.truth, render=True)
+    try:
+        poses = intrinsic_view_poses(g, 3, np.random.default_rng(5))
+        steps = [("calib", R, t) for R, t in poses] + [
+            ("station", 0, 0),
+            ("station", 120_000, 90_000),
+        ]
+        runs = []
+        for workers in (0, 2):
+            sim.park_calib_board()
+            sim.move(0, 0)
+            rng = np.random.default_rng(11)
+            runs.append(record_views(sim, "render", config, rng, size, steps, False, workers))
+    finally:
+        sim.close()
+    (serial, true_0), (threaded, true_2) = runs
+    assert serial.names == threaded.names and np.array_equal(true_0, true_2)
+    assert np.isfinite(serial.corners_px).all()  # every view's board found: a real comparison
+    assert np.array_equal(serial.corners_px, threaded.corners_px)
+    assert all(np.array_equal(a, b) for a, b in zip(serial.images, threaded.images))
+    assert len(serial.images) == len(steps)
