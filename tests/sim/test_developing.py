@@ -60,7 +60,7 @@ def test_usable_cores_is_at_least_one():
 def test_rendered_views_are_the_same_whatever_the_threads():
     """Three tilted views and two stations rendered with the sensor's noise and blur, developed
     in turn and on two threads: the same images and corners, bit for bit (the noise is drawn
-    on the capturing thread, in the views' order)."""
+    as each view is captured, in the views' order)."""
     config = BeltStageConfig()
     g = config.geometry
     size = (g.camera.width, g.camera.height)
@@ -85,3 +85,42 @@ def test_rendered_views_are_the_same_whatever_the_threads():
     assert np.array_equal(serial.corners_px, threaded.corners_px)
     assert all(np.array_equal(a, b) for a, b in zip(serial.images, threaded.images))
     assert len(serial.images) == len(steps)
+
+
+@pytest.mark.render
+def test_noise_drawn_while_gl_renders_is_the_noise_drawn_in_turn(monkeypatch):
+    """A full frame's noise drawn on its own thread while GL renders, against the same frames
+    with every draw in turn (the threshold above any frame): the same noise, frame by frame,
+    and the generator left where it was, so the draws after a capture are the same too."""
+    from calibench.sim import renderer
+
+    drawn_on = []
+    draw = renderer.sensor_noise
+
+    def spy(rng, shape, noise_dn):
+        drawn_on.append(threading.current_thread() is threading.main_thread())
+        return draw(rng, shape, noise_dn)
+
+    monkeypatch.setattr(renderer, "sensor_noise", spy)
+    config = BeltStageConfig()
+    g = config.geometry
+    sim = BeltStageSim(g, config.truth, render=True)
+    lens = sim.renderer
+    assert lens is not None
+    full = (g.camera.height, g.camera.width)
+    window = (100, 80, 260, 200)  # below the threshold: drawn in turn either way
+    runs = []
+    try:
+        sim.move(0, 0)
+        for threshold in (full[0] * full[1], full[0] * full[1] + 1):  # on the thread, in turn
+            monkeypatch.setattr(renderer, "NOISE_THREAD_MIN_PX", threshold)
+            rng = np.random.default_rng(7)
+            frames = [lens.capture(sim.data, rng, 2.0, 0.5, w) for w in (None, window, None)]
+            runs.append(([f.noise for f in frames], rng.random(4)))
+    finally:
+        sim.close()
+    assert drawn_on == [False, True, False] + [True] * 3  # where each frame's noise was drawn
+    (threaded, after_t), (in_turn, after_s) = runs
+    assert [n.shape for n in threaded] == [full, (120, 160), full]
+    assert all(np.array_equal(a, b) for a, b in zip(threaded, in_turn))
+    assert np.array_equal(after_t, after_s)
