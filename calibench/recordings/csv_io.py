@@ -9,6 +9,7 @@ the file and, where it can, the line.
 from __future__ import annotations
 
 import csv
+import re
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +19,39 @@ from calibench.errors import BadInput
 
 class RecordingError(BadInput):
     """A recording that cannot be used as it is (missing column, NaN, unreadable file)."""
+
+
+# Other names users give the formats' columns: a file that names one so would have it ignored
+# (an optional column) or missing (a required one), and say nothing of it.
+ALIASES = {
+    "t_s": ("time_s", "time", "timestamp", "t", "t_sec", "seconds"),
+    "temp_c": ("temperature_c", "temperature", "temp", "temp_degc", "temperature_degc"),
+    "dir_x": ("direction_x", "x_direction", "x_dir"),
+    "dir_y": ("direction_y", "y_direction", "y_dir"),
+    "run": ("pass", "run_id", "pass_id", "run_no", "pass_no"),
+    "x_std_mm": ("x_sigma_mm", "sigma_x_mm", "std_x_mm"),
+    "y_std_mm": ("y_sigma_mm", "sigma_y_mm", "std_y_mm"),
+    "z_std_mm": ("z_sigma_mm", "sigma_z_mm", "std_z_mm"),
+}
+
+
+def _key(name: str) -> str:
+    """A column name as compared for a near miss: lower case, letters and digits only."""
+    return re.sub(r"[^a-z0-9]", "", name.lower())
+
+
+def _near_miss(header: list[str], known: tuple) -> tuple[str, str] | None:
+    """The first column of ``header`` that is not one of ``known`` but is one of them in another
+    case or spelling (``Temp_C``, ``dirx``) or by another usual name (``temperature_c``), and the
+    absent column it stands for; None when there is none."""
+    wanted = [k for k in known if k not in header]
+    for h in header:
+        if not h or h in known:
+            continue
+        for k in wanted:
+            if _key(h) == _key(k) or _key(h) in {_key(a) for a in ALIASES.get(k, ())}:
+                return h, k
+    return None
 
 
 def _rows(reader, path: Path, max_rows: int | None) -> list[list[str]]:
@@ -93,6 +127,14 @@ def read_columns(
     if twice:
         raise RecordingError(
             f"{path}: column(s) {', '.join(twice)} named twice: which one is meant cannot be told"
+        )
+    near = _near_miss(header, required + optional)
+    if near is not None:
+        fate = "missing" if near[1] in required else "ignored"
+        raise RecordingError(
+            f"{path}: column {near[0]!r} is not one the format knows, so {near[1]} would be "
+            f"{fate}: if it is {near[1]}, name it so"
+            + (f" (in {near[1]}'s unit)" if near[1].endswith(("_s", "_c", "_mm")) else "")
         )
     missing = [c for c in required if c not in header]
     if missing:

@@ -52,6 +52,8 @@ def load_stage_csv(path: str | Path, max_rows: int | None = None) -> StageRecord
             f"{path}: every position lies within +-{np.abs(xy).max():.3g}: "
             "metres? the format wants millimetres (x_cmd_mm, ...)"
         )
+    _measured_follow_commanded(path, cols)
+    _no_repeated_pass(path, cols)
     for name in ("dir_x", "dir_y"):
         if name in cols and not np.isin(cols[name], (-1.0, 0.0, 1.0)).all():
             i = int(np.argmax(~np.isin(cols[name], (-1.0, 0.0, 1.0))))
@@ -59,3 +61,60 @@ def load_stage_csv(path: str | Path, max_rows: int | None = None) -> StageRecord
                 f"{path} line {line[i]}: {name} is {cols[name][i]:g}; a direction is -1, 0 or +1"
             )
     return StageRecording(**cols)
+
+
+# A stage's scale error is parts per million to a percent: a measured axis that moves less than
+# half or more than twice what was commanded along it is not measuring that axis.
+SCALE_LIMITS = (0.5, 2.0)
+
+
+def _measured_follow_commanded(path, cols: dict) -> None:
+    """RecordingError when a measured column does not follow its commanded one (its slope against
+    it, least squares, outside :data:`SCALE_LIMITS`): a frozen reading, the x and y columns
+    swapped, another unit or another frame. An axis commanded over less than 1 mm is not judged:
+    its slope is the noise's."""
+    for axis in ("x", "y"):
+        cmd, meas = cols[f"{axis}_cmd_mm"], cols[f"{axis}_meas_mm"]
+        if len(cmd) < 3 or np.ptp(cmd) < 1.0:
+            continue
+        c = cmd - cmd.mean()
+        slope = float(c @ (meas - meas.mean()) / (c @ c))
+        if not SCALE_LIMITS[0] < slope < SCALE_LIMITS[1]:
+            raise RecordingError(
+                f"{path}: {axis}_meas_mm moves {slope:.3g} mm per mm of {axis}_cmd_mm: the "
+                "measured positions do not follow the commanded ones (a frozen reading, x and y "
+                "swapped, another unit or frame?)"
+            )
+
+
+def _no_repeated_pass(path, cols: dict) -> None:
+    """RecordingError when a pass repeats another row for row, every value the same (a file
+    appended to itself): held out, it would score the fit on its own rows. Two real passes never
+    agree to the last digit at every station."""
+    names = [
+        c for c in StageRecording.REQUIRED + StageRecording.OPTIONAL if c in cols and c != "run"
+    ]
+    rows = np.stack([cols[c] for c in names], axis=1)
+    run = cols.get("run")
+    if run is not None:
+        passes = [rows[run == r] for r in np.unique(run)]
+    elif len(rows) % 2 == 0 and len(rows) >= 4:
+        passes = [rows[: len(rows) // 2], rows[len(rows) // 2 :]]  # the file twice, one after
+    else:
+        return
+    seen: dict[bytes, int] = {}
+    for k, block in enumerate(passes):
+        if len(block) < 2 or (block == block[0]).all():
+            continue  # one station, repeated: a degenerate recording, which the fits say so
+        key = block.tobytes()
+        if key in seen:
+            what = (
+                f"pass {int(np.unique(run)[k]):d} repeats pass {int(np.unique(run)[seen[key]]):d}"
+                if run is not None
+                else "its second half repeats its first"
+            )
+            raise RecordingError(
+                f"{path}: {what} row for row, every value the same: a file appended to itself? "
+                "(a repeat held out would score the fit on its own rows)"
+            )
+        seen[key] = k

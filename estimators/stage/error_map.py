@@ -31,12 +31,13 @@ class QuadraticFit:
     """Least-squares quadratic map of one axis's error.
 
     coef : (6,) c0..c5 in mm, mm/mm, mm/mm^2.  std : (6,) their 1-sigma (from the residuals).
+    r2 : None when the errors are all alike (nothing for the map to explain).
     """
 
     coef: np.ndarray
     std: np.ndarray
     sse: float
-    r2: float
+    r2: float | None
     rmse: float
     n: int
 
@@ -55,12 +56,34 @@ class QuadraticFit:
         }
 
 
+# The design's columns, each scaled to unit length, are independent to about 1e-2 on a grid; on a
+# circle written to the micrometre (a ballbar's path), 1, x^2 and y^2 repeat each other to 5e-8.
+SPREAD_MIN = 1e-6
+
+
+def check_spread(x_mm: np.ndarray, y_mm: np.ndarray, degree: int) -> None:
+    """ValueError when the stations lie on a curve the degree's polynomial map cannot tell from
+    its own terms (a line, a circle, any conic for the quadratic): the smallest singular value of
+    the design with unit columns below :data:`SPREAD_MIN` of the largest. The fit would return
+    coefficients with std of metres rather than fail."""
+    A = design(np.asarray(x_mm, float), np.asarray(y_mm, float), degree)
+    norm = np.linalg.norm(A, axis=0)
+    s = np.linalg.svd(A / np.where(norm > 0, norm, 1.0), compute_uv=False)
+    if s[-1] < SPREAD_MIN * s[0]:
+        raise ValueError(
+            "degenerate stations: they lie on a line or a curve (a circle?) that the degree-"
+            f"{degree} map cannot tell from its own terms; measure a grid"
+        )
+
+
 def fit_quadratic(x_mm: np.ndarray, y_mm: np.ndarray, err_mm: np.ndarray) -> QuadraticFit:
-    """Fit one axis's error map, (n,), (n,), (n,) -> QuadraticFit. Needs n > 6 spread stations."""
+    """Fit one axis's error map, (n,), (n,), (n,) -> QuadraticFit. Needs n > 6 spread stations
+    (:func:`check_spread`)."""
     e = np.asarray(err_mm, float)
     n = len(e)
     if n <= 6:
         raise ValueError(f"{n} stations: the quadratic map needs more than 6")
+    check_spread(x_mm, y_mm, 2)
     try:
         c, std, rmse, sse = least_squares(design(x_mm, y_mm, 2), e)
     except ValueError:
@@ -71,7 +94,7 @@ def fit_quadratic(x_mm: np.ndarray, y_mm: np.ndarray, err_mm: np.ndarray) -> Qua
         coef=c * unit,
         std=std * unit,
         sse=sse,
-        r2=1 - sse / sst if sst > 0 else float("nan"),
+        r2=1 - sse / sst if sst > 0 else None,
         rmse=rmse,
         n=n,
     )
@@ -133,8 +156,9 @@ class CubicFit:
 
 def fit_cubic(x_mm: np.ndarray, y_mm: np.ndarray, err: np.ndarray) -> CubicFit:
     """Fit one axis's error map by the cubic, (n,), (n,), (n,) -> CubicFit. Needs n > 10 points
-    that span the cubic (ValueError otherwise)."""
+    that span the cubic (ValueError otherwise, :func:`check_spread`)."""
     f = fit_polynomial(x_mm, y_mm, err, degree=3)
+    check_spread(x_mm, y_mm, 3)
     r = err - f(x_mm, y_mm)
     sse = float(r @ r)
     sst = float(np.sum((err - err.mean()) ** 2))

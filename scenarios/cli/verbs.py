@@ -154,10 +154,9 @@ def fit(args: argparse.Namespace) -> int:
 
     result = run_fit(s.name, s.fit_model, args.recordings[0], out)
     for axis, a in result["axes"].items():
-        print(
-            f"{axis}: SSE {a['sse']:.4g} mm^2  R^2 {a['r2']:.4f}  RMSE {a['rmse']:.4f} mm  (n = "
-            f"{a['n']})"
-        )
+        # no R^2 where the errors are all alike: nothing for the map to explain
+        r2 = "n/a" if a["r2"] is None else f"{a['r2']:.4f}"
+        print(f"{axis}: SSE {a['sse']:.4g} mm^2  R^2 {r2}  RMSE {a['rmse']:.4f} mm  (n = {a['n']})")
     print(f"-> {out / 'fit.json'}")
     return EXIT_OK
 
@@ -223,13 +222,19 @@ def _fit_arm(args: argparse.Namespace, out: Path) -> int:
         print(f"  left out of {name}: rows {', '.join(str(x['row']) for x in rows)} (see fit.json)")
     for w in r["coverage"]["warnings"]:
         print(f"  warning: {w}")
-    if not r["converged"]:
-        print("  the solve did not converge: the figures are of its last iterate", file=sys.stderr)
     print(f"-> {out / 'fit.json'}")
     if r["implausible"]:
         print(f"calibench: fit arm-cmm failed: {r['implausible']}", file=sys.stderr)
         return EXIT_CHECK_FAILED
-    return EXIT_OK if r["converged"] else EXIT_CHECK_FAILED
+    if not r["converged"]:
+        print(
+            "calibench: fit arm-cmm did not converge, the figures are of its last iterate "
+            f"({f['rms_mm']:.3g} mm RMS): is the arm description right (--arm; this fit used "
+            f"{r['arm']}) and are the columns in degrees and mm?",
+            file=sys.stderr,
+        )
+        return EXIT_CHECK_FAILED
+    return EXIT_OK
 
 
 def _leave_one_out(args: argparse.Namespace, out: Path) -> int:

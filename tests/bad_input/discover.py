@@ -313,7 +313,11 @@ CASES = [
     ),
     (
         "discover-stage-beyond-travel",
-        {"r.csv": stage_csv(n=6).replace("500,", "1500,")},
+        {  # the last column of stations commanded and measured 1000 mm further
+            "r.csv": stage_csv(n=6)
+            .replace("\n500,", "\n1500,")
+            .replace(",500.500000,", ",1501.500000,")
+        },
         ["discover", "belt-stage", "{d}/r.csv"],
         2,
         "travels 0-1000 mm",

@@ -6,6 +6,8 @@ See tests/test_bad_input.py, which runs every case.
 
 from __future__ import annotations
 
+import numpy as np
+
 from tests.bad_input.files import (
     STAGE_HEAD,
     arm_csv,
@@ -174,7 +176,90 @@ CASES = [
         2,
         "is a file",
     ),
+    (  # a usual name of an optional column: it would be ignored, and discover's finding with it
+        "fit-temperature-column-misnamed",
+        {
+            "r.csv": stage_csv(extra=",temperature_c")
+            .replace("\n", ",20\n")
+            .replace("temperature_c,20", "temperature_c")
+        },
+        ["fit", "belt-stage", "{d}/r.csv"],
+        2,
+        "column 'temperature_c' is not one the format knows, so temp_c would be ignored",
+    ),
+    (
+        "fit-direction-column-in-capitals",
+        {"r.csv": stage_csv(extra=",DIR_X").replace("\n", ",1\n").replace("DIR_X,1", "DIR_X")},
+        ["fit", "belt-stage", "{d}/r.csv"],
+        2,
+        "if it is dir_x, name it so",
+    ),
+    (  # a frozen reading: the error is minus the command, which a map fits with R^2 = 1
+        "fit-frozen-measured-column",
+        {"r.csv": stage_csv(err=lambda x, y: (5.0 - x, 2e-3 * y))},
+        ["fit", "belt-stage", "{d}/r.csv"],
+        2,
+        "x_meas_mm moves 0 mm per mm of x_cmd_mm",
+    ),
+    (
+        "fit-measured-columns-swapped",
+        {"r.csv": stage_csv(err=lambda x, y: (y - x, x - y))},
+        ["fit", "belt-stage", "{d}/r.csv"],
+        2,
+        "do not follow the commanded ones",
+    ),
+    (  # held out, the copy would score the fit on its own rows
+        "fit-pass-repeated",
+        {
+            "r.csv": lambda p: p.write_text(
+                STAGE_HEAD
+                + ",run\n"
+                + "".join(f"{r},{k}\n" for k in (0, 1) for r in stage_csv().splitlines()[1:])
+            )
+        },
+        ["discover", "belt-stage", "{d}/r.csv"],
+        2,
+        "pass 1 repeats pass 0 row for row",
+    ),
+    (
+        "fit-file-appended-to-itself",
+        {"r.csv": stage_csv() + "".join(r + "\n" for r in stage_csv().splitlines()[1:])},
+        ["fit", "belt-stage", "{d}/r.csv"],
+        2,
+        "its second half repeats its first",
+    ),
+    (  # a ballbar's circle: 1, x^2 and y^2 repeat each other (c0's std was 150 mm, exit 0)
+        "fit-stations-on-a-circle",
+        {
+            "r.csv": lambda p: p.write_text(
+                STAGE_HEAD
+                + "\n"
+                + "".join(
+                    f"{500 + 300 * np.cos(a):.3f},{500 + 300 * np.sin(a):.3f},"
+                    f"{500.8 + 300 * np.cos(a):.5f},{501 + 300 * np.sin(a):.5f}\n"
+                    for a in np.linspace(0, 2 * np.pi, 40, endpoint=False)
+                )
+            )
+        },
+        ["fit", "belt-stage", "{d}/r.csv"],
+        2,
+        "lie on a line or a curve (a circle?)",
+    ),
+    (  # a file of the user's by an output's name, in a folder no command marked
+        "fit-out-holds-a-user-s-file-by-an-output-s-name",
+        {"r.csv": stage_csv(), "o/figure.png": "mine"},
+        ["fit", "belt-stage", "{d}/r.csv", "--out", "{d}/o", "--force"],
+        2,
+        "holds figure.png, which no calibench command says it wrote",
+    ),
     # legitimately odd stage recordings: must work
+    (  # an axis without error: no R^2 (was NaN in fit.json, which is not JSON)
+        "fit-an-axis-without-error",
+        {"r.csv": stage_csv(err=lambda x, y: (1e-3 * x + 1e-6 * x * y, 0.0))},
+        ["fit", "belt-stage", "{d}/r.csv", "--out", "{d}/o"],
+        0,
+        "",
+    ),
     (
         "fit-bom",
         {"r.csv": ("\ufeff" + stage_csv()).encode("utf-8")},
