@@ -82,6 +82,7 @@ NONNEGATIVE = (
     "density",
     "compliance",
     "radius",
+    "margin",
 )
 POSITIVE = (
     "square_mm",
@@ -103,8 +104,16 @@ POSITIVE = (
     "p",
     "reading_sigma_um",
     "angle_sigma_urad",
-    "kg",
-)  # a moving body's mass: MuJoCo needs it above zero
+    "kg",  # a moving body's mass: MuJoCo needs it above zero
+    # a weight's 1-sigma (zero: an infinite weight), a quantisation step, a servo's tolerance
+    # (zero: it never settles)
+    "bar_sigma_mm",
+    "quantum_um",
+    "servo_tolerance_px",
+)
+# Scatters beyond anything the instrument could be: a detector's corner noise of 10 px is no
+# detector (the estimators then fail for reasons no message could name).
+AT_MOST = {"noise_px": 10.0}
 
 
 def load_toml(path: str | Path) -> dict:
@@ -126,6 +135,9 @@ def load_toml(path: str | Path) -> dict:
 
 def override(obj: Any, table: dict, where: str) -> Any:
     """A copy of dataclass ``obj`` with the keys of ``table`` replaced, recursively."""
+    if not isinstance(table, dict):  # [[scenario]], an array of tables, or a bare value
+        kind = "an array of tables ([[...]])" if isinstance(table, list) else repr(table)
+        raise BadInput(f"config: {where} must be one table ([{where}]), not {kind}")
     names = {f.name for f in dataclasses.fields(obj)}
     changes = {}
     for key, value in table.items():
@@ -161,6 +173,9 @@ def _check_range(key: str, value: float, where: str) -> None:
         raise BadInput(f"config: {where} = {value}: must be zero or positive")
     if (key in POSITIVE or key.endswith(tuple("_" + w for w in POSITIVE))) and value <= 0:
         raise BadInput(f"config: {where} = {value}: must be positive")
+    for end, most in AT_MOST.items():
+        if key.endswith(end) and value > most:
+            raise BadInput(f"config: {where} = {value}: at most {most:g}")
 
 
 def _coerce(current: Any, value: Any, where: str) -> Any:

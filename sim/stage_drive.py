@@ -65,6 +65,21 @@ class DriveErrors:
     thermal_ppm_per_k: float = 0.0
     reference_temp_c: float = 20.0
 
+    def __post_init__(self):
+        # a period of zero would silently drop the periodic error; the bounds are beyond any
+        # drive (a lost motion or ripple of 10 mm, a scale of 1000 ppm/K) and any workshop
+        if self.periodic_um and not self.period_mm > 0:
+            raise ValueError(f"period_mm = {self.period_mm}: a periodic error needs a period > 0")
+        for name in ("reversal_at_home_um", "reversal_growth_um_per_m", "periodic_um"):
+            if abs(getattr(self, name)) > 1e4:
+                raise ValueError(f"{name} = {getattr(self, name)}: at most 1e4 um (10 mm)")
+        if abs(self.thermal_ppm_per_k) > 1000:
+            raise ValueError(f"thermal_ppm_per_k = {self.thermal_ppm_per_k}: at most 1000")
+        if not -100 <= self.reference_temp_c <= 200:
+            raise ValueError(
+                f"reference_temp_c = {self.reference_temp_c}: a workshop's, -100 to 200 deg C"
+            )
+
     @property
     def perfect(self) -> bool:
         """No error at all (every move can skip it)."""

@@ -69,6 +69,11 @@ class ArmCmmConfig:
     def __post_init__(self):
         if self.stated_range_sigma_um[0] <= 0:
             raise ValueError("stated_range_sigma_um: the range's constant term must be positive")
+        if self.n_candidates < self.n_postures:
+            raise ValueError(
+                f"n_candidates = {self.n_candidates}: the plan picks n_postures = "
+                f"{self.n_postures} of them, so at least that many"
+            )
 
     @property
     def stated(self) -> tuple:

@@ -78,7 +78,7 @@ def check_config(c: ProbeScannerConfig) -> None:
         )
     # the quadratic fits around the four minima: 3 to a quarter turn of samples (fit_minima)
     n = g.samples_per_turn
-    ms = np.arange(*c.m_sweep)
+    ms = np.arange(*c.m_sweep) if c.m_sweep[2] != 0 else np.empty(0)  # a step of 0: no range
     if len(ms) == 0 or ms.min() < 3 or ms.max() > n // 4:
         raise bad(
             f"{NAME}.m_sweep",
