@@ -66,4 +66,6 @@ def load_axis_run(path: str | Path) -> AxisRun:
             f"{path}: a deviation of {np.abs(dev).max():.3g} um (over a metre): wrong unit or a "
             "corrupt value"
         )
-    return AxisRun(cols["target_mm"], cols["run"], d.astype(int), dev)
+    # a spreadsheet's export writes 100 as 100.000000001 on some rows: one target to the nanometre
+    # (ISO 230-2's targets are set to the micrometre at the finest)
+    return AxisRun(np.round(cols["target_mm"], 6), cols["run"], d.astype(int), dev)

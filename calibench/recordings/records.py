@@ -237,6 +237,11 @@ class AxisRun:
                 )
             order = np.lexsort((self.run[m], self.target_mm[m]))
             cols[d] = self.deviation_um[m][order].reshape(len(targets), counts[0])
+        if cols[+1].shape != cols[-1].shape:
+            raise RecordingError(
+                f"{cols[+1].shape[1]} runs approach each target in the positive direction and "
+                f"{cols[-1].shape[1]} in the negative: ISO 230-2 pairs them, as many each way"
+            )
         return targets, cols[+1], cols[-1]
 
 

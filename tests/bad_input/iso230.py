@@ -69,4 +69,35 @@ CASES = [
         2,
         "negative direction",
     ),
+    (  # a run of five passes up and four down: ISO 230-2 pairs them
+        "iso-one-pass-missing-one-way",
+        {
+            "r.csv": "target_mm,run,direction,deviation_um\n"
+            + "".join(
+                f"{t},{r},{d},{0.3 * r + 0.01 * t + d}\n"
+                for r in range(1, 6)
+                for d in (1, -1)
+                for t in (0, 100, 200)
+                if not (d == -1 and r == 5)
+            )
+        },
+        ["iso230", "{d}/r.csv"],
+        2,
+        "5 runs approach each target in the positive direction and 4 in the negative",
+    ),
+    (  # a float export's 100.000000001 is target 100 (was: "no reading approached")
+        "iso-targets-as-a-float-export-writes-them",
+        {
+            "r.csv": "target_mm,run,direction,deviation_um\n"
+            + "".join(
+                f"{t + (1e-9 if r % 2 else -1e-9)},{r},{d},{0.3 * r + 0.01 * t + d}\n"
+                for r in range(1, 6)
+                for d in (1, -1)
+                for t in (0, 100, 200)
+            )
+        },
+        ["iso230", "{d}/r.csv", "--out", "{d}/o"],
+        0,
+        "",
+    ),
 ]
