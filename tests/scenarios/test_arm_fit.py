@@ -275,8 +275,9 @@ def test_training_on_half_the_workspace_warns(series, tmp_path):
 def test_a_same_frame_test_from_another_setup_is_said(series, tmp_path):
     """--test means the first training recording's frame; a recording from another tracker
     placement given there is metres off, which fit.json's figures show but a user reading only
-    the printout's warnings could miss: it is warned about, with the option that fits it. The
-    same recording as --test-new-frame, and the right --test, are not."""
+    the printout's warnings could miss: it is warned about, with the option that fits it, and
+    the command exits 1 (a failed check, as a fit far beyond any arm's error). The same recording
+    as --test-new-frame, and the right --test, are not."""
     sim, paths = series
     out = tmp_path / "swapped"
     assert (
@@ -295,7 +296,7 @@ def test_a_same_frame_test_from_another_setup_is_said(series, tmp_path):
                 str(out),
             ]
         )
-        == 0
+        == 1
     )
     warnings = json.loads((out / "fit.json").read_text())["coverage"]["warnings"]
     assert any(w.startswith("other.csv:") and "--test-new-frame" in w for w in warnings), warnings
