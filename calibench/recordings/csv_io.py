@@ -1,9 +1,9 @@
 """The CSV every recording format shares: one reader with its checks, one writer.
 
 The reader turns any defect of a file (unreadable, not UTF-8, separated by semicolons, a column
-missing or named twice, a row with a value too many, a cell that is not a number or not finite, a
-temperature or load out of range, a pass id that is not whole) into one ``RecordingError`` naming
-the file and, where it can, the line.
+missing, named twice or by another usual name of one the format reads, a row with a value too
+many, a cell that is not a number or not finite, a temperature or load out of range, a pass id
+that is not whole) into one ``RecordingError`` naming the file and, where it can, the line.
 """
 
 from __future__ import annotations

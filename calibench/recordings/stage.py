@@ -35,7 +35,8 @@ def load_stage_csv(path: str | Path, max_rows: int | None = None) -> StageRecord
     RecordingError
         One clear message for any defect: a missing column, a value that is not a number or not
         finite, a coordinate beyond 50 m or every one within 2 mm (micrometres, metres), a
-        direction other than -1, 0, +1.
+        measured axis that does not follow its commanded one, a pass that repeats another row
+        for row, a direction other than -1, 0, +1.
     """
     cols, line = read_columns(path, StageRecording.REQUIRED, StageRecording.OPTIONAL, max_rows)
     for name in StageRecording.REQUIRED:
