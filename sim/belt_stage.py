@@ -231,8 +231,9 @@ class BeltStageSim:
         psf_px: float = 0.0,
         window: tuple[int, int, int, int] | None = None,
     ) -> Exposure:
-        """:meth:`render`'s GL work and noise draws (on this thread): the frame that
-        ``renderer.develop`` makes the image of, on any thread. The arguments: :meth:`render`'s.
+        """:meth:`render`'s GL work (on this thread) and noise draws (in the frames' order,
+        before it returns): the frame that ``renderer.develop`` makes the image of, on any
+        thread. The arguments: :meth:`render`'s.
         """
         lens = self._lens()
         lens.show_groups({STAGE_BOARD_GROUP: not calib, CALIB_BOARD_GROUP: calib})

@@ -190,7 +190,12 @@ class LensRenderer:
         if window is None:
             shape = (self.lens.height, self.lens.width)
         else:
-            shape = (window[3] - window[1], window[2] - window[0])
+            u0, v0, u1, v1 = (int(x) for x in window)
+            if not (0 <= u0 < u1 <= self.lens.width and 0 <= v0 < v1 <= self.lens.height):
+                raise ValueError(
+                    f"window {window} outside the {self.lens.width}x{self.lens.height} image"
+                )
+            shape = (v1 - v0, u1 - u0)
         # The noise is drawn while GL renders (the same draws from the same generator as in
         # turn: nothing else draws from it until this frame is captured); a small window's is
         # drawn in turn, in less time than a hand-over to the thread takes.
@@ -204,9 +209,13 @@ class LensRenderer:
                     self._sampling.remap()  # made here, once, not by two developing threads
             else:
                 ideal, block = self._render_window(data, window)
-        finally:
-            # never return (or raise) while the thread still draws from the caller's generator
-            noise = drawing.result() if drawing is not None else None
+        except BaseException:
+            # never raise while the thread still draws from the caller's generator; the render's
+            # error is the one to say, not the draw's
+            if drawing is not None:
+                drawing.exception()
+            raise
+        noise = drawing.result() if drawing is not None else None
         if noise is None and noise_dn > 0:
             noise = sensor_noise(rng, shape, noise_dn)
         return Exposure(ideal, window, block, noise, psf_px)

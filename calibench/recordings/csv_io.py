@@ -21,18 +21,21 @@ class RecordingError(BadInput):
     """A recording that cannot be used as it is (missing column, NaN, unreadable file)."""
 
 
-# Other names users give the formats' columns: a file that names one so would have it ignored
-# (an optional column) or missing (a required one), and say nothing of it.
+# Other names users give the formats' columns, each as unambiguous as the column's own (its unit
+# or its meaning in the name): a file that names one so would have it ignored (an optional
+# column) or missing (a required one), and say nothing of it. A bare ``time`` or ``temperature``
+# is not here: it may be a clock's text or degrees Fahrenheit, and is ignored as any column is.
 ALIASES = {
-    "t_s": ("time_s", "time", "timestamp", "t", "t_sec", "seconds"),
-    "temp_c": ("temperature_c", "temperature", "temp", "temp_degc", "temperature_degc"),
+    "t_s": ("time_s", "t_sec", "time_sec", "seconds"),
+    "temp_c": ("temperature_c", "temp_degc", "temperature_degc"),
     "dir_x": ("direction_x", "x_direction", "x_dir"),
     "dir_y": ("direction_y", "y_direction", "y_dir"),
-    "run": ("pass", "run_id", "pass_id", "run_no", "pass_no"),
+    "run": ("run_id", "pass_id"),
     "x_std_mm": ("x_sigma_mm", "sigma_x_mm", "std_x_mm"),
     "y_std_mm": ("y_sigma_mm", "sigma_y_mm", "std_y_mm"),
     "z_std_mm": ("z_sigma_mm", "sigma_z_mm", "std_z_mm"),
 }
+UNITS = {"_s": "seconds", "_c": "deg C", "_mm": "mm", "_deg": "degrees", "_um": "um"}
 
 
 def _key(name: str) -> str:
@@ -131,10 +134,12 @@ def read_columns(
     near = _near_miss(header, required + optional)
     if near is not None:
         fate = "missing" if near[1] in required else "ignored"
+        unit = next((u for end, u in UNITS.items() if near[1].endswith(end)), None)
         raise RecordingError(
             f"{path}: column {near[0]!r} is not one the format knows, so {near[1]} would be "
             f"{fate}: if it is {near[1]}, name it so"
-            + (f" (in {near[1]}'s unit)" if near[1].endswith(("_s", "_c", "_mm")) else "")
+            + (f" (in {unit})" if unit else "")
+            + "; if not, rename or drop it"
         )
     missing = [c for c in required if c not in header]
     if missing:

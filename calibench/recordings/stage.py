@@ -35,8 +35,7 @@ def load_stage_csv(path: str | Path, max_rows: int | None = None) -> StageRecord
     RecordingError
         One clear message for any defect: a missing column, a value that is not a number or not
         finite, a coordinate beyond 50 m or every one within 2 mm (micrometres, metres), a
-        measured axis that does not follow its commanded one, a pass that repeats another row
-        for row, a direction other than -1, 0, +1.
+        measured axis that does not follow its commanded one, a direction other than -1, 0, +1.
     """
     cols, line = read_columns(path, StageRecording.REQUIRED, StageRecording.OPTIONAL, max_rows)
     for name in StageRecording.REQUIRED:
@@ -54,7 +53,6 @@ def load_stage_csv(path: str | Path, max_rows: int | None = None) -> StageRecord
             "metres? the format wants millimetres (x_cmd_mm, ...)"
         )
     _measured_follow_commanded(path, cols)
-    _no_repeated_pass(path, cols)
     for name in ("dir_x", "dir_y"):
         if name in cols and not np.isin(cols[name], (-1.0, 0.0, 1.0)).all():
             i = int(np.argmax(~np.isin(cols[name], (-1.0, 0.0, 1.0))))
@@ -88,34 +86,29 @@ def _measured_follow_commanded(path, cols: dict) -> None:
             )
 
 
-def _no_repeated_pass(path, cols: dict) -> None:
-    """RecordingError when a pass repeats another row for row, every value the same (a file
-    appended to itself): held out, it would score the fit on its own rows. Two real passes never
-    agree to the last digit at every station."""
-    names = [
-        c for c in StageRecording.REQUIRED + StageRecording.OPTIONAL if c in cols and c != "run"
-    ]
-    rows = np.stack([cols[c] for c in names], axis=1)
-    run = cols.get("run")
-    if run is not None:
-        passes = [rows[run == r] for r in np.unique(run)]
+def repeated_pass(rec: StageRecording) -> str | None:
+    """How a pass of ``rec`` repeats another row for row, every value the same (a file appended to
+    itself, or a read-out coarser than the stage's repeatability), or None. ``discover`` refuses
+    it: held out, such a pass scores a model on its own rows, and its repeats carry no scatter to
+    judge an effect by; a fit of the error map takes it as it is."""
+    names = [c for c in StageRecording.REQUIRED + StageRecording.OPTIONAL if c != "run"]
+    rows = np.stack([getattr(rec, c) for c in names if getattr(rec, c) is not None], axis=1)
+    if rec.run is not None:
+        ids = np.unique(rec.run)
+        passes = [rows[rec.run == r] for r in ids]
     elif len(rows) % 2 == 0 and len(rows) >= 4:
+        ids = None
         passes = [rows[: len(rows) // 2], rows[len(rows) // 2 :]]  # the file twice, one after
     else:
-        return
+        return None
     seen: dict[bytes, int] = {}
     for k, block in enumerate(passes):
         if len(block) < 2 or (block == block[0]).all():
             continue  # one station, repeated: a degenerate recording, which the fits say so
         key = block.tobytes()
         if key in seen:
-            what = (
-                f"pass {int(np.unique(run)[k]):d} repeats pass {int(np.unique(run)[seen[key]]):d}"
-                if run is not None
-                else "its second half repeats its first"
-            )
-            raise RecordingError(
-                f"{path}: {what} row for row, every value the same: a file appended to itself? "
-                "(a repeat held out would score the fit on its own rows)"
-            )
+            if ids is None:
+                return "its second half repeats its first"
+            return f"pass {int(ids[k]):d} repeats pass {int(ids[seen[key]]):d}"
         seen[key] = k
+    return None

@@ -56,17 +56,25 @@ class QuadraticFit:
         }
 
 
-# The design's columns, each scaled to unit length, are independent to about 1e-2 on a grid; on a
-# circle written to the micrometre (a ballbar's path), 1, x^2 and y^2 repeat each other to 5e-8.
-SPREAD_MIN = 1e-6
+# The design of the stations centred and scaled to their span, its columns each of unit length:
+# its smallest singular value is about 0.1 of its largest on a grid (wherever the grid lies); on a
+# circle written to the micrometre (a ballbar's path), where 1, x^2 and y^2 repeat each other, 6e-7.
+SPREAD_MIN = 1e-4
 
 
 def check_spread(x_mm: np.ndarray, y_mm: np.ndarray, degree: int) -> None:
     """ValueError when the stations lie on a curve the degree's polynomial map cannot tell from
     its own terms (a line, a circle, any conic for the quadratic): the smallest singular value of
-    the design with unit columns below :data:`SPREAD_MIN` of the largest. The fit would return
-    coefficients with std of metres rather than fail."""
-    A = design(np.asarray(x_mm, float), np.asarray(y_mm, float), degree)
+    the design, of the stations centred and scaled to their span and with unit columns, below
+    :data:`SPREAD_MIN` of the largest. The fit would return coefficients with std of metres rather
+    than fail."""
+    x, y = np.asarray(x_mm, float), np.asarray(y_mm, float)
+    span = max(np.ptp(x), np.ptp(y)) if len(x) else 0.0
+    if span == 0:
+        raise ValueError("degenerate stations: every one at the same place")
+    # design() divides by MONOMIAL_SCALE_MM: the monomials are of the centred, scaled stations
+    u, v = ((c - c.mean()) / span * MONOMIAL_SCALE_MM for c in (x, y))
+    A = design(u, v, degree)
     norm = np.linalg.norm(A, axis=0)
     s = np.linalg.svd(A / np.where(norm > 0, norm, 1.0), compute_uv=False)
     if s[-1] < SPREAD_MIN * s[0]:

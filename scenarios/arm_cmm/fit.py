@@ -443,12 +443,12 @@ def run_arm_fit(
             got = result["test"][label[p]]["rms_mm"]
             if got > PLAUSIBLE_RMS_MM and got > 100 * result["fit"]["rms_mm"]:
                 # a test score of metres is no validation: the exit status says so too
-                result["implausible"] = (
+                said = (
                     f"{label[p]}: {got:.4g} mm RMS off the fitted arm in {label[paths[0]]}'s "
                     "frame: is it from another setup? (--test-new-frame registers its own frame)"
                 )
-                result["coverage"]["warnings"].insert(0, result["implausible"])
-                break
+                result["implausible"] = result["implausible"] or said
+                result["coverage"]["warnings"].insert(0, said)
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "fit.json").write_text(json.dumps(result, indent=2) + "\n")
     _write_residuals(out_dir / "residuals.csv", residuals, e_fit)

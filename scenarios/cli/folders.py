@@ -100,21 +100,10 @@ def claim(folder: Path, command: str, scenario: str | None, force: bool) -> None
     Raises
     ------
     BadInput
-        The folder holds another command's results and ``force`` is not given; or, marked by no
-        command, a file by the name of one of calibench's outputs (``force`` or not).
+        The folder holds another command's results and ``force`` is not given.
     """
     folder.mkdir(parents=True, exist_ok=True)
     held = owner(folder)
-    if held is None:
-        # a folder no command marked: a file there by an output's name is the user's own (a
-        # paper's x_axis_error_mm.csv), which writing, or --force, would destroy
-        theirs = next((n for n in OUTPUTS if (folder / n).is_file()), None)
-        if theirs is not None:
-            raise BadInput(
-                f"--out {folder} holds {theirs}, which no calibench command says it wrote "
-                f"({MARK} is missing): the results would overwrite it; give another --out (or, "
-                "if it is left from an interrupted command, remove it)"
-            )
     mine = (command, scenario)
     same = held is not None and held[0] == command and held[1] in (None, scenario)
     if held is not None and not same:

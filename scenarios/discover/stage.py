@@ -33,6 +33,7 @@ from calibench.estimators.discovery.stage import (
     polynomial_candidates,
     stage_candidates,
 )
+from calibench.recordings.stage import repeated_pass
 from calibench.scenarios.discover.folds import block_folds
 from calibench.scenarios.discover.fresh import structure
 from calibench.scenarios.discover.report import describe_effects, verdict
@@ -124,6 +125,13 @@ def discover_stage(
     x, y = rec.x_cmd_mm, rec.y_cmd_mm
     if n < 20:
         raise BadInput(f"{n} stations: discover needs at least 20")
+    repeat = repeated_pass(rec)
+    if repeat is not None:
+        raise BadInput(
+            f"the recording's {repeat} row for row, every value the same: a file appended to "
+            "itself, or a read-out coarser than the stage's repeatability? Held out, a repeat "
+            "would score a model on its own rows, and it carries no scatter to judge one by"
+        )
     _within_travel(scenario, x, y, geometry)
     sim = replay_stage(scenario, x, y, rec.temp_c, truth, geometry)
     drivers: StageDrivers = {
