@@ -8,6 +8,10 @@ import dataclasses
 import numpy as np
 
 
+# repeats closer than this, relative to the readings, differ by the means' rounding alone
+SCATTER_FLOOR = 1e-12
+
+
 # --- noise from repeats --------------------------------------------------------------------------
 @dataclasses.dataclass(frozen=True)
 class Noise:
@@ -40,7 +44,9 @@ def repeatability(
     Returns
     -------
     Noise
-        ``sigma_mm`` None when fewer than 3 degrees of freedom are left.
+        ``sigma_mm`` None when fewer than 3 degrees of freedom are left, or when the repeats
+        agree to the arithmetic's rounding (a read-out coarser than its scatter repeats itself
+        exactly): there is then no scatter to judge a residual by.
     """
     ids, inv, counts = np.unique(station, return_inverse=True, return_counts=True)
     rep = counts[inv] >= 2
@@ -64,6 +70,8 @@ def repeatability(
     if dof < 3:
         return Noise(None, 0.0, 0)
     sigma = float(np.sqrt(dev[rep] @ dev[rep] / dof))
+    if not sigma > SCATTER_FLOOR * np.abs(r[rep]).max():
+        return Noise(None, 0.0, dof)
     idx = np.argsort(order)
     seq = dev[idx][rep[idx]]
     lag1 = float(np.corrcoef(seq[:-1], seq[1:])[0, 1]) if len(seq) > 3 else 0.0

@@ -63,7 +63,6 @@ def main(argv: list[str] | None = None) -> int:
             "discover": verbs.discover,
             "iso230": verbs.iso230,
         }[args.command](args)
-        _mark(args)
         return status
     except BrokenPipeError:  # the reader went away (| head): nothing to say
         sys.stderr.close()
@@ -84,6 +83,7 @@ def main(argv: list[str] | None = None) -> int:
             e = BadInput(said)
         if isinstance(e, BadInput):
             print(f"calibench: {e}", file=sys.stderr)
+            _unclaim(args)
             for made in created:
                 if made is not None and made.is_dir() and not any(made.iterdir()):
                     made.rmdir()
@@ -157,10 +157,12 @@ def _claim(args) -> None:
     folders.claim(args.out, args.command, getattr(args, "scenario", None), args.force)
 
 
-def _mark(args) -> None:
-    """The folder's results said to be this command's (``run all``: said per scenario)."""
-    if hasattr(args, "out") and not (args.command == "run" and args.scenario == "all"):
-        folders.mark(args.out, args.command, getattr(args, "scenario", None))
+def _unclaim(args) -> None:
+    """The folder's claim taken back where the command wrote nothing there (``run all``: each
+    scenario's, in turn, by :func:`verbs.run`)."""
+    out = getattr(args, "out", None)
+    if out is not None and not (args.command == "run" and args.scenario == "all"):
+        folders.unclaim(out)
 
 
 def _said_as_bad_input(e: Exception) -> str | None:

@@ -2,10 +2,12 @@
 
 Each command writes to a folder of its own (``calibench-out/<scenario>`` for ``run``,
 ``<scenario>-fit``, ``<scenario>-discover``, ``<scenario>-montecarlo``, ``camera``, ``iso230``):
-simulated and real results never share one. A folder says who wrote it in :data:`MARK`; one that
-holds another command's results (or, made before the mark, another command's main file) is
-refused unless ``--force`` says to replace them, and then only calibench's own outputs are
-removed, never a user's other files.
+simulated and real results never share one. A folder says who writes it in :data:`MARK`, written
+when the command claims it, before any output (so an interrupted first run's folder is still known
+as calibench's); one that holds another command's results (or, made before the mark, another
+command's main file) is refused unless ``--force`` says to replace them, and then only calibench's
+own outputs are removed, never a user's other files. A folder no command marked that holds files
+by an output's name (a paper's ``x_axis_error_mm.csv``) is a user's: refused, ``--force`` or not.
 """
 
 from __future__ import annotations
@@ -84,9 +86,11 @@ def _said(command: str, scenario: str | None) -> str:
 
 
 def claim(folder: Path, command: str, scenario: str | None, force: bool) -> None:
-    """Check that ``folder`` may take this command's results: refused if it holds another
-    command's, unless ``force``, which removes them first (calibench's outputs only).
-    :func:`mark` says whose they are once written.
+    """Make ``folder`` this command's, before any output is written: refused if it holds another
+    command's results, unless ``force``, which removes them first (calibench's outputs only), and
+    refused if no command marked it but it holds files by an output's name (a user's own). Then
+    :data:`MARK` says whose results it takes (:func:`unclaim` takes that back if the command
+    ends in bad input with nothing written).
 
     Parameters
     ----------
@@ -100,10 +104,19 @@ def claim(folder: Path, command: str, scenario: str | None, force: bool) -> None
     Raises
     ------
     BadInput
-        The folder holds another command's results and ``force`` is not given.
+        The folder holds another command's results and ``force`` is not given, or a user's files
+        by an output's name.
     """
     folder.mkdir(parents=True, exist_ok=True)
     held = owner(folder)
+    if held is None:
+        strays = [name for name in OUTPUTS if _is_file(folder / name)]
+        if strays:
+            raise BadInput(
+                f"--out {folder} holds {', '.join(strays[:3])}, named as calibench's outputs but "
+                f"written by no calibench command (there is no {MARK}): give another --out "
+                "(--force replaces only what calibench wrote)"
+            )
     mine = (command, scenario)
     same = held is not None and held[0] == command and held[1] in (None, scenario)
     if held is not None and not same:
@@ -115,12 +128,20 @@ def claim(folder: Path, command: str, scenario: str | None, force: bool) -> None
         clear(folder)
     elif force:
         clear(folder)
-
-
-def mark(folder: Path, command: str, scenario: str | None) -> None:
-    """Say in ``folder`` that this command's results are there (once it has written them: a
-    command refused as bad input leaves no claim on a folder)."""
     (folder / MARK).write_text(json.dumps({"command": command, "scenario": scenario}) + "\n")
+
+
+def unclaim(folder: Path) -> None:
+    """Take back :func:`claim`'s mark from a folder that holds none of calibench's outputs beside
+    it (a command refused as bad input leaves no claim on a folder)."""
+    if not _is_file(folder / MARK):
+        return
+    if not any(_is_file(folder / name) for name in OUTPUTS if name != MARK):
+        (folder / MARK).unlink()
+
+
+def _is_file(path: Path) -> bool:
+    return path.is_file() or path.is_symlink()
 
 
 def clear(folder: Path) -> None:
@@ -134,9 +155,8 @@ def clear(folder: Path) -> None:
             "trials under it: wait for it, or use another --out"
         )
     for name in OUTPUTS:
-        path = folder / name
-        if path.is_file() or path.is_symlink():
-            path.unlink()
+        if _is_file(folder / name):
+            (folder / name).unlink()
 
 
 def writable_folder(out: Path | None, option: str = "--out") -> Path | None:

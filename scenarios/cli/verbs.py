@@ -9,7 +9,7 @@ import sys
 import time
 from pathlib import Path
 
-from calibench.scenarios.cli.folders import claim, mark
+from calibench.scenarios.cli.folders import claim, unclaim
 from calibench.scenarios.cli.status import EXIT_CHECK_FAILED, EXIT_OK
 from calibench.scenarios.registry import check_fidelity
 
@@ -86,11 +86,11 @@ def run(args: argparse.Namespace) -> int:
         try:
             report = s.execute(configs[s.name], args.seed, fidelity, out, not args.no_rrd)
         except BadInput as e:
+            if args.scenario == "all":
+                unclaim(out)
             raise BadInput(f"{s.name}: {e}") from None
         report.elapsed_s = time.perf_counter() - t0
         path = report.write(out)
-        if args.scenario == "all":
-            mark(out, "run", s.name)
         print(report.table())
         gl = f", rendered by {report.info['renderer']}" if "renderer" in report.info else ""
         verdict = "ok" if report.ok else "FAILED"

@@ -1,5 +1,7 @@
 """Discovery's pieces on synthetic data from a known truth."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -212,3 +214,20 @@ def test_stewart_pitch_effect_reports_the_injected_amplitude_and_phase():
     assert abs(params["amplitude_mm"] - amp) < 4 * std["amplitude_mm"], params
     assert abs(params["phase_rad"] - phase) < 4 * std["amplitude_mm"] / amp, params
     assert std["amplitude_mm"] == pytest.approx(sigma * np.sqrt(2 / n), rel=0.2)
+
+
+def test_repeats_that_agree_exactly_leave_no_scatter_to_judge_by():
+    """A read-out of 10 um steps (a coarse scale) whose noise is well inside a step repeats each
+    station's reading exactly: the scatter is the means' rounding, not noise, so there is no sigma (and no warning
+    from a correlation of zeros); half a quantum of true scatter is measured as such (150 dof:
+    sigma within 4 of its relative standard error 1/sqrt(300), 0.23)."""
+    rng = np.random.default_rng(7)
+    station = np.tile(np.arange(50), 4)
+    true = rng.normal(0, 0.05, 50)
+    r = np.round(true / 0.01)[station] * 0.01 + 0.1  # every repeat the same number
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        nz = repeatability(r, station, np.arange(200))
+    assert nz.sigma_mm is None and nz.dof == 150 and nz.lag1 == 0.0
+    noisy = r + rng.normal(0, 0.005, 200)
+    assert abs(repeatability(noisy, station, np.arange(200)).sigma_mm / 0.005 - 1) < 0.25

@@ -67,3 +67,41 @@ def test_a_study_never_shrinks_below_its_journal(tmp_path, capsys):
     argv = ["montecarlo", "arm-cmm", "--trials", "2", "--seed", "5", "--workers", "1"]
     assert main([*argv, "--out", str(tmp_path), "--force"]) == 0
     assert json.loads((tmp_path / "summary.json").read_text())["trials"] == 2
+
+
+def test_a_user_s_files_by_an_output_s_name_are_refused_even_with_force(tmp_path, capsys):
+    """A paper's data folder holds x_axis_error_mm.csv, which a belt-stage run also writes: no
+    command marked the folder, so the file is the user's, and neither a run nor --force touches
+    it."""
+    data = tmp_path / "paper"
+    data.mkdir()
+    (data / "x_axis_error_mm.csv").write_text("the paper's table\n")
+    for force in ([], ["--force"]):
+        argv = ["run", "belt-stage", "--no-rrd", "--out", str(data), *force]
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert "x_axis_error_mm.csv" in err and "written by no calibench command" in err
+        assert (data / "x_axis_error_mm.csv").read_text() == "the paper's table\n"
+        assert sorted(p.name for p in data.iterdir()) == ["x_axis_error_mm.csv"]
+
+
+def test_the_folder_is_marked_before_any_output_and_unmarked_on_bad_input(tmp_path, capsys):
+    """An interrupted first run's folder holds the mark and some outputs: it is calibench's, and
+    the same command (or --force) takes it again. A command refused as bad input leaves no mark."""
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / MARK).write_text(json.dumps({"command": "fit", "scenario": "belt-stage"}) + "\n")
+    (out / "fit.png").write_text("half written")  # the run was cut off before fit.json
+    assert owner(out) == ("fit", "belt-stage")
+    assert main(["fit", "belt-stage", str(EXAMPLE), "--out", str(out)]) == 0
+    assert (out / "fit.json").is_file()
+    bad = tmp_path / "bad.csv"
+    bad.write_text("x_mm,y_mm\n1,2\n")
+    empty = tmp_path / "e"
+    empty.mkdir()
+    capsys.readouterr()
+    assert main(["fit", "belt-stage", str(bad), "--out", str(empty)]) == 2
+    assert "calibench:" in capsys.readouterr().err
+    assert list(empty.iterdir()) == []  # no claim left on it
+    assert main(["fit", "belt-stage", str(bad), "--out", str(tmp_path / "new")]) == 2
+    assert not (tmp_path / "new").exists()  # made for the command, removed again
