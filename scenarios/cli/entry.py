@@ -47,6 +47,7 @@ def main(argv: list[str] | None = None) -> int:
         print("calibench: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     created: list[Path | None] = []
+    claimed: list[Path] = []  # the folders this command marked, released at its end
     old_term = _terminate_as_interrupt()
     try:
         _default_out(args)
@@ -54,7 +55,7 @@ def main(argv: list[str] | None = None) -> int:
         # the command ends in bad input and they are still empty)
         created.append(folders.writable_folder(getattr(args, "out", None)))
         created.append(folders.writable_folder(getattr(args, "save_images", None), "--save-images"))
-        _claim(args)
+        claimed.extend(_claim(args))
         status = {
             "run": verbs.run,
             "fit": verbs.fit,
@@ -83,13 +84,16 @@ def main(argv: list[str] | None = None) -> int:
             e = BadInput(said)
         if isinstance(e, BadInput):
             print(f"calibench: {e}", file=sys.stderr)
-            _unclaim(args)
+            for folder in claimed:
+                folders.release(folder)
             for made in created:
                 if made is not None and made.is_dir() and not any(made.iterdir()):
                     made.rmdir()
             return EXIT_BAD_INPUT
         return _internal_error(e, getattr(args, "out", None))
     finally:
+        for folder in claimed:  # whatever the end: what --force set aside is gone, or back
+            folders.release(folder)
         if old_term is not None:
             signal.signal(signal.SIGTERM, old_term)
 
@@ -150,19 +154,13 @@ def _default_out(args) -> None:
         args.out = folders.default_out(args.command, scenario)
 
 
-def _claim(args) -> None:
-    """The folder made this command's (``run all`` claims each scenario's in turn)."""
+def _claim(args) -> list[Path]:
+    """The folder made this command's, in a list (``run all`` claims and releases each
+    scenario's in turn, :func:`verbs.run`)."""
     if not hasattr(args, "out") or (args.command == "run" and args.scenario == "all"):
-        return
+        return []
     folders.claim(args.out, args.command, getattr(args, "scenario", None), args.force)
-
-
-def _unclaim(args) -> None:
-    """The folder's claim taken back where the command wrote nothing there (``run all``: each
-    scenario's, in turn, by :func:`verbs.run`)."""
-    out = getattr(args, "out", None)
-    if out is not None and not (args.command == "run" and args.scenario == "all"):
-        folders.unclaim(out)
+    return [args.out]
 
 
 def _said_as_bad_input(e: Exception) -> str | None:

@@ -6,18 +6,24 @@ simulated and real results never share one. A folder says who writes it in :data
 when the command claims it, before any output (so an interrupted first run's folder is still known
 as calibench's); one that holds another command's results (or, made before the mark, another
 command's main file) is refused unless ``--force`` says to replace them, and then only calibench's
-own outputs are removed, never a user's other files. A folder no command marked that holds files
-by an output's name (a paper's ``x_axis_error_mm.csv``) is a user's: refused, ``--force`` or not.
+own outputs are removed, never a user's other files, and only once the command has written its
+own: one that ends having written nothing (bad input, an interruption) leaves the folder as it
+found it. A folder no command marked that holds files by an output's name (a paper's
+``x_axis_error_mm.csv``) is a user's: refused, ``--force`` or not.
 """
 
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 from calibench.errors import BadInput
 
 MARK = ".calibench.json"
+# where --force keeps the results it replaces until the command has written its own (a command
+# that ends having written nothing puts them back)
+REPLACED = ".calibench-replaced"
 
 # each command's main output: who wrote a folder made before MARK existed
 MAIN_FILE = {
@@ -87,10 +93,10 @@ def _said(command: str, scenario: str | None) -> str:
 
 def claim(folder: Path, command: str, scenario: str | None, force: bool) -> None:
     """Make ``folder`` this command's, before any output is written: refused if it holds another
-    command's results, unless ``force``, which removes them first (calibench's outputs only), and
-    refused if no command marked it but it holds files by an output's name (a user's own). Then
-    :data:`MARK` says whose results it takes (:func:`unclaim` takes that back if the command
-    ends in bad input with nothing written).
+    command's results, unless ``force``, which sets them aside (calibench's outputs only, in
+    :data:`REPLACED`), and refused if no command marked it but it holds files by an output's name
+    (a user's own). Then :data:`MARK` says whose results it takes; :func:`release` ends the
+    claim.
 
     Parameters
     ----------
@@ -125,28 +131,32 @@ def claim(folder: Path, command: str, scenario: str | None, force: bool) -> None
                 f"--out {folder} holds the results of {_said(*held)}; {_said(*mine)} would mix "
                 "its own with them: give another --out, or --force to replace them"
             )
-        clear(folder)
+        set_aside(folder)
     elif force:
-        clear(folder)
+        set_aside(folder)
     (folder / MARK).write_text(json.dumps({"command": command, "scenario": scenario}) + "\n")
 
 
-def unclaim(folder: Path) -> None:
-    """Take back :func:`claim`'s mark from a folder that holds none of calibench's outputs beside
-    it (a command refused as bad input leaves no claim on a folder)."""
-    if not _is_file(folder / MARK):
-        return
+def release(folder: Path) -> None:
+    """End :func:`claim`'s hold on ``folder`` once the command is over, whatever its end: if it
+    wrote any output the results it replaced are gone; if it wrote none, they are put back and the
+    folder's mark is theirs again (a command refused as bad input leaves no claim on a folder)."""
+    aside = folder / REPLACED
     if not any(_is_file(folder / name) for name in OUTPUTS if name != MARK):
-        (folder / MARK).unlink()
+        (folder / MARK).unlink(missing_ok=True)
+        if aside.is_dir():
+            for path in aside.iterdir():
+                path.rename(folder / path.name)
+    shutil.rmtree(aside, ignore_errors=True)
 
 
 def _is_file(path: Path) -> bool:
     return path.is_file() or path.is_symlink()
 
 
-def clear(folder: Path) -> None:
-    """Remove calibench's outputs from ``folder`` (:data:`OUTPUTS`), nothing else; refused
-    while a study runs there (its lock is held)."""
+def set_aside(folder: Path) -> None:
+    """Move calibench's outputs in ``folder`` (:data:`OUTPUTS`), nothing else, to its
+    :data:`REPLACED`; refused while a study runs there (its lock is held)."""
     from calibench.scenarios.study.journal import study_running
 
     if study_running(folder):
@@ -154,9 +164,12 @@ def clear(folder: Path) -> None:
             f"{folder}: a calibench study is running in this folder; --force would remove its "
             "trials under it: wait for it, or use another --out"
         )
-    for name in OUTPUTS:
-        if _is_file(folder / name):
-            (folder / name).unlink()
+    shutil.rmtree(folder / REPLACED, ignore_errors=True)  # left by a command killed outright
+    held = [name for name in OUTPUTS if _is_file(folder / name)]
+    if held:
+        (folder / REPLACED).mkdir()
+    for name in held:
+        (folder / name).rename(folder / REPLACED / name)
 
 
 def writable_folder(out: Path | None, option: str = "--out") -> Path | None:

@@ -9,7 +9,7 @@ import sys
 import time
 from pathlib import Path
 
-from calibench.scenarios.cli.folders import claim, unclaim
+from calibench.scenarios.cli.folders import claim, release
 from calibench.scenarios.cli.status import EXIT_CHECK_FAILED, EXIT_OK
 from calibench.scenarios.registry import check_fidelity
 
@@ -27,11 +27,10 @@ def _known(name: str) -> None:
     from calibench.scenarios.registry import NAMES, PLANNED
     from calibench.scenarios.report import BadInput
 
-    if name in NAMES:
-        return
     if name in PLANNED:
         raise BadInput(f"scenario {name!r} is not built yet (available: {', '.join(NAMES)})")
-    raise BadInput(f"unknown scenario {name!r} (available: {', '.join(NAMES)})")
+    if name not in NAMES:
+        raise BadInput(f"unknown scenario {name!r} (available: {', '.join(NAMES)})")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -85,12 +84,13 @@ def run(args: argparse.Namespace) -> int:
         print(f"calibench: {s.name} ({how})", file=sys.stderr, flush=True)
         try:
             report = s.execute(configs[s.name], args.seed, fidelity, out, not args.no_rrd)
+            report.elapsed_s = time.perf_counter() - t0
+            path = report.write(out)
         except BadInput as e:
-            if args.scenario == "all":
-                unclaim(out)
             raise BadInput(f"{s.name}: {e}") from None
-        report.elapsed_s = time.perf_counter() - t0
-        path = report.write(out)
+        finally:
+            if args.scenario == "all":
+                release(out)
         print(report.table())
         gl = f", rendered by {report.info['renderer']}" if "renderer" in report.info else ""
         verdict = "ok" if report.ok else "FAILED"

@@ -1,5 +1,6 @@
 """Each command writes to a folder of its own: default folders, a folder of another command's
-refused, --force replacing only calibench's files, and a study that never shrinks."""
+refused, --force replacing only calibench's files (and none where the command is refused), a
+user's files by an output's name refused, and a study that never shrinks."""
 
 import concurrent.futures as cf
 import json
@@ -7,7 +8,7 @@ import shutil
 from pathlib import Path
 
 from calibench.scenarios.cli import main
-from calibench.scenarios.cli.folders import MARK, owner
+from calibench.scenarios.cli.folders import MARK, REPLACED, owner
 from calibench.scenarios.study.montecarlo import run_study
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "belt_stage_paper.csv"
@@ -36,11 +37,19 @@ def test_another_command_s_folder_is_refused_unless_forced(tmp_path, capsys):
     assert "holds the results of `calibench fit belt-stage`" in err and "--force" in err
     assert (out / "fit.json").is_file()  # untouched by the refusal
     assert main(["fit", "vision-stage", str(EXAMPLE), "--out", str(out)]) == 2
+    # --force with a recording refused: the results it would have replaced are left as they were
+    bad = tmp_path / "bad.csv"
+    bad.write_text("x_mm,y_mm\n1,2\n")
+    before = sorted(p.name for p in out.iterdir())
+    assert main(["discover", "belt-stage", str(bad), "--out", str(out), "--force"]) == 2
+    assert sorted(p.name for p in out.iterdir()) == before
+    assert owner(out) == ("fit", "belt-stage")
     # --force replaces calibench's files, and only those
     assert main(["discover", "belt-stage", str(EXAMPLE), "--out", str(out), "--force"]) == 0
     assert not (out / "fit.json").exists() and (out / "discovery.json").is_file()
     assert (out / "notes.txt").read_text() == "the user's own"
     assert json.loads((out / MARK).read_text()) == {"command": "discover", "scenario": "belt-stage"}
+    assert not (out / REPLACED).exists()
 
 
 def test_a_folder_made_before_the_mark_is_known_by_its_main_file(tmp_path, capsys):

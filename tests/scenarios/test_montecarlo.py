@@ -388,13 +388,19 @@ def test_a_second_study_into_the_same_folder_is_refused_while_the_first_runs(tmp
 
 def test_outputs_replace_a_planted_link_instead_of_following_it(tmp_path):
     """An output written in place followed a symbolic link planted at its name out of --out;
-    now each output is written beside it and renamed over the name (the link itself)."""
+    now each output is written beside it and renamed over the name (the link itself). In a
+    folder no command marked, the link is a user's file by an output's name: refused."""
     out, outside = tmp_path / "o", tmp_path / "outside.json"
     outside.write_text("untouched")
     out.mkdir()
     (out / "summary.json").symlink_to(outside)
-    args = ["montecarlo", "belt-stage", "--trials", "2", "--fidelity", "analytic"]
-    assert main([*args, "--workers", "1", "--out", str(out)]) == 0
+    args = ["montecarlo", "belt-stage", "--fidelity", "analytic", "--workers", "1"]
+    assert main([*args, "--trials", "1", "--out", str(out)]) == 2
+    (out / "summary.json").unlink()
+    assert main([*args, "--trials", "1", "--out", str(out)]) == 0  # the folder is the study's
+    (out / "summary.json").unlink()
+    (out / "summary.json").symlink_to(outside)
+    assert main([*args, "--trials", "2", "--out", str(out)]) == 0
     assert outside.read_text() == "untouched"
     assert not (out / "summary.json").is_symlink()
 
