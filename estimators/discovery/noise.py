@@ -7,7 +7,6 @@ import dataclasses
 
 import numpy as np
 
-
 # repeats closer than this, relative to the readings, differ by the means' rounding alone
 SCATTER_FLOOR = 1e-12
 

@@ -218,9 +218,9 @@ def test_stewart_pitch_effect_reports_the_injected_amplitude_and_phase():
 
 def test_repeats_that_agree_exactly_leave_no_scatter_to_judge_by():
     """A read-out of 10 um steps (a coarse scale) whose noise is well inside a step repeats each
-    station's reading exactly: the scatter is the means' rounding, not noise, so there is no sigma (and no warning
-    from a correlation of zeros); half a quantum of true scatter is measured as such (150 dof:
-    sigma within 4 of its relative standard error 1/sqrt(300), 0.23)."""
+    station's reading exactly: the scatter is the means' rounding, not noise, so there is no
+    sigma (and no warning from a correlation of zeros); half a quantum of true scatter is
+    measured as such (150 dof: sigma within 4 of its relative standard error 1/sqrt(300), 0.23)."""
     rng = np.random.default_rng(7)
     station = np.tile(np.arange(50), 4)
     true = rng.normal(0, 0.05, 50)
