@@ -47,7 +47,6 @@ def main(argv: list[str] | None = None) -> int:
         print("calibench: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     created: list[Path | None] = []
-    claimed: list[Path] = []  # the folders this command marked, released at its end
     old_term = _terminate_as_interrupt()
     try:
         _default_out(args)
@@ -55,7 +54,7 @@ def main(argv: list[str] | None = None) -> int:
         # the command ends in bad input and they are still empty)
         created.append(folders.writable_folder(getattr(args, "out", None)))
         created.append(folders.writable_folder(getattr(args, "save_images", None), "--save-images"))
-        claimed.extend(_claim(args))
+        _claim(args)
         status = {
             "run": verbs.run,
             "fit": verbs.fit,
@@ -84,16 +83,14 @@ def main(argv: list[str] | None = None) -> int:
             e = BadInput(said)
         if isinstance(e, BadInput):
             print(f"calibench: {e}", file=sys.stderr)
-            for folder in claimed:
-                folders.release(folder)
+            _release(args)
             for made in created:
                 if made is not None and made.is_dir() and not any(made.iterdir()):
                     made.rmdir()
             return EXIT_BAD_INPUT
         return _internal_error(e, getattr(args, "out", None))
     finally:
-        for folder in claimed:  # whatever the end: what --force set aside is gone, or back
-            folders.release(folder)
+        _release(args)  # whatever the end: what --force set aside is gone, or put back
         if old_term is not None:
             signal.signal(signal.SIGTERM, old_term)
 
@@ -154,13 +151,18 @@ def _default_out(args) -> None:
         args.out = folders.default_out(args.command, scenario)
 
 
-def _claim(args) -> list[Path]:
-    """The folder made this command's, in a list (``run all`` claims and releases each
-    scenario's in turn, :func:`verbs.run`)."""
+def _claim(args) -> None:
+    """The folder made this command's (``run all`` claims and releases each scenario's in turn,
+    :func:`verbs.run`)."""
     if not hasattr(args, "out") or (args.command == "run" and args.scenario == "all"):
-        return []
+        return
     folders.claim(args.out, args.command, getattr(args, "scenario", None), args.force)
-    return [args.out]
+
+
+def _release(args) -> None:
+    """This process's claim on the folder ended (:func:`folders.release`), if it holds one."""
+    if getattr(args, "out", None) is not None:
+        folders.release(args.out)
 
 
 def _said_as_bad_input(e: Exception) -> str | None:

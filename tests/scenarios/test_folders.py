@@ -3,12 +3,13 @@ refused, --force replacing only calibench's files (and none where the command is
 user's files by an output's name refused, and a study that never shrinks."""
 
 import concurrent.futures as cf
+import fcntl
 import json
 import shutil
 from pathlib import Path
 
 from calibench.scenarios.cli import main
-from calibench.scenarios.cli.folders import MARK, REPLACED, owner
+from calibench.scenarios.cli.folders import CLAIM, LOCK, MARK, owner
 from calibench.scenarios.study.montecarlo import run_study
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "belt_stage_paper.csv"
@@ -49,7 +50,7 @@ def test_another_command_s_folder_is_refused_unless_forced(tmp_path, capsys):
     assert not (out / "fit.json").exists() and (out / "discovery.json").is_file()
     assert (out / "notes.txt").read_text() == "the user's own"
     assert json.loads((out / MARK).read_text()) == {"command": "discover", "scenario": "belt-stage"}
-    assert not (out / REPLACED).exists()
+    assert not (out / CLAIM).exists()
 
 
 def test_a_folder_made_before_the_mark_is_known_by_its_main_file(tmp_path, capsys):
@@ -114,3 +115,67 @@ def test_the_folder_is_marked_before_any_output_and_unmarked_on_bad_input(tmp_pa
     assert list(empty.iterdir()) == []  # no claim left on it
     assert main(["fit", "belt-stage", str(bad), "--out", str(tmp_path / "new")]) == 2
     assert not (tmp_path / "new").exists()  # made for the command, removed again
+
+
+def test_one_command_writes_in_a_folder_at_a_time(tmp_path, capsys):
+    """While another command holds the folder (its lock), a second is refused in one line and
+    leaves the first's mark as it was (a refused command used to take the mark of a study that
+    had not written its journal yet); once the first is done the second runs."""
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / MARK).write_text(json.dumps({"command": "fit", "scenario": "belt-stage"}) + "\n")
+    with open(out / LOCK, "a") as held:
+        fcntl.flock(held, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        assert main(["fit", "belt-stage", str(EXAMPLE), "--out", str(out)]) == 2
+        assert "another calibench command is writing in this folder" in capsys.readouterr().err
+        assert owner(out) == ("fit", "belt-stage") and not (out / "fit.json").exists()
+    assert main(["fit", "belt-stage", str(EXAMPLE), "--out", str(out)]) == 0
+
+
+def test_a_refused_command_leaves_no_mark_on_a_folder_known_by_its_main_file(tmp_path):
+    """A study's folder made before the mark (its journal only): another scenario's study is
+    refused, and the folder is not left marked as that scenario's (which would lock the study's
+    own resumption out)."""
+    out = tmp_path / "o"
+    args = ["--trials", "2", "--fidelity", "analytic", "--workers", "1", "--out", str(out)]
+    assert main(["montecarlo", "belt-stage", *args]) == 0
+    (out / MARK).unlink()
+    assert owner(out) == ("montecarlo", None)
+    assert main(["montecarlo", "stewart", *args]) == 2
+    assert not (out / MARK).exists() and not (out / CLAIM).exists()
+    assert main(["montecarlo", "belt-stage", *args[:1], "3", *args[2:]]) == 0
+
+
+def test_a_crash_under_force_puts_the_replaced_results_back(tmp_path, monkeypatch):
+    """A command that crashes having written only its traceback wrote no results: the fit it was
+    to replace is back, with its mark, beside error.log."""
+    from calibench.scenarios.cli import verbs
+
+    out = tmp_path / "o"
+    assert main(["fit", "belt-stage", str(EXAMPLE), "--out", str(out)]) == 0
+    fit = (out / "fit.json").read_text()
+
+    def crash(args):
+        raise RuntimeError("a defect of calibench's")
+
+    monkeypatch.setattr(verbs, "discover", crash)
+    assert main(["discover", "belt-stage", str(EXAMPLE), "--out", str(out), "--force"]) == 3
+    assert (out / "fit.json").read_text() == fit and (out / "error.log").is_file()
+    assert owner(out) == ("fit", "belt-stage") and not (out / CLAIM).exists()
+
+
+def test_a_claim_left_by_a_command_killed_outright_is_settled_by_the_next(tmp_path):
+    """A `discover --force` killed outright (no release) left its claim: the fit's results set
+    aside, the folder marked as discover's, no discovery written. The next command settles it
+    as the release would have: the fit's results and mark are back, so `fit` takes the folder."""
+    out = tmp_path / "o"
+    assert main(["fit", "belt-stage", str(EXAMPLE), "--out", str(out)]) == 0
+    mark = (out / MARK).read_text()
+    (out / CLAIM).mkdir()
+    (out / CLAIM / "claim.json").write_text(json.dumps({"mark": mark, "found": {}}))
+    for path in list(out.iterdir()):
+        if path.name not in (LOCK, CLAIM):
+            path.rename(out / CLAIM / path.name)
+    (out / MARK).write_text(json.dumps({"command": "discover", "scenario": "belt-stage"}) + "\n")
+    assert main(["fit", "belt-stage", str(EXAMPLE), "--out", str(out)]) == 0
+    assert owner(out) == ("fit", "belt-stage") and not (out / CLAIM).exists()
