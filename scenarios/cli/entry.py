@@ -12,7 +12,7 @@ import sys
 import threading
 from pathlib import Path
 
-from calibench.scenarios.cli import folders, verbs
+from calibench.scenarios.cli import claims, folders, verbs
 from calibench.scenarios.cli.parser import build_parser
 from calibench.scenarios.cli.status import (
     EXIT_BAD_INPUT,
@@ -47,6 +47,7 @@ def main(argv: list[str] | None = None) -> int:
         print("calibench: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     created: list[Path | None] = []
+    held: list[claims.Claim] = []  # the folders this command claimed, released at its end
     old_term = _terminate_as_interrupt()
     try:
         _default_out(args)
@@ -54,7 +55,7 @@ def main(argv: list[str] | None = None) -> int:
         # the command ends in bad input and they are still empty)
         created.append(folders.writable_folder(getattr(args, "out", None)))
         created.append(folders.writable_folder(getattr(args, "save_images", None), "--save-images"))
-        _claim(args)
+        _claim(args, held)
         status = {
             "run": verbs.run,
             "fit": verbs.fit,
@@ -83,14 +84,16 @@ def main(argv: list[str] | None = None) -> int:
             e = BadInput(said)
         if isinstance(e, BadInput):
             print(f"calibench: {e}", file=sys.stderr)
-            _release(args)
+            while held:
+                claims.release(held.pop())
             for made in created:
                 if made is not None and made.is_dir() and not any(made.iterdir()):
                     made.rmdir()
             return EXIT_BAD_INPUT
         return _internal_error(e, getattr(args, "out", None))
     finally:
-        _release(args)  # whatever the end: what --force set aside is gone, or put back
+        while held:  # whatever the end: what --force set aside is gone, or put back
+            claims.release(held.pop())
         if old_term is not None:
             signal.signal(signal.SIGTERM, old_term)
 
@@ -151,18 +154,12 @@ def _default_out(args) -> None:
         args.out = folders.default_out(args.command, scenario)
 
 
-def _claim(args) -> None:
-    """The folder made this command's (``run all`` claims and releases each scenario's in turn,
-    :func:`verbs.run`)."""
+def _claim(args, held: list) -> None:
+    """The folder made this command's, its claim put in ``held`` (``run all`` claims and releases
+    each scenario's in turn, :func:`verbs.run`)."""
     if not hasattr(args, "out") or (args.command == "run" and args.scenario == "all"):
         return
-    folders.claim(args.out, args.command, getattr(args, "scenario", None), args.force)
-
-
-def _release(args) -> None:
-    """This process's claim on the folder ended (:func:`folders.release`), if it holds one."""
-    if getattr(args, "out", None) is not None:
-        folders.release(args.out)
+    claims.claim(args.out, args.command, getattr(args, "scenario", None), args.force, held)
 
 
 def _said_as_bad_input(e: Exception) -> str | None:

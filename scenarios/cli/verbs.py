@@ -9,7 +9,7 @@ import sys
 import time
 from pathlib import Path
 
-from calibench.scenarios.cli.folders import claim, release
+from calibench.scenarios.cli.claims import claim, release
 from calibench.scenarios.cli.status import EXIT_CHECK_FAILED, EXIT_OK
 from calibench.scenarios.registry import check_fidelity
 
@@ -75,22 +75,21 @@ def run(args: argparse.Namespace) -> int:
         check_cones(configs["arm-cmm"])  # and cones it cannot reach
     status = EXIT_OK
     for s in scenarios:
-        out = args.out
-        if args.scenario == "all":
-            out = args.out / s.name
-            claim(out, "run", s.name, args.force)
+        out, held = args.out / s.name if args.scenario == "all" else args.out, []
         t0 = time.perf_counter()
         how = f"seed {args.seed}, {fidelity}" if s.renders else f"seed {args.seed}"
         print(f"calibench: {s.name} ({how})", file=sys.stderr, flush=True)
         try:
+            if args.scenario == "all":  # each scenario's folder claimed and released in turn
+                claim(out, "run", s.name, args.force, held)
             report = s.execute(configs[s.name], args.seed, fidelity, out, not args.no_rrd)
             report.elapsed_s = time.perf_counter() - t0
             path = report.write(out)
         except BadInput as e:
             raise BadInput(f"{s.name}: {e}") from None
         finally:
-            if args.scenario == "all":
-                release(out)
+            while held:
+                release(held.pop())
         print(report.table())
         gl = f", rendered by {report.info['renderer']}" if "renderer" in report.info else ""
         verdict = "ok" if report.ok else "FAILED"

@@ -9,7 +9,8 @@ import shutil
 from pathlib import Path
 
 from calibench.scenarios.cli import main
-from calibench.scenarios.cli.folders import CLAIM, LOCK, MARK, owner
+from calibench.scenarios.cli.claims import CLAIM, LOCK
+from calibench.scenarios.cli.folders import MARK, owner
 from calibench.scenarios.study.montecarlo import run_study
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "belt_stage_paper.csv"
@@ -95,6 +96,18 @@ def test_a_user_s_files_by_an_output_s_name_are_refused_even_with_force(tmp_path
         assert sorted(p.name for p in data.iterdir()) == ["x_axis_error_mm.csv"]
 
 
+def test_only_calibench_out_itself_is_exempt_from_the_user_s_files_check(tmp_path, monkeypatch):
+    """calibench-out is calibench's own (a folder there with a stray figure is an old run's), but
+    a path that only passes through it is not."""
+    monkeypatch.chdir(tmp_path)
+    for folder in ("calibench-out/old", "paper"):
+        Path(folder).mkdir(parents=True)
+        Path(folder, "figure.png").write_text("made before the mark")
+    assert main(["run", "stewart", "--no-rrd", "--out", "calibench-out/../paper"]) == 2
+    assert Path("paper/figure.png").read_text() == "made before the mark"
+    assert main(["run", "stewart", "--no-rrd", "--out", str(tmp_path / "calibench-out/old")]) == 0
+
+
 def test_the_folder_is_marked_before_any_output_and_unmarked_on_bad_input(tmp_path, capsys):
     """An interrupted first run's folder holds the mark and some outputs: it is calibench's, and
     the same command (or --force) takes it again. A command refused as bad input leaves no mark."""
@@ -172,10 +185,60 @@ def test_a_claim_left_by_a_command_killed_outright_is_settled_by_the_next(tmp_pa
     assert main(["fit", "belt-stage", str(EXAMPLE), "--out", str(out)]) == 0
     mark = (out / MARK).read_text()
     (out / CLAIM).mkdir()
-    (out / CLAIM / "claim.json").write_text(json.dumps({"mark": mark, "found": {}}))
+    present = [p.name for p in out.iterdir() if p.name not in (LOCK, CLAIM)]
+    state = {"mark": mark, "found": {}, "present": present}
+    (out / CLAIM / "claim.json").write_text(json.dumps(state))
     for path in list(out.iterdir()):
         if path.name not in (LOCK, CLAIM):
             path.rename(out / CLAIM / path.name)
     (out / MARK).write_text(json.dumps({"command": "discover", "scenario": "belt-stage"}) + "\n")
     assert main(["fit", "belt-stage", str(EXAMPLE), "--out", str(out)]) == 0
     assert owner(out) == ("fit", "belt-stage") and not (out / CLAIM).exists()
+
+
+def test_a_forced_study_interrupted_before_its_first_trial_keeps_the_old_one(tmp_path, monkeypatch):
+    """`montecarlo --force` over a finished study, interrupted once it had described the new
+    study (study.json, an empty journal) but before any trial finished: no result was written,
+    so the old study is back whole, and resumes."""
+    from calibench.scenarios.study import montecarlo
+
+    out = tmp_path / "o"
+    args = ["montecarlo", "belt-stage", "--fidelity", "analytic", "--workers", "1"]
+    assert main([*args, "--trials", "3", "--out", str(out)]) == 0
+    before = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
+
+    def interrupted(executor, scenario, seed, fidelity, out_dir, *rest, **kw):
+        (out_dir / "trials.jsonl").touch()
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(montecarlo, "_run_todo", interrupted)
+    assert main([*args, "--trials", "2", "--seed", "9", "--out", str(out), "--force"]) == 130
+    assert {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()} == before
+    monkeypatch.undo()
+    assert main([*args, "--trials", "4", "--out", str(out)]) == 0  # the old study, resumed
+
+
+def test_a_restore_cut_off_midway_is_finished_by_the_next_command(tmp_path, capsys):
+    """A release killed halfway through putting a fit's results back (fit.json back, fit.png and
+    the mark still set aside): the results back are the ones found, not new ones, so the next
+    command, even one refused, finishes the restore rather than discarding the rest."""
+    out = tmp_path / "o"
+    assert main(["fit", "belt-stage", str(EXAMPLE), "--out", str(out)]) == 0
+    mark = (out / MARK).read_text()
+    names = sorted(p.name for p in out.iterdir() if p.name not in (LOCK, MARK))
+    found = {
+        n: [(out / n).lstat().st_size, (out / n).lstat().st_mtime_ns, (out / n).lstat().st_ino]
+        for n in ("fit.json", "fit.png", "residuals.csv")
+        if (out / n).exists()
+    }
+    (out / CLAIM).mkdir()
+    state = {"mark": mark, "found": found, "present": [*names, MARK]}
+    (out / CLAIM / "claim.json").write_text(json.dumps(state))
+    for name in names:
+        if name != "fit.json":
+            (out / name).rename(out / CLAIM / name)
+    (out / MARK).rename(out / CLAIM / MARK)
+    (out / MARK).write_text(json.dumps({"command": "discover", "scenario": "belt-stage"}))
+    assert main(["iso230", str(EXAMPLE), "--out", str(out)]) == 2  # refused: holds a fit
+    assert "holds the results of `calibench fit belt-stage`" in capsys.readouterr().err
+    assert sorted(p.name for p in out.iterdir() if p.name not in (LOCK, MARK)) == names
