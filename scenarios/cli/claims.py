@@ -32,8 +32,9 @@ LOCK = ".calibench.lock"  # held (flock) by the command writing in the folder
 # while a command writes: what it found (claim.json: the mark, the results' stats) and the results
 # --force set aside
 CLAIM = ".calibench-claim"
-# files whose writing is no result: the mark, a crash's traceback, a study's description
-NOT_RESULTS = (MARK, "error.log", "study.json")
+# the files whose writing makes a command's results: its main file, and a study's summary (a
+# figure or a recording written before them is a part, a study's description or empty journal none)
+RESULTS = (*(name for name in MAIN_FILE if name != "study.json"), "summary.json")
 
 
 @dataclasses.dataclass
@@ -100,17 +101,20 @@ def claim(folder: Path, command: str, scenario: str | None, force: bool, held: l
             lock.close()
 
 
-def release(held: Claim) -> None:
-    """End a claim, whatever the command's end: if it wrote results, those it replaced are gone;
-    if not, they are put back with their mark. An interrupt meanwhile waits for it (and is then
-    dropped: the command is ending anyway)."""
-    try:
-        with _signals_deferred(reraise=False):
-            _settle(held.folder)
-            if not is_file(held.folder / MARK):  # no results of any command's: no trace left
-                (held.folder / LOCK).unlink(missing_ok=True)
-    finally:
-        held.lock.close()
+def release(held: list[Claim]) -> None:
+    """End the claims in ``held`` (emptying it), whatever the command's end: where it wrote
+    results, those it replaced are gone; where not, they are put back with their mark. An
+    interrupt meanwhile waits for them (and is then dropped: the command is ending anyway)."""
+    with _signals_deferred(reraise=False):
+        while held:
+            one = held[-1]
+            try:
+                _settle(one.folder)
+                if not is_file(one.folder / MARK):  # no results of any command's: no trace left
+                    (one.folder / LOCK).unlink(missing_ok=True)
+            finally:
+                one.lock.close()
+                held.pop()
 
 
 def _check(folder: Path, command: str, scenario: str | None, force: bool) -> None:
@@ -138,6 +142,8 @@ def _settle(folder: Path) -> None:
     (a result file new or changed since the claim) keep the claim's mark; none, and what was
     found is put back."""
     state = folder / CLAIM
+    if is_file(state):  # no claim's: in the way of the next
+        state.unlink()
     if not state.is_dir():
         return
     try:  # written whole before anything is set aside
@@ -164,15 +170,14 @@ def _settle(folder: Path) -> None:
 
 
 def _results(folder: Path) -> dict[str, list[int]]:
-    """The results in ``folder``: each output but :data:`NOT_RESULTS` that holds anything (an
-    empty journal is no result), by name: size, modification time, inode (a rename keeps it)."""
+    """The results in ``folder``: each of :data:`RESULTS` that holds anything, by name: size,
+    modification time, inode (a rename keeps it)."""
     out = {}
-    for name in OUTPUTS:
-        if name in NOT_RESULTS or not is_file(folder / name):
-            continue
-        st = (folder / name).lstat()
-        if st.st_size or name not in MAIN_FILE:
-            out[name] = [st.st_size, st.st_mtime_ns, st.st_ino]
+    for name in RESULTS:
+        if is_file(folder / name):
+            st = (folder / name).lstat()
+            if st.st_size:
+                out[name] = [st.st_size, st.st_mtime_ns, st.st_ino]
     return out
 
 
@@ -206,7 +211,10 @@ class _signals_deferred:
 
     def __enter__(self):
         if threading.current_thread() is threading.main_thread():
-            self.old = [signal.signal(s, self._note) for s in (signal.SIGINT, signal.SIGTERM)]
+            self.old = [signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)]
+            for s, old in zip((signal.SIGINT, signal.SIGTERM), self.old, strict=True):
+                if old is not signal.SIG_IGN:  # an ignored signal stays ignored
+                    signal.signal(s, self._note)
 
     def _note(self, signum, frame):
         self.came = True

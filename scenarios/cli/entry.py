@@ -84,16 +84,14 @@ def main(argv: list[str] | None = None) -> int:
             e = BadInput(said)
         if isinstance(e, BadInput):
             print(f"calibench: {e}", file=sys.stderr)
-            while held:
-                claims.release(held.pop())
+            claims.release(held)
             for made in created:
                 if made is not None and made.is_dir() and not any(made.iterdir()):
                     made.rmdir()
             return EXIT_BAD_INPUT
         return _internal_error(e, getattr(args, "out", None))
     finally:
-        while held:  # whatever the end: what --force set aside is gone, or put back
-            claims.release(held.pop())
+        claims.release(held)  # whatever the end: what --force set aside is gone, or put back
         if old_term is not None:
             signal.signal(signal.SIGTERM, old_term)
 

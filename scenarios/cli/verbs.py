@@ -88,8 +88,7 @@ def run(args: argparse.Namespace) -> int:
         except BadInput as e:
             raise BadInput(f"{s.name}: {e}") from None
         finally:
-            while held:
-                release(held.pop())
+            release(held)
         print(report.table())
         gl = f", rendered by {report.info['renderer']}" if "renderer" in report.info else ""
         verdict = "ok" if report.ok else "FAILED"

@@ -242,3 +242,23 @@ def test_a_restore_cut_off_midway_is_finished_by_the_next_command(tmp_path, caps
     assert main(["iso230", str(EXAMPLE), "--out", str(out)]) == 2  # refused: holds a fit
     assert "holds the results of `calibench fit belt-stage`" in capsys.readouterr().err
     assert sorted(p.name for p in out.iterdir() if p.name not in (LOCK, MARK)) == names
+
+
+def test_a_forced_run_cut_off_before_its_report_keeps_the_old_results(tmp_path, monkeypatch):
+    """A run writes its figure and recording before report.json: cut off between them (here by
+    a crash in the report's writing) it wrote parts, no results, so the fit it was to replace is
+    back and the parts are gone; a stray file where the claim's record goes is no claim's."""
+    from calibench.scenarios.report import Report
+
+    out = tmp_path / "o"
+    assert main(["fit", "belt-stage", str(EXAMPLE), "--out", str(out)]) == 0
+    before = sorted(p.name for p in out.iterdir())
+    (out / CLAIM).write_text("not a claim")
+
+    def cut_off(self, out_dir):
+        raise RuntimeError("cut off before report.json")
+
+    monkeypatch.setattr(Report, "write", cut_off)
+    assert main(["run", "stewart", "--out", str(out), "--force"]) == 3
+    assert sorted(p.name for p in out.iterdir()) == sorted([*before, "error.log"])
+    assert owner(out) == ("fit", "belt-stage")
