@@ -68,9 +68,12 @@ def claim(folder: Path, command: str, scenario: str | None, force: bool, held: l
         is not given, or a user's files by an output's name.
     """
     folder = folder.absolute()
-    folder.mkdir(parents=True, exist_ok=True)
-    had_lock = (folder / LOCK).exists()
-    lock = _lock(folder)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        had_lock = (folder / LOCK).exists()
+        lock = _lock(folder)
+    except OSError as e:  # run all's folder a file, a file system without locks
+        raise BadInput(f"--out {folder}: cannot write there ({e.strerror})") from None
     made = False
     try:
         with _signals_deferred(reraise=True):
@@ -101,11 +104,12 @@ def claim(folder: Path, command: str, scenario: str | None, force: bool, held: l
             lock.close()
 
 
-def release(held: list[Claim]) -> None:
+def release(held: list[Claim], reraise: bool = False) -> None:
     """End the claims in ``held`` (emptying it), whatever the command's end: where it wrote
     results, those it replaced are gone; where not, they are put back with their mark. An
-    interrupt meanwhile waits for them (and is then dropped: the command is ending anyway)."""
-    with _signals_deferred(reraise=False):
+    interrupt meanwhile waits for them, and is then raised (``reraise``: ``run all``, which goes
+    on to its next scenario otherwise) or dropped (the command is ending anyway)."""
+    with _signals_deferred(reraise):
         while held:
             one = held[-1]
             try:
@@ -122,7 +126,8 @@ def _check(folder: Path, command: str, scenario: str | None, force: bool) -> Non
     held = owner(folder)
     home = Path("calibench-out").absolute().resolve()
     if held is None and home != folder.resolve() and home not in folder.resolve().parents:
-        strays = [name for name in OUTPUTS if is_file(folder / name)]
+        # a crash's traceback is calibench's whatever folder it is in
+        strays = [name for name in OUTPUTS if name != "error.log" and is_file(folder / name)]
         if strays:
             raise BadInput(
                 f"--out {folder} holds {', '.join(strays[:3])}, named as calibench's outputs but "

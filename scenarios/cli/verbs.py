@@ -76,19 +76,19 @@ def run(args: argparse.Namespace) -> int:
     status = EXIT_OK
     for s in scenarios:
         out, held = args.out / s.name if args.scenario == "all" else args.out, []
-        t0 = time.perf_counter()
-        how = f"seed {args.seed}, {fidelity}" if s.renders else f"seed {args.seed}"
-        print(f"calibench: {s.name} ({how})", file=sys.stderr, flush=True)
         try:
             if args.scenario == "all":  # each scenario's folder claimed and released in turn
                 claim(out, "run", s.name, args.force, held)
+            t0 = time.perf_counter()
+            how = f"seed {args.seed}, {fidelity}" if s.renders else f"seed {args.seed}"
+            print(f"calibench: {s.name} ({how})", file=sys.stderr, flush=True)
             report = s.execute(configs[s.name], args.seed, fidelity, out, not args.no_rrd)
             report.elapsed_s = time.perf_counter() - t0
             path = report.write(out)
         except BadInput as e:
             raise BadInput(f"{s.name}: {e}") from None
         finally:
-            release(held)
+            release(held, reraise=True)
         print(report.table())
         gl = f", rendered by {report.info['renderer']}" if "renderer" in report.info else ""
         verdict = "ok" if report.ok else "FAILED"

@@ -32,6 +32,13 @@ CASES = [
         2,
         "stewart's instruments are geometric",
     ),
+    (  # the first scenario's folder is a file: one line, not an internal error
+        "run-all-scenario-folder-is-file",
+        {"o/belt-stage": "x"},
+        ["run", "all", "--out", "{d}/o"],
+        2,
+        "cannot write there",
+    ),
     (
         "run-out-is-file",
         {"f.txt": "x"},

@@ -175,6 +175,11 @@ def test_a_crash_under_force_puts_the_replaced_results_back(tmp_path, monkeypatc
     assert main(["discover", "belt-stage", str(EXAMPLE), "--out", str(out), "--force"]) == 3
     assert (out / "fit.json").read_text() == fit and (out / "error.log").is_file()
     assert owner(out) == ("fit", "belt-stage") and not (out / CLAIM).exists()
+    # a crash in a new folder leaves its traceback alone there, which blocks no later command
+    new = tmp_path / "n"
+    assert main(["discover", "belt-stage", str(EXAMPLE), "--out", str(new)]) == 3
+    assert [p.name for p in new.iterdir()] == ["error.log"]
+    assert main(["fit", "belt-stage", str(EXAMPLE), "--out", str(new)]) == 0
 
 
 def test_a_claim_left_by_a_command_killed_outright_is_settled_by_the_next(tmp_path):
