@@ -1,6 +1,6 @@
 """``calibench camera`` against OpenCV's classic pipeline on the same photos.
 
-``python benchmarks/camera.py [DATA]`` (DATA: the shared data folder, default ../shared/data)
+``python benchmarks/camera.py [DATA]`` (DATA: the real data's folder, default the project's data/)
 times, on OpenCV's 13 ``left*.jpg`` sample photos (9 x 6 inner corners), interleaved over 5
 rounds so that both see the same machine state:
 
@@ -25,11 +25,7 @@ from calibench.scenarios.camera import calibrate_photos
 
 
 def main():
-    data = (
-        Path(sys.argv[1])
-        if len(sys.argv) > 1
-        else Path(__file__).resolve().parents[2] / "shared" / "data"
-    )
+    data = Path(sys.argv[1]) if len(sys.argv) > 1 else Path(__file__).resolve().parents[1] / "data"
     paths = sorted((data / "opencv_left").glob("left*.jpg"))
     print(
         f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, OpenCV "

@@ -23,7 +23,7 @@ from calibench.scenarios.discover.stage import discover_stage, paper_belt_record
 from calibench.scenarios.discover.stewart import STEWART_FLOOR
 from calibench.scenarios.discover.suite import SUITE, null_claims, run_case, score, table
 
-SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
+SHARED = Path(__file__).resolve().parents[1] / "data"
 
 
 def suite():

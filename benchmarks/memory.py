@@ -7,7 +7,7 @@ the largest of the process and the children it waited for). The inputs are well-
 recordings of the instruments' twins or, for ``camera``, OpenCV's sample photos scaled up to the
 megapixel limit: what is measured is the verb's own memory, whatever it concludes.
 
-DATA: the shared data folder (default ../shared/data), for the photos.
+DATA: the real data's folder (default the project's data/), for the photos.
 """
 
 from __future__ import annotations
@@ -174,7 +174,7 @@ def table(data: Path) -> str:
 
 
 def main() -> None:
-    data = Path(sys.argv[1]) if len(sys.argv) > 1 else HERE.parents[1] / "shared" / "data"
+    data = Path(sys.argv[1]) if len(sys.argv) > 1 else HERE.parent / "data"
     print(table(data))
 
 

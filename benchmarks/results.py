@@ -192,7 +192,7 @@ def table(data: Path) -> str:
 
 
 def main() -> None:
-    data = Path(sys.argv[1]) if len(sys.argv) > 1 else HERE.parents[1] / "shared" / "data"
+    data = Path(sys.argv[1]) if len(sys.argv) > 1 else HERE.parent / "data"
     print(table(data))
 
 

@@ -13,16 +13,16 @@ import cv2  # noqa: E402
 cv2.setNumThreads(1)
 
 REPO = Path(__file__).resolve().parents[1]
-SHARED_DATA = REPO.parent / "shared" / "data"
+REAL_DATA = REPO / "data"  # the real datasets, with their licences in data/LICENSES.md
 
 
 @pytest.fixture(scope="session")
-def shared_data() -> Path:
-    if not SHARED_DATA.is_dir():
+def real_data() -> Path:
+    if not REAL_DATA.is_dir():
         pytest.fail(
-            f"shared data not found at {SHARED_DATA} (a clone of main needs shared/ beside it)"
+            f"real data not found at {REAL_DATA} (the project's data/ folder, part of every clone)"
         )
-    return SHARED_DATA
+    return REAL_DATA
 
 
 FIGURES_TEST = "tests/test_readme_figures.py::test_the_readme_agrees_with_the_code"
@@ -35,7 +35,7 @@ def pytest_collection_modifyitems(session, config, items):
     now, beside the rest of the suite, and its test collects the result: on 2 cores the whole
     suite then takes about as long as that check alone."""
     wanted = any(item.nodeid == FIGURES_TEST for item in items)
-    if wanted and SHARED_DATA.is_dir() and not config.option.collectonly:
+    if wanted and REAL_DATA.is_dir() and not config.option.collectonly:
         from tests.test_readme_figures import figures_check_command
 
         log = tempfile.TemporaryFile("w+")

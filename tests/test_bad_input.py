@@ -103,12 +103,12 @@ def test_bad_input(case, tmp_path, capsys, monkeypatch):
 
 
 @pytest.mark.parametrize("case", PHOTO_CASES, ids=[c[0] for c in PHOTO_CASES])
-def test_bad_photos(case, shared_data, tmp_path, capsys, monkeypatch):
+def test_bad_photos(case, real_data, tmp_path, capsys, monkeypatch):
     import cv2
 
     monkeypatch.chdir(tmp_path)
     name, fragment = case
-    left = sorted((shared_data / "opencv_left").glob("*.jpg"))
+    left = sorted((real_data / "opencv_left").glob("*.jpg"))
     if name == "camera-same-photo-thrice":
         paths = []
         for k in range(3):

@@ -80,7 +80,7 @@ def figures_check_command() -> list[str]:
     return [sys.executable, "-m", FIGURES, "--check", *[n for n, b in BLOCKS.items() if b.ci]]
 
 
-def test_the_readme_agrees_with_the_code(shared_data, request):
+def test_the_readme_agrees_with_the_code(real_data, request):
     """Started beside the rest of the suite (tests/conftest.py), collected here."""
     from tests.conftest import figures_check_result
 

@@ -84,13 +84,13 @@ def test_trailing_empty_cells_are_harmless(tmp_path):
     np.testing.assert_array_equal(rec.y_meas_mm, [4.0, 8.0])
 
 
-def test_the_shipped_sample_is_the_papers_two_tables_joined(shared_data):
+def test_the_shipped_sample_is_the_papers_two_tables_joined(real_data):
     """examples/belt_stage_paper.csv = the seed paper's X and Y error tables as one recording."""
     from pathlib import Path
 
     from calibench.recordings import load_stage_csv
 
-    d = shared_data / "seed_belt_stage"
+    d = real_data / "seed_belt_stage"
     ex = np.loadtxt(d / "x_axis_error_mm.csv", delimiter=",", skiprows=1)
     ey = np.loadtxt(d / "y_axis_error_mm.csv", delimiter=",", skiprows=1)
     rec = load_stage_csv(Path(__file__).resolve().parents[1] / "examples" / "belt_stage_paper.csv")

@@ -18,7 +18,7 @@ from .engine import ROOT
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # before MuJoCo's first import: renders without a display
 
-DATA = ROOT.parent / "shared" / "data"
+DATA = ROOT / "data"
 UR10 = DATA / "ur10_landgraf"
 
 SEED = 0  # every run's seed, and the studies'
@@ -48,11 +48,11 @@ def calibench(*args) -> None:
 
 
 def need_data(*paths: Path) -> None:
-    """The real-data blocks need ../shared/data beside the repository."""
+    """The real-data blocks need the project's data/ folder."""
     missing = [p for p in paths if not p.exists()]
     if missing:
         raise RuntimeError(
-            f"missing {', '.join(map(str, missing))} (the shared data lives in ../shared/data)"
+            f"missing {', '.join(map(str, missing))} (the real data lives in the project's data/)"
         )
 
 

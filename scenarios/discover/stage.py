@@ -394,7 +394,7 @@ def _confounds(signals, terms, found, candidates, drivers, rec):
 
 
 def paper_belt_recording(data_dir: Path):
-    """The seed paper's measured belt-stage tables (../shared/data/seed_belt_stage) as a stage
+    """The seed paper's measured belt-stage tables (the project's data/seed_belt_stage) as a stage
     recording: one row per station, error = measured - commanded (no passes, no directions)."""
     from calibench.recordings import StageRecording
 

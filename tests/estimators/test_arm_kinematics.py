@@ -45,8 +45,8 @@ def _seed_chain(path) -> tuple[Chain, np.ndarray]:
 
 
 @pytest.fixture(scope="module")
-def seed(shared_data):
-    return _seed_chain(shared_data / "seed_arm_cmm" / "dh_table1.csv")
+def seed(real_data):
+    return _seed_chain(real_data / "seed_arm_cmm" / "dh_table1.csv")
 
 
 def _seven_joint_mdh() -> dict:
@@ -96,14 +96,14 @@ def test_our_seed_arm_is_the_papers_table_1(seed):
     np.testing.assert_array_equal(table1_errors(), delta)
 
 
-def test_papers_table_2_row_by_row(seed, shared_data):
-    """Table 2 of the arm-CMM seed from its Table 1 (../shared/data/seed_arm_cmm): nominal
+def test_papers_table_2_row_by_row(seed, real_data):
+    """Table 2 of the arm-CMM seed from its Table 1 (data/seed_arm_cmm): nominal
     coordinates of the readable rows to 0.001 mm (rows 10 and 13 are misprinted, row 9's joints
     are lost: see the data README), actual error norms within 0.1 mm of the printed ones, and the
     linear model J delta within 0.05 mm of the actual error."""
     ch, delta = seed
     rows = np.genfromtxt(
-        shared_data / "seed_arm_cmm" / "table2_simulation.csv", delimiter=",", names=True
+        real_data / "seed_arm_cmm" / "table2_simulation.csv", delimiter=",", names=True
     )
     checked = 0
     for r in rows:

@@ -125,10 +125,10 @@ def test_compensated_command_lands_on_target():
     np.testing.assert_allclose(cy + 0.5 * _truth(cy, cx), ty, atol=1e-9)
 
 
-def test_paper_table_3(shared_data):
-    """The seed paper's Table 3, from its measured Tables 1-2 (../shared/data/seed_belt_stage):
+def test_paper_table_3(real_data):
+    """The seed paper's Table 3, from its measured Tables 1-2 (data/seed_belt_stage):
     SSE 31.96 / 24.08 mm^2, R^2 0.9749 / 0.9833, RMSE 0.5272 / 0.4576 mm."""
-    d = shared_data / "seed_belt_stage"
+    d = real_data / "seed_belt_stage"
     ex = np.loadtxt(d / "x_axis_error_mm.csv", delimiter=",", skiprows=1)
     ey = np.loadtxt(d / "y_axis_error_mm.csv", delimiter=",", skiprows=1)
     assert np.array_equal(ex[:, :2], ey[:, :2])

@@ -1,7 +1,7 @@
 """discover and fit agree (issue 35, part 3): one geometry step for both (fit's prior on the
 kinematic errors, its identifiable basis), so that what fit finds well beyond its standard
 errors is not scored zero by discover, and what discover accepts lowers fit's held-out error on
-the same split. On the UR10's series D (real laser-tracker data, ../shared/data/ur10_landgraf);
+the same split. On the UR10's series D (real laser-tracker data, data/ur10_landgraf);
 the simulated cable-driven arm's agreement is in test_arm_cables.py."""
 
 import json
@@ -13,8 +13,8 @@ def _json(path):
     return json.loads(path.read_text())
 
 
-def test_discover_and_fit_agree_on_the_ur10(shared_data, tmp_path):
-    rec = str(shared_data / "ur10_landgraf" / "ur10_D.csv")
+def test_discover_and_fit_agree_on_the_ur10(real_data, tmp_path):
+    rec = str(real_data / "ur10_landgraf" / "ur10_D.csv")
     common = ["arm-cmm", rec, "--arm", "ur10"]
     assert main(["discover", *common, "--out", str(tmp_path / "d")]) == 0
     found = _json(tmp_path / "d" / "discovery.json")
@@ -40,10 +40,10 @@ def test_discover_and_fit_agree_on_the_ur10(shared_data, tmp_path):
     assert accepted, "fit's compliance of joint 2 (19 standard errors) is discover's too"
 
 
-def test_what_discover_accepts_lowers_fits_held_out_error(shared_data, tmp_path):
+def test_what_discover_accepts_lowers_fits_held_out_error(real_data, tmp_path):
     """``fit --effects discover`` discovers on the training rows of fit's own split; the held-out
     rows (the same rows, the same seed) must come out better than without the effects."""
-    rec = str(shared_data / "ur10_landgraf" / "ur10_D.csv")
+    rec = str(real_data / "ur10_landgraf" / "ur10_D.csv")
     args = ["fit", "arm-cmm", rec, "--arm", "ur10", "--holdout", "0.3"]
     assert main([*args, "--out", str(tmp_path / "plain")]) == 0
     assert main([*args, "--effects", "discover", "--out", str(tmp_path / "found")]) == 0

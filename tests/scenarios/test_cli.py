@@ -75,8 +75,8 @@ def test_config_overrides_reach_the_run(tmp_path):
     assert rep["info"]["intrinsic_views_used"] == 15
 
 
-def test_fit_reproduces_the_papers_table_3(shared_data, tmp_path):
-    d = shared_data / "seed_belt_stage"
+def test_fit_reproduces_the_papers_table_3(real_data, tmp_path):
+    d = real_data / "seed_belt_stage"
     ex = np.loadtxt(d / "x_axis_error_mm.csv", delimiter=",", skiprows=1)
     ey = np.loadtxt(d / "y_axis_error_mm.csv", delimiter=",", skiprows=1)
     rows = ["x_cmd_mm,y_cmd_mm,x_meas_mm,y_meas_mm"]
@@ -92,11 +92,11 @@ def test_fit_reproduces_the_papers_table_3(shared_data, tmp_path):
         assert set(a["coef"]) == {"c0", "c1", "c2", "c3", "c4", "c5"}
 
 
-def test_camera_on_opencv_left_meets_the_reference(shared_data, tmp_path):
+def test_camera_on_opencv_left_meets_the_reference(real_data, tmp_path):
     """OpenCV's sample: fx = fy = 535.916, (cx, cy) = (342.283, 235.571), RMS 0.393 px."""
-    images = sorted((shared_data / "opencv_left").glob("*.jpg"))
+    images = sorted((real_data / "opencv_left").glob("*.jpg"))
     # a photo without this board is listed as rejected, not fatal
-    shutil.copy(shared_data / "boofcv_circles" / "image00000.jpg", tmp_path / "circles.jpg")
+    shutil.copy(real_data / "boofcv_circles" / "image00000.jpg", tmp_path / "circles.jpg")
     argv = [str(p) for p in images + [tmp_path / "circles.jpg"]]
     assert (
         main(
@@ -147,7 +147,7 @@ def test_corner_coverage_counts_the_cells_the_board_reached():
     assert coverage(one, size) == 1 / COVERAGE_GRID**2  # NaN and outside the image not counted
 
 
-def test_a_calibration_that_does_not_converge_says_what_to_change(shared_data, monkeypatch):
+def test_a_calibration_that_does_not_converge_says_what_to_change(real_data, monkeypatch):
     import calibench.scenarios.camera as cam
     from calibench.errors import BadInput
     from calibench.estimators.camera.zhang import CalibrationError
@@ -156,12 +156,12 @@ def test_a_calibration_that_does_not_converge_says_what_to_change(shared_data, m
         raise CalibrationError("the calibration did not converge in 100 iterations")
 
     monkeypatch.setattr(cam, "calibrate_camera", wanders)
-    photos = sorted((shared_data / "opencv_left").glob("left*.jpg"))
+    photos = sorted((real_data / "opencv_left").glob("left*.jpg"))
     with pytest.raises(BadInput, match="tilt the board .*--radial 2, --no-tangential"):
         cam.calibrate_photos(photos, 9, 6, 25.0)
 
 
-def test_camera_leaves_out_a_gross_corner_and_says_which(shared_data, tmp_path, monkeypatch):
+def test_camera_leaves_out_a_gross_corner_and_says_which(real_data, tmp_path, monkeypatch):
     """A detector's 9.2 px error on one corner of one photo (the size the sector detector made
     on a steep real view): the corner is named and left out, the other 53 of that photo kept,
     and the calibration is the clean photos' to a twentieth of its std (one corner of 702 left
@@ -178,7 +178,7 @@ def test_camera_leaves_out_a_gross_corner_and_says_which(shared_data, tmp_path, 
             c[20] += [9.2, 0.0]
         return c
 
-    images = sorted((shared_data / "opencv_left").glob("*.jpg"))
+    images = sorted((real_data / "opencv_left").glob("*.jpg"))
     first = real(__import__("cv2").imread(str(images[0]), 0), 9, 6)[0]
     args = [
         "camera",
@@ -211,10 +211,10 @@ def test_camera_leaves_out_a_gross_corner_and_says_which(shared_data, tmp_path, 
     assert kept["rms_px"] > r["rms_px"] + 0.05 and shift(kept) > 0.5
 
 
-def test_camera_on_boofcv_chess_meets_the_reference(shared_data, tmp_path):
+def test_camera_on_boofcv_chess_meets_the_reference(real_data, tmp_path):
     """BoofCV's own result (its model: 2 radial terms, no tangential): fx 701.01, fy 698.65,
     cx 308.46, cy 246.84."""
-    images = sorted((shared_data / "boofcv_chess").glob("*.jpg"))
+    images = sorted((real_data / "boofcv_chess").glob("*.jpg"))
     assert (
         main(
             [

@@ -304,14 +304,14 @@ def test_bad_recordings_get_one_line(tmp_path, capsys):
     assert len(err) == 3 and all(e.startswith("calibench: ") for e in err)
 
 
-def test_paper_belt_stage_residual_is_table_3_and_lives_in_y(shared_data):
+def test_paper_belt_stage_residual_is_table_3_and_lives_in_y(real_data):
     """The seed paper's measured tables with its quadratic as the simulation: the residual RMS is
     Table 3's, sqrt((31.96 + 24.08) / 242) = 0.4812 mm (to its printed digits), and the located
     structure is the Y error against y."""
     from calibench.scenarios.discover.stage import discover_stage, paper_belt_recording
 
     d, _ = discover_stage(
-        "belt-stage", paper_belt_recording(shared_data / "seed_belt_stage"), 0, "columns"
+        "belt-stage", paper_belt_recording(real_data / "seed_belt_stage"), 0, "columns"
     )
     assert abs(d["fit"]["rms_nominal"] - (31.96 + 24.08) ** 0.5 / 242**0.5) < 2e-4
     top = d["located"][0]

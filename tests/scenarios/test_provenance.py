@@ -18,10 +18,10 @@ def test_row_ranges_round_trip():
     assert ranges([]) == [] and rows_in([]).size == 0
 
 
-def _ur10_d(shared_data, tmp_path):
+def _ur10_d(real_data, tmp_path):
     """A copy of ur10_D under another name: a recording is known by its content, not its name."""
     copy = tmp_path / "session.csv"
-    shutil.copy(shared_data / "ur10_landgraf" / "ur10_D.csv", copy)
+    shutil.copy(real_data / "ur10_landgraf" / "ur10_D.csv", copy)
     return copy
 
 
@@ -36,8 +36,8 @@ def _fit(rec, out, *extra):
     return json.loads((out / "fit.json").read_text())
 
 
-def test_a_score_on_rows_that_chose_the_effects_is_in_sample(shared_data, tmp_path, capsys):
-    rec = _ur10_d(shared_data, tmp_path)
+def test_a_score_on_rows_that_chose_the_effects_is_in_sample(real_data, tmp_path, capsys):
+    rec = _ur10_d(real_data, tmp_path)
     found = _discover(rec, tmp_path / "d")
     (p,) = found["provenance"]["recordings"]
     assert p["sha256"] == file_sha256(rec)
@@ -55,9 +55,9 @@ def test_a_score_on_rows_that_chose_the_effects_is_in_sample(shared_data, tmp_pa
 
 
 def test_effects_discovered_on_the_training_rows_leave_the_held_out_rows_held_out(
-    shared_data, tmp_path
+    real_data, tmp_path
 ):
-    rec = _ur10_d(shared_data, tmp_path)
+    rec = _ur10_d(real_data, tmp_path)
     fit = _fit(rec, tmp_path / "f", "--effects", "discover")
     assert "in_sample" not in fit and fit["holdout"]["session.csv"]["samples"] > 100
     assert fit["holdout"]["session.csv"]["kind"].startswith("random rows of a training session")
@@ -67,8 +67,8 @@ def test_effects_discovered_on_the_training_rows_leave_the_held_out_rows_held_ou
     assert set(rows_in(mine["rows"]["fitted"]).tolist()) <= set(chose.tolist())
 
 
-def test_effects_that_do_not_say_which_rows_chose_them_score_in_sample(shared_data, tmp_path):
-    rec = _ur10_d(shared_data, tmp_path)
+def test_effects_that_do_not_say_which_rows_chose_them_score_in_sample(real_data, tmp_path):
+    rec = _ur10_d(real_data, tmp_path)
     found = _discover(rec, tmp_path / "d")
     del found["provenance"]
     bare = tmp_path / "bare.json"
@@ -77,20 +77,20 @@ def test_effects_that_do_not_say_which_rows_chose_them_score_in_sample(shared_da
     assert "does not say" in fit["in_sample"]["session.csv"]["why"]
 
 
-def test_a_recording_the_effects_never_read_is_held_out(shared_data, tmp_path):
+def test_a_recording_the_effects_never_read_is_held_out(real_data, tmp_path):
     """Effects discovered on D alone leave B's held-out rows held out: B never chose."""
     found = tmp_path / "d"
-    _discover(shared_data / "ur10_landgraf" / "ur10_D.csv", found)
+    _discover(real_data / "ur10_landgraf" / "ur10_D.csv", found)
     b = tmp_path / "b.csv"
-    shutil.copy(shared_data / "ur10_landgraf" / "ur10_B.csv", b)
+    shutil.copy(real_data / "ur10_landgraf" / "ur10_B.csv", b)
     fit = _fit(b, tmp_path / "f", "--effects", str(found / "discovery.json"))
     assert "in_sample" not in fit and fit["holdout"]["b.csv"]["samples"] > 300
 
 
-def test_discover_names_the_joints_gravity_hardly_loads(shared_data, tmp_path):
+def test_discover_names_the_joints_gravity_hardly_loads(real_data, tmp_path):
     """discover gives a joint a compliance candidate by fit's own rule, and names the joints it
     does not (their torque said in N m, not rounded to zero)."""
-    found = _discover(shared_data / "ur10_landgraf" / "ur10_D.csv", tmp_path / "d")
+    found = _discover(real_data / "ur10_landgraf" / "ur10_D.csv", tmp_path / "d")
     said = found["not_accepted"]
     assert "carries at most" in said["joint_compliance:joint6"]
     assert "carries at most" not in said.get("joint_compliance:joint2", "")
