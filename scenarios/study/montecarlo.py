@@ -34,6 +34,7 @@ from calibench.scenarios.study.trials import (
     load_scenario,
     run_trials,
     study_config,
+    study_seed_of,
     trial_seed,
 )
 
@@ -137,9 +138,12 @@ def _run_study(
     for i, row in done.items():
         # study.json may be gone: each row says its trial's seed, which this study's must be
         if row["seed"] != trial_seed(seed, i):
+            theirs = study_seed_of(row["seed"], i)
+            # the row's own seed is a hash the user never typed: name the study's --seed instead
+            ran = f"a study with --seed {theirs}" if theirs is not None else "another --seed"
             raise BadInput(
-                f"{out_dir / 'trials.jsonl'}: trial {i} was run with seed {row['seed']}, not this "
-                f"study's (--seed {seed}): the folder holds another study; use another --out, or "
+                f"{out_dir / 'trials.jsonl'}: trial {i} was run by {ran}, not this study's "
+                f"(--seed {seed}): the folder holds another study; use another --out, or "
                 "--force to replace it"
             )
     todo = [i for i in range(trials) if i not in done]

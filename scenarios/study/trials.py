@@ -36,6 +36,29 @@ def trial_seed(study_seed: int, index: int) -> int:
     return int(np.random.SeedSequence([int(study_seed), int(index)]).generate_state(1)[0])
 
 
+def study_seed_of(seed: int, index: int, tried: int = 10_000) -> int | None:
+    """The ``--seed`` of a study whose trial ``index`` ran with ``seed``, if a user would type it.
+
+    A journal row keeps only its trial's own seed; a message naming that number (a 32-bit hash)
+    tells a user nothing, so the study seeds users type (the small ones) are tried instead.
+
+    Parameters
+    ----------
+    seed : int
+        The trial's own seed, from a journal row.
+    index : int
+        The trial's index in its study.
+    tried : int
+        Study seeds 0 .. ``tried`` - 1 are tried (0.2 s for 10,000, on the error path only).
+
+    Returns
+    -------
+    int or None
+        The study seed, or None where none of those tried gives ``seed``.
+    """
+    return next((s for s in range(tried) if trial_seed(s, index) == seed), None)
+
+
 def study_config(
     scenario: str, table: dict | None = None, arm: str | None = None, checked_only: bool = False
 ):

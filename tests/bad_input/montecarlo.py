@@ -97,7 +97,14 @@ CASES = [
         {"o/trials.jsonl": json.dumps({"trial": 0, "seed": 123, "ok": True, "error": None}) + "\n"},
         ["montecarlo", "belt-stage", "--trials", "2", "--seed", "5", "--out", "{d}/o"],
         2,
-        "trial 0 was run with seed 123, not this study's (--seed 5)",
+        "trial 0 was run by another --seed, not this study's (--seed 5)",
+    ),
+    (  # the journal of `--seed 0` (trial 0's own seed 2968811710): named by the --seed typed
+        "mc-journal-of-seed-0",
+        {"o/trials.jsonl": json.dumps({"trial": 0, "seed": 2968811710, "ok": True}) + "\n"},
+        ["montecarlo", "belt-stage", "--trials", "2", "--seed", "1", "--out", "{d}/o"],
+        2,
+        "trial 0 was run by a study with --seed 0, not this study's (--seed 1)",
     ),
     (
         "mc-corrupt-study",
