@@ -6,7 +6,8 @@ folder's :data:`~calibench.scenarios.cli.folders.MARK` at once, so an interrupte
 is still known as calibench's. ``--force`` does not delete the results it replaces: it sets them
 aside in :data:`CLAIM`, and the release discards them only if the command wrote results of its own;
 a command that wrote none (refused as bad input, interrupted, crashed) leaves the folder's results
-and mark as it found them. A claim left by a command killed outright is settled by the next
+and mark as it found them; one that replaced results (a second ``fit`` in its folder, or forced)
+says so in one line at its release. A claim left by a command killed outright is settled by the next
 command in that folder, as its release would have. A folder outside ``calibench-out`` that no
 command marked, holding files by an output's name (a paper's ``x_axis_error_mm.csv``), is a
 user's: refused, ``--force`` or not.
@@ -20,7 +21,9 @@ import json
 import os
 import shutil
 import signal
+import sys
 import threading
+import time
 from pathlib import Path
 from typing import IO
 
@@ -88,6 +91,8 @@ def claim(folder: Path, command: str, scenario: str | None, force: bool, held: l
             (folder / CLAIM).mkdir()
             present = [name for name in OUTPUTS if is_file(folder / name)]
             state = {"mark": mark, "found": _results(folder), "present": present}
+            # a study resumed extends its results rather than replacing them: nothing to say
+            state["say"] = force or command != "montecarlo"
             (folder / CLAIM / "claim.json").write_text(json.dumps(state))
             for name in OUTPUTS if force else ():
                 if is_file(folder / name):
@@ -113,7 +118,9 @@ def release(held: list[Claim], reraise: bool = False) -> None:
         while held:
             one = held[-1]
             try:
-                _settle(one.folder)
+                replaced = _settle(one.folder)
+                if replaced:  # never silently: a second fit in a folder replaces the first
+                    print(f"calibench: {one.folder}: {replaced}", file=sys.stderr, flush=True)
                 if not is_file(one.folder / MARK):  # no results of any command's: no trace left
                     (one.folder / LOCK).unlink(missing_ok=True)
             finally:
@@ -142,22 +149,31 @@ def _check(folder: Path, command: str, scenario: str | None, force: bool) -> Non
         )
 
 
-def _settle(folder: Path) -> None:
+def _settle(folder: Path) -> str | None:
     """Resolve the claim recorded in ``folder``'s :data:`CLAIM`, if any: results written since
     (a result file new or changed since the claim) keep the claim's mark; none, and what was
-    found is put back."""
+    found is put back.
+
+    Returns
+    -------
+    str or None
+        Where results written since replaced results found by the claim: what they replaced, in
+        words (None for a study resumed, which extends its own).
+    """
     state = folder / CLAIM
     if is_file(state):  # no claim's: in the way of the next
         state.unlink()
     if not state.is_dir():
-        return
+        return None
     try:  # written whole before anything is set aside
         info = json.loads((state / "claim.json").read_text())
         found, present, mark = dict(info["found"]), list(info["present"]), info["mark"]
     except (OSError, ValueError, KeyError, TypeError):  # cut off before its record
         shutil.rmtree(state, ignore_errors=True)
-        return
-    if not any(found.get(name) != stat for name, stat in _results(folder).items()):
+        return None
+    written = any(found.get(name) != stat for name, stat in _results(folder).items())
+    replaced = _replaced(found, mark) if written and found and info.get("say", True) else None
+    if not written:
         # no results written: what the command did write (a study's description, an empty
         # journal) goes, and what it found comes back; a crash's traceback stays
         for name in OUTPUTS:
@@ -172,6 +188,18 @@ def _settle(folder: Path) -> None:
         else:
             (folder / MARK).write_text(mark)
     shutil.rmtree(state, ignore_errors=True)
+    return replaced
+
+
+def _replaced(found: dict[str, list[int]], mark: str | None) -> str:
+    """The results a claim found, replaced since, in words: which command wrote them and when."""
+    try:
+        held = json.loads(mark) if mark is not None else {}
+        by = f" of {said(str(held['command']), held.get('scenario'))}"
+    except (ValueError, KeyError, TypeError):  # a folder made before the mark: its files say it
+        by = ""
+    when = time.strftime("%Y-%m-%d %H:%M", time.localtime(max(s[1] for s in found.values()) / 1e9))
+    return f"replaced the former results{by} ({', '.join(sorted(found))} of {when})"
 
 
 def _results(folder: Path) -> dict[str, list[int]]:

@@ -9,7 +9,7 @@ import shutil
 from pathlib import Path
 
 from calibench.scenarios.cli import main
-from calibench.scenarios.cli.claims import CLAIM, LOCK
+from calibench.scenarios.cli.claims import CLAIM, LOCK, claim, release
 from calibench.scenarios.cli.folders import MARK, owner
 from calibench.scenarios.study.montecarlo import run_study
 
@@ -267,3 +267,29 @@ def test_a_forced_run_cut_off_before_its_report_keeps_the_old_results(tmp_path, 
     assert main(["run", "stewart", "--out", str(out), "--force"]) == 3
     assert sorted(p.name for p in out.iterdir()) == sorted([*before, "error.log"])
     assert owner(out) == ("fit", "belt-stage")
+
+
+def test_a_second_command_in_its_own_folder_says_what_it_replaced(tmp_path, capsys):
+    """A second fit replaces the first's results in one line naming them, never silently; one
+    refused says nothing (it replaced nothing), and --force names the other command's."""
+    out = tmp_path / "o"
+    argv = ["fit", "belt-stage", str(EXAMPLE), "--out", str(out)]
+    assert main(argv) == 0
+    assert "replaced" not in capsys.readouterr().err  # a first fit replaces nothing
+    assert main(argv) == 0
+    lines = [ln for ln in capsys.readouterr().err.splitlines() if "replaced" in ln]
+    assert len(lines) == 1
+    assert "replaced the former results of `calibench fit belt-stage` (fit.json of " in lines[0]
+    bad = tmp_path / "bad.csv"
+    bad.write_text("x_mm,y_mm\n1,2\n")
+    assert main(["fit", "belt-stage", str(bad), "--out", str(out)]) == 2
+    assert "replaced" not in capsys.readouterr().err
+    assert main(["fit", "vision-stage", str(EXAMPLE), "--out", str(out), "--force"]) == 0
+    assert "replaced the former results of `calibench fit belt-stage`" in capsys.readouterr().err
+    # a study resumed extends its own results (its summary rewritten): nothing said
+    for summary in ("{}", '{"trials": 2}'):
+        held: list = []
+        claim(tmp_path / "s", "montecarlo", "arm-cmm", False, held)
+        (tmp_path / "s" / "summary.json").write_text(summary)
+        release(held)
+    assert "replaced" not in capsys.readouterr().err
