@@ -67,15 +67,30 @@ def _folder(text: str) -> Path:
     return Path(text)
 
 
-def _out(p: argparse.ArgumentParser, default: str) -> None:
+# what --force replaces, per verb: each verb's help says what its own --force does
+_FORCE = {
+    "run": "a run's own former results are replaced without it",
+    "fit": "a former fit's are replaced without it",
+    "discover": "a former discovery's are replaced without it",
+    "camera": "a former calibration's are replaced without it",
+    "iso230": "a former evaluation's are replaced without it",
+}
+
+
+def _out(p: argparse.ArgumentParser, default: str, verb: str) -> None:
     """--out and --force: each command writes to a folder of its own."""
     p.add_argument("--out", type=_folder, help=f"output folder (default ./calibench-out/{default})")
-    p.add_argument(
-        "--force",
-        action="store_true",
-        help="replace the results --out holds (another command's, another study's) instead of "
-        "refusing; a study starts anew",
-    )
+    if verb == "montecarlo":
+        force = (
+            "replace the results --out holds (another command's, another study's) instead of "
+            "refusing or resuming: the study starts anew"
+        )
+    else:
+        force = (
+            f"replace another command's results in --out instead of refusing ({_FORCE[verb]}; "
+            "either is said in one line); a user's own files are never touched"
+        )
+    p.add_argument("--force", action="store_true", help=force)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -107,7 +122,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     r.add_argument("scenario", help=f"one of: {names}; or 'all'")
     r.add_argument("--seed", type=_seed, default=0, help="random seed (default 0)")
-    _out(r, "<scenario>")
+    _out(r, "<scenario>", "run")
     r.add_argument(
         "--fidelity",
         choices=("render", "analytic"),
@@ -142,7 +157,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     f.add_argument("scenario", help=f"one of: {fit_names}")
     f.add_argument("recordings", type=Path, nargs="+", metavar="RECORDING", help="CSV recording(s)")
-    _out(f, "<scenario>-fit")
+    _out(f, "<scenario>-fit", "fit")
     f.add_argument(
         "--arm", help="arm-cmm: ARM.toml or a built-in arm (arm-cmm, ur10); default the seed's arm"
     )
@@ -215,7 +230,7 @@ def build_parser() -> argparse.ArgumentParser:
             help=f"--scheduler tls://: {what} (PEM; or Dask's config distributed.comm.tls.{key})",
         )
     mc.add_argument("--seed", type=_seed, default=0, help="study seed (default 0)")
-    _out(mc, "<scenario>-montecarlo")
+    _out(mc, "<scenario>-montecarlo", "montecarlo")
     mc.add_argument(
         "--fidelity",
         choices=("render", "analytic"),
@@ -250,7 +265,7 @@ def build_parser() -> argparse.ArgumentParser:
         "one, or several of one machine, e.g. cold and warm, each stewart recording from its "
         "own tracker station)",
     )
-    _out(d, "<scenario>-discover")
+    _out(d, "<scenario>-discover", "discover")
     d.add_argument(
         "--seed", type=_seed, default=0, help="seed of the permutation tests (default 0)"
     )
@@ -288,7 +303,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--radial", type=int, choices=(2, 3), default=3, help="radial terms k1..k3 (default 3)"
     )
     c.add_argument("--no-tangential", action="store_true", help="no tangential terms p1, p2")
-    _out(c, "camera")
+    _out(c, "camera", "camera")
     i = sub.add_parser(
         "iso230",
         help="ISO 230-2 evaluation of a real bidirectional run of one axis",
@@ -296,7 +311,7 @@ def build_parser() -> argparse.ArgumentParser:
         "deviation_um or actual_mm) as ISO 230-2:2014; writes DIR/iso230.json and DIR/iso230.png.",
     )
     i.add_argument("run", type=Path, metavar="RUN.csv", help="the run, one row per reading")
-    _out(i, "iso230")
+    _out(i, "iso230", "iso230")
     if PLANNED:
         p.epilog = f"Scenarios planned but not built yet: {', '.join(PLANNED)}."
     return p

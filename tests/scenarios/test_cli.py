@@ -324,3 +324,23 @@ def test_a_run_without_its_recording_removes_a_former_one(tmp_path):
     assert main(["run", "stewart", "--no-rrd", "--out", str(tmp_path)]) == 0
     assert not (tmp_path / "run.rrd").exists()
     assert "rrd" not in json.loads((tmp_path / "report.json").read_text())
+
+
+@pytest.mark.parametrize(
+    ("verb", "former"),
+    [
+        ("run", "a run's own former results"),
+        ("fit", "a former fit's"),
+        ("discover", "a former discovery's"),
+        ("camera", "a former calibration's"),
+        ("iso230", "a former evaluation's"),
+        ("montecarlo", "the study starts anew"),
+    ],
+)
+def test_each_verb_s_help_says_what_its_force_does(verb, former, capsys):
+    """--force's help is the verb's own: a study's "starts anew" only where there is a study."""
+    assert main([verb, "--help"]) == 0
+    text = " ".join(capsys.readouterr().out.split())  # argparse's wrapping undone
+    force = text[text.index("--force ") :]
+    assert former in force
+    assert ("starts anew" in force) == (verb == "montecarlo")
