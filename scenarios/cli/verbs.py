@@ -10,7 +10,7 @@ import time
 from pathlib import Path
 
 from calibench.scenarios.cli.claims import claim, release
-from calibench.scenarios.cli.status import EXIT_CHECK_FAILED, EXIT_OK
+from calibench.scenarios.cli.status import EXIT_CHECK_FAILED, EXIT_OK, run_verdict
 from calibench.scenarios.registry import check_fidelity
 
 
@@ -73,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
 
         load_arm(configs["arm-cmm"].arm)  # a bad arm is said before anything runs
         check_cones(configs["arm-cmm"])  # and cones it cannot reach
-    status = EXIT_OK
+    failed: list[str] = []
     for s in scenarios:
         out, held = args.out / s.name if args.scenario == "all" else args.out, []
         try:
@@ -94,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
         verdict = "ok" if report.ok else "FAILED"
         print(f"\n{s.name}: {verdict} in {report.elapsed_s:.1f} s{gl} -> {path}")
         if not report.ok:
-            status = EXIT_CHECK_FAILED
+            failed.append(s.name)
     if args.save_images is not None:
         from calibench.scenarios.belt_stage.images import save_rendered_views
 
@@ -104,7 +104,7 @@ def run(args: argparse.Namespace) -> int:
             f"(calibench camera {args.save_images}/view*.png --cols {truth['board']['cols']} "
             f"--rows {truth['board']['rows']} --square-mm {truth['board']['square_mm']:g})"
         )
-    return status
+    return run_verdict(failed, len(scenarios), args.scenario == "all")
 
 
 def fit(args: argparse.Namespace) -> int:

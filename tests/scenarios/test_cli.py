@@ -344,3 +344,34 @@ def test_each_verb_s_help_says_what_its_force_does(verb, former, capsys):
     force = text[text.index("--force ") :]
     assert former in force
     assert ("starts anew" in force) == (verb == "montecarlo")
+
+
+@pytest.mark.parametrize("failing", [(), ("probe-scanner", "stewart")])
+def test_run_all_ends_with_one_overall_verdict(failing, tmp_path, monkeypatch, capsys):
+    """`run all`'s last line is its verdict, and agrees with its exit status (each scenario's
+    run replaced by one whose check passes or fails, as ``failing`` says)."""
+    import dataclasses
+
+    from calibench.scenarios import registry
+    from calibench.scenarios.report import Check, Report
+
+    real = registry.scenario
+
+    def scenario(name):
+        def run(config, seed, fidelity, out_dir, rrd):
+            return Report(
+                name, seed, fidelity, checks=[Check("c", 2.0 if name in failing else 0.0, 1.0)]
+            )
+
+        return dataclasses.replace(real(name), run=run)
+
+    monkeypatch.setattr(registry, "scenario", scenario)
+    status = main(["run", "all", "--fidelity", "analytic", "--no-rrd", "--out", str(tmp_path)])
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    n = len(registry.NAMES)
+    if failing:
+        assert status == 1
+        assert last == f"2 of {n} scenarios failed: probe-scanner, stewart"
+    else:
+        assert status == 0
+        assert last == f"all {n} scenarios passed"
