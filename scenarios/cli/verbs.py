@@ -438,10 +438,11 @@ def iso230(args: argparse.Namespace) -> int:
     a = r["axis"]
     print(
         f"ISO 230-2, {r['targets']} targets, {r['runs']} runs each way (um): A {a['A']:.3f}  E "
-        f"{a['E']:.3f}  "
-        f"M {a['M']:.3f}  R {a['R']:.3f}  B {a['B']:.3f}  (A up {a['A_up']:.3f}, down "
-        f"{a['A_down']:.3f})"
+        f"{a['E']:.3f}  M {a['M']:.3f}  R {a['R']:.3f}  B {a['B']:.3f}  (A up {a['A_up']:.3f}, "
+        f"down {a['A_down']:.3f})"
     )
+    if not r["conforms"]:
+        print(f"not conforming: {r['reason']}; the figures are evaluated its way on fewer readings")
     print(f"-> {args.out / 'iso230.json'}")
     return EXIT_OK
 

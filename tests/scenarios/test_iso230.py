@@ -85,3 +85,37 @@ def test_iso230_bad_runs(capsys, tmp_path):
     _bad(capsys, tmp_path, head + copies, "copies")
     uneven = copies + "0,3,1,1\n"
     _bad(capsys, tmp_path, head + uneven, "same number of runs")
+
+
+def test_a_run_short_of_the_standard_s_five_runs_says_so(tmp_path, capsys, monkeypatch):
+    """2 runs each way are evaluated ISO 230-2's way, but the printout, iso230.json and the
+    figure's title say the standard asks for 5; a run of 5 conforms and says nothing of it."""
+    import matplotlib.figure
+
+    titles = []
+    monkeypatch.setattr(
+        matplotlib.figure.Figure,
+        "savefig",
+        lambda fig, *a, **k: titles.append(fig.axes[0].get_title()),
+    )
+    up, down, _ = _axis()
+    rows = [
+        f"{t:g},{j + 1},{d},{m + o:.6f}"
+        for i, t in enumerate(TARGETS)
+        for j, o in enumerate((-0.5, 0.5))
+        for d, m in ((+1, up[i]), (-1, down[i]))
+    ]
+    (tmp_path / "two.csv").write_text("target_mm,run,direction,deviation_um\n" + "\n".join(rows))
+    assert main(["iso230", str(tmp_path / "two.csv"), "--out", str(tmp_path / "two")]) == 0
+    said = "ISO 230-2:2014 asks for at least 5 runs each way (this run has 2)"
+    assert f"not conforming: {said}" in capsys.readouterr().out
+    r = json.loads((tmp_path / "two" / "iso230.json").read_text())
+    assert (r["runs"], r["conforms"], r["reason"]) == (2, False, said)
+    assert f"NOT CONFORMING: {said}" in titles[-1]
+    assert (
+        main(["iso230", str(_write(tmp_path / "five.csv")), "--out", str(tmp_path / "five")]) == 0
+    )
+    assert "conforming" not in capsys.readouterr().out
+    r = json.loads((tmp_path / "five" / "iso230.json").read_text())
+    assert (r["runs"], r["conforms"], r["reason"]) == (5, True, None)
+    assert "CONFORMING" not in titles[-1]
