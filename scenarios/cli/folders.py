@@ -37,6 +37,8 @@ OUTPUTS = (
     "study.png",
     "study.rrd",
     "run.rrd",
+    "recording.csv",  # a run's simulated recording and what it conceals: parts of its results
+    "recording.truth.json",
     "error.log",
     "fit.png",
     "residuals.csv",

@@ -93,6 +93,8 @@ def run(args: argparse.Namespace) -> int:
         gl = f", rendered by {report.info['renderer']}" if "renderer" in report.info else ""
         verdict = "ok" if report.ok else "FAILED"
         print(f"\n{s.name}: {verdict} in {report.elapsed_s:.1f} s{gl} -> {path}")
+        if "recording" in report.info:  # what the sensors recorded, for fit and discover
+            print(f"recording -> {path.parent / report.info['recording']}")
         if not report.ok:
             failed.append(s.name)
     if args.save_images is not None:
