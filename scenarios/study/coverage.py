@@ -20,11 +20,9 @@ def pooled_coverage(summary: dict) -> float:
 def outside_band(summary: dict) -> int:
     """How many parameters' coverage lies outside the band where an honest std's coverage lands
     95 % of the time with this many trials (``coverage_95_expected``)."""
-    return sum(
-        not lo <= p["coverage_95"] <= hi
-        for p in covered(summary)
-        for lo, hi in [p["coverage_95_expected"]]
-    )
+    from calibench.scenarios.study.summary import in_band
+
+    return sum(not in_band(p["coverage_95"], p["coverage_95_expected"]) for p in covered(summary))
 
 
 def worst_bias(summary: dict) -> tuple[str, float]:

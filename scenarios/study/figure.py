@@ -12,18 +12,12 @@ from pathlib import Path
 import numpy as np
 
 from calibench.scenarios import cvplot
+from calibench.scenarios.study.summary import coverage_band, in_band
 
 WIDTH, HEIGHT = 1260, 405  # px
 Z_CLIP, BINS = 6.0, 60  # the histogram spans +-Z_CLIP std in BINS bins
 BLUE, GREEN, RED = (180, 119, 31), (44, 160, 44), (40, 39, 214)  # BGR
 BAND = (215, 215, 215)
-
-
-def coverage_band(trials: int) -> tuple[float, float]:
-    """Where an honest std's coverage of 95 % intervals lands over ``trials`` trials: 0.95 within
-    two binomial standard deviations."""
-    half = 2 * math.sqrt(0.95 * 0.05 / max(trials, 1))
-    return max(0.95 - half, 0.0), min(0.95 + half, 1.0)
 
 
 def _axes(img, box, ticks_y, fmt) -> None:
@@ -72,32 +66,37 @@ def _histogram(img, box, z: np.ndarray, title: str) -> None:
     cvplot.text(img, "N(0, 1): an honest std", (x0 + 40, y0 + 42), 0.4)
 
 
-def _coverage(img, box, names: list, cover: list, trials: int) -> None:
-    """Each parameter's coverage of its +-1.96 std interval as a bar, green inside the band an
-    honest std gives over ``trials`` trials, red outside."""
+def _coverage(img, box, names: list, cover: list, bands: list, trials: int) -> None:
+    """Each parameter's coverage of its +-1.96 std interval as a bar, green inside its band
+    (summary.json's ``coverage_95_expected``, judged by the summary's own rule), red outside; the
+    band drawn and labelled is the first's (every parameter counts the same ``trials``)."""
     import cv2
 
     x0, y0, x1, y1 = box
-    lo, hi = coverage_band(trials)
+    lo, hi = bands[0] if bands else coverage_band(trials)
 
     def y(v):
         return int(round(y1 - (y1 - y0) * v / 1.05))
 
     cv2.rectangle(img, (x0 + 1, y(hi)), (x1 - 1, y(lo)), BAND, -1)
     step = (x1 - x0) / max(len(names), 1)
-    for k, (name, c) in enumerate(zip(names, cover)):
+    for k, (name, c, band) in enumerate(zip(names, cover, bands)):
         left = int(x0 + (k + 0.1) * step)
         right = max(int(x0 + (k + 0.9) * step), left + 1)
-        colour = GREEN if lo <= c <= hi else RED
+        colour = GREEN if in_band(c, band) else RED
         cv2.rectangle(img, (left, y(c)), (right, y1), colour, -1)
         cvplot.vertical_text(img, name, (int(x0 + (k + 0.5) * step), y1 + 4), 0.32, anchor="top")
     for edge in (lo, hi):  # the band's edges over the bars too
         cv2.line(img, (x0, y(edge)), (x1, y(edge)), (90, 90, 90), 1)
     _axes(img, box, [(v, y(v)) for v in np.arange(0.0, 1.01, 0.2)], lambda v: f"{v:.1f}")
+    # the edges are coverages k / trials: digits enough that the next coverage in (or out) of
+    # the band is not printed as the edge itself
+    digits = max(2, math.ceil(math.log10(max(trials, 1))))
     cvplot.text(img, "coverage per parameter", ((x0 + x1) // 2, y0 - 24), 0.5, anchor="centre")
     cvplot.text(
         img,
-        f"grey {lo:.2f}-{hi:.2f}: 0.95 within {trials} trials' scatter (red: outside)",
+        f"grey {lo:.{digits}f}-{hi:.{digits}f}: 0.95 within {trials} trials' scatter "
+        "(red: outside)",
         ((x0 + x1) // 2, y0 - 7),
         0.4,
         anchor="centre",
@@ -129,6 +128,7 @@ def write_study_figure(path: Path, rows: list[dict], summary: dict) -> None:
         (700, 40, 1245, 300),
         [p["name"] for p in with_std],
         [p["coverage_95"] for p in with_std],
+        [p["coverage_95_expected"] for p in with_std],
         len(good),
     )
     cvplot.write_png(path, img)

@@ -58,6 +58,34 @@ def binom_ppf(p: np.ndarray, n: int, prob: float) -> np.ndarray:
     return np.searchsorted(cdf, np.asarray(p) * (1 - 1e-14)).astype(float)
 
 
+def coverage_band(trials: int) -> tuple[float, float]:
+    """Where an honest std's coverage of 95 % intervals lands 95 % of the time over ``trials``
+    trials: the 2.5 % and 97.5 % quantiles of Binomial(trials, 0.95), over ``trials``. The one
+    band of summary.json (``coverage_95_expected``), the console and study.png.
+
+    Parameters
+    ----------
+    trials : int
+        The trials a coverage counts (at least 1).
+
+    Returns
+    -------
+    (float, float)
+        The band's edges, each a coverage the trials can give (k / trials): a coverage on an edge
+        is inside (:func:`in_band`).
+    """
+    n = max(int(trials), 1)
+    lo, hi = binom_ppf(np.array([0.025, 0.975]), n, 0.95) / n
+    return float(lo), float(hi)
+
+
+def in_band(coverage: float, band) -> bool:
+    """Whether ``coverage`` lies in ``band`` (lo, hi), its edges included: the one rule for the
+    boundary, used wherever a coverage is judged (the summary's counts, study.png's colours)."""
+    lo, hi = band
+    return bool(lo <= coverage <= hi)
+
+
 def summarise(scenario: str, rows: list[dict], elapsed_s: float) -> dict:
     """Bias, RMSE, mean reported std and 95 % coverage of every parameter over the good trials.
 
@@ -109,11 +137,7 @@ def summarise(scenario: str, rows: list[dict], elapsed_s: float) -> dict:
                 "mean_std": float(np.mean(std)) if has_std else None,
                 "coverage_95": float(np.mean(np.abs(err) <= Z_95 * std)) if has_std else None,
                 # where an honest coverage of 0.95 lands 95 % of the time with this many trials
-                "coverage_95_expected": list(
-                    binom_ppf(np.array([0.025, 0.975]), len(err), 0.95) / len(err)
-                )
-                if has_std
-                else None,
+                "coverage_95_expected": list(coverage_band(len(err))) if has_std else None,
                 **extra,
             }
         )
