@@ -39,6 +39,13 @@ from calibench.estimators.rotations import rigid_transform
 from calibench.scenarios.arm_cmm.arms import chain_of
 from calibench.scenarios.harness import write_outputs
 from calibench.scenarios.report import BadInput, Check, Parameter, Report
+from calibench.scenarios.run_recording import (
+    MASSES_NEEDED,
+    ArmRecordingPlan,
+    check_arm_kind,
+    check_plan,
+    write_recording,
+)
 from calibench.sim.arm_cmm import ArmSim, ArmTruth
 
 NAME = "arm-cmm"
@@ -66,7 +73,16 @@ class ArmCmmConfig:
     stated_angle_sigma_urad: float = 4.0
     stated_encoder_sigma_urad: float = 5.0
 
+    # [arm-cmm.recording]: what DIR/recording.csv records and conceals (run_recording.py)
+    recording: ArmRecordingPlan = ArmRecordingPlan()
+
     def __post_init__(self):
+        check_plan(NAME, self.recording)
+        if self.recording.conceal in MASSES_NEEDED:  # said before the run, not after it
+            from calibench.scenes.arm_cmm import load_arm
+
+            arm = load_arm(self.arm)
+            check_arm_kind(NAME, self.recording, arm.has_masses, arm.name)
         if self.stated_range_sigma_um[0] <= 0:
             raise ValueError("stated_range_sigma_um: the range's constant term must be positive")
         if self.n_candidates < self.n_postures:
@@ -338,6 +354,7 @@ def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool
         R_bt=R_bt,
         t_bt=t_bt,
     )
+    write_recording(out_dir, NAME, config, seed, report.info)
     return write_outputs(report, artifacts, out_dir, rrd, "calibench.scenarios.arm_cmm")
 
 

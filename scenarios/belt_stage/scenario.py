@@ -36,6 +36,7 @@ from calibench.estimators.stage.error_map import COEF_NAMES, compensated_command
 from calibench.scenarios.belt_stage.views import record_views
 from calibench.scenarios.harness import write_outputs
 from calibench.scenarios.report import Check, Parameter, Report
+from calibench.scenarios.run_recording import StageRecordingPlan, check_plan, write_recording
 from calibench.scenes.belt_stage import BeltStageGeometry
 from calibench.scenes.checkerboard import TEXTURE_PX_PER_SQUARE
 from calibench.sim.belt_stage import (
@@ -73,7 +74,11 @@ class BeltStageConfig:
     map_limit_mm: float = 0.1
     corner_limit_px: float = 0.1
 
+    # [belt-stage.recording]: what DIR/recording.csv records and conceals (run_recording.py)
+    recording: StageRecordingPlan = StageRecordingPlan()
+
     def __post_init__(self):
+        check_plan(NAME, self.recording, self.geometry.travel_mm)
         check_config(self)
 
 
@@ -401,6 +406,7 @@ def run(config: BeltStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: b
             "y_pulses": y_pulses,
             "limit_mm": config.map_limit_mm,
         }
+        write_recording(out_dir, NAME, config, seed, report.info)
         return write_outputs(report, artifacts, out_dir, rrd, "calibench.scenarios.belt_stage")
     finally:
         sim.close()

@@ -25,6 +25,7 @@ from calibench.estimators.probe_scanner.calibration import (
 )
 from calibench.scenarios.harness import write_outputs
 from calibench.scenarios.report import Check, Parameter, Report
+from calibench.scenarios.run_recording import ScannerRecordingPlan, check_plan, write_recording
 from calibench.scenes.probe_scanner import ProbeScannerGeometry, ProbeScannerNominal
 from calibench.sim.probe_scanner import ProbeScannerSim, ProbeScannerTruth
 
@@ -43,7 +44,11 @@ class ProbeScannerConfig:
     d_requirement_mm: float = 0.5  # the system requirement on d (and on dL)
     contour_quanta: float = 3.0  # "after" must be within this many encoder quanta
 
+    # [probe-scanner.recording]: what DIR/recording.csv records and conceals (run_recording.py)
+    recording: ScannerRecordingPlan = ScannerRecordingPlan()
+
     def __post_init__(self):
+        check_plan(NAME, self.recording)
         check_config(self)
 
 
@@ -238,6 +243,7 @@ def run(config: ProbeScannerConfig, seed: int, fidelity: str, out_dir: Path, rrd
         "lsq": lsq,
         "plate_outline": sim.true_outline_mm("plate"),
     }
+    write_recording(out_dir, NAME, config, seed, report.info)
     return write_outputs(report, artifacts, out_dir, rrd, "calibench.scenarios.probe_scanner")
 
 

@@ -34,6 +34,7 @@ from calibench.estimators.stewart.legs import LegCalibration, calibrate_legs, tw
 from calibench.estimators.stewart.tracker import locate_stations, poses_from_lengths
 from calibench.scenarios.harness import write_outputs
 from calibench.scenarios.report import Check, Parameter, Report
+from calibench.scenarios.run_recording import StewartRecordingPlan, check_plan, write_recording
 from calibench.scenes.stewart import LEG_STROKE_MM, PLATFORM_KG, StewartGeometry
 from calibench.sim.stewart import StewartSim, StewartTruth, stewart_poses
 
@@ -59,7 +60,11 @@ class StewartConfig:
     stated_length_sigma_um: tuple = (0.3, 0.3)
     stated_reading_sigma_um: float = 1.0
 
+    # [stewart.recording]: what DIR/recording.csv records and conceals (run_recording.py)
+    recording: StewartRecordingPlan = StewartRecordingPlan()
+
     def __post_init__(self):
+        check_plan(NAME, self.recording)
         if max(self.stated_length_sigma_um) <= 0:
             raise ValueError(
                 "stated_length_sigma_um: the tracker's stated sigma a + b L needs a or b positive"
@@ -415,6 +420,7 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
         config=config,
         holdout_error_mm=err,
     )
+    write_recording(out_dir, NAME, config, seed, report.info)
     return write_outputs(report, artifacts, out_dir, rrd, "calibench.scenarios.stewart")
 
 

@@ -30,6 +30,7 @@ from calibench.estimators.stage.circle_plate import PlateFit, compensation_model
 from calibench.estimators.stage.compensation import MODEL_DEGREES, fit_polynomial
 from calibench.scenarios.harness import write_outputs
 from calibench.scenarios.report import Check, Parameter, Report, progress
+from calibench.scenarios.run_recording import StageRecordingPlan, check_plan, write_recording
 from calibench.scenarios.vision_stage.procedure import (
     RULER_SHORTER_BY_MM,
     Microscope,
@@ -76,7 +77,11 @@ class VisionStageConfig:
     lineruler_limit_um: float = 8.0
     polynomial_limit_um: float = 3.0
 
+    # [vision-stage.recording]: what DIR/recording.csv records and conceals (run_recording.py)
+    recording: StageRecordingPlan = StageRecordingPlan(step_mm=4.5)
+
     def __post_init__(self):
+        check_plan(NAME, self.recording, self.geometry.travel_mm)
         check_config(self)
 
 
@@ -267,6 +272,7 @@ def run(config: VisionStageConfig, seed: int, fidelity: str, out_dir: Path, rrd:
             s00=s00,
             geometry=g,
         )
+        write_recording(out_dir, NAME, config, seed, report.info)
         return write_outputs(report, artifacts, out_dir, rrd, "calibench.scenarios.vision_stage")
     finally:
         sim.close()

@@ -38,6 +38,7 @@ def arm_recording(
     noise: str = "gaussian",
     repeat: int = 0,
     machine: int = 0,
+    truth=None,
 ) -> tuple[ArmRecording, dict]:
     """A blinded arm recording: the twin with its default as-built errors (Table 1 for the seed's
     arm), probed at ``n`` postures by a reference of ``noise_um`` 1-sigma per coordinate that
@@ -77,6 +78,10 @@ def arm_recording(
     machine : int
         Which arm of the description's drawing: 0 the one with its default as-built errors,
         ``k`` > 0 another, its errors drawn with seed ``k`` (``sim.arm_cmm.drawn_errors``).
+    truth : ArmTruth or None
+        The twin probed (a ``run --config`` file's: its chain's errors, its joints' stiffness,
+        its tracker); None: the description's as given by ``machine``. The concealed effect is
+        added on top of it.
 
     Returns
     -------
@@ -101,7 +106,8 @@ def arm_recording(
     rng = np.random.default_rng(seed)
     description = load_arm(arm)
     N = description.n_joints
-    truth = ArmTruth(delta=drawn_errors(description, machine) if machine else ())
+    if truth is None:
+        truth = ArmTruth(delta=drawn_errors(description, machine) if machine else ())
     sim = ArmSim(description, truth)
     q = sim.random_postures(n, rng)
     t = np.arange(n) * 20.0

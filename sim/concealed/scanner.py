@@ -7,6 +7,8 @@ eccentricity and scale), ``drift`` (the probe's mount warming behind the logged 
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from calibench.recordings import ScannerRecording
@@ -26,6 +28,8 @@ def scanner_recording(
     harmonic: int | None = None,
     form_um: float = 0.0,
     repeat: int = 0,
+    twin=None,
+    geometry=None,
 ) -> tuple[ScannerRecording, dict]:
     """A blinded probe-scanner recording: ``turns`` turns over the calibration plate, the rail
     as built (its d, dL, alpha0 and the plate's clamping drawn about the design), each reading
@@ -65,6 +69,12 @@ def scanner_recording(
     repeat : int
         The same machine and plate recorded again: its errors and the room the same draws, its
         angle jitter and reading noise fresh (``k`` > 0: the ``k``-th repeat; 0: the first).
+    twin : ProbeScannerTruth or None
+        The twin scanned (a ``run --config`` file's: its rail, its plate's clamping, its
+        run-out, eccentricity and scale, its probe's noise); None: a rail drawn about the
+        design. The concealed effect is added on top of it.
+    geometry : ProbeScannerGeometry or None
+        The scanner's design (its plate, its samples per turn); None: the default.
 
     Returns
     -------
@@ -85,7 +95,7 @@ def scanner_recording(
     if kind not in SCANNER_KINDS + UNWRITTEN_SCANNER_KINDS:
         raise ValueError(f"unknown kind {kind!r} (known: {', '.join(SCANNER_KINDS)})")
     rng = np.random.default_rng(seed)
-    g = ProbeScannerGeometry()
+    g = geometry or ProbeScannerGeometry()
     turns = DRIFT_TURNS if kind == "drift" else turns
     d, dL, alpha0, centre = (
         rng.uniform(7.6, 8.4),
@@ -95,9 +105,12 @@ def scanner_recording(
     )
     # the plate turned by phi on the table: to the rail it stands as the plate at rest seen from
     # a rail turned back by phi, its clamping offset turned with it
+    if twin is not None:  # the twin's rail (drawn all the same: the draws after stay the seed's)
+        d, dL, alpha0, centre = twin.d_mm, twin.dL_mm, twin.alpha0_rad, twin.plate_centre_mm
     phi = np.deg2rad(plate_turn_deg)
     centre = np.array([[np.cos(phi), -np.sin(phi)], [np.sin(phi), np.cos(phi)]]) @ centre
-    truth = ProbeScannerTruth(
+    truth = dataclasses.replace(
+        twin or ProbeScannerTruth(),
         d_mm=d,
         dL_mm=dL,
         alpha0_rad=alpha0 - phi,
@@ -118,7 +131,7 @@ def scanner_recording(
     jitter = rng.normal(0, np.deg2rad(truth.angle_jitter_deg), len(nominal))
     if session is not rng:
         jitter = session.normal(0, np.deg2rad(truth.angle_jitter_deg), len(nominal))
-    true_theta = nominal + jitter
+    true_theta = sim.table_angle(nominal) + jitter  # the twin's own eccentricity (none: nominal)
     if "eccentricity" in wanted:
         A, ph = rng.uniform(150, 400) * 1e-6, rng.uniform(0, 2 * np.pi)
         true_theta -= A * np.sin(nominal + ph)  # the encoder reads A sin ahead of the table
@@ -126,6 +139,8 @@ def scanner_recording(
             {"name": "encoder_eccentricity", "axis": "rho", "params": {"amplitude_urad": A * 1e6}}
         )
     rho = sim.exact_rho("plate", true_theta)
+    for k, a, ph in zip(truth.runout_harmonics, truth.runout_mm, truth.runout_phase_rad):
+        rho = rho + a * np.sin(round(k) * true_theta + ph)  # the twin's own run-out
     if "runout" in wanted:
         # not 4 or 8: a square artefact cannot show a fourfold runout (discover says so)
         k, A, ph = (
@@ -156,6 +171,8 @@ def scanner_recording(
         push, truth_wall = thin_wall_deflection(rng, true_theta)
         rho += push
         effects.append(truth_wall)
+    if truth.probe_scale_ppm:  # the twin's own scale
+        rho = rho * (1 + truth.probe_scale_ppm * 1e-6)
     if "scale" in wanted:
         s = rng.uniform(1000, 3000)
         rho *= 1 + s * 1e-6

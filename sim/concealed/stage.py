@@ -102,6 +102,9 @@ def stage_recording(
     rise_k: float | None = None,
     warmer_k: float = 0.0,
     repeat: int = 0,
+    plan: StagePlan | None = None,
+    truth=None,
+    geometry=None,
 ) -> tuple[StageRecording, dict]:
     """A blinded stage recording: the twin replayed along the plan's lines, the as-built map, a
     wandering room temperature, each pass's offset and the reference's noise, with the concealed
@@ -130,6 +133,11 @@ def stage_recording(
         The same machine recorded again along the same plan: its errors and the room the same
         draws, its pass offsets and noise fresh (``k`` > 0: the ``k``-th repeat; 0: the first
         recording). What a structure chosen on the first is scored on.
+    plan : StagePlan or None
+        The lines recorded; None: the scenario's ``PLANS`` entry.
+    truth, geometry : the twin's ``*Truth`` and ``*Geometry``, or None
+        The twin replayed (a ``run --config`` file's: its error map, drives, belts); None: the
+        scenario's defaults. The concealed effects are added on top of its motion.
 
     Returns
     -------
@@ -147,7 +155,7 @@ def stage_recording(
     if kind not in STAGE_KINDS + UNWRITTEN_STAGE_KINDS:
         raise ValueError(f"unknown kind {kind!r}")
     rng = np.random.default_rng(seed)
-    plan = PLANS[scenario]
+    plan = plan or PLANS[scenario]
     c = stage_commands(plan)
     x, y, n = c["x"], c["y"], len(c["x"])
     effects = []
@@ -157,8 +165,8 @@ def stage_recording(
         a = str(rng.choice(["x", "y"]))
         pos, effect = _elastic_belt(a, rng, x, y)
         effects.append(effect)
-    else:
-        pos = replay_stage(scenario, x, y)
+    else:  # replayed once the room's temperature is known (a twin's drives may expand with it)
+        pos = None
     err = np.zeros((n, 2))
     # the as-built machine differs smoothly from the twin (the scene's model absorbs this)
     u, v = x / plan.travel_mm[0], y / plan.travel_mm[1]
@@ -233,6 +241,9 @@ def stage_recording(
     run = c["run"].astype(int)
     err += session.normal(0, PASS_OFFSET_UM / 1000, (plan.passes, 2))[run]
     err += reading_noise(noise, session, (n, 2), REFERENCE_NOISE_UM / 1000)
+    if pos is None:
+        temp = None if truth is None else T
+        pos = replay_stage(scenario, x, y, temp_c=temp, truth=truth, geometry=geometry)
     meas = pos + err
     rec = StageRecording(
         x_cmd_mm=x,

@@ -15,7 +15,7 @@ from calibench.sim.concealed.unwritten import (
     stewart_effect,
     tracker_air,
 )
-from calibench.sim.stewart import stewart_poses
+from calibench.sim.stewart import leg_effects_mm, stewart_poses
 
 STEWART_KINDS = ("null", "thermal", "backlash", "pitch", "compliance")
 # The Stewart scenario's default working range about home (its StewartConfig's), fixed here: the
@@ -32,6 +32,8 @@ def stewart_recording(
     repeat: int = 0,
     rise_k: float | None = None,
     warmer_k: float = 0.0,
+    twin=None,
+    geometry=None,
 ) -> tuple[StewartRecording, dict]:
     """A blinded Stewart recording: ``n_poses`` poses visited, then visited again in reverse
     order (so every leg approaches each pose both ways), a payload of 0, 500 or 1000 N on the
@@ -65,6 +67,12 @@ def stewart_recording(
     warmer_k : float
         The room this much warmer than on the first recording, K (with ``repeat``: the same
         platform recorded warm; its legs' growth counts from the first recording's start).
+    twin : StewartTruth or None
+        The twin recorded (a ``run --config`` file's: its hinge errors' size, its legs' physics,
+        the compliance under the recording's own ``load_n``); None: the default. The concealed
+        effect is added on top of it.
+    geometry : StewartGeometry or None
+        The platform's design (a ``[stewart.geometry]`` table's); None: the default.
 
     Returns
     -------
@@ -89,8 +97,9 @@ def stewart_recording(
         raise ValueError(f"unknown kind {kind!r} (known: {', '.join(STEWART_KINDS)})")
     rng = np.random.default_rng(seed)
     noisy = repeat_noise(noise, rng, seed, repeat)
-    g = StewartGeometry()
-    sim = StewartSim(g, StewartTruth(), rng)
+    g = geometry or StewartGeometry()
+    twin = twin or StewartTruth()
+    sim = StewartSim(g, twin, rng)
     poses = stewart_poses(n_poses, rng, g, STEWART_TRANSLATION_MM, STEWART_ROTATION_DEG)
     poses = poses + poses[::-1]
     n = len(poses)
@@ -140,6 +149,9 @@ def stewart_recording(
             c * (1 + 0.05 * rng.standard_normal(6)) * 1e-3 * force
         )  # the screw reads what the leg gave
         effects.append({"name": "leg_compliance", "axis": "legs", "params": {"um_per_n": c}})
+    if twin.has_leg_physics:  # the twin's own legs, under the payload the recording says
+        pushed = np.array([sim.leg_forces_n(R, t, load[k]) for k, (R, t) in enumerate(poses)])
+        readings += leg_effects_mm(twin, L, pushed, direction, T)
     if kind in UNWRITTEN_STEWART_KINDS and kind != "tracker_air":  # the second suite's
         more, truth = stewart_effect(kind, rng, direction, leg, t_s)
         readings += more
