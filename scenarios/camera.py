@@ -10,6 +10,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from calibench.estimators.camera.board_extent import extra_lines
 from calibench.estimators.camera.chessboard import find_chessboard_corners, gross_corners
 from calibench.estimators.camera.zhang import CalibrationError, calibrate_camera
 from calibench.files import first_repeat
@@ -44,12 +45,15 @@ def calibrate_photos(
     if twice is not None:
         raise BadInput(f"camera: {twice} is given twice: a photo counts once")
     names = _labels(paths)
-    found, sizes, rejected = {}, {}, {}
-    for p, (size, corners, why) in zip(paths, _detect_all(paths, cols, rows)):
+    found, sizes, rejected, bigger = {}, {}, {}, {}
+    for p, (size, corners, why, extra) in zip(paths, _detect_all(paths, cols, rows)):
         if size is None:
             rejected[names[p]] = why
             continue
         sizes[p], found[p] = size, corners
+        if extra is not None and any(extra):
+            bigger[names[p]] = (cols + extra[0] + extra[1], rows + extra[2] + extra[3])
+    _refuse_a_part_of_the_board(bigger, sum(c is not None for c in found.values()), cols, rows)
     # the size most photos share is the camera's: one odd photo, first or not, is the one rejected
     counts = list(sizes.values())
     size = max(set(counts), key=counts.count) if counts else None
@@ -128,8 +132,28 @@ def calibrate_photos(
     }
 
 
+def _refuse_a_part_of_the_board(bigger: dict, found: int, cols: int, rows: int) -> None:
+    """BadInput where the board has more inner corners than --cols and --rows say: a
+    calibration on a part of it would take another board's corners for this one's.
+
+    ``bigger``: the size (cols, rows) each photo's board seems to have where it shows more
+    corners than the grid found; ``found``: the photos where a grid was found. Half of them
+    showing more is the board, not a stray pattern beside it."""
+    if not bigger or 2 * len(bigger) < found:
+        return
+    sizes = list(bigger.values())
+    c, r = max(set(sizes), key=lambda s: (sizes.count(s), s))
+    raise BadInput(
+        f"camera: the board has more inner corners than --cols {cols} --rows {rows}: "
+        f"{len(bigger)} of the {found} photos where a {cols}x{rows} grid was found show it going "
+        f"on beyond it ({', '.join(list(bigger)[:3])}{'...' if len(bigger) > 3 else ''}); it "
+        f"seems to have {c}x{r}: give --cols {c} --rows {r}"
+    )
+
+
 def _detect_all(paths: list[Path], cols: int, rows: int) -> list[tuple]:
-    """Each photo's (size (w, h), corners or None, "") or (None, None, why it is refused), in
+    """Each photo's (size (w, h), corners or None, "", the lines of corners its board shows
+    beyond them (:func:`extra_lines`) or None) or (None, None, why it is refused, None), in
     order. A photo per core at a time (OpenCV's decoding and detection release the GIL), only
     its corners kept: memory stays that of a few photos."""
     import threading
@@ -142,9 +166,12 @@ def _detect_all(paths: list[Path], cols: int, rows: int) -> list[tuple]:
             for k in range(first, len(paths), every):
                 img, why = _read_gray(paths[k])
                 if img is None:
-                    out[k] = None, None, why
+                    out[k] = None, None, why, None
                 else:
-                    out[k] = img.shape[::-1], find_chessboard_corners(img, cols, rows), ""
+                    found = find_chessboard_corners(img, cols, rows)
+                    # judged while the photo is in memory: only its corners are kept
+                    extra = None if found is None else extra_lines(img, found, cols, rows)
+                    out[k] = img.shape[::-1], found, "", extra
         except Exception as e:  # raised in the caller, as without threads (Ctrl-C is at once)
             failed.append(e)
 

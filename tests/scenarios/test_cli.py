@@ -375,3 +375,16 @@ def test_run_all_ends_with_one_overall_verdict(failing, tmp_path, monkeypatch, c
     else:
         assert status == 0
         assert last == f"all {n} scenarios passed"
+
+
+def test_camera_refuses_a_part_of_the_board_and_names_its_size(real_data, tmp_path, capsys):
+    """OpenCV's 9 x 6 board asked for as 7 x 6: the detector finds a 7 x 6 part of it, which a
+    calibration would take for the whole; refused in one line naming the board's size."""
+    photos = [str(real_data / "opencv_left" / f"left0{k}.jpg") for k in (1, 2, 6, 7)]
+    argv = ["camera", *photos, "--square-mm", "25", "--out", str(tmp_path)]
+    assert main([*argv, "--cols", "7", "--rows", "6"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "more inner corners than --cols 7 --rows 6" in err
+    assert "seems to have 9x6: give --cols 9 --rows 6" in err
+    assert not (tmp_path / "intrinsics.json").exists()
+    assert main([*argv, "--cols", "9", "--rows", "6"]) == 0  # the whole board: calibrated
