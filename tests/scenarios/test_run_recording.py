@@ -3,6 +3,7 @@ format, read by `fit` and `discover` as a real recording is; a config conceals a
 discover finds it, and what was concealed is sealed beside it (recording.truth.json)."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,7 +15,7 @@ from calibench.recordings import (
     load_stewart_csv,
 )
 from calibench.scenarios.cli import main
-from calibench.scenarios.config import override
+from calibench.scenarios.config import load_toml, override
 from calibench.scenarios.registry import scenario
 from calibench.scenarios.run_recording import simulate
 
@@ -159,3 +160,29 @@ def test_a_bad_recording_table_is_one_line_and_exit_2(table, fragment, tmp_path,
     )
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "Traceback" not in err and fragment in err, err
+
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+
+
+@pytest.mark.parametrize(
+    "name, stem",
+    [
+        ("belt-stage", "belt_stage_backlash"),
+        ("vision-stage", "vision_stage_periodic"),
+        ("arm-cmm", "arm_cmm_compliance"),
+        ("probe-scanner", "probe_scanner_runout"),
+        ("stewart", "stewart_backlash"),
+    ],
+)
+def test_the_examples_are_what_run_writes(name, stem, tmp_path):
+    """examples/STEM.csv is `calibench run NAME --config examples/conceal.toml`'s recording (seed
+    0) to the byte, and STEM.truth.json says what it conceals."""
+    tables = load_toml(EXAMPLES / "conceal.toml")
+    config = override(scenario(name).config(), tables[name], name)
+    rec, manifest = simulate(name, config, 0)
+    rec.to_csv(tmp_path / "r.csv")
+    assert (tmp_path / "r.csv").read_bytes() == (EXAMPLES / f"{stem}.csv").read_bytes()
+    sealed = json.loads((EXAMPLES / f"{stem}.truth.json").read_text())
+    assert sealed["effects"] == json.loads(json.dumps(manifest["effects"]))
+    assert sealed["recording"] == f"{stem}.csv"
