@@ -16,6 +16,7 @@ from calibench.estimators.camera.zhang import CalibrationError, calibrate_camera
 from calibench.files import first_repeat
 from calibench.scenarios.camera_figure import coverage, write_camera_figure
 from calibench.scenarios.cvplot import warm_fonts
+from calibench.scenarios.progress import advance
 from calibench.scenarios.report import BadInput
 from calibench.scenes.checkerboard import Chessboard
 
@@ -172,6 +173,7 @@ def _detect_all(paths: list[Path], cols: int, rows: int) -> list[tuple]:
                     # judged while the photo is in memory: only its corners are kept
                     extra = None if found is None else extra_lines(img, found, cols, rows)
                     out[k] = img.shape[::-1], found, "", extra
+                advance()  # a photo a step of the command's progress
         except Exception as e:  # raised in the caller, as without threads (Ctrl-C is at once)
             failed.append(e)
 

@@ -40,8 +40,10 @@ class Scenario:
 
     def execute(self, config, seed: int, fidelity: str, out_dir, rrd: bool):
         """``run`` with OpenCV single-threaded (its threaded reductions are not bit-reproducible):
-        the Report, deterministic from ``seed``."""
-        with opencv_single_threaded():
+        the Report, deterministic from ``seed``; a step of ``run all``'s progress."""
+        from calibench.scenarios.progress import part
+
+        with opencv_single_threaded(), part(self.name):
             return self.run(config, seed, fidelity, out_dir, rrd)
 
 

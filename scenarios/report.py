@@ -13,16 +13,12 @@ from calibench.errors import BadInput  # noqa: F401 - re-exported: the rooms rai
 
 
 def progress(items, what: str, total: int | None = None):
-    """``items``, with a progress bar on stderr when it is an interactive terminal (a render run
-    takes minutes); silent in pipes, tests and CI."""
-    import os
-    import sys
+    """``items``, each reported to the command's progress as ``what k/n`` (a render run takes
+    minutes): :func:`calibench.scenarios.progress.steps`, which draws nothing in a study's worker
+    or where no command opened a progress."""
+    from calibench.scenarios.progress import steps
 
-    if not sys.stderr.isatty() or os.environ.get("CI"):
-        return items
-    from tqdm import tqdm
-
-    return tqdm(items, desc=what, total=total, unit="view", leave=False, file=sys.stderr)
+    return steps(items, what, total)
 
 
 @dataclasses.dataclass

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from calibench.scenarios.harness import FIGURE
+from calibench.scenarios.progress import stage
 from calibench.scenarios.report import Report
 
 
@@ -64,6 +65,7 @@ def write_fit_figure(path: Path, result: dict, errors_mm: dict[str, np.ndarray])
     errors_mm : {label: (n,) |measured - modelled| (mm)}: the training rows, each test, each
         held-out part.
     """
+    stage(f"drawing {path.name}")  # matplotlib's import alone is seconds on a busy machine
     import matplotlib
 
     matplotlib.use("Agg")

@@ -43,6 +43,7 @@ from calibench.recordings import ArmRecording, load_arm_csv
 from calibench.scenarios.arm_cmm.arms import chain_of, load_arm
 from calibench.scenarios.arm_cmm.effects import angle_terms_from_discovery
 from calibench.scenarios.arm_cmm.figure import write_fit_figure
+from calibench.scenarios.progress import staged
 from calibench.scenarios.provenance import chose_by_effects, chose_or_none, entry, record_score
 from calibench.scenarios.report import BadInput
 
@@ -57,10 +58,11 @@ def calibrate(*args, **kwargs) -> ArmCalibration:
     xyz (n, 3) mm, recording (n,), sigma (n, 3) mm or None), data it cannot determine said as
     bad input in one line (an arm whose links have no length, postures that never move the tool
     point, too few postures)."""
-    try:
-        return calibration.calibrate(*args, **kwargs)
-    except DegenerateFit as e:
-        raise BadInput(str(e)) from None
+    with staged("calibrating"):  # the minutes of a fit on thousands of postures
+        try:
+            return calibration.calibrate(*args, **kwargs)
+        except DegenerateFit as e:
+            raise BadInput(str(e)) from None
 
 
 def _unit_and_factor(name: str) -> tuple[str, float]:

@@ -16,6 +16,7 @@ import json
 from pathlib import Path
 
 from calibench.scenarios.arm_cmm.fit import REGISTER_FRACTION, SPLIT_SEED, run_arm_fit
+from calibench.scenarios.progress import advance, expect, step
 from calibench.scenarios.report import BadInput
 
 FIGURES = ("samples", "mean_mm", "rms_mm", "p95_mm", "max_mm")
@@ -43,12 +44,18 @@ def leave_one_session_out(
     if len(set(names)) != len(names):
         raise BadInput("--leave-one-out: two recordings share a file name; give each its own")
     table, folds = {}, {}
+    # a fold's time follows its training rows (the recordings' sizes): the first fold's time,
+    # so weighed, says how long the others take
+    size = [Path(p).stat().st_size for p in paths]
+    expect(len(paths), "folds", [sum(size) - size[k] for k in range(len(paths))])
     for k, left in enumerate(paths):
         train = [p for i, p in enumerate(paths) if i != k]
         fold_dir = out_dir / Path(left).stem
+        step(f"{names[k]} left out")
         r = run_arm_fit(
             train, arm_spec, [], [left], None, model, fold_dir, effects, register_on_scored
         )
+        advance()
         scored = r.get("test", {}).get(names[k]) or r["in_sample"][names[k]]
         table[names[k]] = {
             **{f: scored[f] for f in FIGURES},

@@ -20,6 +20,7 @@ from calibench.scenarios.cli.status import (
     EXIT_INTERRUPTED,
     EXIT_OK,
 )
+from calibench.scenarios.progress import for_command
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -56,15 +57,16 @@ def main(argv: list[str] | None = None) -> int:
         created.append(folders.writable_folder(getattr(args, "out", None)))
         created.append(folders.writable_folder(getattr(args, "save_images", None), "--save-images"))
         _claim(args, held)
-        status = {
+        verb = {
             "run": verbs.run,
             "fit": verbs.fit,
             "camera": verbs.camera,
             "montecarlo": verbs.montecarlo,
             "discover": verbs.discover,
             "iso230": verbs.iso230,
-        }[args.command](args)
-        return status
+        }[args.command]
+        with for_command(args):  # its one bar, or a line every 30 s off a terminal (stderr)
+            return verb(args)
     except BrokenPipeError:  # the reader went away (| head): nothing to say
         sys.stderr.close()
         return EXIT_OK

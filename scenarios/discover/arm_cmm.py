@@ -93,8 +93,11 @@ def discover_arm(
     """
     from threadpoolctl import threadpool_limits
 
-    # thousands of small least-squares solves: one BLAS thread each is faster than several
-    with threadpool_limits(1):
+    from calibench.scenarios.progress import staged
+
+    # thousands of small least-squares solves: one BLAS thread each is faster than several;
+    # fit --effects discover's minutes, said apart from its calibration's
+    with threadpool_limits(1), staged("discovering the effects"):
         return _discover_arm(rec, seed, floor, arm, truth)
 
 

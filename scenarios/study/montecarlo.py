@@ -20,6 +20,7 @@ import time
 from pathlib import Path
 
 from calibench.errors import BadInput
+from calibench.scenarios.progress import Progress, advance, expect, stage
 from calibench.scenarios.study.executor import interrupt_flag, make_executor
 from calibench.scenarios.study.journal import (
     load_journal,
@@ -75,7 +76,8 @@ def run_study(
     executor : concurrent.futures.Executor, optional
         Run the trials there instead (the caller closes it).
     progress : bool, optional
-        Show a progress bar (default: on an interactive terminal outside CI).
+        False: no progress; default: a bar on an interactive terminal outside CI, a line at
+        least every 30 s elsewhere (:mod:`calibench.scenarios.progress`).
     arm : str, optional
         A built-in arm's name or an ARM.toml's absolute path (arm-cmm).
     table : dict, optional
@@ -102,7 +104,8 @@ def run_study(
         raise BadInput(f"unknown scenario {scenario!r} (available: {', '.join(NAMES)})")
     if trials < 1:
         raise BadInput("--trials must be at least 1")
-    with study_lock(out_dir):
+    # the study's one bar (its workers draw none: run_trials); it never touches a draw
+    with study_lock(out_dir), Progress(f"montecarlo {scenario}", enabled=progress):
         return _run_study(
             scenario,
             trials,
@@ -112,7 +115,6 @@ def run_study(
             workers,
             scheduler,
             executor,
-            progress,
             arm,
             table,
             tls,
@@ -128,7 +130,6 @@ def _run_study(
     workers,
     scheduler,
     executor,
-    progress,
     arm,
     table,
     tls,
@@ -156,6 +157,7 @@ def _run_study(
         checked = None
         if early:
             workers = min(workers or os.cpu_count() or 1, len(todo))  # no idle processes to start
+            stage("starting the workers")
             # a signal landing while a worker is spawned cuts its start-up data short, and the
             # worker prints a traceback: it is held until the pool has started
             with interrupt_flag() as stop:
@@ -192,7 +194,6 @@ def _run_study(
                 trials,
                 done,
                 todo,
-                progress,
                 preload=close is not None and scheduler is None,
             )
     except (KeyboardInterrupt, BadInput):
@@ -204,6 +205,7 @@ def _run_study(
     # a study never shrinks below its journal: trials an earlier, longer run finished stay in
     # the summary (each trial is the same whatever --trials says, so they are this study's)
     rows = [done[i] for i in sorted(done)]
+    stage("writing the outputs")
     if len(rows) > trials:
         print(
             f"calibench: {out_dir} holds {len(rows)} finished trials of this study: the summary "
@@ -266,48 +268,29 @@ def _run_todo(
     trials,
     done,
     todo,
-    progress,
     preload: bool = False,
 ) -> None:
     """Run the trials ``todo`` on ``executor``, appending each finished one to the journal and
     to ``done``. ``preload``: the trials run in other processes, so this one is idle and may import
     the writers' modules."""
-    bar = _progress(len(todo), trials - len(todo), progress)
+    expect(trials, "trials", done=trials - len(todo))
     if preload:
         threading.Thread(target=import_writers, daemon=True).start()
-    try:
-        with open_journal(out_dir) as journal:
-            k = chunk_size(len(todo), fidelity, getattr(executor, "dask_workers", None))
-            with interrupt_flag() as stop:  # a submit may spawn a worker: see _run_study
-                futures = [
-                    executor.submit(
-                        run_trials, scenario, seed, todo[j : j + k], fidelity, arm, table
-                    )
-                    for j in range(0, len(todo), k)
-                ]
-                pending = set(futures)
-                while pending:
-                    if stop.is_set():
-                        raise KeyboardInterrupt
-                    finished, pending = cf.wait(
-                        pending, timeout=0.2, return_when=cf.FIRST_COMPLETED
-                    )
-                    for fut in sorted(finished, key=futures.index):
-                        for row in fut.result():
-                            journal.write(json.dumps(row) + "\n")
-                            done[row["trial"]] = row
-                        journal.flush()
-                        bar.update(len(fut.result()))
-    finally:
-        bar.close()
-
-
-def _progress(total: int, initial: int, enabled: bool | None):
-    """A progress bar (trials/s, ETA) on an interactive terminal; silent otherwise and in CI."""
-    from tqdm import tqdm
-
-    if enabled is None:
-        enabled = sys.stderr.isatty() and not os.environ.get("CI")
-    return tqdm(
-        total=total + initial, initial=initial, unit="trial", disable=not enabled, file=sys.stderr
-    )
+    with open_journal(out_dir) as journal:
+        k = chunk_size(len(todo), fidelity, getattr(executor, "dask_workers", None))
+        with interrupt_flag() as stop:  # a submit may spawn a worker: see _run_study
+            futures = [
+                executor.submit(run_trials, scenario, seed, todo[j : j + k], fidelity, arm, table)
+                for j in range(0, len(todo), k)
+            ]
+            pending = set(futures)
+            while pending:
+                if stop.is_set():
+                    raise KeyboardInterrupt
+                finished, pending = cf.wait(pending, timeout=0.2, return_when=cf.FIRST_COMPLETED)
+                for fut in sorted(finished, key=futures.index):
+                    for row in fut.result():
+                        journal.write(json.dumps(row) + "\n")
+                        done[row["trial"]] = row
+                    journal.flush()
+                    advance(len(fut.result()))

@@ -187,8 +187,11 @@ def run_trials(
     """
     from threadpoolctl import threadpool_limits
 
+    from calibench.scenarios.progress import quiet
+
     _loosen_malloc_trim()
-    with threadpool_limits(1):
+    # a worker draws no bar of its own: the study's parent shows the trials as they come back
+    with threadpool_limits(1), quiet():
         return [run_trial(scenario, study_seed, i, fidelity, arm, table) for i in indices]
 
 
