@@ -1,5 +1,6 @@
 """Real data: calibench camera on OpenCV's and BoofCV's photos, the paper's belt-stage tables,
-and the README's Python example on the UR10."""
+and the README's Python example on the UR10; beside that example, the sizes of the bad-input
+and bad-config corpora docs/python.md cites."""
 
 from __future__ import annotations
 
@@ -96,4 +97,25 @@ def python_example():
     return (
         f"On ur10_D its second line prints "
         f"`{p} = {ident.estimate[p]:.3f} +- {ident.std[p]:.3f} mm`."
+    )
+
+
+@block(seconds=1, ci=True)
+def test_corpora():
+    """The bad-input corpus (tests/test_bad_input.py: the cases that must be refused, and the odd
+    but legitimate ones that must be accepted) and the bad configs (tests/test_bad_config.py),
+    counted from the tests themselves."""
+    from calibench.scenarios.cli.status import EXIT_BAD_INPUT
+    from tests import test_bad_config, test_bad_input
+
+    cases = test_bad_input.CASES
+    refused = sum(c[3] == EXIT_BAD_INPUT for c in cases)
+    refused += sum(fragment is not None for _, fragment in test_bad_input.PHOTO_CASES)
+    accepted = len(cases) + len(test_bad_input.PHOTO_CASES) - refused
+    return (
+        f"`tests/test_bad_input.py` holds {refused} bad inputs (and {accepted} odd but legitimate "
+        f"ones, which must be accepted), `tests/test_bad_config.py` {len(test_bad_config.CASES)} "
+        "configs that pass every type and sign check yet describe no workable set-up (a camera "
+        "that cannot see the board over the travel, stations outside it, a Stewart platform whose "
+        "legs leave their slides)."
     )
