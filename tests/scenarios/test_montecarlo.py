@@ -416,6 +416,8 @@ def test_a_full_disk_is_one_line_and_keeps_the_trials(tmp_path, monkeypatch, cap
         raise OSError(errno.ENOSPC, "No space left on device", str(tmp_path / "o" / "x.parquet"))
 
     monkeypatch.setattr(montecarlo, "write_outputs", full)
+    # the error's one line: a study longer than 10 s (a busy machine) would add progress lines
+    monkeypatch.setenv("CALIBENCH_PROGRESS", "off")
     args = ["montecarlo", "belt-stage", "--trials", "2", "--fidelity", "analytic"]
     assert main([*args, "--workers", "1", "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
