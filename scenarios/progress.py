@@ -115,7 +115,7 @@ class Progress:
         self.label = ""
         self.stages: list[str] = []  # what the running step does, outermost first
         self.inner: tuple[str, int, int | None, float] | None = None
-        self.t0 = self.t_steps = CLOCK()
+        self.t0 = self.t_steps = self.t_done = CLOCK()
         self.last: float | None = None  # when a plain line was last said (None: not yet)
         self.estimated = False  # a line has said how long is left
         self.drawn = False  # the bar is on the terminal
@@ -155,6 +155,7 @@ class Progress:
             self.n, self.unit, self.done = n, unit, done
             self.weights = list(weights) if weights is not None else [1.0] * n
             self.t_steps, self.base = CLOCK(), done
+            self.t_done = self.t_steps
             self.label, self.stages, self.inner = "", [], None  # what set them up is done
         self.tick()
 
@@ -174,6 +175,7 @@ class Progress:
         """``k`` steps finished."""
         with _lock:
             self.done += k
+            self.t_done = CLOCK()  # when the last step finished
             self.label, self.stages, self.inner = "", [], None
         self.tick()
 
@@ -187,7 +189,12 @@ class Progress:
             first, last = self.base, min(self.done, len(self.weights))
             spent = sum(self.weights[first:last])
             rest = sum(self.weights[last:])
-            return (now - self.t_steps) * rest / spent if spent > 0 else None
+            if spent <= 0:
+                return None
+            # the finished steps' pace, less the time the running step has had: counts down
+            # while it keeps that pace; once it is slower, its own time so far says the pace
+            left = (self.t_done - self.t_steps) * rest / spent - (now - self.t_done)
+            return left if left > 0 else (now - self.t_steps) * rest / spent
         if self.estimate_s is not None and now - self.t0 < self.estimate_s:
             return self.estimate_s - (now - self.t0)
         return None

@@ -39,15 +39,17 @@ def test_a_log_gets_the_estimate_first_then_a_line_every_interval_and_the_end_on
         p.advance()  # within the grace: a short command says nothing
         assert log.getvalue() == ""
         clock[0] += 7
-        p.step("trial 2")  # past the grace, the time left known: the first line says it
+        # past the grace, the time left known: the first line says it (the first trial's 5 s
+        # a weight, 25 s for the rest, 7 of them spent)
+        p.step("trial 2")
         assert log.getvalue().splitlines() == [
-            "calibench: study: 1/4 trials, trial 2, 12 s; about 1 min 00 s left"
+            "calibench: study: 1/4 trials, trial 2, 12 s; about 18 s left"
         ]
         clock[0] += 29
         p.stage("calibrating")
         assert len(log.getvalue().splitlines()) == 1  # not yet 30 s since the last
         clock[0] += 1
-        p.tick()
+        p.tick()  # the second trial is slower than the first: its own time says the pace
         assert log.getvalue().splitlines()[-1] == (
             "calibench: study: 1/4 trials, trial 2: calibrating, 42 s; about 3 min 30 s left"
         )
