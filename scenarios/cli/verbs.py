@@ -413,10 +413,9 @@ def discover(args: argparse.Namespace) -> int:
     if d.get("summary"):
         print(d["summary"])
     if args.twin is not None:
-        print(
-            f"-> {args.twin} (the twin with what was found: calibench discover {args.scenario} "
-            f"... --config {args.twin} replays it)"
-        )
+        from calibench.scenarios.discover.twin_merge import twin_said
+
+        print(twin_said(d, args.twin, args.scenario))
     print(f"-> {out / 'discovery.json'}")
     return EXIT_OK
 

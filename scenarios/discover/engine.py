@@ -35,6 +35,7 @@ import numpy as np
 from calibench.files import first_repeat, same_file
 from calibench.scenarios.discover.confirm import confirm
 from calibench.scenarios.discover.figure import write_figure
+from calibench.scenarios.discover.twin_merge import split_confirmed, twin_note
 from calibench.scenarios.progress import stage
 from calibench.scenarios.provenance import entry
 from calibench.scenarios.report import BadInput
@@ -177,12 +178,12 @@ def run_discover(
             before.pop("recording")
             out["nominal_twin_fit"] = nominal["fit"]
     if twin is not None:
-        tables, left = found_by.twin_tables(scenario, out, config, arm)
-        note = f"the twin of {paths[0]} updated by calibench discover"
-        if left:
-            note += "; not carried by the simulation: " + ", ".join(left)
-        write_toml(twin, tables, note)
-        out["twin"] = {"path": str(twin), "not_carried": left}
+        # only what discovery confirmed goes into the twin: an effect a held-out scheme rejects,
+        # simulated as the machine's, would fail the twin's own run (and is said, not carried)
+        kept, unconfirmed = split_confirmed(out["effects"])
+        tables, left = found_by.twin_tables(scenario, {**out, "effects": kept}, config, arm)
+        write_toml(twin, tables, twin_note(paths[0], left, unconfirmed))
+        out["twin"] = {"path": str(twin), "not_carried": left, "not_confirmed": unconfirmed}
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "discovery.json").write_text(json.dumps(out, indent=2, default=json_default) + "\n")
     stage("drawing discovery.png")
@@ -203,7 +204,7 @@ def write_toml(path: Path, tables: dict, comment: str) -> None:
             return json.dumps(v, ensure_ascii=False).replace("\x7f", "\\u007f")
         return repr(int(v)) if isinstance(v, (int, np.integer)) else repr(float(v))
 
-    lines = [f"# {comment}"]
+    lines = [f"# {line}" for line in comment.splitlines()]
 
     def table(prefix, d):
         plain = {k: v for k, v in d.items() if not isinstance(v, dict)}

@@ -1,12 +1,60 @@
 """``discover --twin`` on top of a replayed twin: what discover finds against a ``--config``
 twin is what that twin left, so the written twin is the config's own, whole, with the findings
-added to it (not put in place of it)."""
+added to it (not put in place of it). Only the findings discovery confirmed are written; those
+it did not are listed in the file's header, discovery.json and the console, never carried."""
 
 from __future__ import annotations
 
 import dataclasses
 import math
 from pathlib import Path
+
+
+def split_confirmed(effects: list[dict]) -> tuple[list[dict], list[str]]:
+    """The effects a twin may carry, and the names of those it must not.
+
+    Parameters
+    ----------
+    effects : list of dict
+        discovery.json's ``effects``, each with its ``status`` (``confirm``).
+
+    Returns
+    -------
+    kept : list of dict
+        The effects confirmed under every held-out scheme tried (or never put to one).
+    unconfirmed : list of str
+        The others, as ``name (axis)``: one scheme held them out and they did not carry.
+    """
+    kept = [e for e in effects if e.get("status") != "not confirmed"]
+    unconfirmed = [f"{e['name']} ({e['axis']})" for e in effects if e not in kept]
+    return kept, unconfirmed
+
+
+def twin_note(recording, left: list[str], unconfirmed: list[str]) -> str:
+    """The twin file's header: whose twin it is, and what it does not carry and why (a line
+    each)."""
+    lines = [f"the twin of {recording} updated by calibench discover"]
+    if left:
+        lines[0] += "; not carried by the simulation: " + ", ".join(left)
+    if unconfirmed:
+        lines.append(
+            "NOT CONFIRMED, so not written here: " + ", ".join(unconfirmed) + " (discovery.json "
+            "says under which held-out scheme each did not carry)"
+        )
+    return "\n".join(lines)
+
+
+def twin_said(found: dict, twin: Path, scenario: str) -> str:
+    """The console's line(s) on the twin written: where, how to replay it, and the effects left
+    out of it as not confirmed."""
+    said = (
+        f"-> {twin} (the twin with what was found: calibench discover {scenario} ... --config "
+        f"{twin} replays it)"
+    )
+    unconfirmed = found.get("twin", {}).get("not_confirmed", [])
+    if unconfirmed:
+        said += f"\n   not written into it, NOT CONFIRMED: {', '.join(unconfirmed)}"
+    return said
 
 
 def given_tables(config: Path | None, scenario: str) -> dict:

@@ -38,3 +38,29 @@ def test_a_config_s_tables_are_kept_under_the_update():
         "n": 3,
     }
     assert given["truth"] == {"a": 1.0, "b": 2.0}  # the given table is not changed
+
+
+def test_the_twin_carries_only_what_discovery_confirmed(tmp_path, capsys):
+    """The paper's belt stage: discover accepts a 223 mm periodic term of X holding out rows
+    but not columns. The twin leaves it out (no periodic error in drive_x), says so in its
+    header, in discovery.json and on the console, and `run --config` of it passes its checks."""
+    import json
+    import tomllib
+    from pathlib import Path
+
+    from calibench.scenarios.cli import main
+
+    paper = Path(__file__).resolve().parents[2] / "examples" / "belt_stage_paper.csv"
+    twin = tmp_path / "twin.toml"
+    argv = ["discover", "belt-stage", str(paper), "--twin", str(twin), "--out", str(tmp_path / "d")]
+    assert main(argv) == 0
+    found = json.loads((tmp_path / "d" / "discovery.json").read_text())
+    (periodic,) = [e for e in found["effects"] if e["name"] == "periodic"]
+    assert periodic["status"] == "not confirmed" and periodic["axis"] == "x"
+    assert "periodic (x)" in found["twin"]["not_confirmed"]
+    assert tomllib.loads(twin.read_text())["belt-stage"]["truth"]["drive_x"]["periodic_um"] == 0
+    header = [ln for ln in twin.read_text().splitlines() if ln.startswith("#")]
+    assert any("NOT CONFIRMED" in ln and "periodic (x)" in ln for ln in header)
+    assert "not written into it, NOT CONFIRMED: periodic (x)" in capsys.readouterr().out
+    run = ["run", "belt-stage", "--config", str(twin), "--fidelity", "analytic", "--no-rrd"]
+    assert main([*run, "--out", str(tmp_path / "r")]) == 0
