@@ -9,7 +9,9 @@ export MUJOCO_GL = egl
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
-	$(BIN)/python -m pip install -q -e '.[test,lint]'
+	# setuptools' notice that an install is editable, which pip prints as a warning on every build:
+	# that one message filtered by its text (no other warning, and no error, is touched)
+	PYTHONWARNINGS="ignore:Editable installation" $(BIN)/python -m pip install -q -e '.[test,lint]'
 	# an editable install compiles nothing, and where PYTHONDONTWRITEBYTECODE is set every command
 	# would compile each module it imports at its start
 	$(BIN)/python -m compileall -q -j 0 calibench estimators scenarios scenes sim
