@@ -10,7 +10,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from calibench.estimators.camera.board_extent import extra_lines
+from calibench.estimators.camera.board_extent import seeming_size
 from calibench.estimators.camera.chessboard import find_chessboard_corners, gross_corners
 from calibench.estimators.camera.zhang import CalibrationError, calibrate_camera
 from calibench.files import first_repeat
@@ -47,13 +47,13 @@ def calibrate_photos(
         raise BadInput(f"camera: {twice} is given twice: a photo counts once")
     names = _labels(paths)
     found, sizes, rejected, bigger = {}, {}, {}, {}
-    for p, (size, corners, why, extra) in zip(paths, _detect_all(paths, cols, rows)):
+    for p, (size, corners, why, seems) in zip(paths, _detect_all(paths, cols, rows)):
         if size is None:
             rejected[names[p]] = why
             continue
         sizes[p], found[p] = size, corners
-        if extra is not None and any(extra):
-            bigger[names[p]] = (cols + extra[0] + extra[1], rows + extra[2] + extra[3])
+        if seems is not None and seems != (cols, rows):
+            bigger[names[p]] = seems
     _refuse_a_part_of_the_board(bigger, sum(c is not None for c in found.values()), cols, rows)
     # the size most photos share is the camera's: one odd photo, first or not, is the one rejected
     counts = list(sizes.values())
@@ -146,17 +146,17 @@ def _refuse_a_part_of_the_board(bigger: dict, found: int, cols: int, rows: int) 
     c, r = max(set(sizes), key=lambda s: (sizes.count(s), s))
     raise BadInput(
         f"camera: the board has more inner corners than --cols {cols} --rows {rows}: "
-        f"{len(bigger)} of the {found} photos where a {cols}x{rows} grid was found show it going "
-        f"on beyond it ({', '.join(list(bigger)[:3])}{'...' if len(bigger) > 3 else ''}); it "
-        f"seems to have {c}x{r}: give --cols {c} --rows {r}"
+        f"{len(bigger)} of the {found} photos where a {cols}x{rows} grid was found show corners "
+        f"beyond it or between its lines ({', '.join(list(bigger)[:3])}"
+        f"{'...' if len(bigger) > 3 else ''}); it seems to have {c}x{r}: give --cols {c} --rows {r}"
     )
 
 
 def _detect_all(paths: list[Path], cols: int, rows: int) -> list[tuple]:
-    """Each photo's (size (w, h), corners or None, "", the lines of corners its board shows
-    beyond them (:func:`extra_lines`) or None) or (None, None, why it is refused, None), in
-    order. A photo per core at a time (OpenCV's decoding and detection release the GIL), only
-    its corners kept: memory stays that of a few photos."""
+    """Each photo's (size (w, h), corners or None, "", the size its board seems to have
+    (:func:`seeming_size`) or None) or (None, None, why it is refused, None), in order. A photo
+    per core at a time (OpenCV's decoding and detection release the GIL), only its corners
+    kept: memory stays that of a few photos."""
     import threading
 
     out: list = [None] * len(paths)
@@ -171,8 +171,8 @@ def _detect_all(paths: list[Path], cols: int, rows: int) -> list[tuple]:
                 else:
                     found = find_chessboard_corners(img, cols, rows)
                     # judged while the photo is in memory: only its corners are kept
-                    extra = None if found is None else extra_lines(img, found, cols, rows)
-                    out[k] = img.shape[::-1], found, "", extra
+                    seems = None if found is None else seeming_size(img, found, cols, rows)
+                    out[k] = img.shape[::-1], found, "", seems
                 advance()  # a photo a step of the command's progress
         except Exception as e:  # raised in the caller, as without threads (Ctrl-C is at once)
             failed.append(e)

@@ -1,13 +1,14 @@
 """How far a chessboard extends beyond the grid of inner corners a detector found.
 
-OpenCV's detectors, asked for a ``cols`` x ``rows`` grid, also find one on a larger board: a
-calibration would then run on a part of the board, its corner coordinates those of another
-board, without a word. From the grid found, the next line of corners beyond each of its four
-sides is predicted (a quadratic along each grid line: perspective and distortion to second
-order), refined to the image's saddle points, and judged: a line is the board's when every
-point of it is a chessboard corner, four squares alternating dark and light around it with the
-contrast of the grid's own corners. Beyond a board's last inner corners lie its outer squares
-and its margin, two of the four alike: no corner there.
+OpenCV's detectors, asked for a ``cols`` x ``rows`` grid, also find one on a larger board (a
+part of it, or a grid that steps over a line of it): a calibration would then run with another
+board's corner coordinates, without a word. From the grid found, the next line of corners
+beyond each of its four sides is predicted (a quadratic along each grid line: perspective and
+distortion to second order), refined to the image's saddle points, and judged; so is the line
+halfway between two neighbouring lines of the grid, which a grid that skipped one stepped over.
+A line is the board's when every point of it is a chessboard corner, four squares alternating
+dark and light around it with the contrast of the grid's own corners. Beyond a board's last
+inner corners lie its outer squares and its margin, two of the four alike: no corner there.
 
 Pixels in OpenCV's convention; corners in the detector's order, (rows * cols, 2), row-major.
 """
@@ -96,6 +97,66 @@ def extra_lines(
     sides = (g[:, ::-1], g, g.transpose(1, 0, 2)[:, ::-1], g.transpose(1, 0, 2))
     first_col, last_col, first_row, last_row = (_count_beyond(gray, s, ref, most) for s in sides)
     return first_col, last_col, first_row, last_row
+
+
+def skipped_lines(gray: np.ndarray, corners: np.ndarray, cols: int, rows: int) -> tuple[int, int]:
+    """Lines of inner corners the grid found steps over: a detector asked for fewer corners
+    than the board has may return a grid that spans the board by skipping a line.
+
+    Parameters
+    ----------
+    gray : ndarray, shape (h, w)
+        The image the grid was found in.
+    corners : ndarray, shape (rows * cols, 2)
+        The grid found, row-major (``cols`` per row), px.
+    cols, rows : int
+        The grid's size, inner corners (each at least 2).
+
+    Returns
+    -------
+    (int, int)
+        The gaps between neighbouring columns, and between neighbouring rows, halfway across
+        which every point is a corner (a line of the board the grid stepped over).
+    """
+    g = np.asarray(corners, float).reshape(rows, cols, 2)
+    u, v = np.gradient(g, axis=1), np.gradient(g, axis=0)
+    contrast, _ = corner_likeness(gray, g.reshape(-1, 2), u.reshape(-1, 2), v.reshape(-1, 2))
+    ref = float(np.median(contrast))
+    out = []
+    # between columns k and k + 1 (steps along u), then between rows (the grid turned)
+    for grid, across in ((g, v), (g.transpose(1, 0, 2), u.transpose(1, 0, 2))):
+        gaps = 0
+        for k in range(grid.shape[1] - 1):
+            a, b = grid[:, k], grid[:, k + 1]
+            # a line skipped: the real step is half the gap
+            c, alike = corner_likeness(gray, (a + b) / 2, (b - a) / 2, across[:, k])
+            gaps += bool(ref > 0 and np.all((c > _CONTRAST * ref) & (alike < _ALIKE * c)))
+        out.append(gaps)
+    return out[0], out[1]
+
+
+def seeming_size(gray: np.ndarray, corners: np.ndarray, cols: int, rows: int) -> tuple[int, int]:
+    """The inner corners (cols, rows) the board seems to have, from the grid found: its own,
+    the lines it stepped over (:func:`skipped_lines`) and those beyond it (:func:`extra_lines`);
+    ``(cols, rows)`` where the grid is the whole board.
+
+    Parameters
+    ----------
+    gray : ndarray, shape (h, w)
+        The image the grid was found in.
+    corners : ndarray, shape (rows * cols, 2)
+        The grid found, row-major, px.
+    cols, rows : int
+        The grid's size, inner corners.
+
+    Returns
+    -------
+    (int, int)
+        The board's columns and rows of inner corners, as far as the image shows them.
+    """
+    first_col, last_col, first_row, last_row = extra_lines(gray, corners, cols, rows)
+    col_gaps, row_gaps = skipped_lines(gray, corners, cols, rows)
+    return cols + first_col + last_col + col_gaps, rows + first_row + last_row + row_gaps
 
 
 def _count_beyond(gray: np.ndarray, grid: np.ndarray, ref: float, most: int) -> int:

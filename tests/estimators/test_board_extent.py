@@ -4,7 +4,7 @@ whole (issue 59: `camera --cols 7` on a 9-column board calibrated on a 7 x 6 par
 import numpy as np
 import pytest
 
-from calibench.estimators.camera.board_extent import extra_lines
+from calibench.estimators.camera.board_extent import extra_lines, seeming_size, skipped_lines
 
 SQUARE, MARGIN = 30, 45  # px
 
@@ -30,6 +30,17 @@ def _board(cols: int, rows: int) -> tuple[np.ndarray, np.ndarray]:
 def test_the_whole_board_shows_no_corner_beyond_its_grid():
     img, corners = _board(9, 6)
     assert extra_lines(img, corners, 9, 6) == (0, 0, 0, 0)
+    assert skipped_lines(img, corners, 9, 6) == (0, 0)
+    assert seeming_size(img, corners, 9, 6) == (9, 6)
+
+
+def test_a_grid_that_steps_over_lines_of_the_board_is_told():
+    """Columns 0, 1, 3, 5, 6, 7, 8 and rows 0, 2, 3, 4, 5 of a 9 x 6 board (a detector asked for
+    7 x 5 may return such a grid): two columns and one row stepped over, the board 9 x 6."""
+    img, corners = _board(9, 6)
+    grid = corners.reshape(6, 9, 2)[[0, 2, 3, 4, 5]][:, [0, 1, 3, 5, 6, 7, 8]]
+    assert skipped_lines(img, grid.reshape(-1, 2), 7, 5) == (2, 1)
+    assert seeming_size(img, grid.reshape(-1, 2), 7, 5) == (9, 6)
 
 
 @pytest.mark.parametrize(("first_col", "cols", "first_row", "rows"), [(1, 7, 0, 6), (0, 9, 2, 3)])

@@ -388,3 +388,9 @@ def test_camera_refuses_a_part_of_the_board_and_names_its_size(real_data, tmp_pa
     assert "seems to have 9x6: give --cols 9 --rows 6" in err
     assert not (tmp_path / "intrinsics.json").exists()
     assert main([*argv, "--cols", "9", "--rows", "6"]) == 0  # the whole board: calibrated
+    # BoofCV's 4 x 6 board asked for as 3 x 6: the sector detector returns a grid that steps
+    # over one line of corners
+    photos = [str(real_data / "boofcv_chess" / f"frame0{k}.jpg") for k in (1, 2, 3, 4)]
+    argv = ["camera", *photos, "--square-mm", "30", "--out", str(tmp_path / "b")]
+    assert main([*argv, "--cols", "3", "--rows", "6"]) == 2
+    assert "seems to have 4x6: give --cols 4 --rows 6" in capsys.readouterr().err
