@@ -74,7 +74,11 @@ def _materialise(d: Path, files: dict) -> None:
 def _check(capsys, d: Path, argv: list[str], status: int, fragment: str) -> None:
     argv = [a.replace("{d}", str(d)) for a in argv]
     before = {p for p in d.rglob("*")}
-    got = main(argv)
+    with pytest.MonkeyPatch.context() as mp:
+        # the one line of bad input: a command that finds it after 10 s says progress lines
+        # first off a terminal (tests/scenarios/test_progress.py tests those)
+        mp.setenv("CALIBENCH_PROGRESS", "off")
+        got = main(argv)
     err = capsys.readouterr().err.strip()
     assert "Traceback" not in err, err
     if status == 0:
