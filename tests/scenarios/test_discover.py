@@ -284,7 +284,9 @@ def test_thermal_expansion_without_a_temperature_change_is_called_confounded(tmp
     )
 
 
-def test_bad_recordings_get_one_line(tmp_path, capsys):
+def test_bad_recordings_get_one_line(tmp_path, capsys, monkeypatch):
+    # the one line alone: a discovery past 10 s (a busy machine) would say progress lines first
+    monkeypatch.setenv("CALIBENCH_PROGRESS", "off")
     bad = tmp_path / "bad.csv"
     bad.write_text("x_cmd_mm,y_cmd_mm,x_meas_mm\n1,2,3\n")
     assert main(["discover", "belt-stage", str(bad), "--out", str(tmp_path)]) == 2
