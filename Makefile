@@ -4,7 +4,7 @@ VENV   ?= .venv
 BIN     = $(VENV)/bin
 export MUJOCO_GL = egl
 
-.PHONY: demo test quick lint figures figures-check clean
+.PHONY: demo test test-slow quick lint figures figures-check clean
 
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -20,11 +20,19 @@ $(VENV)/.installed: pyproject.toml
 demo: $(VENV)/.installed
 	$(BIN)/calibench run all
 
+# The suite over every core (pytest-xdist): `make test` in minutes, `make test-slow` the minutes of
+# evidence marked slow (the README's figures regenerated and compared, the discovery suites). CI
+# runs both.
+WORKERS ?= auto
+
 test: $(VENV)/.installed
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n $(WORKERS) -m "not slow"
+
+test-slow: $(VENV)/.installed
+	$(BIN)/python -m pytest -q -n $(WORKERS) --dist worksteal -m slow
 
 quick: $(VENV)/.installed
-	$(BIN)/python -m pytest -q tests/estimators tests/test_recordings.py tests/test_bad_input.py tests/scenarios/test_iso230.py
+	$(BIN)/python -m pytest -q -n $(WORKERS) -m "not slow" tests/estimators tests/test_recordings.py tests/test_bad_input.py tests/scenarios/test_iso230.py
 
 # ruff (lint, format) on everything; mypy on the pure room, estimators/, which installs as
 # calibench.estimators through a package-dir mapping mypy cannot follow: a link gives it that name.

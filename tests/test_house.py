@@ -77,3 +77,15 @@ def test_sim_never_imports_the_estimators_nor_the_scenarios():
         if module.startswith(("calibench.estimators", "calibench.scenarios"))
     ]
     assert not bad, bad
+
+
+def test_every_test_the_slow_list_names_exists():
+    """tests/slow_tests.txt names tests that exist: a renamed test would otherwise fall back into
+    ``make test`` unseen, and a stale line would hide nothing."""
+    from tests.conftest import slow_tests
+
+    for node in slow_tests():
+        path, _, name = node.partition("::")
+        function = name.partition("[")[0]
+        assert (REPO / path).is_file(), node
+        assert f"def {function}(" in (REPO / path).read_text(), node

@@ -1,23 +1,30 @@
 """The README's numbers agree with the code (issue 15): ``python -m docs.figures --check``
 regenerates every generated block of the README (the render runs, the Monte-Carlo studies, the
 concealed-effect suite and the null sweep, the UR10 fits and discoveries, the analyses of their
-residuals) and compares every number with the README's. It runs in its own process beside the
-rest of the suite (tests/conftest.py starts it at collection): about half an hour on 2 cores.
+residuals) and compares every number with the README's. Each group of blocks (a block module,
+whose blocks share their runs) is a test of its own, run in a process of its own, so that
+``make test-slow``'s workers spread them over the cores.
 
 The README (and its docs/*.md pages) is the expectation and the code the truth: nothing here
-holds a figure. Five blocks are left to ``make figures``: performance, memory and run-times
+holds a figure. Blocks left to ``make figures``: performance, memory and run-times
 (machine timings and peak memory, which it rewrites and nothing compares), discover-coverage
 (640 discoveries over every core, under an hour on 2: ``make figures-check
 FIGURES=discover-coverage``) and
 ur10-sessions-floor (four more leave-one-session-out folds, eleven minutes:
-``make figures-check FIGURES=ur10-sessions-floor``).
+``make figures-check FIGURES=ur10-sessions-floor``). Two are checked by the tests that run their
+computation anyway, on that one run (``docs.figures.engine.readme_disagrees``): discover-suite
+(tests/scenarios/test_discover_suite.py) and discover-unwritten
+(tests/scenarios/test_discover_unwritten.py).
 """
 
+import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
 FIGURES = "docs.figures"  # the package, run as ``python -m docs.figures`` from the repository
+REPO = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture(scope="module")
@@ -72,20 +79,36 @@ def test_a_rewrite_keeps_the_markers_and_reads_back(figures):
     assert figures.spans(new).keys() == {"t", "u"}
 
 
-def figures_check_command() -> list[str]:
-    """``python -m docs.figures --check`` over every block the CI runs (``ci=True``), to be run
-    in the repository's root."""
+def figure_groups() -> list[tuple[str, ...]]:
+    """The blocks the CI runs (``ci=True``) in groups, each checked by a process of its own so that
+    pytest's workers (``-n``) spread them over the cores: one group per block module, whose blocks
+    share their runs (``docs.figures.runner``'s caches), in the package's order."""
     from docs.figures import BLOCKS
 
-    return [sys.executable, "-m", FIGURES, "--check", *[n for n, b in BLOCKS.items() if b.ci]]
+    groups: dict[str, list[str]] = {}
+    for name, b in BLOCKS.items():
+        if b.ci:
+            groups.setdefault(b.make.__module__.rsplit(".", 1)[-1], []).append(name)
+    return [tuple(names) for names in groups.values()]
 
 
-def test_the_readme_agrees_with_the_code(real_data, request):
-    """Started beside the rest of the suite (tests/conftest.py), collected here."""
-    from tests.conftest import figures_check_result
+def figures_check_command(names) -> list[str]:
+    """``python -m docs.figures --check NAME...``, to be run in the repository's root."""
+    return [sys.executable, "-m", FIGURES, "--check", *names]
 
-    code, printout = figures_check_result(request.config)
-    assert code == 0, printout
+
+def test_the_groups_hold_every_ci_block_once(figures):
+    named = [n for g in figure_groups() for n in g]
+    assert sorted(named) == sorted(n for n, b in figures.BLOCKS.items() if b.ci)
+    assert len(named) == len(set(named))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("names", figure_groups(), ids=lambda g: g[0])
+def test_the_readme_agrees_with_the_code(names, real_data):
+    """The README's blocks of one group, regenerated in a process of their own and compared."""
+    r = subprocess.run(figures_check_command(names), cwd=REPO, capture_output=True, text=True)
+    assert r.returncode == 0, r.stdout + r.stderr
 
 
 def test_the_command_line_lists_every_block_and_refuses_an_unknown_one(capsys):

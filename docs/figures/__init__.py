@@ -28,7 +28,7 @@ Generated text holds no literal number: each comes from a run, a computation, or
 The package: :mod:`.engine` (the registry, the README's spans, the numbers and the check, the
 command line), :mod:`.runner` (the scratch folder, calibench's commands, the runs blocks share),
 :mod:`.fmt` (formatting), and the blocks by instrument or theme, imported below in the order
-they run and are listed. The real-data blocks read ../shared/data (beside the repository).
+they run and are listed. The real-data blocks read the project's data/ folder.
 """
 
 import importlib

@@ -215,6 +215,13 @@ def disagreements(b: Block, readme: str, generated: str) -> list[str]:
     return out
 
 
+def readme_disagrees(name: str, generated: str) -> list[str]:
+    """Where the block ``name``'s page disagrees with ``generated``, text the caller made from a
+    run of its own (a test that runs a block's computation anyway checks the page with it)."""
+    page = block_pages()[name]
+    return disagreements(BLOCKS[name], current(page.read_text(), name), generated)
+
+
 def check(names: list[str], where: dict[str, Path]) -> int:
     """Regenerate the named blocks and compare with their pages (``where``: block -> page); the
     number of disagreements."""

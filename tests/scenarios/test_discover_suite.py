@@ -7,6 +7,8 @@ scenarios/discover/suite.py)."""
 from collections import Counter
 
 from calibench.scenarios.discover.suite import SUITE, run_case, score, table
+from docs.figures.discovery import suite_words
+from docs.figures.engine import readme_disagrees
 
 
 def test_concealed_effect_suite():
@@ -23,3 +25,5 @@ def test_concealed_effect_suite():
     assert s["params_within_limit"] == 1.0, s["worst_param"]
     assert s["n_dominated"] >= 8 and s["ratios_ok"] == 1.0, s["worst_ratio"]
     assert s["spurious_claims"] <= 2
+    # the README's discover-suite block, checked on this run (the figures check leaves it here)
+    assert not readme_disagrees("discover-suite", suite_words(s))

@@ -19,6 +19,8 @@ from calibench.scenarios.discover.suite_unwritten import (
 )
 from calibench.sim.concealed import scanner_recording
 from calibench.sim.concealed.noise import MISSPECIFIED
+from docs.figures.discovery_unwritten import unwritten_table as unwritten_table_words
+from docs.figures.engine import readme_disagrees
 
 
 def test_unwritten_effects_under_misspecified_noise():
@@ -39,6 +41,8 @@ def test_unwritten_effects_under_misspecified_noise():
         assert s["nulls_worse_fresh"] == 0, (scenario, s)
     for r in results:  # the same plan: every chosen effect carries to the fresh recording
         assert r.fresh.not_carried == [], (r.scenario, r.kind, r.fresh)
+    # the README's discover-unwritten block, checked on this run (the figures check leaves it here)
+    assert not readme_disagrees("discover-unwritten", unwritten_table_words(scores))
 
 
 def _angles(where: str) -> set[int]:
