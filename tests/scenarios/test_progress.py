@@ -226,3 +226,33 @@ def test_a_study_on_a_terminal_draws_one_bar_and_says_its_end_once(tmp_path):
     assert "circles" not in raw and "%|" not in raw, raw  # no worker's bar, no tqdm's
     assert screen.count("vision-stage: 2 trials") == 1, screen
     assert "montecarlo vision-stage" not in screen, screen  # the bar is gone at the end
+
+
+def test_run_says_its_measured_time_first_and_run_all_counts_its_scenarios(clock, capsys):
+    """`run all`: its scenarios are its steps (weighed by their measured times), the time left
+    said from those times before the first ends; an analytic stage has no measured time."""
+    from calibench.scenarios.cli.parser import build_parser
+    from calibench.scenarios.registry import Scenario
+
+    def command(*argv):
+        return progress.for_command(build_parser().parse_args(["run", *argv]))
+
+    assert command("stewart").estimate_s == progress.RUN_S["stewart"]
+    assert command("belt-stage", "--fidelity", "analytic").estimate_s is None
+    total = sum(progress.RUN_S.values())
+
+    def belt_stage(*args):  # a scenario's run (Scenario.execute's): 10 s of the test's clock
+        clock[0] += 10
+        p.tick()
+        return "report"
+
+    with command("all") as p:
+        assert Scenario("belt-stage", object, belt_stage).execute(None, 0, "render", None, 0)
+        clock[0] += 20
+        Scenario("vision-stage", object, lambda *a: "report").execute(None, 0, "render", None, 0)
+    assert p.n == len(progress.RUN_S) and p.done == 2
+    lines = capsys.readouterr().err.splitlines()
+    assert lines[0] == (
+        f"calibench: run all: 0/5 scenarios, belt-stage, 10 s; about {total - 10:.0f} s left"
+    )
+    assert lines[-1] == "calibench: run all: done, 2 scenarios, 30 s"
