@@ -4,6 +4,9 @@ from pathlib import Path
 import pytest
 
 os.environ.setdefault("MUJOCO_GL", "egl")
+# A command past 10 s says progress lines on stderr: a test that counts stderr's lines must not
+# depend on the machine's speed (tests/scenarios/test_progress.py sets its own mode).
+os.environ.setdefault("CALIBENCH_PROGRESS", "off")
 
 import cv2  # noqa: E402
 
