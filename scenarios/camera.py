@@ -1,4 +1,4 @@
-"""``calibench camera``: calibrate a camera from real chessboard photos (CONTRACT:
+"""``calibench camera``: calibrate a camera from real chessboard photos (docs/formats.md:
 intrinsics.json)."""
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 of one axis (an interferometer's readings at m targets, n runs each way), the same evaluation the
 vision stage's verification uses.
 
-Writes DIR/iso230.json (CONTRACT, "iso230") and DIR/iso230.png, the standard's plot: the mean
+Writes DIR/iso230.json (docs/formats.md, "iso230") and DIR/iso230.png, the standard's plot: the mean
 deviation at each target in each direction with its +-2s band, and the axis figures.
 """
 

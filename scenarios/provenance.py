@@ -3,7 +3,7 @@
 Evidence never chooses and scores on the same rows. ``discover`` chooses a model's structure
 (its candidates, frequencies, band edges) on the rows it reads; ``fit`` fits parameters on its
 training rows and scores held-out and test rows. Both record, per recording, the three sets
-(CONTRACT, "Provenance"): ``{"file": name, "sha256": .., "rows": {"chose": .., "fitted": ..,
+(docs/formats.md, "Provenance"): ``{"file": name, "sha256": .., "rows": {"chose": .., "fitted": ..,
 "scored": ..}}``, each set as half-open ranges of data rows, row 0 the first data row. A file is
 known by its content's hash, so a renamed copy is the same recording and an edited one is not.
 

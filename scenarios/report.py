@@ -1,4 +1,4 @@
-"""The run report (CONTRACT: DIR/report.json), shared by every scenario."""
+"""The run report (docs/formats.md: DIR/report.json), shared by every scenario."""
 
 from __future__ import annotations
 
@@ -94,7 +94,8 @@ class Check:
 class Report:
     """What a run found: every parameter's truth against its estimate, the named checks, extra
     figures (``info``), and where its recording went. ``ok`` when every parameter is within its
-    tolerance and every check within its limit; ``write`` makes ``report.json`` (CONTRACT)."""
+    tolerance and every check within its limit; ``write`` makes ``report.json``
+    (docs/formats.md)."""
 
     scenario: str
     seed: int
@@ -111,7 +112,7 @@ class Report:
         return all(p.ok for p in self.parameters) and all(c.ok for c in self.checks)
 
     def as_dict(self) -> dict:
-        """report.json's content (CONTRACT)."""
+        """report.json's content (docs/formats.md)."""
         d = {
             "scenario": self.scenario,
             "seed": self.seed,

@@ -1,4 +1,4 @@
-"""``calibench fit``: the scenario's error model fitted to a stage recording (CONTRACT:
+"""``calibench fit``: the scenario's error model fitted to a stage recording (docs/formats.md:
 fit.json)."""
 
 from __future__ import annotations
@@ -47,7 +47,7 @@ MAX_ROWS = 1_000_000
 
 
 def run_fit(scenario: str, model: str, csv_path: Path, out_dir: Path) -> dict:
-    """The ``fit`` command on a stage recording (CONTRACT's stage format): fit the scenario's
+    """The ``fit`` command on a stage recording (docs/formats.md's stage format): fit the scenario's
     error model (``quadratic`` or ``cubic`` in x and y, per axis) and write ``fit.json``; returns
     its content (per axis: coefficients in mm, SSE mm^2, R^2, RMSE mm, n)."""
     result = fit_recording(scenario, model, load_stage_csv(csv_path, MAX_ROWS))

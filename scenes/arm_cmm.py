@@ -1,9 +1,9 @@
 """Scene ``arm-cmm``: what the arm is. Any serial arm described by an ARM.toml, with its masses;
 its MJCF (with a laser tracker, a cone and a length bar) is :mod:`calibench.scenes.arm_mjcf`.
 
-An arm is data (CONTRACT.md, "Arms"): :func:`load_arm` reads an ARM.toml (or a built-in name:
-``arm-cmm`` is the seed's 6-joint arm CMM, ``ur10`` the Universal Robots UR10) into an
-:class:`ArmDescription`, checking every field (one :class:`ArmFileError` line naming it). The
+An arm is data (docs/formats.md, "Arm descriptions"): :func:`load_arm` reads an ARM.toml (or a
+built-in name: ``arm-cmm`` is the seed's 6-joint arm CMM, ``ur10`` the Universal Robots UR10) into
+an :class:`ArmDescription`, checking every field (one :class:`ArmFileError` line naming it). The
 description is the one source of an arm's numbers: the simulation builds its twin from it, and
 the scenarios give the estimators its kinematic fields
 (:func:`calibench.scenarios.arm_cmm.arms.chain_of`).
@@ -134,7 +134,9 @@ def load_arm(spec: str | Path) -> ArmDescription:
     except RecursionError:
         raise ArmFileError(f"arm {path} is nested too deep to read: not an arm's file") from None
     if not table:
-        raise ArmFileError(f'arm {path} is empty: it describes no arm (see CONTRACT.md, "Arms")')
+        raise ArmFileError(
+            f'arm {path} is empty: it describes no arm (see docs/formats.md, "Arm descriptions")'
+        )
     _LOADED[key] = arm = arm_from_table(table, str(path))
     return arm
 

@@ -1,6 +1,6 @@
 """The bad-input corpus: every verb and the config, fed what users actually feed them.
 
-Each case asserts the CONTRACT's answer to bad input: exit status 2, one line on stderr that
+Each case asserts docs/formats.md's answer to bad input: exit status 2, one line on stderr that
 names the problem (the fragment), no traceback, and no output file holding a wrong result. A few
 inputs are odd but legitimate (a UTF-8 byte-order mark, CRLF line ends): those must exit 0.
 """

@@ -55,7 +55,7 @@ def load_arm_csv(
     max_rows: int | None = None,
     range_deg: np.ndarray | None = None,
 ) -> ArmRecording:
-    """Read an arm recording (CONTRACT, "Arms").
+    """Read an arm recording (docs/formats.md, "Arm recordings").
 
     Angles that are evidently radians (every |q| below 2 pi over a spread of postures) and
     positions that are evidently metres are refused: the format says degrees and millimetres.

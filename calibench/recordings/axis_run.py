@@ -18,7 +18,7 @@ AGREE_UM = 1.0
 
 
 def load_axis_run(path: str | Path) -> AxisRun:
-    """Read a bidirectional run (CONTRACT, "iso230").
+    """Read a bidirectional run (docs/formats.md, "iso230").
 
     Parameters
     ----------

@@ -1,5 +1,5 @@
 """The recording types: what each instrument records, small dataclasses of numpy arrays with units
-in the field names, and how each writes itself in its CONTRACT format."""
+in the field names, and how each writes itself in its docs/formats.md format."""
 
 from __future__ import annotations
 
@@ -52,7 +52,7 @@ class CameraViews:
 
 @dataclasses.dataclass
 class StageRecording:
-    """Stations of a two-axis stage: commanded and measured positions, CONTRACT format.
+    """Stations of a two-axis stage: commanded and measured positions, docs/formats.md format.
 
     Attributes
     ----------
@@ -92,7 +92,8 @@ class StageRecording:
         return self.y_meas_mm - self.y_cmd_mm
 
     def to_csv(self, path: str | Path) -> None:
-        """Write the CONTRACT's stage CSV (nine significant digits), the optional columns present.
+        """Write docs/formats.md's stage CSV (nine significant digits), the optional columns
+        present.
 
         Parameters
         ----------
@@ -153,7 +154,7 @@ class ArmRecording:
         return _rows_of(self, rows)
 
     def to_csv(self, path) -> None:
-        """Write the CONTRACT's arm CSV: q1_deg..qN_deg, x_mm, y_mm, z_mm and what is present of
+        """Write docs/formats.md's arm CSV: q1_deg..qN_deg, x_mm, y_mm, z_mm and what is present of
         x_std_mm, y_std_mm, z_std_mm, t_s, temp_c (nine significant digits).
 
         Parameters
@@ -247,8 +248,8 @@ class AxisRun:
 
 @dataclasses.dataclass
 class ScannerRecording:
-    """Turns of a rotary probe scanner over its calibration artefact (CONTRACT, "Recordings of
-    the other instruments").
+    """Turns of a rotary probe scanner over its calibration artefact (docs/formats.md,
+    "Recordings").
 
     Attributes
     ----------
@@ -276,7 +277,7 @@ class ScannerRecording:
         return _rows_of(self, rows)
 
     def to_csv(self, path) -> None:
-        """Write the CONTRACT's probe-scanner CSV: turn, theta_deg, rho_mm and what is present of
+        """Write docs/formats.md's probe-scanner CSV: turn, theta_deg, rho_mm and what is present of
         t_s, temp_c (ten significant digits).
 
         Parameters
@@ -298,7 +299,7 @@ class ScannerRecording:
 @dataclasses.dataclass
 class StewartRecording:
     """Poses of a Stewart platform: the legs' readings and the pose a tracker measured
-    (CONTRACT, "Recordings of the other instruments").
+    (docs/formats.md, "Recordings").
 
     Attributes
     ----------
@@ -330,7 +331,7 @@ class StewartRecording:
         return _rows_of(self, rows)
 
     def to_csv(self, path) -> None:
-        """Write the CONTRACT's Stewart CSV: l1_mm..l6_mm, the pose (x_mm, y_mm, z_mm, rx_deg,
+        """Write docs/formats.md's Stewart CSV: l1_mm..l6_mm, the pose (x_mm, y_mm, z_mm, rx_deg,
         ry_deg, rz_deg: XYZ intrinsic Euler angles) and what is present of t_s, temp_c,
         dir_1..dir_6, load_n (ten significant digits).
 

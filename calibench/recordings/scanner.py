@@ -13,7 +13,7 @@ MAX_RHO_MM = 1000.0  # a spectacle frame's scanner reads within a few cm of its 
 
 
 def load_scanner_csv(path: str | Path, max_rows: int | None = None) -> ScannerRecording:
-    """Read a probe-scanner recording (CONTRACT, "Recordings of the other instruments").
+    """Read a probe-scanner recording (docs/formats.md, "Recordings").
 
     Parameters
     ----------

@@ -15,7 +15,7 @@ MAX_STAGE_MM = (
 
 
 def load_stage_csv(path: str | Path, max_rows: int | None = None) -> StageRecording:
-    """Read a stage recording (CONTRACT, "Stage recordings").
+    """Read a stage recording (docs/formats.md, "Stage recordings").
 
     Parameters
     ----------

@@ -11,7 +11,7 @@ from calibench.recordings.records import STEWART_POSE, StewartRecording
 
 
 def load_stewart_csv(path: str | Path, max_rows: int | None = None) -> StewartRecording:
-    """Read a Stewart recording (CONTRACT, "Recordings of the other instruments").
+    """Read a Stewart recording (docs/formats.md, "Recordings").
 
     Parameters
     ----------

@@ -1,6 +1,6 @@
 """Kinematics of a serial arm: forward kinematics, the parameter Jacobian, gravity torques.
 
-Conventions (CONTRACT.md, "Arms"), for joint i = 1..N with reading q_i:
+Conventions (docs/formats.md, "Arm descriptions"), for joint i = 1..N with reading q_i:
 
 - ``dh``:  T_i = RotZ(theta_i + q_i) TransZ(d_i) TransX(a_i) RotX(alpha_i) RotY(beta_i)
 - ``mdh`` (Craig): T_i = RotX(alpha_i) RotY(beta_i) TransX(a_i) RotZ(theta_i + q_i) TransZ(d_i)

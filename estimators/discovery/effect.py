@@ -1,7 +1,7 @@
 """The candidate-effect protocol: physical terms a simulation may have left out, each with units.
 
-One small interface, many small implementations (CONTRACT's vocabulary). An effect is linear in
-its coefficients once its shape is fixed: ``columns(drivers) -> (n, k)`` in the signal's unit
+One small interface, many small implementations (docs/formats.md's vocabulary). An effect is linear
+in its coefficients once its shape is fixed: ``columns(drivers) -> (n, k)`` in the signal's unit
 (mm), ``describe(coef, cov) -> (params, stderr, physics)``. Shapes with a nonlinear parameter (a
 period) are fixed by :func:`best_period` on the data they are fitted to.
 

@@ -1,5 +1,5 @@
 """Candidate effects of a two-axis stage (belt-stage, vision-stage): what its twin may have left
-out, along each axis (CONTRACT's vocabulary).
+out, along each axis (docs/formats.md's vocabulary).
 """
 
 from __future__ import annotations

@@ -85,7 +85,7 @@ def angle_terms_from_discovery(path, n_joints: int, n_recordings: int = 1) -> li
     return terms
 
 
-# the effects a discover arm-cmm names (CONTRACT's effect names for an arm)
+# the effects a discover arm-cmm names (docs/formats.md's effect names for an arm)
 ARM_EFFECTS = (
     "geometry",
     "joint_compliance",

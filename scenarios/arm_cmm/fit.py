@@ -16,8 +16,8 @@ work, each step on what the previous left:
    training recordings; and warn where the training postures leave out part of the workspace
    (:func:`~calibench.estimators.arm.coverage.coverage_warnings`).
 
-This module reads and checks the input, wires the estimators and writes DIR/fit.json (CONTRACT,
-"fit arm-cmm"), DIR/residuals.csv and DIR/fit.png.
+This module reads and checks the input, wires the estimators and writes DIR/fit.json
+(docs/formats.md, "fit arm-cmm"), DIR/residuals.csv and DIR/fit.png.
 """
 
 from __future__ import annotations

@@ -2,9 +2,9 @@
 separately, with cones and a length bar), after choosing the postures.
 
 The arm is the seed's 6-joint arm CMM unless the config names another (``arm = "ARM.toml"`` or a
-built-in name such as ``ur10``; CONTRACT.md, "Arms"). Its truth may carry joint stiffness: the
-links then sag under gravity (MuJoCo's physics), which the geometry-only identification here does
-not model, so a study shows what that costs.
+built-in name such as ``ur10``; docs/formats.md, "Arm descriptions"). Its truth may carry joint
+stiffness: the links then sag under gravity (MuJoCo's physics), which the geometry-only
+identification here does not model, so a study shows what that costs.
 
 1. Identifiability: the whitened Jacobian at the start, the tracker frame and the tool point
    always estimated, then the kinematic parameters (and Hayati's beta where two axes are

@@ -1,5 +1,5 @@
 """``calibench``'s ``main``: parse, check --out, run the verb's handler, and turn what went wrong
-into the CONTRACT's exit statuses (2 bad input in one line, 3 an internal error with the
+into docs/formats.md's exit statuses (2 bad input in one line, 3 an internal error with the
 traceback in OUT/error.log, 130 interrupted); and ``command``, the executable around it."""
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ def main(argv: list[str] | None = None) -> int:
     Returns
     -------
     int
-        The exit status (CONTRACT): 0 ok, 1 a check failed, 2 bad input (one line on stderr),
+        The exit status (docs/formats.md): 0 ok, 1 a check failed, 2 bad input (one line on stderr),
         3 an internal error (the traceback in OUT/error.log), 130 interrupted.
     """
     os.environ.setdefault(
@@ -182,7 +182,8 @@ def _said_as_bad_input(e: Exception) -> str | None:
 
 
 def _internal_error(e: Exception, out: Path | None) -> int:
-    """A defect of calibench: one line, the traceback in OUT/error.log (CONTRACT's exit 3)."""
+    """A defect of calibench: one line, the traceback in OUT/error.log (docs/formats.md's exit
+    3)."""
     import traceback
 
     try:

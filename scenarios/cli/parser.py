@@ -1,4 +1,4 @@
-"""The ``calibench`` command's argument parser (CONTRACT.md, "Command line"): its verbs, their
+"""The ``calibench`` command's argument parser (docs/formats.md, "Command line"): its verbs, their
 options, and the ranges a value is checked against before any work (a usage error is one line,
 exit status 2)."""
 
@@ -259,7 +259,7 @@ def build_parser() -> argparse.ArgumentParser:
         "recording",
         type=Path,
         nargs="+",
-        help="CSV in the CONTRACT's format for the scenario (arm-cmm: "
+        help="CSV in docs/formats.md's format for the scenario (arm-cmm: "
         "one or more, each with its own base frame; probe-scanner: one, or several of one "
         "machine with the plate turned on the table between them; the stages and stewart: "
         "one, or several of one machine, e.g. cold and warm, each stewart recording from its "

@@ -446,7 +446,7 @@ class ArmInput:
 
 def load(scenario: str, paths: list, arm=None) -> ArmInput:
     """The arm (``arm``: an ARM.toml or a built-in arm's name; default the seed's arm-cmm) and
-    its recordings at ``paths`` (CONTRACT: q1_deg .. qN_deg, x_mm, y_mm, z_mm)."""
+    its recordings at ``paths`` (docs/formats.md: q1_deg .. qN_deg, x_mm, y_mm, z_mm)."""
     from calibench.recordings import load_arm_csv
     from calibench.scenarios.discover.engine import MAX_ROWS
     from calibench.scenes.arm_cmm import load_arm

@@ -20,7 +20,7 @@ the nonsmooth table) and a plug-in per instrument, picked by the scenario's name
    ``run`` / ``montecarlo`` simulate the machine with what was found. Effects the simulation has
    no parameter for (a drift with time, a nonsmooth table) are listed as not carried.
 
-Writes DIR/discovery.json (CONTRACT) and DIR/discovery.png (residuals before and after).
+Writes DIR/discovery.json (docs/formats.md) and DIR/discovery.png (residuals before and after).
 """
 
 from __future__ import annotations

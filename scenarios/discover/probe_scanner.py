@@ -435,7 +435,7 @@ MANY_RECORDINGS = True  # the same machine with the plate turned: fitted togethe
 
 
 def load(scenario: str, paths: list, arm=None):
-    """The scanner recording(s) at ``paths`` (CONTRACT: turn, theta_deg, rho_mm): one, or a
+    """The scanner recording(s) at ``paths`` (docs/formats.md: turn, theta_deg, rho_mm): one, or a
     list of several of the same machine."""
     from calibench.recordings import load_scanner_csv
     from calibench.scenarios.discover.engine import MAX_ROWS

@@ -440,7 +440,7 @@ MANY_RECORDINGS = True  # the same machine, cold and warm: fitted together (stag
 
 
 def load(scenario: str, paths: list, arm=None):
-    """The stage recording(s) at ``paths`` (CONTRACT: commanded and measured x, y): one, or a
+    """The stage recording(s) at ``paths`` (docs/formats.md: commanded and measured x, y): one, or a
     list of several of the same machine."""
     from calibench.recordings import load_stage_csv
     from calibench.scenarios.discover.engine import MAX_ROWS

@@ -450,8 +450,8 @@ MANY_RECORDINGS = True  # one platform, warm and cold, say: fitted together (ste
 
 
 def load(scenario: str, paths: list, arm=None):
-    """The platform's recordings at ``paths`` (CONTRACT: l1_mm .. l6_mm and the tracker's pose):
-    one, or a list of several."""
+    """The platform's recordings at ``paths`` (docs/formats.md: l1_mm .. l6_mm and the tracker's
+    pose): one, or a list of several."""
     from calibench.recordings import load_stewart_csv
     from calibench.scenarios.discover.engine import MAX_ROWS
 

@@ -1,4 +1,4 @@
-"""``calibench montecarlo``: accuracy studies of a scenario (CONTRACT: trials.parquet,
+"""``calibench montecarlo``: accuracy studies of a scenario (docs/formats.md: trials.parquet,
 summary.json).
 
 :func:`run_study` runs the trials a study's folder misses (``trials``: what one trial does) on a

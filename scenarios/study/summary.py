@@ -101,7 +101,7 @@ def summarise(scenario: str, rows: list[dict], elapsed_s: float) -> dict:
     Returns
     -------
     dict
-        summary.json (CONTRACT): ``scenario``, ``trials``, ``failed``, ``elapsed_s``,
+        summary.json (docs/formats.md): ``scenario``, ``trials``, ``failed``, ``elapsed_s``,
         ``parameters`` (per parameter ``name``, ``unit``, ``n``, ``bias``, ``rmse``,
         ``mean_std``, ``coverage_95``, ``coverage_95_expected``, and with a CRLB ``crlb_std``,
         ``efficiency``, ``efficiency_ci95``), ``checks`` and the first ten distinct ``errors``.

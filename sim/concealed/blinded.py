@@ -14,7 +14,7 @@ def write_blinded(out_dir: Path, name: str, recording, manifest: dict) -> Path:
     out_dir : Path
         The folder (made if missing).
     name : str
-        The files' stem: ``name``.csv (the recording, its CONTRACT format) and
+        The files' stem: ``name``.csv (the recording, its docs/formats.md format) and
         ``name``.manifest.json (the manifest).
     recording : StageRecording, ArmRecording, ScannerRecording or StewartRecording
         Anything with ``to_csv(path)``.

@@ -1,6 +1,6 @@
-"""A cable-driven 7-joint arm with a differential wrist (CONTRACT, "Arms": ``[transmission]``):
-the twin's cables are MuJoCo tendons, the recordings come from its statics, and ``fit`` and
-``discover`` are checked against the stiffness the twin was given.
+"""A cable-driven 7-joint arm with a differential wrist (docs/formats.md, "Arm descriptions":
+``[transmission]``): the twin's cables are MuJoCo tendons, the recordings come from its statics, and
+``fit`` and ``discover`` are checked against the stiffness the twin was given.
 
 The arm: joints 2 and 4 are each driven by a cable of their own (a cable that drives one joint
 alone stretches as that joint's compliance would); motors 6 and 7 drive the wrist's joints 6

@@ -1,4 +1,4 @@
-"""``calibench fit arm-cmm`` end to end on recordings the MuJoCo twin made, in the CONTRACT's CSV
+"""``calibench fit arm-cmm`` end to end on recordings the MuJoCo twin made, in docs/formats.md's CSV
 format, as a user's laser-tracker series would come: a compliant UR10 with as-built errors,
 each series in its own tracker frame, a few bad rows. And the bad inputs a user can give."""
 

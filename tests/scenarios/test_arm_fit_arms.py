@@ -1,6 +1,6 @@
 """``calibench fit arm-cmm`` on arms of unusual shape, from their ARM.toml: a heavy arm whose
 compliance columns dwarf its geometry's, a SCARA whose axes are all parallel. Recordings from
-the MuJoCo twin of each, in the CONTRACT's CSV format."""
+the MuJoCo twin of each, in docs/formats.md's CSV format."""
 
 import json
 
@@ -46,7 +46,8 @@ HEAVY_JOINTS = [
 
 
 def _arm_toml(name: str, joints, tool_mm, tool_kg: float) -> str:
-    """An ARM.toml (CONTRACT, "Arms") from one row per joint, as :data:`HEAVY_JOINTS`."""
+    """An ARM.toml (docs/formats.md, "Arm descriptions") from one row per joint, as
+    :data:`HEAVY_JOINTS`."""
     text = f'name = "{name}"\nconvention = "dh"\n'
     for a, d, alpha, theta, (lo, hi), m, com in joints:
         text += (

@@ -185,12 +185,13 @@ def test_a_gear_harmonic_the_sessions_share_is_not_split_per_recording():
 
 
 def test_a_tool_guessed_100_mm_off_leaves_no_structure_behind():
-    """The arm file's tool is a first guess (CONTRACT: always estimated). A measured point 100 mm
-    beside it changes every joint's lever arm, and discovery's candidates are linear: taken at the
-    drawing, they left 29x the noise on such a recording and called it explained. Taken at the
-    geometry's solution, a recording with nothing else in it (MuJoCo's UR10, its default as-built
-    errors) is explained to its noise: the held-out RMS per coordinate within 10 % of the 10 um the
-    tracker adds (600 x 3 values, 31 parameters fitted in each fold), and nothing else named."""
+    """The arm file's tool is a first guess (docs/formats.md: always estimated). A measured point
+    100 mm beside it changes every joint's lever arm, and discovery's candidates are linear: taken
+    at the drawing, they left 29x the noise on such a recording and called it explained. Taken at
+    the geometry's solution, a recording with nothing else in it (MuJoCo's UR10, its default
+    as-built errors) is explained to its noise: the held-out RMS per coordinate within 10 % of the
+    10 um the tracker adds (600 x 3 values, 31 parameters fitted in each fold), and nothing else
+    named."""
     import numpy as np
 
     from calibench.recordings import ArmRecording

@@ -1,5 +1,5 @@
 """discover probe-scanner and discover stewart through the CLI: blinded recordings written as the
-CONTRACT's CSV, read back, the concealed effect named with its parameters within a tolerance
+docs/formats.md's CSV, read back, the concealed effect named with its parameters within a tolerance
 derived from the standard error discover reports; nothing named on a null."""
 
 import json
