@@ -321,6 +321,19 @@ FAULTS: dict[str, Fault] = {
         more.stewart_csv_leg_shifted,
         ("tests/test_recordings.py::test_stewart_csv_round_trip_keeps_every_column",),
     ),
+    "run_recording_truth_half": Fault(
+        "the sealed truth beside a run's recording says half of each concealed effect's size",
+        more.run_recording_truth_half,
+        (
+            "tests/scenarios/test_run_recording.py::"
+            "test_a_concealed_effect_is_in_the_run_s_recording_and_discover_finds_it[belt-stage]",
+        ),
+    ),
+    "iso230_two_runs_conform": Fault(
+        "ISO 230-2's test taken as met by 2 runs each way",
+        more.iso230_two_runs_conform,
+        ("tests/scenarios/test_iso230.py::test_a_run_short_of_the_standard_s_five_runs_says_so",),
+    ),
 }
 
 _state: dict = {"name": None, "mp": None, "caught": []}

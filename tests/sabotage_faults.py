@@ -141,3 +141,28 @@ def stewart_csv_leg_shifted(mp: pytest.MonkeyPatch) -> None:
         return dataclasses.replace(rec, readings_mm=readings)
 
     wrap(mp, "calibench.recordings.stewart", "load_stewart_csv", shift)
+
+
+def run_recording_truth_half(mp: pytest.MonkeyPatch) -> None:
+    """The sealed truth beside a run's recording says half the size of each concealed effect (the
+    recording itself untouched)."""
+
+    def halve(out, *a, **k):
+        recording, manifest = out
+        effects = [
+            {
+                **e,
+                "params": {k: v / 2 if isinstance(v, float) else v for k, v in e["params"].items()},
+            }
+            for e in manifest.get("effects", [])
+        ]
+        return recording, {**manifest, "effects": effects}
+
+    wrap(mp, "calibench.scenarios.run_recording", "simulate", halve)
+
+
+def iso230_two_runs_conform(mp: pytest.MonkeyPatch) -> None:
+    """ISO 230-2's test taken as met by 2 runs each way (the standard asks for 5)."""
+    from calibench.scenarios import iso230
+
+    mp.setattr(iso230, "RUNS_REQUIRED", 2)
