@@ -148,15 +148,23 @@ def check_plan(scenario: str, plan, travel_mm: tuple[float, float] | None = None
         if hasattr(plan, key) and getattr(plan, key) < least:
             raise bad(f"{where}.{key}", getattr(plan, key), f"at least {least}")
     if hasattr(plan, "step_mm"):
-        span = min(travel_mm or (np.inf, np.inf))
+        span = min(recorded_travel_mm(scenario, travel_mm))
         if not 0 < plan.step_mm <= span / 2:
             raise bad(
                 f"{where}.step_mm",
                 plan.step_mm,
-                f"from above 0 to {span / 2:g} mm (half the shorter travel)",
+                f"from above 0 to {span / 2:g} mm (half the shorter travel the recording covers)",
             )
     if hasattr(plan, "reference_noise_um") and not plan.reference_noise_um >= 0.1:
         raise bad(f"{where}.reference_noise_um", plan.reference_noise_um, "at least 0.1 um")
+
+
+def recorded_travel_mm(scenario: str, travel_mm: tuple[float, float] | None):
+    """The travel a stage's recording covers, (x, y) mm: the proof set's plan's, within the
+    twin's travel ``travel_mm`` (None: the plan's)."""
+    from calibench.sim.concealed.stage import PLANS
+
+    return tuple(min(a, b) for a, b in zip(PLANS[scenario].travel_mm, travel_mm or (np.inf,) * 2))
 
 
 def simulate(scenario: str, config, seed: int) -> tuple[object, dict]:
@@ -183,11 +191,9 @@ def simulate(scenario: str, config, seed: int) -> tuple[object, dict]:
     plan = config.recording
     kind = plan.conceal
     if scenario in ("belt-stage", "vision-stage"):
-        from calibench.sim.concealed.stage import PLANS, StagePlan, stage_recording
+        from calibench.sim.concealed.stage import StagePlan, stage_recording
 
-        travel = tuple(
-            min(a, b) for a, b in zip(PLANS[scenario].travel_mm, config.geometry.travel_mm)
-        )
+        travel = recorded_travel_mm(scenario, config.geometry.travel_mm)
         lines = StagePlan(travel, plan.step_mm, plan.passes)
         return stage_recording(
             scenario, kind, seed, plan=lines, truth=config.truth, geometry=config.geometry
@@ -230,6 +236,7 @@ def write_recording(
     """
     if out_dir is None:
         return None
+    Path(out_dir).mkdir(parents=True, exist_ok=True)  # from Python, a folder not yet made
     recording, manifest = simulate(scenario, config, seed)
     path = Path(out_dir) / RECORDING
     recording.to_csv(path)
