@@ -163,7 +163,7 @@ def stage_recording(
         if scenario != "belt-stage":
             raise ValueError("an elastic belt is the belt stage's")
         a = str(rng.choice(["x", "y"]))
-        pos, effect = _elastic_belt(a, rng, x, y)
+        pos, effect = _elastic_belt(a, rng, x, y, truth, geometry)
         effects.append(effect)
     else:  # replayed once the room's temperature is known (a twin's drives may expand with it)
         pos = None
@@ -269,7 +269,7 @@ def stage_recording(
 
 
 def _elastic_belt(
-    axis: str, rng: np.random.Generator, x: np.ndarray, y: np.ndarray
+    axis: str, rng: np.random.Generator, x: np.ndarray, y: np.ndarray, twin=None, geometry=None
 ) -> tuple[np.ndarray, dict]:
     """The belt stage's twin with ``axis``'s belt elastic (EA 25-50 kN against 2-5 N of carriage
     friction) at the commands, (n, 2) mm, and the effect's truth: the reversal measured on the
@@ -280,10 +280,12 @@ def _elastic_belt(
     from calibench.sim.stage_drive import BeltDrive, ElasticBelt
 
     belt = BeltDrive(ea_n=rng.uniform(25e3, 50e3), friction_n=rng.uniform(2.0, 5.0))
-    truth = dataclasses.replace(BeltStageTruth(), **{f"belt_{axis}": belt})
-    pos = replay_stage("belt-stage", x, y, truth=truth)
+    # on top of the twin's own motion (a config's truth and geometry; default: the scenario's)
+    truth = dataclasses.replace(twin or BeltStageTruth(), **{f"belt_{axis}": belt})
+    geometry = geometry or BeltStageGeometry()
+    pos = replay_stage("belt-stage", x, y, truth=truth, geometry=geometry)
     u = x if axis == "x" else y
-    travel = BeltStageGeometry().travel_mm["xy".index(axis)]
+    travel = geometry.travel_mm["xy".index(axis)]
 
     def reversal(at: float) -> float:
         b = ElasticBelt(travel, belt)
