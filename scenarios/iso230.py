@@ -9,6 +9,7 @@ deviation at each target in each direction with its +-2s band, and the axis figu
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -30,18 +31,26 @@ PER_TARGET = (
 )
 
 
-# ISO 230-2:2014's minimum set-up (its 5.3): five runs in each direction, five target positions
+# ISO 230-2:2014's minimum set-up (its 5.3): five runs in each direction; on an axis up to 2 m at
+# least five target positions a metre and five in all, on a longer one a target every 250 mm
 RUNS_REQUIRED, TARGETS_REQUIRED = 5, 5
 
 
-def nonconformity(targets: int, runs: int) -> str | None:
-    """Why a run of ``targets`` positions and ``runs`` runs each way is not the standard's test
-    (the figures are still evaluated its way, on fewer readings), or None where it is.
+def targets_required(span_mm: float) -> int:
+    """The target positions ISO 230-2:2014 asks for over a measured span of ``span_mm``."""
+    if span_mm <= 2000.0:
+        return max(TARGETS_REQUIRED, math.ceil(5.0 * span_mm / 1000.0 - 1e-9))
+    return math.ceil(span_mm / 250.0 - 1e-9)
+
+
+def nonconformity(targets_mm: np.ndarray, runs: int) -> str | None:
+    """Why a run at ``targets_mm`` with ``runs`` runs each way is not the standard's test (the
+    figures are still evaluated its way, on fewer readings), or None where it is.
 
     Parameters
     ----------
-    targets : int
-        The run's target positions.
+    targets_mm : (m,) array
+        The run's target positions, mm.
     runs : int
         Its runs in each direction.
 
@@ -53,8 +62,12 @@ def nonconformity(targets: int, runs: int) -> str | None:
     short = []
     if runs < RUNS_REQUIRED:
         short.append(f"{RUNS_REQUIRED} runs each way (this run has {runs})")
-    if targets < TARGETS_REQUIRED:
-        short.append(f"{TARGETS_REQUIRED} target positions (this run has {targets})")
+    span = float(np.ptp(targets_mm)) if len(targets_mm) else 0.0
+    need = targets_required(span)
+    if len(targets_mm) < need:
+        short.append(
+            f"{need} target positions over its {span:g} mm (this run has {len(targets_mm)})"
+        )
     if not short:
         return None
     return f"ISO 230-2:2014 asks for at least {' and '.join(short)}"
@@ -74,7 +87,7 @@ def evaluate_run(path: Path) -> dict:
             f"{path}: every run repeats the first one exactly: the repeatability (R, s) cannot be "
             "evaluated from copies"
         )
-    why_not = nonconformity(len(targets), up.shape[1])
+    why_not = nonconformity(np.asarray(targets, float), up.shape[1])
     return {
         "standard": "ISO 230-2:2014",
         # evaluated the standard's way whatever the run, but named its test only when it is one

@@ -26,7 +26,9 @@ def split_confirmed(effects: list[dict]) -> tuple[list[dict], list[str]]:
         The others, as ``name (axis)``: one scheme held them out and they did not carry.
     """
     kept = [e for e in effects if e.get("status") != "not confirmed"]
-    unconfirmed = [f"{e['name']} ({e['axis']})" for e in effects if e not in kept]
+    unconfirmed = [
+        f"{e['name']} ({e['axis']})" for e in effects if e.get("status") == "not confirmed"
+    ]
     return kept, unconfirmed
 
 

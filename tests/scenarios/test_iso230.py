@@ -119,3 +119,22 @@ def test_a_run_short_of_the_standard_s_five_runs_says_so(tmp_path, capsys, monke
     r = json.loads((tmp_path / "five" / "iso230.json").read_text())
     assert (r["runs"], r["conforms"], r["reason"]) == (5, True, None)
     assert "CONFORMING" not in titles[-1]
+
+
+def test_the_standard_s_targets_follow_the_axis_length():
+    """ISO 230-2:2014 5.3: at least five targets a metre and five in all up to 2 m, one every
+    250 mm beyond: a 1.5 m axis with 6 targets falls short, with 8 it does not."""
+    from calibench.scenarios.iso230 import nonconformity, targets_required
+
+    assert [targets_required(s) for s in (300.0, 1000.0, 1500.0, 2000.0, 3000.0)] == [
+        5,
+        5,
+        8,
+        10,
+        12,
+    ]
+    assert "8 target positions over its 1500 mm (this run has 6)" in nonconformity(
+        np.linspace(0, 1500, 6), 5
+    )
+    assert nonconformity(np.linspace(0, 1500, 8), 5) is None
+    assert nonconformity(np.linspace(0, 1000, 5), 5) is None
