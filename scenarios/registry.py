@@ -106,5 +106,5 @@ def __getattr__(name: str):
     return {key: scenario(key) for key in _TABLE}
 
 
-# Named in the contract, built by later issues.
+# Scenarios named in docs/formats.md but not built yet (none now).
 PLANNED: tuple[str, ...] = ()

@@ -265,7 +265,7 @@ class Transmission(JointEffect):
             f"per turn: a harmonic of its gear train or encoder"
         )
         if self.per_recording:
-            # amplitude_urad stays one per harmonic (the contract's): the recordings' RMS amplitude
+            # amplitude_urad stays one per harmonic (docs/formats.md): the recordings' RMS amplitude
             amps, amp_stds = [a * 1e6 for a, _, _ in parts], [a_std * 1e6 for _, a_std, _ in parts]
             del params["phase_rad"]  # no phase the recordings share
             params.update(

@@ -5,7 +5,7 @@ the nonsmooth table) and a plug-in per instrument, picked by the scenario's name
 :mod:`.stage` (belt-stage, vision-stage), :mod:`.arm_cmm`, :mod:`.probe_scanner`,
 :mod:`.stewart`. A plug-in is a module that follows :class:`Plugin`:
 
-1. ``load`` reads the recording(s) in the contract's format (one clear BadInput line for any
+1. ``load`` reads the recording(s) in docs/formats.md's format (one clear BadInput line for any
    defect);
 2. ``discover`` replays it with the twin (the nominal one, or the one of a ``run --config``
    file) and forms its signals (recording minus twin) and the scene model's free columns (what a
@@ -69,7 +69,7 @@ class Plugin(Protocol):
     MANY_RECORDINGS: bool
 
     def load(self, scenario: str, paths: list[Path], arm) -> object:
-        """The recording(s) at ``paths``, read in the contract's format (``arm``: an ARM.toml or
+        """The recording(s) at ``paths``, read in docs/formats.md's format (``arm``: an ARM.toml or
         a built-in arm's name, for the arm; None elsewhere)."""
         ...
 

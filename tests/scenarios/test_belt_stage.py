@@ -1,4 +1,4 @@
-"""belt-stage end to end: recovered parameters against the injected truth, the contract's report,
+"""belt-stage end to end: recovered parameters against the injected truth, docs/formats.md's report,
 the rerun recording read back, and the analytic sensor model against the renders."""
 
 import json

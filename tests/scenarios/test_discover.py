@@ -1,4 +1,4 @@
-"""discover through the CLI: discovery.json per the contract, figures, bad input in one line."""
+"""discover through the CLI: discovery.json per docs/formats.md, figures, bad input in one line."""
 
 import json
 

@@ -39,7 +39,7 @@ def shoulder():
 
 def _elbow_held(shoulder, elbow_deg: float, seed: int, path) -> str:
     """200 postures with the elbow within 3 deg of ``elbow_deg``, the other joints over their
-    ranges, probed by a 10 um reference in its own frame; written as the contract's arm CSV."""
+    ranges, probed by a 10 um reference in its own frame; written as docs/formats.md's arm CSV."""
     arm, truth, _ = shoulder
     ranges = np.array(arm.range_rad, float)
     ranges[2] = np.radians([elbow_deg - 3, elbow_deg + 3])
