@@ -8,6 +8,7 @@ import io
 import os
 import pty
 import re
+import select
 import struct
 import subprocess
 import sys
@@ -174,8 +175,12 @@ def _on_a_terminal(argv: list[str], cwd: Path) -> tuple[int, str, str]:
         argv, stdin=subprocess.DEVNULL, stdout=sub_fd, stderr=sub_fd, cwd=cwd, env=env
     )
     os.close(sub_fd)
-    raw = b""
+    raw, deadline = b"", time.monotonic() + 300  # a hung command fails the test, not the suite
     while True:
+        ready, _, _ = select.select([main_fd], [], [], max(0.0, deadline - time.monotonic()))
+        if not ready:
+            proc.kill()
+            pytest.fail(f"{' '.join(argv)} still running after 300 s:\n{raw.decode()}")
         try:
             got = os.read(main_fd, 65536)
         except OSError:  # the terminal's other end closed
