@@ -29,7 +29,7 @@ test: $(VENV)/.installed
 	$(BIN)/python -m pytest -q -n $(WORKERS) -m "not slow"
 
 test-slow: $(VENV)/.installed
-	$(BIN)/python -m pytest -q -n $(WORKERS) --dist worksteal -m slow
+	$(BIN)/python -m pytest -q -n $(WORKERS) -m slow
 
 quick: $(VENV)/.installed
 	$(BIN)/python -m pytest -q -n $(WORKERS) -m "not slow" tests/estimators tests/test_recordings.py tests/test_bad_input.py tests/scenarios/test_iso230.py

@@ -35,11 +35,32 @@ def slow_tests() -> dict[str, float]:
 
 def pytest_collection_modifyitems(session, config, items):
     """Mark the listed tests ``slow``: ``make test`` runs ``-m "not slow"`` in minutes, and CI
-    runs the slow ones too (``make test-slow``)."""
+    runs the slow ones too (``make test-slow``). The longest modules go first (a README figures
+    group counts as a module of its own), so that the workers that take tests as they free up
+    end together instead of one waiting on the last long test."""
     slow = slow_tests()
+    seconds: dict[str, float] = {}
     for item in items:
-        if item.nodeid in slow or item.nodeid.partition("[")[0] in slow:
+        own = slow.get(item.nodeid, slow.get(item.nodeid.partition("[")[0], 0.0))
+        if own:
             item.add_marker(pytest.mark.slow)
+        seconds[_unit(item)] = seconds.get(_unit(item), 0.0) + own + _figure_seconds(item)
+    items.sort(key=lambda item: -seconds[_unit(item)])  # stable: a module's order kept
+
+
+def _unit(item) -> str:
+    """What runs together: a module, or one README figures group (a process of its own)."""
+    return item.nodeid if _figure_seconds(item) else item.nodeid.partition("::")[0]
+
+
+def _figure_seconds(item) -> float:
+    """A README figures group's expected seconds (its blocks' own), else 0."""
+    names = getattr(getattr(item, "callspec", None), "params", {}).get("names")
+    if not names or not item.nodeid.startswith("tests/test_readme_figures.py"):
+        return 0.0
+    from docs.figures import BLOCKS
+
+    return sum(BLOCKS[n].seconds for n in names)
 
 
 @pytest.fixture(scope="session")
