@@ -11,7 +11,10 @@ holds a figure. Blocks left to ``make figures``: performance, memory and run-tim
 (640 discoveries over every core, under an hour on 2: ``make figures-check
 FIGURES=discover-coverage``) and
 ur10-sessions-floor (four more leave-one-session-out folds, eleven minutes:
-``make figures-check FIGURES=ur10-sessions-floor``). Two are checked by the tests that run their
+``make figures-check FIGURES=ur10-sessions-floor``), and the two longest UR10 tables, ur10-all-four
+(five fits of all four series, discovery among them: fourteen minutes) and ur10-sessions-table
+(four leave-one-session-out folds twice: eight minutes), which would keep CI past its 40 minutes
+(``make figures-check FIGURES="ur10-all-four ur10-sessions-table"``). Two are checked by the tests that run their
 computation anyway, on that one run (``docs.figures.engine.readme_disagrees``): discover-suite
 (tests/scenarios/test_discover_suite.py) and discover-unwritten
 (tests/scenarios/test_discover_unwritten.py).

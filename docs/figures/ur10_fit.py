@@ -170,7 +170,7 @@ def gear_q2_is_current() -> None:
         )
 
 
-@block(seconds=850, ci=True)
+@block(seconds=850, ci=False)
 def ur10_all_four():
     """calibench fit arm-cmm on all four series, --holdout 0.3: physics, with the discovery on C's
     effects (calibench discover arm-cmm ur10_C.csv), with fit's own discovery on the training rows
@@ -241,7 +241,7 @@ def ur10_sessions(effects: str | None = None) -> dict:
     return json.loads((out / "fit.json").read_text())
 
 
-@block(seconds=500, ci=True)
+@block(seconds=500, ci=False)
 def ur10_sessions_table():
     """calibench fit arm-cmm ur10_A.csv ur10_B.csv ur10_C.csv ur10_D.csv --leave-one-out: each
     series scored by a calibration on the other three, with physics and with the effects discovery
