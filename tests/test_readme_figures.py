@@ -15,9 +15,9 @@ ur10-sessions-floor (four more leave-one-session-out folds, eleven minutes:
 (five fits of all four series, discovery among them: fourteen minutes) and ur10-sessions-table
 (four leave-one-session-out folds twice: eight minutes), which would keep CI past its 40 minutes
 (``make figures-check FIGURES="ur10-all-four ur10-sessions-table"``). Two are checked by the
-tests that run their computation anyway, on that one run (``docs.figures.engine.readme_disagrees``): discover-suite
-(tests/scenarios/test_discover_suite.py) and discover-unwritten
-(tests/scenarios/test_discover_unwritten.py).
+tests that run their computation anyway, on that one run
+(``docs.figures.engine.readme_disagrees``): discover-suite (tests/scenarios/test_discover_suite.py)
+and discover-unwritten (tests/scenarios/test_discover_unwritten.py).
 """
 
 import subprocess
