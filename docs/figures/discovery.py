@@ -123,7 +123,7 @@ def null_claims() -> dict:
     )
 
 
-@block(seconds=400, ci=True)
+@block(seconds=400, ci=False)
 def discover_nulls():
     """discover on 30 fresh null recordings per scenario at several floors: the false-claim rate."""
     from calibench.estimators.discovery.select import FLOOR
