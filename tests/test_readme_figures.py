@@ -14,8 +14,8 @@ ur10-sessions-floor (four more leave-one-session-out folds, eleven minutes:
 ``make figures-check FIGURES=ur10-sessions-floor``), and the two longest UR10 tables, ur10-all-four
 (five fits of all four series, discovery among them: fourteen minutes) and ur10-sessions-table
 (four leave-one-session-out folds twice: eight minutes), which would keep CI past its 40 minutes
-(``make figures-check FIGURES="ur10-all-four ur10-sessions-table"``), and discover-nulls (180
-discoveries of fresh null recordings at four floors, seven minutes over both cores: the suites'
+(``make figures-check FIGURES="ur10-all-four ur10-sessions-table"``), and discover-nulls (120
+fresh null recordings judged at three or four floors, seven minutes: the suites'
 nulls keep the house floor's false-claim rate in CI). Two are checked by the
 tests that run their computation anyway, on that one run
 (``docs.figures.engine.readme_disagrees``): discover-suite (tests/scenarios/test_discover_suite.py)
