@@ -7,6 +7,11 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 # A command past 10 s says progress lines on stderr: a test that counts stderr's lines must not
 # depend on the machine's speed (tests/scenarios/test_progress.py sets its own mode).
 os.environ.setdefault("CALIBENCH_PROGRESS", "off")
+# One BLAS thread per process: the workers (pytest-xdist) already fill the cores, and the
+# discoveries' own thread pools on top of a BLAS pool per thread ran the Stewart suites 2-4 times
+# slower on 2 cores. Set before numpy loads, and inherited by the commands the tests start.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
 
 import cv2  # noqa: E402
 

@@ -31,6 +31,7 @@ from pathlib import Path
 from typing import Protocol
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from calibench.files import first_repeat, same_file
 from calibench.scenarios.discover.confirm import confirm
@@ -111,6 +112,9 @@ def discovery_provenance(paths: list[Path], rows_used: list[np.ndarray]) -> dict
     }
 
 
+# the searches score their candidates on a thread pool that fills the cores: a BLAS pool under
+# each thread oversubscribed them (the Stewart platform's discovery 2-4 times slower on 2 cores)
+@threadpool_limits.wrap(limits=1)
 def run_discover(
     scenario: str,
     csv_path,
