@@ -10,8 +10,9 @@ thread of this one runs under :func:`quiet`), so a terminal shows the study's ba
 What a line says: the steps done of those expected, the step and stage now running, the time
 taken, and how long is left once that is known: from the steps' times (the first step's, weighed
 by each step's expected share of the work), or else from a documented estimate of the whole
-(:data:`RUN_S`). Nothing is said during the first :data:`GRACE_S` (a short command stays
-silent), and nothing ever touches a random draw: results are the same with or without it.
+(each instrument's ``run_s`` in :mod:`calibench.scenarios.registry`). Nothing is said during the
+first :data:`GRACE_S` (a short command stays silent), and nothing ever touches a random draw:
+results are the same with or without it.
 
 ``CALIBENCH_PROGRESS=off|plain|bar`` sets the mode whatever stderr is.
 """
@@ -34,15 +35,6 @@ CLOCK = time.monotonic  # tests replace it: a test waits for no real interval
 HEARTBEAT = True  # a thread says the progress while a step runs (tests turn it off)
 ENV = "CALIBENCH_PROGRESS"
 
-# `calibench run S`'s seconds on 2 busy cores (AMD EPYC; render where S has a camera), for the
-# estimate said before any step has finished; measured with `time calibench run S --no-rrd`
-RUN_S = {
-    "belt-stage": 14.0,
-    "vision-stage": 19.0,
-    "probe-scanner": 4.0,
-    "arm-cmm": 4.0,
-    "stewart": 5.0,
-}
 
 _quiet = threading.local()  # .on: this thread runs a worker's trials, which report nothing
 _open: list[Progress] = []  # the command's progress: one a process
@@ -94,7 +86,8 @@ class Progress:
     what : str
         What runs, as the lines name it (``"montecarlo arm-cmm"``).
     estimate_s : float, optional
-        How long the whole usually takes (:data:`RUN_S`), said until a step's own time is known.
+        How long the whole usually takes (the registry's ``run_s``), said until a step's own time
+        is known.
     enabled : bool, optional
         False: silent; True or None: by :func:`_mode` (a bar on a terminal, lines elsewhere).
     stream : file, optional
@@ -457,14 +450,14 @@ def for_command(args) -> Progress:
         what += " --leave-one-out"
     p = Progress(what)
     if command == "run":
-        from calibench.scenarios.registry import NAMES
+        from calibench.scenarios.registry import instruments
 
-        names = list(NAMES) if scenario == "all" else [scenario]
+        runs = {i.name: i.run_s for i in instruments() if scenario in ("all", i.name)}
         # the estimate is of a run with its renders; an analytic stage's is not known
-        if getattr(args, "fidelity", None) in (None, "render") and all(n in RUN_S for n in names):
-            p.estimate_s = sum(RUN_S[n] for n in names)
+        if getattr(args, "fidelity", None) in (None, "render") and runs:
+            p.estimate_s = sum(runs.values())
         if scenario == "all":
-            p.n, p.unit, p.weights = len(names), "scenarios", [RUN_S[n] for n in names]
+            p.n, p.unit, p.weights = len(runs), "scenarios", list(runs.values())
     elif command == "camera":
         p.n, p.unit = len(args.images), "photos"
         p.weights = [1.0] * p.n

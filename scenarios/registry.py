@@ -60,26 +60,133 @@ def opencv_single_threaded():
         cv2.setNumThreads(before)
 
 
-# name: (module, config class, fit model, renders). A module is imported by scenario(name), one at
-# a time, so that ``calibench --help``, a user's ``import`` and a study's workers stay quick.
-_TABLE = {
-    "belt-stage": ("belt_stage", "BeltStageConfig", "quadratic", True),
-    "vision-stage": ("vision_stage", "VisionStageConfig", "cubic", True),
-    "probe-scanner": ("probe_scanner", "ProbeScannerConfig", None, False),
-    "arm-cmm": ("arm_cmm", "ArmCmmConfig", None, False),
-    "stewart": ("stewart", "StewartConfig", None, False),
+@dataclasses.dataclass(frozen=True)
+class Instrument:
+    """One instrument's line in the registry: what every room that serves all instruments (the
+    command line, progress, ``discover``, the studies) reads of it, so that an instrument is its
+    own modules and this one line.
+
+    Attributes
+    ----------
+    name : str
+        The scenario's name on the command line (``calibench run NAME``).
+    module : str
+        Its scenario module: ``NAME``, the config class and ``run`` (imported on first use, so
+        that ``calibench --help`` and a study's workers load one instrument, not all).
+    config : str
+        The config class's name in ``module``.
+    discovery : str or None
+        Its discovery adapter's module (:class:`calibench.scenarios.discover.engine.Plugin`);
+        None: ``discover`` does not serve it.
+    fit_model : str or None
+        The stage map ``calibench fit`` applies ("quadratic", "cubic"), or None.
+    renders : bool
+        Has a camera: ``--fidelity render|analytic`` means something.
+    run_s : float
+        ``calibench run NAME``'s seconds on 2 busy cores (render where it has a camera),
+        measured with ``time calibench run NAME --no-rrd``: the estimate a command says before
+        any step has finished.
+    """
+
+    name: str
+    module: str
+    config: str
+    discovery: str | None = None
+    fit_model: str | None = None
+    renders: bool = False
+    run_s: float = 5.0
+
+
+_DISCOVER = "calibench.scenarios.discover."
+_INSTRUMENTS: dict[str, Instrument] = {
+    i.name: i
+    for i in (
+        Instrument(
+            "belt-stage",
+            "calibench.scenarios.belt_stage.scenario",
+            "BeltStageConfig",
+            _DISCOVER + "stage",
+            "quadratic",
+            True,
+            14.0,
+        ),
+        Instrument(
+            "vision-stage",
+            "calibench.scenarios.vision_stage.scenario",
+            "VisionStageConfig",
+            _DISCOVER + "stage",
+            "cubic",
+            True,
+            19.0,
+        ),
+        Instrument(
+            "probe-scanner",
+            "calibench.scenarios.probe_scanner.scenario",
+            "ProbeScannerConfig",
+            _DISCOVER + "probe_scanner",
+            run_s=4.0,
+        ),
+        Instrument(
+            "arm-cmm",
+            "calibench.scenarios.arm_cmm.scenario",
+            "ArmCmmConfig",
+            _DISCOVER + "arm_cmm",
+            run_s=4.0,
+        ),
+        Instrument(
+            "stewart",
+            "calibench.scenarios.stewart.scenario",
+            "StewartConfig",
+            _DISCOVER + "stewart",
+            run_s=5.0,
+        ),
+    )
 }
-NAMES: tuple[str, ...] = tuple(_TABLE)
-FIT_MODELS = {name: row[2] for name, row in _TABLE.items() if row[2]}
-RENDERING: tuple[str, ...] = tuple(name for name, row in _TABLE.items() if row[3])
+# Modules (comma-separated) that register instruments of their own when imported, read once
+# here; a study's spawned workers inherit it, and so see the same instruments.
+EXTENSIONS_ENV = "CALIBENCH_INSTRUMENTS"
+
+
+def register(instrument: Instrument) -> Instrument:
+    """Add ``instrument`` to the registry (an extension module's one line); a second instrument
+    of a registered name is refused: a name is one instrument everywhere."""
+    known = _INSTRUMENTS.get(instrument.name)
+    if known is not None and known != instrument:
+        raise ValueError(f"an instrument named {instrument.name!r} is registered already")
+    _INSTRUMENTS[instrument.name] = instrument
+    return instrument
+
+
+def instrument(name: str) -> Instrument:
+    """The registry's line for ``name``; one clear line (BadInput) for a name it does not hold."""
+    if name not in _INSTRUMENTS:
+        raise BadInput(f"unknown scenario {name!r} (available: {', '.join(_INSTRUMENTS)})")
+    return _INSTRUMENTS[name]
+
+
+def instruments() -> tuple[Instrument, ...]:
+    """Every registered instrument, the built-in ones first, in the order registered."""
+    return tuple(_INSTRUMENTS.values())
+
+
+def _load_extensions() -> None:
+    import importlib
+    import os
+
+    for module in filter(None, os.environ.get(EXTENSIONS_ENV, "").split(",")):
+        try:
+            importlib.import_module(module.strip())
+        except ImportError as e:
+            raise BadInput(f"{EXTENSIONS_ENV}: cannot import {module.strip()!r} ({e})") from e
 
 
 def check_fidelity(name: str, fidelity: str | None) -> None:
     """``--fidelity render`` asked of a scenario without a camera: one line (BadInput), not a
     run or study labelled render whose sensors were never rendered."""
-    if fidelity == "render" and name not in RENDERING:
+    rendering = [i.name for i in instruments() if i.renders]
+    if fidelity == "render" and name not in rendering:
         raise BadInput(
-            f"--fidelity render applies to the scenarios with a camera ({', '.join(RENDERING)}); "
+            f"--fidelity render applies to the scenarios with a camera ({', '.join(rendering)}); "
             f"{name}'s instruments are geometric, its one fidelity analytic"
         )
 
@@ -93,18 +200,26 @@ def scenario(name: str) -> Scenario:
     if name not in _built:
         import importlib
 
-        module, config, fit_model, renders = _TABLE[name]
-        m = importlib.import_module(f"calibench.scenarios.{module}.scenario")
-        assert m.NAME == name
-        _built[name] = Scenario(name, getattr(m, config), m.run, fit_model, renders)
+        row = instrument(name)
+        m = importlib.import_module(row.module)
+        assert m.NAME == name, f"{row.module} is {m.NAME!r}'s, not {name!r}'s"
+        _built[name] = Scenario(name, getattr(m, row.config), m.run, row.fit_model, row.renders)
     return _built[name]
 
 
 def __getattr__(name: str):
-    if name != "SCENARIOS":
-        raise AttributeError(name)
-    return {key: scenario(key) for key in _TABLE}
+    # read when asked, not bound at import: an extension may register after this module loads
+    if name == "NAMES":  # tuple of str: every registered instrument's name
+        return tuple(_INSTRUMENTS)
+    if name == "FIT_MODELS":  # {name: the stage map ``fit`` applies}
+        return {i.name: i.fit_model for i in instruments() if i.fit_model}
+    if name == "RENDERING":  # tuple of str: the instruments with a camera
+        return tuple(i.name for i in instruments() if i.renders)
+    if name == "SCENARIOS":  # {name: Scenario}, every module imported
+        return {key: scenario(key) for key in _INSTRUMENTS}
+    raise AttributeError(name)
 
 
 # Scenarios named in docs/formats.md but not built yet (none now).
 PLANNED: tuple[str, ...] = ()
+_load_extensions()

@@ -102,9 +102,8 @@ def build_parser() -> argparse.ArgumentParser:
         A parser whose usage errors exit with status 2 and one line on stderr; the verb is
         ``args.command``.
     """
-    from calibench.scenarios.registry import FIT_MODELS, NAMES, PLANNED
+    from calibench.scenarios.registry import PLANNED
 
-    names = ", ".join(NAMES)
     p = _Parser(
         prog="calibench",
         description="Simulation-first test bench for calibrating measuring machines.",
@@ -114,6 +113,22 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"calibench {__version__}")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
+    _run_verb(sub)
+    _fit_verb(sub)
+    _montecarlo_verb(sub)
+    _discover_verb(sub)
+    _camera_verb(sub)
+    _iso230_verb(sub)
+    if PLANNED:
+        p.epilog = f"Scenarios planned but not built yet: {', '.join(PLANNED)}."
+    return p
+
+
+def _run_verb(sub) -> None:
+    """``calibench run``'s parser (simulate, calibrate, compare), added to ``sub``."""
+    from calibench.scenarios.registry import NAMES
+
+    names = ", ".join(NAMES)
     r = sub.add_parser(
         "run",
         help="simulate a scenario, calibrate, compare with the truth",
@@ -145,6 +160,11 @@ def build_parser() -> argparse.ArgumentParser:
         "--arm",
         help="arm-cmm: ARM.toml or a built-in arm (arm-cmm, ur10) instead of the seed's arm",
     )
+
+
+def _fit_verb(sub) -> None:
+    """``calibench fit``'s parser (a model fitted to real recordings), added to ``sub``."""
+    from calibench.scenarios.registry import FIT_MODELS
 
     fit_names = ", ".join(list(FIT_MODELS) + ["arm-cmm"])
     f = sub.add_parser(
@@ -204,6 +224,12 @@ def build_parser() -> argparse.ArgumentParser:
         "a nonsmooth table) to the model; 'discover' runs the discovery here on the training rows",
     )
 
+
+def _montecarlo_verb(sub) -> None:
+    """``calibench montecarlo``'s parser (an accuracy study), added to ``sub``."""
+    from calibench.scenarios.registry import NAMES
+
+    names = ", ".join(NAMES)
     mc = sub.add_parser(
         "montecarlo",
         help="an accuracy study: many trials, truth drawn from the prior",
@@ -245,6 +271,9 @@ def build_parser() -> argparse.ArgumentParser:
         "[scenario] table); the prior then draws around them",
     )
 
+
+def _discover_verb(sub) -> None:
+    """``calibench discover``'s parser (what the twin misses), added to ``sub``."""
     d = sub.add_parser(
         "discover",
         help="where a recording disagrees with the twin, and which physics is missing",
@@ -252,9 +281,9 @@ def build_parser() -> argparse.ArgumentParser:
         "mismatch, name and fit the missing effects, show the held-out fit improve. "
         "Writes DIR/discovery.json and DIR/discovery.png.",
     )
-    d.add_argument(
-        "scenario", help="one of: belt-stage, vision-stage, probe-scanner, arm-cmm, stewart"
-    )
+    from calibench.scenarios.discover.engine import supported
+
+    d.add_argument("scenario", help=f"one of: {', '.join(supported())}")
     d.add_argument(
         "recording",
         type=Path,
@@ -289,6 +318,9 @@ def build_parser() -> argparse.ArgumentParser:
         "else whole rows of a grid, else contiguous blocks)",
     )
 
+
+def _camera_verb(sub) -> None:
+    """``calibench camera``'s parser (a camera from chessboard photos), added to ``sub``."""
     c = sub.add_parser(
         "camera",
         help="calibrate a camera from chessboard photos",
@@ -304,6 +336,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     c.add_argument("--no-tangential", action="store_true", help="no tangential terms p1, p2")
     _out(c, "camera", "camera")
+
+
+def _iso230_verb(sub) -> None:
+    """``calibench iso230``'s parser (ISO 230-2 on a real run), added to ``sub``."""
     i = sub.add_parser(
         "iso230",
         help="ISO 230-2 evaluation of a real bidirectional run of one axis",
@@ -312,6 +348,3 @@ def build_parser() -> argparse.ArgumentParser:
     )
     i.add_argument("run", type=Path, metavar="RUN.csv", help="the run, one row per reading")
     _out(i, "iso230", "iso230")
-    if PLANNED:
-        p.epilog = f"Scenarios planned but not built yet: {', '.join(PLANNED)}."
-    return p

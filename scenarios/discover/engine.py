@@ -41,15 +41,6 @@ from calibench.scenarios.progress import stage
 from calibench.scenarios.provenance import entry
 from calibench.scenarios.report import BadInput
 
-# the plug-in module of each scenario, in calibench.scenarios.discover
-PLUGINS = {
-    "belt-stage": "stage",
-    "vision-stage": "stage",
-    "arm-cmm": "arm_cmm",
-    "probe-scanner": "probe_scanner",
-    "stewart": "stewart",
-}
-SUPPORTED = tuple(PLUGINS)
 # Rows per recording: the candidates' design matrices grow with it (a 1e6-row stage recording
 # would need tens of GB); refused before any work, with the advice to decimate.
 MAX_ROWS = 100_000
@@ -89,11 +80,21 @@ class Plugin(Protocol):
         ...
 
 
+def supported() -> tuple[str, ...]:
+    """The instruments ``discover`` serves: the registry's with a discovery adapter."""
+    from calibench.scenarios.registry import instruments
+
+    return tuple(i.name for i in instruments() if i.discovery)
+
+
 def plugin(scenario: str) -> Plugin:
     """The discovery plug-in of ``scenario`` (BadInput for a scenario discover has none for)."""
-    if scenario not in PLUGINS:
-        raise BadInput(f"discover supports {', '.join(SUPPORTED)}, not {scenario!r}")
-    return importlib.import_module(f"calibench.scenarios.discover.{PLUGINS[scenario]}")  # type: ignore[return-value]
+    from calibench.scenarios.registry import NAMES, instrument
+
+    module = instrument(scenario).discovery if scenario in NAMES else None
+    if module is None:
+        raise BadInput(f"discover supports {', '.join(supported())}, not {scenario!r}")
+    return importlib.import_module(module)  # type: ignore[return-value]
 
 
 PROVENANCE_NOTE = (
@@ -134,7 +135,7 @@ def run_discover(
     twice = first_repeat(paths)  # a recording given twice would count its rows twice
     if twice is not None:
         raise BadInput(f"{twice} is given twice: each recording once")
-    many = scenario in PLUGINS and plugin(scenario).MANY_RECORDINGS
+    many = scenario in supported() and plugin(scenario).MANY_RECORDINGS
     if not many and len(paths) != 1:
         raise BadInput(f"discover {scenario}: one recording, not {len(paths)}")
     if config is not None:
@@ -150,7 +151,7 @@ def run_discover(
         raise BadInput(f"--twin {twin} is a recording of this run: the twin would overwrite it")
     found_by = plugin(scenario)
     if holdout is not None and holdout not in found_by.HOLDOUTS:
-        stages = ", ".join(s for s in SUPPORTED if plugin(s).HOLDOUTS)
+        stages = ", ".join(s for s in supported() if plugin(s).HOLDOUTS)
         raise BadInput(
             f"--holdout {holdout}: for the stages ({stages}); discover {scenario} holds out "
             "its own folds (an arm's and a platform's contiguous blocks, a scanner's turns)"
