@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 import rerun as rr
@@ -73,7 +73,7 @@ def blueprint(columns: list[list[View]], timeline: str) -> rr.blueprint.Blueprin
     import rerun.blueprint as rrb
 
     def make(v: View):
-        kw = {"origin": v.origin, "name": v.name}
+        kw: dict[str, Any] = {"origin": v.origin, "name": v.name}
         if v.contents:
             kw["contents"] = list(v.contents)
         if v.kind == "3d":
@@ -196,7 +196,9 @@ def log_mujoco_bodies(
             continue
         _log_mesh(rec, f"{parent}/{gname}", mesh, rgba)
     for k, ((parent, rgba), meshes) in enumerate(merged.items()):
-        _log_mesh(rec, f"{parent}/merged_{k}", trimesh.util.concatenate(meshes), rgba)
+        # concatenate is typed to return a Geometry: of Trimeshes it is a Trimesh
+        whole = cast("trimesh.Trimesh", trimesh.util.concatenate(meshes))
+        _log_mesh(rec, f"{parent}/merged_{k}", whole, rgba)
     return paths
 
 
@@ -272,7 +274,7 @@ def log_body_poses(
 
 def nested_paths(model, root: str = "world") -> dict[int, str]:
     """Entity paths that follow MuJoCo's body tree, so child transforms compose."""
-    out = {}
+    out: dict[int, str] = {}
     for b in range(1, model.nbody):
         p = model.body_parentid[b]
         name = model.body(b).name or f"body{b}"
