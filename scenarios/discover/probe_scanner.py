@@ -14,8 +14,11 @@ per turn; the held-out folds are whole turns.
 
 from __future__ import annotations
 
+from typing import cast
+
 import numpy as np
 
+from calibench.estimators.discovery.effect import Effect
 from calibench.estimators.discovery.fit import (
     Signal,
     confounded,
@@ -89,7 +92,7 @@ def scene_model(rec, config) -> tuple[object, np.ndarray, np.ndarray, np.ndarray
     g, nom = config.geometry, config.nominal
     a, rc = g.plate.half_side_mm, g.plate.corner_radius_mm
     th = rec.theta_rad
-    cal = None
+    cal, cal_rms = None, np.inf
     # the plate as clamped at rest first; a plate turned on the table (a second recording) from
     # start angles a quarter of its symmetry apart
     for turn in PLATE_TURNS_RAD:
@@ -98,12 +101,13 @@ def scene_model(rec, config) -> tuple[object, np.ndarray, np.ndarray, np.ndarray
             fit = calibrate_lsq(th, rec.rho_mm, a, rc, start)
         except np.linalg.LinAlgError:  # readings no rail can give: no inverse normal matrix
             continue
-        if np.isfinite(fit.rms_mm) and (cal is None or fit.rms_mm < cal.rms_mm):
-            cal = fit
-        if cal is not None and cal.rms_mm < RAIL_FITS_MM:
+        rms_mm = np.nan if fit.rms_mm is None else fit.rms_mm
+        if np.isfinite(rms_mm) and rms_mm < cal_rms:
+            cal, cal_rms = fit, rms_mm
+        if cal_rms < RAIL_FITS_MM:
             break
-    if cal is None or not np.isfinite(cal.rms_mm) or cal.rms_mm > 1.0:
-        fit_rms = "no fit" if cal is None else f"rms {cal.rms_mm:.3g} mm"
+    if cal is None or not np.isfinite(cal_rms) or cal_rms > 1.0:
+        fit_rms = "no fit" if cal is None else f"rms {cal_rms:.3g} mm"
         raise BadInput(
             f"the recording does not fit the calibration plate ({2 * a:g} mm square, r = {rc:g} "
             "mm) with "
@@ -163,7 +167,7 @@ def find_angle_table(
     )
     # judged where it acts: a nick a degree wide barely moves the whole turn's RMS
     inside = table_id[band] >= 0
-    cache = {}
+    cache: dict = {}
     before = rms(cv_residuals(sig, terms, drivers, fold, cache)[inside])
     after = rms(cv_residuals(sig, terms + [table], drivers, fold, cache)[inside])
     return table if after < (1 - floor) * before else None
@@ -211,7 +215,7 @@ def _discover_scanner(recs: list, seed: int, floor: float, config) -> tuple[dict
     n = len(rec)
     turns = np.unique(rec.turn)
     th = rec.theta_rad
-    drivers: ScannerDrivers = {
+    typed: ScannerDrivers = {
         "theta": th,
         "rho": rho_twin,
         "drho": slope,
@@ -219,6 +223,7 @@ def _discover_scanner(recs: list, seed: int, floor: float, config) -> tuple[dict
         "t_s": rec.t_s,
         "temp_c": rec.temp_c,
     }
+    drivers = cast(dict, typed)  # select() and the fits take a dict, which a TypedDict is not
     sig = Signal("rho_meas - rho_sim", AXIS, rec.rho_mm - rho_twin, geo, np.arange(n), th)
     if len(turns) >= 2:
         fold, scheme = np.searchsorted(turns, rec.turn), "leave one turn out"
@@ -350,6 +355,7 @@ def _look_alikes(sig, terms: list, drivers) -> list[dict]:
     encoder's eccentricity and a once-per-turn runout on the square plate): said as confounded,
     with the experiment that separates them, not left as a confident name."""
     out = []
+    pairs: tuple[tuple[str, Effect, str], ...]
     pairs = (("runout", TableEccentricity(), "encoder_eccentricity"),)
     pairs += (("encoder_eccentricity", Runout(harmonic=1), "runout (once per turn)"),)
     for name, other, other_name in pairs:

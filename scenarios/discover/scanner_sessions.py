@@ -85,7 +85,7 @@ def joined(recs: list[ScannerRecording]) -> tuple[ScannerRecording, np.ndarray]:
         labels_end_to_end([r.turn for r in recs]),
         np.concatenate([r.theta_rad for r in recs]),
         np.concatenate([r.rho_mm for r in recs]),
-        times_end_to_end([r.t_s for r in recs]) if has[0] else None,
+        times_end_to_end([r.t_s for r in recs if r.t_s is not None]) if has[0] else None,
         np.concatenate([r.temp_c for r in recs]) if has[1] else None,
     )
     return rec, np.repeat(np.arange(len(recs)), [len(r) for r in recs])

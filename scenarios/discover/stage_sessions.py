@@ -38,7 +38,9 @@ def joined(recs: list[StageRecording]) -> StageRecording:
         y_cmd_mm=np.concatenate([r.y_cmd_mm for r in recs]),
         x_meas_mm=np.concatenate([r.x_meas_mm for r in recs]),
         y_meas_mm=np.concatenate([r.y_meas_mm for r in recs]),
-        t_s=times_end_to_end([r.t_s for r in recs]) if all(has["t_s"]) else None,
+        t_s=times_end_to_end([r.t_s for r in recs if r.t_s is not None])
+        if all(has["t_s"])
+        else None,
         dir_x=cat("dir_x"),
         dir_y=cat("dir_y"),
         temp_c=cat("temp_c"),
@@ -74,6 +76,7 @@ def map_difference(recs: list[StageRecording], degree: int) -> np.ndarray:
     span = (max(np.ptp(rec.x_cmd_mm), 1.0), max(np.ptp(rec.y_cmd_mm), 1.0))
     P = poly_base(rec.x_cmd_mm, rec.y_cmd_mm, degree, span)
     own = [(which == k).astype(float)[:, None] for k in range(len(recs))]
+    assert rec.run is not None  # joined() numbers every recording's passes
     passes = np.unique(rec.run, return_inverse=True)[1].ravel()
     offsets = (passes[:, None] == np.arange(passes.max() + 1)[None, :]).astype(float)
     shared = np.hstack([P] + [P[:, :3] * o for o in own[1:]] + [offsets])

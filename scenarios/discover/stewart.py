@@ -14,6 +14,7 @@ would split them by its own noise.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 
@@ -153,7 +154,8 @@ def twin_drivers(
         "force": force,
         "frame": frame,
     }
-    return drivers, res, frame
+    # select() and the fits take a dict, which a TypedDict is not
+    return cast(dict, drivers), res, frame
 
 
 # two readings of one commanded leg length differ by the readings' noise times sqrt(2): 4 of
@@ -308,7 +310,7 @@ def _discover_stewart(rec, rec_id, seed: int, floor: float, config) -> tuple[dic
         refuse_another(moved, left, SAME_PLATFORM_MM, "platform", "hinges")
     effects, fitted = describe_effects([sig], terms, found, drivers, noise)
     after_noise = {AXIS: repeatability(fitted[AXIS], station, order)}
-    confounds = []
+    confounds: list[dict] = []
     accepted = {t.key for t in terms[AXIS]}
     for c in candidates:
         if c.key in accepted or not hasattr(c, "columns") or c.name == "geometry":
@@ -410,17 +412,17 @@ def twin_tables(scenario: str, out: dict, config: Path | None, arm=None) -> tupl
             for k in range(6) if i < 0 else (i,):
                 leg["leg_compliance_um_per_n"][k] += p["um_per_n"]
         elif e["name"] == "thermal_expansion" and out.get("temp_mean_c") is not None:
-            k = leg["leg_thermal_ppm_per_k"]
-            both = thermal_on_top(k[i], ref, p["ppm_per_k"], out["temp_mean_c"])
+            ppm = leg["leg_thermal_ppm_per_k"]
+            both = thermal_on_top(ppm[i], ref, p["ppm_per_k"], out["temp_mean_c"])
             # the legs share one reference temperature: another leg's expansion fixes it
-            if both is None or (any(k[j] for j in range(6) if j != i) and both[1] != ref):
+            if both is None or (any(ppm[j] for j in range(6) if j != i) and both[1] != ref):
                 left.append(f"{e['name']} (leg {i + 1})")
             else:
-                k[i], ref = both
+                ppm[i], ref = both
         elif e["name"] == "backlash":
             leg["leg_reversal_um"][i] += p["reversal_mm"] * 1000
         elif e["name"] == "periodic" and (
-            both := periodic_on_top(
+            pitch := periodic_on_top(
                 leg["leg_pitch_um"][i],
                 leg["leg_pitch_lead_mm"][i],
                 leg["leg_pitch_phase_rad"][i],
@@ -430,7 +432,7 @@ def twin_tables(scenario: str, out: dict, config: Path | None, arm=None) -> tupl
             )
         ):
             leg["leg_pitch_um"][i], leg["leg_pitch_lead_mm"][i], leg["leg_pitch_phase_rad"][i] = (
-                both
+                pitch
             )
         else:
             left.append(e["name"] + (f" (leg {i + 1})" if i >= 0 else ""))

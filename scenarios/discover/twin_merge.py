@@ -138,12 +138,14 @@ def stage_drives(out: dict, truth) -> tuple[dict, list[str]]:
                 e["name"] == "thermal_expansion"
                 and out.get("temp_mean_c") is not None
                 and (
-                    both := thermal_on_top(
+                    thermal := thermal_on_top(
                         d.thermal_ppm_per_k, d.reference_temp_c, p["ppm_per_k"], out["temp_mean_c"]
                     )
                 )
             ):
-                d = dataclasses.replace(d, thermal_ppm_per_k=both[0], reference_temp_c=both[1])
+                d = dataclasses.replace(
+                    d, thermal_ppm_per_k=thermal[0], reference_temp_c=thermal[1]
+                )
             else:
                 left.append(f"{e['name']} ({a})")
         drives[f"drive_{a}"] = dataclasses.asdict(d)
