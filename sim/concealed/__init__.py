@@ -7,7 +7,9 @@ sealed manifest that ``discover`` never reads; only the suite opens it afterward
 
 One module per instrument, each naming its kinds: ``stage`` (belt-stage, vision-stage),
 ``arm`` (any arm description), ``scanner`` (the probe scanner), ``stewart`` (the Stewart
-platform); ``blinded`` writes a recording and its sealed manifest.
+platform); ``blinded`` writes a recording and its sealed manifest; what the generators share is
+written once: a session's generator, the room and the manifest (``sessions``), the effects more
+than one instrument has (``effects``).
 """
 
 from calibench.sim.concealed.arm import ARM_KINDS, arm_recording

@@ -14,7 +14,22 @@ import dataclasses
 import numpy as np
 
 from calibench.recordings import StageRecording
+from calibench.sim.concealed.effects import (
+    draw_lost_motion_mm,
+    draw_periodic,
+    effect,
+    expansion_mm,
+    lost_motion_mm,
+    periodic_mm,
+)
 from calibench.sim.concealed.noise import reading_noise
+from calibench.sim.concealed.sessions import (
+    ROOM_C,
+    first_order_rise,
+    manifest,
+    room_temperature,
+    session_generator,
+)
 from calibench.sim.concealed.unwritten import UNWRITTEN_STAGE_KINDS, stage_effect
 from calibench.sim.replay import replay_stage
 from calibench.sim.stage_drive import travel_direction
@@ -163,81 +178,20 @@ def stage_recording(
         if scenario != "belt-stage":
             raise ValueError("an elastic belt is the belt stage's")
         a = str(rng.choice(["x", "y"]))
-        pos, effect = _elastic_belt(a, rng, x, y, truth, geometry)
-        effects.append(effect)
+        pos, elastic = _elastic_belt(a, rng, x, y, truth, geometry)
+        effects.append(elastic)
     else:  # replayed once the room's temperature is known (a twin's drives may expand with it)
         pos = None
-    err = np.zeros((n, 2))
-    # the as-built machine differs smoothly from the twin (the scene's model absorbs this)
-    u, v = x / plan.travel_mm[0], y / plan.travel_mm[1]
-    for k in range(2):
-        err[:, k] += rng.normal(0, 0.02, 6) @ np.stack([np.ones(n), u, v, u * u, u * v, v * v])
-    T = 20.0 + np.cumsum(rng.normal(0, 0.002, n))  # a quiet room: the logged temperature wanders
+    err = as_built_map_mm(rng, x, y, plan.travel_mm)
+    T = room_temperature(rng, n, 0.002)  # a quiet room: the logged temperature wanders
     # a warmer session or a repeat: the same machine, its own pass offsets and noise (a warmer
     # one its own wander too)
-    session = rng
-    if warmer_k or repeat:
-        again = [100 + repeat] if repeat else []
-        session = np.random.default_rng([seed, 1 + round(1000 * warmer_k), *again])
+    session = session_generator(rng, seed, warmer_k, round(1000 * warmer_k), repeat)
     if warmer_k:
-        T = 20.0 + warmer_k + np.cumsum(session.normal(0, 0.002, n))
+        T = room_temperature(session, n, 0.002, ROOM_C + warmer_k)
     reference = T[0] - warmer_k  # what the machine's scale is calibrated at
-    wanted = {
-        "combined": ("backlash", "periodic", "thermal"),
-        "mixed": ("backlash", "periodic", "thermal"),
-    }.get(kind, (kind,))
-    axis_of = {"x": 0, "y": 1}
-    pick = [str(a) for a in rng.permutation(["x", "y"])]
-    if "backlash" in wanted:
-        a = pick[0]
-        B = rng.uniform(5, 15) / 1000
-        err[:, axis_of[a]] += B / 2 * c[f"dir_{a}"]
-        effects.append({"name": "backlash", "axis": a, "params": {"reversal_mm": B}})
-    if "periodic" in wanted:
-        a = pick[1] if kind == "combined" else pick[0]
-        P, A, ph = rng.uniform(30, 100), rng.uniform(4, 10) / 1000, rng.uniform(0, 2 * np.pi)
-        pos_a = x if a == "x" else y
-        err[:, axis_of[a]] += A * np.sin(2 * np.pi * pos_a / P + ph)
-        effects.append(
-            {"name": "periodic", "axis": a, "params": {"period_mm": P, "amplitude_mm": A}}
-        )
-    if "thermal" in wanted:
-        rise, tau = rng.uniform(2, 5), c["t_s"][-1] / rng.uniform(1.5, 3)
-        rise = rise if rise_k is None else rise_k
-        T = T + rise * (1 - np.exp(-c["t_s"] / tau))
-        k = rng.uniform(10, 25)  # ppm/K: the scale's mismatch with the part (aluminium vs glass)
-        for a, u_a in (("x", x), ("y", y)):
-            if kind == "mixed" and a != pick[0]:  # all three on one axis
-                continue
-            err[:, axis_of[a]] += k * 1e-6 * (T - reference) * u_a
-            effects.append(
-                {
-                    "name": "thermal_expansion",
-                    "axis": a,
-                    "params": {"ppm_per_k": k},
-                    "temperature_rise_k": rise,
-                }
-            )
-    if kind == "bump":
-        x0, w, h = (
-            rng.uniform(0.2, 0.8) * plan.travel_mm[0],
-            rng.uniform(8, 15),
-            rng.uniform(8, 15) / 1000,
-        )
-        err[:, 1] += h * np.exp(
-            -0.5 * ((x - x0) / w) ** 2
-        )  # the X rail's bump lifts the carriage sideways
-        effects.append(
-            {
-                "name": "nonsmooth",
-                "axis": "y",
-                "params": {"x_mm": x0, "width_mm": w, "height_mm": h},
-            }
-        )
-    if kind in UNWRITTEN_STAGE_KINDS:  # the second suite's: no candidate writes them down
-        more, truths, T = stage_effect(kind, rng, c, plan.travel_mm, T)
-        err += more
-        effects += truths
+    err, T, found = concealed_errors(kind, rng, c, plan.travel_mm, err, T, reference, rise_k)
+    effects += found
     run = c["run"].astype(int)
     err += session.normal(0, PASS_OFFSET_UM / 1000, (plan.passes, 2))[run]
     err += reading_noise(noise, session, (n, 2), REFERENCE_NOISE_UM / 1000)
@@ -256,16 +210,131 @@ def stage_recording(
         temp_c=np.round(T, 3),
         run=run.astype(float),
     )
-    return rec, {
-        "scenario": scenario,
-        "kind": kind,
-        "seed": seed,
-        "effects": effects,
-        "noise_um": REFERENCE_NOISE_UM,
-        "noise": noise,
-        "warmer_k": warmer_k,
-        "repeat": repeat,
-    }
+    return rec, manifest(
+        scenario, kind, seed, effects, REFERENCE_NOISE_UM, noise, warmer_k=warmer_k, repeat=repeat
+    )
+
+
+def as_built_map_mm(
+    rng: np.random.Generator, x_mm: np.ndarray, y_mm: np.ndarray, travel_mm: tuple[float, float]
+) -> np.ndarray:
+    """How the as-built machine differs smoothly from the twin at the commands ``x_mm``,
+    ``y_mm`` (n,): per axis a quadratic in the travel's fractions, its six coefficients
+    N(0, 0.02 mm) (the scene's model absorbs this); (n, 2) mm."""
+    n = len(x_mm)
+    err = np.zeros((n, 2))
+    u, v = x_mm / travel_mm[0], y_mm / travel_mm[1]
+    for k in range(2):
+        err[:, k] += rng.normal(0, 0.02, 6) @ np.stack([np.ones(n), u, v, u * u, u * v, v * v])
+    return err
+
+
+def concealed_errors(
+    kind: str,
+    rng: np.random.Generator,
+    c: dict,
+    travel_mm: tuple[float, float],
+    err_mm: np.ndarray,
+    temp_c: np.ndarray,
+    reference_c: float,
+    rise_k: float | None,
+) -> tuple[np.ndarray, np.ndarray, list[dict]]:
+    """The concealed effects of ``kind`` added to the machine's errors, in their order of draws.
+
+    Parameters
+    ----------
+    kind : str
+        The recording's kind.
+    rng : numpy.random.Generator
+        The machine's generator.
+    c : dict
+        :func:`stage_commands`'s.
+    travel_mm : tuple of float
+        (X, Y) the plan's travel, mm.
+    err_mm : ndarray
+        (n, 2) the machine's errors so far, mm.
+    temp_c : ndarray
+        (n,) the room's logged temperature, deg C.
+    reference_c : float
+        The temperature the machine's scale is calibrated at, deg C.
+    rise_k : float or None
+        ``thermal``'s rise, K; None: drawn.
+
+    Returns
+    -------
+    err_mm : ndarray
+        (n, 2) the errors with the effects, mm.
+    temp_c : ndarray
+        (n,) the logged temperature (risen where the kind warms the room), deg C.
+    effects : list of dict
+        The effects' records.
+    """
+    x, y = c["x"], c["y"]
+    wanted = {
+        "combined": ("backlash", "periodic", "thermal"),
+        "mixed": ("backlash", "periodic", "thermal"),
+    }.get(kind, (kind,))
+    axis_of = {"x": 0, "y": 1}
+    pick = [str(a) for a in rng.permutation(["x", "y"])]
+    effects = []
+    if "backlash" in wanted:
+        a = pick[0]
+        B = draw_lost_motion_mm(rng)
+        err_mm[:, axis_of[a]] += lost_motion_mm(B, c[f"dir_{a}"])
+        effects.append(effect("backlash", a, reversal_mm=B))
+    if "periodic" in wanted:
+        a = pick[1] if kind == "combined" else pick[0]
+        P, A, ph = draw_periodic(rng, (30, 100), (4, 10))
+        err_mm[:, axis_of[a]] += periodic_mm(x if a == "x" else y, P, A, ph)
+        effects.append(effect("periodic", a, period_mm=P, amplitude_mm=A))
+    if "thermal" in wanted:
+        temp_c, found = thermal_expansion(
+            rng, c["t_s"], x, y, err_mm, temp_c, reference_c, rise_k, pick[0], kind == "mixed"
+        )
+        effects += found
+    if kind == "bump":
+        x0, w, h = (
+            rng.uniform(0.2, 0.8) * travel_mm[0],
+            rng.uniform(8, 15),
+            rng.uniform(8, 15) / 1000,
+        )
+        # the X rail's bump lifts the carriage sideways
+        err_mm[:, 1] += h * np.exp(-0.5 * ((x - x0) / w) ** 2)
+        effects.append(effect("nonsmooth", "y", x_mm=x0, width_mm=w, height_mm=h))
+    if kind in UNWRITTEN_STAGE_KINDS:  # the second suite's: no candidate writes them down
+        more, truths, temp_c = stage_effect(kind, rng, c, travel_mm, temp_c)
+        err_mm += more
+        effects += truths
+    return err_mm, temp_c, effects
+
+
+def thermal_expansion(
+    rng: np.random.Generator,
+    t_s: np.ndarray,
+    x_mm: np.ndarray,
+    y_mm: np.ndarray,
+    err_mm: np.ndarray,
+    temp_c: np.ndarray,
+    reference_c: float,
+    rise_k: float | None,
+    only: str,
+    one_axis: bool,
+) -> tuple[np.ndarray, list[dict]]:
+    """The room rising 2-5 K (``rise_k`` if given) over a first-order time constant of a third
+    to two thirds of the recording, and the scales expanding 10-25 ppm/K against the part
+    (aluminium vs glass) on both axes (``one_axis``: on ``only``), added to ``err_mm`` (n, 2)
+    mm in place. Returns the risen temperature (n,) deg C and the effects' records."""
+    rise, tau = rng.uniform(2, 5), t_s[-1] / rng.uniform(1.5, 3)
+    rise = rise if rise_k is None else rise_k
+    temp_c = temp_c + first_order_rise(t_s, rise, tau)
+    k = rng.uniform(10, 25)  # ppm/K: the scale's mismatch with the part (aluminium vs glass)
+    effects = []
+    for i, (a, u_a) in enumerate((("x", x_mm), ("y", y_mm))):
+        if one_axis and a != only:  # all three on one axis
+            continue
+        err_mm[:, i] += expansion_mm(k, temp_c, reference_c, u_a)
+        effects.append({**effect("thermal_expansion", a, ppm_per_k=k), "temperature_rise_k": rise})
+    return temp_c, effects
 
 
 def _elastic_belt(

@@ -9,13 +9,22 @@ from __future__ import annotations
 import numpy as np
 
 from calibench.recordings import StewartRecording
+from calibench.sim.concealed.effects import (
+    draw_lost_motion_mm,
+    draw_periodic,
+    effect,
+    expansion_mm,
+    lost_motion_mm,
+    periodic_mm,
+)
 from calibench.sim.concealed.noise import repeat_noise
+from calibench.sim.concealed.sessions import first_order_rise, manifest, room_temperature
 from calibench.sim.concealed.unwritten import (
     UNWRITTEN_STEWART_KINDS,
     stewart_effect,
     tracker_air,
 )
-from calibench.sim.stewart import leg_effects_mm, stewart_poses
+from calibench.sim.stewart import StewartSim, leg_effects_mm, stewart_poses
 
 STEWART_KINDS = ("null", "thermal", "backlash", "pitch", "compliance")
 # The Stewart scenario's default working range about home (its StewartConfig's), fixed here: the
@@ -88,10 +97,8 @@ def stewart_recording(
     ValueError
         An unknown kind.
     """
-    from scipy.spatial.transform import Rotation
-
     from calibench.scenes.stewart import StewartGeometry
-    from calibench.sim.stewart import StewartSim, StewartTruth
+    from calibench.sim.stewart import StewartTruth
 
     if kind not in STEWART_KINDS + UNWRITTEN_STEWART_KINDS:
         raise ValueError(f"unknown kind {kind!r} (known: {', '.join(STEWART_KINDS)})")
@@ -104,51 +111,17 @@ def stewart_recording(
     poses = poses + poses[::-1]
     n = len(poses)
     load = 500.0 * (np.arange(n) % 3)
-    L = np.empty((n, 6))
-    force = np.zeros((n, 6))
-    for k, (R, t) in enumerate(poses):
-        sim.set_pose(R, t)
-        L[k] = sim.leg_lengths_mm()
-        if kind == "compliance":
-            force[k] = sim.leg_forces_n(R, t, load[k])
+    L, force = leg_lengths_and_forces(sim, poses, load, kind == "compliance")
     step = np.diff(np.vstack([L[:1] - 1.0, L]), axis=0)  # homed from below
     direction = np.sign(step)
     t_s = np.arange(n) * 30.0
-    T = 20.0 + np.cumsum(rng.normal(0, 0.002, n))
+    T = room_temperature(rng, n, 0.002)
     readings = L - sim.l0
     leg = int(rng.integers(1, 7))
-    effects = []
     T_ref, T = T[0], T + warmer_k
-    if kind == "thermal":
-        rise, k = rng.uniform(2, 5), rng.uniform(10, 25)
-        rise = rise if rise_k is None else rise_k
-        T = T + rise * (1 - np.exp(-t_s / (t_s[-1] / 2)))
-        readings[:, leg - 1] -= k * 1e-6 * (T - T_ref) * L[:, leg - 1]
-        effects.append(
-            {"name": "thermal_expansion", "axis": "legs", "params": {"leg": leg, "ppm_per_k": k}}
-        )
-    if kind == "backlash":
-        B = rng.uniform(5, 15) / 1000
-        readings[:, leg - 1] += B / 2 * direction[:, leg - 1]
-        effects.append(
-            {"name": "backlash", "axis": "legs", "params": {"leg": leg, "reversal_mm": B}}
-        )
-    if kind == "pitch":
-        P, A, ph = rng.uniform(4, 12), rng.uniform(3, 8) / 1000, rng.uniform(0, 2 * np.pi)
-        readings[:, leg - 1] += A * np.sin(2 * np.pi * L[:, leg - 1] / P + ph)
-        effects.append(
-            {
-                "name": "periodic",
-                "axis": "legs",
-                "params": {"leg": leg, "period_mm": P, "amplitude_mm": A},
-            }
-        )
-    if kind == "compliance":
-        c = rng.uniform(0.02, 0.05)
-        readings += (
-            c * (1 + 0.05 * rng.standard_normal(6)) * 1e-3 * force
-        )  # the screw reads what the leg gave
-        effects.append({"name": "leg_compliance", "axis": "legs", "params": {"um_per_n": c}})
+    readings, T, effects = concealed_leg_errors(
+        kind, rng, leg, readings, L, direction, force, T, T_ref, t_s, rise_k
+    )
     if twin.has_leg_physics:  # the twin's own legs, under the payload the recording says
         pushed = np.array([sim.leg_forces_n(R, t, load[k]) for k, (R, t) in enumerate(poses)])
         readings += leg_effects_mm(twin, L, pushed, direction, T)
@@ -157,11 +130,7 @@ def stewart_recording(
         readings += more
         effects.append(truth)
     readings += noisy(readings.shape, 1e-3)
-    # the tracker's frame: turned about the vertical and set beside the machine
-    R_tr = Rotation.from_rotvec(
-        np.r_[rng.normal(0, 0.01, 2), rng.uniform(-np.pi, np.pi)]
-    ).as_matrix()
-    t_tr = np.r_[rng.uniform(1500, 3000), rng.uniform(-1000, 1000), rng.uniform(-800, 0)]
+    R_tr, t_tr = tracker_station(rng)
     # the tracker's noise, in time order: (n, reflectors, 3)
     tracker_noise = noisy((n, len(g.reflectors_mm), 3), 2e-3)
     range_scale = np.zeros(n)  # the tracker's distances read long by this share
@@ -169,25 +138,138 @@ def stewart_recording(
         T, range_scale, distance, truth = tracker_air(rng, T, t_s)
         t_tr = t_tr * distance / np.linalg.norm(t_tr)  # set back along the same bearing
         effects.append(truth)
-    R_meas, t_meas = np.empty((n, 3, 3)), np.empty((n, 3))
-    for k, (R, t) in enumerate(poses):
-        world = g.reflectors_mm @ R.T + t
-        seen = (world @ R_tr.T + t_tr) * (1 + range_scale[k]) + tracker_noise[k]
-        # the tracker's own pose solution (scipy's Kabsch, not the estimators')
-        c_seen, c_refl = seen.mean(axis=0), g.reflectors_mm.mean(axis=0)
-        R_meas[k] = Rotation.align_vectors(seen - c_seen, g.reflectors_mm - c_refl)[0].as_matrix()
-        t_meas[k] = c_seen - R_meas[k] @ c_refl
+    R_meas, t_meas = tracker_poses(poses, g.reflectors_mm, R_tr, t_tr, range_scale, tracker_noise)
     rec = StewartRecording(
         np.round(readings, 6), R_meas, t_meas, t_s, np.round(T, 3), direction, load
     )
     # per leg: the reading's 1 um and the tracker's pose (its reflectors' 2 um, levered out to the
     # hinges) together, as the repeats show it
-    return rec, {
-        "scenario": "stewart",
-        "kind": kind,
-        "seed": seed,
-        "effects": effects,
-        "noise_um": 2.3,
-        "noise": noise,
-        "repeat": repeat,
-    }
+    return rec, manifest("stewart", kind, seed, effects, 2.3, noise, repeat=repeat)
+
+
+def leg_lengths_and_forces(
+    sim: StewartSim, poses: list, load_n: np.ndarray, forces: bool
+) -> tuple[np.ndarray, np.ndarray]:
+    """The legs' true lengths (n, 6) mm at the ``poses`` (n of (R (3, 3), t (3,) mm)), and with
+    ``forces`` the axial forces (n, 6) N MuJoCo's statics put on them under the payload
+    ``load_n`` (n,) (without: zeros)."""
+    n = len(poses)
+    L = np.empty((n, 6))
+    force = np.zeros((n, 6))
+    for k, (R, t) in enumerate(poses):
+        sim.set_pose(R, t)
+        L[k] = sim.leg_lengths_mm()
+        if forces:
+            force[k] = sim.leg_forces_n(R, t, load_n[k])
+    return L, force
+
+
+def concealed_leg_errors(
+    kind: str,
+    rng: np.random.Generator,
+    leg: int,
+    readings_mm: np.ndarray,
+    L_mm: np.ndarray,
+    direction: np.ndarray,
+    force_n: np.ndarray,
+    temp_c: np.ndarray,
+    reference_c: float,
+    t_s: np.ndarray,
+    rise_k: float | None,
+) -> tuple[np.ndarray, np.ndarray, list[dict]]:
+    """The concealed effect of ``kind`` on the legs' readings ``readings_mm`` (n, 6) (in place).
+
+    ``thermal``: leg ``leg`` (1-6) grows 10-25 ppm/K of its length ``L_mm`` (n, 6) from
+    ``reference_c`` while the temperature ``temp_c`` (n,) rises 2-5 K (``rise_k`` if given)
+    over the times ``t_s`` (n,); ``backlash``: it loses 5-15 um on reversal of its
+    ``direction`` (n, 6); ``pitch``: its screw is off periodically (lead 4-12 mm, 3-8 um);
+    ``compliance``: every leg gives 0.02-0.05 um per N (each within 5 % of the others) of its
+    axial force ``force_n`` (n, 6).
+
+    Returns
+    -------
+    readings_mm : ndarray
+        (n, 6) mm.
+    temp_c : ndarray
+        (n,) the logged temperature, deg C.
+    effects : list of dict
+        The effect's record (none for another kind).
+    """
+    i = leg - 1
+    if kind == "thermal":
+        rise, k = rng.uniform(2, 5), rng.uniform(10, 25)
+        rise = rise if rise_k is None else rise_k
+        temp_c = temp_c + first_order_rise(t_s, rise, t_s[-1] / 2)
+        readings_mm[:, i] -= expansion_mm(k, temp_c, reference_c, L_mm[:, i])
+        return readings_mm, temp_c, [effect("thermal_expansion", "legs", leg=leg, ppm_per_k=k)]
+    if kind == "backlash":
+        B = draw_lost_motion_mm(rng)
+        readings_mm[:, i] += lost_motion_mm(B, direction[:, i])
+        return readings_mm, temp_c, [effect("backlash", "legs", leg=leg, reversal_mm=B)]
+    if kind == "pitch":
+        P, A, ph = draw_periodic(rng, (4, 12), (3, 8))
+        readings_mm[:, i] += periodic_mm(L_mm[:, i], P, A, ph)
+        found = effect("periodic", "legs", leg=leg, period_mm=P, amplitude_mm=A)
+        return readings_mm, temp_c, [found]
+    if kind == "compliance":
+        c = rng.uniform(0.02, 0.05)
+        # the screw reads what the leg gave
+        readings_mm += c * (1 + 0.05 * rng.standard_normal(6)) * 1e-3 * force_n
+        return readings_mm, temp_c, [effect("leg_compliance", "legs", um_per_n=c)]
+    return readings_mm, temp_c, []
+
+
+def tracker_station(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """The tracker's frame: turned about the vertical (and tilted by N(0, 0.01 rad)) and set
+    beside the machine, 1.5-3 m off; its rotation (3, 3) and translation (3,) mm."""
+    from scipy.spatial.transform import Rotation
+
+    R_tr = Rotation.from_rotvec(
+        np.r_[rng.normal(0, 0.01, 2), rng.uniform(-np.pi, np.pi)]
+    ).as_matrix()
+    t_tr = np.r_[rng.uniform(1500, 3000), rng.uniform(-1000, 1000), rng.uniform(-800, 0)]
+    return R_tr, t_tr
+
+
+def tracker_poses(
+    poses: list,
+    reflectors_mm: np.ndarray,
+    R_tr: np.ndarray,
+    t_tr_mm: np.ndarray,
+    range_scale: np.ndarray,
+    noise_mm: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The platform's poses as the tracker solves them from its reflectors.
+
+    Parameters
+    ----------
+    poses : list of (ndarray, ndarray)
+        n true poses, R (3, 3) and t (3,) mm.
+    reflectors_mm : ndarray
+        (r, 3) the reflectors on the platform, mm.
+    R_tr, t_tr_mm : ndarray
+        (3, 3), (3,) the tracker's frame.
+    range_scale : ndarray
+        (n,) the share its distances read long by.
+    noise_mm : ndarray
+        (n, r, 3) its noise per reflector, mm.
+
+    Returns
+    -------
+    R : ndarray
+        (n, 3, 3) the poses' rotations in the tracker's frame.
+    t_mm : ndarray
+        (n, 3) their translations, mm.
+    """
+    from scipy.spatial.transform import Rotation
+
+    n = len(poses)
+    R_meas, t_meas = np.empty((n, 3, 3)), np.empty((n, 3))
+    for k, (R, t) in enumerate(poses):
+        world = reflectors_mm @ R.T + t
+        seen = (world @ R_tr.T + t_tr_mm) * (1 + range_scale[k]) + noise_mm[k]
+        # the tracker's own pose solution (scipy's Kabsch, not the estimators')
+        c_seen, c_refl = seen.mean(axis=0), reflectors_mm.mean(axis=0)
+        R_meas[k] = Rotation.align_vectors(seen - c_seen, reflectors_mm - c_refl)[0].as_matrix()
+        t_meas[k] = c_seen - R_meas[k] @ c_refl
+    return R_meas, t_meas
