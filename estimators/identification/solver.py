@@ -20,7 +20,7 @@ from scipy import sparse
 
 from calibench.estimators.identification.basis import Basis, identifiable_basis
 from calibench.estimators.identification.covariance import covariance
-from calibench.estimators.identification.normal import normal_equations
+from calibench.estimators.identification.normal import NormalEquations, normal_equations
 from calibench.estimators.identification.problem import Problem, State
 
 # a sum of squares of a few hundred whitened residuals is exact to about 1e-14 of itself: a
@@ -141,26 +141,14 @@ def identify(
     trace: list[Iteration] = []
     for it in range(1, max_iter + 1):  # noqa: B007 - the count is reported after the loop
         normal = normal_equations(kept_columns(problem.jacobian(s), k), r)
-        diag, g = normal.diag, normal.g
         start_cost = float(cost)
-        # the most the linearised model promises is the undamped step's decrease, g' A^-1 g: a
-        # damped step promises less, so only the undamped one may say the minimum is reached
-        try:
-            floor = bool(normal.undamped_decrease() <= rounding * cost)
-        except np.linalg.LinAlgError:
-            floor = False
+        floor = at_rounding_floor(normal, cost, rounding)
         if floor and finish:
             # no comparison of costs can judge a step any more: Gauss-Newton's (undamped) steps,
             # which need none, go on to the minimum until they are below the tolerance
-            step_k = normal.step(0.0)
-            step = np.zeros(len(problem.names))
-            step[k] = step_k
-            s = problem.update(s, step)
-            r = problem.residuals(s)
-            cost = r @ r
-            step_std = float(np.max(np.abs(step_k) * np.sqrt(diag)))
-            trace.append(Iteration(start_cost, 0.0, step_std, True))
-            if step_std < xtol:
+            s, r, cost, moved = gauss_newton_step(problem, s, normal, k)
+            trace.append(Iteration(start_cost, 0.0, moved, True))
+            if moved < xtol:
                 status = Status.COST_ROUNDING
                 break
             continue
@@ -168,36 +156,133 @@ def identify(
             status = Status.COST_ROUNDING
             trace.append(Iteration(start_cost, lam, 0.0, False))
             break
-        accepted = False
-        while True:
-            step_k = normal.step(lam)
-            step = np.zeros(len(problem.names))
-            step[k] = step_k
-            s_new = problem.update(s, step)
-            r_new = problem.residuals(s_new)
-            if r_new @ r_new < cost:
-                s, r, cost, lam = s_new, r_new, r_new @ r_new, max(lam / 10, 1e-12)
-                accepted = True
-                break
-            if np.max(np.abs(step_k) * np.sqrt(diag)) < xtol:
-                break  # a step already below the tolerance: shorter ones change nothing either
-            lam *= 10
-            if lam > 1e12:
-                break
-        step_std = float(np.max(np.abs(step_k) * np.sqrt(diag)))
-        trace.append(Iteration(start_cost, lam, step_std, accepted))
+        s, r, cost, lam, moved, accepted = damped_step(problem, s, r, cost, normal, k, lam, xtol)
+        trace.append(Iteration(start_cost, lam, moved, accepted))
         if accepted:
-            if step_std < xtol:
+            if moved < xtol:
                 status = Status.SMALL_STEP
                 break
             continue
         # no step lowers the cost any more (the damped ones, however short): a minimum only if the
         # gradient says so too; a wrong model or Jacobian ends here unconverged
-        vanishes = np.max(np.abs(g) / np.sqrt(np.maximum(diag, 1e-300))) < 1e-6 * max(
-            np.sqrt(cost), 1.0
-        )
-        status = Status.ZERO_GRADIENT if vanishes else Status.NO_DECREASE
+        status = Status.ZERO_GRADIENT if gradient_vanishes(normal, cost) else Status.NO_DECREASE
         break
+    return identification_at(problem, basis, s, cost, it, status, tuple(trace))
+
+
+def at_rounding_floor(normal: NormalEquations, cost: float, rounding: float) -> bool:
+    """Whether even the undamped step would lower the ``cost`` by less than its ``rounding``
+    (relative): the most the linearised model promises is the undamped step's decrease,
+    g' A^-1 g; a damped step promises less, so only the undamped one may say the minimum is
+    reached. False where the normal matrix is singular."""
+    try:
+        return bool(normal.undamped_decrease() <= rounding * cost)
+    except np.linalg.LinAlgError:
+        return False
+
+
+def full_step(problem: Problem, kept: np.ndarray, step_kept: np.ndarray) -> np.ndarray:
+    """A step of the kept parameters (k,) as a step of all the problem's (n,), the others 0."""
+    step = np.zeros(len(problem.names))
+    step[kept] = step_kept
+    return step
+
+
+def step_in_std(step_kept: np.ndarray, diag: np.ndarray) -> float:
+    """The largest step (k,) of a kept parameter in units of its std, ``|step| sqrt(A_ii)``."""
+    return float(np.max(np.abs(step_kept) * np.sqrt(diag)))
+
+
+def gauss_newton_step(
+    problem: Problem, s, normal: NormalEquations, kept: np.ndarray
+) -> tuple[State, np.ndarray, float, float]:
+    """Gauss-Newton's undamped step from the state ``s``, taken unjudged.
+
+    Returns
+    -------
+    state : State
+        Where it leads.
+    r : ndarray
+        (m,) the whitened residuals there.
+    cost : float
+        Their sum of squares.
+    step_std : float
+        Its largest step in units of a parameter's std.
+    """
+    step_k = normal.step(0.0)
+    s = problem.update(s, full_step(problem, kept, step_k))
+    r = problem.residuals(s)
+    return s, r, r @ r, step_in_std(step_k, normal.diag)
+
+
+def damped_step(
+    problem: Problem,
+    s,
+    r: np.ndarray,
+    cost: float,
+    normal: NormalEquations,
+    kept: np.ndarray,
+    lam: float,
+    xtol: float,
+) -> tuple[State, np.ndarray, float, float, float, bool]:
+    """Marquardt's step from the state ``s`` (residuals ``r`` (m,), ``cost``): damped by
+    ``lam`` of ``diag(A)``, the damping raised tenfold until a step lowers the cost (then
+    lowered tenfold for the next), given up past 1e12 or once a step is below ``xtol`` of the
+    parameters' std (shorter ones change nothing either).
+
+    Returns
+    -------
+    state, r, cost : the state, residuals (m,) and cost after it (``s``'s own if none was taken)
+    lam : float
+        The damping of the next iteration (taken) or of the last try (not).
+    step_std : float
+        The last try's largest step in units of a parameter's std.
+    accepted : bool
+        Whether a step was taken.
+    """
+    while True:
+        step_k = normal.step(lam)
+        s_new = problem.update(s, full_step(problem, kept, step_k))
+        r_new = problem.residuals(s_new)
+        if r_new @ r_new < cost:
+            return (
+                s_new,
+                r_new,
+                r_new @ r_new,
+                max(lam / 10, 1e-12),
+                step_in_std(step_k, normal.diag),
+                True,
+            )
+        if np.max(np.abs(step_k) * np.sqrt(normal.diag)) < xtol:
+            break  # a step already below the tolerance: shorter ones change nothing either
+        lam *= 10
+        if lam > 1e12:
+            break
+    return s, r, cost, lam, step_in_std(step_k, normal.diag), False
+
+
+def gradient_vanishes(normal: NormalEquations, cost: float) -> bool:
+    """Whether the gradient vanishes at the ``cost``: every component below 1e-6 of the residuals'
+    norm (at least 1) in units of its parameter's std."""
+    g, diag = normal.g, normal.diag
+    return bool(
+        np.max(np.abs(g) / np.sqrt(np.maximum(diag, 1e-300))) < 1e-6 * max(np.sqrt(cost), 1.0)
+    )
+
+
+def identification_at(
+    problem: Problem,
+    basis: Basis,
+    s,
+    cost: float,
+    iterations: int,
+    status: Status,
+    trace: tuple[Iteration, ...],
+) -> Identification:
+    """The solve's result at the state ``s`` of whitened ``cost``: the kept parameters' values,
+    covariance (raises numpy.linalg.LinAlgError when singular) and std, and the residuals'
+    RMS."""
+    k = basis.kept
     cov, s2 = covariance(kept_columns(problem.jacobian(s), k), cost)
     names = problem.names
     values = problem.values(s)
@@ -207,10 +292,10 @@ def identify(
         std={names[j]: float(np.sqrt(cov[i, i])) for i, j in enumerate(k)},
         basis=basis,
         rms=float(np.sqrt(s2)),
-        iterations=it,
+        iterations=iterations,
         status=status,
         cov=cov,
-        trace=tuple(trace),
+        trace=trace,
     )
 
 
