@@ -105,6 +105,22 @@ def read_columns(
         One clear message for any defect, naming the file and the line where there is one.
     """
     path = Path(path)
+    rows = read_rows(path, max_rows)
+    header = checked_header(path, rows, required, optional)
+    lines, body = data_rows(path, rows, header, max_rows)
+    fields = {
+        name: numeric_column(path, name, header.index(name), lines, body)
+        for name in required + optional
+        if name in header
+    }
+    line = np.array(lines)
+    _check_common(path, fields, line)
+    return fields, line
+
+
+def read_rows(path: Path, max_rows: int | None) -> list[list[str]]:
+    """The CSV's rows of cells, the header's first (UTF-8 with or without a byte-order mark);
+    a file that cannot be read as such, or holds more than ``max_rows`` data rows, refused."""
     try:
         with open(path, newline="", encoding="utf-8-sig") as f:
             rows = _rows(csv.reader(f), path, max_rows)
@@ -120,6 +136,15 @@ def read_columns(
         raise RecordingError(f"{path} is not a CSV file ({e})") from None
     if not rows or not rows[0]:
         raise RecordingError(f"{path} is empty")
+    return rows
+
+
+def checked_header(
+    path: Path, rows: list[list[str]], required: tuple, optional: tuple
+) -> list[str]:
+    """The header's column names (stripped), refused where they are separated by semicolons,
+    one is named twice, one is a near miss of a column the format reads (another case,
+    spelling or usual name: :func:`_near_miss`), or a ``required`` one is missing."""
     header = [h.strip() for h in rows[0]]
     if len(header) == 1 and ";" in header[0]:
         raise RecordingError(
@@ -144,7 +169,15 @@ def read_columns(
     missing = [c for c in required if c not in header]
     if missing:
         raise RecordingError(f"{path}: missing column(s) {', '.join(missing)}")
-    # each data row with its line in the file (blank lines are skipped, not renumbered)
+    return header
+
+
+def data_rows(
+    path: Path, rows: list[list[str]], header: list[str], max_rows: int | None
+) -> tuple[list[int], list[list[str]]]:
+    """The data rows (blank ones skipped) and each one's line in the file (the header is line 1;
+    blank lines are skipped, not renumbered); refused when there are none, more than
+    ``max_rows``, or a row has a value beyond the header's last column."""
     lines = [i + 2 for i, r in enumerate(rows[1:]) if any(cell.strip() for cell in r)]
     body = [rows[i - 1] for i in lines]
     if not body:
@@ -162,39 +195,37 @@ def read_columns(
             f"{path}: {len(body)} rows; this command takes at most {max_rows}: decimate the "
             "recording or split it"
         )
-    fields = {}
-    for name in required + optional:
-        if name not in header:
-            continue
-        j = header.index(name)
-        try:  # the whole column at once; the loop below only finds the bad cell
-            cells = [r[j] for r in body]
-            values = np.array(cells, dtype=float)
-            if any(
-                "_" in c for c in cells
-            ):  # Python's float reads 1_000: a CSV number has no underscore
-                raise ValueError
-        except (IndexError, ValueError):
-            for line, r in zip(lines, body):
-                cell = r[j] if j < len(r) else ""
-                try:
-                    if "_" in cell:
-                        raise ValueError
-                    float(cell)
-                except ValueError:
-                    raise RecordingError(
-                        f"{path} line {line}: column {name} is {cell!r}, not a number"
-                    ) from None
-            raise
-        bad = ~np.isfinite(values)
-        if bad.any():
-            raise RecordingError(
-                f"{path} line {lines[int(np.argmax(bad))]}: column {name} is not finite"
-            )
-        fields[name] = values
-    line = np.array(lines)
-    _check_common(path, fields, line)
-    return fields, line
+    return lines, body
+
+
+def numeric_column(
+    path: Path, name: str, j: int, lines: list[int], body: list[list[str]]
+) -> np.ndarray:
+    """The ``j``-th cells of the data rows ``body`` as the column ``name``, (n,) float, all
+    finite; a cell that is not a number (or is missing) or not finite refused at its line."""
+    try:  # the whole column at once; the loop below only finds the bad cell
+        cells = [r[j] for r in body]
+        values = np.array(cells, dtype=float)
+        if any("_" in c for c in cells):  # Python's float reads 1_000: a CSV number has none
+            raise ValueError
+    except (IndexError, ValueError):
+        for at, r in zip(lines, body):
+            cell = r[j] if j < len(r) else ""
+            try:
+                if "_" in cell:
+                    raise ValueError
+                float(cell)
+            except ValueError:
+                raise RecordingError(
+                    f"{path} line {at}: column {name} is {cell!r}, not a number"
+                ) from None
+        raise
+    bad = ~np.isfinite(values)
+    if bad.any():
+        raise RecordingError(
+            f"{path} line {lines[int(np.argmax(bad))]}: column {name} is not finite"
+        )
+    return values
 
 
 def _check_common(path, cols: dict, line: np.ndarray) -> None:
