@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from calibench.estimators.probe_scanner.calibration import (
+    ScannerCalibration,
     calibrate_lsq,
     calibrate_paper,
     contour_points,
@@ -157,46 +158,8 @@ def run(config: ProbeScannerConfig, seed: int, fidelity: str, out_dir: Path, rrd
 
     # no pixels here: the sensors are MuJoCo's geometry plus noise models, whatever was asked
     report = Report(scenario=NAME, seed=seed, fidelity="analytic")
-    # the four minima give alpha0 through asin(d / a): a d within the requirement moves it by
-    # up to requirement / a, so that is alpha0's requirement for the paper's method
     req = config.d_requirement_mm
-    areq = req / a * 1e3
-    report.parameters += [
-        Parameter("d_paper", "mm", truth.d_mm, paper.d_mm, None, req),
-        Parameter("dL_paper", "mm", truth.dL_mm, paper.dL_mm, None, req),
-        Parameter(
-            "alpha0_paper", "mrad", truth.alpha0_rad * 1e3, paper.alpha0_rad * 1e3, None, areq
-        ),
-    ]
-    s = lsq.std
-    report.parameters += [
-        Parameter("d_lsq", "mm", truth.d_mm, lsq.d_mm, s["d_mm"], TOL_SIGMA * s["d_mm"]),
-        Parameter("dL_lsq", "mm", truth.dL_mm, lsq.dL_mm, s["dL_mm"], TOL_SIGMA * s["dL_mm"]),
-        Parameter(
-            "alpha0_lsq",
-            "mrad",
-            truth.alpha0_rad * 1e3,
-            lsq.alpha0_rad * 1e3,
-            s["alpha0_rad"] * 1e3,
-            TOL_SIGMA * s["alpha0_rad"] * 1e3,
-        ),
-        Parameter(
-            "plate_cx_lsq",
-            "mm",
-            truth.plate_centre_mm[0],
-            lsq.centre_mm[0],
-            s["cx_mm"],
-            TOL_SIGMA * s["cx_mm"],
-        ),
-        Parameter(
-            "plate_cy_lsq",
-            "mm",
-            truth.plate_centre_mm[1],
-            lsq.centre_mm[1],
-            s["cy_mm"],
-            TOL_SIGMA * s["cy_mm"],
-        ),
-    ]
+    report.parameters += calibration_parameters(truth, paper, lsq, req, a)
     quantum = truth.quantum_um / 1000
     report.checks += [
         Check(
@@ -247,9 +210,63 @@ def run(config: ProbeScannerConfig, seed: int, fidelity: str, out_dir: Path, rrd
     return write_outputs(report, artifacts, out_dir, rrd, "calibench.scenarios.probe_scanner")
 
 
+def calibration_parameters(
+    truth: ProbeScannerTruth,
+    paper: ScannerCalibration,
+    lsq: ScannerCalibration,
+    req: float,
+    a: float,
+) -> list[Parameter]:
+    """The rail's parameters by the paper's method (d, dL, alpha0 held to the requirement
+    ``req`` mm) and by the full data's least squares (d, dL, alpha0 and the plate's centre, each
+    to TOL_SIGMA of its std), against the ``truth``; ``a`` the plate's half side, mm."""
+    # the four minima give alpha0 through asin(d / a): a d within the requirement moves it by
+    # up to requirement / a, so that is alpha0's requirement for the paper's method
+    areq = req / a * 1e3
+    out = [
+        Parameter("d_paper", "mm", truth.d_mm, paper.d_mm, None, req),
+        Parameter("dL_paper", "mm", truth.dL_mm, paper.dL_mm, None, req),
+        Parameter(
+            "alpha0_paper", "mrad", truth.alpha0_rad * 1e3, paper.alpha0_rad * 1e3, None, areq
+        ),
+    ]
+    s = lsq.std
+    if s is None:  # calibrate_lsq always states its std
+        raise ValueError("the full-data calibration came without its std")
+    out += [
+        Parameter("d_lsq", "mm", truth.d_mm, lsq.d_mm, s["d_mm"], TOL_SIGMA * s["d_mm"]),
+        Parameter("dL_lsq", "mm", truth.dL_mm, lsq.dL_mm, s["dL_mm"], TOL_SIGMA * s["dL_mm"]),
+        Parameter(
+            "alpha0_lsq",
+            "mrad",
+            truth.alpha0_rad * 1e3,
+            lsq.alpha0_rad * 1e3,
+            s["alpha0_rad"] * 1e3,
+            TOL_SIGMA * s["alpha0_rad"] * 1e3,
+        ),
+        Parameter(
+            "plate_cx_lsq",
+            "mm",
+            truth.plate_centre_mm[0],
+            lsq.centre_mm[0],
+            s["cx_mm"],
+            TOL_SIGMA * s["cx_mm"],
+        ),
+        Parameter(
+            "plate_cy_lsq",
+            "mm",
+            truth.plate_centre_mm[1],
+            lsq.centre_mm[1],
+            s["cy_mm"],
+            TOL_SIGMA * s["cy_mm"],
+        ),
+    ]
+    return out
+
+
 def _ranges(ms: np.ndarray) -> list[list[int]]:
     """Consecutive runs of m, [[first, last], ...]."""
-    out = []
+    out: list[list[int]] = []
     for m in np.asarray(ms, int):
         if out and m == out[-1][1] + 1:
             out[-1][1] = int(m)
