@@ -18,24 +18,25 @@
 from __future__ import annotations
 
 import dataclasses
-import functools
 from pathlib import Path
 
 import numpy as np
 
 from calibench.estimators.rotations import rotvec_to_matrix
 from calibench.estimators.stewart.joint import (
+    JointCalibration,
     TrackerObservations,
     adjust_jointly,
     joint_information,
 )
-from calibench.estimators.stewart.kinematics import forward_kinematics_many, leg_conditions
+from calibench.estimators.stewart.kinematics import forward_kinematics_many
 from calibench.estimators.stewart.legs import LegCalibration, calibrate_legs, two_step_leg
 from calibench.estimators.stewart.tracker import locate_stations, poses_from_lengths
 from calibench.scenarios.harness import write_outputs
 from calibench.scenarios.report import Check, Parameter, Report
 from calibench.scenarios.run_recording import StewartRecordingPlan, check_plan, write_recording
-from calibench.scenes.stewart import LEG_STROKE_MM, PLATFORM_KG, StewartGeometry
+from calibench.scenarios.stewart.checks import check_config
+from calibench.scenes.stewart import StewartGeometry
 from calibench.sim.stewart import StewartSim, StewartTruth, stewart_poses
 
 NAME = "stewart"
@@ -77,135 +78,6 @@ class StewartConfig:
         return (a + b * np.asarray(L_mm) / 1000) / 1000
 
 
-# What the config's checks hold the set-up to (see check_config):
-# a 1-sigma geometric error over 10 % of the platform's size is not a calibration error;
-MAX_ERROR_FRACTION = 0.1
-# a leg's give under the load, of its length: beyond it the legs are springs;
-MAX_GIVE_FRACTION = 0.01
-# the poses' turn about each axis: beyond it the platform lies on its side;
-MAX_ROTATION_DEG = 90.0
-# the legs' Jacobian's condition (rotations over the platform's radius): beyond it, near-singular
-MAX_CONDITION = 1000.0
-
-
-@functools.lru_cache(maxsize=16)
-def _workspace(
-    r: tuple, B: tuple, home_height_mm: float, translation_mm: float, rotation_deg: float
-) -> tuple:
-    """The legs at home (6,) and their Jacobian's condition there; the legs' shortest and longest
-    and the largest condition over the poses' range (home +- translation along, +- rotation about
-    each axis: the 3^6 corners and mid-points). Cached: a study's trials share their geometry, and
-    the 729 poses cost a few milliseconds."""
-    r, B = np.asarray(r, float).reshape(6, 3), np.asarray(B, float).reshape(6, 3)
-    home_t = np.array([[0.0, 0.0, home_height_mm]])
-    L_home, cond_home = leg_conditions(r, B, np.eye(3)[None], home_t)
-    corners = np.array(np.meshgrid(*[[-1.0, 0.0, 1.0]] * 6)).reshape(6, -1).T  # (729, 6)
-    R = rotvec_to_matrix(np.deg2rad(rotation_deg) * corners[:, 3:])
-    L, cond = leg_conditions(r, B, R, home_t + translation_mm * corners[:, :3])
-    return L_home[0], float(cond_home[0]), float(L.min()), float(L.max()), float(np.max(cond))
-
-
-def check_config(c: StewartConfig) -> None:
-    """What makes a Stewart set-up workable, checked before any simulation (BadInput, one line
-    naming the key): enough poses for the legs' identification, a platform that is not singular
-    and whose legs stay in their stroke over the poses, and errors that are errors."""
-    from calibench.scenarios.config import bad, show
-    from calibench.scenarios.report import BadInput
-
-    g, t = c.geometry, c.truth
-    need = len(LEG_PARAMS) + 1
-    if c.n_poses < need:
-        raise bad(
-            f"{NAME}.n_poses",
-            c.n_poses,
-            f"at least {need}: each leg's one-step calibration solves {len(LEG_PARAMS)} unknowns "
-            "(r, B, l) by "
-            "least squares and scales their covariance by the residuals' variance, which needs "
-            "one pose more",
-        )
-    if not c.rotation_deg <= MAX_ROTATION_DEG:
-        raise bad(
-            f"{NAME}.rotation_deg",
-            c.rotation_deg,
-            f"the poses turn by up to this about each axis: from 0 to {MAX_ROTATION_DEG:g} degrees",
-        )
-    # the platform at home: not singular, the legs within their stroke
-    r, B = np.asarray(g.platform_hinges_mm, float), np.asarray(g.base_hinges_mm, float)
-    size_p, size_b = (
-        float(np.max(np.linalg.norm(r, axis=1))),
-        float(np.max(np.linalg.norm(B, axis=1))),
-    )
-    L_home, cond_home, L_min, L_max, cond_max = _workspace(
-        tuple(r.ravel()),
-        tuple(B.ravel()),
-        float(g.home_height_mm),
-        float(c.translation_mm),
-        float(c.rotation_deg),
-    )
-    lo, hi = LEG_STROKE_MM
-    if not np.all((L_home >= lo) & (L_home <= hi)):
-        raise bad(
-            f"{NAME}.geometry.home_height_mm",
-            g.home_height_mm,
-            f"at home the legs are {L_home.min():.4g} to {L_home.max():.4g} mm long: the legs' "
-            f"stroke is {lo:g} to {hi:g} mm (the scene's slides)",
-        )
-    if not cond_home <= MAX_CONDITION:
-        raise BadInput(
-            f"config: {NAME}.geometry: platform_hinges_mm and base_hinges_mm leave the platform "
-            f"singular at home (the legs' Jacobian has condition number {cond_home:.3g}, at most "
-            f"{MAX_CONDITION:g}): "
-            "six legs pin its six degrees of freedom only from hinges spread around platform and "
-            f"base (now out to {size_p:.4g} mm and {size_b:.4g} mm from their centres)"
-        )
-    # the poses' range: home +- translation_mm, +- rotation_deg about each axis
-    what = (
-        f"the poses (home_height_mm = {show(g.home_height_mm)}, +- translation_mm = "
-        f"{show(c.translation_mm)} "
-        f"along and +- rotation_deg = {show(c.rotation_deg)} about each axis)"
-    )
-    if not lo <= L_min <= L_max <= hi:
-        raise BadInput(
-            f"config: {NAME}: {what} take the legs from {L_min:.4g} to {L_max:.4g} mm: their "
-            "stroke is "
-            f"{lo:g} to {hi:g} mm (the scene's slides); a smaller translation_mm or rotation_deg"
-        )
-    if not cond_max <= MAX_CONDITION:
-        raise BadInput(
-            f"config: {NAME}: {what} come near a singularity (the legs' Jacobian's condition "
-            "number "
-            f"{cond_max:.3g}, at most {MAX_CONDITION:g}); a smaller translation_mm or rotation_deg"
-        )
-    # the injected geometric errors: errors, not a different machine
-    size = min(size_p, size_b)
-    for key in ("hinge_error_mm", "length_error_mm", "station_offset_mm"):
-        v = getattr(t, key)
-        if not v <= MAX_ERROR_FRACTION * size:
-            raise bad(
-                f"{NAME}.truth.{key}",
-                v,
-                f"a 1-sigma geometric error is at most {MAX_ERROR_FRACTION:.0%} of the platform's "
-                "size (its "
-                f"hinges {size:g} mm from the centre): from 0 to {MAX_ERROR_FRACTION * size:g} mm",
-            )
-    # the legs' give under the load (the payload and the platform's weight, shared by six legs
-    # leaning as they do at home): a small error, not a spring
-    v = r + [0.0, 0.0, g.home_height_mm] - B
-    lean = float(np.min(np.abs(v[:, 2]) / np.linalg.norm(v, axis=1)))
-    force = abs(t.payload_n + 9.81 * PLATFORM_KG) / (6 * max(lean, 1e-3))
-    give = np.abs(np.asarray(t.leg_compliance_um_per_n, float)) * force / 1000
-    if not np.all(give <= MAX_GIVE_FRACTION * L_home):
-        most = MAX_GIVE_FRACTION * float(L_home.min()) * 1000 / force
-        raise bad(
-            f"{NAME}.truth.leg_compliance_um_per_n",
-            t.leg_compliance_um_per_n,
-            f"a leg would give {give.max():.4g} mm under the load (payload_n = {t.payload_n:g} "
-            "and the "
-            f"platform's weight, about {force:.4g} N a leg): at most {MAX_GIVE_FRACTION:.0%} of "
-            f"its length, compliance from 0 to {most:.3g} um/N",
-        )
-
-
 def measure_stations(sim: StewartSim, config: StewartConfig):
     """The tracker at each station measures the three nests: the lengths (3 stations, 3 nests)
     mm, and the stations with their covariance (Eq. 1, 4-5) from the stated 1-sigma."""
@@ -215,6 +87,181 @@ def measure_stations(sim: StewartSim, config: StewartConfig):
         nests, lengths, config.length_sigma_mm(lengths), above=np.array([0, 0, 1.0])
     )
     return stations, cov, lengths
+
+
+@dataclasses.dataclass(frozen=True)
+class OneStepData:
+    """The one-step experiment's data at its n poses.
+
+    Attributes
+    ----------
+    R, t_mm : ndarray
+        (n, 3, 3), (n, 3) the true poses.
+    readings_mm : ndarray
+        (n, 6) the legs' readings.
+    lengths_mm : ndarray
+        (n, 3, 3) the tracker's lengths, station by reflector.
+    meas_R, meas_t_mm : ndarray
+        (n, 3, 3), (n, 3) the poses multilaterated from the lengths.
+    poses : list of (ndarray, ndarray)
+        The n true poses as drawn, (R, t).
+    unconverged : int
+        Multilaterations that ran out of iterations.
+    """
+
+    R: np.ndarray
+    t_mm: np.ndarray
+    readings_mm: np.ndarray
+    lengths_mm: np.ndarray
+    meas_R: np.ndarray
+    meas_t_mm: np.ndarray
+    unconverged: int
+    poses: list
+
+
+def one_step_data(
+    sim: StewartSim, rng: np.random.Generator, config: StewartConfig, stations: np.ndarray
+) -> OneStepData:
+    """The platform at ``config.n_poses`` poses drawn from ``rng``: the legs' readings and the
+    tracker's lengths from the ``stations`` (3, 3) mm (the draws in the machine's order: legs,
+    then the tracker, pose by pose), and each pose multilaterated from them."""
+    g = sim.geometry
+    poses = stewart_poses(config.n_poses, rng, g, config.translation_mm, config.rotation_deg)
+    readings, lengths = [], []
+    for R, t in poses:
+        sim.set_pose(R, t)
+        readings.append(sim.readings_mm())
+        lengths.append(sim.distances_many_mm(sim.reflectors_mm()[:3]))
+    R_true, t_true = np.array([R for R, _ in poses]), np.array([t for _, t in poses])
+    meas_R, meas_t, ok = poses_from_lengths(
+        g.reflectors_mm[:3],
+        stations,
+        np.array(lengths),
+        config.length_sigma_mm(np.array(lengths)),
+        R_true,
+        t_true,
+    )
+    return OneStepData(
+        R_true,
+        t_true,
+        np.array(readings),
+        np.array(lengths),
+        meas_R,
+        meas_t,
+        int(np.sum(~ok)),
+        poses,
+    )
+
+
+def joint_calibration(
+    sim: StewartSim,
+    config: StewartConfig,
+    stations: np.ndarray,
+    nest_lengths: np.ndarray,
+    data: OneStepData,
+) -> tuple[list[LegCalibration], list[LegCalibration], JointCalibration, np.ndarray]:
+    """Per leg, the seven unknowns by least squares from the multilaterated poses (the
+    sequential pipeline), then the joint maximum likelihood over stations, poses and legs from
+    there: the sequential pipeline leaves information unused (the legs' readings say where the
+    platform is too, and every pose says where the stations are); the joint one's covariance
+    reaches the CRLB.
+
+    Returns
+    -------
+    pipeline : list of LegCalibration
+        6, the sequential pipeline's.
+    legs : list of LegCalibration
+        6, the joint adjustment's.
+    joint : JointCalibration
+        The joint adjustment.
+    bound : ndarray
+        (42,) the Cramer-Rao bound of the legs' parameters at the truth, from the simulation's
+        own noise (not the datasheet's), mm.
+    """
+    g = config.geometry
+    # each equation's sigma: the reading plus what the pose's error does at the hinge (~1 um)
+    sigma = np.full(len(data.R), np.hypot(config.stated_reading_sigma_um, 1.0) / 1000)
+    nominal = (g.platform_hinges_mm, g.base_hinges_mm, g.initial_lengths_mm)
+    pipeline = calibrate_legs(data.meas_R, data.meas_t_mm, data.readings_mm, *nominal, sigma)
+    a_um, b_um_per_m = config.stated_length_sigma_um
+    obs = TrackerObservations(
+        g.reference_nests_mm,
+        nest_lengths,
+        g.reflectors_mm,
+        data.lengths_mm,
+        data.readings_mm,
+        (a_um / 1000, b_um_per_m / 1e6),
+        config.stated_reading_sigma_um / 1000,
+    )
+    joint = adjust_jointly(
+        obs,
+        stations,
+        data.meas_R,
+        data.meas_t_mm,
+        np.array([c.r for c in pipeline]),
+        np.array([c.B for c in pipeline]),
+        np.array([c.l for c in pipeline]),
+    )
+    a_um, b_um_per_m = config.truth.length_noise_um
+    true_noise = dataclasses.replace(
+        obs,
+        length_sigma=(a_um / 1000, b_um_per_m / 1e6),
+        reading_sigma=config.truth.reading_noise_um / 1000,
+    )
+    information = joint_information(
+        true_noise, sim.stations, data.R, data.t_mm, sim.r, sim.B, sim.l0
+    )
+    bound = np.sqrt(np.diag(information))
+    legs = [
+        LegCalibration(
+            joint.r[i], joint.B[i], float(joint.l[i]), joint.std[7 * i : 7 * i + 7], joint.rms
+        )
+        for i in range(6)
+    ]
+    return pipeline, legs, joint, bound
+
+
+def holdout_errors(
+    sim: StewartSim, rng: np.random.Generator, config: StewartConfig, models: dict
+) -> tuple[dict[str, list[np.ndarray]], int]:
+    """At ``config.n_holdout`` fresh poses drawn from ``rng``, the pose computed from the legs'
+    readings (forward kinematics) with each of the ``models`` (name -> (r (6, 3), B (6, 3),
+    l (6,)) mm), against the true pose: the error seen at the nominal hinge points (position
+    and turn together).
+
+    Returns
+    -------
+    errors : dict of str to list of ndarray
+        Per model, per pose the six hinges' errors (6,) mm.
+    unconverged : int
+        Forward kinematics that ran out of iterations.
+    """
+    g = sim.geometry
+    hold = stewart_poses(config.n_holdout, rng, g, config.translation_mm, config.rotation_deg)
+    home = (np.eye(3), np.array([0, 0, g.home_height_mm]))
+    reads = []
+    for R, t in hold:
+        sim.set_pose(R, t)
+        reads.append(sim.readings_mm())
+    R_hold, t_hold = np.array([R for R, _ in hold]), np.array([t for _, t in hold])
+    true_hinges = np.einsum("nij,kj->nki", R_hold, g.platform_hinges_mm) + t_hold[:, None]
+    errors: dict[str, list[np.ndarray]] = {}
+    unconverged = 0
+    for key, (r, B, l) in models.items():
+        Rf, tf, ok = forward_kinematics_many(l + np.array(reads), r, B, *home)
+        unconverged += int(np.sum(~ok))
+        hinges = np.einsum("nij,kj->nki", Rf, g.platform_hinges_mm) + tf[:, None]
+        errors[key] = list(np.linalg.norm(hinges - true_hinges, axis=2))
+    return errors, unconverged
+
+
+def leg_array(legs: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The legs' calibrations (6 of r, B, l) as arrays: r (6, 3), B (6, 3), l (6,) mm."""
+    return (
+        np.array([c.r for c in legs]),
+        np.array([c.B for c in legs]),
+        np.array([c.l for c in legs]),
+    )
 
 
 def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool) -> Report:
@@ -229,116 +276,70 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
     stations, station_cov, nest_lengths = measure_stations(sim, config)
     station_err = np.linalg.norm(stations - sim.stations, axis=1)
 
-    # one-step data
-    poses = stewart_poses(config.n_poses, rng, g, config.translation_mm, config.rotation_deg)
-    readings, lengths = [], []
-    unconverged = 0  # multilaterations, spheres and forward kinematics that ran out of iterations
-    for R, t in poses:  # the draws in the machine's order: legs, then the tracker, pose by pose
-        sim.set_pose(R, t)
-        readings.append(sim.readings_mm())
-        lengths.append(sim.distances_many_mm(sim.reflectors_mm()[:3]))
-    meas_R, meas_t, ok = poses_from_lengths(
-        g.reflectors_mm[:3],
-        stations,
-        np.array(lengths),
-        config.length_sigma_mm(np.array(lengths)),
-        np.array([R for R, _ in poses]),
-        np.array([t for _, t in poses]),
-    )
-    unconverged += int(np.sum(~ok))
-    readings = np.array(readings)
-    # each equation's sigma: the reading plus what the pose's error does at the hinge (~1 um)
-    sigma = np.full(len(poses), np.hypot(config.stated_reading_sigma_um, 1.0) / 1000)
-    nominal = (g.platform_hinges_mm, g.base_hinges_mm, g.initial_lengths_mm)
-    pipeline = calibrate_legs(meas_R, meas_t, readings, *nominal, sigma)
-    # The sequential pipeline leaves information unused (the legs' readings say where the
-    # platform is too, and every pose says where the stations are): finish with the joint
-    # maximum likelihood over stations, poses and legs, whose covariance reaches the CRLB.
-    a_um, b_um_per_m = config.stated_length_sigma_um
-    obs = TrackerObservations(
-        g.reference_nests_mm,
-        nest_lengths,
-        g.reflectors_mm,
-        np.array(lengths),
-        readings,
-        (a_um / 1000, b_um_per_m / 1e6),
-        config.stated_reading_sigma_um / 1000,
-    )
-    joint = adjust_jointly(
-        obs,
-        stations,
-        meas_R,
-        meas_t,
-        np.array([c.r for c in pipeline]),
-        np.array([c.B for c in pipeline]),
-        np.array([c.l for c in pipeline]),
-    )
-    # the Cramer-Rao bound at the truth, from the simulation's own noise (not the datasheet's)
-    a_um, b_um_per_m = config.truth.length_noise_um
-    true_noise = dataclasses.replace(
-        obs,
-        length_sigma=(a_um / 1000, b_um_per_m / 1e6),
-        reading_sigma=config.truth.reading_noise_um / 1000,
-    )
-    bound = np.sqrt(
-        np.diag(
-            joint_information(
-                true_noise,
-                sim.stations,
-                np.array([R for R, _ in poses]),
-                np.array([t for _, t in poses]),
-                sim.r,
-                sim.B,
-                sim.l0,
-            )
-        )
-    )
-    legs = [
-        LegCalibration(
-            joint.r[i], joint.B[i], float(joint.l[i]), joint.std[7 * i : 7 * i + 7], joint.rms
-        )
-        for i in range(6)
-    ]
+    data = one_step_data(sim, rng, config, stations)
+    # multilaterations, spheres and forward kinematics that ran out of iterations
+    unconverged = data.unconverged
+    pipeline, legs, joint, bound = joint_calibration(sim, config, stations, nest_lengths, data)
 
-    # two-step
     two_step = [two_step_experiment(sim, stations, i, config) for i in range(6)]
     unconverged += sum(c.unconverged for c in two_step)
     spheres = [list(zip(c.centres, c.radii, c.origins)) for c in two_step]
 
-    # held-out poses: the pose from the readings, nominal vs calibrated
-    hold = stewart_poses(config.n_holdout, rng, g, config.translation_mm, config.rotation_deg)
-    err = {"before": [], "after": [], "two_step": []}
-    one = (
-        np.array([c.r for c in legs]),
-        np.array([c.B for c in legs]),
-        np.array([c.l for c in legs]),
-    )
-    two = (
-        np.array([c.r for c in two_step]),
-        np.array([c.B for c in two_step]),
-        np.array([c.l for c in two_step]),
-    )
-    home = (np.eye(3), np.array([0, 0, g.home_height_mm]))
-    reads = []
-    for R, t in hold:
-        sim.set_pose(R, t)
-        reads.append(sim.readings_mm())
-    R_hold, t_hold = np.array([R for R, _ in hold]), np.array([t for _, t in hold])
-    true_hinges = np.einsum("nij,kj->nki", R_hold, g.platform_hinges_mm) + t_hold[:, None]
-    for key, (r, B, l) in (("before", nominal), ("after", one), ("two_step", two)):
-        Rf, tf, ok = forward_kinematics_many(l + np.array(reads), r, B, *home)
-        unconverged += int(np.sum(~ok))
-        # the pose's error seen at the nominal hinge points (position and turn together)
-        hinges = np.einsum("nij,kj->nki", Rf, g.platform_hinges_mm) + tf[:, None]
-        err[key] = list(np.linalg.norm(hinges - true_hinges, axis=2))
+    nominal = (g.platform_hinges_mm, g.base_hinges_mm, g.initial_lengths_mm)
+    models = {"before": nominal, "after": leg_array(legs), "two_step": leg_array(two_step)}
+    err, missed = holdout_errors(sim, rng, config, models)
+    unconverged += missed
     rms = {k: float(np.sqrt(np.mean(np.square(v)))) * 1000 for k, v in err.items()}
 
     report = Report(scenario=NAME, seed=seed, fidelity="analytic")
     truth_vals = [np.r_[sim.r[i], sim.B[i], sim.l0[i]] for i in range(6)]
+    report.parameters += leg_parameters(legs, truth_vals, bound)
+    predicted = np.array([np.sqrt(np.diag(c)) for c in station_cov]) * 1000
+    not_converged = sum(not c.converged for c in pipeline) + (not joint.converged) + unconverged
+    report.checks += stewart_checks(config, sim, station_err, predicted, rms, float(not_converged))
+    report.info = {
+        "compare_rms_error_mm": {
+            "one_step": leg_rms_error_mm(legs, truth_vals),
+            "two_step": leg_rms_error_mm(two_step, truth_vals),
+        },
+        "two_step": {
+            f"leg{i + 1}": dict(zip(LEG_PARAMS, map(float, np.r_[c.r, c.B, c.l])))
+            for i, c in enumerate(two_step)
+        },
+        "station_error_um": (station_err * 1000).tolist(),
+        "station_sigma_um": predicted.tolist(),
+        "whitened_rms": joint.rms,
+        "pipeline_rms_error_mm": leg_rms_error_mm(pipeline, truth_vals),
+    }
+    artifacts = dict(
+        sim=sim,
+        poses=data.poses,
+        stations=stations,
+        spheres=spheres,
+        config=config,
+        holdout_error_mm=err,
+    )
+    write_recording(out_dir, NAME, config, seed, report.info)
+    return write_outputs(report, artifacts, out_dir, rrd, "calibench.scenarios.stewart")
+
+
+def leg_rms_error_mm(legs: list, truth_vals: list[np.ndarray]) -> float:
+    """The RMS error (mm) of the legs' 42 parameters (6 of r, B, l) against ``truth_vals``
+    (6 of (7,))."""
+    est = np.array([np.r_[c.r, c.B, c.l] for c in legs])
+    return float(np.sqrt(np.mean((est - np.array(truth_vals)) ** 2)))
+
+
+def leg_parameters(
+    legs: list[LegCalibration], truth_vals: list[np.ndarray], bound: np.ndarray
+) -> list[Parameter]:
+    """The report's 42 leg parameters (mm): each leg's estimate and std against the truth
+    ``truth_vals`` (6 of (7,)), within TOL_SIGMA of its std, with its CRLB ``bound`` (42,)."""
+    out = []
     for i, c in enumerate(legs):
         est = np.r_[c.r, c.B, c.l]
         for k, name in enumerate(LEG_PARAMS):
-            report.parameters.append(
+            out.append(
                 Parameter(
                     f"leg{i + 1}_{name}",
                     "mm",
@@ -349,8 +350,21 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
                     crlb=float(bound[7 * i + k]),
                 )
             )
-    predicted = np.array([np.sqrt(np.diag(c)) for c in station_cov]) * 1000
-    report.checks += [
+    return out
+
+
+def stewart_checks(
+    config: StewartConfig,
+    sim: StewartSim,
+    station_err_mm: np.ndarray,
+    station_sigma_um: np.ndarray,
+    rms_um: dict[str, float],
+    not_converged: float,
+) -> list[Check]:
+    """The run's checks: the loop's closure, the stations' errors (3,) mm against 5 times their
+    propagated 1-sigma (3, 3) um, the held-out poses' RMS ``rms_um`` before and after each
+    calibration, and the solves that ran out of iterations."""
+    return [
         Check(
             "loop_closure_um",
             sim.max_closure_um,
@@ -359,69 +373,37 @@ def run(config: StewartConfig, seed: int, fidelity: str, out_dir: Path, rrd: boo
         ),
         Check(
             "station_error_um",
-            float(station_err.max() * 1000),
-            float(5 * predicted.max() * np.sqrt(3)),
+            float(station_err_mm.max() * 1000),
+            float(5 * station_sigma_um.max() * np.sqrt(3)),
             note="largest station position error; limit 5 x its propagated 1-sigma (Eq. 4-5)",
         ),
         Check(
             "pose_rms_before_um",
-            rms["before"],
+            rms_um["before"],
             None,
             note=f"{config.n_holdout} held-out poses, nominal parameters",
         ),
         Check(
             "pose_rms_after_um",
-            rms["after"],
+            rms_um["after"],
             config.after_limit_um,
             note="held-out poses, one-step calibration",
         ),
         Check(
             "pose_rms_after_two_step_um",
-            rms["two_step"],
+            rms_um["two_step"],
             None,
             note="held-out poses, two-step calibration",
         ),
         # a solve that ran out of iterations would report its last iterate as if it were the answer
         Check(
             "solves_not_converged",
-            float(sum(not c.converged for c in pipeline) + (not joint.converged) + unconverged),
+            not_converged,
             0.0,
             note="the six legs' one-step Gauss-Newton, the joint adjustment, the "
             "multilaterations, the two-step spheres and the held-out poses' forward kinematics",
         ),
     ]
-    two_err = np.array([np.r_[c.r, c.B, c.l] for c in two_step]) - np.array(truth_vals)
-    one_err = np.array([np.r_[c.r, c.B, c.l] for c in legs]) - np.array(truth_vals)
-    report.info = {
-        "compare_rms_error_mm": {
-            "one_step": float(np.sqrt(np.mean(one_err**2))),
-            "two_step": float(np.sqrt(np.mean(two_err**2))),
-        },
-        "two_step": {
-            f"leg{i + 1}": dict(zip(LEG_PARAMS, map(float, np.r_[c.r, c.B, c.l])))
-            for i, c in enumerate(two_step)
-        },
-        "station_error_um": (station_err * 1000).tolist(),
-        "station_sigma_um": predicted.tolist(),
-        "whitened_rms": joint.rms,
-        "pipeline_rms_error_mm": float(
-            np.sqrt(
-                np.mean(
-                    (np.array([np.r_[c.r, c.B, c.l] for c in pipeline]) - np.array(truth_vals)) ** 2
-                )
-            )
-        ),
-    }
-    artifacts = dict(
-        sim=sim,
-        poses=poses,
-        stations=stations,
-        spheres=spheres,
-        config=config,
-        holdout_error_mm=err,
-    )
-    write_recording(out_dir, NAME, config, seed, report.info)
-    return write_outputs(report, artifacts, out_dir, rrd, "calibench.scenarios.stewart")
 
 
 def directions_across(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -468,12 +450,12 @@ def two_step_experiment(sim: StewartSim, stations: np.ndarray, i: int, config: S
             d.append(sim.distances_many_mm(sim.reflectors_mm()[:3]))
         places.append(targets)
         lengths.append(d)
-    lengths = np.array(lengths)
+    lengths_mm = np.array(lengths)
     return two_step_leg(
         g.reflectors_mm[:3],
         stations,
-        lengths,
-        config.length_sigma_mm(lengths),
+        lengths_mm,
+        config.length_sigma_mm(lengths_mm),
         np.array(orientations),
         np.array(places),
         locked,
