@@ -38,7 +38,9 @@ def _histogram(img, box, z: np.ndarray, title: str) -> None:
 
     x0, y0, x1, y1 = box
     edges = np.linspace(-Z_CLIP, Z_CLIP, BINS + 1)
-    dens = np.histogram(np.clip(z, -Z_CLIP, Z_CLIP), edges, density=True)[0] if len(z) else []
+    dens = (
+        np.histogram(np.clip(z, -Z_CLIP, Z_CLIP), edges, density=True)[0] if len(z) else np.zeros(0)
+    )
     top = 1.1 * max(float(np.max(dens, initial=0.0)), 1 / math.sqrt(2 * math.pi))
 
     def px(x, y):

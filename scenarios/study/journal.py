@@ -37,7 +37,7 @@ def load_journal(out_dir: Path) -> dict[int, dict]:
         The journal cannot be read, or holds a line that is not a trial of calibench's.
     """
     path = out_dir / JOURNAL
-    done = {}
+    done: dict[int, dict] = {}
     if not path.exists():
         return done
     try:

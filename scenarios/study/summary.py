@@ -113,12 +113,11 @@ def summarise(scenario: str, rows: list[dict], elapsed_s: float) -> dict:
     for n in names:
         est, tru, sd, un, cr = (f"{n}.{x}" for x in ("estimate", "truth", "std", "unit", "crlb"))
         err = np.array([r[est] - r[tru] for r in good if est in r])
-        std = np.array([r.get(sd) for r in good if est in r], dtype=object)
-        has_std = all(s is not None for s in std)
-        std = std.astype(float) if has_std else None
+        stds = np.array([r.get(sd) for r in good if est in r], dtype=object)
+        std = stds.astype(float) if all(s is not None for s in stds) else None
         unit = next((r[un] for r in good if un in r), "")
         crlb = np.array([r[cr] for r in good if cr in r])
-        extra = {}
+        extra: dict[str, float | list[float]] = {}
         if len(crlb) == len(err) and len(err) > 1:
             # efficiency: the bound's variance over the estimates' own (about their mean); the
             # sample variance has (n - 1) s^2 / sigma^2 ~ chi2(n - 1), which gives its interval
@@ -134,10 +133,12 @@ def summarise(scenario: str, rows: list[dict], elapsed_s: float) -> dict:
                 "n": int(len(err)),
                 "bias": float(np.mean(err)),
                 "rmse": float(np.sqrt(np.mean(err**2))),
-                "mean_std": float(np.mean(std)) if has_std else None,
-                "coverage_95": float(np.mean(np.abs(err) <= Z_95 * std)) if has_std else None,
+                "mean_std": float(np.mean(std)) if std is not None else None,
+                "coverage_95": float(np.mean(np.abs(err) <= Z_95 * std))
+                if std is not None
+                else None,
                 # where an honest coverage of 0.95 lands 95 % of the time with this many trials
-                "coverage_95_expected": list(coverage_band(len(err))) if has_std else None,
+                "coverage_95_expected": list(coverage_band(len(err))) if std is not None else None,
                 **extra,
             }
         )

@@ -14,6 +14,7 @@ import os
 import sys
 import time
 import traceback
+from typing import Any
 
 import numpy as np
 
@@ -129,7 +130,7 @@ def run_trial(
     os.environ.setdefault("MUJOCO_GL", "egl")  # a worker renders without a display
 
     seed = trial_seed(study_seed, index)
-    row = {"trial": index, "seed": seed, "ok": True, "error": None}
+    row: dict[str, Any] = {"trial": index, "seed": seed, "ok": True, "error": None}
     t0 = time.perf_counter()
     try:
         from calibench.scenarios.registry import scenario as get
