@@ -390,7 +390,8 @@ class ArmSim:
         links' sag under gravity is taken into account)."""
         cone = np.asarray(cone_mm, float) / 1000
         lim = np.array(self.arm.range_rad)
-        out, tries = [], 0
+        out: list[np.ndarray] = []
+        tries = 0
         while len(out) < n:
             tries += 1
             if tries > 50 * n:

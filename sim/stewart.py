@@ -116,7 +116,8 @@ class StewartSim:
         self._refl = [m.site(f"reflector{k}").id for k in range(3)]
         self.max_closure_um = 0.0
         self._pose = (np.eye(3), np.array([0.0, 0.0, g.home_height_mm]))
-        self._last_L, self._dir = None, np.ones(6)
+        self._last_L: np.ndarray | None = None
+        self._dir = np.ones(6)
 
     def set_pose(self, R: np.ndarray, t_mm: np.ndarray) -> None:
         """Put the platform at pose (R, t) and every leg where it must be; record loop closure."""
@@ -158,7 +159,7 @@ class StewartSim:
                 else None
             )
             out += leg_effects_mm(
-                self.truth, L, force, self._dir, None if temp_c is None else [temp_c]
+                self.truth, L, force, self._dir, None if temp_c is None else np.array([temp_c])
             )[0]
         return out
 

@@ -83,7 +83,9 @@ def axes_errors(
 _AXIS_OF = np.repeat([0, 1], 6)  # the axis of each of the twelve errors
 
 
-def _axes_errors(table: np.ndarray, u_mm: np.ndarray, travel_mm: np.ndarray) -> np.ndarray:
+def _axes_errors(
+    table: np.ndarray, u_mm: np.ndarray, travel_mm: np.ndarray | tuple[float, float]
+) -> np.ndarray:
     """:func:`axes_errors` from both axes' tables side by side, (5, 12); ``u_mm`` (..., 2) gives
     (..., 2, 6)."""
     linear, bow, amp, period, phase = table
@@ -204,6 +206,7 @@ class VisionStageSim:
         self.set_plate_yaw(truth.plate_phi_rad)
         self._dir = np.array([1.0, 1.0])
         self._reading = np.zeros(2)
+        self._tables: tuple[AxisErrors | None, AxisErrors | None, np.ndarray | None]
         self._tables = (None, None, None)
         self._body = {name: m.body(name).id for name in ("table", "plate")}
         self.renderer = LensRenderer(m, "microscope", geometry.camera) if render else None
@@ -234,13 +237,11 @@ class VisionStageSim:
                 ],
                 axis=1,
             )
-        if (
-            self._tables[0] is not t.x or self._tables[1] is not t.y
-        ):  # the truth's axes: tabled once
-            self._tables = (t.x, t.y, np.concatenate([t.x._table, t.y._table], axis=1))
-        e = _axes_errors(
-            self._tables[2], target, g.travel_mm
-        )  # (m, axis, pos s1 s2 roll pitch yaw)
+        tx, ty, table = self._tables
+        if table is None or tx is not t.x or ty is not t.y:  # the truth's axes: tabled once
+            table = np.concatenate([t.x._table, t.y._table], axis=1)
+            self._tables = (t.x, t.y, table)
+        e = _axes_errors(table, target, g.travel_mm)  # (m, axis, pos s1 s2 roll pitch yaw)
         along = e[:, :, 0] + (lost + noise_mm)
         # straight_1 of X is along Y_m, of Y along X_m; the joints a, b turn about X_m, Y_m: the X
         # carriage's roll and pitch, the Y carriage's pitch and roll
