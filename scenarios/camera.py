@@ -58,9 +58,12 @@ def calibrate_photos(
     # the size most photos share is the camera's: one odd photo, first or not, is the one rejected
     counts = list(sizes.values())
     size = max(set(counts), key=counts.count) if counts else None
-    used, points, left_out = [], [], {}
+    used: list[str] = []
+    points: list[np.ndarray] = []
+    left_out: dict[str, list[dict]] = {}
     for p, corners in found.items():
         if sizes[p] != size:
+            assert size is not None  # found and sizes share their photos: there is a size
             rejected[names[p]] = (
                 f"size {sizes[p][0]}x{sizes[p][1]} differs from the others' {size[0]}x{size[1]}"
             )
@@ -199,7 +202,7 @@ def _detect_all(paths: list[Path], cols: int, rows: int) -> list[tuple]:
 
 def _labels(paths: list[Path]) -> dict[Path, str]:
     """Each photo's name in intrinsics.json: its file name, or its path where two share a name."""
-    counts = {}
+    counts: dict[str, int] = {}
     for p in paths:
         counts[p.name] = counts.get(p.name, 0) + 1
     return {p: p.name if counts[p.name] == 1 else str(p) for p in paths}

@@ -201,7 +201,7 @@ def _coerce(current: Any, value: Any, where: str) -> Any:
     if isinstance(current, (tuple, np.ndarray)):
         if not isinstance(value, list):
             raise BadInput(f"config: {where} must be a list")
-        flat = np.asarray(value, dtype=object).ravel() if value else []
+        flat: np.ndarray | list = np.asarray(value, dtype=object).ravel() if value else []
         for x in flat:
             if isinstance(x, list):
                 raise BadInput(f"config: {where}: rows of different lengths")

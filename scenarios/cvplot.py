@@ -39,7 +39,7 @@ def vertical_text(img, label: str, bottom_centre, scale=0.38, anchor="bottom") -
     import cv2
 
     (w, h), base = cv2.getTextSize(label, FONT, scale, 1)
-    tile = np.full((h + base + 2, w + 2, 3), 255, np.uint8)
+    tile: np.ndarray = np.full((h + base + 2, w + 2, 3), 255, np.uint8)
     cv2.putText(tile, label, (1, h + 1), FONT, scale, INK, 1, cv2.LINE_AA)
     tile = cv2.rotate(tile, cv2.ROTATE_90_COUNTERCLOCKWISE)
     x0 = int(bottom_centre[0] - tile.shape[1] / 2)

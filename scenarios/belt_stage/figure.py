@@ -48,9 +48,9 @@ def write_figure(out_dir: Path, report: Report, a: dict) -> None:
         )
     b, af = np.linalg.norm(a["before"], axis=1), np.linalg.norm(a["after"], axis=1)
     ax = axes[2]
-    k = np.arange(1, len(b) + 1)
-    ax.semilogy(k, b, "o", color="tab:red", label="before compensation")
-    ax.semilogy(k, af, "o", color="tab:green", label="after compensation")
+    point = np.arange(1, len(b) + 1)
+    ax.semilogy(point, b, "o", color="tab:red", label="before compensation")
+    ax.semilogy(point, af, "o", color="tab:green", label="after compensation")
     ax.axhline(a["limit_mm"], color="k", ls=":", label=f"limit {a['limit_mm']:g} mm")
     ax.set(
         title="check points (unseen by the fit)",

@@ -61,6 +61,7 @@ def save_rendered_views(config: BeltStageConfig, seed: int, folder: Path) -> dic
     folder.mkdir(parents=True, exist_ok=True)
     views = {}
     for views_of, true in ((calib, calib_true), (stations, station_true)):
+        assert views_of.images is not None  # rendered, not windowed: every image kept
         for name, img, corners in zip(views_of.names, views_of.images, true):
             cv2.imwrite(str(folder / f"{name}.png"), cv2.cvtColor(img, cv2.COLOR_RGB2BGR))
             views[f"{name}.png"] = np.asarray(corners).round(4).tolist()

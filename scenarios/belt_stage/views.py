@@ -62,7 +62,8 @@ def record_views(
         The true corner projections, which stay in the scenario.
     """
     board = config.geometry.board
-    names, frames = [], []
+    names: list[str] = []
+    frames = []
 
     def captures():
         for kind, a, b in progress(list(steps), "rendering" if fidelity == "render" else "views"):
@@ -78,7 +79,7 @@ def record_views(
                 window = sim.board_window(calib) if windowed else None
                 yield sim.capture(calib, rng, config.pixel_noise_dn, config.psf_px, window)
 
-    def detect(exposure: Exposure) -> tuple[np.ndarray | None, np.ndarray]:
+    def detect(exposure: Exposure) -> tuple[np.ndarray, np.ndarray]:
         assert sim.renderer is not None  # captured by it
         img = sim.renderer.develop(exposure)
         c = find_chessboard_corners(img, board.cols, board.rows)

@@ -40,7 +40,10 @@ def write_figure(out_dir: Path, report: Report, artifacts: dict) -> None:
         title="stewart: held-out poses",
     )
     a.legend(fontsize=8)
-    z = np.array([(p.estimate - p.truth) / p.std for p in report.parameters])
+    # a parameter without a std (none of the platform's) has no bar
+    z = np.array(
+        [(p.estimate - p.truth) / (np.nan if p.std is None else p.std) for p in report.parameters]
+    )
     b.bar(np.arange(len(z)), z, color=np.where(np.abs(z) <= 3, "tab:green", "tab:red"))
     b.axhspan(-3, 3, color="0.9", zorder=0)
     b.set(

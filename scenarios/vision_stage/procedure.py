@@ -43,10 +43,10 @@ class Microscope:
         self.mm_per_px = config.geometry.working_distance_mm / cam.fx
         # a study's trial keeps no image: the circle's area of interest is read out alone
         self.windowed = windowed
-        self.errors_px = []  # detected - true, every measurement
-        self.last_image = None
-        self.last_found = None
-        self.last_true = None
+        self.errors_px: list[np.ndarray] = []  # detected - true, every measurement
+        self.last_image: np.ndarray | None = None
+        self.last_found: np.ndarray | None = None
+        self.last_true: np.ndarray | None = None
 
     def offset_mm(self) -> np.ndarray:
         """Where the nearest circle's centre is from the image centre, in machine X, Y (mm)."""
@@ -164,7 +164,9 @@ def align_plate(sim, scope, config, rng):
 def true_phi(sim: VisionStageSim, s_a: np.ndarray, s_b: np.ndarray) -> float:
     """The plate's angle to the X motion from reading s_a to s_b (a pure X move), from the
     geometric truth: that motion, seen in plate coordinates, turns by -phi."""
-    d = sim.true_point_mm(*s_b, body="plate") - sim.true_point_mm(*s_a, body="plate")
+    d = sim.true_point_mm(s_b[0], s_b[1], body="plate") - sim.true_point_mm(
+        s_a[0], s_a[1], body="plate"
+    )
     return float(-np.arctan2(d[1], d[0]))
 
 

@@ -222,7 +222,7 @@ def run(config: VisionStageConfig, seed: int, fidelity: str, out_dir: Path, rrd:
         # and one look usually settles it; the analytic look is free and keeps the draws its
         # results were made with
         aim = predicted_correction if fidelity == "render" else (lambda *_: 0.0)
-        images = []
+        images: list[tuple] = []
         for k, p in progress(enumerate(nominal_machine), "circles", len(nominal_machine)):
             lead = aim(readings[:k] - s00 - nominal_machine[:k], k, nx)
             readings[k], _ = servo(sim, scope, s00 + p + lead, config.servo_tolerance_px)
@@ -281,7 +281,7 @@ def run(config: VisionStageConfig, seed: int, fidelity: str, out_dir: Path, rrd:
 def true_error_field(sim: VisionStageSim, readings: np.ndarray, phi_residual: float) -> np.ndarray:
     """True - reading (um) at the readings, relative to the first, in the frame whose x runs
     along the X motion (the plate's frame turned back by its true residual angle)."""
-    p = np.array([sim.true_point_mm(*r, body="plate") for r in readings])
+    p = np.array([sim.true_point_mm(r[0], r[1], body="plate") for r in readings])
     c, s = np.cos(phi_residual), np.sin(phi_residual)
     p = p @ np.array([[c, s], [-s, c]])
     return ((p - p[0]) - (readings - readings[0])) * 1000
