@@ -1,8 +1,8 @@
 """discover's figures on this machine: ``python benchmarks/discover.py [N_NULL]``.
 
-1. The concealed-effect suite (scenarios/discover_suite.py's SUITE: stages, the seed's arm and a
-   UR10, the probe scanner and the Stewart platform, with compliance made by MuJoCo's physics):
-   detection, false claims, parameters, held-out improvement, and the time per recording.
+1. The concealed-effect suite (scenarios/discover/suite.py's suite_cases(): stages, the seed's arm
+   and a UR10, the probe scanner and the Stewart platform, with compliance made by MuJoCo's
+   physics): detection, false claims, parameters, held-out improvement, and the time per recording.
 2. The null calibration of the acceptance floor: N_NULL (default 30) null recordings per
    scenario through discover at several floors; the false-claim rate at each. The house floor
    (estimators.discovery.FLOOR) is the smallest whose rate stays under 5 %.
@@ -21,14 +21,14 @@ import numpy as np
 from calibench.estimators.discovery.select import FLOOR
 from calibench.scenarios.discover.stage import discover_stage, paper_belt_recording
 from calibench.scenarios.discover.stewart import STEWART_FLOOR
-from calibench.scenarios.discover.suite import SUITE, null_claims, run_case, score, table
+from calibench.scenarios.discover.suite import null_claims, run_case, score, suite_cases, table
 
 SHARED = Path(__file__).resolve().parents[1] / "data"
 
 
 def suite():
     t = time.perf_counter()
-    results = [run_case(*case) for case in SUITE]
+    results = [run_case(*case) for case in suite_cases()]
     dt = time.perf_counter() - t
     print(table(results))
     s = score(results)

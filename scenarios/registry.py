@@ -1,4 +1,11 @@
-"""The scenarios by name: each declares its config, its run, and its model for ``fit``."""
+"""The instruments by name: the one table every room that serves them all reads.
+
+Each built-in instrument is a folder of ``calibench.scenarios`` whose package holds its line
+(``INSTRUMENT``: :class:`~calibench.scenarios.instrument.Instrument`) and is named once here, in
+:data:`BUILT_IN`; a module outside the package registers its own with :func:`register`, imported
+through ``CALIBENCH_INSTRUMENTS``. :func:`scenario` gives an instrument's run (its config and
+``run``), importing its module alone.
+"""
 
 from __future__ import annotations
 
@@ -7,6 +14,7 @@ import dataclasses
 from collections.abc import Callable
 
 from calibench.errors import BadInput
+from calibench.scenarios.instrument import Instrument
 
 
 @dataclasses.dataclass(frozen=True)
@@ -60,88 +68,10 @@ def opencv_single_threaded():
         cv2.setNumThreads(before)
 
 
-@dataclasses.dataclass(frozen=True)
-class Instrument:
-    """One instrument's line in the registry: what every room that serves all instruments (the
-    command line, progress, ``discover``, the studies) reads of it, so that an instrument is its
-    own modules and this one line.
-
-    Attributes
-    ----------
-    name : str
-        The scenario's name on the command line (``calibench run NAME``).
-    module : str
-        Its scenario module: ``NAME``, the config class and ``run`` (imported on first use, so
-        that ``calibench --help`` and a study's workers load one instrument, not all).
-    config : str
-        The config class's name in ``module``.
-    discovery : str or None
-        Its discovery adapter's module (:class:`calibench.scenarios.discover.engine.Plugin`);
-        None: ``discover`` does not serve it.
-    fit_model : str or None
-        The stage map ``calibench fit`` applies ("quadratic", "cubic"), or None.
-    renders : bool
-        Has a camera: ``--fidelity render|analytic`` means something.
-    run_s : float
-        ``calibench run NAME``'s seconds on 2 busy cores (render where it has a camera),
-        measured with ``time calibench run NAME --no-rrd``: the estimate a command says before
-        any step has finished.
-    """
-
-    name: str
-    module: str
-    config: str
-    discovery: str | None = None
-    fit_model: str | None = None
-    renders: bool = False
-    run_s: float = 5.0
-
-
-_DISCOVER = "calibench.scenarios.discover."
-_INSTRUMENTS: dict[str, Instrument] = {
-    i.name: i
-    for i in (
-        Instrument(
-            "belt-stage",
-            "calibench.scenarios.belt_stage.scenario",
-            "BeltStageConfig",
-            _DISCOVER + "stage",
-            "quadratic",
-            True,
-            14.0,
-        ),
-        Instrument(
-            "vision-stage",
-            "calibench.scenarios.vision_stage.scenario",
-            "VisionStageConfig",
-            _DISCOVER + "stage",
-            "cubic",
-            True,
-            19.0,
-        ),
-        Instrument(
-            "probe-scanner",
-            "calibench.scenarios.probe_scanner.scenario",
-            "ProbeScannerConfig",
-            _DISCOVER + "probe_scanner",
-            run_s=4.0,
-        ),
-        Instrument(
-            "arm-cmm",
-            "calibench.scenarios.arm_cmm.scenario",
-            "ArmCmmConfig",
-            _DISCOVER + "arm_cmm",
-            run_s=4.0,
-        ),
-        Instrument(
-            "stewart",
-            "calibench.scenarios.stewart.scenario",
-            "StewartConfig",
-            _DISCOVER + "stewart",
-            run_s=5.0,
-        ),
-    )
-}
+# The built-in instruments, one line each: the folder in calibench.scenarios whose package holds
+# its table (``INSTRUMENT``, a :class:`~calibench.scenarios.instrument.Instrument`).
+BUILT_IN = ("belt_stage", "vision_stage", "probe_scanner", "arm_cmm", "stewart")
+_INSTRUMENTS: dict[str, Instrument] = {}
 # Modules (comma-separated) that register instruments of their own when imported, read once
 # here; a study's spawned workers inherit it, and so see the same instruments.
 EXTENSIONS_ENV = "CALIBENCH_INSTRUMENTS"
@@ -169,10 +99,14 @@ def instruments() -> tuple[Instrument, ...]:
     return tuple(_INSTRUMENTS.values())
 
 
-def _load_extensions() -> None:
+def _load() -> None:
+    """The built-in instruments' tables (their packages import nothing heavy), then the
+    extensions'."""
     import importlib
     import os
 
+    for folder in BUILT_IN:
+        register(importlib.import_module(f"calibench.scenarios.{folder}").INSTRUMENT)
     for module in filter(None, os.environ.get(EXTENSIONS_ENV, "").split(",")):
         try:
             importlib.import_module(module.strip())
@@ -222,4 +156,4 @@ def __getattr__(name: str):
 
 # Scenarios named in docs/formats.md but not built yet (none now).
 PLANNED: tuple[str, ...] = ()
-_load_extensions()
+_load()

@@ -43,9 +43,9 @@ TWIN_CASES = (
 def discover_suite():
     """The concealed-effect suite (scenarios/discover_suite.py, as benchmarks/discover.py runs
     it)."""
-    from calibench.scenarios.discover.suite import SUITE, run_case, score
+    from calibench.scenarios.discover.suite import run_case, score, suite_cases
 
-    return suite_words(score([run_case(*case) for case in SUITE]))
+    return suite_words(score([run_case(*case) for case in suite_cases()]))
 
 
 def suite_words(s: dict) -> str:

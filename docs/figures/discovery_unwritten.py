@@ -16,12 +16,12 @@ def discover_unwritten():
     """The second suite (scenarios/discover/suite_unwritten.py, as
     tests/scenarios/test_discover_unwritten.py runs it): per instrument."""
     from calibench.scenarios.discover.suite_unwritten import (
-        UNWRITTEN_SUITE,
         run_unwritten,
         score_unwritten,
+        unwritten_cases,
     )
 
-    return unwritten_table(score_unwritten([run_unwritten(*case) for case in UNWRITTEN_SUITE]))
+    return unwritten_table(score_unwritten([run_unwritten(*case) for case in unwritten_cases()]))
 
 
 def unwritten_table(scores: dict) -> str:

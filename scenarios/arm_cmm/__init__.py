@@ -1,2 +1,16 @@
-"""Scenario ``arm-cmm``: its config and run (:mod:`.scenario`), its rerun layout (:mod:`.viewer`),
+"""Scenario ``arm-cmm``: its line in the registry (``INSTRUMENT``), its config and run
+(:mod:`.scenario`), its rerun layout (:mod:`.viewer`),
 ``calibench fit arm-cmm`` (:mod:`.fit`) and the arms as the estimators see them (:mod:`.arms`)."""
+
+from calibench.scenarios.instrument import DISCOVER, Instrument
+
+INSTRUMENT = Instrument(
+    "arm-cmm",
+    f"{__name__}.scenario",
+    "ArmCmmConfig",
+    discovery=DISCOVER + "arm_cmm",
+    run_s=4.0,
+    suite=(("null", 3), ("eccentricity", 3), ("thermal", 2), ("compliance", 2)),
+    suite_arms=(("ur10", (("null", 2), ("eccentricity", 1), ("compliance", 2))),),
+    unwritten=("null", "harmonic_drive", "link_bending", "pedestal_warmup"),
+)

@@ -1,2 +1,27 @@
-"""Scenario ``belt-stage``: its config and run (:mod:`.scenario`) and its rerun layout
+"""Scenario ``belt-stage``: its line in the registry (``INSTRUMENT``), its config and run
+(:mod:`.scenario`) and its rerun layout
 (:mod:`.viewer`)."""
+
+from calibench.scenarios.instrument import DISCOVER, Instrument
+
+INSTRUMENT = Instrument(
+    "belt-stage",
+    f"{__name__}.scenario",
+    "BeltStageConfig",
+    discovery=DISCOVER + "stage",
+    fit_model="quadratic",
+    renders=True,
+    run_s=14.0,
+    suite=(
+        ("null", 4),
+        ("backlash", 2),
+        ("periodic", 2),
+        ("thermal", 2),
+        ("combined", 2),
+        ("bump", 2),
+        ("mixed", 1),
+        ("elastic", 2),
+    ),
+    unwritten=("null", "presliding", "lagged_thermal", "rail_step"),
+    coverage=("combined", 1),
+)

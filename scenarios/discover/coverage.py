@@ -15,9 +15,8 @@ import multiprocessing
 
 import numpy as np
 
-from calibench.scenarios.discover.probe_scanner import discover_scanner
-from calibench.scenarios.discover.stage import discover_stage
-from calibench.sim.concealed import scanner_recording, stage_recording
+from calibench.scenarios.discover.suite import recorded, searched
+from calibench.scenarios.registry import instruments
 from calibench.sim.concealed.noise import NOISE_KINDS
 
 Z_95 = 1.959963984540054  # the two-sided 95 % normal quantile
@@ -29,13 +28,8 @@ COVERED = {
     "runout": "amplitude_mm",
     "scale": "ppm",
 }
-# (scenario, concealed kind, recordings per seed asked): a scanner recording covers one parameter,
-# a stage recording four, so the scanner's rows take three times the recordings
-CASES = (
-    ("belt-stage", "combined", 1),
-    ("vision-stage", "combined", 1),
-    ("probe-scanner", "runout", 3),
-)
+# (scenario, concealed kind, recordings per seed asked): each instrument's ``coverage``
+CASES = tuple((row.name, *row.coverage) for row in instruments() if row.coverage)
 SEED0 = 7000  # the study's recordings: apart from the suites'
 
 
@@ -59,12 +53,8 @@ class Coverage:
 def case_z(scenario: str, kind: str, noise: str, seed: int) -> tuple[list[float], int]:
     """One recording through discover: the standardised errors of the covered parameters found,
     and how many concealed effects were not found."""
-    if scenario == "probe-scanner":
-        rec, manifest = scanner_recording(kind, seed, noise=noise)
-        out, _ = discover_scanner(rec, 0)
-    else:
-        rec, manifest = stage_recording(scenario, kind, seed, noise=noise)
-        out, _ = discover_stage(scenario, rec, 0)
+    rec, manifest = recorded(scenario, kind, seed, noise=noise)
+    out, _ = searched(scenario, rec, 0)
     z, missed = [], 0
     for t in manifest["effects"]:
         name = COVERED.get(t["name"])

@@ -18,80 +18,56 @@ from __future__ import annotations
 
 import dataclasses
 
-from calibench.scenarios.discover.arm_cmm import discover_arm
-from calibench.scenarios.discover.probe_scanner import discover_scanner
-from calibench.scenarios.discover.stage import discover_stage
-from calibench.scenarios.discover.stewart import discover_stewart
-from calibench.sim.concealed import (
-    arm_recording,
-    scanner_recording,
-    stage_recording,
-    stewart_recording,
-)
+from calibench.scenarios.registry import instruments
 
-SUITE = (
-    [
-        ("belt-stage", k, s)
-        for k, seeds in (
-            ("null", 4),
-            ("backlash", 2),
-            ("periodic", 2),
-            ("thermal", 2),
-            ("combined", 2),
-            ("bump", 2),
-            ("mixed", 1),
-            ("elastic", 2),
+
+def suite_cases() -> tuple[tuple[str, str, int], ...]:
+    """The suite's cases (label, kind, seed), instrument by instrument as the registry lists
+    them (each instrument's ``suite``; ``NAME:ARM`` for its ``suite_arms``)."""
+    return tuple(
+        (label, kind, s)
+        for row in instruments()
+        for label, cases in (
+            (row.name, row.suite),
+            *((f"{row.name}:{arm}", c) for arm, c in row.suite_arms),
         )
+        for kind, seeds in cases
         for s in range(seeds)
-    ]
-    + [
-        ("vision-stage", k, s)
-        for k, seeds in (
-            ("null", 4),
-            ("backlash", 2),
-            ("periodic", 2),
-            ("thermal", 1),
-            ("combined", 1),
-            ("bump", 2),
-            ("mixed", 1),
-        )
-        for s in range(seeds)
-    ]
-    + [
-        ("arm-cmm", k, s)
-        for k, seeds in (("null", 3), ("eccentricity", 3), ("thermal", 2), ("compliance", 2))
-        for s in range(seeds)
-    ]
-    + [
-        ("arm-cmm:ur10", k, s)
-        for k, seeds in (("null", 2), ("eccentricity", 1), ("compliance", 2))
-        for s in range(seeds)
-    ]
-    + [
-        ("probe-scanner", k, s)
-        for k, seeds in (
-            ("null", 3),
-            ("runout", 2),
-            ("eccentricity", 1),
-            ("scale", 1),
-            ("bump", 2),
-            ("combined", 1),
-            ("drift", 2),
-        )
-        for s in range(seeds)
-    ]
-    + [
-        ("stewart", k, s)
-        for k, seeds in (
-            ("null", 3),
-            ("thermal", 1),
-            ("backlash", 2),
-            ("pitch", 2),
-            ("compliance", 2),
-        )
-        for s in range(seeds)
-    ]
-)
+    )
+
+
+def recorded(label: str, kind: str, seed: int, **options) -> tuple[object, dict]:
+    """A concealed recording of ``kind`` (``sim.concealed``) for a suite's ``label`` (a scenario,
+    or ``NAME:ARM``), and its sealed manifest; ``options``: the generator's (noise, repeat)."""
+    from calibench.sim import concealed
+
+    scenario, _, arm = label.partition(":")
+    if scenario == "probe-scanner":
+        return concealed.scanner_recording(kind, seed, **options)
+    if scenario == "stewart":
+        return concealed.stewart_recording(kind, seed, **options)
+    if scenario == "arm-cmm":
+        return concealed.arm_recording(kind, seed, arm=arm or "arm-cmm", **options)
+    return concealed.stage_recording(scenario, kind, seed, **options)
+
+
+def searched(label: str, rec, seed: int, floor: float | None = None) -> tuple[dict, dict]:
+    """``discover``'s search on a recording of a suite's ``label`` (its twin nominal):
+    discovery.json's content and the figure's; ``floor``: the acceptance floor (default the
+    instrument's own)."""
+    from calibench.scenarios.discover import arm_cmm, probe_scanner, stage, stewart
+
+    scenario, _, arm = label.partition(":")
+    given = {} if floor is None else {"floor": floor}
+    if scenario == "probe-scanner":
+        return probe_scanner.discover_scanner(rec, seed, **given)
+    if scenario == "stewart":
+        return stewart.discover_stewart(rec, seed, **given)
+    if scenario == "arm-cmm":
+        return arm_cmm.discover_arm(rec, seed, arm=arm or "arm-cmm", **given)
+    return stage.discover_stage(scenario, rec, seed, **given)
+
+
 NOT_CONCEALED = ("geometry",)
 
 
@@ -149,42 +125,18 @@ def null_claims(scenario: str, k: int, floors) -> list[bool]:
     """For the null calibration of the acceptance floor: whether ``discover`` claims any effect
     (the twin's own ``geometry`` aside) on the fresh null recording ``k`` of ``scenario``
     ("arm-cmm:ur10" for the UR10), at each of ``floors``; one recording, every floor."""
-    seed = NULL_SEED + k
-    if scenario.startswith("arm-cmm"):
-        arm = scenario.partition(":")[2] or "arm-cmm"
-        rec, _ = arm_recording("null", seed, arm=arm)
-        run = lambda f: discover_arm(rec, 0, f, arm=arm)  # noqa: E731
-    elif scenario == "probe-scanner":
-        rec, _ = scanner_recording("null", seed)
-        run = lambda f: discover_scanner(rec, 0, f)  # noqa: E731
-    elif scenario == "stewart":
-        rec, _ = stewart_recording("null", seed)
-        run = lambda f: discover_stewart(rec, 0, f)  # noqa: E731
-    else:
-        rec, _ = stage_recording(scenario, "null", seed)
-        run = lambda f: discover_stage(scenario, rec, 0, None, f)  # noqa: E731
-    return [any(e["name"] not in NOT_CONCEALED for e in run(f)[0]["effects"]) for f in floors]
+    rec, _ = recorded(scenario, "null", NULL_SEED + k)
+    return [
+        any(e["name"] not in NOT_CONCEALED for e in searched(scenario, rec, 0, f)[0]["effects"])
+        for f in floors
+    ]
 
 
 def concealed_discovery(scenario: str, kind: str, seed: int) -> tuple[dict, dict, dict]:
     """The suite's case (scenario, kind, seed) through discover: the sealed manifest,
     discovery.json's content and what the figure needs."""
-    rec_seed = case_seed(kind, seed)
-    if scenario == "probe-scanner":
-        rec, manifest = scanner_recording(kind, rec_seed)
-        out, fig = discover_scanner(rec, seed)
-    elif scenario == "stewart":
-        rec, manifest = stewart_recording(kind, rec_seed)
-        out, fig = discover_stewart(rec, seed)
-    elif scenario.startswith("arm-cmm"):
-        arm = (
-            scenario.partition(":")[2] or "arm-cmm"
-        )  # arm-cmm:ur10 is the arm-cmm scenario with the UR10
-        rec, manifest = arm_recording(kind, rec_seed, arm=arm)
-        out, fig = discover_arm(rec, seed, arm=arm)
-    else:
-        rec, manifest = stage_recording(scenario, kind, rec_seed)
-        out, fig = discover_stage(scenario, rec, seed)
+    rec, manifest = recorded(scenario, kind, case_seed(kind, seed))
+    out, fig = searched(scenario, rec, seed)
     return manifest, out, fig
 
 

@@ -27,35 +27,26 @@ from collections import defaultdict
 
 import numpy as np
 
-from calibench.scenarios.discover.arm_cmm import discover_arm
 from calibench.scenarios.discover.fresh import FreshScore, score_on_fresh
-from calibench.scenarios.discover.probe_scanner import discover_scanner
-from calibench.scenarios.discover.stage import discover_stage
-from calibench.scenarios.discover.stewart import discover_stewart
-from calibench.sim.concealed import (
-    PLANS,
-    arm_recording,
-    scanner_recording,
-    stage_recording,
-    stewart_recording,
-)
+from calibench.scenarios.discover.suite import recorded, searched
+from calibench.scenarios.registry import instruments
+from calibench.sim.concealed import PLANS
 from calibench.sim.concealed.noise import MISSPECIFIED
 
 SEEDS = 3  # per kind: each kind sees every misspecified noise once
-NULL_SEEDS = 6  # per instrument: every misspecified noise twice
-UNWRITTEN_SUITE = tuple(
-    (scenario, kind, s)
-    for scenario, kinds in (
-        ("belt-stage", ("null", "presliding", "lagged_thermal", "rail_step")),
-        ("vision-stage", ("null", "presliding", "lagged_thermal", "rail_step")),
-        ("probe-scanner", ("null", "thin_wall")),
-        ("stewart", ("null", "stick_slip", "sensor_warmup", "tracker_air")),
-        ("arm-cmm", ("null", "harmonic_drive", "link_bending", "pedestal_warmup")),
+
+
+
+def unwritten_cases() -> tuple[tuple[str, str, int], ...]:
+    """The suite's cases (scenario, kind, seed): each instrument's ``unwritten`` kinds, as the
+    registry lists them, :data:`SEEDS` recordings of each and its ``unwritten_nulls`` nulls."""
+    return tuple(
+        (row.name, kind, s)
+        for row in instruments()
+        for kind in row.unwritten
+        for s in range(row.unwritten_nulls if kind == "null" else SEEDS)
     )
-    for kind in kinds
-    # the platform's recordings take 20-40 s each: one null per noise
-    for s in range(NULL_SEEDS if kind == "null" and scenario != "stewart" else SEEDS)
-)
+
 SEED0 = 9000  # the recordings' seeds: apart from the first suite's and the coverage study's
 NOT_CONCEALED = ("geometry",)
 
@@ -113,21 +104,12 @@ def run_unwritten(scenario: str, kind: str, seed: int) -> UnwrittenResult:
     """One case through discover, scored against its manifest."""
     noise, rec_seed = case_noise(seed), SEED0 + 100 * seed + len(kind)
 
-    def recorded(repeat: int) -> tuple[dict, dict, dict]:
-        if scenario == "probe-scanner":
-            rec, manifest = scanner_recording(kind, rec_seed, noise=noise, repeat=repeat)
-            return (*discover_scanner(rec, seed), manifest)
-        if scenario == "stewart":
-            rec, manifest = stewart_recording(kind, rec_seed, noise=noise, repeat=repeat)
-            return (*discover_stewart(rec, seed), manifest)
-        if scenario == "arm-cmm":
-            rec, manifest = arm_recording(kind, rec_seed, noise=noise, repeat=repeat)
-            return (*discover_arm(rec, seed), manifest)
-        rec, manifest = stage_recording(scenario, kind, rec_seed, noise=noise, repeat=repeat)
-        return (*discover_stage(scenario, rec, seed), manifest)
+    def found(repeat: int) -> tuple[dict, dict, dict]:
+        rec, manifest = recorded(scenario, kind, rec_seed, noise=noise, repeat=repeat)
+        return (*searched(scenario, rec, seed), manifest)
 
-    out, chosen, manifest = recorded(0)
-    fresh = score_on_fresh(chosen, recorded(1)[1])
+    out, chosen, manifest = found(0)
+    fresh = score_on_fresh(chosen, found(1)[1])
     truth = manifest["effects"]
     found = [e for e in out["effects"] if e["name"] not in NOT_CONCEALED]
     detected = sum(any(_matches(scenario, t, f) for f in found) for t in truth)

@@ -1,2 +1,25 @@
-"""Scenario ``probe-scanner``: its config and run (:mod:`.scenario`) and its rerun layout
+"""Scenario ``probe-scanner``: its line in the registry (``INSTRUMENT``), its config and run
+(:mod:`.scenario`) and its rerun layout
 (:mod:`.viewer`)."""
+
+from calibench.scenarios.instrument import DISCOVER, Instrument
+
+INSTRUMENT = Instrument(
+    "probe-scanner",
+    f"{__name__}.scenario",
+    "ProbeScannerConfig",
+    discovery=DISCOVER + "probe_scanner",
+    run_s=4.0,
+    suite=(
+        ("null", 3),
+        ("runout", 2),
+        ("eccentricity", 1),
+        ("scale", 1),
+        ("bump", 2),
+        ("combined", 1),
+        ("drift", 2),
+    ),
+    unwritten=("null", "thin_wall"),
+    # a scanner recording covers one parameter, a stage's four: three times the recordings
+    coverage=("runout", 3),
+)

@@ -1,2 +1,16 @@
-"""Scenario ``stewart``: its config and run (:mod:`.scenario`) and its rerun layout
+"""Scenario ``stewart``: its line in the registry (``INSTRUMENT``), its config and run
+(:mod:`.scenario`) and its rerun layout
 (:mod:`.viewer`)."""
+
+from calibench.scenarios.instrument import DISCOVER, Instrument
+
+INSTRUMENT = Instrument(
+    "stewart",
+    f"{__name__}.scenario",
+    "StewartConfig",
+    discovery=DISCOVER + "stewart",
+    run_s=5.0,
+    suite=(("null", 3), ("thermal", 1), ("backlash", 2), ("pitch", 2), ("compliance", 2)),
+    unwritten=("null", "stick_slip", "sensor_warmup", "tracker_air"),
+    unwritten_nulls=3,  # the platform's recordings take 20-40 s each: one null per noise
+)

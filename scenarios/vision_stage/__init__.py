@@ -1,2 +1,26 @@
-"""Scenario ``vision-stage``: its config and run (:mod:`.scenario`) and its rerun layout
+"""Scenario ``vision-stage``: its line in the registry (``INSTRUMENT``), its config and run
+(:mod:`.scenario`) and its rerun layout
 (:mod:`.viewer`)."""
+
+from calibench.scenarios.instrument import DISCOVER, Instrument
+
+INSTRUMENT = Instrument(
+    "vision-stage",
+    f"{__name__}.scenario",
+    "VisionStageConfig",
+    discovery=DISCOVER + "stage",
+    fit_model="cubic",
+    renders=True,
+    run_s=19.0,
+    suite=(
+        ("null", 4),
+        ("backlash", 2),
+        ("periodic", 2),
+        ("thermal", 1),
+        ("combined", 1),
+        ("bump", 2),
+        ("mixed", 1),
+    ),
+    unwritten=("null", "presliding", "lagged_thermal", "rail_step"),
+    coverage=("combined", 1),
+)

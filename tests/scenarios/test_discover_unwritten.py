@@ -12,9 +12,9 @@ import numpy as np
 
 from calibench.scenarios.discover.probe_scanner import discover_scanner
 from calibench.scenarios.discover.suite_unwritten import (
-    UNWRITTEN_SUITE,
     run_unwritten,
     score_unwritten,
+    unwritten_cases,
     unwritten_table,
 )
 from calibench.sim.concealed import scanner_recording
@@ -24,7 +24,7 @@ from docs.figures.engine import readme_disagrees
 
 
 def test_unwritten_effects_under_misspecified_noise():
-    results = [run_unwritten(*case) for case in UNWRITTEN_SUITE]
+    results = [run_unwritten(*case) for case in unwritten_cases()]
     print(unwritten_table(results))
     scores = score_unwritten(results)
     print(scores)
