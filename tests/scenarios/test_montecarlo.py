@@ -132,7 +132,8 @@ def test_a_finished_study_needs_no_workers(tmp_path, monkeypatch):
 def test_a_bad_config_is_said_by_the_worker_that_checks_it(tmp_path):
     """With a local pool a worker checks the config: a bad value still comes back as one BadInput
     before any trial, nothing journaled, and the process that ran the study (a fresh one, so no
-    other test's imports hide it) never imported the scenario's simulator or estimators."""
+    other test's imports hide it) never imported the scenario's simulator or estimators (its
+    package, which holds its registry line, alone)."""
     code = f"""
 import sys
 from pathlib import Path
@@ -143,7 +144,7 @@ try:
               table={{"stated_range_sigma_um": [0.0, 1.0]}})
 except BadInput as e:
     print("BadInput:", e)
-rooms = ("calibench.estimators", "calibench.sim", "calibench.scenarios.arm")
+rooms = ("calibench.estimators", "calibench.sim", "calibench.scenarios.arm_cmm.")
 print(sorted(m for m in sys.modules if m.startswith(rooms)))
 """
     out = subprocess.run(
