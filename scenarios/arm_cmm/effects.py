@@ -37,10 +37,10 @@ def angle_terms_from_discovery(path, n_joints: int, n_recordings: int = 1) -> li
     ):
         raise BadInput(f"{path} is not the discovery.json of an arm-cmm recording")
     terms = []
-    for k, e in enumerate(d["effects"]):
-        if not isinstance(e, dict) or not isinstance(e.get("params", {}), dict):
+    for k, effect in enumerate(d["effects"]):
+        if not isinstance(effect, dict) or not isinstance(effect.get("params", {}), dict):
             raise BadInput(f"{path}: effect {k + 1} is not an object with a name and its params")
-        name, p = e.get("name"), e.get("params", {})
+        name, p = effect.get("name"), effect.get("params", {})
         if name not in ARM_EFFECTS:
             raise BadInput(
                 f"{path}: effect {name!r} is not an arm's "

@@ -14,32 +14,29 @@ from __future__ import annotations
 
 import dataclasses
 from pathlib import Path
+from typing import Any, cast
 
 import numpy as np
 
 from calibench.estimators.discovery.arm import ArmDrivers
-from calibench.estimators.discovery.fit import (
-    Signal,
-    cv_residuals,
-    rms,
-)
+from calibench.estimators.discovery.fit import Signal
 from calibench.estimators.discovery.noise import Noise
-from calibench.estimators.discovery.select import Step, carry_to_new_sessions, prune, select
-from calibench.scenarios.discover.arm_cmm_compliance import compliance_candidates
+from calibench.estimators.discovery.select import prune, select
+from calibench.scenarios.discover.arm_cmm_candidates import add_joint_table, arm_candidates
+from calibench.scenarios.discover.arm_cmm_sessions import (
+    carried_to_sessions,
+    say_belonging,
+    shared_unless_sessions_differ,
+)
 from calibench.scenarios.discover.arm_cmm_words import arm_confounds, locate_arm
 from calibench.scenarios.discover.fresh import structure
 from calibench.scenarios.discover.report import describe_effects
-from calibench.scenarios.discover.same_machine import (
-    SAME_ARM_MM,
-    own_geometry_rms,
-    refuse_another,
-)
 from calibench.scenarios.report import BadInput
 
 
 def arm_drivers(
     arm, q_rad: np.ndarray, temp_c=None, t_s=None, truth=None, delta: np.ndarray | None = None
-) -> tuple[dict, np.ndarray]:
+) -> tuple[dict[str, Any], np.ndarray]:
     """What the arm's candidates need, and the twin's tool points: MuJoCo's nominal (rigid) arm
     at the readings (n, 3) mm, its gravity torques (MuJoCo's inverse dynamics) when the arm has
     masses, the chain's Jacobians, the twin's chain errors. ``truth``: a twin updated by
@@ -71,7 +68,8 @@ def arm_drivers(
         "flange_R": P.link_R[:, N],
         "delta_twin": np.asarray(twin.delta, float),
     }
-    return drivers, sim
+    # the engine's functions take any dict of drivers; the TypedDict above checks this one's keys
+    return cast("dict[str, Any]", drivers), sim
 
 
 # The arm's practical floor: 3 % of the held-out RMS. Its null calibration (benchmarks/discover.py,
@@ -102,25 +100,123 @@ def discover_arm(
 
 
 def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, dict]:
+    """:func:`discover_arm`'s steps: the usable rows, fit's geometry, the residual signal, the
+    candidates, the selection (then a phase per session only where it earns it, a joint's table
+    for what is left), what carries to new sessions, and the words."""
     from calibench.estimators.arm.calibration import PRIOR
-    from calibench.estimators.arm.kinematics import parameter_scales, pose
-    from calibench.estimators.arm.screening import screen
-    from calibench.estimators.discovery.arm import (
-        ArmDrift,
-        ArmThermalExpansion,
-        EncoderEccentricity,
-        Geometry,
-        TransmissionSearch,
-        joint_table,
-    )
-    from calibench.estimators.discovery.harmonics import harmonic_grid
-    from calibench.estimators.rotations import skew
     from calibench.scenarios.arm_cmm.arms import chain_of, load_arm
-    from calibench.scenarios.arm_cmm.fit import calibrate, check_postures
+    from calibench.scenarios.arm_cmm.training import calibrate
 
     arm = load_arm(arm) if isinstance(arm, (str, Path)) else arm
     N = arm.n_joints
     recs = list(rec) if isinstance(rec, (list, tuple)) else [rec]
+    rows = usable_rows(recs, arm)
+    if truth is not None and truth.delta and len(truth.delta) != 5 * N + 3:
+        raise BadInput(
+            f"the twin's truth.delta has {len(truth.delta)} values; the arm {arm.name} needs 5 x "
+            f"{N} + 3"
+        )
+    chain = chain_of(arm)
+    # fit's own step (fit --model physics where the arm has masses): the same prior, identifiable
+    # basis and solve; its geometry is where the candidates' columns are taken, and its scatter
+    # sets the weight of the prior's rows (a model without the compliance would scatter more, and
+    # let the prior hold the geometry harder than fit does)
+    model = "physics" if chain.has_masses else "geometry"
+    solved = calibrate(
+        chain,
+        rows.q_rad,
+        rows.xyz_mm,
+        rows.rec_id,
+        None,
+        model,
+        arm.parallel_pairs(),
+        robust=False,
+        prior=PRIOR,
+    )
+    drivers, sim = arm_drivers(arm, rows.q_rad, rows.temp_c, rows.t_s, truth, solved.state.delta)
+    drivers["rec"] = rows.rec_id
+    sig = residual_signal(chain, rows, solved.state, drivers, sim)
+    among = arm_candidates(chain, arm, rows.q_rad, rows.xyz_mm, solved, drivers)
+    # five contiguous blocks of each recording: every fold holds out a fifth of each setup
+    fold = np.concatenate([np.minimum(np.arange(len(k)) * 5 // len(k), 4) for k in rows.parts])
+    noise = {"xyz": Noise(None, 0.0, 0)}
+    found, terms = select([sig], among.candidates, drivers, fold, noise, floor=floor)
+    prune(sig, found, terms, drivers, fold, floor)
+    shared_unless_sessions_differ(sig, found, terms["xyz"], drivers, fold, floor)
+    add_joint_table(sig, found, terms["xyz"], drivers, fold, rows.q_rad, floor)
+    carry: dict[int, dict] = {}
+    if len(recs) > 1:
+        carry = carried_to_sessions(
+            sig, found, terms["xyz"], drivers, fold, rows.rec_id, among.geometry
+        )
+    effects, fitted = describe_effects([sig], terms, found, drivers, noise)
+    say_belonging(effects, found.steps, carry)
+    confounds = arm_confounds(sig, terms["xyz"], among.candidates, drivers, found)
+    accepted = {t.key for t in terms["xyz"]}
+    confounds += [c for key, c in among.alike.items() if key in accepted]
+    located = locate_arm(sig, terms["xyz"], drivers, rows.q_rad, rows.temp_c, seed)
+    out = {
+        "scenario": "arm-cmm",
+        "arm": arm.name,
+        "samples": len(rows.q_rad),
+        "unit": "mm",
+        "located": located,
+        "effects": effects,
+        "fit": {
+            "rms_nominal": float(np.sqrt(np.mean(sig.r**2))),
+            "cv_rms_nominal": found.cv_nominal,
+            "cv_rms_final": found.cv_final,
+        },
+        "holdout": "five contiguous blocks of postures"
+        + (" of each recording" if len(recs) > 1 else ""),
+        "scene_model": f"MuJoCo's nominal {arm.name} (drawing values, rigid), the base frame"
+        + ("s" if len(recs) > 1 else "")
+        + " and tool registered",
+        "dropped": [
+            {"name": k, "why": v}
+            for k, v in solved.ident.basis.dropped.items()
+            if not k.startswith(("base_", "tool_"))
+        ],
+        "left_out_rows": rows.left_out,
+        "not_accepted": {**found.rejected, **among.not_applicable},
+        "confounded": confounds,
+        "summary": _arm_summary(arm.name, found, effects),
+    }
+    return out, {
+        "signals": [sig],
+        "fitted": fitted,
+        "rows_used": rows.parts,
+        **structure(terms, drivers, fold),
+    }
+
+
+@dataclasses.dataclass
+class ArmRows:
+    """The rows discovery reads, every recording's stacked in order.
+
+    q_rad : (n, N) the readings; xyz_mm : (n, 3) the measured points, each in its recording's
+    frame; rec_id : (n,) which recording; parts : each recording's rows kept, (k_i,) indices;
+    left_out : the rows left out, with why (discovery.json's ``left_out_rows``); temp_c, t_s :
+    (n,) the logged temperature and time, or None where a recording has none.
+    """
+
+    q_rad: np.ndarray
+    xyz_mm: np.ndarray
+    rec_id: np.ndarray
+    parts: list[np.ndarray]
+    left_out: list[dict]
+    temp_c: np.ndarray | None
+    t_s: np.ndarray | None
+
+
+def usable_rows(recs: list, arm) -> ArmRows:
+    """The recordings' rows a discovery can use: the stale readings and both rows of each
+    repeat that disagrees left out (without a calibrated model neither can be trusted), enough
+    postures left for the arm's parameters, else one BadInput line."""
+    from calibench.estimators.arm.screening import screen
+    from calibench.scenarios.arm_cmm.training import check_postures
+
+    N = arm.n_joints
     parts, left_out = [], []
     for k, r in enumerate(recs):
         if r.n_joints != N:
@@ -128,7 +224,6 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
     check_postures(np.vstack([r.q_rad for r in recs]), len(recs))
     for k, r in enumerate(recs):
         flagged = screen(r.q_rad, r.xyz_mm)
-        # without a calibrated model neither row of a disagreeing repeat can be trusted: both go
         drop = sorted({int(i) for i in flagged.stale} | {int(i) for i in flagged.pairs.ravel()})
         parts.append(np.setdiff1d(np.arange(len(r.q_rad)), drop))
         tag = {} if len(recs) == 1 else {"recording": k + 1}
@@ -145,10 +240,7 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
             for (a, b), d in zip(flagged.pairs, flagged.distance_mm)
             for i, o in ((a, b), (b, a))
         ]
-    q = np.vstack([r.q_rad[k] for r, k in zip(recs, parts)])
-    xyz = np.vstack([r.xyz_mm[k] for r, k in zip(recs, parts)])
-    rec_id = np.concatenate([np.full(len(k), i) for i, k in enumerate(parts)])
-    n = len(q)
+    n = sum(len(k) for k in parts)
     n_kin = 4 * N + len(arm.parallel_pairs())
     if min(len(k) for k in parts) < 12 or n < max(40, 2 * n_kin):
         raise BadInput(
@@ -156,190 +248,56 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
             f"discover needs at least {max(40, 2 * n_kin)} for the {arm.name}'s parameters"
         )
 
-    def joined(name):
+    def joined(name: str) -> np.ndarray | None:
         cols = [getattr(r, name) for r in recs]
-        return (
-            None
-            if any(c is None for c in cols)
-            else np.concatenate([c[k] for c, k in zip(cols, parts)])
-        )
+        if any(c is None for c in cols):
+            return None
+        return np.concatenate([c[k] for c, k in zip(cols, parts)])
 
-    temp, t_s = joined("temp_c"), joined("t_s")
-    if truth is not None and truth.delta and len(truth.delta) != 5 * N + 3:
-        raise BadInput(
-            f"the twin's truth.delta has {len(truth.delta)} values; the arm {arm.name} needs 5 x "
-            f"{N} + 3"
-        )
-    chain = chain_of(arm)
-    # fit's own step (fit --model physics where the arm has masses): the same prior, identifiable
-    # basis and solve; its geometry is where the candidates' columns are taken, and its scatter
-    # sets the weight of the prior's rows (a model without the compliance would scatter more, and
-    # let the prior hold the geometry harder than fit does)
-    model = "physics" if chain.has_masses else "geometry"
-    solved = calibrate(
-        chain, q, xyz, rec_id, None, model, arm.parallel_pairs(), robust=False, prior=PRIOR
+    return ArmRows(
+        np.vstack([r.q_rad[k] for r, k in zip(recs, parts)]),
+        np.vstack([r.xyz_mm[k] for r, k in zip(recs, parts)]),
+        np.concatenate([np.full(len(k), i) for i, k in enumerate(parts)]),
+        parts,
+        left_out,
+        joined("temp_c"),
+        joined("t_s"),
     )
-    problem, basis, s = solved.problem, solved.ident.basis, solved.state
-    drivers, sim = arm_drivers(arm, q, temp, t_s, truth, delta=s.delta)
+
+
+def residual_signal(chain, rows: ArmRows, state, drivers: dict, sim_mm: np.ndarray) -> Signal:
+    """The residual signal (3 n,): the measured points in the arm's base frame less the twin's
+    and the chain's remainder at the geometry's solution ``state``, with the scene model's free
+    columns (each recording's frame: a small turn and shift; the shared tool point).
+
+    The candidates are linear, the chain is not: over a 2 m arm a milliradian's error moves the
+    point's lever arms, and a tool guessed 100 mm off moves every joint's. So every column is
+    taken at the geometry's solution, and the signal loses the chain's remainder there
+    (f(d*) - f(d_twin) - J(d*) (d* - d_twin)): the geometry term then holds exactly at d*.
+    """
+    from calibench.estimators.arm.kinematics import pose
+    from calibench.estimators.rotations import skew
+
+    rec_id, n = rows.rec_id, len(rows.q_rad)
     # each recording's points in the arm's base frame, by the frame the geometry's fit found
-    meas_base = np.einsum("nji,nj->ni", s.R[rec_id], xyz - s.t[rec_id])
-    # The candidates are linear, the chain is not: over a 2 m arm a milliradian's error moves the
-    # point's lever arms, and a tool guessed 100 mm off moves every joint's. So every column is
-    # taken at the geometry's solution, and the signal loses the chain's remainder there
-    # (f(d*) - f(d_twin) - J(d*) (d* - d_twin)): the geometry term then holds exactly at d*.
-    at_twin = pose(chain, q, drivers["delta_twin"]).point
+    meas_base = np.einsum("nji,nj->ni", state.R[rec_id], rows.xyz_mm - state.t[rec_id])
+    at_twin = pose(chain, rows.q_rad, drivers["delta_twin"]).point
     remainder = (
         drivers["point"]
         - at_twin
-        - np.einsum("nij,j->ni", drivers["J"], s.delta - drivers["delta_twin"])
+        - np.einsum("nij,j->ni", drivers["J"], state.delta - drivers["delta_twin"])
     )
-    r = meas_base - sim - remainder
-    # the scene model's free columns: each frame (small turn and shift) and the shared tool point
-    frame = np.zeros((n, 3, 6 * len(recs) + 3))
-    for i in range(len(recs)):
+    r = meas_base - sim_mm - remainder
+    n_rec = len(rows.parts)
+    frame = np.zeros((n, 3, 6 * n_rec + 3))
+    for i in range(n_rec):
         m = rec_id == i
         frame[m, :, 6 * i : 6 * i + 3] = -skew(drivers["point"][m])
         frame[m, :, 6 * i + 3 : 6 * i + 6] = np.eye(3)
     frame[:, :, -3:] = drivers["flange_R"]
-    sig = Signal(
+    return Signal(
         "xyz_meas - xyz_sim", "xyz", r.ravel(), frame.reshape(3 * n, -1), np.repeat(np.arange(n), 3)
     )
-    nk = 5 * N
-    kin = tuple(int(k) for k in basis.kept if k < nk)
-    names = tuple(problem.names[k] for k in kin)
-    # the prior's rows weigh as fit's do: the fit's scatter per value over each error's prior std
-    noise_mm = float(np.sqrt(np.mean((xyz - problem.model(s)) ** 2)))
-    weight = noise_mm / (PRIOR * parameter_scales(names)) if PRIOR else ()
-    geometry = Geometry(kept=kin, names=names, prior_weight=tuple(weight))
-    # postures that move one joint only leave no kinematic error the frames and tool do not absorb
-    candidates = [geometry] if kin else []
-    candidates += [EncoderEccentricity(joint=j) for j in range(1, N + 1)]
-    candidates += [
-        TransmissionSearch(joint=j, harmonics=harmonic_grid(q[:, j - 1])) for j in range(1, N + 1)
-    ]
-    # several recordings: a joint's harmonic may also keep its frequency and take a phase per
-    # recording (a motor-side error, its phase set at each power-up)
-    drivers["rec"] = rec_id
-    candidates += [
-        TransmissionSearch(joint=j, harmonics=harmonic_grid(q[:, j - 1]), per_recording=True)
-        for j in range(1, N + 1)
-    ]
-    compliance, not_applicable, alike = compliance_candidates(chain, q, drivers, arm.name)
-    candidates += compliance
-    candidates += [ArmThermalExpansion(), ArmDrift(driver="temp_c"), ArmDrift(driver="t_s")]
-    candidates = [c for c in candidates if not hasattr(c, "applies") or c.applies(drivers)]
-    # five contiguous blocks of each recording: every fold holds out a fifth of each setup
-    fold = np.concatenate([np.minimum(np.arange(len(k)) * 5 // len(k), 4) for k in parts])
-    noise = {"xyz": Noise(None, 0.0, 0)}
-    found, terms = select([sig], candidates, drivers, fold, noise, floor=floor)
-    prune(sig, found, terms, drivers, fold, floor)
-    _shared_unless_sessions_differ(sig, found, terms["xyz"], drivers, fold, floor)
-    # what no candidate explains: a table over one joint's angle, kept if it helps held out
-    cache = {}
-    cv_now = rms(cv_residuals(sig, terms["xyz"], drivers, fold, cache))
-    best = None
-    for j in range(1, N + 1):
-        table = joint_table(q[:, j - 1], j)
-        if table is None:
-            continue
-        cv = rms(cv_residuals(sig, terms["xyz"] + [table], drivers, fold, cache))
-        if cv < (1 - floor) * cv_now and (best is None or cv < best[1]):
-            best = (table, cv)
-    if best is not None:
-        terms["xyz"].append(best[0])
-        found.steps.append(Step(best[0], "xyz", found.cv_final, best[1], 1 - best[1] / cv_now))
-        found.cv_final = best[1]
-    carry = {}
-    if len(recs) > 1 and geometry in candidates:
-        moved, left = own_geometry_rms(sig, terms["xyz"], geometry, drivers, rec_id)
-        refuse_another(moved, left, SAME_ARM_MM, "arm", "link errors")
-    if len(recs) > 1:
-        carry = carry_to_new_sessions(
-            sig, found, terms["xyz"], drivers, fold, rec_id, _register_rows(rec_id)
-        )
-    effects, fitted = describe_effects([sig], terms, found, drivers, noise)
-    for st, e in zip(found.steps, effects):
-        if id(st.term) in carry:
-            e["belongs"] = "session" if getattr(st.term, "per_recording", False) else "machine"
-            e["new_session_rms"] = carry[id(st.term)]
-            if getattr(st.term, "session_refit", False):
-                what = "values" if st.term.name == "nonsmooth" else "amplitude and phase"
-                e["new_session"] = f"its {what} refitted on the session's registration rows"
-    confounds = arm_confounds(sig, terms["xyz"], candidates, drivers, found)
-    accepted = {t.key for t in terms["xyz"]}
-    confounds += [c for key, c in alike.items() if key in accepted]
-    located = locate_arm(sig, terms["xyz"], drivers, q, temp, seed)
-    names = [e["name"] for e in effects if e["name"] != "geometry"]
-    out = {
-        "scenario": "arm-cmm",
-        "arm": arm.name,
-        "samples": n,
-        "unit": "mm",
-        "located": located,
-        "effects": effects,
-        "fit": {
-            "rms_nominal": float(np.sqrt(np.mean(sig.r**2))),
-            "cv_rms_nominal": found.cv_nominal,
-            "cv_rms_final": found.cv_final,
-        },
-        "holdout": "five contiguous blocks of postures"
-        + (" of each recording" if len(recs) > 1 else ""),
-        "scene_model": f"MuJoCo's nominal {arm.name} (drawing values, rigid), the base frame"
-        + ("s" if len(recs) > 1 else "")
-        + " and tool registered",
-        "dropped": [
-            {"name": k, "why": v}
-            for k, v in basis.dropped.items()
-            if not k.startswith(("base_", "tool_"))
-        ],
-        "left_out_rows": left_out,
-        "not_accepted": {**found.rejected, **not_applicable},
-        "confounded": confounds,
-        "summary": _arm_summary(arm.name, found, effects, names),
-    }
-    return out, {
-        "signals": [sig],
-        "fitted": fitted,
-        "rows_used": parts,
-        **structure(terms, drivers, fold),
-    }
-
-
-REGISTER_FRACTION = 0.2  # of a session held out whole: the rows its own terms are fitted on
-
-
-def _register_rows(rec_id: np.ndarray) -> np.ndarray:
-    """(n,) bool: a fixed draw of :data:`REGISTER_FRACTION` of each session's rows (fit's
-    --leave-one-out registers a new session on as many)."""
-    out = np.zeros(len(rec_id), bool)
-    rng = np.random.default_rng(0)
-    for k in np.unique(rec_id):
-        rows = rng.permutation(np.flatnonzero(rec_id == k))
-        out[rows[: max(int(round(REGISTER_FRACTION * len(rows))), 3)]] = True
-    return out
-
-
-def _shared_unless_sessions_differ(sig, found, terms: list, drivers, fold, floor: float) -> None:
-    """A harmonic with a phase per recording stays so only if it beats the same harmonic with
-    one phase for all by ``floor`` of the held-out RMS (the extra coefficients otherwise fit
-    noise): replaced in ``terms`` and in its step otherwise."""
-    for i, t in enumerate(terms):
-        if not getattr(t, "per_recording", False):
-            continue
-        shared = dataclasses.replace(t, per_recording=False)
-        cv_per = rms(cv_residuals(sig, terms, drivers, fold, {}))
-        cv_shared = rms(cv_residuals(sig, terms[:i] + [shared] + terms[i + 1 :], drivers, fold, {}))
-        if cv_per > (1 - floor) * cv_shared:
-            for k, st in enumerate(found.steps):
-                if (
-                    st.term is t
-                ):  # the last step's figure is the final one: both now the shared term's
-                    last = k == len(found.steps) - 1
-                    found.steps[k] = dataclasses.replace(
-                        st, term=shared, cv_after=cv_shared if last else st.cv_after
-                    )
-            terms[i] = shared
-            found.cv_final = cv_shared
 
 
 def _where(params: dict) -> str:
@@ -347,7 +305,10 @@ def _where(params: dict) -> str:
     return f"motor {params['motor']}" if "motor" in params else f"joint {params.get('joint', '-')}"
 
 
-def _arm_summary(name: str, found, effects: list, names: list) -> str:
+def _arm_summary(name: str, found, effects: list) -> str:
+    """discovery.json's summary: what the nominal arm leaves out, and the held-out RMS each
+    effect found cut."""
+    names = [e["name"] for e in effects if e["name"] != "geometry"]
     if not names:
         return (
             f"the nominal {name} with its geometry calibrated explains the recording to "

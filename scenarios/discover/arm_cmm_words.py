@@ -5,6 +5,8 @@ what was accepted, with the experiment that would.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from calibench.estimators.discovery.fit import confounded, fit_terms
@@ -85,7 +87,7 @@ def locate_arm(sig, terms, drivers, q, temp, seed) -> list[dict]:
     geo = [t for t in terms if t.name == "geometry"]
     _, _, _, res = fit_terms(sig, geo, drivers, {}, None)
     res3 = res.reshape(n, 3)
-    located = []
+    located: list[dict[str, Any]] = []
     for name, v in [(f"q{j}", q[:, j - 1]) for j in range(1, q.shape[1] + 1)] + [("temp_c", temp)]:
         if v is None or np.ptp(v) == 0:
             continue
