@@ -24,7 +24,7 @@ import os
 import sys
 import threading
 import time
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Sized
 
 INTERVAL_S = 30.0  # off a terminal, a line at least this often
 GRACE_S = 10.0  # off a terminal, nothing before this: a short command's stderr stays its own
@@ -401,7 +401,7 @@ def steps(items: Iterable, what: str, total: int | None = None) -> Iterator:
     if p is None:
         yield from items
         return
-    n = total if total is not None else (len(items) if hasattr(items, "__len__") else None)
+    n = total if total is not None else (len(items) if isinstance(items, Sized) else None)
     t0 = CLOCK()
     with _lock:
         p.inner = (what, 0, n, t0)

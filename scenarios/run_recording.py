@@ -20,6 +20,15 @@ from pathlib import Path
 import numpy as np
 
 from calibench.errors import BadInput
+from calibench.recordings.records import (
+    ArmRecording,
+    ScannerRecording,
+    StageRecording,
+    StewartRecording,
+)
+
+# what an instrument's sensors record, in its recording format (docs/formats.md)
+Recording = StageRecording | ArmRecording | ScannerRecording | StewartRecording
 
 RECORDING = "recording.csv"
 TRUTH = "recording.truth.json"
@@ -167,7 +176,7 @@ def recorded_travel_mm(scenario: str, travel_mm: tuple[float, float] | None):
     return tuple(min(a, b) for a, b in zip(PLANS[scenario].travel_mm, travel_mm or (np.inf,) * 2))
 
 
-def simulate(scenario: str, config, seed: int) -> tuple[object, dict]:
+def simulate(scenario: str, config, seed: int) -> tuple[Recording, dict]:
     """The recording of ``scenario``'s twin (``config``'s) with ``config.recording``'s effect
     concealed.
 

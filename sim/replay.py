@@ -56,12 +56,12 @@ def replay_stage(
 
         truth = dataclasses.replace(truth or VisionStageTruth(), repeatability_um=0.0)
         g = geometry or VisionStageGeometry()
-        sim = VisionStageSim(g, truth, np.random.default_rng(0), render=False)
-        home = sim.true_point_mm(0.0, 0.0)
+        table = VisionStageSim(g, truth, np.random.default_rng(0), render=False)
+        home = table.true_point_mm(0.0, 0.0)
         out = np.empty((len(x), 2))
         for i, (a, b, T) in enumerate(zip(x, y, temps)):
-            sim.move(a, b, T)
-            out[i] = sim.point_in_body_mm("table") - home
+            table.move(a, b, T)
+            out[i] = table.point_in_body_mm("table") - home
         return out
     raise ValueError(f"no stage twin for {scenario!r}")
 

@@ -90,7 +90,11 @@ def claim(folder: Path, command: str, scenario: str | None, force: bool, held: l
             mark = (folder / MARK).read_text() if is_file(folder / MARK) else None
             (folder / CLAIM).mkdir()
             present = [name for name in OUTPUTS if is_file(folder / name)]
-            state = {"mark": mark, "found": _results(folder), "present": present}
+            state: dict[str, object] = {
+                "mark": mark,
+                "found": _results(folder),
+                "present": present,
+            }
             # a study resumed extends its results rather than replacing them: nothing to say
             state["say"] = force or command != "montecarlo"
             (folder / CLAIM / "claim.json").write_text(json.dumps(state))

@@ -9,7 +9,7 @@ import sys
 import time
 from pathlib import Path
 
-from calibench.scenarios.cli.claims import claim, release
+from calibench.scenarios.cli.claims import Claim, claim, release
 from calibench.scenarios.cli.status import EXIT_CHECK_FAILED, EXIT_OK, run_verdict
 from calibench.scenarios.registry import check_fidelity
 
@@ -75,7 +75,8 @@ def run(args: argparse.Namespace) -> int:
         check_cones(configs["arm-cmm"])  # and cones it cannot reach
     failed: list[str] = []
     for s in scenarios:
-        out, held = args.out / s.name if args.scenario == "all" else args.out, []
+        out = args.out / s.name if args.scenario == "all" else args.out
+        held: list[Claim] = []
         try:
             if args.scenario == "all":  # each scenario's folder claimed and released in turn
                 claim(out, "run", s.name, args.force, held)

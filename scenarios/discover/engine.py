@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import importlib
 import json
+from collections.abc import Sized
 from pathlib import Path
 from typing import Protocol
 
@@ -60,7 +61,7 @@ class Plugin(Protocol):
     HOLDOUTS: tuple[str, ...]
     MANY_RECORDINGS: bool
 
-    def load(self, scenario: str, paths: list[Path], arm) -> object:
+    def load(self, scenario: str, paths: list[Path], arm) -> Sized:
         """The recording(s) at ``paths``, read in docs/formats.md's format (``arm``: an ARM.toml or
         a built-in arm's name, for the arm; None elsewhere)."""
         ...
@@ -94,7 +95,7 @@ def plugin(scenario: str) -> Plugin:
     module = instrument(scenario).discovery if scenario in NAMES else None
     if module is None:
         raise BadInput(f"discover supports {', '.join(supported())}, not {scenario!r}")
-    return importlib.import_module(module)  # type: ignore[return-value]
+    return importlib.import_module(module)
 
 
 PROVENANCE_NOTE = (

@@ -39,17 +39,15 @@ def null_claim_rates(
         {scenario: {floor: share of the recordings with a claim}}.
     """
     jobs = {(sc, k): floors for sc, floors in floors_by_scenario.items() for k in range(nulls)}
-    own = executor is None
-    if own:
-        executor = cf.ProcessPoolExecutor(
-            os.cpu_count() or 1, mp_context=multiprocessing.get_context("spawn")
-        )
+    pool = executor or cf.ProcessPoolExecutor(
+        os.cpu_count() or 1, mp_context=multiprocessing.get_context("spawn")
+    )
     try:
-        futures = {job: executor.submit(null_claims, *job, floors) for job, floors in jobs.items()}
+        futures = {job: pool.submit(null_claims, *job, floors) for job, floors in jobs.items()}
         got = {job: f.result() for job, f in futures.items()}
     finally:
-        if own:
-            executor.shutdown()
+        if executor is None:
+            pool.shutdown()
     count: dict[str, dict[float, int]] = {}
     for (sc, k), floors in jobs.items():
         claims = count.setdefault(sc, dict.fromkeys(floors, 0))

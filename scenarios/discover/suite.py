@@ -17,6 +17,7 @@ Scoring:
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
 from calibench.scenarios.registry import instruments
 
@@ -58,7 +59,7 @@ def searched(label: str, rec, seed: int, floor: float | None = None) -> tuple[di
     from calibench.scenarios.discover import arm_cmm, probe_scanner, stage, stewart
 
     scenario, _, arm = label.partition(":")
-    given = {} if floor is None else {"floor": floor}
+    given: dict[str, Any] = {} if floor is None else {"floor": floor}
     if scenario == "probe-scanner":
         return probe_scanner.discover_scanner(rec, seed, **given)
     if scenario == "stewart":

@@ -36,7 +36,6 @@ from calibench.sim.concealed.noise import MISSPECIFIED
 SEEDS = 3  # per kind: each kind sees every misspecified noise once
 
 
-
 def unwritten_cases() -> tuple[tuple[str, str, int], ...]:
     """The suite's cases (scenario, kind, seed): each instrument's ``unwritten`` kinds, as the
     registry lists them, :data:`SEEDS` recordings of each and its ``unwritten_nulls`` nulls."""
@@ -46,6 +45,7 @@ def unwritten_cases() -> tuple[tuple[str, str, int], ...]:
         for kind in row.unwritten
         for s in range(row.unwritten_nulls if kind == "null" else SEEDS)
     )
+
 
 SEED0 = 9000  # the recordings' seeds: apart from the first suite's and the coverage study's
 NOT_CONCEALED = ("geometry",)
@@ -104,12 +104,12 @@ def run_unwritten(scenario: str, kind: str, seed: int) -> UnwrittenResult:
     """One case through discover, scored against its manifest."""
     noise, rec_seed = case_noise(seed), SEED0 + 100 * seed + len(kind)
 
-    def found(repeat: int) -> tuple[dict, dict, dict]:
+    def discovered(repeat: int) -> tuple[dict, dict, dict]:
         rec, manifest = recorded(scenario, kind, rec_seed, noise=noise, repeat=repeat)
         return (*searched(scenario, rec, seed), manifest)
 
-    out, chosen, manifest = found(0)
-    fresh = score_on_fresh(chosen, found(1)[1])
+    out, chosen, manifest = discovered(0)
+    fresh = score_on_fresh(chosen, discovered(1)[1])
     truth = manifest["effects"]
     found = [e for e in out["effects"] if e["name"] not in NOT_CONCEALED]
     detected = sum(any(_matches(scenario, t, f) for f in found) for t in truth)

@@ -123,8 +123,8 @@ def stage_effect(
         u, d = c[a], c[f"dir_{a}"]
         s = travel_since_reversal(u, d)
         err[:, "xy".index(a)] = d * B / 2 * (1 - 2 * np.exp(-s / lam))
-        truth = {"name": "presliding_friction", "axis": a, "nearest": "backlash"}
-        return err, [{**truth, "params": {"reversal_mm": B, "presliding_mm": lam}}], temp_c
+        said = {"name": "presliding_friction", "axis": a, "nearest": "backlash"}
+        return err, [{**said, "params": {"reversal_mm": B, "presliding_mm": lam}}], temp_c
     if kind == "lagged_thermal":
         rise, tau_air = rng.uniform(2, 5), t[-1] / rng.uniform(1.5, 3)
         temp_c = temp_c + rise * (1 - np.exp(-t / tau_air))
@@ -146,13 +146,20 @@ def stage_effect(
         x0, h, w = rng.uniform(0.25, 0.75) * travel_mm[0], rng.uniform(6, 12) / 1000, 2.0
         err[:, 1] = h / 2 * (1 + np.tanh((x - x0) / w))
         # a step is also a straightness error: its smooth part may be named so beside it
-        truth = {
-            "name": "rail_step",
-            "axis": "y",
-            "nearest": "nonsmooth",
-            "alike": ["straightness"],
-        }
-        return err, [{**truth, "params": {"x_mm": x0, "step_mm": h, "width_mm": w}}], temp_c
+        step = {"x_mm": x0, "step_mm": h, "width_mm": w}
+        return (
+            err,
+            [
+                {
+                    "name": "rail_step",
+                    "axis": "y",
+                    "nearest": "nonsmooth",
+                    "alike": ["straightness"],
+                    "params": step,
+                }
+            ],
+            temp_c,
+        )
     raise ValueError(f"unknown kind {kind!r}")
 
 
