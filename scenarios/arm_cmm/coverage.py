@@ -10,12 +10,8 @@ import numpy as np
 
 from calibench.estimators.identification.solver import identify_identifiable
 from calibench.scenarios.arm_cmm.arms import chain_of
-from calibench.scenarios.arm_cmm.scenario import (
-    ArmCmmConfig,
-    prior,
-    reference_values,
-    tracker_problem,
-)
+from calibench.scenarios.arm_cmm.references import reference_values
+from calibench.scenarios.arm_cmm.scenario import ArmCmmConfig, prior, tracker_problem
 from calibench.sim.arm_cmm import ArmSim
 
 Z_95 = 1.96  # the half-width of a 95 % interval, in std

@@ -34,9 +34,15 @@ from calibench.estimators.arm.design import observability_index, select_postures
 from calibench.estimators.arm.kinematics import Chain, param_names, parameter_scales, point
 from calibench.estimators.arm.tracker import ConeProblem, TrackerProblem, TrackerState
 from calibench.estimators.identification.basis import identifiable_basis
-from calibench.estimators.identification.solver import identify_identifiable
+from calibench.estimators.identification.solver import Identification, identify_identifiable
 from calibench.estimators.rotations import rigid_transform
 from calibench.scenarios.arm_cmm.arms import chain_of
+from calibench.scenarios.arm_cmm.references import (
+    TOL_SIGMA,
+    is_angle,
+    reference_values,
+    tracker_parameters,
+)
 from calibench.scenarios.harness import write_outputs
 from calibench.scenarios.report import BadInput, Check, Parameter, Report
 from calibench.scenarios.run_recording import (
@@ -46,15 +52,16 @@ from calibench.scenarios.run_recording import (
     check_plan,
     write_recording,
 )
+from calibench.scenes.arm_cmm import ArmDescription
 from calibench.sim.arm_cmm import ArmSim, ArmTruth
 
 NAME = "arm-cmm"
-TOL_SIGMA = 5.0
 
 
 @dataclasses.dataclass(frozen=True)
 class ArmCmmConfig:
-    arm: str = "arm-cmm"  # a built-in arm's name or an ARM.toml
+    # a built-in arm's name or an ARM.toml; a description read once for a whole trial (prior)
+    arm: str | ArmDescription = "arm-cmm"
     truth: ArmTruth = ArmTruth()
     n_postures: int = 50
     n_candidates: int = 600
@@ -81,7 +88,7 @@ class ArmCmmConfig:
         if self.recording.conceal in MASSES_NEEDED:  # said before the run, not after it
             from calibench.scenes.arm_cmm import load_arm
 
-            arm = load_arm(self.arm)
+            arm = self.arm if isinstance(self.arm, ArmDescription) else load_arm(self.arm)
             check_arm_kind(NAME, self.recording, arm.has_masses, arm.name)
         if self.stated_range_sigma_um[0] <= 0:
             raise ValueError("stated_range_sigma_um: the range's constant term must be positive")
@@ -126,52 +133,6 @@ def tracker_problem(
     return TrackerProblem(chain, q_read, meas, sigma, enc if rng is not None else 0.0)
 
 
-def reference_values(arm, delta: np.ndarray, kept: list[str], partners: dict) -> dict[str, float]:
-    """The injected errors ``delta`` (5 N + 3,) as the identification's ``kept`` parameters
-    should find them, by the known relations between dependent parameters, never by a fit.
-
-    A kept kinematic error is its injected value when no dropped parameter's injected error
-    leans on it (``partners``, the basis's first-order relations, only decide which; the values
-    come from ``delta`` alone). Along a run of consecutive parallel axes only the sum of the runs' d
-    moves the data (their common normals slide along parallel axes), so the one d the basis keeps
-    carries the sum. Parameters that absorb other errors by a relation that runs through the chain
-    (the tracker frame, the tool point, a wrist angle seen through the tool's lever) have no entry:
-    held-out positions from MuJoCo judge them instead.
-    """
-    inj = dict(zip(param_names(arm.n_joints), map(float, delta)))
-    runs: list[list[int]] = []
-    for i, k in arm.parallel_pairs():
-        if runs and runs[-1][-1] == i:
-            runs[-1].append(k)
-        else:
-            runs.append([i, k])
-    in_run = {f"dd{j}": run for run in runs for j in run}
-    # a dropped error moves a kept one by coefficient x its size; below 1e-3 of the kept one's
-    # typical size (0.1 um, 1 nrad) that is nothing a test could see
-    leaned_on = set()
-    for d, coefs in partners.items():
-        if d in in_run or inj.get(d, 0.0) == 0.0:
-            continue
-        size = abs(inj[d]) / parameter_scales([d])[0]
-        leaned_on |= {k for k, c in coefs.items() if abs(c) * size > 1e-3}
-    ref = {}
-    for name in kept:
-        if name not in inj or name.startswith("tool_") or name in leaned_on:
-            continue
-        if name in in_run:
-            ds = [f"dd{j}" for j in in_run[name]]
-            if sum(d in kept for d in ds) != 1:
-                continue
-            ref[name] = sum(inj[d] for d in ds)
-        else:
-            ref[name] = inj[name]
-    return ref
-
-
-def _is_angle(name: str) -> bool:
-    return name.startswith(("dalpha", "dtheta", "dbeta", "tracker_r"))
-
-
 def check_cones(config: ArmCmmConfig) -> None:
     """Each cone is within the arm's reach (one seating found by the simulator's inverse
     kinematics, on a generator of its own: a run's draws stay the same), else one BadInput line,
@@ -181,19 +142,27 @@ def check_cones(config: ArmCmmConfig) -> None:
         sim.postures_in_cone(np.asarray(cone, float), 1, np.random.default_rng(0))
 
 
-def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool) -> Report:
-    """Simulate the arm CMM (any serial arm of an ARM.toml) measured by a laser tracker, cones and a
-    length bar; calibrate it from what its sensors recorded; compare with the truth.
+@dataclasses.dataclass
+class PosturePlan:
+    """The postures planned on candidates before measuring (steps 1-2).
 
-    The arguments and the Report: :class:`calibench.scenarios.registry.Scenario`.
+    candidates : (m, N) random postures, rad; chosen : (k,) the indices chosen greedily to
+    maximise O1; random : (k,) as many random ones (the first k: the candidates are random);
+    o1_chosen, o1_random : their observability index; names : the tracker problem's parameter
+    names, in its columns' order.
     """
-    # the arm's instruments are geometric: one fidelity (MuJoCo's kinematics plus sensor noise)
-    rng = np.random.default_rng(seed)
-    truth = config.truth
-    sim = ArmSim(config.arm, truth)
-    chain = chain_of(sim.arm)
 
-    # 1-2. identifiability and postures, planned on candidates before measuring
+    candidates: np.ndarray
+    chosen: np.ndarray
+    random: np.ndarray
+    o1_chosen: float
+    o1_random: float
+    names: tuple[str, ...]
+
+
+def plan_postures(sim: ArmSim, chain: Chain, config: ArmCmmConfig, rng) -> PosturePlan:
+    """The identifiable parameters (the whitened Jacobian at the start, by pivoted QR) and the
+    ``n_postures`` of ``n_candidates`` random ones that maximise O1 for them."""
     candidates = sim.random_postures(config.n_candidates, rng)
     plan = tracker_problem(sim, chain, candidates, candidates, None)
     basis = identifiable_basis(plan)
@@ -206,38 +175,69 @@ def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool
     random_idx = np.arange(config.n_postures)  # candidates are random: the first n
     o1_chosen = observability_index(blocks[chosen_idx].reshape(-1, blocks.shape[2]))
     o1_random = observability_index(blocks[random_idx].reshape(-1, blocks.shape[2]))
+    return PosturePlan(candidates, chosen_idx, random_idx, o1_chosen, o1_random, names)
 
-    # 3. identification from the tracker
-    holdout = sim.random_postures(config.n_holdout, rng)
-    q_hold = sim.encoders(holdout, rng)
-    results = {}
-    for label, idx in (("chosen", chosen_idx), ("random", random_idx)):
-        q_true = candidates[idx]
-        problem = tracker_problem(sim, chain, q_true, sim.encoders(q_true, rng), rng, config.stated)
-        t0 = time.perf_counter()
-        try:
-            ident = identify_identifiable(problem)
-        except np.linalg.LinAlgError:
-            raise BadInput(
-                f"the arm {sim.arm.name} leaves the identification singular: its links give the "
-                "tool point too little motion to determine its parameters (an arm without length?)"
-            ) from None
-        elapsed = time.perf_counter() - t0
-        results[label] = (problem, ident, elapsed)
-    problem, ident, ident_s = results["chosen"]
-    reference = reference_values(sim.arm, sim.delta, list(ident.estimate), ident.basis.partners)
 
-    # 4. held-out postures, in the tracker frame (where the model's frame choices cancel)
-    R_bt, t_bt = sim.base2tracker()
-    y_true = sim.probe_mm(holdout) @ R_bt.T + t_bt
-    start = problem.start()
-    y_before = point(chain, q_hold) @ start.R.T + start.t
-    rms = {"before": _rms(y_before - y_true)}
-    for label, (_, idn, _) in results.items():
-        st = idn.state
-        rms[label] = _rms(point(chain, q_hold, st.delta) @ st.R.T + st.t - y_true)
+@dataclasses.dataclass
+class TrackerFit:
+    """An identification from the tracker: its problem, the identification, its time (s)."""
 
-    # cones and a length bar alone
+    problem: TrackerProblem
+    ident: Identification
+    elapsed_s: float
+
+
+def identify_from_tracker(
+    sim: ArmSim, chain: Chain, q_true: np.ndarray, stated: tuple, rng
+) -> TrackerFit:
+    """Measure the arm at motor angles ``q_true`` (n, N) rad with the tracker (its encoders read
+    with their noise) and identify its parameters, told the ``stated`` 1-sigma."""
+    problem = tracker_problem(sim, chain, q_true, sim.encoders(q_true, rng), rng, stated)
+    t0 = time.perf_counter()
+    try:
+        ident = identify_identifiable(problem)
+    except np.linalg.LinAlgError:
+        raise BadInput(
+            f"the arm {sim.arm.name} leaves the identification singular: its links give the "
+            "tool point too little motion to determine its parameters (an arm without length?)"
+        ) from None
+    return TrackerFit(problem, ident, time.perf_counter() - t0)
+
+
+@dataclasses.dataclass
+class HeldOut:
+    """The held-out postures' probe positions in the tracker frame.
+
+    q_true, q_read : (m, N) the motor angles and their encoder readings, rad.
+    y_true : (m, 3) MuJoCo's positions, mm; y_before : (m, 3) the nominal model's, at the
+    chosen fit's starting frame; R_bt, t_bt : the true base-to-tracker frame (3, 3), (3,) mm.
+    """
+
+    q_true: np.ndarray
+    q_read: np.ndarray
+    y_true: np.ndarray
+    y_before: np.ndarray
+    R_bt: np.ndarray
+    t_bt: np.ndarray
+
+
+def held_out_rms(chain: Chain, fits: dict[str, TrackerFit], held: HeldOut) -> dict[str, float]:
+    """Probe RMS (mm) at the held-out postures, in the tracker frame (where the model's frame
+    choices cancel): ``before`` (the nominal model) and each fit's."""
+    rms = {"before": _rms(held.y_before - held.y_true)}
+    for label, fit in fits.items():
+        st = fit.ident.state
+        rms[label] = _rms(point(chain, held.q_read, st.delta) @ st.R.T + st.t - held.y_true)
+    return rms
+
+
+def identify_from_cones(
+    sim: ArmSim, chain: Chain, config: ArmCmmConfig, held: HeldOut, rng
+) -> tuple[Identification, float]:
+    """Identify the arm from single-point articulation in two cones of a bar alone; and the
+    held-out postures' probe RMS (mm) after a rigid fit (the cones fix no base frame: shapes are
+    compared)."""
+    truth = config.truth
     cones = [np.asarray(truth.cone_a_mm), np.asarray(truth.cone_b_mm)]
     q_cone = np.vstack([sim.postures_in_cone(c, config.n_per_cone, rng) for c in cones])
     which = np.repeat([0, 1], config.n_per_cone)
@@ -250,37 +250,23 @@ def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool
         config.bar_sigma_mm,
     )
     cone_ident = identify_identifiable(cone_problem)
-    cone_basis = cone_ident.basis
-    p_cone = point(chain, q_hold, cone_ident.state.delta)
-    R_c, t_c = rigid_transform(
-        p_cone, sim.probe_mm(holdout)
-    )  # the cones fix no base frame: compare shapes
-    rms["cone"] = _rms(p_cone @ R_c.T + t_c - sim.probe_mm(holdout))
+    p_cone = point(chain, held.q_read, cone_ident.state.delta)
+    R_c, t_c = rigid_transform(p_cone, sim.probe_mm(held.q_true))
+    return cone_ident, _rms(p_cone @ R_c.T + t_c - sim.probe_mm(held.q_true))
 
-    # no pixels here: the sensors are MuJoCo's geometry plus noise models, whatever was asked
-    report = Report(scenario=NAME, seed=seed, fidelity="analytic")
-    by_holdout = {}
-    for name in (names[k] for k in ident.basis.kept):
-        angle = _is_angle(name)
-        f = 1e6 if angle else 1.0
-        if name not in reference:
-            by_holdout[name] = {
-                "unit": "urad" if angle else "mm",
-                "estimate": ident.estimate[name] * f,
-                "std": ident.std[name] * f,
-            }
-            continue
-        report.parameters.append(
-            Parameter(
-                name,
-                "urad" if angle else "mm",
-                reference[name] * f,
-                ident.estimate[name] * f,
-                ident.std[name] * f,
-                TOL_SIGMA * ident.std[name] * f,
-            )
-        )
-    report.checks += [
+
+def run_checks(
+    config: ArmCmmConfig,
+    rms: dict[str, float],
+    plan: PosturePlan,
+    fits: dict[str, TrackerFit],
+    cone_ident: Identification,
+) -> list[Check]:
+    """The run's checks: the held-out probe RMS before and after each identification, the
+    chosen postures' observability against random ones, the dropped parameters, and that every
+    solve converged."""
+    ident = fits["chosen"].ident
+    return [
         Check(
             "probe_rms_before_mm",
             rms["before"],
@@ -305,12 +291,12 @@ def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool
         ),
         Check(
             "observability_chosen",
-            o1_chosen,
+            plan.o1_chosen,
             None,
             note="O1 (Borm and Menq) of the chosen postures",
         ),
-        Check("observability_random", o1_random, None, note="O1 of as many random postures"),
-        Check("observability_gain", o1_chosen / o1_random, 1.0, op=">="),
+        Check("observability_random", plan.o1_random, None, note="O1 of as many random postures"),
+        Check("observability_gain", plan.o1_chosen / plan.o1_random, 1.0, op=">="),
         Check(
             "dropped_parameters",
             float(len(ident.basis.dropped)),
@@ -320,16 +306,53 @@ def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool
         # a solve that ran out of iterations would report its last iterate as if it were the answer
         Check(
             "solves_not_converged",
-            float(sum(not r[1].converged for r in results.values()) + (not cone_ident.converged)),
+            float(sum(not f.ident.converged for f in fits.values()) + (not cone_ident.converged)),
             0.0,
             note="tracker (chosen and random postures), cones",
         ),
     ]
+
+
+def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool) -> Report:
+    """Simulate the arm CMM (any serial arm of an ARM.toml) measured by a laser tracker, cones and a
+    length bar; calibrate it from what its sensors recorded; compare with the truth.
+
+    The arguments and the Report: :class:`calibench.scenarios.registry.Scenario`.
+    """
+    # the arm's instruments are geometric: one fidelity (MuJoCo's kinematics plus sensor noise)
+    rng = np.random.default_rng(seed)
+    sim = ArmSim(config.arm, config.truth)
+    chain = chain_of(sim.arm)
+    # 1-2. identifiability and postures, planned on candidates before measuring
+    plan = plan_postures(sim, chain, config, rng)
+    # 3. identification from the tracker (the held-out postures drawn first)
+    holdout = sim.random_postures(config.n_holdout, rng)
+    q_hold = sim.encoders(holdout, rng)
+    fits = {
+        label: identify_from_tracker(sim, chain, plan.candidates[idx], config.stated, rng)
+        for label, idx in (("chosen", plan.chosen), ("random", plan.random))
+    }
+    problem, ident = fits["chosen"].problem, fits["chosen"].ident
+    reference = reference_values(sim.arm, sim.delta, list(ident.estimate), ident.basis.partners)
+    # 4. held-out postures, in the tracker frame (where the model's frame choices cancel)
+    R_bt, t_bt = sim.base2tracker()
+    start = problem.start()
+    y_true = sim.probe_mm(holdout) @ R_bt.T + t_bt
+    y_before = point(chain, q_hold) @ start.R.T + start.t
+    held = HeldOut(holdout, q_hold, y_true, y_before, R_bt, t_bt)
+    rms = held_out_rms(chain, fits, held)
+    # cones and a length bar alone
+    cone_ident, rms["cone"] = identify_from_cones(sim, chain, config, held, rng)
+
+    # no pixels here: the sensors are MuJoCo's geometry plus noise models, whatever was asked
+    report = Report(scenario=NAME, seed=seed, fidelity="analytic")
+    report.parameters, by_holdout = tracker_parameters(plan.names, ident, reference)
+    report.checks += run_checks(config, rms, plan, fits, cone_ident)
     report.info = {
         # a time is the machine's, not a check: a loaded machine would fail a right result
-        "identification_s": ident_s,
+        "identification_s": fits["chosen"].elapsed_s,
         "dropped_tracker": ident.basis.dropped,
-        "dropped_cone": cone_basis.dropped,
+        "dropped_cone": cone_ident.basis.dropped,
         "whitened_rms_tracker": ident.rms,
         "whitened_rms_cone": cone_ident.rms,
         "arm": sim.arm.name,
@@ -344,7 +367,7 @@ def run(config: ArmCmmConfig, seed: int, fidelity: str, out_dir: Path, rrd: bool
     artifacts = dict(
         sim=sim,
         chain=chain,
-        postures=candidates[chosen_idx],
+        postures=plan.candidates[plan.chosen],
         problem=problem,
         ident=ident,
         start=start,
@@ -394,7 +417,7 @@ def trial_parameters(config: ArmCmmConfig, seed: int) -> list[Parameter]:
     for name in ident.estimate:
         if name not in reference:
             continue
-        f = 1e6 if _is_angle(name) else 1.0
+        f = 1e6 if is_angle(name) else 1.0
         out.append(
             Parameter(
                 name,
