@@ -9,6 +9,7 @@ joint's gear train).
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
 import numpy as np
 
@@ -114,94 +115,18 @@ def arm_recording(
     T = 20.0 + np.cumsum(rng.normal(0, 0.002, n))
     noisy = repeat_noise(noise, rng, seed, repeat)
     q_read = q + noisy(q.shape, truth.encoder_noise_urad * 1e-6, "gaussian")
-    effects = []
-    if kind == "eccentricity":
-        j, A, ph = (
-            int(rng.integers(1, N + 1)),
-            rng.uniform(300, 600) * 1e-6,
-            rng.uniform(0, 2 * np.pi),
+    effects: list[dict[str, Any]] = []
+    if kind in ("eccentricity", "transmission"):
+        # the arm stands where it stands; its encoders read it off
+        j, off_rad, effect = (
+            _eccentric_encoder(q, rng, N, joint)
+            if kind == "eccentricity"
+            else _geared_joint(q, rng, N, joint, harmonic, phase_rad, amplitude_urad)
         )
-        j = joint or j
-        q_read[:, j - 1] += A * np.sin(q[:, j - 1] + ph)
-        effects.append(
-            {
-                "name": "encoder_eccentricity",
-                "axis": "xyz",
-                "params": {"joint": j, "amplitude_urad": A * 1e6, "phase_rad": ph},
-            }
-        )
-    if kind == "transmission":
-        j = joint or int(rng.integers(1, N + 1))
-        h, A, ph = rng.uniform(8, 40), rng.uniform(150, 300) * 1e-6, rng.uniform(0, 2 * np.pi)
-        h = h if harmonic is None else harmonic
-        ph = ph if phase_rad is None else phase_rad
-        A = A if amplitude_urad is None else amplitude_urad * 1e-6
-        q_read[:, j - 1] += A * np.sin(h * q[:, j - 1] + ph)
-        effects.append(
-            {
-                "name": "transmission",
-                "axis": "xyz",
-                "params": {
-                    "joint": j,
-                    "harmonics": [h],
-                    "amplitude_urad": [A * 1e6],
-                    "phase_rad": ph,
-                },
-            }
-        )
-    if kind == "thermal":
-        rise, k = rng.uniform(2, 5), rng.uniform(10, 25)
-        T = T + rise * (1 - np.exp(-t / (t[-1] / 2)))
-        effects.append(
-            {
-                "name": "thermal_expansion",
-                "axis": "xyz",
-                "params": {"ppm_per_k": k},
-                "temperature_rise_k": rise,
-            }
-        )
-        xyz = np.empty((n, 3))
-        base = sim.delta
-        lengths = np.zeros(5 * N + 3)
-        lengths[0 : 5 * N : 5] = np.asarray(description.a_mm) + base[0 : 5 * N : 5]
-        lengths[1 : 5 * N : 5] = np.asarray(description.d_mm) + base[1 : 5 * N : 5]
-        lengths[5 * N :] = np.asarray(description.tool_mm) + base[5 * N :]
-        for i in range(n):  # each posture on the arm as long as it then was
-            delta = base + k * 1e-6 * (T[i] - T[0]) * lengths
-            xyz[i] = ArmSim(description, dataclasses.replace(truth, delta=tuple(delta))).probe_mm(
-                q[i : i + 1]
-            )[0]
-    elif kind == "compliance":
-        if not description.has_masses:
-            raise BadInput(f"the arm {description.name} has no masses: no compliance under gravity")
-        tau = np.abs(sim.gravity_torques(q)).max(axis=0)
-        joints = np.sort(np.argsort(-tau)[:2]) + 1
-        k = np.full(N, np.inf)
-        for j in joints:
-            k[j - 1] = tau[j - 1] / (rng.uniform(100, 300) * 1e-6)
-            effects.append(
-                {
-                    "name": "joint_compliance",
-                    "axis": "xyz",
-                    "params": {"joint": int(j), "urad_per_nm": 1e6 / k[j - 1]},
-                }
-            )
-        sim = ArmSim(description, dataclasses.replace(truth, stiffness_nm_per_rad=tuple(k)))
-        xyz = sim.probe_mm(q)  # MuJoCo's gravity torques, the links at their equilibrium
-    elif kind == "pedestal_warmup":  # the second suite's: an exponential in time
-        xyz, effect = pedestal_warmup_points(sim, q, t, rng)
+        q_read[:, j - 1] += off_rad
         effects.append(effect)
-    elif kind in UNWRITTEN_ARM_KINDS:  # the second suite's: no candidate writes it down
-        if not description.has_masses:
-            raise BadInput(f"the arm {description.name} has no masses: no load on its gears")
-        if kind == "harmonic_drive":
-            q_link, effect = harmonic_drive_angles(sim, q, rng)
-            xyz = sim.probe_mm(q_link)
-        else:
-            xyz, effect = bent_link_points(sim, q, rng)
-        effects.append(effect)
-    else:
-        xyz = sim.probe_mm(q)
+    T, xyz, placed = _probed_points(kind, sim, truth, q, t, T, rng)
+    effects += placed
     R, p = truth.tracker2base()
     xyz = (xyz - p) @ R  # the instrument reports in its own frame
     xyz = xyz + noisy(xyz.shape, noise_um / 1000)
@@ -219,3 +144,142 @@ def arm_recording(
             "machine": machine,
         },
     )
+
+
+def _probed_points(
+    kind: str, sim, truth, q: np.ndarray, t: np.ndarray, T: np.ndarray, rng: np.random.Generator
+) -> tuple[np.ndarray, np.ndarray, list[dict[str, Any]]]:
+    """Where the twin puts the probe at motor angles ``q`` (n, N) rad, in the arm's base frame:
+    the logged temperature (n,) degC (``T`` unless the links grow with it), the points (n, 3) mm
+    and the effects of ``kind`` on them (none but the rigid drawing's for the others)."""
+    if kind == "thermal":
+        T, xyz, effect = _grown_points(sim, truth, q, t, T, rng)
+        return T, xyz, [effect]
+    if kind == "compliance":
+        xyz, effects = _sagged_points(sim, truth, q, rng)
+        return T, xyz, effects
+    if kind in UNWRITTEN_ARM_KINDS:  # the second suite's: no candidate writes it down
+        xyz, effect = _unwritten_points(kind, sim, q, t, rng)
+        return T, xyz, [effect]
+    return T, sim.probe_mm(q), []
+
+
+def _eccentric_encoder(
+    q: np.ndarray, rng: np.random.Generator, n_joints: int, joint: int | None
+) -> tuple[int, np.ndarray, dict[str, Any]]:
+    """One joint's encoder disc off-centre (``joint``, 1-based; None: drawn, as are the
+    amplitude, 300-600 urad, and the phase): the joint, its reading's error (n,) rad at the
+    motor angles ``q`` (n, N) rad, and the effect as the manifest says it."""
+    j, A, ph = (
+        int(rng.integers(1, n_joints + 1)),
+        rng.uniform(300, 600) * 1e-6,
+        rng.uniform(0, 2 * np.pi),
+    )
+    j = joint or j  # drawn all the same: a given joint leaves the other draws where they were
+    effect = {
+        "name": "encoder_eccentricity",
+        "axis": "xyz",
+        "params": {"joint": j, "amplitude_urad": A * 1e6, "phase_rad": ph},
+    }
+    return j, A * np.sin(q[:, j - 1] + ph), effect
+
+
+def _geared_joint(
+    q: np.ndarray,
+    rng: np.random.Generator,
+    n_joints: int,
+    joint: int | None,
+    harmonic: float | None,
+    phase_rad: float | None,
+    amplitude_urad: float | None,
+) -> tuple[int, np.ndarray, dict[str, Any]]:
+    """One joint's gear train off periodically, 8-40 cycles per turn (not a whole number: a
+    reduction's ratio), 150-300 urad: the joint, its reading's error (n,) rad at the motor
+    angles ``q`` (n, N) rad, and the effect as the manifest says it. Each of ``joint``,
+    ``harmonic``, ``phase_rad`` and ``amplitude_urad`` given is used instead of its draw."""
+    j = joint or int(rng.integers(1, n_joints + 1))
+    h, A, ph = rng.uniform(8, 40), rng.uniform(150, 300) * 1e-6, rng.uniform(0, 2 * np.pi)
+    h = h if harmonic is None else harmonic
+    ph = ph if phase_rad is None else phase_rad
+    A = A if amplitude_urad is None else amplitude_urad * 1e-6
+    effect = {
+        "name": "transmission",
+        "axis": "xyz",
+        "params": {"joint": j, "harmonics": [h], "amplitude_urad": [A * 1e6], "phase_rad": ph},
+    }
+    return j, A * np.sin(h * q[:, j - 1] + ph), effect
+
+
+def _grown_points(
+    sim, truth, q: np.ndarray, t: np.ndarray, T: np.ndarray, rng: np.random.Generator
+) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
+    """The links and tool grown with the temperature (a rise of 2-5 K over the recording, 10-25
+    ppm/K): the logged temperature (n,) degC, the probe points (n, 3) mm in the arm's base
+    frame, each posture on the arm as long as it then was, and the effect."""
+    from calibench.sim.arm_cmm import ArmSim
+
+    description, N, n = sim.arm, sim.arm.n_joints, len(q)
+    rise, k = rng.uniform(2, 5), rng.uniform(10, 25)
+    T = T + rise * (1 - np.exp(-t / (t[-1] / 2)))
+    effect = {
+        "name": "thermal_expansion",
+        "axis": "xyz",
+        "params": {"ppm_per_k": k},
+        "temperature_rise_k": rise,
+    }
+    xyz = np.empty((n, 3))
+    base = sim.delta
+    lengths = np.zeros(5 * N + 3)
+    lengths[0 : 5 * N : 5] = np.asarray(description.a_mm) + base[0 : 5 * N : 5]
+    lengths[1 : 5 * N : 5] = np.asarray(description.d_mm) + base[1 : 5 * N : 5]
+    lengths[5 * N :] = np.asarray(description.tool_mm) + base[5 * N :]
+    for i in range(n):
+        delta = base + k * 1e-6 * (T[i] - T[0]) * lengths
+        grown = ArmSim(description, dataclasses.replace(truth, delta=tuple(delta)))
+        xyz[i] = grown.probe_mm(q[i : i + 1])[0]
+    return T, xyz, effect
+
+
+def _sagged_points(
+    sim, truth, q: np.ndarray, rng: np.random.Generator
+) -> tuple[np.ndarray, list[dict[str, Any]]]:
+    """The two most loaded joints given way under gravity (stiffness drawn so the largest sag
+    is 100-300 urad): the probe points (n, 3) mm where MuJoCo's physics settles the links, and
+    the effects."""
+    from calibench.sim.arm_cmm import ArmSim
+
+    description = sim.arm
+    if not description.has_masses:
+        raise BadInput(f"the arm {description.name} has no masses: no compliance under gravity")
+    tau = np.abs(sim.gravity_torques(q)).max(axis=0)
+    joints = np.sort(np.argsort(-tau)[:2]) + 1
+    stiffness = np.full(description.n_joints, np.inf)  # N m / rad
+    effects = []
+    for j in joints:
+        stiffness[j - 1] = tau[j - 1] / (rng.uniform(100, 300) * 1e-6)
+        effects.append(
+            {
+                "name": "joint_compliance",
+                "axis": "xyz",
+                "params": {"joint": int(j), "urad_per_nm": 1e6 / stiffness[j - 1]},
+            }
+        )
+    compliant = ArmSim(
+        description, dataclasses.replace(truth, stiffness_nm_per_rad=tuple(stiffness))
+    )
+    return compliant.probe_mm(q), effects  # MuJoCo's gravity torques, the links at equilibrium
+
+
+def _unwritten_points(
+    kind: str, sim, q: np.ndarray, t: np.ndarray, rng: np.random.Generator
+) -> tuple[np.ndarray, dict[str, Any]]:
+    """The second suite's effects, which no candidate writes down: the probe points (n, 3) mm
+    and the effect (:mod:`calibench.sim.concealed.unwritten`)."""
+    if kind == "pedestal_warmup":  # an exponential in time
+        return pedestal_warmup_points(sim, q, t, rng)
+    if not sim.arm.has_masses:
+        raise BadInput(f"the arm {sim.arm.name} has no masses: no load on its gears")
+    if kind == "harmonic_drive":
+        q_link, effect = harmonic_drive_angles(sim, q, rng)
+        return sim.probe_mm(q_link), effect
+    return bent_link_points(sim, q, rng)
