@@ -9,7 +9,7 @@ from typing import TypedDict
 import numpy as np
 
 from calibench.estimators.arm.session import SESSION_PRIOR_RAD
-from calibench.estimators.discovery.effect import Effect, amplitude, coef_std, drift_vector
+from calibench.estimators.discovery.effect import Drivers, Effect, amplitude, coef_std, drift_vector
 from calibench.estimators.discovery.harmonics import best_harmonic
 
 
@@ -73,7 +73,7 @@ class Geometry(Effect):
         )
 
 
-def joint_column(d: dict, joint: int) -> np.ndarray:
+def joint_column(d: Drivers, joint: int) -> np.ndarray:
     """d(point) / d(q_joint), (n, 3): how a turn of the joint moves the measured point."""
     return np.asarray(d["Jq"], float)[:, :, joint - 1]
 
@@ -323,7 +323,7 @@ class TransmissionSearch:
         r: np.ndarray,
         others: np.ndarray,
         rows: np.ndarray,
-        drivers: dict,
+        drivers: Drivers,
         basis: np.ndarray | None = None,
     ) -> Transmission:
         """The best harmonic on rows ``rows`` (bool over the signal's rows) beside ``others``;

@@ -18,8 +18,14 @@ apply (``applies`` is False). Searched shapes (a transmission's harmonic) are fi
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
+
+# What the candidates see, row by row: a mapping of arrays, typed per instrument (a TypedDict,
+# which is a Mapping, not a dict, to the type checker)
+Drivers = Mapping[str, Any]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -37,7 +43,7 @@ class Effect:
         de-duplication)."""
         return f"{self.name}:{self.axis}"
 
-    def applies(self, drivers: dict) -> bool:
+    def applies(self, drivers: Drivers) -> bool:
         """Whether the recording carries what this effect needs (its drivers: directions,
         temperatures, ...)."""
         return all(
@@ -45,7 +51,7 @@ class Effect:
             for k in self.needs
         )
 
-    def columns(self, drivers: dict) -> np.ndarray:
+    def columns(self, drivers: Drivers) -> np.ndarray:
         """The effect's design matrix on the recording's rows, (n, k): one column per
         parameter, in the signal's unit per parameter unit."""
         raise NotImplementedError

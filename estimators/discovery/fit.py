@@ -8,6 +8,7 @@ import dataclasses
 import numpy as np
 from scipy import linalg
 
+from calibench.estimators.discovery.effect import Drivers
 from calibench.estimators.discovery.robust import long_run_cov, wider
 
 
@@ -81,7 +82,7 @@ def term_columns(
 
 
 def cv_residuals(
-    sig: Signal, terms: list, drivers: dict, fold: np.ndarray, cache: dict
+    sig: Signal, terms: list, drivers: Drivers, fold: np.ndarray, cache: dict
 ) -> np.ndarray:
     """Held-out residuals (m,): each fold predicted from a fit to the others (``fold`` per
     sample)."""
@@ -121,7 +122,12 @@ def cv_residuals(
 
 
 def session_residuals(
-    sig: Signal, terms: list, drivers: dict, session: np.ndarray, register: np.ndarray, cache: dict
+    sig: Signal,
+    terms: list,
+    drivers: Drivers,
+    session: np.ndarray,
+    register: np.ndarray,
+    cache: dict,
 ) -> np.ndarray:
     """Residuals (m,) of whole sessions held out: each session predicted by a fit to the others.
 
@@ -184,7 +190,7 @@ def rms(v) -> float:
 def fit_terms(
     sig: Signal,
     terms: list,
-    drivers: dict,
+    drivers: Drivers,
     cache: dict,
     sigma: float | None,
     robust: bool = False,
@@ -222,7 +228,7 @@ def fit_terms(
     return fixed, coef, cov, res
 
 
-def refined(sig: Signal, fixed: list, drivers: dict) -> list | None:
+def refined(sig: Signal, fixed: list, drivers: Drivers) -> list | None:
     """The fixed terms of :func:`fit_terms`, each shape that can refine itself (a period) refined
     beside every other term's columns; None when none can. In the selection a searched shape is
     fixed beside the terms accepted before it only, so one accepted later (a thermal slope of the
@@ -240,7 +246,7 @@ def refined(sig: Signal, fixed: list, drivers: dict) -> list | None:
 
 
 def confounded(
-    sig: Signal, terms: list, candidate, drivers: dict, cache: dict, limit: float = 0.9
+    sig: Signal, terms: list, candidate, drivers: Drivers, cache: dict, limit: float = 0.9
 ) -> float:
     """The fraction of a candidate's column(s) that the scene model and the accepted terms
     already span (1 = indistinguishable). Above ``limit`` the data cannot tell them apart."""

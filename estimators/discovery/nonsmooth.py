@@ -6,6 +6,7 @@ import dataclasses
 
 import numpy as np
 
+from calibench.estimators.discovery.effect import Drivers
 from calibench.estimators.discovery.fit import Signal, cv_residuals, fit_terms, rms
 from calibench.estimators.discovery.locate import where_text
 from calibench.estimators.discovery.noise import Noise
@@ -51,7 +52,7 @@ class StationTable:
 def find_nonsmooth(
     sig: Signal,
     terms: list,
-    drivers: dict,
+    drivers: Drivers,
     station: np.ndarray,
     positions: np.ndarray,
     noise: Noise,

@@ -14,7 +14,7 @@ from typing import TypedDict
 
 import numpy as np
 
-from calibench.estimators.discovery.effect import Effect, amplitude, coef_std
+from calibench.estimators.discovery.effect import Drivers, Effect, amplitude, coef_std
 from calibench.estimators.discovery.stage import ThermalDrift
 
 
@@ -84,7 +84,7 @@ class RunoutSearch:
         """The search's name and rank."""
         return f"runout#{self.rank}"
 
-    def fix(self, r: np.ndarray, others: np.ndarray, rows: np.ndarray, drivers: dict) -> Runout:
+    def fix(self, r: np.ndarray, others: np.ndarray, rows: np.ndarray, drivers: Drivers) -> Runout:
         """The harmonic explaining most of ``r`` beside ``others`` (n, p) on ``rows`` (n,) bool."""
         theta = np.asarray(drivers["theta"], float)[rows]
         Q = np.linalg.qr(others[rows])[0] if others.shape[1] else np.zeros((int(rows.sum()), 0))

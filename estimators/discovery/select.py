@@ -10,6 +10,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from calibench.estimators.discovery.effect import Drivers
 from calibench.estimators.discovery.fit import (
     Signal,
     cv_residuals,
@@ -100,7 +101,7 @@ def helps_everywhere(sig, terms, drivers, cache, fold, parts: int = 4, need: int
 def select(
     signals: list[Signal],
     candidates: list,
-    drivers: dict,
+    drivers: Drivers,
     fold: np.ndarray,
     noise: dict,
     floor: float = FLOOR,
@@ -190,7 +191,7 @@ def refine(
     terms: list,
     index: int,
     richer,
-    drivers: dict,
+    drivers: Drivers,
     fold: np.ndarray,
     noise,
     floor: float = FLOOR,
@@ -219,7 +220,7 @@ def prune(
     sig: Signal,
     found: Discovery,
     terms: dict,
-    drivers: dict,
+    drivers: Drivers,
     fold: np.ndarray,
     floor: float = FLOOR,
 ) -> None:
@@ -265,7 +266,7 @@ def carry_to_new_sessions(
     sig: Signal,
     found: Discovery,
     terms: list,
-    drivers: dict,
+    drivers: Drivers,
     fold: np.ndarray,
     session: np.ndarray,
     register: np.ndarray,

@@ -9,7 +9,7 @@ from typing import TypedDict
 
 import numpy as np
 
-from calibench.estimators.discovery.effect import Effect, amplitude, coef_std
+from calibench.estimators.discovery.effect import Drivers, Effect, amplitude, coef_std
 from calibench.estimators.discovery.harmonics import best_period, grid_rel, refine_period
 
 
@@ -108,7 +108,7 @@ class Periodic(Effect):
         ph = 2 * np.pi * np.asarray(d[self.axis], float) / self.period_mm
         return np.stack([np.sin(ph), np.cos(ph)], axis=1)
 
-    def refine(self, r: np.ndarray, others: np.ndarray, drivers: dict) -> Periodic:
+    def refine(self, r: np.ndarray, others: np.ndarray, drivers: Drivers) -> Periodic:
         """The period refined near its own beside ``others`` (m, p), every other term of the
         final model: the search fixed it beside the terms accepted before it only."""
         u = np.asarray(drivers[self.axis], float)
@@ -243,7 +243,7 @@ def polynomial_candidates(axis: str, degree: int) -> list[Polynomial]:
     return [Polynomial(name=name, axis=axis, powers=tuple(pw)) for name, pw in terms.items() if pw]
 
 
-def stage_candidates(drivers: dict) -> list[Effect]:
+def stage_candidates(drivers: Drivers) -> list[Effect]:
     """Every stage candidate that the recording's columns can support (periodic added by the
     caller once its period is found)."""
     out = []
@@ -268,7 +268,9 @@ class PeriodSearch:
         """The search's name and axis: one search per axis."""
         return f"periodic:{self.axis}"
 
-    def fix(self, r: np.ndarray, others: np.ndarray, rows: np.ndarray, drivers: dict) -> Periodic:
+    def fix(
+        self, r: np.ndarray, others: np.ndarray, rows: np.ndarray, drivers: Drivers
+    ) -> Periodic:
         """The periodic term at the period that best explains ``r`` (m,) on ``rows`` (m,) bool
         beside ``others`` (m, p): the grid's best, refined (variable projection), with its std."""
         u = np.asarray(drivers[self.axis], float)

@@ -15,7 +15,7 @@ from typing import TypedDict
 
 import numpy as np
 
-from calibench.estimators.discovery.effect import Effect, amplitude, coef_std, drift_vector
+from calibench.estimators.discovery.effect import Drivers, Effect, amplitude, coef_std, drift_vector
 
 
 class StewartDrivers(TypedDict, total=False):
@@ -212,7 +212,9 @@ class LegPitchSearch:
         """The search's name and leg."""
         return f"{self.name}:leg{self.leg}"
 
-    def fix(self, r: np.ndarray, others: np.ndarray, rows: np.ndarray, drivers: dict) -> LegPitch:
+    def fix(
+        self, r: np.ndarray, others: np.ndarray, rows: np.ndarray, drivers: Drivers
+    ) -> LegPitch:
         """The period explaining most of ``r`` (6 n,) beside ``others`` on ``rows``, on this leg's
         rows; refined by golden section around the grid's best."""
         from calibench.estimators.discovery.harmonics import best_period, refine_period
@@ -322,7 +324,7 @@ class TrackerDrift(Effect):
         )
 
 
-def stewart_candidates(drivers: dict) -> list:
+def stewart_candidates(drivers: Drivers) -> list:
     """Every Stewart candidate the recording's columns support."""
     out: list[Effect | LegPitchSearch] = [HingeGeometry()]
     for leg in range(1, 7):

@@ -11,6 +11,8 @@ fold by fold, and scored on its held-out rows, beside the scene model alone on t
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
@@ -31,7 +33,7 @@ class FreshScore:
     not_carried: list[str]
 
 
-def structure(terms: dict, drivers: dict, fold: np.ndarray) -> dict:
+def structure(terms: dict, drivers: Mapping[str, Any], fold: np.ndarray) -> dict:
     """What a plug-in's figure data carries for :func:`score_on_fresh`: the accepted terms per
     axis (``{axis: [term, ...]}``), the drivers and the folds (per sample)."""
     return {"terms": terms, "drivers": drivers, "fold": fold}

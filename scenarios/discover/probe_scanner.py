@@ -14,11 +14,9 @@ per turn; the held-out folds are whole turns.
 
 from __future__ import annotations
 
-from typing import cast
-
 import numpy as np
 
-from calibench.estimators.discovery.effect import Effect
+from calibench.estimators.discovery.effect import Drivers, Effect
 from calibench.estimators.discovery.fit import (
     Signal,
     confounded,
@@ -133,7 +131,7 @@ def scene_model(rec, config) -> tuple[object, np.ndarray, np.ndarray, np.ndarray
 
 
 def find_angle_table(
-    sig: Signal, terms: list, drivers: dict, noise: Noise, fold: np.ndarray, floor: float
+    sig: Signal, terms: list, drivers: Drivers, noise: Noise, fold: np.ndarray, floor: float
 ) -> AngleTable | None:
     """Bands of the angle whose mean residual (over turns) stands out of the repeatability,
     grown to their neighbours (|z| > 2, within 3 bands, around the turn); kept only if a
@@ -215,7 +213,7 @@ def _discover_scanner(recs: list, seed: int, floor: float, config) -> tuple[dict
     n = len(rec)
     turns = np.unique(rec.turn)
     th = rec.theta_rad
-    typed: ScannerDrivers = {
+    drivers: ScannerDrivers = {
         "theta": th,
         "rho": rho_twin,
         "drho": slope,
@@ -223,7 +221,6 @@ def _discover_scanner(recs: list, seed: int, floor: float, config) -> tuple[dict
         "t_s": rec.t_s,
         "temp_c": rec.temp_c,
     }
-    drivers = cast(dict, typed)  # select() and the fits take a dict, which a TypedDict is not
     sig = Signal("rho_meas - rho_sim", AXIS, rec.rho_mm - rho_twin, geo, np.arange(n), th)
     if len(turns) >= 2:
         fold, scheme = np.searchsorted(turns, rec.turn), "leave one turn out"

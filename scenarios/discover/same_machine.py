@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from calibench.estimators.discovery.effect import Drivers
 from calibench.estimators.discovery.fit import Signal, fit_terms, lstsq, prior_rows
 from calibench.scenarios.report import BadInput
 
@@ -33,7 +34,7 @@ EXPLAINED = 3.0
 
 
 def own_geometry_rms(
-    sig: Signal, terms: list, geometry, drivers: dict, rec_id: np.ndarray
+    sig: Signal, terms: list, geometry, drivers: Drivers, rec_id: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """How far each recording's own geometry moves its readings beyond the shared geometry, and
     what it then leaves unexplained.

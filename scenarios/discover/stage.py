@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from calibench.estimators.discovery.effect import Effect
 from calibench.estimators.discovery.fit import (
     Signal,
     confounded,
@@ -164,7 +165,7 @@ def discover_stage(
     ].ravel()
     noise = {s.axis: repeatability(s.r - base @ lstsq(base, s.r), key, order) for s in signals}
     step = np.median(np.diff(np.unique(np.r_[x, y]))) if len(np.unique(np.r_[x, y])) > 1 else 1.0
-    candidates = stage_candidates(drivers)
+    candidates: list[Effect | PeriodSearch] = list(stage_candidates(drivers))
     for a, u in (("x", x), ("y", y)):
         lo, hi = max(2.5 * step, 5.0), np.ptp(u) / 2
         if hi > lo:  # uniform in frequency, five points per resolution element (1 / travel)

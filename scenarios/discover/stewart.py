@@ -14,7 +14,6 @@ would split them by its own noise.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import cast
 
 import numpy as np
 
@@ -125,7 +124,7 @@ def _frame_model(rec, g, Rf, tf):
 
 def twin_drivers(
     rec, geometry, Rf, tf, load=None, truth=None
-) -> tuple[dict, np.ndarray, np.ndarray]:
+) -> tuple[StewartDrivers, np.ndarray, np.ndarray]:
     """The candidates' drivers at the registered poses, the residual (6 n,) and the frame's
     columns (6 n, 6); the legs' axial forces from MuJoCo's statics of the twin (``geometry``,
     rigid legs). With ``truth`` (a twin updated by ``discover --twin``) its leg physics is part
@@ -154,8 +153,7 @@ def twin_drivers(
         "force": force,
         "frame": frame,
     }
-    # select() and the fits take a dict, which a TypedDict is not
-    return cast(dict, drivers), res, frame
+    return drivers, res, frame
 
 
 # two readings of one commanded leg length differ by the readings' noise times sqrt(2): 4 of

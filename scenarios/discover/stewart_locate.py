@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from calibench.estimators.discovery.effect import Drivers
 from calibench.estimators.discovery.locate import binned_r2, permutation_p
 
 
@@ -27,7 +28,7 @@ def _p_along(r, v, rng, n_perm):
 
 
 def locate(
-    res: np.ndarray, drivers: dict, seed: int, n_perm: int = 499, alpha: float = 0.002
+    res: np.ndarray, drivers: Drivers, seed: int, n_perm: int = 499, alpha: float = 0.002
 ) -> list[dict]:
     """Which leg disagrees with the twin, and where: each leg's residual after the hinge geometry
     (res (n_poses, 6) mm) against its own length, direction of approach and axial force, and
