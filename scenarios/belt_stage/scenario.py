@@ -15,6 +15,9 @@ The procedure of the seed paper, end to end:
 
 Fidelity ``render`` renders every view through the lens and detects corners in the pixels;
 ``analytic`` projects the true corners exactly and adds the detector's noise.
+
+The steps are :mod:`.procedure`'s (views, calibration, maps, compensation); here the config,
+``run`` that takes them in turn, and the report that compares what they found with the truth.
 """
 
 from __future__ import annotations
@@ -24,27 +27,26 @@ from pathlib import Path
 
 import numpy as np
 
-from calibench.errors import BadInput
-from calibench.estimators.camera.zhang import calibrate_camera
-from calibench.estimators.stage.belt_maps import (
-    MAP_INTRINSICS,
-    intrinsics_cov,
-    measure_maps,
-    propagated_std,
-)
-from calibench.estimators.stage.error_map import COEF_NAMES, compensated_command
+from calibench.estimators.camera.zhang import CameraCalibration
+from calibench.estimators.stage.error_map import COEF_NAMES, QuadraticFit
 from calibench.scenarios.belt_stage.checks import check_config
-from calibench.scenarios.belt_stage.views import record_views
+from calibench.scenarios.belt_stage.procedure import (
+    Compensation,
+    IntrinsicViews,
+    Maps,
+    StationViews,
+    calibrate,
+    calibration_points,
+    check_compensation,
+    intrinsic_views,
+    measure,
+    station_views,
+)
 from calibench.scenarios.harness import write_outputs
 from calibench.scenarios.report import Check, Parameter, Report
 from calibench.scenarios.run_recording import StageRecordingPlan, check_plan, write_recording
 from calibench.scenes.belt_stage import BeltStageGeometry
-from calibench.sim.belt_stage import (
-    PULSES_PER_MM,
-    BeltStageSim,
-    BeltStageTruth,
-    intrinsic_view_poses,
-)
+from calibench.sim.belt_stage import BeltStageSim, BeltStageTruth
 from calibench.sim.developing import frame_workers
 
 NAME = "belt-stage"
@@ -88,175 +90,157 @@ def run(config: BeltStageConfig, seed: int, fidelity: str, out_dir: Path, rrd: b
     The arguments and the Report: :class:`calibench.scenarios.registry.Scenario`.
     """
     rng = np.random.default_rng(seed)
-    g, truth = config.geometry, config.truth
+    g = config.geometry
     board_pts = g.board.corners_mm()
-    sim = BeltStageSim(g, truth, render=fidelity == "render")
-    size = (g.camera.width, g.camera.height)
+    sim = BeltStageSim(g, config.truth, render=fidelity == "render")
     try:
-        # 1. intrinsic views ------------------------------------------------------------------
-        poses = intrinsic_view_poses(g, config.n_intrinsic_views, rng)
         # a study's trial keeps no image, and its processes fill the cores: the views are read
         # out over the board's area only and developed in turn
         windowed = out_dir is None
         workers = 0 if windowed else frame_workers()
-        calib_views, calib_true = record_views(
-            sim, fidelity, config, rng, size, [("calib", R, t) for R, t in poses], windowed, workers
-        )
-        sim.park_calib_board()
-        used = np.isfinite(calib_views.corners_px).all(axis=(1, 2))
-
-        # 2. stations -------------------------------------------------------------------------
-        xs, ys = np.meshgrid(config.stations_x_mm, config.stations_y_mm)
-        x_pulses = np.rint(xs.ravel() * PULSES_PER_MM).astype(np.int64)
-        y_pulses = np.rint(ys.ravel() * PULSES_PER_MM).astype(np.int64)
-        home = np.flatnonzero((x_pulses == 0) & (y_pulses == 0))
-        if len(home) != 1:
-            raise BadInput("the station grid must contain the home station (0, 0) once")
-        ref = int(home[0])
-        station_views, station_true = record_views(
-            sim,
-            fidelity,
-            config,
-            rng,
-            size,
-            [("station", xp, yp) for xp, yp in zip(x_pulses, y_pulses)],
-            windowed,
-            workers,
-        )
-        if not np.isfinite(station_views.corners_px).all():
-            missed = [
-                station_views.names[i]
-                for i in np.flatnonzero(~np.isfinite(station_views.corners_px).all(axis=(1, 2)))
-            ]
-            raise ValueError(f"board not detected at station(s) {', '.join(missed[:5])}")
-
-        # Zhang on the tilted views; the station views join them: fronto-parallel, they say
-        # nothing of the focal length, but they sample the lens over the whole image.
-        calib_points = list(calib_views.corners_px[used]) + list(station_views.corners_px)
-        calib = calibrate_camera(board_pts, calib_points, size, fix_k3=True)
-
-        # 3-4. poses, travel, errors, maps; then the intrinsics' uncertainty carried through
-        cmd = np.stack([x_pulses, y_pulses], axis=1) / PULSES_PER_MM
-        m = measure_maps(board_pts, station_views.corners_px, calib.K, calib.dist, cmd, ref)
-        cov_intr = intrinsics_cov(calib, board_pts, calib_points)
-        std_map = propagated_std(
-            m, board_pts, calib.K, calib.dist, cmd, ref, MAP_INTRINSICS, cov_intr
-        )
-        fit_x, fit_y, yaw, err = m.fit_x, m.fit_y, m.yaw_rad, m.err
-        gx, gy = np.meshgrid(*(np.linspace(0, t, 41) for t in g.travel_mm))
-        gx, gy = gx.ravel(), gy.ravel()
-        true_grid = truth.error_mm(gx, gy)
-        map_rms = _vector_rms(np.stack([fit_x(gx, gy), fit_y(gx, gy)], 1) - true_grid)
-        pfit_x, pfit_y = m.paper_fit_x, m.paper_fit_y
-        map_rms_paper = _vector_rms(np.stack([pfit_x(gx, gy), pfit_y(gx, gy)], 1) - true_grid)
-        st = m.poses
-
-        # 5. compensation at unseen check points ----------------------------------------------
-        targets = rng.uniform([0, 0], g.travel_mm, size=(config.n_check, 2))
-        comp = np.stack(compensated_command(targets[:, 0], targets[:, 1], fit_x, fit_y), axis=1)
-        before, after = [], []
-        for (tx, ty), c in zip(targets, comp):
-            before.append(sim.move(*np.rint(np.array([tx, ty]) * PULSES_PER_MM)) - (tx, ty))
-            after.append(sim.move(*np.rint(c * PULSES_PER_MM)) - (tx, ty))
-        before, after = np.array(before), np.array(after)
-
-        # corner fidelity: detected against the exact projection of the true corners
-        corner_err = station_views.corners_px - station_true
-        corner_rms = float(np.sqrt(np.nanmean(np.sum(corner_err**2, axis=-1))))
-        calib_err = calib_views.corners_px[used] - calib_true[used]
-        corner_rms_calib = float(np.sqrt(np.mean(np.sum(calib_err**2, axis=-1))))
-        pose_gap = float(np.max(st.in_plane_gap_mm()))
+        intrinsic = intrinsic_views(sim, config, fidelity, rng, windowed, workers)
+        stations = station_views(sim, config, fidelity, rng, windowed, workers)
+        calib_points = calibration_points(intrinsic, stations)
+        calib = calibrate(config, board_pts, calib_points)
+        maps = measure(board_pts, stations, calib, calib_points)
+        comp = check_compensation(sim, config, maps.maps.fit_x, maps.maps.fit_y, rng)
 
         report = Report(scenario=NAME, seed=seed, fidelity=fidelity)
-        report.parameters += _intrinsic_parameters(g.camera, calib)
-        report.parameters += _map_parameters("ex", truth.error_x, fit_x.coef, std_map[:6])
-        report.parameters += _map_parameters("ey", truth.error_y, fit_y.coef, std_map[6:12])
-        report.parameters.append(
-            Parameter(
-                "board_yaw_mrad",
-                "mrad",
-                truth.board_yaw_rad * 1e3,
-                yaw * 1e3,
-                std_map[12] * 1e3,
-                tolerance=TOL_SIGMA * std_map[12] * 1e3,
-            )
-        )
-        report.checks += [
-            Check(
-                "corner_rms_px",
-                corner_rms,
-                config.corner_limit_px,
-                note="stations: detected corners vs exact projection of the true corners",
-            ),
-            Check(
-                "map_rms_mm",
-                map_rms,
-                config.map_limit_mm,
-                note="estimated vs true error map, vector RMS over a 41 x 41 grid of the travel",
-            ),
-            Check(
-                "check_rms_before_mm",
-                _vector_rms(before),
-                None,
-                note=f"{config.n_check} check points, no compensation",
-            ),
-            Check(
-                "check_rms_after_mm",
-                _vector_rms(after),
-                config.map_limit_mm,
-                note=f"{config.n_check} check points, commands compensated by the fitted maps",
-            ),
-            Check(
-                "pose_crosscheck_mm",
-                pose_gap,
-                3.0,
-                note="largest in-plane gap between closed-form (Eq. 13-18) and PnP station poses; "
-                "the closed form takes its scale from one column of H, so it scatters more",
-            ),
-        ]
-        report.info = {
-            "intrinsic_views_used": int(used.sum()),
-            "intrinsic_views_rejected": [calib_views.names[i] for i in np.flatnonzero(~used)],
-            "calibration_rms_px": calib.rms_px,
-            "corner_rms_calib_views_px": corner_rms_calib,
-            "fit": {
-                "x": fit_x.as_dict(),
-                "y": fit_y.as_dict(),
-                "note": "std in report parameters adds the intrinsics' covariance to the fit's own",
-            },
-            "paper_method": {
-                "note": "camera-centre differences, board assumed square to the axes",
-                "map_rms_mm": map_rms_paper,
-                "fit": {"x": pfit_x.as_dict(), "y": pfit_y.as_dict()},
-            },
-            "stations": len(cmd),
-        }
+        report.parameters += report_parameters(config, calib, maps)
+        report.checks += report_checks(config, stations, maps, comp)
+        report.info = report_info(config, intrinsic, calib, maps)
         if sim.renderer is not None:  # a GPU's name, or llvmpipe's: frames made on the CPU
             report.info["renderer"] = sim.renderer.gl_renderer
         artifacts = {
             "sim": sim,
             "calib": calib,
-            "calib_views": calib_views,
-            "calib_true": calib_true,
-            "station_views": station_views,
-            "station_true": station_true,
-            "cmd": cmd,
-            "err": err,
-            "fits": (fit_x, fit_y),
-            "targets": targets,
-            "before": before,
-            "after": after,
-            "travel": m.travel,
-            "truth": truth,
+            "calib_views": intrinsic.views,
+            "calib_true": intrinsic.true_px,
+            "station_views": stations.views,
+            "station_true": stations.true_px,
+            "cmd": maps.cmd,
+            "err": maps.maps.err,
+            "fits": (maps.maps.fit_x, maps.maps.fit_y),
+            "targets": comp.targets,
+            "before": comp.before,
+            "after": comp.after,
+            "travel": maps.maps.travel,
+            "truth": config.truth,
             "geometry": g,
-            "x_pulses": x_pulses,
-            "y_pulses": y_pulses,
+            "x_pulses": stations.x_pulses,
+            "y_pulses": stations.y_pulses,
             "limit_mm": config.map_limit_mm,
         }
         write_recording(out_dir, NAME, config, seed, report.info)
         return write_outputs(report, artifacts, out_dir, rrd, "calibench.scenarios.belt_stage")
     finally:
         sim.close()
+
+
+def report_parameters(
+    config: BeltStageConfig, calib: CameraCalibration, maps: Maps
+) -> list[Parameter]:
+    """The report's parameters, truth against estimate: the intrinsics (fx .. p2), both maps'
+    coefficients (ex_c0 .. ey_c5) and the board's yaw (board_yaw_mrad), each within
+    ``TOL_SIGMA`` of its std (:class:`Maps`' ``std``, (13,))."""
+    truth, m, std_map = config.truth, maps.maps, maps.std
+    return [
+        *_intrinsic_parameters(config.geometry.camera, calib),
+        *_map_parameters("ex", truth.error_x, m.fit_x.coef, std_map[:6]),
+        *_map_parameters("ey", truth.error_y, m.fit_y.coef, std_map[6:12]),
+        Parameter(
+            "board_yaw_mrad",
+            "mrad",
+            truth.board_yaw_rad * 1e3,
+            m.yaw_rad * 1e3,
+            std_map[12] * 1e3,
+            tolerance=TOL_SIGMA * std_map[12] * 1e3,
+        ),
+    ]
+
+
+def map_rms_mm(
+    truth: BeltStageTruth, travel_mm: tuple[float, float], fit_x: QuadraticFit, fit_y: QuadraticFit
+) -> float:
+    """The maps ``fit_x``, ``fit_y`` against the true error map: the vector RMS over a 41 x 41
+    grid of the travel, mm."""
+    gx, gy = np.meshgrid(*(np.linspace(0, t, 41) for t in travel_mm))
+    gx, gy = gx.ravel(), gy.ravel()
+    return _vector_rms(np.stack([fit_x(gx, gy), fit_y(gx, gy)], 1) - truth.error_mm(gx, gy))
+
+
+def report_checks(
+    config: BeltStageConfig, stations: StationViews, maps: Maps, comp: Compensation
+) -> list[Check]:
+    """The report's checks: the corners' fidelity on the stations (detected against the exact
+    projection of the true corners, px), the map against the truth, the check points before and
+    after compensation (mm), and the closed-form poses against PnP's (mm)."""
+    corner_err = stations.corners_px - stations.true_px
+    corner_rms = float(np.sqrt(np.nanmean(np.sum(corner_err**2, axis=-1))))
+    m = maps.maps
+    return [
+        Check(
+            "corner_rms_px",
+            corner_rms,
+            config.corner_limit_px,
+            note="stations: detected corners vs exact projection of the true corners",
+        ),
+        Check(
+            "map_rms_mm",
+            map_rms_mm(config.truth, config.geometry.travel_mm, m.fit_x, m.fit_y),
+            config.map_limit_mm,
+            note="estimated vs true error map, vector RMS over a 41 x 41 grid of the travel",
+        ),
+        Check(
+            "check_rms_before_mm",
+            _vector_rms(comp.before),
+            None,
+            note=f"{config.n_check} check points, no compensation",
+        ),
+        Check(
+            "check_rms_after_mm",
+            _vector_rms(comp.after),
+            config.map_limit_mm,
+            note=f"{config.n_check} check points, commands compensated by the fitted maps",
+        ),
+        Check(
+            "pose_crosscheck_mm",
+            float(np.max(m.poses.in_plane_gap_mm())),
+            3.0,
+            note="largest in-plane gap between closed-form (Eq. 13-18) and PnP station poses; "
+            "the closed form takes its scale from one column of H, so it scatters more",
+        ),
+    ]
+
+
+def report_info(
+    config: BeltStageConfig, intrinsic: IntrinsicViews, calib: CameraCalibration, maps: Maps
+) -> dict:
+    """The report's extra figures: the intrinsic views used and rejected, the calibration's
+    reprojection RMS and the corners' fidelity on its views (px), both fits, the seed paper's
+    method with its map against the truth (mm), the number of stations."""
+    used = intrinsic.used
+    calib_err = intrinsic.corners_px[used] - intrinsic.true_px[used]
+    m = maps.maps
+    return {
+        "intrinsic_views_used": int(used.sum()),
+        "intrinsic_views_rejected": [intrinsic.views.names[i] for i in np.flatnonzero(~used)],
+        "calibration_rms_px": calib.rms_px,
+        "corner_rms_calib_views_px": float(np.sqrt(np.mean(np.sum(calib_err**2, axis=-1)))),
+        "fit": {
+            "x": m.fit_x.as_dict(),
+            "y": m.fit_y.as_dict(),
+            "note": "std in report parameters adds the intrinsics' covariance to the fit's own",
+        },
+        "paper_method": {
+            "note": "camera-centre differences, board assumed square to the axes",
+            "map_rms_mm": map_rms_mm(
+                config.truth, config.geometry.travel_mm, maps.paper_fit_x, maps.paper_fit_y
+            ),
+            "fit": {"x": maps.paper_fit_x.as_dict(), "y": maps.paper_fit_y.as_dict()},
+        },
+        "stations": len(maps.cmd),
+    }
 
 
 TOL_SIGMA = 5.0  # parameter tolerance, in the estimator's own standard deviations
