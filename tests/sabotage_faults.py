@@ -57,9 +57,9 @@ def wrap(mp: pytest.MonkeyPatch, module: str, name: str, change: Callable) -> No
 
 def stage_locate_p_0p5(mp: pytest.MonkeyPatch) -> None:
     """The stages' localisation lists a residual against a driver at p <= 0.5, not 0.01."""
-    from calibench.scenarios.discover import stage
+    from calibench.scenarios.discover import stage_words
 
-    mp.setattr(stage, "LOCATE_P", 0.5)
+    mp.setattr(stage_words, "LOCATE_P", 0.5)
 
 
 def interferometer_sign_flipped(mp: pytest.MonkeyPatch) -> None:

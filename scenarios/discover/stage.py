@@ -17,17 +17,10 @@ from pathlib import Path
 import numpy as np
 
 from calibench.estimators.discovery.effect import Effect
-from calibench.estimators.discovery.fit import (
-    Signal,
-    confounded,
-    cv_residuals,
-    fit_terms,
-    lstsq,
-)
-from calibench.estimators.discovery.locate import change_point, permutation_p, reversal_profile
+from calibench.estimators.discovery.fit import Signal, cv_residuals, fit_terms, lstsq
 from calibench.estimators.discovery.noise import repeatability
 from calibench.estimators.discovery.nonsmooth import find_nonsmooth
-from calibench.estimators.discovery.select import FLOOR, Step, refine, select
+from calibench.estimators.discovery.select import FLOOR, Discovery, Step, refine, select
 from calibench.estimators.discovery.stage import (
     PeriodSearch,
     StageDrivers,
@@ -38,28 +31,19 @@ from calibench.recordings.stage import repeated_pass
 from calibench.scenarios.discover.folds import block_folds
 from calibench.scenarios.discover.fresh import structure
 from calibench.scenarios.discover.report import describe_effects, verdict
+from calibench.scenarios.discover.stage_words import locate_stage, stage_confounds
 from calibench.scenarios.discover.twin_merge import carried, given_tables, stage_drives
 from calibench.scenarios.report import BadInput
 
-STAGE_DEGREE = {"belt-stage": 2, "vision-stage": 3}
-# the located structure: a residual against a driver is listed where its permutation p-value is at
-# most this (and its binned R^2 at least LOCATE_MIN_SCORE)
-LOCATE_P = 0.01
-LOCATE_MIN_SCORE = 0.02
+# the degree of the scene's own error map, by the registry's fit model of the stage
+MAP_DEGREE = {"quadratic": 2, "cubic": 3}
 
 
-EXPERIMENTS = {
-    "thermal_expansion": "let the machine's temperature change by several K during the test (or "
-    "repeat it warm and cold and give both to discover: `calibench discover SCENARIO cold.csv "
-    "warm.csv`): only then does thermal expansion differ from a plain scale error",
-    "thermal_drift": "hold the temperature steady for part of the test, or vary it independently "
-    "of time",
-    "backlash": "approach every station from both directions",
-    "periodic": "measure at a finer step over a longer travel",
-    "positioning": "measure more stations along the axis",
-    "straightness": "measure more lines across the travel",
-    "cross_coupling": "measure a full grid rather than lines",
-}
+def stage_degree(scenario: str) -> int:
+    """The degree in (x, y) of ``scenario``'s own error map (its registry line's fit model)."""
+    from calibench.scenarios.registry import instrument
+
+    return MAP_DEGREE[str(instrument(scenario).fit_model)]
 
 
 def poly_base(x: np.ndarray, y: np.ndarray, degree: int, span: tuple[float, float]) -> np.ndarray:
@@ -108,6 +92,19 @@ def folds_for(rec_run, x, y, holdout: str | None) -> tuple[np.ndarray, str]:
 
 
 # --- stages --------------------------------------------------------------------------------------
+@dataclasses.dataclass
+class StageScene:
+    """A stage recording against its twin: the residual signals (each axis's reading minus the
+    twin's replay, with the scene's error map as free columns), the candidates' drivers, and the
+    keys that group repeated readings (``station``: the same place and approach, (n,);
+    ``order``: the readings' order in time, (n,))."""
+
+    signals: list[Signal]
+    drivers: StageDrivers
+    station: np.ndarray
+    order: np.ndarray
+
+
 def discover_stage(
     scenario: str,
     rec,
@@ -120,10 +117,61 @@ def discover_stage(
     """discovery.json's content for a stage recording, and what the figure needs. ``truth`` and
     ``geometry``: the twin's as-built parameters and nominal geometry (a ``--config`` file's;
     default: the scenario's own)."""
-    from calibench.sim.replay import replay_stage
-
-    n = len(rec)
+    _check_recording(scenario, rec, geometry)
+    deg = stage_degree(scenario)
+    scene = stage_scene(scenario, rec, deg, truth, geometry)
+    signals, drivers = scene.signals, scene.drivers
     x, y = rec.x_cmd_mm, rec.y_cmd_mm
+    fold, scheme = folds_for(rec.run, x, y, holdout)
+    base = signals[0].base
+    noise = {
+        s.axis: repeatability(s.r - base @ lstsq(base, s.r), scene.station, scene.order)
+        for s in signals
+    }
+    candidates = _stage_candidates(drivers, deg)
+    found, terms = select(signals, candidates, drivers, fold, noise, floor=floor)
+    growing = _grow_backlash(signals, terms, found, drivers, fold, noise, floor)
+    _add_station_tables(signals, terms, found, drivers, fold, noise, floor)
+    effects, fitted, after = _described(scene, rec.run, terms, found, growing)
+    located = locate_stage(signals, drivers, seed)
+    out = {
+        "scenario": scenario,
+        "samples": len(rec),
+        "unit": "mm",
+        "located": located,
+        "effects": effects,
+        "fit": {
+            "rms_nominal": found.rms_nominal,
+            "cv_rms_nominal": found.cv_nominal,
+            "cv_rms_final": found.cv_final,
+        },
+        "noise": {
+            a: {"repeatability_mm": nz.sigma_mm, "lag1_correlation": nz.lag1, "dof": nz.dof}
+            for a, nz in noise.items()
+        },
+        "noise_after_effects": {
+            a: {"repeatability_mm": nz.sigma_mm, "dof": nz.dof} for a, nz in after.items()
+        },
+        "holdout": scheme,
+        "scene_model": f"the twin plus its degree-{deg} error map in (x, y), calibrated",
+        "temp_mean_c": None if rec.temp_c is None else float(np.mean(rec.temp_c)),
+        "not_accepted": found.rejected,
+        "confounded": stage_confounds(signals, terms, found, candidates, drivers, rec),
+        "verdict": verdict(found.cv_final, after, bool(effects), located),
+    }
+    return out, {
+        "signals": signals,
+        "fitted": fitted,
+        "x": x,
+        "y": y,
+        **structure(terms, drivers, fold),
+    }
+
+
+def _check_recording(scenario: str, rec, geometry) -> None:
+    """BadInput for a recording discover cannot judge: too few stations, a pass repeated row
+    for row, stations beyond the twin's travel."""
+    n = len(rec)
     if n < 20:
         raise BadInput(f"{n} stations: discover needs at least 20")
     repeat = repeated_pass(rec)
@@ -133,7 +181,17 @@ def discover_stage(
             "itself, or a read-out coarser than the stage's repeatability? Held out, a repeat "
             "would score a model on its own rows, and it carries no scatter to judge one by"
         )
-    _within_travel(scenario, x, y, geometry)
+    _within_travel(scenario, rec.x_cmd_mm, rec.y_cmd_mm, geometry)
+
+
+def stage_scene(scenario: str, rec, deg: int, truth=None, geometry=None) -> StageScene:
+    """The recording replayed by the twin: each axis's residual with the scene's degree-``deg``
+    error map as free columns (BadInput where the stations do not span it), the drivers, and the
+    keys of repeated readings."""
+    from calibench.sim.replay import replay_stage
+
+    n = len(rec)
+    x, y = rec.x_cmd_mm, rec.y_cmd_mm
     sim = replay_stage(scenario, x, y, rec.temp_c, truth, geometry)
     drivers: StageDrivers = {
         "x": x,
@@ -145,7 +203,6 @@ def discover_stage(
         "run": rec.run,
     }
     span = (max(np.ptp(x), 1.0), max(np.ptp(y), 1.0))
-    deg = STAGE_DEGREE[scenario]
     base = poly_base(x, y, deg, span)
     if np.linalg.matrix_rank(base) < base.shape[1]:
         raise BadInput(
@@ -157,25 +214,44 @@ def discover_stage(
         Signal("x_meas - x_sim", "x", rec.x_meas_mm - sim[:, 0], base, idx, x),
         Signal("y_meas - y_sim", "y", rec.y_meas_mm - sim[:, 1], base, idx, y),
     ]
-    fold, scheme = folds_for(rec.run, x, y, holdout)
     order = rec.t_s if rec.t_s is not None else idx.astype(float)
     dirs = [np.zeros(n) if d is None else d for d in (rec.dir_x, rec.dir_y)]
-    key = np.unique(np.stack([x, y, *dirs], axis=1).round(6), axis=0, return_inverse=True)[
+    station = np.unique(np.stack([x, y, *dirs], axis=1).round(6), axis=0, return_inverse=True)[
         1
     ].ravel()
-    noise = {s.axis: repeatability(s.r - base @ lstsq(base, s.r), key, order) for s in signals}
+    return StageScene(signals, drivers, station, order)
+
+
+def _stage_candidates(drivers: StageDrivers, deg: int) -> list[Effect | PeriodSearch]:
+    """The stage's candidates, a periodic search over each axis's travel (uniform in frequency,
+    five points per resolution element, 1 / travel) and the smooth terms above the map's
+    degree."""
+    x, y = drivers["x"], drivers["y"]
     step = np.median(np.diff(np.unique(np.r_[x, y]))) if len(np.unique(np.r_[x, y])) > 1 else 1.0
     candidates: list[Effect | PeriodSearch] = list(stage_candidates(drivers))
     for a, u in (("x", x), ("y", y)):
         lo, hi = max(2.5 * step, 5.0), np.ptp(u) / 2
-        if hi > lo:  # uniform in frequency, five points per resolution element (1 / travel)
+        if hi > lo:
             f = np.arange(1 / hi, 1 / lo, 1 / (5 * np.ptp(u)))
             candidates.append(PeriodSearch(a, 1 / f))
         candidates += polynomial_candidates(a, deg)
-    found, terms = select(signals, candidates, drivers, fold, noise, floor=floor)
-    growing = _grow_backlash(signals, terms, found, drivers, fold, noise, floor)
+    return candidates
 
-    # nonsmooth: what stands out of the repeatability after the accepted effects
+
+def _add_station_tables(
+    signals: list[Signal],
+    terms: dict,
+    found: Discovery,
+    drivers: StageDrivers,
+    fold: np.ndarray,
+    noise: dict,
+    floor: float,
+) -> None:
+    """``nonsmooth``: on each axis, stations that stand out of the repeatability after the
+    accepted effects, kept as a correction table (in ``terms`` and ``found``'s steps) where it
+    helps held out."""
+    x, y = drivers["x"], drivers["y"]
+    n = len(x)
     pos_key, pos_inv = np.unique(np.stack([x, y], axis=1).round(6), axis=0, return_inverse=True)
     pos_inv = pos_inv.ravel()
     for s in signals:
@@ -196,15 +272,24 @@ def discover_stage(
             found.steps.append(Step(table, s.axis, float(before), float(after), 0.0))
             found.cv_final = float(after)
 
-    # The effects are described by a fit that also gives each pass its own offset (a pass's
-    # offset shared by all its readings would otherwise pass into any term that changes from pass
-    # to pass, a temperature's, with a standard error that ignores it), and their standard errors
-    # scale with the repeatability left after them and the passes' offsets (the first estimate
-    # holds what they explain). The verdict, the figure and the report's repeatability keep the
-    # passes' offsets: held out by pass, so is the residual they are compared with.
+
+def _described(
+    scene: StageScene, run, terms: dict, found: Discovery, growing: dict
+) -> tuple[list[dict], dict, dict]:
+    """The accepted effects in words with their parameters, each axis's residual after them
+    (n,), and the repeatability left after them.
+
+    The effects are described by a fit that also gives each pass its own offset (a pass's
+    offset shared by all its readings would otherwise pass into any term that changes from pass
+    to pass, a temperature's, with a standard error that ignores it), and their standard errors
+    scale with the repeatability left after them and the passes' offsets (the first estimate
+    holds what they explain). The verdict, the figure and the report's repeatability keep the
+    passes' offsets: held out by pass, so is the residual they are compared with.
+    """
+    signals, drivers, key, order = scene.signals, scene.drivers, scene.station, scene.order
     fitted = {s.axis: fit_terms(s, terms[s.axis], drivers, {}, None)[3] for s in signals}
     after = {a: repeatability(fitted[a], key, order) for a in fitted}
-    offsets = _pass_offsets(rec.run, n)
+    offsets = _pass_offsets(run, len(key))
     described = [dataclasses.replace(s, base=np.c_[s.base, offsets]) for s in signals]
     within = {
         s.axis: repeatability(fit_terms(s, terms[s.axis], drivers, {}, None)[3], key, order)
@@ -219,40 +304,7 @@ def discover_stage(
                 f" (held out on {e['axis']}: {growing[e['axis']][0] * 1000:.2f} um with a constant "
                 f"reversal, {growing[e['axis']][1] * 1000:.2f} um with one that grows)"
             )
-    located = _locate_stage(signals, drivers, seed)
-    confounds = _confounds(signals, terms, found, candidates, drivers, rec)
-    out = {
-        "scenario": scenario,
-        "samples": n,
-        "unit": "mm",
-        "located": located,
-        "effects": effects,
-        "fit": {
-            "rms_nominal": found.rms_nominal,
-            "cv_rms_nominal": found.cv_nominal,
-            "cv_rms_final": found.cv_final,
-        },
-        "noise": {
-            a: {"repeatability_mm": nz.sigma_mm, "lag1_correlation": nz.lag1, "dof": nz.dof}
-            for a, nz in noise.items()
-        },
-        "noise_after_effects": {
-            a: {"repeatability_mm": nz.sigma_mm, "dof": nz.dof} for a, nz in after.items()
-        },
-        "holdout": scheme,
-        "scene_model": f"the twin plus its degree-{deg} error map in (x, y), calibrated",
-        "temp_mean_c": None if rec.temp_c is None else float(np.mean(rec.temp_c)),
-        "not_accepted": found.rejected,
-        "confounded": confounds,
-        "verdict": verdict(found.cv_final, after, bool(effects), located),
-    }
-    return out, {
-        "signals": signals,
-        "fitted": fitted,
-        "x": x,
-        "y": y,
-        **structure(terms, drivers, fold),
-    }
+    return effects, fitted, after
 
 
 def _grow_backlash(signals, terms, found, drivers, fold, noise, floor) -> dict:
@@ -300,100 +352,6 @@ def _within_travel(scenario: str, x: np.ndarray, y: np.ndarray, geometry=None) -
             )
 
 
-def _locate_stage(signals, drivers, seed):
-    """Each residual (after the scene model) against each driver, whole-pass permutation tests."""
-    rng = np.random.default_rng(seed)
-    passes = drivers["run"] if drivers.get("run") is not None else np.zeros(len(signals[0].r))
-    out = []
-    for s in signals:
-        r = s.r - s.base @ lstsq(s.base, s.r)
-        for name in ("x", "y", "dir_x", "dir_y", "t_s", "temp_c"):
-            v = drivers.get(name)
-            if v is None or np.ptp(v) == 0:
-                continue
-            score, p = permutation_p(
-                r, np.asarray(v, float), passes, name in ("t_s", "temp_c"), rng
-            )
-            if p > LOCATE_P or score < LOCATE_MIN_SCORE:
-                continue
-            out.append(
-                {
-                    "signal": s.name,
-                    "driver": name,
-                    "score": score,
-                    "p_value": p,
-                    "where": _where(r, np.asarray(v, float), name, drivers),
-                }
-            )
-    return sorted(out, key=lambda d: -d["score"])
-
-
-def _where(r, v, name, drivers):
-    if name.startswith("dir_"):
-        axis = name[-1]
-        c, prof = reversal_profile(r, np.asarray(drivers[axis], float), v)
-        ok = np.isfinite(prof)
-        return (
-            f"whole {axis.upper()} travel: forward minus backward {np.nanmean(prof) * 1000:+.1f} "
-            f"um (from {np.nanmin(prof[ok]) * 1000:+.1f} to {np.nanmax(prof[ok]) * 1000:+.1f} um "
-            "along it)"
-        )
-    if name in ("t_s", "temp_c"):
-        k, stat = change_point(
-            r[np.argsort(drivers["t_s"])] if drivers.get("t_s") is not None else r
-        )
-        unit = "s" if name == "t_s" else "deg C"
-        return f"follows {name} ({unit}); largest shift after sample {k} (CUSUM {stat:.1f})"
-    edges = np.quantile(v, np.linspace(0, 1, 9))
-    idx = np.clip(np.searchsorted(edges, v, side="right") - 1, 0, 7)
-    means = np.array([np.mean(r[idx == k]) if np.any(idx == k) else 0 for k in range(8)])
-    k = int(np.argmax(np.abs(means)))
-    return (
-        f"largest at {name} {edges[k]:.0f}-{edges[k + 1]:.0f} mm (mean {means[k] * 1000:+.1f} um)"
-    )
-
-
-def _confounds(signals, terms, found, candidates, drivers, rec):
-    """Physical candidates the data cannot tell from what the model already has, each with the
-    experiment that would (smooth polynomial terms are left out: they are meant to overlap)."""
-    out = []
-    by_axis = {s.axis: s for s in signals}
-    accepted = {st.term.key for st in found.steps} | {
-        f"{st.term.name}:{st.axis}" for st in found.steps
-    }
-    for c in candidates:
-        if (
-            c.key in accepted
-            or isinstance(c, PeriodSearch)
-            or c.name in ("positioning", "straightness", "cross_coupling")
-        ):
-            continue
-        frac = confounded(by_axis[c.axis], terms[c.axis], c, drivers, {})
-        if c.name == "thermal_expansion" and np.ptp(rec.temp_c) < 1.0:
-            out.append(
-                {
-                    "effect": c.name,
-                    "axis": c.axis,
-                    "with": "scale",
-                    "why": f"the temperature moved only {np.ptp(rec.temp_c):.2f} K, so an "
-                    f"expansion coefficient would look like (and be absorbed by) a scale error",
-                    "experiment": EXPERIMENTS[c.name],
-                }
-            )
-        elif frac > 0.9:
-            out.append(
-                {
-                    "effect": c.name,
-                    "axis": c.axis,
-                    "with": "the scene model and the accepted effects",
-                    "why": f"{100 * frac:.0f} % of its effect on the data is also what the model "
-                    "already has",
-                    "experiment": EXPERIMENTS.get(c.name, "vary its driver independently"),
-                }
-            )
-    return out
-
-
 def paper_belt_recording(data_dir: Path):
     """The seed paper's measured belt-stage tables (the project's data/seed_belt_stage) as a stage
     recording: one row per station, error = measured - commanded (no passes, no directions)."""
@@ -407,20 +365,12 @@ def paper_belt_recording(data_dir: Path):
     return StageRecording(x_cmd_mm=x, y_cmd_mm=y, x_meas_mm=x + ex[:, 2], y_meas_mm=y + ey[:, 2])
 
 
-STAGE_CONFIGS = {
-    "belt-stage": ("calibench.scenarios.belt_stage.scenario", "BeltStageConfig"),
-    "vision-stage": ("calibench.scenarios.vision_stage.scenario", "VisionStageConfig"),
-}
-
-
 def _config(scenario: str, path: Path | None):
     """The scenario's run config, overridden by the file at ``path`` (None: the defaults)."""
-    import importlib
-
     from calibench.scenarios.config import load_toml, override
+    from calibench.scenarios.registry import scenario as registered
 
-    module, name = STAGE_CONFIGS[scenario]
-    cfg = getattr(importlib.import_module(module), name)()
+    cfg = registered(scenario).config()
     if path is not None:
         cfg = override(cfg, load_toml(path).get(scenario, {}), scenario)
     return cfg
@@ -457,7 +407,7 @@ def discover(scenario: str, rec, seed: int, holdout, config, arm=None) -> tuple[
     from calibench.scenarios.discover.stage_sessions import joined, same_machine
 
     recs = list(rec) if isinstance(rec, (list, tuple)) else [rec]
-    same_machine(recs, STAGE_DEGREE[scenario])
+    same_machine(recs, stage_degree(scenario))
     out, fig = discover_stage(scenario, joined(recs), seed, holdout, **stage_twin(scenario, config))
     fig["rows_used"] = [np.arange(len(r)) for r in recs]
     return out, fig
