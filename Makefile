@@ -34,14 +34,16 @@ test-slow: $(VENV)/.installed
 quick: $(VENV)/.installed
 	$(BIN)/python -m pytest -q -n $(WORKERS) -m "not slow" tests/estimators tests/test_recordings.py tests/test_bad_input.py tests/scenarios/test_iso230.py
 
-# ruff (lint, format) on everything; mypy on the pure room, estimators/, which installs as
-# calibench.estimators through a package-dir mapping mypy cannot follow: a link gives it that name.
+# ruff (lint, format) on everything; mypy on every product room. The rooms install as calibench.*
+# through a package-dir mapping mypy cannot follow: links under build/mypy give them that name.
+MYPY_ROOT = build/mypy/calibench
 lint: $(VENV)/.installed
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
-	mkdir -p build/mypy/calibench && touch build/mypy/calibench/__init__.py
-	ln -sfn ../../../estimators build/mypy/calibench/estimators
-	cd build/mypy && ../../$(BIN)/mypy --config-file ../../pyproject.toml -p calibench.estimators
+	mkdir -p $(MYPY_ROOT)
+	for f in calibench/*.py calibench/recordings estimators scenarios scenes sim; do \
+		ln -sfn ../../../$$f $(MYPY_ROOT)/$$(basename $$f); done
+	cd build/mypy && ../../$(BIN)/mypy --config-file ../../pyproject.toml -p calibench
 
 # The README's tables and numbers, rerun and rewritten (FIGURES="NAME ..." for some of them;
 # `$(BIN)/python -m docs.figures --list` names them); figures-check compares instead of rewriting.

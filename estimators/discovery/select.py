@@ -7,6 +7,7 @@ from __future__ import annotations
 import dataclasses
 import os
 from concurrent.futures import ThreadPoolExecutor
+from typing import Any
 
 import numpy as np
 
@@ -29,7 +30,9 @@ Z_MIN = 5.0  # and be at least 5 standard errors from zero
 # --- selection -----------------------------------------------------------------------------------
 @dataclasses.dataclass
 class Step:
-    term: object
+    """One accepted term: the selection's held-out RMS over every signal before and after it."""
+
+    term: Any  # an accepted candidate: an Effect, a found period's term, or a correction table
     axis: str
     cv_before: float  # all signals, held out
     cv_after: float
@@ -38,6 +41,9 @@ class Step:
 
 @dataclasses.dataclass
 class Discovery:
+    """What the selection accepted, in order, what it did not and why, and the held-out RMS of
+    the scene model and of the final model (mm)."""
+
     steps: list[Step]
     rejected: dict[str, str]  # candidate key -> why it was not accepted
     cv_nominal: float
