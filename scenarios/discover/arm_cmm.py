@@ -76,6 +76,7 @@ def arm_drivers(
 # the seed's arm and the UR10, 300 postures) gives no false claim at 2 %, and a real arm's
 # recording holds several deterministic effects of a few per cent each (the UR10's gear harmonics).
 ARM_FLOOR = 0.03
+DEFAULT_ARM = "arm-cmm"  # the seed's arm, a built-in arm's name
 
 
 def discover_arm(
@@ -435,3 +436,20 @@ def discover(scenario: str, rec: ArmInput, seed: int, holdout, config, arm=None)
     if len(rec.paths) > 1:
         out["recordings"] = [str(p) for p in rec.paths]
     return out, fig
+
+
+def concealed(scenario: str, kind: str, seed: int, arm=None, **options) -> tuple[object, dict]:
+    """The suites' proof set: a recording of the nominal ``arm`` (None: the seed's) with
+    ``kind`` concealed (``sim.concealed.arm_recording``), and its sealed manifest; ``options``:
+    the generator's (``noise``, ``repeat``)."""
+    from calibench.sim.concealed import arm_recording
+
+    return arm_recording(kind, seed, arm=arm or DEFAULT_ARM, **options)
+
+
+def search(
+    scenario: str, rec, seed: int, floor: float | None = None, arm=None
+) -> tuple[dict, dict]:
+    """discover's search on ``rec`` with the nominal ``arm`` (None: the seed's; ``floor``: None,
+    the arm's)."""
+    return discover_arm(rec, seed, ARM_FLOOR if floor is None else floor, arm=arm or DEFAULT_ARM)

@@ -80,6 +80,22 @@ class Plugin(Protocol):
         of ``config``'s twin, and the accepted effects the simulation cannot carry."""
         ...
 
+    def concealed(
+        self, scenario: str, kind: str, seed: int, arm: str | None = None, **options
+    ) -> tuple[Sized, dict]:
+        """The suites' proof set: a recording of the nominal twin (``arm``: which arm, for an
+        arm) with ``kind`` concealed, made by the twin's physics, and its sealed manifest
+        (``effects``: name, axis, params; ``noise_um``); ``options``: ``noise`` (a reading-noise
+        kind of ``sim.concealed.noise``), ``repeat`` (1: the same machine recorded again)."""
+        ...
+
+    def search(
+        self, scenario: str, rec, seed: int, floor: float | None = None, arm: str | None = None
+    ) -> tuple[dict, dict]:
+        """``discover``'s search on ``rec`` with the nominal twin: discovery.json's content and
+        the figure's (``floor``: the acceptance floor; None: the instrument's own)."""
+        ...
+
 
 def supported() -> tuple[str, ...]:
     """The instruments ``discover`` serves: the registry's with a discovery adapter."""

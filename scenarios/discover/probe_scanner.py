@@ -473,3 +473,19 @@ def twin_tables(scenario: str, found: dict, config, arm=None) -> tuple[dict, lis
     given = given_tables(config, "probe-scanner")
     table = twin_table(found, given.get("truth"))["probe-scanner"]
     return {"probe-scanner": carried(given, table)}, left
+
+
+def concealed(scenario: str, kind: str, seed: int, arm=None, **options) -> tuple[object, dict]:
+    """The suites' proof set: a recording of the nominal twin with ``kind`` concealed
+    (``sim.concealed.scanner_recording``), and its sealed manifest; ``options``: the
+    generator's (``noise``, ``repeat``)."""
+    from calibench.sim.concealed import scanner_recording
+
+    return scanner_recording(kind, seed, **options)
+
+
+def search(
+    scenario: str, rec, seed: int, floor: float | None = None, arm=None
+) -> tuple[dict, dict]:
+    """discover's search on ``rec`` with the nominal twin (``floor``: None, the house's)."""
+    return discover_scanner(rec, seed, FLOOR if floor is None else floor)

@@ -418,3 +418,19 @@ def twin_tables(scenario: str, found: dict, config, arm=None) -> tuple[dict, lis
     twin, and the accepted effects the drives cannot carry."""
     drives, left = stage_drives(found, _config(scenario, config).truth)
     return {scenario: carried(given_tables(config, scenario), {"truth": drives})}, left
+
+
+def concealed(scenario: str, kind: str, seed: int, arm=None, **options) -> tuple[object, dict]:
+    """The suites' proof set: a recording of the nominal twin with ``kind`` concealed
+    (``sim.concealed.stage_recording``), and its sealed manifest; ``options``: the generator's
+    (``noise``, ``repeat``)."""
+    from calibench.sim.concealed import stage_recording
+
+    return stage_recording(scenario, kind, seed, **options)
+
+
+def search(
+    scenario: str, rec, seed: int, floor: float | None = None, arm=None
+) -> tuple[dict, dict]:
+    """discover's search on ``rec`` with the nominal twin (``floor``: None, the house's)."""
+    return discover_stage(scenario, rec, seed, floor=FLOOR if floor is None else floor)

@@ -468,3 +468,19 @@ def discover(scenario: str, rec, seed: int, holdout, config, arm=None) -> tuple[
     if config is not None:
         cfg = override(cfg, load_toml(config).get("stewart", {}), "stewart")
     return discover_stewart(rec, seed, config=cfg)
+
+
+def concealed(scenario: str, kind: str, seed: int, arm=None, **options) -> tuple[object, dict]:
+    """The suites' proof set: a recording of the nominal twin with ``kind`` concealed
+    (``sim.concealed.stewart_recording``), and its sealed manifest; ``options``: the
+    generator's (``noise``, ``repeat``)."""
+    from calibench.sim.concealed import stewart_recording
+
+    return stewart_recording(kind, seed, **options)
+
+
+def search(
+    scenario: str, rec, seed: int, floor: float | None = None, arm=None
+) -> tuple[dict, dict]:
+    """discover's search on ``rec`` with the nominal twin (``floor``: None, the platform's)."""
+    return discover_stewart(rec, seed, STEWART_FLOOR if floor is None else floor)

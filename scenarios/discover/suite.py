@@ -17,8 +17,8 @@ Scoring:
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
 
+from calibench.scenarios.discover.engine import plugin
 from calibench.scenarios.registry import instruments
 
 
@@ -38,35 +38,19 @@ def suite_cases() -> tuple[tuple[str, str, int], ...]:
 
 
 def recorded(label: str, kind: str, seed: int, **options) -> tuple[object, dict]:
-    """A concealed recording of ``kind`` (``sim.concealed``) for a suite's ``label`` (a scenario,
-    or ``NAME:ARM``), and its sealed manifest; ``options``: the generator's (noise, repeat)."""
-    from calibench.sim import concealed
-
+    """A concealed recording of ``kind`` for a suite's ``label`` (a scenario, or ``NAME:ARM``)
+    and its sealed manifest, from the instrument's discovery adapter (its ``concealed``);
+    ``options``: the generator's (noise, repeat)."""
     scenario, _, arm = label.partition(":")
-    if scenario == "probe-scanner":
-        return concealed.scanner_recording(kind, seed, **options)
-    if scenario == "stewart":
-        return concealed.stewart_recording(kind, seed, **options)
-    if scenario == "arm-cmm":
-        return concealed.arm_recording(kind, seed, arm=arm or "arm-cmm", **options)
-    return concealed.stage_recording(scenario, kind, seed, **options)
+    return plugin(scenario).concealed(scenario, kind, seed, arm=arm or None, **options)
 
 
 def searched(label: str, rec, seed: int, floor: float | None = None) -> tuple[dict, dict]:
-    """``discover``'s search on a recording of a suite's ``label`` (its twin nominal):
-    discovery.json's content and the figure's; ``floor``: the acceptance floor (default the
-    instrument's own)."""
-    from calibench.scenarios.discover import arm_cmm, probe_scanner, stage, stewart
-
+    """``discover``'s search on a recording of a suite's ``label`` (its twin nominal), by the
+    instrument's adapter (its ``search``): discovery.json's content and the figure's;
+    ``floor``: the acceptance floor (None: the instrument's own)."""
     scenario, _, arm = label.partition(":")
-    given: dict[str, Any] = {} if floor is None else {"floor": floor}
-    if scenario == "probe-scanner":
-        return probe_scanner.discover_scanner(rec, seed, **given)
-    if scenario == "stewart":
-        return stewart.discover_stewart(rec, seed, **given)
-    if scenario == "arm-cmm":
-        return arm_cmm.discover_arm(rec, seed, arm=arm or "arm-cmm", **given)
-    return stage.discover_stage(scenario, rec, seed, **given)
+    return plugin(scenario).search(scenario, rec, seed, floor=floor, arm=arm or None)
 
 
 NOT_CONCEALED = ("geometry",)
