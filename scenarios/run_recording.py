@@ -20,15 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from calibench.errors import BadInput
-from calibench.recordings.records import (
-    ArmRecording,
-    ScannerRecording,
-    StageRecording,
-    StewartRecording,
-)
-
-# what an instrument's sensors record, in its recording format (docs/formats.md)
-Recording = StageRecording | ArmRecording | ScannerRecording | StewartRecording
+from calibench.recordings.records import Recording
 
 RECORDING = "recording.csv"
 TRUTH = "recording.truth.json"
@@ -113,30 +105,12 @@ MASSES_NEEDED = ("compliance", "harmonic_drive", "link_bending")  # an arm's kin
 
 
 def kinds(scenario: str) -> tuple[str, ...]:
-    """The effects ``conceal`` takes for ``scenario``: the proof set's kinds (``sim/concealed/``)
-    and the second suite's, which no discovery candidate writes down."""
-    from calibench.sim.concealed import unwritten as u
+    """The effects ``conceal`` takes for ``scenario``: its discovery adapter's
+    (``recording_kinds``: the proof set's kinds, then the second suite's, which no candidate
+    writes down)."""
+    from calibench.scenarios.discover.engine import plugin
 
-    if scenario in ("belt-stage", "vision-stage"):
-        from calibench.sim.concealed.stage import STAGE_KINDS
-
-        own = (
-            STAGE_KINDS
-            if scenario == "belt-stage"
-            else tuple(k for k in STAGE_KINDS if k != "elastic")
-        )
-        return own + u.UNWRITTEN_STAGE_KINDS
-    if scenario == "arm-cmm":
-        from calibench.sim.concealed.arm import ARM_KINDS
-
-        return ARM_KINDS + u.UNWRITTEN_ARM_KINDS
-    if scenario == "probe-scanner":
-        from calibench.sim.concealed.scanner import SCANNER_KINDS
-
-        return SCANNER_KINDS + u.UNWRITTEN_SCANNER_KINDS
-    from calibench.sim.concealed.stewart import STEWART_KINDS
-
-    return STEWART_KINDS + u.UNWRITTEN_STEWART_KINDS
+    return plugin(scenario).recording_kinds(scenario)
 
 
 def check_plan(scenario: str, plan, travel_mm: tuple[float, float] | None = None) -> None:
@@ -183,7 +157,7 @@ def simulate(scenario: str, config, seed: int) -> tuple[Recording, dict]:
     Parameters
     ----------
     scenario : str
-        One of the five scenarios' names.
+        A registered instrument's name: its discovery adapter's ``run_recording`` makes it.
     config : the scenario's config dataclass
         Its ``recording`` table (the plan and the effect), its twin (``truth``, ``geometry``, the
         arm's description).
@@ -197,38 +171,9 @@ def simulate(scenario: str, config, seed: int) -> tuple[Recording, dict]:
     manifest : dict
         The sealed truth: the concealed effects with their parameters, the noise (um), the plan.
     """
-    plan = config.recording
-    kind = plan.conceal
-    if scenario in ("belt-stage", "vision-stage"):
-        from calibench.sim.concealed.stage import StagePlan, stage_recording
+    from calibench.scenarios.discover.engine import plugin
 
-        travel = recorded_travel_mm(scenario, config.geometry.travel_mm)
-        lines = StagePlan(travel, plan.step_mm, plan.passes)
-        return stage_recording(
-            scenario, kind, seed, plan=lines, truth=config.truth, geometry=config.geometry
-        )
-    if scenario == "arm-cmm":
-        from calibench.sim.concealed.arm import arm_recording
-
-        return arm_recording(
-            kind,
-            seed,
-            n=plan.postures,
-            noise_um=plan.reference_noise_um,
-            arm=config.arm,
-            truth=config.truth,
-        )
-    if scenario == "probe-scanner":
-        from calibench.sim.concealed.scanner import scanner_recording
-
-        return scanner_recording(
-            kind, seed, turns=plan.turns, twin=config.truth, geometry=config.geometry
-        )
-    from calibench.sim.concealed.stewart import stewart_recording
-
-    return stewart_recording(
-        kind, seed, n_poses=plan.poses, twin=config.truth, geometry=config.geometry
-    )
+    return plugin(scenario).run_recording(scenario, config, seed)
 
 
 def write_recording(

@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 
@@ -25,6 +26,15 @@ def _rows_of(recording, rows: np.ndarray):
             for f in dataclasses.fields(recording)
         },
     )
+
+
+class Recording(Protocol):
+    """What every recording type is to a command that writes one: its rows, and its CSV in
+    docs/formats.md's format."""
+
+    def __len__(self) -> int: ...
+
+    def to_csv(self, path: str | Path) -> None: ...
 
 
 @dataclasses.dataclass

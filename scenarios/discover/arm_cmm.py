@@ -453,3 +453,27 @@ def search(
     """discover's search on ``rec`` with the nominal ``arm`` (None: the seed's; ``floor``: None,
     the arm's)."""
     return discover_arm(rec, seed, ARM_FLOOR if floor is None else floor, arm=arm or DEFAULT_ARM)
+
+
+def recording_kinds(scenario: str) -> tuple[str, ...]:
+    """The effects a run's recording may conceal: the proof set's, then the second suite's."""
+    from calibench.sim.concealed.arm import ARM_KINDS
+    from calibench.sim.concealed.unwritten import UNWRITTEN_ARM_KINDS
+
+    return ARM_KINDS + UNWRITTEN_ARM_KINDS
+
+
+def run_recording(scenario: str, config, seed: int) -> tuple[object, dict]:
+    """``run``'s recording: the proof set's postures on the config's arm and truth,
+    ``config.recording``'s effect concealed."""
+    from calibench.sim.concealed.arm import arm_recording
+
+    plan = config.recording
+    return arm_recording(
+        plan.conceal,
+        seed,
+        n=plan.postures,
+        noise_um=plan.reference_noise_um,
+        arm=config.arm,
+        truth=config.truth,
+    )

@@ -35,6 +35,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from calibench.files import first_repeat, same_file
+from calibench.recordings.records import Recording
 from calibench.scenarios.discover.confirm import confirm
 from calibench.scenarios.discover.figure import write_figure
 from calibench.scenarios.discover.twin_merge import split_confirmed, twin_note
@@ -82,7 +83,7 @@ class Plugin(Protocol):
 
     def concealed(
         self, scenario: str, kind: str, seed: int, arm: str | None = None, **options
-    ) -> tuple[Sized, dict]:
+    ) -> tuple[Recording, dict]:
         """The suites' proof set: a recording of the nominal twin (``arm``: which arm, for an
         arm) with ``kind`` concealed, made by the twin's physics, and its sealed manifest
         (``effects``: name, axis, params; ``noise_um``); ``options``: ``noise`` (a reading-noise
@@ -94,6 +95,15 @@ class Plugin(Protocol):
     ) -> tuple[dict, dict]:
         """``discover``'s search on ``rec`` with the nominal twin: discovery.json's content and
         the figure's (``floor``: the acceptance floor; None: the instrument's own)."""
+        ...
+
+    def recording_kinds(self, scenario: str) -> tuple[str, ...]:
+        """The effects ``run``'s recording may conceal (``[SCENARIO.recording]``'s ``conceal``)."""
+        ...
+
+    def run_recording(self, scenario: str, config, seed: int) -> tuple[Recording, dict]:
+        """``run``'s ``recording.csv``: the proof set's plan on the config's twin with
+        ``config.recording``'s effect concealed, and the sealed manifest."""
         ...
 
 

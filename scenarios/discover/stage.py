@@ -434,3 +434,27 @@ def search(
 ) -> tuple[dict, dict]:
     """discover's search on ``rec`` with the nominal twin (``floor``: None, the house's)."""
     return discover_stage(scenario, rec, seed, floor=FLOOR if floor is None else floor)
+
+
+def recording_kinds(scenario: str) -> tuple[str, ...]:
+    """The effects a run's recording may conceal: the proof set's (an elastic belt on the belt
+    stage only), then the second suite's."""
+    from calibench.sim.concealed.stage import STAGE_KINDS
+    from calibench.sim.concealed.unwritten import UNWRITTEN_STAGE_KINDS
+
+    own = tuple(k for k in STAGE_KINDS if k != "elastic" or scenario == "belt-stage")
+    return own + UNWRITTEN_STAGE_KINDS
+
+
+def run_recording(scenario: str, config, seed: int) -> tuple[object, dict]:
+    """``run``'s recording: the proof set's lines on the config's twin (its travel, truth and
+    geometry), ``config.recording``'s effect concealed."""
+    from calibench.scenarios.run_recording import recorded_travel_mm
+    from calibench.sim.concealed.stage import StagePlan, stage_recording
+
+    plan = config.recording
+    travel = recorded_travel_mm(scenario, config.geometry.travel_mm)
+    lines = StagePlan(travel, plan.step_mm, plan.passes)
+    return stage_recording(
+        scenario, plan.conceal, seed, plan=lines, truth=config.truth, geometry=config.geometry
+    )

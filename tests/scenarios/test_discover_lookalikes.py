@@ -9,10 +9,10 @@ import json
 import re
 
 from calibench.scenarios.cli import main
-from calibench.scenarios.discover.probe_scanner import (
+from calibench.scenarios.discover.probe_scanner import discover_scanner
+from calibench.scenarios.discover.scanner_words import (
     SEPARATE_BY_AN_ANGLE_REFERENCE,
     TURN_THE_PLATE,
-    discover_scanner,
 )
 from calibench.sim.concealed import scanner_recording, stage_recording
 
