@@ -26,12 +26,14 @@ class SessionFit:
     R, t : (3, 3), (3,) mm: instrument point = R @ base point + t.
     names : the session terms' coefficient names (``angle_<label><joint>_sin`` ...).
     coef : (k,) their values, rad.
+    converged : False where Gauss-Newton ran out of iterations (the values its last iterate's).
     """
 
     R: np.ndarray
     t: np.ndarray
     names: tuple[str, ...]
     coef: np.ndarray
+    converged: bool = True
 
 
 # the angle terms a new session refits beside its frame: a gear train's harmonics (a power-up
@@ -87,8 +89,13 @@ def session_columns(problem, state, q_rad: np.ndarray, terms) -> np.ndarray:
     return np.concatenate(cols, axis=2) if cols else np.zeros((len(q_rad), 3, 0))
 
 
+# a session's Gauss-Newton has converged when its step moves the frame by less than this (rad and
+# mm) and the terms by less than this (rad): round-off, for frames of metres and terms of mrad
+STEP_TOL = 1e-11
+
+
 def register_session(
-    problem, state, q_rad: np.ndarray, xyz_mm: np.ndarray, rows: np.ndarray, iterations: int = 4
+    problem, state, q_rad: np.ndarray, xyz_mm: np.ndarray, rows: np.ndarray, iterations: int = 20
 ) -> tuple[SessionFit, np.ndarray]:
     """Fit a new session's frame and own terms on its rows ``rows``.
 
@@ -102,6 +109,11 @@ def register_session(
     The corrections to shared terms carry a zero-mean prior of :data:`SESSION_PRIOR_RAD`, as
     prior rows weighted by the calibration's scatter per value (as discovery's
     :func:`~calibench.estimators.discovery.fit.session_residuals` does).
+
+    Not on the identification core: a frame and a handful of terms from the closed-form frame
+    (Kabsch) onwards, with a prior on the terms and no basis to choose (each term's columns are
+    the calibrated arm's own, identifiable by construction); Gauss-Newton to round-off, at most
+    ``iterations`` steps, ``converged`` said.
 
     Returns
     -------
@@ -118,6 +130,7 @@ def register_session(
     # the prior's rows, on the coefficients: one per correction, weighing as a value would
     P = np.zeros((int(prior.sum()), 6 + len(c)))
     P[np.arange(len(P)), 6 + np.flatnonzero(prior)] = noise / SESSION_PRIOR_RAD
+    converged = True
     for _ in range(iterations if len(c) else 0):
         p = p0[rows] + cols[rows] @ c
         Rp = p @ R.T
@@ -129,5 +142,8 @@ def register_session(
         e2 = np.r_[e.ravel(), -P[:, 6:] @ c]
         step = np.linalg.lstsq(A2, e2, rcond=None)[0]
         R, t, c = rotvec_to_matrix(step[:3]) @ R, t + step[3:6], c + step[6:]
+        converged = bool(np.max(np.abs(step)) < STEP_TOL)
+        if converged:
+            break
     names = tuple(n for term in terms for n in _names(term))
-    return SessionFit(R, t, names, c), (p0 + cols @ c) @ R.T + t
+    return SessionFit(R, t, names, c, converged), (p0 + cols @ c) @ R.T + t

@@ -50,7 +50,7 @@ def test_session_prior_holds_the_corrections_few_registration_rows_fit(monkeypat
         for std in (np.inf, prior):  # inf: the prior's rows weigh nothing
             monkeypatch.setattr(session, "SESSION_PRIOR_RAD", std)
             own, model = session.register_session(problem, fit.state, q_new, y_new, np.arange(m))
-            assert len(own.coef) == 2 * len(terms)
+            assert len(own.coef) == 2 * len(terms) and own.converged
             scored[std] = np.sqrt(np.mean((model[m:] - y_new[m:]) ** 2))
             if std == prior:
                 assert np.abs(own.coef).max() < 3 * prior
