@@ -75,6 +75,11 @@ def test_effects_that_do_not_say_which_rows_chose_them_score_in_sample(real_data
     bare.write_text(json.dumps(found))
     fit = _fit(rec, tmp_path / "f", "--effects", str(bare))
     assert "does not say" in fit["in_sample"]["session.csv"]["why"]
+    # a test recording is in-sample too, and its plausibility is judged there (it once raised)
+    test = tmp_path / "again.csv"
+    shutil.copy(rec, test)
+    fit = _fit(rec, tmp_path / "g", "--effects", str(bare), "--test", str(test))
+    assert fit["in_sample"]["again.csv"]["was"] == "test" and "again.csv" not in fit.get("test", {})
 
 
 def test_a_recording_the_effects_never_read_is_held_out(real_data, tmp_path):
