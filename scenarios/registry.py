@@ -87,6 +87,13 @@ def register(instrument: Instrument) -> Instrument:
     return instrument
 
 
+def unregister(name: str) -> None:
+    """Take ``name``'s line out of the registry (a test's own instrument, once its tests end),
+    with its scenario imported for it."""
+    _INSTRUMENTS.pop(name, None)
+    _built.pop(name, None)
+
+
 def instrument(name: str) -> Instrument:
     """The registry's line for ``name``; one clear line (BadInput) for a name it does not hold."""
     if name not in _INSTRUMENTS:

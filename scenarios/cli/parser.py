@@ -102,7 +102,7 @@ def build_parser() -> argparse.ArgumentParser:
         A parser whose usage errors exit with status 2 and one line on stderr; the verb is
         ``args.command``.
     """
-    from calibench.scenarios.registry import PLANNED
+    from calibench.scenarios.registry import NAMES, PLANNED
 
     p = _Parser(
         prog="calibench",
@@ -119,8 +119,9 @@ def build_parser() -> argparse.ArgumentParser:
     _discover_verb(sub)
     _camera_verb(sub)
     _iso230_verb(sub)
-    if PLANNED:
-        p.epilog = f"Scenarios planned but not built yet: {', '.join(PLANNED)}."
+    p.epilog = f"Instruments: {', '.join(NAMES)}." + (
+        f" Planned but not built yet: {', '.join(PLANNED)}." if PLANNED else ""
+    )
     return p
 
 

@@ -15,18 +15,15 @@ from tests.conftest import REPO
 
 @pytest.fixture(scope="module")
 def rail():
-    """The rail registered for this module's tests alone: the registry's tables are swapped for
-    copies while they run, so no other test of this process sees a ``rail``
-    (tests/scenarios/test_registry.py checks that none is registered)."""
-    mp = pytest.MonkeyPatch()
-    mp.setattr(registry, "_INSTRUMENTS", dict(registry._INSTRUMENTS))
-    mp.setattr(registry, "_built", dict(registry._built))
+    """The rail registered for this module's tests alone, and taken out after them, so no other
+    test of this process sees a ``rail`` (tests/scenarios/test_registry.py checks that none is
+    registered)."""
     import tests.instruments.rail as package
     import tests.instruments.rail.scenario  # noqa: F401 - package.scenario for the tests
 
     registry.register(package.INSTRUMENT)  # imported before by another module: its line again
     yield package
-    mp.undo()
+    registry.unregister(package.INSTRUMENT.name)
 
 
 @pytest.fixture(scope="module")
