@@ -334,6 +334,11 @@ FAULTS: dict[str, Fault] = {
         more.iso230_two_runs_conform,
         ("tests/scenarios/test_iso230.py::test_a_run_short_of_the_standard_s_five_runs_says_so",),
     ),
+    "suite_arm_ignored": Fault(
+        "the suites' NAME:ARM cases recorded and searched with the seed's arm",
+        more.suite_arm_ignored,
+        ("tests/scenarios/test_registry.py::test_a_suite_s_arm_reaches_its_recording",),
+    ),
 }
 
 _state: dict = {"name": None, "mp": None, "caught": []}

@@ -166,3 +166,15 @@ def iso230_two_runs_conform(mp: pytest.MonkeyPatch) -> None:
     from calibench.scenarios import iso230
 
     mp.setattr(iso230, "RUNS_REQUIRED", 2)
+
+
+def suite_arm_ignored(mp: pytest.MonkeyPatch) -> None:
+    """The suites' ``NAME:ARM`` labels lose their arm: the seed's arm recorded and searched."""
+    from calibench.scenarios.discover import suite
+
+    real = suite.recorded
+
+    def recorded(label, kind, seed, **options):
+        return real(label.partition(":")[0], kind, seed, **options)
+
+    mp.setattr(suite, "recorded", recorded)

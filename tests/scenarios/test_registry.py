@@ -51,3 +51,15 @@ def test_a_name_is_one_instrument():
         registry.register(registry.Instrument("belt-stage", "elsewhere", "Other"))
     with pytest.raises(BadInput, match="unknown scenario 'rail'"):
         registry.instrument("rail")
+
+
+def test_a_suite_s_arm_reaches_its_recording():
+    """``NAME:ARM`` in the suites is the instrument with that arm: its proof set's recording is
+    the UR10's (the instrument's line names the arm, the adapter makes the recording)."""
+    from calibench.scenarios.discover.suite import recorded, suite_cases
+
+    assert any(label == "arm-cmm:ur10" for label, _, _ in suite_cases())
+    _, manifest = recorded("arm-cmm:ur10", "null", 5000)
+    assert manifest["arm"] == "UR10" and manifest["scenario"] == "arm-cmm"
+    _, seed_arm = recorded("arm-cmm", "null", 5000)
+    assert seed_arm["arm"] != "UR10"
