@@ -386,3 +386,19 @@ def write_as_built(model, arm: ArmDescription, values: np.ndarray, tool_mm) -> b
     model.site_pos[model.site("probe").id] = L.tool
     model.body_pos[model.body("tool").id] = L.tool
     return True
+
+
+def default_scenes() -> dict:
+    """The built-in arms with their tracker, cones and a spring on every joint (its sag under
+    gravity is what the steps settle), for the scene tests: {arm's name: () -> (MJCF, assets)}."""
+    from calibench.scenes.arm_cmm import BUILTIN, load_arm
+
+    def scene(name: str, stiffness_nm_per_rad: float):
+        arm = load_arm(name)
+        k = [stiffness_nm_per_rad] * arm.n_joints
+        cones = ((0.45, 0.25, -0.15), (0.45, -0.35, -0.15))
+        return build_mjcf(arm, None, None, k, (2.2, -0.9, 0.35), (1, 0, 0, 0), cones), {}
+
+    # the UR10 is ten times heavier: a ten times stiffer spring keeps its sag alike
+    stiffness = {name: 2e5 if name == "ur10" else 2e4 for name in BUILTIN}
+    return {name: functools.partial(scene, name, k) for name, k in stiffness.items()}

@@ -134,3 +134,9 @@ def board_to_body(geometry: BeltStageGeometry) -> tuple[np.ndarray, np.ndarray]:
     """Rotation (3, 3) and translation (3,) in m taking board-frame points to the board body."""
     c = geometry.board.centre_mm / 1000
     return BOARD_TO_BODY_R, np.array([-c[0], c[1], PLATE_HALF_THICKNESS_M])
+
+
+def default_scenes() -> dict:
+    """This module's scene with its default geometry, for the scene tests: {"": () -> (MJCF,
+    assets)}."""
+    return {"": lambda: build_mjcf(BeltStageGeometry())}

@@ -186,3 +186,14 @@ def build_mjcf(
   </worldbody>
 </mujoco>
 """
+
+
+def default_scenes() -> dict:
+    """This module's scene with its default geometry and nominal probe, for the scene tests:
+    {"": () -> (MJCF, assets)}."""
+
+    def scene():
+        n = ProbeScannerNominal()
+        return build_mjcf(ProbeScannerGeometry(), n.d_mm, n.dL_mm, n.alpha0_rad), {}
+
+    return {"": scene}

@@ -131,3 +131,16 @@ def build_mjcf(
   </equality>
 </mujoco>
 """
+
+
+def default_scenes() -> dict:
+    """This module's scene with its default geometry, for the scene tests: {"": () -> (MJCF,
+    assets)}."""
+
+    def scene():
+        g = StewartGeometry()
+        return build_mjcf(
+            g, g.base_hinges_mm, g.platform_hinges_mm, g.reflectors_mm, g.station_holes_mm
+        ), {}
+
+    return {"": scene}

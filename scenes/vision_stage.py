@@ -196,3 +196,9 @@ def _tile_png(plate: CirclePlate) -> bytes:
     scene every trial; the texture depends on the plate alone)."""
     ok, png = cv2.imencode(".png", plate.tile_texture())
     return png.tobytes()
+
+
+def default_scenes() -> dict:
+    """This module's scene with its default geometry, for the scene tests: {"": () -> (MJCF,
+    assets)}."""
+    return {"": lambda: build_mjcf(VisionStageGeometry())}

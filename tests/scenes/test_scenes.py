@@ -4,8 +4,15 @@ import mujoco
 import numpy as np
 import pytest
 
-from calibench.scenes import SCENES
+from calibench.scenes import scenes
 from calibench.scenes.checkerboard import Chessboard
+
+SCENES = scenes()
+
+
+def test_every_machine_has_its_default_scene():
+    assert {"belt_stage", "vision_stage", "probe_scanner", "stewart"} <= set(SCENES)
+    assert {"arm_mjcf/arm-cmm", "arm_mjcf/ur10"} <= set(SCENES)
 
 
 @pytest.mark.parametrize("name", sorted(SCENES))
