@@ -192,6 +192,49 @@ def select(
     ), terms
 
 
+def keep_table(
+    signals: list[Signal],
+    terms: dict[str, list],
+    found: Discovery,
+    drivers: Drivers,
+    fold: np.ndarray,
+    tables: list,
+    floor: float = 0.0,
+) -> object | None:
+    """The pipeline's step for what no candidate explains, the same for every instrument: of
+    ``tables`` (corrections over a driver, each on its ``axis``: a stage's stations, a scanner's
+    angles, an arm's joint angle; proposed by the instrument), the one that lowers the held-out
+    RMS over every signal most, kept if it does so by more than ``floor`` (a fraction): appended
+    to its axis's ``terms`` and to ``found``'s steps, ``found.cv_final`` updated.
+
+    Returns
+    -------
+    The table kept, or None.
+    """
+    by_axis = {s.axis: s for s in signals}
+    caches: dict[str, dict] = {s.axis: {} for s in signals}
+    n = sum(len(s.r) for s in signals)
+
+    def sse(s: Signal, with_terms: list) -> float:
+        return float(np.sum(cv_residuals(s, with_terms, drivers, fold, caches[s.axis]) ** 2))
+
+    cv_sq = {s.axis: sse(s, terms[s.axis]) for s in signals}
+    before = float(np.sqrt(sum(cv_sq.values()) / n))
+    best = None
+    for t in tables:
+        trial = {**cv_sq, t.axis: sse(by_axis[t.axis], terms[t.axis] + [t])}
+        after = float(np.sqrt(sum(trial.values()) / n))
+        if after < (1 - floor) * before and (best is None or after < best[1]):
+            best = (t, after)
+    if best is None:
+        return None
+    table, after = best
+    terms[table.axis].append(table)
+    found.steps.append(Step(table, table.axis, before, after, 1 - after / before))
+    found.cv_final = after
+    return table
+
+
 def refine(
     sig: Signal,
     terms: list,

@@ -144,7 +144,7 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
     found, terms = select([sig], among.candidates, drivers, fold, noise, floor=floor)
     prune(sig, found, terms, drivers, fold, floor)
     shared_unless_sessions_differ(sig, found, terms["xyz"], drivers, fold, floor)
-    add_joint_table(sig, found, terms["xyz"], drivers, fold, rows.q_rad, floor)
+    add_joint_table(sig, found, terms, drivers, fold, rows.q_rad, floor)
     carry: dict[int, dict] = {}
     if len(recs) > 1:
         carry = carried_to_sessions(

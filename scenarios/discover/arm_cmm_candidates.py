@@ -18,9 +18,9 @@ from calibench.estimators.discovery.arm import (
     TransmissionSearch,
     joint_table,
 )
-from calibench.estimators.discovery.effect import Effect
-from calibench.estimators.discovery.fit import Signal, cv_residuals, rms
-from calibench.estimators.discovery.select import Discovery, Step
+from calibench.estimators.discovery.effect import Drivers, Effect
+from calibench.estimators.discovery.fit import Signal
+from calibench.estimators.discovery.select import Discovery, keep_table
 from calibench.scenarios.discover.arm_cmm_compliance import compliance_candidates
 
 
@@ -83,25 +83,14 @@ def arm_candidates(
 def add_joint_table(
     sig: Signal,
     found: Discovery,
-    terms: list,
-    drivers: dict,
+    terms: dict,
+    drivers: Drivers,
     fold: np.ndarray,
     q_rad: np.ndarray,
     floor: float,
 ) -> None:
-    """What no candidate explains: a table over one joint's angle (the one that helps most),
-    kept in ``terms`` and ``found``'s steps if it cuts the held-out RMS by ``floor``."""
-    cache: dict = {}
-    cv_now = rms(cv_residuals(sig, terms, drivers, fold, cache))
-    best = None
-    for j in range(1, q_rad.shape[1] + 1):
-        table = joint_table(q_rad[:, j - 1], j)
-        if table is None:
-            continue
-        cv = rms(cv_residuals(sig, terms + [table], drivers, fold, cache))
-        if cv < (1 - floor) * cv_now and (best is None or cv < best[1]):
-            best = (table, cv)
-    if best is not None:
-        terms.append(best[0])
-        found.steps.append(Step(best[0], "xyz", found.cv_final, best[1], 1 - best[1] / cv_now))
-        found.cv_final = best[1]
+    """What no candidate explains: a table over one joint's angle, each joint's proposed, the one
+    that helps most kept by the engine's :func:`keep_table` if it cuts the held-out RMS by
+    ``floor``."""
+    tables = [joint_table(q_rad[:, j - 1], j) for j in range(1, q_rad.shape[1] + 1)]
+    keep_table([sig], terms, found, drivers, fold, [t for t in tables if t is not None], floor)

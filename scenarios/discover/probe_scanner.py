@@ -35,7 +35,7 @@ from calibench.estimators.discovery.probe_scanner import (
     ScannerDrivers,
     scanner_candidates,
 )
-from calibench.estimators.discovery.select import FLOOR, Step, prune, select
+from calibench.estimators.discovery.select import FLOOR, keep_table, prune, select
 from calibench.scenarios.discover.fresh import structure
 from calibench.scenarios.discover.gross import without_gross
 from calibench.scenarios.discover.scanner_sessions import SYMMETRY, TOP_HARMONIC, assemble
@@ -227,11 +227,8 @@ def _discover_scanner(recs: list, seed: int, floor: float, config) -> tuple[dict
     found, terms = select([sig], candidates, drivers, fold, noise, floor=floor)
     prune(sig, found, terms, drivers, fold, floor)
     table = find_angle_table(sig, terms[AXIS], drivers, noise[AXIS], fold, floor)
-    if table is not None:
-        after = rms(cv_residuals(sig, terms[AXIS] + [table], drivers, fold, {}))
-        found.steps.append(Step(table, AXIS, found.cv_final, after, 1 - after / found.cv_final))
-        terms[AXIS].append(table)
-        found.cv_final = after
+    if table is not None:  # helps where it acts (find_angle_table): kept by the engine
+        keep_table([sig], terms, found, drivers, fold, [table])
     effects, fitted = describe_effects([sig], terms, found, drivers, noise)
     after_noise = {AXIS: repeatability(fitted[AXIS], station, order, rec.turn)}
     confounds = []

@@ -20,7 +20,7 @@ from calibench.estimators.discovery.effect import Effect
 from calibench.estimators.discovery.fit import Signal, cv_residuals, fit_terms, lstsq
 from calibench.estimators.discovery.noise import repeatability
 from calibench.estimators.discovery.nonsmooth import find_nonsmooth
-from calibench.estimators.discovery.select import FLOOR, Discovery, Step, refine, select
+from calibench.estimators.discovery.select import FLOOR, Discovery, keep_table, refine, select
 from calibench.estimators.discovery.stage import (
     PeriodSearch,
     StageDrivers,
@@ -248,10 +248,9 @@ def _add_station_tables(
     floor: float,
 ) -> None:
     """``nonsmooth``: on each axis, stations that stand out of the repeatability after the
-    accepted effects, kept as a correction table (in ``terms`` and ``found``'s steps) where it
-    helps held out."""
+    accepted effects, a correction table there where it helps held out on its own axis
+    (:func:`find_nonsmooth`), kept by the engine's :func:`keep_table`."""
     x, y = drivers["x"], drivers["y"]
-    n = len(x)
     pos_key, pos_inv = np.unique(np.stack([x, y], axis=1).round(6), axis=0, return_inverse=True)
     pos_inv = pos_inv.ravel()
     for s in signals:
@@ -259,18 +258,7 @@ def _add_station_tables(
             s, terms[s.axis], drivers, pos_inv, pos_key, noise[s.axis], fold, floor
         )
         if table is not None:
-            cv_sq = {
-                t.axis: float(np.sum(cv_residuals(t, terms[t.axis], drivers, fold, {}) ** 2))
-                for t in signals
-            }
-            before = np.sqrt(sum(cv_sq.values()) / (2 * n))
-            cv_sq[s.axis] = float(
-                np.sum(cv_residuals(s, terms[s.axis] + [table], drivers, fold, {}) ** 2)
-            )
-            after = np.sqrt(sum(cv_sq.values()) / (2 * n))
-            terms[s.axis].append(table)
-            found.steps.append(Step(table, s.axis, float(before), float(after), 0.0))
-            found.cv_final = float(after)
+            keep_table(signals, terms, found, drivers, fold, [table])
 
 
 def _described(
