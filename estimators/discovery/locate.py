@@ -47,6 +47,42 @@ def permutation_p(r, v, passes, time_like: bool, rng, n_perm: int = 199) -> tupl
     return score, (hits + 1) / (n_perm + 1)
 
 
+def follows(
+    r: np.ndarray,
+    drivers: list[tuple[str, np.ndarray | None, bool]],
+    passes: np.ndarray,
+    rng: np.random.Generator,
+    p_max: float = 0.01,
+    score_min: float = 0.02,
+    n_perm: int = 199,
+) -> list[tuple[str, np.ndarray, float, float]]:
+    """The drivers a residual follows: the pipeline's localisation, the same for every
+    instrument that tests its residual against its drivers one by one.
+
+    Parameters
+    ----------
+    r : (n,) the residual after the scene model.
+    drivers : (name, values (n,) or None, time_like) each; absent or constant ones skipped.
+    passes : (n,) the pass (or turn) of each row: what the null keeps (:func:`permutation_p`).
+    rng : the permutations' generator, drawn from in ``drivers``' order.
+    p_max, score_min : a driver is kept where its permutation p is at most ``p_max`` and its
+        binned R^2 at least ``score_min``.
+
+    Returns
+    -------
+    (name, values as floats (n,), score, p) for each driver kept, in ``drivers``' order.
+    """
+    out = []
+    for name, v, time_like in drivers:
+        if v is None or np.ptp(v) == 0:
+            continue
+        values = np.asarray(v, float)
+        score, p = permutation_p(r, values, passes, time_like, rng, n_perm)
+        if p <= p_max and score >= score_min:
+            out.append((name, values, score, p))
+    return out
+
+
 def reversal_profile(r, u, direction, bins: int = 10) -> tuple[np.ndarray, np.ndarray]:
     """Forward-minus-backward mean residual in bins of position: (centres (k,), profile (k,))."""
     edges = np.linspace(u.min(), u.max(), bins + 1)

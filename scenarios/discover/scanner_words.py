@@ -8,7 +8,7 @@ import numpy as np
 
 from calibench.estimators.discovery.effect import Effect
 from calibench.estimators.discovery.fit import confounded, lstsq
-from calibench.estimators.discovery.locate import permutation_p
+from calibench.estimators.discovery.locate import follows
 from calibench.estimators.discovery.probe_scanner import AXIS, Runout, TableEccentricity
 
 BIN_DEG = 1.0  # the nonsmooth table's bands of the table's angle
@@ -128,23 +128,19 @@ def locate_scanner(sig, drivers, rec, seed) -> list[dict]:
     null) and against time and temperature (whole turns permuted)."""
     rng = np.random.default_rng(seed)
     r = sig.r - sig.base @ lstsq(sig.base, sig.r)
-    out = []
-    for name, v in (
-        ("theta_deg", np.degrees(np.mod(rec.theta_rad, 2 * np.pi))),
-        ("t_s", rec.t_s),
-        ("temp_c", rec.temp_c),
-    ):
-        if v is None or np.ptp(v) == 0:
-            continue
-        score, p = permutation_p(r, np.asarray(v, float), rec.turn, name != "theta_deg", rng, 99)
-        if p <= 0.01 and score >= 0.02:
-            out.append(
-                {
-                    "signal": sig.name,
-                    "driver": name,
-                    "score": score,
-                    "p_value": p,
-                    "where": where_on_turn(r, v) if name == "theta_deg" else f"follows {name}",
-                }
-            )
+    tested = [
+        ("theta_deg", np.degrees(np.mod(rec.theta_rad, 2 * np.pi)), False),
+        ("t_s", rec.t_s, True),
+        ("temp_c", rec.temp_c, True),
+    ]
+    out = [
+        {
+            "signal": sig.name,
+            "driver": name,
+            "score": score,
+            "p_value": p,
+            "where": where_on_turn(r, v) if name == "theta_deg" else f"follows {name}",
+        }
+        for name, v, score, p in follows(r, tested, rec.turn, rng, n_perm=99)
+    ]
     return sorted(out, key=lambda d: -d["score"])

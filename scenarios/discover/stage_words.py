@@ -8,7 +8,7 @@ import numpy as np
 
 from calibench.estimators.discovery.effect import Drivers
 from calibench.estimators.discovery.fit import Signal, confounded, lstsq
-from calibench.estimators.discovery.locate import change_point, permutation_p, reversal_profile
+from calibench.estimators.discovery.locate import change_point, follows, reversal_profile
 from calibench.estimators.discovery.select import Discovery
 from calibench.estimators.discovery.stage import PeriodSearch
 
@@ -36,25 +36,19 @@ def locate_stage(signals: list[Signal], drivers: Drivers, seed: int) -> list[dic
     """Each residual (after the scene model) against each driver, whole-pass permutation tests."""
     rng = np.random.default_rng(seed)
     passes = drivers["run"] if drivers.get("run") is not None else np.zeros(len(signals[0].r))
+    names = ("x", "y", "dir_x", "dir_y", "t_s", "temp_c")
+    tested = [(name, drivers.get(name), name in ("t_s", "temp_c")) for name in names]
     out = []
     for s in signals:
         r = s.r - s.base @ lstsq(s.base, s.r)
-        for name in ("x", "y", "dir_x", "dir_y", "t_s", "temp_c"):
-            v = drivers.get(name)
-            if v is None or np.ptp(v) == 0:
-                continue
-            score, p = permutation_p(
-                r, np.asarray(v, float), passes, name in ("t_s", "temp_c"), rng
-            )
-            if p > LOCATE_P or score < LOCATE_MIN_SCORE:
-                continue
+        for name, v, score, p in follows(r, tested, passes, rng, LOCATE_P, LOCATE_MIN_SCORE):
             out.append(
                 {
                     "signal": s.name,
                     "driver": name,
                     "score": score,
                     "p_value": p,
-                    "where": where_said(r, np.asarray(v, float), name, drivers),
+                    "where": where_said(r, v, name, drivers),
                 }
             )
     return sorted(out, key=lambda d: -d["score"])
