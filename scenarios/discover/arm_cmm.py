@@ -30,7 +30,7 @@ from calibench.scenarios.discover.arm_cmm_sessions import (
 )
 from calibench.scenarios.discover.arm_cmm_words import arm_confounds, locate_arm
 from calibench.scenarios.discover.fresh import structure
-from calibench.scenarios.discover.report import describe_effects
+from calibench.scenarios.discover.report import describe_effects, fit_and_noise
 from calibench.scenarios.report import BadInput
 
 
@@ -163,11 +163,7 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
         "unit": "mm",
         "located": located,
         "effects": effects,
-        "fit": {
-            "rms_nominal": float(np.sqrt(np.mean(sig.r**2))),
-            "cv_rms_nominal": found.cv_nominal,
-            "cv_rms_final": found.cv_final,
-        },
+        **fit_and_noise(np.sqrt(np.mean(sig.r**2)), found),
         "holdout": "five contiguous blocks of postures"
         + (" of each recording" if len(recs) > 1 else ""),
         "scene_model": f"MuJoCo's nominal {arm.name} (drawing values, rigid), the base frame"

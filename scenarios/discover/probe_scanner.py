@@ -185,7 +185,7 @@ def discover_scanner(rec, seed: int = 0, floor: float = FLOOR, config=None) -> t
 
 
 def _discover_scanner(recs: list, seed: int, floor: float, config) -> tuple[dict, dict]:
-    from calibench.scenarios.discover.report import describe_effects, one_axis_fit, verdict
+    from calibench.scenarios.discover.report import describe_effects, fit_and_noise, verdict
 
     for k, r in enumerate(recs):
         which = f"recording {k + 1}: " if len(recs) > 1 else ""
@@ -269,7 +269,7 @@ def _discover_scanner(recs: list, seed: int, floor: float, config) -> tuple[dict
         "unit": "mm",
         "located": located,
         "effects": effects,
-        **one_axis_fit(AXIS, np.sqrt(np.mean(first**2)), found, noise, after_noise),
+        **fit_and_noise(np.sqrt(np.mean(first**2)), found, noise, after_noise),
         "holdout": scheme,
         "scene_model": (
             f"the twin (MuJoCo's ray on the {2 * config.geometry.plate.half_side_mm:g} mm plate) "

@@ -1,5 +1,5 @@
 """What every plug-in's discovery.json says the same way: the accepted effects described from the
-final fit, the verdict against the repeatability, a one-signal instrument's fit and noise.
+final fit, the verdict against the repeatability, the fit and the noise.
 """
 
 from __future__ import annotations
@@ -14,27 +14,29 @@ from calibench.estimators.discovery.fit import (
 UNEXPLAINED_RATIO = 1.5  # held-out RMS over repeatability beyond which something is left
 
 
-def one_axis_fit(axis: str, rms_nominal: float, found, noise: dict, after_noise: dict) -> dict:
-    """discovery.json's ``fit``, ``noise`` and ``noise_after_effects`` of a one-signal instrument
-    (the probe scanner, the Stewart platform): ``found`` the selection, ``noise`` and
-    ``after_noise`` the repeatability before and after the accepted effects, by axis."""
-    return {
+def fit_and_noise(
+    rms_nominal: float, found, noise: dict | None = None, after_noise: dict | None = None
+) -> dict:
+    """discovery.json's ``fit`` (the scene model's RMS, its held-out RMS and the final model's)
+    and, where the instrument judges by repeats, ``noise`` and ``noise_after_effects`` (the
+    repeatability before and after the accepted effects, by axis), written the same way for
+    every instrument; ``found`` the selection."""
+    out: dict = {
         "fit": {
             "rms_nominal": float(rms_nominal),
             "cv_rms_nominal": found.cv_nominal,
             "cv_rms_final": found.cv_final,
-        },
-        "noise": {
-            axis: {
-                "repeatability_mm": noise[axis].sigma_mm,
-                "lag1_correlation": noise[axis].lag1,
-                "dof": noise[axis].dof,
-            }
-        },
-        "noise_after_effects": {
-            axis: {"repeatability_mm": after_noise[axis].sigma_mm, "dof": after_noise[axis].dof}
-        },
+        }
     }
+    if noise is not None and after_noise is not None:
+        out["noise"] = {
+            a: {"repeatability_mm": nz.sigma_mm, "lag1_correlation": nz.lag1, "dof": nz.dof}
+            for a, nz in noise.items()
+        }
+        out["noise_after_effects"] = {
+            a: {"repeatability_mm": nz.sigma_mm, "dof": nz.dof} for a, nz in after_noise.items()
+        }
+    return out
 
 
 def verdict(cv_final_mm: float, noise: dict, found_any: bool, located: list | None = None) -> str:

@@ -30,7 +30,7 @@ from calibench.estimators.discovery.stage import (
 from calibench.recordings.stage import repeated_pass
 from calibench.scenarios.discover.folds import block_folds
 from calibench.scenarios.discover.fresh import structure
-from calibench.scenarios.discover.report import describe_effects, verdict
+from calibench.scenarios.discover.report import describe_effects, fit_and_noise, verdict
 from calibench.scenarios.discover.stage_words import locate_stage, stage_confounds
 from calibench.scenarios.discover.twin_merge import carried, given_tables, stage_drives
 from calibench.scenarios.report import BadInput
@@ -140,18 +140,7 @@ def discover_stage(
         "unit": "mm",
         "located": located,
         "effects": effects,
-        "fit": {
-            "rms_nominal": found.rms_nominal,
-            "cv_rms_nominal": found.cv_nominal,
-            "cv_rms_final": found.cv_final,
-        },
-        "noise": {
-            a: {"repeatability_mm": nz.sigma_mm, "lag1_correlation": nz.lag1, "dof": nz.dof}
-            for a, nz in noise.items()
-        },
-        "noise_after_effects": {
-            a: {"repeatability_mm": nz.sigma_mm, "dof": nz.dof} for a, nz in after.items()
-        },
+        **fit_and_noise(found.rms_nominal, found, noise, after),
         "holdout": scheme,
         "scene_model": f"the twin plus its degree-{deg} error map in (x, y), calibrated",
         "temp_mean_c": None if rec.temp_c is None else float(np.mean(rec.temp_c)),

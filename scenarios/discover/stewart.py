@@ -253,7 +253,7 @@ def _registered(rec, g) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _discover_stewart(rec, rec_id, seed: int, floor: float, config) -> tuple[dict, dict]:
-    from calibench.scenarios.discover.report import describe_effects, one_axis_fit, verdict
+    from calibench.scenarios.discover.report import describe_effects, fit_and_noise, verdict
     from calibench.scenarios.stewart.scenario import StewartConfig
     from calibench.sim.stewart import leg_effects_mm
 
@@ -344,7 +344,7 @@ def _discover_stewart(rec, rec_id, seed: int, floor: float, config) -> tuple[dic
         "unit": "mm",
         "located": located,
         "effects": effects,
-        **one_axis_fit(AXIS, np.sqrt(np.mean(r**2)), found, noise, after_noise),
+        **fit_and_noise(np.sqrt(np.mean(r**2)), found, noise, after_noise),
         "holdout": scheme,
         "scene_model": "the nominal platform (drawing hinges, rigid legs) at the tracker's poses, "
         "the tracker's frame registered",
