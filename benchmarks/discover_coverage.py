@@ -16,7 +16,7 @@ import time
 
 import numpy as np
 
-from calibench.scenarios.discover.coverage import coverage_study
+from calibench.scenarios.discover.stated_errors import coverage_study
 
 
 def main(seeds: int) -> None:

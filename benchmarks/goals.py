@@ -141,7 +141,7 @@ def rendered_rate(scenario: str, trials: int) -> float:
 
 def rendered_run(rounds: int = 3) -> dict:
     """Seconds of a rendered ``run belt-stage`` (seed 0, in this process, no rerun log), its
-    frames developed on :func:`~calibench.sim.developing.frame_workers` threads while the next
+    frames developed on :func:`~calibench.sim.frame_workers.frame_workers` threads while the next
     renders, and developed in turn; medians of ``rounds``, alternated."""
     from calibench.scenarios.belt_stage import scenario as belt_stage
 

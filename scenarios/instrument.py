@@ -51,7 +51,7 @@ class Instrument:
         Null recordings in the second suite (the other kinds take 3).
     coverage : tuple of (str, int) or None
         The coverage study's concealed kind and recordings per seed asked
-        (:mod:`calibench.scenarios.discover.coverage`); None: not in the study.
+        (:mod:`calibench.scenarios.discover.stated_errors`); None: not in the study.
     """
 
     name: str

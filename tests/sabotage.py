@@ -163,7 +163,7 @@ def _stewart_joint_std_1p3x(mp):
         f[6] = 1.3  # leg 1's l
         return dataclasses.replace(cal, cov=cal.cov * np.outer(f, f))
 
-    _wrap(mp, "calibench.estimators.stewart.joint", "adjust_jointly", scale)
+    _wrap(mp, "calibench.estimators.stewart.adjustment", "adjust_jointly", scale)
 
 
 def _arm_std_1p3x(mp):

@@ -60,9 +60,9 @@ def arm_cmm_whitened():
 @functools.cache
 def arm_coverage(factor: float, trials: int) -> tuple[float, float]:
     """The seed arm's 95 % coverage with the datasheet's sigma ``factor`` x the truth's, over
-    ``trials`` truths (scenarios.arm_cmm.coverage): as reported, and without the variance
+    ``trials`` truths (scenarios.arm_cmm.datasheet): as reported, and without the variance
     factor."""
-    from calibench.scenarios.arm_cmm.coverage import datasheet_coverage
+    from calibench.scenarios.arm_cmm.datasheet import datasheet_coverage
 
     return datasheet_coverage(factor, trials)
 

@@ -56,12 +56,12 @@ def unwritten_table(scores: dict) -> str:
 @block(seconds=3100, ci=False)
 def discover_coverage():
     """discover's stated intervals against the truth, under each reading noise
-    (scenarios/discover/coverage.py, as benchmarks/discover_coverage.py runs it)."""
+    (scenarios/discover/stated_errors.py, as benchmarks/discover_coverage.py runs it)."""
     import os
 
     import numpy as np
 
-    from calibench.scenarios.discover.coverage import coverage_study
+    from calibench.scenarios.discover.stated_errors import coverage_study
 
     rows = []
     for c in coverage_study(COVERAGE_SEEDS, workers=os.cpu_count() or 1):

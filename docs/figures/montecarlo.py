@@ -73,7 +73,7 @@ PHYSICS = (
 def datasheet_coverage():
     """benchmarks/datasheet_coverage.py's studies: 1000 arm and 200 Stewart trials with the
     datasheet right, 1.5x too large and 1.5x too small."""
-    from calibench.scenarios.study.coverage import covered, outside_band, pooled_coverage
+    from calibench.scenarios.study.honesty import covered, outside_band, pooled_coverage
 
     out = {}
     for scenario, n in DATASHEET_TRIALS.items():
@@ -107,7 +107,7 @@ def datasheet_coverage():
 def montecarlo_studies():
     """calibench montecarlo arm-cmm --trials 1000, stewart --trials 1000, belt-stage --trials 200
     (seed 0, analytic)."""
-    from calibench.scenarios.study.coverage import covered
+    from calibench.scenarios.study.honesty import covered
 
     rows = []
     # the arm's parameters are those with an independent reference (the frames and the errors that
@@ -151,7 +151,7 @@ def physics_study(scenario: str, trials: int, physics: bool) -> dict:
 def physics_studies():
     """calibench montecarlo with each twin's physics off and on (PHYSICS): what a geometry-only
     calibration does on a machine that has it."""
-    from calibench.scenarios.study.coverage import (
+    from calibench.scenarios.study.honesty import (
         covered,
         median_std_ratio,
         outside_band,

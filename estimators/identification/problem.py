@@ -6,7 +6,7 @@ A problem holds its data and says how its parameters move the residuals; the sol
 problem updates (a dataclass of arrays: joint errors, frames, poses); the solver only passes it
 back. The arm's problems (:mod:`calibench.estimators.arm.point`,
 :mod:`calibench.estimators.arm.tracker`) and the Stewart platform's joint adjustment
-(:mod:`calibench.estimators.stewart.joint`) implement it.
+(:mod:`calibench.estimators.stewart.adjustment`) implement it.
 """
 
 from __future__ import annotations

@@ -16,7 +16,7 @@ work, each step on what the previous left:
    (a fixed seed) and judged on the rest
    (:func:`~calibench.estimators.arm.calibration.register_frame`), ``--holdout`` rows of the
    training recordings; and warn where the training postures leave out part of the workspace
-   (:func:`~calibench.estimators.arm.coverage.coverage_warnings`).
+   (:func:`~calibench.estimators.arm.workspace.coverage_warnings`).
 
 This module reads and checks the input, wires the steps and writes DIR/fit.json
 (docs/formats.md, "fit arm-cmm"), DIR/residuals.csv and DIR/fit.png.
@@ -32,9 +32,9 @@ from pathlib import Path
 import numpy as np
 
 from calibench.estimators.arm.calibration import ArmCalibration, error_statistics
-from calibench.estimators.arm.coverage import coverage_warnings
 from calibench.estimators.arm.kinematics import Chain, param_is_angle, param_names
 from calibench.estimators.arm.point import AngleTerm, PointProblem
+from calibench.estimators.arm.workspace import coverage_warnings
 from calibench.estimators.rotations import matrix_to_rotvec
 from calibench.scenarios.arm_cmm.arms import chain_of, load_arm
 from calibench.scenarios.arm_cmm.effects import angle_terms_from_discovery
@@ -388,7 +388,7 @@ def coverage_said(
     training: list[TrainingRecording],
 ) -> list[str]:
     """fit.json's coverage warnings: where the training postures leave out part of the
-    workspace (:func:`~calibench.estimators.arm.coverage.coverage_warnings`), and stated std
+    workspace (:func:`~calibench.estimators.arm.workspace.coverage_warnings`), and stated std
     left unused because not every training recording states one."""
     said = coverage_warnings(chain, rows.q_rad, tested, [int(j) for j in prob.cj])
     stated = [tr.label for tr in training if tr.rec.xyz_std_mm is not None]

@@ -21,7 +21,7 @@ from calibench.scenarios.belt_stage.scenario import BeltStageConfig
 from calibench.scenarios.belt_stage.views import record_views
 from calibench.scenes.camera import PinholeCamera
 from calibench.sim.belt_stage import PULSES_PER_MM, BeltStageSim, intrinsic_view_poses
-from calibench.sim.developing import frame_workers
+from calibench.sim.frame_workers import frame_workers
 
 
 def save_rendered_views(config: BeltStageConfig, seed: int, folder: Path) -> dict:

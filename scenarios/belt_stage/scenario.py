@@ -47,7 +47,7 @@ from calibench.scenarios.report import Check, Parameter, Report
 from calibench.scenarios.run_recording import StageRecordingPlan, check_plan, write_recording
 from calibench.scenes.belt_stage import BeltStageGeometry
 from calibench.sim.belt_stage import BeltStageSim, BeltStageTruth
-from calibench.sim.developing import frame_workers
+from calibench.sim.frame_workers import frame_workers
 
 NAME = "belt-stage"
 

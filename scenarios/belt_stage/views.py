@@ -12,7 +12,7 @@ from calibench.estimators.camera.chessboard import find_chessboard_corners
 from calibench.recordings import CameraViews
 from calibench.scenarios.report import progress
 from calibench.sim.belt_stage import PULSES_PER_MM, BeltStageSim
-from calibench.sim.developing import develop_all
+from calibench.sim.frame_workers import develop_all
 from calibench.sim.renderer import Exposure
 
 if TYPE_CHECKING:
@@ -51,7 +51,7 @@ def record_views(
         no image: the same corners at a fraction of the render); no image is kept.
     workers : int
         Threads that develop and detect the rendered views while this one renders the next
-        (:func:`calibench.sim.developing.develop_all`); the views are the same whatever the
+        (:func:`calibench.sim.frame_workers.develop_all`); the views are the same whatever the
         number.
 
     Returns

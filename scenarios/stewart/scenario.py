@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from calibench.estimators.rotations import rotvec_to_matrix
-from calibench.estimators.stewart.joint import (
+from calibench.estimators.stewart.adjustment import (
     JointCalibration,
     TrackerObservations,
     adjust_jointly,

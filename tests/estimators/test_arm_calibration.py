@@ -19,8 +19,8 @@ from calibench.estimators.arm.calibration import (
     loaded_joints,
     register_frame,
 )
-from calibench.estimators.arm.coverage import coverage_warnings, span_deg, visited_bins
 from calibench.estimators.arm.kinematics import parameter_scales
+from calibench.estimators.arm.workspace import coverage_warnings, span_deg, visited_bins
 from calibench.estimators.rotations import matrix_to_rotvec, rotvec_to_matrix
 from calibench.scenarios.arm_cmm.arms import chain_of
 from calibench.sim.arm_cmm import ArmSim, ArmTruth

@@ -12,7 +12,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from calibench.estimators.rotations import rigid_transform, rotvec_to_matrix
-from calibench.estimators.stewart.joint import (
+from calibench.estimators.stewart.adjustment import (
     JointProblem,
     TrackerObservations,
     adjust_jointly,

@@ -1,4 +1,4 @@
-"""The seed arm's coverage under a wrong datasheet (scenarios/arm_cmm/coverage.py): with the
+"""The seed arm's coverage under a wrong datasheet (scenarios/arm_cmm/datasheet.py): with the
 stated sigma 1.5x too large or too small, the reported std (which carry the residuals' variance
 factor) cover 95 %, and without that factor they cover what a std scaled by the factor would:
 P(|Z| <= 1.96 x 1.5) and P(|Z| <= 1.96 / 1.5)."""
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.stats import norm
 
-from calibench.scenarios.arm_cmm.coverage import Z_95, datasheet_coverage
+from calibench.scenarios.arm_cmm.datasheet import Z_95, datasheet_coverage
 
 TRIALS = 100
 PER_TRIAL = 18  # parameters with a reference in each trial of the seed's arm

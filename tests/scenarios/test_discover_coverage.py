@@ -3,7 +3,7 @@ recording (each recording seeded), so the README's block can use every core."""
 
 import numpy as np
 
-from calibench.scenarios.discover import coverage
+from calibench.scenarios.discover import stated_errors as coverage
 
 
 def test_the_coverage_study_is_the_same_over_processes(monkeypatch):

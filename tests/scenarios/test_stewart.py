@@ -43,7 +43,7 @@ def test_a_solve_that_runs_out_of_iterations_fails_the_run(tmp_path, monkeypatch
     """Two Gauss-Newton iterations cannot converge from the drawing's hinges: the run must say
     so (a failed check, exit 1), not report the last iterate as an answer."""
     import calibench.scenarios.stewart.scenario as scenario
-    from calibench.estimators.stewart import joint as est
+    from calibench.estimators.stewart import adjustment as est
 
     real = est.adjust_jointly
     monkeypatch.setattr(

@@ -1,11 +1,11 @@
-"""A study's honesty in a few numbers (scenarios/study/coverage.py), read from summaries that
+"""A study's honesty in a few numbers (scenarios/study/honesty.py), read from summaries that
 :func:`summarise` makes of trials drawn here with a known truth: an honest parameter, one biased
 by 3 std, and the same trials with every reported std doubled."""
 
 import numpy as np
 from scipy.stats import norm
 
-from calibench.scenarios.study.coverage import (
+from calibench.scenarios.study.honesty import (
     covered,
     median_std_ratio,
     outside_band,

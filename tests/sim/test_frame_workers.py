@@ -1,4 +1,4 @@
-"""Frames developed on worker threads (sim.developing): the same results in the same order as
+"""Frames developed on worker threads (sim.frame_workers): the same results in the same order as
 developed in turn, whatever the number of threads, for a toy development and for the belt
 stage's rendered views (images and corners, bit for bit)."""
 
@@ -11,7 +11,7 @@ import pytest
 from calibench.scenarios.belt_stage.scenario import BeltStageConfig
 from calibench.scenarios.belt_stage.views import record_views
 from calibench.sim.belt_stage import BeltStageSim, intrinsic_view_poses
-from calibench.sim.developing import IN_FLIGHT_PER_WORKER, develop_all, usable_cores
+from calibench.sim.frame_workers import IN_FLIGHT_PER_WORKER, develop_all, usable_cores
 
 
 def test_results_keep_the_captures_order_and_the_capture_waits_for_the_oldest():
