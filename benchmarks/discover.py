@@ -47,7 +47,7 @@ def null_calibration(n):
     print(f"\nnull calibration: {n} null recordings per scenario (seeds 5000+)")
     print("| scenario | " + " | ".join(f"floor {f:.0%}" for f in floors) + " |")
     print("|---|" + "---|" * len(floors))
-    for sc in ("belt-stage", "vision-stage", "arm-cmm", "arm-cmm:ur10", "probe-scanner", "stewart"):
+    for sc in dict.fromkeys(label for label, _, _ in suite_cases()):  # each instrument and arm
         claims = np.sum([null_claims(sc, k, floors) for k in range(n)], axis=0)
         print(f"| {sc} | " + " | ".join(f"{c / n:.0%}" for c in claims) + " |")
     print(

@@ -20,11 +20,11 @@ from pathlib import Path
 
 from results import STUDIES
 
-from calibench.scenarios.registry import SCENARIOS
+from calibench.scenarios.registry import RENDERING, SCENARIOS
 from calibench.scenarios.study.journal import load_journal
 from calibench.scenarios.study.montecarlo import run_study
 
-RENDERED = ("belt-stage", "vision-stage")  # the others report fidelity "analytic" only
+RENDERED = RENDERING  # the others report fidelity "analytic" only
 
 
 def main():

@@ -68,8 +68,10 @@ def run_times():
     out = scratch() / "timed"
     timed(lambda: calibench("run", "stewart", "--no-rrd", "--out", out / "warm"))  # imports, once
     runs = []
-    for sc in ("belt-stage", "vision-stage", "probe-scanner", "arm-cmm", "stewart"):
-        fids = ("analytic", "render") if sc.endswith("stage") else ("analytic",)
+    from calibench.scenarios.registry import NAMES, RENDERING
+
+    for sc in NAMES:
+        fids = ("analytic", "render") if sc in RENDERING else ("analytic",)
         secs = [
             timed(
                 lambda f=f, sc=sc: calibench(
