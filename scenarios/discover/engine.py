@@ -101,6 +101,12 @@ class Plugin(Protocol):
         """The effects ``run``'s recording may conceal (``[SCENARIO.recording]``'s ``conceal``)."""
         ...
 
+    def nonsmooth_at(self, scenario: str, truth: dict, found: dict) -> bool:
+        """Whether a found ``nonsmooth`` table sits where a concealed local effect lives (a
+        rail's step, a plate's thin wall: the second suite's scoring); only the adapters whose
+        proof set conceals one need it."""
+        ...
+
     def run_recording(self, scenario: str, config, seed: int) -> tuple[Recording, dict]:
         """``run``'s ``recording.csv``: the proof set's plan on the config's twin with
         ``config.recording``'s effect concealed, and the sealed manifest."""

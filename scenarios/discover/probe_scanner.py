@@ -374,3 +374,11 @@ def run_recording(scenario: str, config, seed: int) -> tuple[object, dict]:
     return scanner_recording(
         plan.conceal, seed, turns=plan.turns, twin=config.truth, geometry=config.geometry
     )
+
+
+def nonsmooth_at(scenario: str, truth: dict, found: dict) -> bool:
+    """Whether a found ``nonsmooth`` table sits where a concealed local effect lives (the second
+    suite's scoring): on its arc, with 2 deg of slack."""
+    at = float(str(found["params"].get("where", "")).split("largest at ")[1].split(" deg")[0])
+    off = (at - truth["params"]["theta_deg"] + 180) % 360 - 180
+    return abs(off) <= truth["params"]["width_deg"] / 2 + 2.0

@@ -435,3 +435,12 @@ def run_recording(scenario: str, config, seed: int) -> tuple[object, dict]:
     return stage_recording(
         scenario, plan.conceal, seed, plan=lines, truth=config.truth, geometry=config.geometry
     )
+
+
+def nonsmooth_at(scenario: str, truth: dict, found: dict) -> bool:
+    """Whether a found ``nonsmooth`` table sits where a concealed local effect lives (the second
+    suite's scoring): its largest deviation within a tenth of the proof set's travel of it."""
+    from calibench.sim.concealed import PLANS
+
+    at = float(str(found["params"].get("where", "")).split("largest at x = ")[1].split(" mm")[0])
+    return abs(at - truth["params"]["x_mm"]) <= 0.1 * PLANS[scenario].travel_mm[0]

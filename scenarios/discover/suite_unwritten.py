@@ -27,10 +27,10 @@ from collections import defaultdict
 
 import numpy as np
 
+from calibench.scenarios.discover.engine import plugin
 from calibench.scenarios.discover.fresh import FreshScore, score_on_fresh
 from calibench.scenarios.discover.suite import recorded, searched
 from calibench.scenarios.registry import instruments
-from calibench.sim.concealed import PLANS
 from calibench.sim.concealed.noise import MISSPECIFIED
 
 SEEDS = 3  # per kind: each kind sees every misspecified noise once
@@ -71,17 +71,6 @@ class UnwrittenResult:
     fresh: FreshScore
 
 
-def _located(scenario: str, t: dict, f: dict) -> bool:
-    """Whether a found ``nonsmooth`` sits where the truth's effect lives."""
-    where = str(f["params"].get("where", ""))
-    if scenario == "probe-scanner":
-        at = float(where.split("largest at ")[1].split(" deg")[0])
-        off = (at - t["params"]["theta_deg"] + 180) % 360 - 180
-        return abs(off) <= t["params"]["width_deg"] / 2 + 2.0
-    at = float(where.split("largest at x = ")[1].split(" mm")[0])
-    return abs(at - t["params"]["x_mm"]) <= 0.1 * PLANS[scenario].travel_mm[0]
-
-
 def _matches(scenario: str, t: dict, f: dict) -> bool:
     if f["name"] != t["nearest"] or f["axis"] != t["axis"]:
         return False
@@ -89,7 +78,8 @@ def _matches(scenario: str, t: dict, f: dict) -> bool:
         want = t["params"].get(where)
         if want is not None and f["params"].get(where) not in np.atleast_1d(want):
             return False
-    return f["name"] != "nonsmooth" or _located(scenario, t, f)
+    # a nonsmooth table is a match where it sits where the effect lives: the adapter's words
+    return f["name"] != "nonsmooth" or plugin(scenario).nonsmooth_at(scenario, t, f)
 
 
 def _explained(scenario: str, truth: list, f: dict) -> bool:
