@@ -137,6 +137,10 @@ def board2cam_refine(
     to its start (a belt-stage map coefficient moved by 1e-3 std with a 1e-14 change of the
     intrinsics).
     Raises ValueError when a view does not converge.
+
+    Not on the identification core: hundreds of independent 6-parameter problems solved side by
+    side, each with its own damping (vectorised over the views), with nothing for a basis to
+    drop; the core solves one problem at a time.
     """
     from calibench.estimators.camera.projection import project
     from calibench.estimators.rotations import rotvecs_to_matrices_scipy

@@ -63,7 +63,11 @@ def calibrate_leg(
     iterations: int = 50,
 ) -> LegCalibration:
     """The one-step method for one leg: poses (n, 3, 3), (n, 3), readings (n,), sigma (n,) of
-    each equation (length units); Gauss-Newton on |R r + t - B| - (l + reading) = 0."""
+    each equation (length units); Gauss-Newton on |R r + t - B| - (l + reading) = 0.
+
+    Not on the identification core: the published per-leg method this project reproduces
+    (seven unknowns, always identifiable from spread poses), with its convergence said; the
+    joint adjustment of every leg and pose (:mod:`.adjustment`) is the core's."""
     x = np.r_[r0, B0, l0].astype(float)
     w = 1 / np.asarray(sigma, float)
 

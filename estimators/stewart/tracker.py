@@ -60,7 +60,8 @@ def multilaterate(
 ) -> tuple[np.ndarray, np.ndarray, bool]:
     """A point from distances (k,) to stations (k, 3), Gauss-Newton from ``start``; covariance
     (J^T W J)^-1 with W = diag(1 / sigma^2); and whether the iteration converged (False: the
-    point is the last iterate, not an answer)."""
+    point is the last iterate, not an answer). Not on the identification core: three unknowns
+    from four or more distances, thousands of times per study, its convergence said."""
     p = np.array(start, float)
     w = 1 / np.asarray(sigma, float) ** 2
     step = np.full(3, np.inf)

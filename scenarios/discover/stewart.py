@@ -57,7 +57,8 @@ def _hinge_points(R, t, r):
 def register(rec, geometry, iterations: int = 10) -> tuple[np.ndarray, np.ndarray]:
     """The tracker frame in the base frame (R (3, 3), t (3,) mm): first from the poses the
     nominal legs' readings give (forward kinematics) against the tracker's, then Gauss-Newton on
-    the legs' residuals."""
+    the legs' residuals (six unknowns from a closed-form start, to round-off; not yet on the
+    identification core, like :func:`geometry_residual`)."""
     from calibench.estimators.rotations import rigid_transform, rotvec_to_matrix
     from calibench.estimators.stewart.kinematics import forward_kinematics_many
 
