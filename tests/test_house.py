@@ -8,6 +8,8 @@ import sys
 from tests.conftest import REPO
 
 MAX_LINES = 500
+MAX_FUNCTION_LINES = 120
+PRODUCT_ROOMS = ("calibench/", "estimators/", "scenarios/", "scenes/", "sim/")
 
 
 def _python_files() -> list[str]:
@@ -38,6 +40,20 @@ def test_no_source_file_is_over_500_lines():
         f: n for f in _python_files() if (n := len((REPO / f).read_text().splitlines())) > MAX_LINES
     }
     assert not big, big
+
+
+def test_no_product_function_is_over_120_lines():
+    """A function a reader can hold in view: its definition to its last line, docstring
+    included."""
+    long = [
+        f"{f}:{node.lineno} {node.name} ({node.end_lineno - node.lineno + 1} lines)"
+        for f in _python_files()
+        if f.startswith(PRODUCT_ROOMS)
+        for node in ast.walk(ast.parse((REPO / f).read_text()))
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef))
+        and node.end_lineno - node.lineno + 1 > MAX_FUNCTION_LINES
+    ]
+    assert not long, long
 
 
 def test_no_private_name_is_imported_from_another_module():
