@@ -19,9 +19,9 @@ from pathlib import Path
 import numpy as np
 
 from calibench.estimators.discovery.select import FLOOR
-from calibench.scenarios.discover.stage import discover_stage, paper_belt_recording
-from calibench.scenarios.discover.stewart import STEWART_FLOOR
 from calibench.scenarios.discover.suite import null_claims, run_case, score, suite_cases, table
+from calibench.scenarios.stages.discovery import discover_stage, paper_belt_recording
+from calibench.scenarios.stewart.discovery import STEWART_FLOOR
 
 SHARED = Path(__file__).resolve().parents[1] / "data"
 

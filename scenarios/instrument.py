@@ -9,8 +9,6 @@ from __future__ import annotations
 
 import dataclasses
 
-DISCOVER = "calibench.scenarios.discover."  # the discovery adapters' package
-
 
 @dataclasses.dataclass(frozen=True)
 class Instrument:

@@ -82,7 +82,7 @@ def stewart_null_rms() -> float:
     """The Stewart platform's noise as discover measures it: the cross-validated RMS (mm) of a null
     recording (no effect concealed, nothing chosen beyond the scene model's geometry, so held out
     for every structure), the level a found effect should leave behind."""
-    from calibench.scenarios.discover.stewart import discover_stewart
+    from calibench.scenarios.stewart.discovery import discover_stewart
     from calibench.sim.concealed import stewart_recording
 
     out, _ = discover_stewart(stewart_recording("null", 4)[0], 0)

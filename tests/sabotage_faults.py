@@ -57,7 +57,7 @@ def wrap(mp: pytest.MonkeyPatch, module: str, name: str, change: Callable) -> No
 
 def stage_locate_p_0p5(mp: pytest.MonkeyPatch) -> None:
     """The stages' localisation lists a residual against a driver at p <= 0.5, not 0.01."""
-    from calibench.scenarios.discover import stage_words
+    from calibench.scenarios.stages import discovery_words as stage_words
 
     mp.setattr(stage_words, "LOCATE_P", 0.5)
 

@@ -127,7 +127,7 @@ def null_claims() -> dict:
 def discover_nulls():
     """discover on 30 fresh null recordings per scenario at several floors: the false-claim rate."""
     from calibench.estimators.discovery.select import FLOOR
-    from calibench.scenarios.discover.arm_cmm import ARM_FLOOR
+    from calibench.scenarios.arm_cmm.discovery import ARM_FLOOR
 
     rates = null_claims()
     rows = [
@@ -153,7 +153,7 @@ def discover_nulls():
 
 def paper_recording():
     """The seed paper's measured belt-stage tables as a stage recording."""
-    from calibench.scenarios.discover.stage import paper_belt_recording
+    from calibench.scenarios.stages.discovery import paper_belt_recording
 
     need_data(DATA / "seed_belt_stage")
     return paper_belt_recording(DATA / "seed_belt_stage")
@@ -163,7 +163,7 @@ def paper_recording():
 def paper_discovery(holdout: str) -> dict:
     """discover belt-stage on the seed paper's measured tables, holding out whole rows or
     columns."""
-    from calibench.scenarios.discover.stage import discover_stage
+    from calibench.scenarios.stages.discovery import discover_stage
 
     return discover_stage("belt-stage", paper_recording(), SEED, holdout)[0]
 
@@ -256,7 +256,7 @@ def stewart_located():
 def growing_reversal():
     """What discover belt-stage says of the belt's growing lost motion (the suite's elastic
     recording, seed 2, as tests/scenarios/test_discover_twin.py runs it)."""
-    from calibench.scenarios.discover.stage import discover_stage
+    from calibench.scenarios.stages.discovery import discover_stage
     from calibench.sim.concealed import stage_recording
 
     d, _ = discover_stage("belt-stage", stage_recording("belt-stage", "elastic", 2)[0], 0)

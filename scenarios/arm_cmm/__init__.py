@@ -2,13 +2,13 @@
 (:mod:`.scenario`), its rerun layout (:mod:`.viewer`),
 ``calibench fit arm-cmm`` (:mod:`.fit`) and the arms as the estimators see them (:mod:`.arms`)."""
 
-from calibench.scenarios.instrument import DISCOVER, Instrument
+from calibench.scenarios.instrument import Instrument
 
 INSTRUMENT = Instrument(
     "arm-cmm",
     f"{__name__}.scenario",
     "ArmCmmConfig",
-    discovery=DISCOVER + "arm_cmm",
+    discovery=f"{__name__}.discovery",
     run_s=4.0,
     suite=(("null", 3), ("eccentricity", 3), ("thermal", 2), ("compliance", 2)),
     suite_arms=(("ur10", (("null", 2), ("eccentricity", 1), ("compliance", 2))),),

@@ -181,7 +181,7 @@ def discovered_terms(
     """``--effects discover``: the discovery on the training rows alone (held-out rows never
     shape the model), and its joint-angle effects as terms of the fit."""
     # imported when asked: discovery's modules add a second or two to every fit's start
-    from calibench.scenarios.discover.arm_cmm import discover_arm
+    from calibench.scenarios.arm_cmm.discovery import discover_arm
 
     parts = [tr.rec.subset(tr.used) for tr in training]
     discovery, _ = discover_arm(parts if len(parts) > 1 else parts[0], arm=arm)

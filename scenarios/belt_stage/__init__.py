@@ -2,13 +2,13 @@
 (:mod:`.scenario`) and its rerun layout
 (:mod:`.viewer`)."""
 
-from calibench.scenarios.instrument import DISCOVER, Instrument
+from calibench.scenarios.instrument import Instrument
 
 INSTRUMENT = Instrument(
     "belt-stage",
     f"{__name__}.scenario",
     "BeltStageConfig",
-    discovery=DISCOVER + "stage",
+    discovery="calibench.scenarios.stages.discovery",
     fit_model="quadratic",
     renders=True,
     run_s=14.0,

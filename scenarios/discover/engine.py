@@ -1,9 +1,9 @@
 """``calibench discover``: where a recording disagrees with its twin, and which physics is missing.
 
 One engine (``calibench.estimators.discovery``: candidates, held-out selection, localisation,
-the nonsmooth table) and a plug-in per instrument, picked by the scenario's name:
-:mod:`.stage` (belt-stage, vision-stage), :mod:`.arm_cmm`, :mod:`.probe_scanner`,
-:mod:`.stewart`. A plug-in is a module that follows :class:`Plugin`:
+the nonsmooth table) and an adapter per instrument, its ``discovery`` module, named by its line
+in the registry (the stages share ``calibench.scenarios.stages.discovery``). An adapter is a
+module that follows :class:`Plugin`:
 
 1. ``load`` reads the recording(s) in docs/formats.md's format (one clear BadInput line for any
    defect);

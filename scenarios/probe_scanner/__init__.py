@@ -2,13 +2,13 @@
 (:mod:`.scenario`) and its rerun layout
 (:mod:`.viewer`)."""
 
-from calibench.scenarios.instrument import DISCOVER, Instrument
+from calibench.scenarios.instrument import Instrument
 
 INSTRUMENT = Instrument(
     "probe-scanner",
     f"{__name__}.scenario",
     "ProbeScannerConfig",
-    discovery=DISCOVER + "probe_scanner",
+    discovery=f"{__name__}.discovery",
     run_s=4.0,
     suite=(
         ("null", 3),

@@ -2,13 +2,13 @@
 (:mod:`.scenario`) and its rerun layout
 (:mod:`.viewer`)."""
 
-from calibench.scenarios.instrument import DISCOVER, Instrument
+from calibench.scenarios.instrument import Instrument
 
 INSTRUMENT = Instrument(
     "stewart",
     f"{__name__}.scenario",
     "StewartConfig",
-    discovery=DISCOVER + "stewart",
+    discovery=f"{__name__}.discovery",
     run_s=5.0,
     suite=(("null", 3), ("thermal", 1), ("backlash", 2), ("pitch", 2), ("compliance", 2)),
     unwritten=("null", "stick_slip", "sensor_warmup", "tracker_air"),

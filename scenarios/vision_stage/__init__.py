@@ -2,13 +2,13 @@
 (:mod:`.scenario`) and its rerun layout
 (:mod:`.viewer`)."""
 
-from calibench.scenarios.instrument import DISCOVER, Instrument
+from calibench.scenarios.instrument import Instrument
 
 INSTRUMENT = Instrument(
     "vision-stage",
     f"{__name__}.scenario",
     "VisionStageConfig",
-    discovery=DISCOVER + "stage",
+    discovery="calibench.scenarios.stages.discovery",
     fit_model="cubic",
     renders=True,
     run_s=19.0,

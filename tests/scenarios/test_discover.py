@@ -163,7 +163,7 @@ def test_a_gear_harmonic_whose_phase_each_session_sets_is_found_per_recording(tm
 def test_a_gear_harmonic_the_sessions_share_is_not_split_per_recording():
     """The same gear in two sessions with one phase and amplitude: one transmission for both (a
     phase per recording would fit noise)."""
-    from calibench.scenarios.discover.arm_cmm import discover_arm
+    from calibench.scenarios.arm_cmm.discovery import discover_arm
 
     recs = [
         arm_recording(
@@ -195,7 +195,7 @@ def test_a_tool_guessed_100_mm_off_leaves_no_structure_behind():
     import numpy as np
 
     from calibench.recordings import ArmRecording
-    from calibench.scenarios.discover.arm_cmm import discover_arm
+    from calibench.scenarios.arm_cmm.discovery import discover_arm
     from calibench.scenes.arm_cmm import load_arm
     from calibench.sim.arm_cmm import ArmSim, ArmTruth, default_errors
 
@@ -220,7 +220,7 @@ def test_postures_that_turn_one_joint_only_leave_the_geometry_nothing_to_claim()
     import numpy as np
 
     from calibench.recordings import ArmRecording
-    from calibench.scenarios.discover.arm_cmm import discover_arm
+    from calibench.scenarios.arm_cmm.discovery import discover_arm
     from calibench.scenes.arm_cmm import load_arm
     from calibench.sim.arm_cmm import ArmSim, ArmTruth
 
@@ -238,7 +238,7 @@ def test_postures_that_turn_one_joint_only_leave_the_geometry_nothing_to_claim()
 def test_an_eccentric_shoulder_encoder_is_not_called_compliance():
     """Joint 2's gravity torque is nearly a sinusoid of its own angle; the other joints' angles
     tell the two apart."""
-    from calibench.scenarios.discover.arm_cmm import discover_arm
+    from calibench.scenarios.arm_cmm.discovery import discover_arm
 
     for arm in ("arm-cmm", "ur10"):
         rec, manifest = arm_recording("eccentricity", 6, arm=arm, joint=2)
@@ -256,7 +256,7 @@ def test_a_pedestal_warming_up_is_a_drift_of_the_points_in_time():
     fitted to an exponential: within a factor of 1.5), and not along x or y beyond 4 std."""
     import numpy as np
 
-    from calibench.scenarios.discover.arm_cmm import discover_arm
+    from calibench.scenarios.arm_cmm.discovery import discover_arm
 
     rec, manifest = arm_recording("pedestal_warmup", 21)
     d, _ = discover_arm(rec)
@@ -275,7 +275,7 @@ def test_thermal_expansion_without_a_temperature_change_is_called_confounded(tmp
     a residual against a driver at p <= 0.01 each: at most 12 % of nulls locate anything by
     chance, and this seed is not one of them), and thermal expansion is called confounded."""
     rec, manifest = stage_recording("belt-stage", "null", 3)
-    from calibench.scenarios.discover.stage import discover_stage
+    from calibench.scenarios.stages.discovery import discover_stage
 
     d, _ = discover_stage("belt-stage", rec)
     assert d["located"] == [], d["located"]
@@ -311,7 +311,7 @@ def test_paper_belt_stage_residual_is_table_3_and_lives_in_y(real_data):
     """The seed paper's measured tables with its quadratic as the simulation: the residual RMS is
     Table 3's, sqrt((31.96 + 24.08) / 242) = 0.4812 mm (to its printed digits), and the located
     structure is the Y error against y."""
-    from calibench.scenarios.discover.stage import discover_stage, paper_belt_recording
+    from calibench.scenarios.stages.discovery import discover_stage, paper_belt_recording
 
     d, _ = discover_stage(
         "belt-stage", paper_belt_recording(real_data / "seed_belt_stage"), 0, "columns"
@@ -325,7 +325,7 @@ def test_what_is_left_is_judged_against_the_repeatability(monkeypatch):
     """A null recording ends at its repeatability and says so; the same machine with lost motion
     and no candidate allowed to find it (the candidate list emptied) must not stop silently: it
     reports the held-out RMS against the repeatability from repeats, after the effects."""
-    import calibench.scenarios.discover.stage as disc
+    import calibench.scenarios.stages.discovery as disc
 
     null, _ = stage_recording("vision-stage", "null", 5)
     d, _ = disc.discover_stage("vision-stage", null)

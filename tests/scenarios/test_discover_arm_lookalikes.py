@@ -14,9 +14,9 @@ import pytest
 
 from calibench.recordings import load_arm_csv
 from calibench.recordings.records import ArmRecording
+from calibench.scenarios.arm_cmm.discovery import discover_arm
+from calibench.scenarios.arm_cmm.discovery_words import ARM_EXPERIMENTS
 from calibench.scenarios.cli import main
-from calibench.scenarios.discover.arm_cmm import discover_arm
-from calibench.scenarios.discover.arm_cmm_words import ARM_EXPERIMENTS
 from calibench.scenarios.discover.same_machine import EXPLAINED, SAME_ARM_MM, own_geometry_rms
 from calibench.scenarios.report import BadInput
 from calibench.scenes.arm_cmm import load_arm

@@ -5,8 +5,8 @@ never says "nothing missing" beside structure it located."""
 import numpy as np
 
 from calibench.estimators.discovery.noise import Noise
-from calibench.scenarios.discover.probe_scanner import discover_scanner
 from calibench.scenarios.discover.report import verdict
+from calibench.scenarios.probe_scanner.discovery import discover_scanner
 from calibench.sim.concealed import scanner_recording
 
 

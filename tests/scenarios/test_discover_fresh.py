@@ -4,7 +4,7 @@
 import numpy as np
 
 from calibench.scenarios.discover.fresh import score_on_fresh
-from calibench.scenarios.discover.probe_scanner import discover_scanner
+from calibench.scenarios.probe_scanner.discovery import discover_scanner
 from calibench.sim.concealed import scanner_recording
 
 

@@ -6,7 +6,7 @@ recording with Gaussian noise, where nothing is set aside."""
 
 import numpy as np
 
-from calibench.scenarios.discover.probe_scanner import discover_scanner
+from calibench.scenarios.probe_scanner.discovery import discover_scanner
 from calibench.sim.concealed import scanner_recording
 from calibench.sim.concealed.noise import OUTLIER_SHARE
 

@@ -9,8 +9,8 @@ import json
 import re
 
 from calibench.scenarios.cli import main
-from calibench.scenarios.discover.probe_scanner import discover_scanner
-from calibench.scenarios.discover.scanner_words import (
+from calibench.scenarios.probe_scanner.discovery import discover_scanner
+from calibench.scenarios.probe_scanner.discovery_words import (
     SEPARATE_BY_AN_ANGLE_REFERENCE,
     TURN_THE_PLATE,
 )
@@ -87,7 +87,7 @@ def test_a_warm_second_recording_tells_thermal_expansion_from_a_scale(tmp_path):
     """A belt stage whose scale expands 10-25 ppm/K, recorded in a room that rose 0.3 K: the
     expansion is one number with the error map's scale, said to be confounded with the
     experiment (repeat it warm), nothing claimed. The same machine recorded again 3 K warmer
-    (its own passes, wander and noise; scenarios/discover/stage_sessions.py) and both given to
+    (its own passes, wander and noise; scenarios/stages/discovery_sessions.py) and both given to
     ``discover``: the coefficient on each axis within 3 of its stated std of the truth."""
     cold, manifest = stage_recording("belt-stage", "thermal", 9700, rise_k=0.3)
     warm, _ = stage_recording("belt-stage", "thermal", 9700, rise_k=0.3, warmer_k=3.0)
@@ -130,9 +130,9 @@ def test_a_second_recording_is_taken_only_from_the_same_machine():
     4 K warmer, the plate turned; each noise of the suites) well within the limits, and another
     machine of the same model (its as-built errors drawn anew) beyond them (a scanner's rail
     tolerances let 7 % of pairs of scanners agree within the limit: these do not)."""
-    from calibench.scenarios.discover.scanner_sessions import SAME_RAIL_MM
-    from calibench.scenarios.discover.stage_sessions import SAME_MAP_MM, map_difference
+    from calibench.scenarios.probe_scanner.discovery_sessions import SAME_RAIL_MM
     from calibench.scenarios.probe_scanner.scenario import ProbeScannerConfig
+    from calibench.scenarios.stages.discovery_sessions import SAME_MAP_MM, map_difference
 
     for scenario, degree in (("belt-stage", 2), ("vision-stage", 3)):
         for seed, noise in ((11, "t3"), (12, "drift"), (13, "outliers")):
@@ -145,7 +145,7 @@ def test_a_second_recording_is_taken_only_from_the_same_machine():
             other, _ = stage_recording(scenario, "combined", seed + 50, noise=noise)
             assert map_difference([first, other], degree).max() > 1.5 * SAME_MAP_MM
 
-    from calibench.scenarios.discover.probe_scanner import scene_model
+    from calibench.scenarios.probe_scanner.discovery import scene_model
 
     config = ProbeScannerConfig()
     for seed, noise in ((11, "t3"), (12, "drift"), (13, "outliers")):

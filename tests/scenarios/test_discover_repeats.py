@@ -6,7 +6,7 @@ import dataclasses
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from calibench.scenarios.discover.stewart import discover_stewart, stations
+from calibench.scenarios.stewart.discovery import discover_stewart, stations
 from calibench.sim.concealed import stewart_recording
 
 

@@ -13,8 +13,8 @@ import pytest
 from calibench.estimators.discovery.stewart import AXIS
 from calibench.scenarios.cli import main
 from calibench.scenarios.discover.same_machine import SAME_PLATFORM_MM, own_geometry_rms
-from calibench.scenarios.discover.stewart import EXPERIMENTS, discover_stewart
 from calibench.scenarios.report import BadInput
+from calibench.scenarios.stewart.discovery import EXPERIMENTS, discover_stewart
 from calibench.sim.concealed import stewart_recording
 
 SEED = 3  # a leg growing 11.2 ppm/K (the suite's 10-25)

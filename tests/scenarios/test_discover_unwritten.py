@@ -10,13 +10,13 @@ scored again on a fresh recording of each machine (scenarios/discover/suite_unwr
 
 import numpy as np
 
-from calibench.scenarios.discover.probe_scanner import discover_scanner
 from calibench.scenarios.discover.suite_unwritten import (
     run_unwritten,
     score_unwritten,
     unwritten_cases,
     unwritten_table,
 )
+from calibench.scenarios.probe_scanner.discovery import discover_scanner
 from calibench.sim.concealed import scanner_recording
 from calibench.sim.concealed.noise import MISSPECIFIED
 from docs.figures.discovery_unwritten import unwritten_table as unwritten_table_words

@@ -104,7 +104,7 @@ def test_discover_names_the_joints_gravity_hardly_loads(real_data, tmp_path):
 def test_torques_are_said_to_three_figures_of_the_larger():
     """A joint's torque range in discover's words: three figures, and a value a thousandth of
     the larger said as 0 (not -0.000534, nor the '-0 to -0' of whole numbers)."""
-    from calibench.scenarios.discover.arm_cmm_words import torque_range
+    from calibench.scenarios.arm_cmm.discovery_words import torque_range
 
     assert torque_range(np.array([-108.2, -0.000534])) == "-108 to 0"
     assert torque_range(np.array([-0.31, 0.2])) == "-0.31 to 0.2"

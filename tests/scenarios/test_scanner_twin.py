@@ -1,10 +1,10 @@
-"""The probe scanner's twin updated on top of the replayed one (scenarios/discover/scanner_twin.py):
-what discover finds against a twin is what that twin left, so the written twin must read as the
-old twin's effects plus the found ones."""
+"""The probe scanner's twin updated on top of the replayed one
+(scenarios/probe_scanner/discovery_twin.py): what discover finds against a twin is what that
+twin left, so the written twin must read as the old twin's effects plus the found ones."""
 
 import numpy as np
 
-from calibench.scenarios.discover.scanner_twin import twin_table
+from calibench.scenarios.probe_scanner.discovery_twin import twin_table
 
 RAIL = {"d_mm": 1.0, "dL_mm": 0.1, "alpha0_rad": 0.2, "plate_centre_mm": [0.0, 0.0]}
 

@@ -1,6 +1,6 @@
 """What the arm's discovery chooses among: the chain's geometry at fit's solution, each joint's
 encoder eccentricity and transmission harmonics (one phase, or one per recording), the
-compliances by fit's rules (:mod:`~calibench.scenarios.discover.arm_cmm_compliance`), thermal
+compliances by fit's rules (:mod:`~calibench.scenarios.arm_cmm.discovery_compliance`), thermal
 growth and drift; and, for what none of them explains, a table over one joint's angle.
 """
 
@@ -21,7 +21,7 @@ from calibench.estimators.discovery.arm import (
 from calibench.estimators.discovery.effect import Drivers, Effect
 from calibench.estimators.discovery.fit import Signal
 from calibench.estimators.discovery.select import Discovery, keep_table
-from calibench.scenarios.discover.arm_cmm_compliance import compliance_candidates
+from calibench.scenarios.arm_cmm.discovery_compliance import compliance_candidates
 
 
 @dataclasses.dataclass

@@ -31,9 +31,9 @@ from calibench.recordings.stage import repeated_pass
 from calibench.scenarios.discover.folds import block_folds
 from calibench.scenarios.discover.fresh import structure
 from calibench.scenarios.discover.report import describe_effects, fit_and_noise, verdict
-from calibench.scenarios.discover.stage_words import locate_stage, stage_confounds
 from calibench.scenarios.discover.twin_merge import carried, given_tables, stage_drives
 from calibench.scenarios.report import BadInput
+from calibench.scenarios.stages.discovery_words import locate_stage, stage_confounds
 
 # the degree of the scene's own error map, by the registry's fit model of the stage
 MAP_DEGREE = {"quadratic": 2, "cubic": 3}
@@ -381,7 +381,7 @@ def discover(scenario: str, rec, seed: int, holdout, config, arm=None) -> tuple[
     """:func:`discover_stage` with the twin of the ``run --config`` file ``config``; several
     recordings of one machine are joined (:func:`stage_sessions.joined`) and discovered as one
     with each one's passes its own."""
-    from calibench.scenarios.discover.stage_sessions import joined, same_machine
+    from calibench.scenarios.stages.discovery_sessions import joined, same_machine
 
     recs = list(rec) if isinstance(rec, (list, tuple)) else [rec]
     same_machine(recs, stage_degree(scenario))

@@ -38,8 +38,8 @@ from calibench.estimators.discovery.probe_scanner import (
 from calibench.estimators.discovery.select import FLOOR, keep_table, prune, select
 from calibench.scenarios.discover.fresh import structure
 from calibench.scenarios.discover.gross import without_gross
-from calibench.scenarios.discover.scanner_sessions import SYMMETRY, TOP_HARMONIC, assemble
-from calibench.scenarios.discover.scanner_words import (
+from calibench.scenarios.probe_scanner.discovery_sessions import SYMMETRY, TOP_HARMONIC, assemble
+from calibench.scenarios.probe_scanner.discovery_words import (
     BIN_DEG,
     TURN_THE_PLATE,
     locate_scanner,
@@ -325,10 +325,10 @@ def discover(scenario: str, rec, seed: int, holdout, config, arm=None) -> tuple[
 
 
 def twin_tables(scenario: str, found: dict, config, arm=None) -> tuple[dict, list[str]]:
-    """The twin's tables (:func:`~calibench.scenarios.discover.scanner_twin.twin_table`) and the
-    accepted effects it cannot carry."""
-    from calibench.scenarios.discover.scanner_twin import twin_table
+    """The twin's tables (:func:`.discovery_twin.twin_table`) and the accepted effects it cannot
+    carry."""
     from calibench.scenarios.discover.twin_merge import carried, given_tables
+    from calibench.scenarios.probe_scanner.discovery_twin import twin_table
 
     left = [
         e["name"]

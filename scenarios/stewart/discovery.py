@@ -27,9 +27,9 @@ from calibench.scenarios.discover.same_machine import (
     own_geometry_rms,
     refuse_another,
 )
-from calibench.scenarios.discover.stewart_locate import locate
-from calibench.scenarios.discover.stewart_sessions import frame_per_recording, joined
 from calibench.scenarios.report import BadInput
+from calibench.scenarios.stewart.discovery_locate import locate
+from calibench.scenarios.stewart.discovery_sessions import frame_per_recording, joined
 
 # The platform's practical floor: 4 % of the held-out RMS. One leg's effect shows on a sixth of
 # the rows; the null recordings of the suite (benchmarks/discover.py) stay below 1 %.
@@ -366,7 +366,7 @@ def _discover_stewart(rec, rec_id, seed: int, floor: float, config) -> tuple[dic
 
 
 # --- the plug-in (calibench.scenarios.discover.engine.Plugin) -------------------------------------
-from calibench.scenarios.discover.stewart_twin import twin_tables as twin_tables  # noqa: E402
+from calibench.scenarios.stewart.discovery_twin import twin_tables as twin_tables  # noqa: E402
 
 HOLDOUTS: tuple[str, ...] = ()  # its own folds: blocks of poses (folds.block_folds)
 MANY_RECORDINGS = True  # one platform, warm and cold, say: fitted together (stewart_sessions)

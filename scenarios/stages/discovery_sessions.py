@@ -69,7 +69,7 @@ def map_difference(recs: list[StageRecording], degree: int) -> np.ndarray:
         Each recording's map difference, the RMS over its rows and axes of what the shared map
         leaves beyond the separate maps (mm).
     """
-    from calibench.scenarios.discover.stage import poly_base
+    from calibench.scenarios.stages.discovery import poly_base
 
     rec = joined(recs)
     which = np.repeat(np.arange(len(recs)), [len(r) for r in recs])

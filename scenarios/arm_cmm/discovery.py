@@ -22,13 +22,13 @@ from calibench.estimators.discovery.arm import ArmDrivers
 from calibench.estimators.discovery.fit import Signal
 from calibench.estimators.discovery.noise import Noise
 from calibench.estimators.discovery.select import prune, select
-from calibench.scenarios.discover.arm_cmm_candidates import add_joint_table, arm_candidates
-from calibench.scenarios.discover.arm_cmm_sessions import (
+from calibench.scenarios.arm_cmm.discovery_candidates import add_joint_table, arm_candidates
+from calibench.scenarios.arm_cmm.discovery_sessions import (
     carried_to_sessions,
     say_belonging,
     shared_unless_sessions_differ,
 )
-from calibench.scenarios.discover.arm_cmm_words import arm_confounds, locate_arm
+from calibench.scenarios.arm_cmm.discovery_words import arm_confounds, locate_arm
 from calibench.scenarios.discover.fresh import structure
 from calibench.scenarios.discover.report import describe_effects, fit_and_noise
 from calibench.scenarios.report import BadInput
