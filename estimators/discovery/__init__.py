@@ -20,11 +20,13 @@ The recipe (issue 8's research notes):
    with the experiment that would separate the two.
 
 The modules: the candidate protocol (:mod:`.effect`), the linear layer (:mod:`.fit`), selection
-(:mod:`.select`), noise from repeats (:mod:`.noise`), localisation (:mod:`.locate`), the
-``nonsmooth`` table (:mod:`.nonsmooth`), the harmonic-search kernel (:mod:`.harmonics`); and
-each instrument's candidates: :mod:`.stage` (belt-stage, vision-stage), :mod:`.arm` (arm-cmm),
-:mod:`.probe_scanner`, :mod:`.stewart`. The plug-ins that replay a recording with its twin and
-drive this engine live in ``calibench.scenarios.discover``.
+and the table kept for what no candidate explains (:mod:`.select`), noise from repeats
+(:mod:`.noise`), localisation (:mod:`.locate`), the ``nonsmooth`` table (:mod:`.nonsmooth`), the
+harmonic-search kernel (:mod:`.harmonics`); and each instrument's candidates: :mod:`.stage`
+(belt-stage, vision-stage), :mod:`.arm` (arm-cmm), :mod:`.probe_scanner`, :mod:`.stewart`. The
+adapters that replay a recording with its twin and drive this engine live in each instrument's
+folder (``calibench.scenarios.<instrument>.discovery``); ``calibench.scenarios.discover`` picks
+one by the registry and holds what serves them all.
 
 Residual arrays are in mm; drivers as in :mod:`.effect`.
 """
