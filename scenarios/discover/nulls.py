@@ -25,8 +25,8 @@ def null_claim_rates(
     Parameters
     ----------
     floors_by_scenario : dict
-        {scenario ("arm-cmm:ur10" for the UR10): the floors to try (fractions of the held-out
-        RMS)}, in the order the result keeps.
+        {scenario (or ``NAME:ARM``, with a further arm): the floors to try (fractions of the
+        held-out RMS)}, in the order the result keeps.
     nulls : int
         Null recordings per scenario.
     executor : concurrent.futures.Executor, optional

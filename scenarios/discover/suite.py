@@ -109,7 +109,8 @@ NULL_SEED = (
 def null_claims(scenario: str, k: int, floors) -> list[bool]:
     """For the null calibration of the acceptance floor: whether ``discover`` claims any effect
     (the twin's own ``geometry`` aside) on the fresh null recording ``k`` of ``scenario``
-    ("arm-cmm:ur10" for the UR10), at each of ``floors``; one recording, every floor."""
+    (or ``NAME:ARM``, the instrument with a further arm), at each of ``floors``; one recording,
+    every floor."""
     rec, _ = recorded(scenario, "null", NULL_SEED + k)
     return [
         any(e["name"] not in NOT_CONCEALED for e in searched(scenario, rec, 0, f)[0]["effects"])
