@@ -22,14 +22,14 @@ demo: $(VENV)/.installed
 
 # The suite over every core (pytest-xdist): `make test` in minutes, `make test-slow` the minutes of
 # evidence marked slow (the README's figures regenerated and compared, the discovery suites). CI
-# runs both.
+# runs both; test-slow ends with its 25 longest tests' times, to keep tests/slow_tests.txt true.
 WORKERS ?= auto
 
 test: $(VENV)/.installed
 	$(BIN)/python -m pytest -q -n $(WORKERS) -m "not slow"
 
 test-slow: $(VENV)/.installed
-	$(BIN)/python -m pytest -q -n $(WORKERS) -m slow
+	$(BIN)/python -m pytest -q -n $(WORKERS) -m slow --durations=25
 
 quick: $(VENV)/.installed
 	$(BIN)/python -m pytest -q -n $(WORKERS) -m "not slow" tests/estimators tests/test_recordings.py tests/test_bad_input.py tests/scenarios/test_iso230.py
