@@ -29,7 +29,8 @@ class Instrument:
         Its discovery adapter's module (:class:`calibench.scenarios.discover.engine.Plugin`);
         None: ``discover`` does not serve it.
     fit_model : str or None
-        The stage map ``calibench fit`` applies ("quadratic", "cubic"), or None.
+        The model ``calibench fit`` applies: a stage's map ("quadratic", "cubic"), an arm's
+        calibration ("arm"), or None (no ``fit``).
     renders : bool
         Has a camera: ``--fidelity render|analytic`` means something.
     run_s : float
@@ -47,6 +48,9 @@ class Instrument:
         no candidate writes down, "null" first.
     unwritten_nulls : int
         Null recordings in the second suite (the other kinds take 3).
+    options : tuple of str
+        The command-line options only it takes (``--arm``: an ARM.toml or a built-in arm;
+        ``--save-images``: ``run``'s rendered views for another calibration tool).
     coverage : tuple of (str, int) or None
         The coverage study's concealed kind and recordings per seed asked
         (:mod:`calibench.scenarios.discover.stated_errors`); None: not in the study.
@@ -64,3 +68,4 @@ class Instrument:
     unwritten: tuple[str, ...] = ()
     unwritten_nulls: int = 6
     coverage: tuple[str, int] | None = None
+    options: tuple[str, ...] = ()

@@ -94,6 +94,18 @@ def unregister(name: str) -> None:
     _built.pop(name, None)
 
 
+def takers(option: str) -> tuple[str, ...]:
+    """The instruments that take the command-line ``option`` (their lines' ``options``)."""
+    return tuple(i.name for i in instruments() if option in i.options)
+
+
+def check_option(option: str, given, name: str) -> None:
+    """One line (BadInput) when ``option`` was ``given`` (not None) to an instrument that does
+    not take it."""
+    if given is not None and name not in takers(option):
+        raise BadInput(f"{option} applies to {', '.join(takers(option))}, not {name}")
+
+
 def instrument(name: str) -> Instrument:
     """The registry's line for ``name``; one clear line (BadInput) for a name it does not hold."""
     if name not in _INSTRUMENTS:
@@ -152,7 +164,7 @@ def __getattr__(name: str):
     # read when asked, not bound at import: an extension may register after this module loads
     if name == "NAMES":  # tuple of str: every registered instrument's name
         return tuple(_INSTRUMENTS)
-    if name == "FIT_MODELS":  # {name: the stage map ``fit`` applies}
+    if name == "FIT_MODELS":  # {name: the model ``fit`` applies}
         return {i.name: i.fit_model for i in instruments() if i.fit_model}
     if name == "RENDERING":  # tuple of str: the instruments with a camera
         return tuple(i.name for i in instruments() if i.renders)

@@ -9,6 +9,8 @@ INSTRUMENT = Instrument(
     f"{__name__}.scenario",
     "ArmCmmConfig",
     discovery=f"{__name__}.discovery",
+    fit_model="arm",
+    options=("--arm",),
     run_s=4.0,
     suite=(("null", 3), ("eccentricity", 3), ("thermal", 2), ("compliance", 2)),
     suite_arms=(("ur10", (("null", 2), ("eccentricity", 1), ("compliance", 2))),),

@@ -24,4 +24,5 @@ INSTRUMENT = Instrument(
     ),
     unwritten=("null", "presliding", "lagged_thermal", "rail_step"),
     coverage=("combined", 1),
+    options=("--save-images",),
 )

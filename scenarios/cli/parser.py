@@ -127,6 +127,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _run_verb(sub) -> None:
     """``calibench run``'s parser (simulate, calibrate, compare), added to ``sub``."""
+    from calibench.scenarios.registry import takers
+
+    arm = ", ".join(takers("--arm"))  # the instruments with an arm description
+    views = ", ".join(takers("--save-images"))
+
     from calibench.scenarios.registry import NAMES
 
     names = ", ".join(NAMES)
@@ -154,12 +159,12 @@ def _run_verb(sub) -> None:
         "--save-images",
         type=_folder,
         metavar="DIR",
-        help="belt-stage: also write the run's rendered views to DIR with truth.json (the "
+        help=f"{views}: also write the run's rendered views to DIR with truth.json (the "
         "camera's true intrinsics, each view's exact corners), to test a calibration tool on",
     )
     r.add_argument(
         "--arm",
-        help="arm-cmm: ARM.toml or a built-in arm (arm-cmm, ur10) instead of the seed's arm",
+        help=f"{arm}: ARM.toml or a built-in arm (arm-cmm, ur10) instead of the seed's arm",
     )
 
 
@@ -167,12 +172,14 @@ def _fit_verb(sub) -> None:
     """``calibench fit``'s parser (a model fitted to real recordings), added to ``sub``."""
     from calibench.scenarios.registry import FIT_MODELS
 
-    fit_names = ", ".join(list(FIT_MODELS) + ["arm-cmm"])
+    arm = ", ".join(n for n, m in FIT_MODELS.items() if m == "arm")  # the arm's own options
+
+    fit_names = ", ".join(FIT_MODELS)
     f = sub.add_parser(
         "fit",
         help="fit the scenario's error model to real recordings (CSV)",
         description="Fit the scenario's calibration model to recordings; writes DIR/fit.json. "
-        "Stages: one recording (x_cmd_mm, y_cmd_mm, x_meas_mm, y_meas_mm). arm-cmm: "
+        f"Stages: one recording (x_cmd_mm, y_cmd_mm, x_meas_mm, y_meas_mm). {arm}: "
         "one or more training recordings (q1_deg.., x_mm, y_mm, z_mm), each with its "
         "own base frame, and recordings to test the result on.",
     )
@@ -180,7 +187,7 @@ def _fit_verb(sub) -> None:
     f.add_argument("recordings", type=Path, nargs="+", metavar="RECORDING", help="CSV recording(s)")
     _out(f, "<scenario>-fit", "fit")
     f.add_argument(
-        "--arm", help="arm-cmm: ARM.toml or a built-in arm (arm-cmm, ur10); default the seed's arm"
+        "--arm", help=f"{arm}: ARM.toml or a built-in arm (arm-cmm, ur10); default the seed's arm"
     )
     f.add_argument(
         "--test",
@@ -188,7 +195,7 @@ def _fit_verb(sub) -> None:
         action="append",
         default=[],
         metavar="CSV",
-        help="arm-cmm: a recording in the first training recording's frame to test on (repeatable)",
+        help=f"{arm}: a recording in the first training recording's frame to test on (repeatable)",
     )
     f.add_argument(
         "--test-new-frame",
@@ -196,31 +203,31 @@ def _fit_verb(sub) -> None:
         action="append",
         default=[],
         metavar="CSV",
-        help="arm-cmm: a recording from another setup: registered on 20 %% of its rows, tested on "
+        help=f"{arm}: a recording from another setup: registered on 20 %% of its rows, tested on "
         "the rest (repeatable)",
     )
     f.add_argument(
         "--holdout",
         type=_fraction,
         metavar="F",
-        help="arm-cmm: keep a fraction F of every training recording out of the fit (fixed seed)",
+        help=f"{arm}: keep a fraction F of every training recording out of the fit (fixed seed)",
     )
     f.add_argument(
         "--leave-one-out",
         action="store_true",
-        help="arm-cmm: each recording a session; each scored by a calibration on the others, its "
+        help=f"{arm}: each recording a session; each scored by a calibration on the others, its "
         "frame registered on 20 %% of its rows, figures on the rest (a new set-up's error)",
     )
     f.add_argument(
         "--model",
         choices=("geometry", "physics"),
-        help="arm-cmm: geometry (kinematics, base, tool) or physics (and the joints' compliance "
+        help=f"{arm}: geometry (kinematics, base, tool) or physics (and the joints' compliance "
         "under gravity); default physics when the arm has masses",
     )
     f.add_argument(
         "--effects",
         metavar="DISCOVERY.json|discover",
-        help="arm-cmm: add the joint-angle effects a discover run found (transmission, "
+        help=f"{arm}: add the joint-angle effects a discover run found (transmission, "
         "eccentricity, "
         "a nonsmooth table) to the model; 'discover' runs the discovery here on the training rows",
     )
@@ -228,6 +235,10 @@ def _fit_verb(sub) -> None:
 
 def _montecarlo_verb(sub) -> None:
     """``calibench montecarlo``'s parser (an accuracy study), added to ``sub``."""
+    from calibench.scenarios.registry import takers
+
+    arm = ", ".join(takers("--arm"))  # the instruments with an arm description
+
     from calibench.scenarios.registry import NAMES
 
     names = ", ".join(NAMES)
@@ -264,7 +275,7 @@ def _montecarlo_verb(sub) -> None:
         default="analytic",
         help="sensor fidelity of each trial (default analytic)",
     )
-    mc.add_argument("--arm", help="arm-cmm: ARM.toml or a built-in arm (arm-cmm, ur10)")
+    mc.add_argument("--arm", help=f"{arm}: ARM.toml or a built-in arm (arm-cmm, ur10)")
     mc.add_argument(
         "--config",
         type=Path,
@@ -275,6 +286,10 @@ def _montecarlo_verb(sub) -> None:
 
 def _discover_verb(sub) -> None:
     """``calibench discover``'s parser (what the twin misses), added to ``sub``."""
+    from calibench.scenarios.registry import takers
+
+    arm = ", ".join(takers("--arm"))  # the instruments with an arm description
+
     d = sub.add_parser(
         "discover",
         help="where a recording disagrees with the twin, and which physics is missing",
@@ -289,7 +304,7 @@ def _discover_verb(sub) -> None:
         "recording",
         type=Path,
         nargs="+",
-        help="CSV in docs/formats.md's format for the scenario (arm-cmm: "
+        help=f"CSV in docs/formats.md's format for the scenario ({arm}: "
         "one or more, each with its own base frame; probe-scanner: one, or several of one "
         "machine with the plate turned on the table between them; the stages and stewart: "
         "one, or several of one machine, e.g. cold and warm, each stewart recording from its "
@@ -300,7 +315,7 @@ def _discover_verb(sub) -> None:
         "--seed", type=_seed, default=0, help="seed of the permutation tests (default 0)"
     )
     d.add_argument(
-        "--arm", help="arm-cmm: ARM.toml or a built-in arm (arm-cmm, ur10); default the seed's arm"
+        "--arm", help=f"{arm}: ARM.toml or a built-in arm (arm-cmm, ur10); default the seed's arm"
     )
     d.add_argument(
         "--config",

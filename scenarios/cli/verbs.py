@@ -11,7 +11,7 @@ from pathlib import Path
 
 from calibench.scenarios.cli.claims import Claim, claim, release
 from calibench.scenarios.cli.status import EXIT_CHECK_FAILED, EXIT_OK, run_verdict
-from calibench.scenarios.registry import check_fidelity
+from calibench.scenarios.registry import check_fidelity, check_option, takers
 
 
 def _scenario(name: str):
@@ -61,18 +61,18 @@ def run(args: argparse.Namespace) -> int:
     if unknown:
         raise BadInput(f"config {args.config}: unknown scenario table(s) {', '.join(unknown)}")
     configs = {s.name: override(s.config(), table.get(s.name, {}), s.name) for s in scenarios}
-    if args.save_images is not None and args.scenario != "belt-stage":
-        raise BadInput(f"--save-images applies to belt-stage, not {args.scenario}")
+    check_option("--save-images", args.save_images, args.scenario)
+    arms = [n for n in configs if n in takers("--arm")]
     if args.arm is not None:
-        if "arm-cmm" not in configs:
-            raise BadInput(f"--arm applies to arm-cmm, not {args.scenario}")
-        configs["arm-cmm"] = override(configs["arm-cmm"], {"arm": args.arm}, "arm-cmm")
-    if "arm-cmm" in configs:
+        if not arms:  # run all takes it for the instruments that do
+            check_option("--arm", args.arm, args.scenario)
+        configs.update({n: override(configs[n], {"arm": args.arm}, n) for n in arms})
+    for n in arms:
         from calibench.scenarios.arm_cmm.scenario import check_cones
         from calibench.scenes.arm_cmm import load_arm
 
-        load_arm(configs["arm-cmm"].arm)  # a bad arm is said before anything runs
-        check_cones(configs["arm-cmm"])  # and cones it cannot reach
+        load_arm(configs[n].arm)  # a bad arm is said before anything runs
+        check_cones(configs[n])  # and cones it cannot reach
     failed: list[str] = []
     for s in scenarios:
         out = args.out / s.name if args.scenario == "all" else args.out
@@ -101,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
     if args.save_images is not None:
         from calibench.scenarios.belt_stage.images import save_rendered_views
 
-        truth = save_rendered_views(configs["belt-stage"], args.seed, args.save_images)
+        truth = save_rendered_views(configs[args.scenario], args.seed, args.save_images)
         print(
             f"-> {args.save_images}: {len(truth['corners_px'])} rendered views and truth.json "
             f"(calibench camera {args.save_images}/view*.png --cols {truth['board']['cols']} "
@@ -125,11 +125,12 @@ def fit(args: argparse.Namespace) -> int:
         0 when the fit is done, 1 when the arm's solve did not converge or its fit is far
         beyond any arm's error (a wrong description, wrong units).
     """
+    from calibench.scenarios.registry import FIT_MODELS
     from calibench.scenarios.report import BadInput
 
     s = _scenario(args.scenario)
     out = args.out
-    if s.name == "arm-cmm":
+    if s.fit_model == "arm":
         from calibench.scenarios.cli.fit_arm import fit_arm
 
         return fit_arm(args, out)
@@ -148,7 +149,8 @@ def fit(args: argparse.Namespace) -> int:
     ]
     if arm_only:
         verb = "applies" if len(arm_only) == 1 else "apply"
-        raise BadInput(f"fit {s.name}: {', '.join(arm_only)} {verb} to arm-cmm only")
+        arm_fits = ", ".join(n for n, m in FIT_MODELS.items() if m == "arm")
+        raise BadInput(f"fit {s.name}: {', '.join(arm_only)} {verb} to {arm_fits} only")
     if s.fit_model is None:
         raise BadInput(f"fit: scenario {s.name!r} has no fit model")
     if len(args.recordings) != 1:
@@ -194,8 +196,7 @@ def montecarlo(args: argparse.Namespace) -> int:
         from calibench.scenarios.report import BadInput
         from calibench.scenes.arm_cmm import BUILTIN, load_arm
 
-        if args.scenario != "arm-cmm":
-            raise BadInput(f"--arm applies to arm-cmm, not {args.scenario}")
+        check_option("--arm", args.arm, args.scenario)
         load_arm(args.arm)  # a bad file is said here, not in every trial
         arm = args.arm if args.arm in BUILTIN else str(Path(args.arm).resolve())
     table = None
@@ -257,10 +258,7 @@ def discover(args: argparse.Namespace) -> int:
     from calibench.scenarios.discover.engine import run_discover
 
     out = args.out
-    if args.arm is not None and args.scenario != "arm-cmm":
-        from calibench.scenarios.report import BadInput
-
-        raise BadInput(f"--arm applies to arm-cmm, not {args.scenario}")
+    check_option("--arm", args.arm, args.scenario)
     d = run_discover(
         args.scenario,
         args.recording,

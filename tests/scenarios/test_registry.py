@@ -63,3 +63,14 @@ def test_a_suite_s_arm_reaches_its_recording():
     assert manifest["arm"] == "UR10" and manifest["scenario"] == "arm-cmm"
     _, seed_arm = recorded("arm-cmm", "null", 5000)
     assert seed_arm["arm"] != "UR10"
+
+
+def test_an_instrument_s_own_options_are_on_its_line():
+    """``--arm`` and ``--save-images`` belong to the instruments whose lines list them: given to
+    another, one line names those that take it; not given, nothing is said."""
+    assert registry.takers("--arm") == ("arm-cmm",)
+    assert registry.takers("--save-images") == ("belt-stage",)
+    with pytest.raises(BadInput, match="--arm applies to arm-cmm, not stewart"):
+        registry.check_option("--arm", "ur10", "stewart")
+    registry.check_option("--arm", None, "stewart")
+    assert registry.FIT_MODELS["arm-cmm"] == "arm" and "stewart" not in registry.FIT_MODELS
