@@ -181,7 +181,8 @@ def stage_scene(scenario: str, rec, deg: int, truth=None, geometry=None) -> Stag
 
     n = len(rec)
     x, y = rec.x_cmd_mm, rec.y_cmd_mm
-    sim = replay_stage(scenario, x, y, rec.temp_c, truth, geometry)
+    twin = geometry or _config(scenario, None).geometry  # the scenario's own, by default
+    sim = replay_stage(twin, x, y, rec.temp_c, truth)
     drivers: StageDrivers = {
         "x": x,
         "y": y,
@@ -317,9 +318,7 @@ def _grow_backlash(signals, terms, found, drivers, fold, noise, floor) -> dict:
 def _within_travel(scenario: str, x: np.ndarray, y: np.ndarray, geometry=None) -> None:
     """BadInput when a commanded station lies beyond the twin's travel (by more than 5 % of it):
     the twin cannot replay it, and a recording there is in another unit or of another stage."""
-    from calibench.sim.replay import stage_travel_mm
-
-    travel = stage_travel_mm(scenario, geometry)
+    travel = (geometry or _config(scenario, None).geometry).travel_mm
     for axis, v, t in (("x", x, travel[0]), ("y", y, travel[1])):
         if v.min() < -0.05 * t or v.max() > 1.05 * t:
             raise BadInput(

@@ -68,6 +68,14 @@ PLANS = {
 }
 
 
+def twin_geometry(scenario: str):
+    """The stage twin's default nominal geometry for ``scenario`` (its scene's defaults)."""
+    from calibench.scenes.belt_stage import BeltStageGeometry
+    from calibench.scenes.vision_stage import VisionStageGeometry
+
+    return {"belt-stage": BeltStageGeometry, "vision-stage": VisionStageGeometry}[scenario]()
+
+
 def stage_commands(plan: StagePlan) -> dict:
     """The plan's stations in the order they are visited.
 
@@ -197,7 +205,7 @@ def stage_recording(
     err += reading_noise(noise, session, (n, 2), REFERENCE_NOISE_UM / 1000)
     if pos is None:
         temp = None if truth is None else T
-        pos = replay_stage(scenario, x, y, temp_c=temp, truth=truth, geometry=geometry)
+        pos = replay_stage(geometry or twin_geometry(scenario), x, y, temp_c=temp, truth=truth)
     meas = pos + err
     rec = StageRecording(
         x_cmd_mm=x,
@@ -352,7 +360,7 @@ def _elastic_belt(
     # on top of the twin's own motion (a config's truth and geometry; default: the scenario's)
     truth = dataclasses.replace(twin or BeltStageTruth(), **{f"belt_{axis}": belt})
     geometry = geometry or BeltStageGeometry()
-    pos = replay_stage("belt-stage", x, y, truth=truth, geometry=geometry)
+    pos = replay_stage(geometry, x, y, truth=truth)
     u = x if axis == "x" else y
     travel = geometry.travel_mm["xy".index(axis)]
 

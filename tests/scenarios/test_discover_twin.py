@@ -177,10 +177,10 @@ def test_a_config_s_geometry_is_the_twin_discover_replays(tmp_path):
     x = 2.8 * rec.x_cmd_mm  # the plan spans half the default's 1 m: here 1.38 m
     # the null's own departures from its twin (smooth map and noise), on the wider machine's
     left = np.c_[rec.x_meas_mm, rec.y_meas_mm] - replay_stage(
-        "belt-stage", rec.x_cmd_mm, rec.y_cmd_mm
+        BeltStageGeometry(), rec.x_cmd_mm, rec.y_cmd_mm
     )
     g = BeltStageGeometry(travel_mm=(1500.0, 1000.0), camera_height_mm=2600.0)
-    pos = replay_stage("belt-stage", x, rec.y_cmd_mm, geometry=g) + left
+    pos = replay_stage(g, x, rec.y_cmd_mm) + left
     wide = dataclasses.replace(rec, x_cmd_mm=x, x_meas_mm=pos[:, 0], y_meas_mm=pos[:, 1])
     path = write_blinded(tmp_path, "wide", wide, manifest)
     config = tmp_path / "c.toml"
