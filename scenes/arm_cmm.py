@@ -22,7 +22,8 @@ import numpy as np
 from calibench.errors import BadInput
 
 ARMS_DIR = Path(__file__).resolve().parent / "arms"
-BUILTIN = {"arm-cmm": ARMS_DIR / "arm_cmm.toml", "ur10": ARMS_DIR / "ur10.toml"}
+DEFAULT_ARM = "arm-cmm"  # the seed's 6-joint arm CMM, the arm a run builds when none is named
+BUILTIN = {DEFAULT_ARM: ARMS_DIR / "arm_cmm.toml", "ur10": ARMS_DIR / "ur10.toml"}
 MAX_JOINTS = 12
 
 

@@ -27,7 +27,7 @@ import mujoco
 import numpy as np
 
 from calibench.errors import BadInput
-from calibench.scenes.arm_cmm import ArmDescription, load_arm
+from calibench.scenes.arm_cmm import DEFAULT_ARM, ArmDescription, load_arm
 from calibench.scenes.arm_mjcf import as_built_model, write_as_built
 
 # The seed's Table 1 errors: (da, dd, dalpha, dtheta) of links 1-6 (mm, mm, rad, rad), then dd7,
@@ -73,7 +73,7 @@ def default_errors(arm: ArmDescription, seed: int = 0) -> tuple:
     """The as-built errors a run injects when the config gives none: Table 1 for the seed's arm;
     for any other arm a fixed draw of the seed's sizes (lengths 0.1 mm, angles 1 mrad; beta only
     where two axes are parallel, where it is the error DH cannot express)."""
-    if arm.name == "arm-cmm" and arm.n_joints == 6:
+    if arm.name == DEFAULT_ARM and arm.n_joints == 6:
         return table1_errors()
     return drawn_errors(arm, seed)
 

@@ -105,3 +105,24 @@ def test_every_test_the_slow_list_names_exists():
         function = name.partition("[")[0]
         assert (REPO / path).is_file(), node
         assert f"def {function}(" in (REPO / path).read_text(), node
+
+
+MAX_NAME_FILES = 4
+
+
+def test_an_instruments_name_is_spelled_in_at_most_four_product_files():
+    """A scenario's name is a string in its registry line, its scene, its concealed recordings
+    and at most one more place; every other module asks the registry or imports its ``NAME``.
+    More means a new instrument (or a renamed one) is again a hunt through the tree."""
+    import re
+
+    from calibench.scenarios import registry
+
+    sources = {f: (REPO / f).read_text() for f in _python_files() if f.startswith(PRODUCT_ROOMS)}
+    spread = {}
+    for name in registry.NAMES:
+        quoted = re.compile(rf"[\"']{re.escape(name)}[\"':>]")
+        files = sorted(f for f, text in sources.items() if quoted.search(text))
+        if len(files) > MAX_NAME_FILES:
+            spread[name] = files
+    assert not spread, spread

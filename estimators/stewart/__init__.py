@@ -17,6 +17,8 @@ squares).
   of one leg (of six), with std.
 - :func:`.kinematics.forward_kinematics`: the pose from six leg lengths (Newton).
 - :func:`.kinematics.leg_conditions`: the legs' lengths and their Jacobian's condition at poses.
-- :func:`.joint.adjust_jointly`: maximum likelihood over stations, poses and legs together
-  (:class:`.joint.JointProblem`, solved by the one identification solver).
+- :func:`.adjustment.adjust_jointly`: maximum likelihood over stations, poses and legs together
+  (:class:`.adjustment.JointProblem`, solved by the one identification solver).
+- :func:`.registration.register_frame`, :func:`.registration.register_with_legs`: the tracker's
+  frame, and the legs with it, from poses the tracker measured (discovery's registration).
 """

@@ -20,6 +20,7 @@ from calibench.estimators.identification.basis import Basis
 from calibench.estimators.identification.normal import inverse_normal
 from calibench.estimators.identification.solver import identify
 from calibench.estimators.rotations import matrix_to_rotvec, rotvecs_to_matrices
+from calibench.estimators.stewart.kinematics import leg_derivatives
 
 LEG_PARAMS = ("a", "b", "c", "m", "n", "q", "l")  # r (a, b, c), B (m, n, q), l: one leg's seven
 POSE_PARAMS = ("wx", "wy", "wz", "x", "y", "z")  # a pose's left rotation (rad), its shift (mm)
@@ -222,9 +223,8 @@ class JointProblem:
             )
             * self.w_refl[..., None]
         )
-        uR = np.einsum("nli,nij->nlj", ul, s.R)  # d L / d r_i = u^T R
         legs = (
-            np.concatenate([np.cross(Rr, ul), ul, uR, -ul, np.full((n, 6, 1), -1.0)], axis=2)
+            np.concatenate([np.cross(Rr, ul), ul, leg_derivatives(s.R, ul)], axis=2)
             * self.w_leg[..., None]
         )
         data = np.r_[nest.ravel(), refl.reshape(n * k * 3 * 9), legs.ravel()]

@@ -17,6 +17,13 @@ def leg_lengths(R: np.ndarray, t: np.ndarray, r: np.ndarray, B: np.ndarray) -> n
     return np.linalg.norm(r @ R.T + t - B, axis=1)
 
 
+def leg_derivatives(R: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """d |R r_i + t - B_i| - l_i / d (r_i, B_i, l_i), (n, 6, 7), at poses R (n, 3, 3) whose legs
+    point along u (n, 6, 3) from the base hinge: u^T R, -u^T and -1."""
+    uR = np.einsum("nli,nij->nlj", u, R)
+    return np.concatenate([uR, -u, np.full(u.shape[:2] + (1,), -1.0)], axis=2)
+
+
 def leg_conditions(
     r: np.ndarray, B: np.ndarray, R: np.ndarray, t: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:

@@ -4,8 +4,10 @@
 
 from calibench.scenarios.instrument import Instrument
 
+NAME = "arm-cmm"  # the one spelling of its name (its own modules import it)
+
 INSTRUMENT = Instrument(
-    "arm-cmm",
+    NAME,
     f"{__name__}.scenario",
     "ArmCmmConfig",
     discovery=f"{__name__}.discovery",

@@ -22,6 +22,7 @@ from calibench.estimators.discovery.arm import ArmDrivers
 from calibench.estimators.discovery.fit import Signal
 from calibench.estimators.discovery.noise import Noise
 from calibench.estimators.discovery.select import prune, select
+from calibench.scenarios.arm_cmm import NAME
 from calibench.scenarios.arm_cmm.discovery_candidates import add_joint_table, arm_candidates
 from calibench.scenarios.arm_cmm.discovery_sessions import (
     carried_to_sessions,
@@ -32,6 +33,7 @@ from calibench.scenarios.arm_cmm.discovery_words import arm_confounds, locate_ar
 from calibench.scenarios.discover.fresh import structure
 from calibench.scenarios.discover.report import describe_effects, fit_and_noise
 from calibench.scenarios.report import BadInput
+from calibench.scenes.arm_cmm import DEFAULT_ARM
 
 
 def arm_drivers(
@@ -76,11 +78,10 @@ def arm_drivers(
 # the seed's arm and the UR10, 300 postures) gives no false claim at 2 %, and a real arm's
 # recording holds several deterministic effects of a few per cent each (the UR10's gear harmonics).
 ARM_FLOOR = 0.03
-DEFAULT_ARM = "arm-cmm"  # the seed's arm, a built-in arm's name
 
 
 def discover_arm(
-    rec, seed: int = 0, floor: float = ARM_FLOOR, arm="arm-cmm", truth=None
+    rec, seed: int = 0, floor: float = ARM_FLOOR, arm=DEFAULT_ARM, truth=None
 ) -> tuple[dict, dict]:
     """discovery.json's content for an arm recording (in any instrument frame), and the figure's.
 
@@ -157,7 +158,7 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
     confounds += [c for key, c in among.alike.items() if key in accepted]
     located = locate_arm(sig, terms["xyz"], drivers, rows.q_rad, rows.temp_c, seed)
     out = {
-        "scenario": "arm-cmm",
+        "scenario": NAME,
         "arm": arm.name,
         "samples": len(rows.q_rad),
         "unit": "mm",
@@ -334,7 +335,7 @@ def arm_truth(description, path: Path | None):
 
     t = override(
         ArmTruth(delta=(0.0,) * (5 * description.n_joints + 3)),
-        load_toml(path).get("arm-cmm", {}).get("truth", {}),
+        load_toml(path).get(NAME, {}).get("truth", {}),
         "arm-cmm.truth",
     )
     return t
@@ -349,7 +350,7 @@ def twin_tables(scenario: str, out: dict, config: Path | None, arm=None) -> tupl
     from calibench.estimators.arm.kinematics import param_names
     from calibench.scenes.arm_cmm import load_arm
 
-    description = load_arm(arm or "arm-cmm")
+    description = load_arm(arm or DEFAULT_ARM)
     N = description.n_joints
     base = arm_truth(description, config)
     delta = list(base.delta) if base is not None and base.delta else [0.0] * (5 * N + 3)
@@ -385,7 +386,7 @@ def twin_tables(scenario: str, out: dict, config: Path | None, arm=None) -> tupl
         truth["cable_stiffness_nm_per_rad"] = cables
     from calibench.scenarios.discover.twin_merge import carried, given_tables
 
-    return {"arm-cmm": carried(given_tables(config, "arm-cmm"), {"truth": truth})}, left
+    return {NAME: carried(given_tables(config, NAME), {"truth": truth})}, left
 
 
 # --- the plug-in (calibench.scenarios.discover.engine.Plugin) -------------------------------------
@@ -411,7 +412,7 @@ def load(scenario: str, paths: list, arm=None) -> ArmInput:
 
     if arm is not None and not str(arm).strip():
         raise BadInput("--arm is empty: give an ARM.toml or a built-in arm's name (arm-cmm, ur10)")
-    description = load_arm(arm or "arm-cmm")
+    description = load_arm(arm or DEFAULT_ARM)
     recs = [
         load_arm_csv(p, description.n_joints, MAX_ROWS, np.degrees(description.range_rad))
         for p in paths

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from calibench.estimators.arm.point import AngleTerm
+from calibench.scenarios.arm_cmm import NAME
 from calibench.scenarios.report import BadInput
 
 
@@ -32,7 +33,7 @@ def angle_terms_from_discovery(path, n_joints: int, n_recordings: int = 1) -> li
             raise BadInput(f"{path} is not a discovery.json (not JSON)") from None
     if (
         not isinstance(d, dict)
-        or d.get("scenario") != "arm-cmm"
+        or d.get("scenario") != NAME
         or not isinstance(d.get("effects"), list)
     ):
         raise BadInput(f"{path} is not the discovery.json of an arm-cmm recording")

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from calibench.scenarios.arm_cmm import NAME
 from calibench.scenarios.harness import FIGURE
 from calibench.scenarios.progress import stage
 from calibench.scenarios.report import Report
@@ -48,7 +49,7 @@ def write_figure(out_dir: Path, report: Report, artifacts: dict) -> None:
     ax.semilogy(k, before, "o", color="tab:red", label="nominal model")
     ax.semilogy(k, after, "o", color="tab:green", label="identified model")
     ax.set(
-        xlabel="posture", ylabel="|measured - modelled| (mm)", title="arm-cmm: residual per posture"
+        xlabel="posture", ylabel="|measured - modelled| (mm)", title=f"{NAME}: residual per posture"
     )
     ax.legend()
     fig.savefig(out_dir / FIGURE, dpi=90)

@@ -36,6 +36,7 @@ from calibench.estimators.arm.kinematics import Chain, param_is_angle, param_nam
 from calibench.estimators.arm.point import AngleTerm, PointProblem
 from calibench.estimators.arm.workspace import coverage_warnings
 from calibench.estimators.rotations import matrix_to_rotvec
+from calibench.scenarios.arm_cmm import NAME
 from calibench.scenarios.arm_cmm.arms import chain_of, load_arm
 from calibench.scenarios.arm_cmm.effects import angle_terms_from_discovery
 from calibench.scenarios.arm_cmm.figure import write_fit_figure
@@ -61,7 +62,7 @@ from calibench.scenarios.arm_cmm.training import (
 )
 from calibench.scenarios.provenance import chose_by_effects, chose_or_none, entry, record_score
 from calibench.scenarios.report import BadInput
-from calibench.scenes.arm_cmm import ArmDescription
+from calibench.scenes.arm_cmm import DEFAULT_ARM, ArmDescription
 
 # what other modules read from here (sessions, the benchmarks, the README's figures)
 __all__ = ["MAX_ROWS", "REGISTER_FRACTION", "SPLIT_SEED", "run_arm_fit"]
@@ -155,7 +156,7 @@ def arm_of(arm_spec: str | Path | None) -> ArmDescription:
     """The arm an ``--arm`` names (an ARM.toml or a built-in arm's name; the seed's by default)."""
     if arm_spec is not None and not str(arm_spec).strip():
         raise BadInput("--arm is empty: give an ARM.toml or a built-in arm's name (arm-cmm, ur10)")
-    return load_arm(arm_spec or "arm-cmm")
+    return load_arm(arm_spec or DEFAULT_ARM)
 
 
 def model_of(model: str | None, arm: ArmDescription) -> str:
@@ -240,7 +241,7 @@ def fit_summary(
     prob, s, ident = cal.problem, cal.state, cal.ident
     units = parameter_units(prob)
     result: dict = {
-        "scenario": "arm-cmm",
+        "scenario": NAME,
         "arm": arm.name,
         "model": model,
         "samples": int(len(prob.y)),

@@ -36,6 +36,7 @@ from calibench.estimators.arm.tracker import ConeProblem, TrackerProblem, Tracke
 from calibench.estimators.identification.basis import identifiable_basis
 from calibench.estimators.identification.solver import Identification, identify_identifiable
 from calibench.estimators.rotations import rigid_transform
+from calibench.scenarios.arm_cmm import NAME
 from calibench.scenarios.arm_cmm.arms import chain_of
 from calibench.scenarios.arm_cmm.references import (
     TOL_SIGMA,
@@ -52,16 +53,14 @@ from calibench.scenarios.run_recording import (
     check_plan,
     write_recording,
 )
-from calibench.scenes.arm_cmm import ArmDescription
+from calibench.scenes.arm_cmm import DEFAULT_ARM, ArmDescription
 from calibench.sim.arm_cmm import ArmSim, ArmTruth
-
-NAME = "arm-cmm"
 
 
 @dataclasses.dataclass(frozen=True)
 class ArmCmmConfig:
     # a built-in arm's name or an ARM.toml; a description read once for a whole trial (prior)
-    arm: str | ArmDescription = "arm-cmm"
+    arm: str | ArmDescription = DEFAULT_ARM
     truth: ArmTruth = ArmTruth()
     n_postures: int = 50
     n_candidates: int = 600

@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from calibench.scenarios.arm_cmm import NAME
 from calibench.scenarios.arm_cmm.fit import REGISTER_FRACTION, SPLIT_SEED, run_arm_fit
 from calibench.scenarios.progress import advance, expect, step
 from calibench.scenarios.report import BadInput
@@ -67,7 +68,7 @@ def leave_one_session_out(
         if "effects_from" in r:
             folds[names[k]]["effects_from"] = r["effects_from"]
     result = {
-        "scenario": "arm-cmm",
+        "scenario": NAME,
         "arm": r["arm"],
         "model": r["model"],
         "leave_one_out": table,

@@ -4,8 +4,10 @@
 
 from calibench.scenarios.instrument import Instrument
 
+NAME = "belt-stage"  # the one spelling of its name (its own modules import it)
+
 INSTRUMENT = Instrument(
-    "belt-stage",
+    NAME,
     f"{__name__}.scenario",
     "BeltStageConfig",
     discovery="calibench.scenarios.stages.discovery",

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from calibench.errors import BadInput
+from calibench.scenarios.belt_stage import NAME
 from calibench.scenes.belt_stage import BeltStageGeometry
 from calibench.scenes.checkerboard import TEXTURE_PX_PER_SQUARE
 from calibench.sim.belt_stage import INTRINSIC_VIEW_DEPTH_MM, PULSES_PER_MM
@@ -15,7 +16,6 @@ from calibench.sim.belt_stage import INTRINSIC_VIEW_DEPTH_MM, PULSES_PER_MM
 if TYPE_CHECKING:  # the config's module imports this one
     from calibench.scenarios.belt_stage.scenario import BeltStageConfig
 
-NAME = "belt-stage"
 
 # What the config's checks hold the set-up to (see check_config).
 MAX_ERROR_FRACTION = 0.1  # a positioning error over 10 % of the travel is not a calibration error

@@ -29,6 +29,7 @@ import numpy as np
 
 from calibench.estimators.camera.zhang import CameraCalibration
 from calibench.estimators.stage.error_map import COEF_NAMES, QuadraticFit
+from calibench.scenarios.belt_stage import NAME
 from calibench.scenarios.belt_stage.checks import check_config
 from calibench.scenarios.belt_stage.procedure import (
     Compensation,
@@ -48,8 +49,6 @@ from calibench.scenarios.run_recording import StageRecordingPlan, check_plan, wr
 from calibench.scenes.belt_stage import BeltStageGeometry
 from calibench.sim.belt_stage import BeltStageSim, BeltStageTruth
 from calibench.sim.frame_workers import frame_workers
-
-NAME = "belt-stage"
 
 # The paper's 121 stations (Tables 1-2), mm.
 PAPER_STATIONS_X = (0, 100, 170, 230, 310, 400, 540, 610, 760, 890, 980)

@@ -4,8 +4,10 @@
 
 from calibench.scenarios.instrument import Instrument
 
+NAME = "probe-scanner"  # the one spelling of its name (its own modules import it)
+
 INSTRUMENT = Instrument(
-    "probe-scanner",
+    NAME,
     f"{__name__}.scenario",
     "ProbeScannerConfig",
     discovery=f"{__name__}.discovery",

@@ -38,6 +38,7 @@ from calibench.estimators.discovery.probe_scanner import (
 from calibench.estimators.discovery.select import FLOOR, keep_table, prune, select
 from calibench.scenarios.discover.fresh import structure
 from calibench.scenarios.discover.gross import without_gross
+from calibench.scenarios.probe_scanner import NAME
 from calibench.scenarios.probe_scanner.discovery_sessions import SYMMETRY, TOP_HARMONIC, assemble
 from calibench.scenarios.probe_scanner.discovery_words import (
     BIN_DEG,
@@ -264,7 +265,7 @@ def _discover_scanner(recs: list, seed: int, floor: float, config) -> tuple[dict
     confounds += look_alikes(sig, terms[AXIS], drivers)
     located = locate_scanner(sig, drivers, rec, seed)
     out = {
-        "scenario": "probe-scanner",
+        "scenario": NAME,
         "samples": n,
         "unit": "mm",
         "located": located,
@@ -320,7 +321,7 @@ def discover(scenario: str, rec, seed: int, holdout, config, arm=None) -> tuple[
 
     cfg = ProbeScannerConfig()
     if config is not None:
-        cfg = override(cfg, load_toml(config).get("probe-scanner", {}), "probe-scanner")
+        cfg = override(cfg, load_toml(config).get(NAME, {}), NAME)
     return discover_scanner(rec, seed, config=cfg)
 
 
@@ -336,9 +337,9 @@ def twin_tables(scenario: str, found: dict, config, arm=None) -> tuple[dict, lis
         if e["name"] not in ("runout", "encoder_eccentricity", "scale")
     ]
     # the replayed config's twin as given (its geometry, the rest of its truth) under the update
-    given = given_tables(config, "probe-scanner")
-    table = twin_table(found, given.get("truth"))["probe-scanner"]
-    return {"probe-scanner": carried(given, table)}, left
+    given = given_tables(config, NAME)
+    table = twin_table(found, given.get("truth"))[NAME]
+    return {NAME: carried(given, table)}, left
 
 
 def concealed(scenario: str, kind: str, seed: int, arm=None, **options) -> tuple[object, dict]:

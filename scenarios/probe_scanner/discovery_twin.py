@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from calibench.scenarios.probe_scanner import NAME
+
 
 def twin_table(out: dict, given: dict | None = None) -> dict:
     """``discover --twin``: the accepted effects as parameters of the scanner's simulation (the
@@ -46,4 +48,4 @@ def twin_table(out: dict, given: dict | None = None) -> dict:
             )
         elif e["name"] == "scale":
             truth["probe_scale_ppm"] = truth.get("probe_scale_ppm", 0.0) + p["ppm"]
-    return {"probe-scanner": {"truth": truth}}
+    return {NAME: {"truth": truth}}

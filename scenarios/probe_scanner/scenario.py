@@ -25,12 +25,12 @@ from calibench.estimators.probe_scanner.calibration import (
     paper_sweep_d_mm,
 )
 from calibench.scenarios.harness import write_outputs
+from calibench.scenarios.probe_scanner import NAME
 from calibench.scenarios.report import Check, Parameter, Report
 from calibench.scenarios.run_recording import ScannerRecordingPlan, check_plan, write_recording
 from calibench.scenes.probe_scanner import ProbeScannerGeometry, ProbeScannerNominal
 from calibench.sim.probe_scanner import ProbeScannerSim, ProbeScannerTruth
 
-NAME = "probe-scanner"
 TOL_SIGMA = 5.0
 
 

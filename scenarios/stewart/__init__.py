@@ -4,8 +4,10 @@
 
 from calibench.scenarios.instrument import Instrument
 
+NAME = "stewart"  # the one spelling of its name (its own modules import it)
+
 INSTRUMENT = Instrument(
-    "stewart",
+    NAME,
     f"{__name__}.scenario",
     "StewartConfig",
     discovery=f"{__name__}.discovery",

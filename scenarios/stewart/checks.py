@@ -9,12 +9,12 @@ import numpy as np
 
 from calibench.estimators.rotations import rotvec_to_matrix
 from calibench.estimators.stewart.kinematics import leg_conditions
+from calibench.scenarios.stewart import NAME
 from calibench.scenes.stewart import LEG_STROKE_MM, PLATFORM_KG
 
 if TYPE_CHECKING:  # the config's module imports this one
     from calibench.scenarios.stewart.scenario import StewartConfig
 
-NAME = "stewart"
 # the unknowns of one leg's one-step calibration: r (3), B (3), l
 LEG_UNKNOWNS = 7
 

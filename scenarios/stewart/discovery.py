@@ -28,6 +28,7 @@ from calibench.scenarios.discover.same_machine import (
     refuse_another,
 )
 from calibench.scenarios.report import BadInput
+from calibench.scenarios.stewart import NAME
 from calibench.scenarios.stewart.discovery_locate import locate
 from calibench.scenarios.stewart.discovery_sessions import frame_per_recording, joined
 
@@ -54,13 +55,13 @@ def _hinge_points(R, t, r):
     return np.einsum("nij,kj->nki", R, r) + t[:, None, :]
 
 
-def register(rec, geometry, iterations: int = 10) -> tuple[np.ndarray, np.ndarray]:
+def register(rec, geometry) -> tuple[np.ndarray, np.ndarray]:
     """The tracker frame in the base frame (R (3, 3), t (3,) mm): first from the poses the
-    nominal legs' readings give (forward kinematics) against the tracker's, then Gauss-Newton on
-    the legs' residuals (six unknowns from a closed-form start, to round-off; not yet on the
-    identification core, like :func:`geometry_residual`)."""
-    from calibench.estimators.rotations import rigid_transform, rotvec_to_matrix
+    nominal legs' readings give (forward kinematics) against the tracker's, then refined on the
+    legs' residuals by the identification core (six unknowns, to round-off)."""
+    from calibench.estimators.rotations import rigid_transform
     from calibench.estimators.stewart.kinematics import forward_kinematics_many
+    from calibench.estimators.stewart.registration import register_frame
 
     g = geometry
     r0, B0, l0 = g.platform_hinges_mm, g.base_hinges_mm, g.initial_lengths_mm
@@ -75,13 +76,8 @@ def register(rec, geometry, iterations: int = 10) -> tuple[np.ndarray, np.ndarra
         _hinge_points(rec.R, rec.t_mm, r0)[ok].reshape(-1, 3),
         _hinge_points(Rb, tb, r0)[ok].reshape(-1, 3),
     )
-    for _ in range(iterations):
-        res, cols, _ = _frame_model(rec, geometry, Rf, tf)
-        step = np.linalg.lstsq(cols, res, rcond=None)[0]  # res falls by cols @ step
-        Rf, tf = rotvec_to_matrix(step[:3]) @ Rf, rotvec_to_matrix(step[:3]) @ tf + step[3:]
-        if np.max(np.abs(step)) < 1e-10:
-            break
-    return Rf, tf
+    s = register_frame(_problem(rec, g, Rf, tf)).state
+    return s.Rf, s.tf
 
 
 def _check_registered(rec, g, Rf, tf) -> None:
@@ -106,19 +102,32 @@ def _check_registered(rec, g, Rf, tf) -> None:
         )
 
 
+def _problem(rec, g, Rf, tf):
+    """The registration problem of ``rec``'s readings on the geometry ``g`` from the frame
+    (Rf, tf) (:class:`~calibench.estimators.stewart.registration.RegistrationProblem`)."""
+    from calibench.estimators.stewart.registration import RegistrationProblem, RegistrationState
+
+    f = np.asarray
+    start = RegistrationState(
+        f(Rf, float),
+        f(tf, float),
+        f(g.platform_hinges_mm, float),
+        f(g.base_hinges_mm, float),
+        f(g.initial_lengths_mm, float),
+    )
+    return RegistrationProblem(rec.readings_mm, rec.R, rec.t_mm, start)
+
+
 def _frame_model(rec, g, Rf, tf):
-    """Residual readings (6 n,) at the frame (Rf, tf), their columns d / d(turn, shift) of the
-    frame (6 n, 6), and the base-frame poses (R (n, 3, 3), t (n, 3))."""
-    R = np.einsum("ij,njk->nik", Rf, rec.R)
-    t = rec.t_mm @ Rf.T + tf
-    P = _hinge_points(R, t, g.platform_hinges_mm)
-    v = P - g.base_hinges_mm
-    L = np.linalg.norm(v, axis=2)
-    u = v / L[..., None]
-    res = (rec.readings_mm - (L - g.initial_lengths_mm)).ravel()
-    # a turn w of the frame moves P by w x P: dL = u . (w x P) = w . (P x u)
-    cols = np.concatenate([np.cross(P, u), u], axis=2).reshape(-1, 6)
-    return res, cols, (R, t)
+    """At the frame (Rf, tf): the residual readings (6 n,) (measured minus modelled), their
+    columns d model / d (turn, shift) of the frame (6 n, 6) and d model / d (the legs' r, B, l)
+    (n, 6, 42), the legs' lengths (n, 6), and the base-frame poses (R (n, 3, 3), t (n, 3))."""
+    problem = _problem(rec, g, Rf, tf)
+    s = problem.start()
+    R, _, L, _ = problem.legs(s)
+    J = problem.jacobian(s)
+    t = rec.t_mm @ np.asarray(Rf).T + tf
+    return -problem.residuals(s), J[:, :6], J[:, 6:].reshape(len(R), 6, 42), L, (R, t)
 
 
 def twin_drivers(
@@ -131,8 +140,7 @@ def twin_drivers(
     from calibench.sim.stewart import StewartSim, StewartTruth, leg_effects_mm
 
     g = geometry
-    res, frame, (R, t) = _frame_model(rec, g, Rf, tf)
-    J, L, _ = _geometry_columns(rec, g, R, t)
+    res, frame, J, L, (R, t) = _frame_model(rec, g, Rf, tf)
     n = len(rec)
     twin = StewartSim(
         g,
@@ -177,46 +185,15 @@ def stations(rec, tol_mm: float) -> np.ndarray:
     return np.unique(ids, return_inverse=True)[1].ravel()
 
 
-def geometry_residual(rec, geometry, Rf, tf, iterations: int = 5) -> np.ndarray:
+def geometry_residual(rec, geometry, Rf, tf) -> np.ndarray:
     """The legs' residual readings (n_poses, 6) mm after the hinges, initial lengths and tracker
-    frame are calibrated by Gauss-Newton. One linear step leaves about a micrometre of the
-    hinges' 0.4 mm (second order in the frame's turn), which would look like structure."""
-    import dataclasses
+    frame are calibrated together on the identification core, to round-off: one linear step
+    leaves about a micrometre of the hinges' 0.4 mm (second order in the frame's turn), which
+    would look like structure."""
+    from calibench.estimators.stewart.registration import register_with_legs
 
-    from calibench.estimators.rotations import rotvec_to_matrix
-
-    g = geometry
-    for _ in range(iterations):
-        res, frame, (R, t) = _frame_model(rec, g, Rf, tf)
-        J, _, _ = _geometry_columns(rec, g, R, t)
-        step = np.linalg.lstsq(np.c_[frame, J.reshape(-1, 42)], res, rcond=None)[0]
-        turn = rotvec_to_matrix(step[:3])
-        Rf, tf = turn @ Rf, turn @ tf + step[3:6]
-        p = step[6:].reshape(6, 7)
-        g = dataclasses.replace(
-            g,
-            platform_hinges_mm=np.asarray(g.platform_hinges_mm) + p[:, :3],
-            base_hinges_mm=np.asarray(g.base_hinges_mm) + p[:, 3:6],
-            initial_lengths_mm=np.asarray(g.initial_lengths_mm) + p[:, 6],
-        )
-        if np.max(np.abs(step)) < 1e-9:
-            break
-    return _frame_model(rec, g, Rf, tf)[0].reshape(-1, 6)
-
-
-def _geometry_columns(rec, g, R, t):
-    """d(reading model) / d(hinges, initial lengths) (n, 6, 42) at the base-frame poses (R, t),
-    and the legs' lengths (n, 6) and directions (n, 6, 3)."""
-    P = _hinge_points(R, t, g.platform_hinges_mm)
-    v = P - g.base_hinges_mm
-    L = np.linalg.norm(v, axis=2)
-    u = v / L[..., None]
-    J = np.zeros((len(R), 6, 42))
-    for i in range(6):  # reading_i = |R r_i + t - B_i| - l_i
-        J[:, i, 7 * i : 7 * i + 3] = np.einsum("nj,njk->nk", u[:, i], R)
-        J[:, i, 7 * i + 3 : 7 * i + 6] = -u[:, i]
-        J[:, i, 7 * i + 6] = -1.0
-    return J, L, u
+    problem = _problem(rec, geometry, Rf, tf)
+    return -problem.residuals(register_with_legs(problem).state).reshape(-1, 6)
 
 
 def discover_stewart(
@@ -340,7 +317,7 @@ def _discover_stewart(rec, rec_id, seed: int, floor: float, config) -> tuple[dic
     names = [e["name"] for e in effects if e["name"] != "geometry"]
     located = locate(geometry_residual(rec, g, Rf, tf), drivers, seed)
     out = {
-        "scenario": "stewart",
+        "scenario": NAME,
         "samples": n,
         "unit": "mm",
         "located": located,
@@ -389,7 +366,7 @@ def discover(scenario: str, rec, seed: int, holdout, config, arm=None) -> tuple[
 
     cfg = StewartConfig()
     if config is not None:
-        cfg = override(cfg, load_toml(config).get("stewart", {}), "stewart")
+        cfg = override(cfg, load_toml(config).get(NAME, {}), NAME)
     return discover_stewart(rec, seed, config=cfg)
 
 

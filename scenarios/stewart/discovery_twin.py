@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
+from calibench.scenarios.stewart import NAME
+
 
 def twin_tables(scenario: str, out: dict, config: Path | None, arm=None) -> tuple[dict, list[str]]:
     """The platform's twin: the hinges and lengths with the found geometry, the legs' physics."""
@@ -22,7 +24,7 @@ def twin_tables(scenario: str, out: dict, config: Path | None, arm=None) -> tupl
 
     cfg = StewartConfig()
     if config is not None:
-        cfg = override(cfg, load_toml(config).get("stewart", {}), "stewart")
+        cfg = override(cfg, load_toml(config).get(NAME, {}), NAME)
     g, t = cfg.geometry, cfg.truth
     r, B, l0 = (
         np.array(a, float) for a in (g.platform_hinges_mm, g.base_hinges_mm, g.initial_lengths_mm)
@@ -82,4 +84,4 @@ def twin_tables(scenario: str, out: dict, config: Path | None, arm=None) -> tupl
         "initial_lengths_mm": l0.tolist(),
     }
     written = {"geometry": geometry, "truth": truth}
-    return {"stewart": carried(given_tables(config, "stewart"), written)}, left
+    return {NAME: carried(given_tables(config, NAME), written)}, left

@@ -9,6 +9,7 @@ import numpy as np
 
 from calibench.scenarios.harness import FIGURE
 from calibench.scenarios.report import Report
+from calibench.scenarios.stewart import NAME
 
 
 def write_figure(out_dir: Path, report: Report, artifacts: dict) -> None:
@@ -37,7 +38,7 @@ def write_figure(out_dir: Path, report: Report, artifacts: dict) -> None:
     a.set(
         xlabel="held-out pose",
         ylabel="hinge-point error, rms over the six (um)",
-        title="stewart: held-out poses",
+        title=f"{NAME}: held-out poses",
     )
     a.legend(fontsize=8)
     # a parameter without a std (none of the platform's) has no bar

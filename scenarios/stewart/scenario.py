@@ -35,11 +35,11 @@ from calibench.estimators.stewart.tracker import locate_stations, poses_from_len
 from calibench.scenarios.harness import write_outputs
 from calibench.scenarios.report import Check, Parameter, Report
 from calibench.scenarios.run_recording import StewartRecordingPlan, check_plan, write_recording
+from calibench.scenarios.stewart import NAME
 from calibench.scenarios.stewart.checks import check_config
 from calibench.scenes.stewart import StewartGeometry
 from calibench.sim.stewart import StewartSim, StewartTruth, stewart_poses
 
-NAME = "stewart"
 TOL_SIGMA = 5.0
 LEG_PARAMS = ("a", "b", "c", "m", "n", "q", "l")
 

@@ -4,8 +4,10 @@
 
 from calibench.scenarios.instrument import Instrument
 
+NAME = "vision-stage"  # the one spelling of its name (its own modules import it)
+
 INSTRUMENT = Instrument(
-    "vision-stage",
+    NAME,
     f"{__name__}.scenario",
     "VisionStageConfig",
     discovery="calibench.scenarios.stages.discovery",

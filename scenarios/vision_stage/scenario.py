@@ -31,6 +31,7 @@ from calibench.estimators.stage.compensation import MODEL_DEGREES, fit_polynomia
 from calibench.scenarios.harness import write_outputs
 from calibench.scenarios.report import Check, Parameter, Report, progress
 from calibench.scenarios.run_recording import StageRecordingPlan, check_plan, write_recording
+from calibench.scenarios.vision_stage import NAME
 from calibench.scenarios.vision_stage.procedure import (
     RULER_SHORTER_BY_MM,
     Microscope,
@@ -44,7 +45,6 @@ from calibench.scenarios.vision_stage.procedure import (
 from calibench.scenes.vision_stage import VisionStageGeometry
 from calibench.sim.vision_stage import VisionStageSim, VisionStageTruth
 
-NAME = "vision-stage"
 TOL_SIGMA = 5.0
 
 

@@ -15,6 +15,7 @@ import numpy as np
 
 from calibench.errors import BadInput
 from calibench.recordings import ArmRecording
+from calibench.scenes.arm_cmm import DEFAULT_ARM
 from calibench.sim.concealed.noise import repeat_noise
 from calibench.sim.concealed.unwritten import (
     UNWRITTEN_ARM_KINDS,
@@ -31,7 +32,7 @@ def arm_recording(
     seed: int,
     n: int = 300,
     noise_um: float = 10.0,
-    arm: str = "arm-cmm",
+    arm: str = DEFAULT_ARM,
     joint: int | None = None,
     harmonic: float | None = None,
     phase_rad: float | None = None,

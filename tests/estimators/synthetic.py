@@ -99,3 +99,21 @@ def raster_disc(
         size,
         supersample,
     )
+
+
+def rotation(w):
+    """The rotation matrix (3, 3) of the rotation vector ``w`` (3,) rad, by Rodrigues' formula."""
+    th = np.linalg.norm(w)
+    k = w / th
+    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + np.sin(th) * K + (1 - np.cos(th)) * K @ K
+
+
+def hexapod():
+    """A 6-6 Stewart platform's nominal platform and base hinges r, B (6, 3) mm, paired 30 deg
+    apart on radii of 300 and 500 mm."""
+    a = np.deg2rad([-15, 15, 105, 135, 225, 255])
+    B = np.c_[500 * np.cos(a), 500 * np.sin(a), np.zeros(6)]
+    b = np.deg2rad([-45, 45, 75, 165, 195, 285])
+    r = np.c_[300 * np.cos(b), 300 * np.sin(b), np.zeros(6)]
+    return r, B

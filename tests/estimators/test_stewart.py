@@ -25,16 +25,10 @@ from calibench.estimators.stewart.kinematics import (
 )
 from calibench.estimators.stewart.legs import calibrate_leg, fit_sphere
 from calibench.estimators.stewart.tracker import multilaterate, multilaterate_many, trilaterate
+from tests.estimators.synthetic import hexapod, rotation
 
 NESTS = np.array([[700.0, -500.0, 0.0], [800.0, 500.0, 700.0], [-700.0, 700.0, 1300.0]])
 STATION = np.array([1500.0, -500.0, 300.0])
-
-
-def _rot(w):
-    th = np.linalg.norm(w)
-    k = w / th
-    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.eye(3) + np.sin(th) * K + (1 - np.cos(th)) * K @ K
 
 
 def test_trilateration_is_exact_and_picks_the_side():
@@ -65,7 +59,7 @@ def test_station_uncertainty_propagation_matches_monte_carlo():
 def test_multilateration_and_rigid_transform_recover_a_pose():
     stations = np.array([[1500.0, -500.0, 300.0], [1600.0, 500.0, 900.0], [1400.0, -100.0, 1500.0]])
     refl = np.array([[173.2, 100.0, 40.0], [-173.2, 100.0, 40.0], [0.0, -200.0, 40.0]])
-    R, t = _rot(np.array([0.05, -0.08, 0.3])), np.array([20.0, -35.0, 760.0])
+    R, t = rotation(np.array([0.05, -0.08, 0.3])), np.array([20.0, -35.0, 760.0])
     world = refl @ R.T + t
     sols = [
         multilaterate(stations, np.linalg.norm(stations - w, axis=1), np.full(3, 1e-3), w + 5.0)
@@ -96,7 +90,7 @@ def test_one_step_recovers_a_leg_within_its_std():
     r, B, l = np.array([212.0, 212.3, 0.4]), np.array([483.0, -129.0, -0.3]), 650.4
     z = []
     for _ in range(40):
-        Rs = np.array([_rot(rng.uniform(-0.17, 0.17, 3) + 1e-9) for _ in range(60)])
+        Rs = np.array([rotation(rng.uniform(-0.17, 0.17, 3) + 1e-9) for _ in range(60)])
         ts = np.array([0, 0, 750.0]) + rng.uniform(-150, 150, (60, 3))
         L = np.linalg.norm(np.einsum("nij,j->ni", Rs, r) + ts - B, axis=1)
         sigma = 0.002
@@ -137,7 +131,7 @@ def test_forward_kinematics_inverts_the_leg_lengths():
     B = np.c_[500 * np.cos(a), 500 * np.sin(a), np.zeros(6)]
     b = np.deg2rad([-45, 45, 75, 165, 195, 285])
     r = np.c_[300 * np.cos(b), 300 * np.sin(b), np.zeros(6)]
-    R, t = _rot(np.array([0.1, -0.05, 0.12])), np.array([40.0, -60.0, 820.0])
+    R, t = rotation(np.array([0.1, -0.05, 0.12])), np.array([40.0, -60.0, 820.0])
     Rf, tf, ok = forward_kinematics(
         leg_lengths(R, t, r, B), r, B, np.eye(3), np.array([0, 0, 750.0])
     )
@@ -146,22 +140,14 @@ def test_forward_kinematics_inverts_the_leg_lengths():
     np.testing.assert_allclose(tf, t, atol=1e-8)
 
 
-def _hexapod():
-    a = np.deg2rad([-15, 15, 105, 135, 225, 255])
-    B = np.c_[500 * np.cos(a), 500 * np.sin(a), np.zeros(6)]
-    b = np.deg2rad([-45, 45, 75, 165, 195, 285])
-    r = np.c_[300 * np.cos(b), 300 * np.sin(b), np.zeros(6)]
-    return r, B
-
-
 def _joint_problem(rng, n=40, sigma=(0.3e-3, 0.3e-6), reading_sigma=1e-3):
     """A truth (stations, poses, legs) and what the tracker and the legs would read of it."""
-    r, B = _hexapod()
+    r, B = hexapod()
     r, B = r + rng.normal(0, 0.4, (6, 3)), B + rng.normal(0, 0.4, (6, 3))
     l = np.full(6, 650.0) + rng.normal(0, 0.5, 6)
     stations = np.array([[1500.0, -500.0, 300.0], [1400.0, 600.0, 250.0], [-900.0, 1300.0, 350.0]])
     refl = np.array([[250.0, 0, 30], [-125, 216, 30], [-125, -216, 30]])
-    R = np.array([_rot(rng.uniform(-0.17, 0.17, 3)) for _ in range(n)])
+    R = np.array([rotation(rng.uniform(-0.17, 0.17, 3)) for _ in range(n)])
     t = np.array([0, 0, 750.0]) + rng.uniform(-150, 150, (n, 3))
 
     def noisy(L):
@@ -258,7 +244,7 @@ def test_newton_loops_cut_short_say_they_did_not_converge():
     a, b = np.deg2rad([-15, 15, 105, 135, 225, 255]), np.deg2rad([-45, 45, 75, 165, 195, 285])
     B = np.c_[500 * np.cos(a), 500 * np.sin(a), np.zeros(6)]
     r = np.c_[300 * np.cos(b), 300 * np.sin(b), np.zeros(6)]
-    R, t = _rot(np.array([0.1, -0.05, 0.12])), np.array([40.0, -60.0, 820.0])
+    R, t = rotation(np.array([0.1, -0.05, 0.12])), np.array([40.0, -60.0, 820.0])
     assert not forward_kinematics(
         leg_lengths(R, t, r, B), r, B, np.eye(3), np.array([0, 0, 750.0]), iterations=1
     )[2]
@@ -288,7 +274,7 @@ def _platform_and_poses(n: int):
     B = np.c_[500 * np.cos(a), 500 * np.sin(a), np.zeros(6)]
     r = np.c_[300 * np.cos(b), 300 * np.sin(b), np.zeros(6)]
     poses = [
-        (_rot(rng.normal(0, 0.08, 3)), np.array([0, 0, 800.0]) + rng.normal(0, 50, 3))
+        (rotation(rng.normal(0, 0.08, 3)), np.array([0, 0, 800.0]) + rng.normal(0, 50, 3))
         for _ in range(n)
     ]
     return r, B, poses, np.array([leg_lengths(R, t, r, B) for R, t in poses])
