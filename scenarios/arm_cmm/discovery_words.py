@@ -9,7 +9,8 @@ from typing import Any
 
 import numpy as np
 
-from calibench.estimators.discovery.fit import confounded, fit_terms
+from calibench.estimators.discovery.confounds import find_confounds
+from calibench.estimators.discovery.fit import fit_terms
 from calibench.estimators.discovery.locate import permutation_p
 
 ARM_EXPERIMENTS = {
@@ -38,15 +39,16 @@ def arm_confounds(sig, terms, candidates, drivers, found) -> list[dict]:
     would still matter on postures that load the joint otherwise."""
     out = []
     accepted = {t.key for t in terms}
-    for c in candidates:
-        if c.key in accepted or c.name not in ("joint_compliance", "encoder_eccentricity"):
-            continue
+    asked = [
+        c
+        for c in candidates
+        if c.key not in accepted and c.name in ("joint_compliance", "encoder_eccentricity")
+    ]
+    for f in find_confounds({sig.axis: sig}, {sig.axis: terms}, asked, drivers):
+        c, frac = f.candidate, f.fraction
         other = (
             "encoder_eccentricity" if c.name == "joint_compliance" else "joint_compliance"
         ) + f":joint{c.joint}"
-        frac = confounded(sig, terms, c, drivers, {})
-        if frac <= 0.9:
-            continue
         if other in accepted:
             out.append(
                 {

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from calibench.estimators.discovery.confounds import find_confounds
 from calibench.estimators.discovery.effect import Drivers
 from calibench.estimators.discovery.fit import (
     Signal,
@@ -250,15 +251,14 @@ def _discover_scanner(recs: list, seed: int, floor: float, config) -> tuple[dict
                 "experiment": TURN_THE_PLATE,
             }
         )
-    frac = confounded(sig, terms[AXIS], ProbeOffset(), drivers, {})
-    if frac > 0.9:
+    for f in find_confounds({AXIS: sig}, terms, [ProbeOffset()], drivers):
         confounds.append(
             {
                 "effect": "offset",
                 "axis": AXIS,
                 "with": "the rail's dL",
-                "why": f"{100 * frac:.0f} % of a probe offset is what the rail's dL already does: "
-                "on one artefact the two are one number",
+                "why": f"{100 * f.fraction:.0f} % of a probe offset is what the rail's dL already "
+                "does: on one artefact the two are one number",
                 "experiment": EXPERIMENTS["offset"],
             }
         )

@@ -6,8 +6,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from calibench.estimators.discovery.confounds import find_confounds
 from calibench.estimators.discovery.effect import Effect
-from calibench.estimators.discovery.fit import confounded, lstsq
+from calibench.estimators.discovery.fit import lstsq
 from calibench.estimators.discovery.locate import follows
 from calibench.estimators.discovery.probe_scanner import AXIS, Runout, TableEccentricity
 
@@ -79,8 +80,8 @@ def look_alikes(sig, terms: list, drivers) -> list[dict]:
             t.name == other.name and getattr(t, "harmonic", 1) == 1 for t in terms
         ):
             continue
-        frac = confounded(sig, terms, other, drivers, {})
-        if frac > LOOK_ALIKE:
+        for f in find_confounds({AXIS: sig}, {AXIS: terms}, [other], drivers):
+            frac = f.fraction
             out.append(
                 {
                     "effect": name,
@@ -93,9 +94,6 @@ def look_alikes(sig, terms: list, drivers) -> list[dict]:
                 }
             )
     return out
-
-
-LOOK_ALIKE = 0.9  # the share of a candidate's signal the accepted model reproduces: confounded
 
 
 def where_on_turn(r: np.ndarray, theta_deg: np.ndarray) -> str:

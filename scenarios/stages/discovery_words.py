@@ -6,8 +6,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from calibench.estimators.discovery.confounds import find_confounds
 from calibench.estimators.discovery.effect import Drivers
-from calibench.estimators.discovery.fit import Signal, confounded, lstsq
+from calibench.estimators.discovery.fit import Signal, lstsq
 from calibench.estimators.discovery.locate import change_point, follows, reversal_profile
 from calibench.estimators.discovery.select import Discovery
 from calibench.estimators.discovery.stage import PeriodSearch
@@ -88,37 +89,37 @@ def stage_confounds(
     """Physical candidates the data cannot tell from what the model already has, each with the
     experiment that would (smooth polynomial terms are left out: they are meant to overlap)."""
     out = []
-    by_axis = {s.axis: s for s in signals}
     accepted = {st.term.key for st in found.steps} | {
         f"{st.term.name}:{st.axis}" for st in found.steps
     }
-    for c in candidates:
-        if (
-            c.key in accepted
-            or isinstance(c, PeriodSearch)
-            or c.name in ("positioning", "straightness", "cross_coupling")
-        ):
-            continue
-        frac = confounded(by_axis[c.axis], terms[c.axis], c, drivers, {})
-        if c.name == "thermal_expansion" and np.ptp(rec.temp_c) < 1.0:
+    asked = [
+        c
+        for c in candidates
+        if c.key not in accepted
+        and not isinstance(c, PeriodSearch)
+        and c.name not in ("positioning", "straightness", "cross_coupling")
+    ]
+    for f in find_confounds({s.axis: s for s in signals}, terms, asked, drivers, rec.temp_c):
+        c = f.candidate
+        if f.cause == "temperature":
             out.append(
                 {
                     "effect": c.name,
-                    "axis": c.axis,
+                    "axis": f.axis,
                     "with": "scale",
-                    "why": f"the temperature moved only {np.ptp(rec.temp_c):.2f} K, so an "
+                    "why": f"the temperature moved only {f.temperature_span_k:.2f} K, so an "
                     f"expansion coefficient would look like (and be absorbed by) a scale error",
                     "experiment": EXPERIMENTS[c.name],
                 }
             )
-        elif frac > 0.9:
+        else:
             out.append(
                 {
                     "effect": c.name,
-                    "axis": c.axis,
+                    "axis": f.axis,
                     "with": "the scene model and the accepted effects",
-                    "why": f"{100 * frac:.0f} % of its effect on the data is also what the model "
-                    "already has",
+                    "why": f"{100 * f.fraction:.0f} % of its effect on the data is also what the "
+                    "model already has",
                     "experiment": EXPERIMENTS.get(c.name, "vary its driver independently"),
                 }
             )

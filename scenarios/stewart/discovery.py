@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from calibench.estimators.discovery.fit import Signal, confounded, lstsq
+from calibench.estimators.discovery.fit import Signal, lstsq
 from calibench.estimators.discovery.noise import repeatability
 from calibench.estimators.discovery.select import prune, select
 from calibench.estimators.discovery.stewart import AXIS, StewartDrivers, stewart_candidates
@@ -224,6 +224,49 @@ def discover_stewart(
     return without_gross(run, recs, "poses")
 
 
+def stewart_confounds(sig, terms, candidates, drivers, temp_c) -> list[dict]:
+    """The physical candidates the readings cannot tell from the hinges and the accepted effects
+    (:func:`~calibench.estimators.discovery.confounds.find_confounds`), in words, each with the
+    experiment that separates them; a thermal expansion on a temperature that barely moved is
+    said once, for the six legs alike."""
+    from calibench.estimators.discovery.confounds import find_confounds
+
+    accepted = {t.key for t in terms[AXIS]}
+    asked = [
+        c
+        for c in candidates
+        if c.key not in accepted and hasattr(c, "columns") and c.name != "geometry"
+    ]
+    out: list[dict] = []
+    for f in find_confounds({AXIS: sig}, terms, asked, drivers, temp_c):
+        name = f.candidate.name
+        if f.cause == "temperature":
+            if not any(e["effect"] == name for e in out):
+                out.append(
+                    {
+                        "effect": name,
+                        "axis": AXIS,
+                        "with": "the legs' length scales and the hinges",
+                        "why": f"the temperature moved only {f.temperature_span_k:.2f} K, so a "
+                        "leg's growth with it is a scale of its length, which the hinges take "
+                        "in part",
+                        "experiment": EXPERIMENTS[name],
+                    }
+                )
+        else:
+            out.append(
+                {
+                    "effect": name,
+                    "axis": AXIS,
+                    "with": "the hinge geometry and the accepted effects",
+                    "why": f"{100 * f.fraction:.0f} % of {f.candidate.key}'s effect on the "
+                    "readings is what the model already has",
+                    "experiment": EXPERIMENTS.get(name, "vary its driver"),
+                }
+            )
+    return out
+
+
 def _registered(rec, g) -> tuple[np.ndarray, np.ndarray]:
     Rf, tf = register(rec, g)
     _check_registered(rec, g, Rf, tf)
@@ -284,36 +327,7 @@ def _discover_stewart(rec, rec_id, seed: int, floor: float, config) -> tuple[dic
         refuse_another(moved, left, SAME_PLATFORM_MM, "platform", "hinges")
     effects, fitted = describe_effects([sig], terms, found, drivers, noise)
     after_noise = {AXIS: repeatability(fitted[AXIS], station, order)}
-    confounds: list[dict] = []
-    accepted = {t.key for t in terms[AXIS]}
-    for c in candidates:
-        if c.key in accepted or not hasattr(c, "columns") or c.name == "geometry":
-            continue
-        frac = confounded(sig, terms[AXIS], c, drivers, {})
-        if c.name == "thermal_expansion" and np.ptp(rec.temp_c) < 1.0:
-            if not any(e["effect"] == c.name for e in confounds):  # alike for every leg: once
-                confounds.append(
-                    {
-                        "effect": c.name,
-                        "axis": AXIS,
-                        "with": "the legs' length scales and the hinges",
-                        "why": f"the temperature moved only {np.ptp(rec.temp_c):.2f} K, so a "
-                        "leg's growth with it is a scale of its length, which the hinges take "
-                        "in part",
-                        "experiment": EXPERIMENTS[c.name],
-                    }
-                )
-        elif frac > 0.9:
-            confounds.append(
-                {
-                    "effect": c.name,
-                    "axis": AXIS,
-                    "with": "the hinge geometry and the accepted effects",
-                    "why": f"{100 * frac:.0f} % of {c.key}'s effect on the readings is what the "
-                    "model already has",
-                    "experiment": EXPERIMENTS.get(c.name, "vary its driver"),
-                }
-            )
+    confounds = stewart_confounds(sig, terms, candidates, drivers, rec.temp_c)
     names = [e["name"] for e in effects if e["name"] != "geometry"]
     located = locate(geometry_residual(rec, g, Rf, tf), drivers, seed)
     out = {
