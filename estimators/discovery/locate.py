@@ -4,6 +4,8 @@ recording's own structure, a reversal profile, a change point in time.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 
@@ -47,39 +49,106 @@ def permutation_p(r, v, passes, time_like: bool, rng, n_perm: int = 199) -> tupl
     return score, (hits + 1) / (n_perm + 1)
 
 
+# how a driver's null keeps the recording's own structure (:class:`Driver`)
+NULLS = ("shift", "passes", "shuffle", "along")
+
+
+@dataclasses.dataclass(frozen=True)
+class Driver:
+    """A driver a residual is tested against: its name, its values (n,) (None: not recorded) and
+    the null that keeps what the recording's order would otherwise fake.
+
+    - ``shift``: each pass's residual shifted cyclically (a position along a path: a drift keeps
+      its shape and cannot pass for the position);
+    - ``passes``: whole passes permuted (time, temperature: a pass's slow change is not spread);
+    - ``shuffle``: the values permuted (rows recorded in random order: time itself is tested);
+    - ``along``: the correlation of neighbours in the driver's order, residuals shifted in time as
+      the null (a short period along the driver, which binned means would average out).
+    """
+
+    name: str
+    values: np.ndarray | None
+    null: str = "shift"
+
+    def __post_init__(self):
+        if self.null not in NULLS:
+            raise ValueError(f"unknown null {self.null!r} (known: {', '.join(NULLS)})")
+
+
+@dataclasses.dataclass(frozen=True)
+class Followed:
+    """A driver a residual follows: its values as floats (n,), the score (binned R^2, or the
+    neighbours' correlation for ``along``), the permutation p-value and the residual's column
+    that scored it (0 for one residual)."""
+
+    name: str
+    values: np.ndarray
+    score: float
+    p: float
+    column: int = 0
+
+
+def along(r: np.ndarray, v: np.ndarray) -> float:
+    """How much r is a function of v at any scale: the correlation of r's neighbours in v's
+    order (a screw's pitch error of a few mm shows here where binned means would average it out)."""
+    a = r[np.argsort(v, kind="stable")]
+    a = a - a.mean()
+    den = np.sqrt(np.sum(a[:-1] ** 2) * np.sum(a[1:] ** 2))
+    return float(np.sum(a[:-1] * a[1:]) / den) if den > 0 else 0.0
+
+
+def _score_and_p(r, d: Driver, v, passes, rng, n_perm) -> tuple[float, float]:
+    """The score of ``r`` against ``v`` and its p-value under ``d``'s null."""
+    if d.null in ("shift", "passes"):
+        return permutation_p(r, v, passes, d.null == "passes", rng, n_perm)
+    if d.null == "shuffle":
+        score = binned_r2(r, v)
+        hits = sum(binned_r2(r, rng.permutation(v)) >= score for _ in range(n_perm))
+    else:
+        score = along(r, v)
+        hits = sum(along(np.roll(r, rng.integers(1, len(r))), v) >= score for _ in range(n_perm))
+    return score, (hits + 1) / (n_perm + 1)
+
+
 def follows(
     r: np.ndarray,
-    drivers: list[tuple[str, np.ndarray | None, bool]],
+    drivers: list[Driver],
     passes: np.ndarray,
     rng: np.random.Generator,
     p_max: float = 0.01,
     score_min: float = 0.02,
     n_perm: int = 199,
-) -> list[tuple[str, np.ndarray, float, float]]:
+) -> list[Followed]:
     """The drivers a residual follows: the pipeline's localisation, the same for every
-    instrument that tests its residual against its drivers one by one.
+    instrument, which only says which drivers it has and, in words, where.
 
     Parameters
     ----------
-    r : (n,) the residual after the scene model.
-    drivers : (name, values (n,) or None, time_like) each; absent or constant ones skipped.
-    passes : (n,) the pass (or turn) of each row: what the null keeps (:func:`permutation_p`).
-    rng : the permutations' generator, drawn from in ``drivers``' order.
-    p_max, score_min : a driver is kept where its permutation p is at most ``p_max`` and its
-        binned R^2 at least ``score_min``.
+    r : (n,) the residual after the scene model, or (n, k) k residuals of each row (a point's
+        coordinates): a driver is scored on each, the best kept.
+    drivers : each with its null (:class:`Driver`); absent or constant ones skipped.
+    passes : (n,) the pass (or turn) of each row: what the ``shift`` and ``passes`` nulls keep.
+    rng : the permutations' generator, drawn from in ``drivers``' order (then the columns').
+    p_max, score_min : a driver is kept where its p is at most ``p_max`` and its score at least
+        ``score_min``.
 
     Returns
     -------
-    (name, values as floats (n,), score, p) for each driver kept, in ``drivers``' order.
+    A :class:`Followed` for each driver kept, in ``drivers``' order.
     """
+    columns = np.asarray(r, float).reshape(len(r), -1)
     out = []
-    for name, v, time_like in drivers:
-        if v is None or np.ptp(v) == 0:
+    for d in drivers:
+        if d.values is None or np.ptp(d.values) == 0:
             continue
-        values = np.asarray(v, float)
-        score, p = permutation_p(r, values, passes, time_like, rng, n_perm)
+        values = np.asarray(d.values, float)
+        tried = [
+            _score_and_p(columns[:, k], d, values, passes, rng, n_perm) + (k,)
+            for k in range(columns.shape[1])
+        ]
+        score, p, k = max(tried, key=lambda s: s[0])
         if p <= p_max and score >= score_min:
-            out.append((name, values, score, p))
+            out.append(Followed(d.name, values, score, p, k))
     return out
 
 

@@ -11,7 +11,7 @@ import numpy as np
 
 from calibench.estimators.discovery.confounds import find_confounds
 from calibench.estimators.discovery.fit import fit_terms
-from calibench.estimators.discovery.locate import permutation_p
+from calibench.estimators.discovery.locate import Driver, follows
 
 ARM_EXPERIMENTS = {
     "joint_compliance": "take postures where the other joints change this joint's gravity torque "
@@ -89,26 +89,17 @@ def locate_arm(sig, terms, drivers, q, temp, seed) -> list[dict]:
     geo = [t for t in terms if t.name == "geometry"]
     _, _, _, res = fit_terms(sig, geo, drivers, {}, None)
     res3 = res.reshape(n, 3)
-    located: list[dict[str, Any]] = []
-    for name, v in [(f"q{j}", q[:, j - 1]) for j in range(1, q.shape[1] + 1)] + [("temp_c", temp)]:
-        if v is None or np.ptp(v) == 0:
-            continue
-        best = max(
-            (
-                permutation_p(res3[:, k], v, np.zeros(n), name == "temp_c", rng, 99) + (k,)
-                for k in range(3)
-            ),
-            key=lambda t: t[0],
-        )
-        if best[1] <= 0.01 and best[0] >= 0.02:
-            located.append(
-                {
-                    "signal": f"{'xyz'[best[2]]}_meas - {'xyz'[best[2]]}_sim (after geometry)",
-                    "driver": name,
-                    "score": best[0],
-                    "p_value": best[1],
-                    "where": f"over the whole range of {name}",
-                }
-            )
+    tested = [Driver(f"q{j}", q[:, j - 1]) for j in range(1, q.shape[1] + 1)]
+    tested.append(Driver("temp_c", temp, "passes"))
+    located: list[dict[str, Any]] = [
+        {
+            "signal": f"{'xyz'[f.column]}_meas - {'xyz'[f.column]}_sim (after geometry)",
+            "driver": f.name,
+            "score": f.score,
+            "p_value": f.p,
+            "where": f"over the whole range of {f.name}",
+        }
+        for f in follows(res3, tested, np.zeros(n), rng, n_perm=99)
+    ]
     located.sort(key=lambda d: -d["score"])
     return located

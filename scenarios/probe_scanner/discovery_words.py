@@ -9,7 +9,7 @@ import numpy as np
 from calibench.estimators.discovery.confounds import find_confounds
 from calibench.estimators.discovery.effect import Effect
 from calibench.estimators.discovery.fit import lstsq
-from calibench.estimators.discovery.locate import follows
+from calibench.estimators.discovery.locate import Driver, follows
 from calibench.estimators.discovery.probe_scanner import AXIS, Runout, TableEccentricity
 
 BIN_DEG = 1.0  # the nonsmooth table's bands of the table's angle
@@ -127,18 +127,18 @@ def locate_scanner(sig, drivers, rec, seed) -> list[dict]:
     rng = np.random.default_rng(seed)
     r = sig.r - sig.base @ lstsq(sig.base, sig.r)
     tested = [
-        ("theta_deg", np.degrees(np.mod(rec.theta_rad, 2 * np.pi)), False),
-        ("t_s", rec.t_s, True),
-        ("temp_c", rec.temp_c, True),
+        Driver("theta_deg", np.degrees(np.mod(rec.theta_rad, 2 * np.pi)), "shift"),
+        Driver("t_s", rec.t_s, "passes"),
+        Driver("temp_c", rec.temp_c, "passes"),
     ]
     out = [
         {
             "signal": sig.name,
-            "driver": name,
-            "score": score,
-            "p_value": p,
-            "where": where_on_turn(r, v) if name == "theta_deg" else f"follows {name}",
+            "driver": f.name,
+            "score": f.score,
+            "p_value": f.p,
+            "where": where_on_turn(r, f.values) if f.name == "theta_deg" else f"follows {f.name}",
         }
-        for name, v, score, p in follows(r, tested, rec.turn, rng, n_perm=99)
+        for f in follows(r, tested, rec.turn, rng, n_perm=99)
     ]
     return sorted(out, key=lambda d: -d["score"])

@@ -9,7 +9,12 @@ import numpy as np
 from calibench.estimators.discovery.confounds import find_confounds
 from calibench.estimators.discovery.effect import Drivers
 from calibench.estimators.discovery.fit import Signal, lstsq
-from calibench.estimators.discovery.locate import change_point, follows, reversal_profile
+from calibench.estimators.discovery.locate import (
+    Driver,
+    change_point,
+    follows,
+    reversal_profile,
+)
 from calibench.estimators.discovery.select import Discovery
 from calibench.estimators.discovery.stage import PeriodSearch
 
@@ -38,18 +43,21 @@ def locate_stage(signals: list[Signal], drivers: Drivers, seed: int) -> list[dic
     rng = np.random.default_rng(seed)
     passes = drivers["run"] if drivers.get("run") is not None else np.zeros(len(signals[0].r))
     names = ("x", "y", "dir_x", "dir_y", "t_s", "temp_c")
-    tested = [(name, drivers.get(name), name in ("t_s", "temp_c")) for name in names]
+    tested = [
+        Driver(name, drivers.get(name), "passes" if name in ("t_s", "temp_c") else "shift")
+        for name in names
+    ]
     out = []
     for s in signals:
         r = s.r - s.base @ lstsq(s.base, s.r)
-        for name, v, score, p in follows(r, tested, passes, rng, LOCATE_P, LOCATE_MIN_SCORE):
+        for f in follows(r, tested, passes, rng, LOCATE_P, LOCATE_MIN_SCORE):
             out.append(
                 {
                     "signal": s.name,
-                    "driver": name,
-                    "score": score,
-                    "p_value": p,
-                    "where": where_said(r, v, name, drivers),
+                    "driver": f.name,
+                    "score": f.score,
+                    "p_value": f.p,
+                    "where": where_said(r, f.values, f.name, drivers),
                 }
             )
     return sorted(out, key=lambda d: -d["score"])

@@ -7,24 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from calibench.estimators.discovery.effect import Drivers
-from calibench.estimators.discovery.locate import binned_r2, permutation_p
-
-
-def _along(r: np.ndarray, v: np.ndarray) -> float:
-    """How much r is a function of v at any scale: the correlation of r's neighbours in v's
-    order (a screw's pitch error of a few mm shows here where binned means would average it out)."""
-    a = r[np.argsort(v, kind="stable")]
-    a = a - a.mean()
-    den = np.sqrt(np.sum(a[:-1] ** 2) * np.sum(a[1:] ** 2))
-    return float(np.sum(a[:-1] * a[1:]) / den) if den > 0 else 0.0
-
-
-def _p_along(r, v, rng, n_perm):
-    """_along's score and its p-value, the poses' residuals shifted cyclically in time as the
-    null."""
-    score = _along(r, v)
-    hits = sum(_along(np.roll(r, rng.integers(1, len(r))), v) >= score for _ in range(n_perm))
-    return score, (hits + 1) / (n_perm + 1)
+from calibench.estimators.discovery.locate import Driver, follows
 
 
 def locate(
@@ -42,41 +25,25 @@ def locate(
     out = []
     for i in range(6):
         r = res[:, i]
-        direction = None if drivers["dir"] is None else drivers["dir"][:, i]
-        tests = [
-            ("length", drivers["L"][:, i]),
-            ("direction", direction),
-            ("axial_force", drivers["force"][:, i]),
-            ("temp_c", drivers["temp_c"]),
-            ("t_s", drivers["t_s"]),
+        tested = [
+            Driver("length", drivers["L"][:, i], "along"),
+            Driver("direction", None if drivers["dir"] is None else drivers["dir"][:, i]),
+            Driver("axial_force", drivers["force"][:, i]),
+            # the poses come in random order: time itself is what is tested
+            Driver("temp_c", drivers["temp_c"], "shuffle"),
+            Driver("t_s", drivers["t_s"], "shuffle"),
         ]
-        for name, v in tests:
-            if v is None or np.ptp(v) == 0:
-                continue
-            v = np.asarray(v, float)
-            if name == "length":
-                score, p = _p_along(r, v, rng, n_perm)
-            elif name in (
-                "temp_c",
-                "t_s",
-            ):  # the poses come in random order: time itself is what is tested
-                score = binned_r2(r, v)
-                p = (sum(binned_r2(r, rng.permutation(v)) >= score for _ in range(n_perm)) + 1) / (
-                    n_perm + 1
-                )
-            else:
-                score, p = permutation_p(r, v, zero, False, rng, n_perm)
-            if p <= alpha and score >= 0.05:
-                out.append(
-                    {
-                        "signal": f"leg {i + 1} reading - twin (after geometry)",
-                        "driver": name,
-                        "leg": i + 1,
-                        "score": score,
-                        "p_value": p,
-                        "where": _where(r, v, name, i + 1),
-                    }
-                )
+        for f in follows(r, tested, zero, rng, alpha, 0.05, n_perm):
+            out.append(
+                {
+                    "signal": f"leg {i + 1} reading - twin (after geometry)",
+                    "driver": f.name,
+                    "leg": i + 1,
+                    "score": f.score,
+                    "p_value": f.p,
+                    "where": _where(r, f.values, f.name, i + 1),
+                }
+            )
     return sorted(out, key=lambda d: -d["score"])
 
 

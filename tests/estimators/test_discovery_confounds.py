@@ -22,8 +22,8 @@ def _drivers(temp_c: np.ndarray) -> dict:
 
 def test_a_thermal_candidate_is_confounded_exactly_when_its_columns_are_spanned():
     """The candidate's column c is (T - mean T) x, centred; a base of [1, c cos a + z sin a],
-    z centred, orthogonal to c and as long, spans cos^2 a of it: confounded for cos^2 a above CONFOUNDED, not
-    below, its share reported to 1e-9."""
+    z centred, orthogonal to c and as long, spans cos^2 a of it: confounded for cos^2 a above
+    CONFOUNDED, not below, its share reported to 1e-9."""
     rng = np.random.default_rng(5)
     d = _drivers(20.0 + 3.0 * np.sin(np.linspace(0, 7, N)))  # a 6 K swing: no thermal cause
     c = ThermalExpansion(axis="x")
