@@ -334,6 +334,35 @@ FAULTS: dict[str, Fault] = {
         more.iso230_two_runs_conform,
         ("tests/scenarios/test_iso230.py::test_a_run_short_of_the_standard_s_five_runs_says_so",),
     ),
+    # --- issue 61: the sabotage gaps of discovery's noise, units and look-alikes
+    "stage_time_drift_per_minute": Fault(
+        "a stage's drift in time (no temperature logged) fitted per minute, said per hour",
+        more.stage_time_drift_per_minute,
+        ("tests/scenarios/test_discover_time_drift.py",),
+    ),
+    "confounded_at_0p95": Fault(
+        "look-alikes said confounded above 95 % of their columns spanned, not 90 %",
+        more.confounded_at_0p95,
+        ("tests/estimators/test_discovery_confounds.py",),
+    ),
+    "stewart_repeat_tol_half": Fault(
+        "a Stewart pose's repeats grouped within half the tolerance",
+        more.stewart_repeat_tol_half,
+        (
+            "tests/scenarios/test_discover_repeats.py::"
+            "test_every_commanded_repeat_pairs_up_at_the_default_tolerance",
+        ),
+    ),
+    "floor_from_all_repeats": Fault(
+        "the verdict's noise floor from every repeat, hours apart too, never successive readings",
+        more.floor_from_all_repeats,
+        ("tests/scenarios/test_discover_floor.py",),
+    ),
+    "floor_factor_1p5": Fault(
+        "nothing said left until the held-out RMS is 1.5 x the noise floor, not 1.2 x",
+        more.floor_factor_1p5,
+        ("tests/scenarios/test_discover_drift.py",),
+    ),
     "suite_arm_ignored": Fault(
         "the suites' NAME:ARM cases recorded and searched with the seed's arm",
         more.suite_arm_ignored,

@@ -178,3 +178,63 @@ def suite_arm_ignored(mp: pytest.MonkeyPatch) -> None:
         return real(label.partition(":")[0], kind, seed, **options)
 
     mp.setattr(suite, "recorded", recorded)
+
+
+def stage_time_drift_per_minute(mp: pytest.MonkeyPatch) -> None:
+    """A stage's drift in time (no temperature logged) fitted per minute, said per hour."""
+    from calibench.estimators.discovery.stage import ThermalDrift
+
+    real = ThermalDrift.columns
+
+    @functools.wraps(real)
+    def columns(self, d):
+        if self.driver != "t_s":
+            return real(self, d)
+        v = np.asarray(d["t_s"], float) / 60
+        return (v - v.mean())[:, None]
+
+    mp.setattr(ThermalDrift, "columns", columns)
+
+
+def confounded_at_0p95(mp: pytest.MonkeyPatch) -> None:
+    """Look-alikes said confounded above 95 % of their columns spanned, not 90 %."""
+    from calibench.estimators.discovery import confounds
+
+    real = confounds.find_confounds
+
+    @functools.wraps(real)
+    def find(*a, **k):
+        if len(a) < 6 and "limit" not in k:
+            k["limit"] = 0.95
+        return real(*a, **k)
+
+    replace(mp, "calibench.estimators.discovery.confounds", "find_confounds", find)
+
+
+def stewart_repeat_tol_half(mp: pytest.MonkeyPatch) -> None:
+    """A Stewart pose's repeats grouped within half the tolerance (2 sqrt 2 sigma)."""
+    from calibench.scenarios.stewart import discovery
+
+    mp.setattr(discovery, "REPEAT_TOL_SIGMA", discovery.REPEAT_TOL_SIGMA / 2)
+
+
+def floor_from_all_repeats(mp: pytest.MonkeyPatch) -> None:
+    """The verdict's noise floor taken from every repeat, hours apart too (the repeatability),
+    and never from successive readings."""
+    from calibench.estimators.discovery import noise
+
+    real = noise.noise_floor
+
+    @functools.wraps(real)
+    def floor(r, order, station=None, passes=None, successive=False, path=None):
+        mp.setattr(noise, "SHORTEST_LAGS", 1.0)
+        return real(r, order, station, passes, False, path)
+
+    replace(mp, "calibench.estimators.discovery.noise", "noise_floor", floor)
+
+
+def floor_factor_1p5(mp: pytest.MonkeyPatch) -> None:
+    """Nothing said left until the held-out RMS is 1.5 x the floor, not 1.2 x."""
+    from calibench.scenarios.discover import report
+
+    mp.setattr(report, "FLOOR_FACTOR", 1.5)

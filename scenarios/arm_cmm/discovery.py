@@ -19,11 +19,11 @@ from typing import Any, cast
 import numpy as np
 
 from calibench.estimators.discovery.arm import ArmDrivers
-from calibench.estimators.discovery.fit import Signal
 from calibench.estimators.discovery.noise import Noise
 from calibench.estimators.discovery.select import prune, select
 from calibench.scenarios.arm_cmm import NAME
 from calibench.scenarios.arm_cmm.discovery_candidates import add_joint_table, arm_candidates
+from calibench.scenarios.arm_cmm.discovery_rows import arm_floor, residual_signal, usable_rows
 from calibench.scenarios.arm_cmm.discovery_sessions import (
     carried_to_sessions,
     say_belonging,
@@ -31,7 +31,7 @@ from calibench.scenarios.arm_cmm.discovery_sessions import (
 )
 from calibench.scenarios.arm_cmm.discovery_words import arm_confounds, locate_arm
 from calibench.scenarios.discover.fresh import structure
-from calibench.scenarios.discover.report import describe_effects, fit_and_noise
+from calibench.scenarios.discover.report import describe_effects, fit_and_noise, judged
 from calibench.scenarios.report import BadInput
 from calibench.scenes.arm_cmm import DEFAULT_ARM
 
@@ -179,6 +179,20 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
         "not_accepted": {**found.rejected, **among.not_applicable},
         "confounded": confounds,
         "summary": _arm_summary(arm.name, found, effects),
+        **judged(
+            found.cv_final,
+            {"xyz": arm_floor(fitted["xyz"], rows)},
+            any(e["name"] != "geometry" for e in effects),
+            located,
+            lambda: locate_arm(
+                dataclasses.replace(sig, r=fitted["xyz"]),
+                terms["xyz"],
+                drivers,
+                rows.q_rad,
+                rows.temp_c,
+                seed,
+            ),
+        ),
     }
     return out, {
         "signals": [sig],
@@ -186,116 +200,6 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
         "rows_used": rows.parts,
         **structure(terms, drivers, fold),
     }
-
-
-@dataclasses.dataclass
-class ArmRows:
-    """The rows discovery reads, every recording's stacked in order.
-
-    q_rad : (n, N) the readings; xyz_mm : (n, 3) the measured points, each in its recording's
-    frame; rec_id : (n,) which recording; parts : each recording's rows kept, (k_i,) indices;
-    left_out : the rows left out, with why (discovery.json's ``left_out_rows``); temp_c, t_s :
-    (n,) the logged temperature and time, or None where a recording has none.
-    """
-
-    q_rad: np.ndarray
-    xyz_mm: np.ndarray
-    rec_id: np.ndarray
-    parts: list[np.ndarray]
-    left_out: list[dict]
-    temp_c: np.ndarray | None
-    t_s: np.ndarray | None
-
-
-def usable_rows(recs: list, arm) -> ArmRows:
-    """The recordings' rows a discovery can use: the stale readings and both rows of each
-    repeat that disagrees left out (without a calibrated model neither can be trusted), enough
-    postures left for the arm's parameters, else one BadInput line."""
-    from calibench.estimators.arm.screening import screen
-    from calibench.scenarios.arm_cmm.training import check_postures
-
-    N = arm.n_joints
-    parts, left_out = [], []
-    for k, r in enumerate(recs):
-        if r.n_joints != N:
-            raise BadInput(f"recording {k + 1} has {r.n_joints} joints, the arm {arm.name} {N}")
-    check_postures(np.vstack([r.q_rad for r in recs]), len(recs))
-    for k, r in enumerate(recs):
-        flagged = screen(r.q_rad, r.xyz_mm)
-        drop = sorted({int(i) for i in flagged.stale} | {int(i) for i in flagged.pairs.ravel()})
-        parts.append(np.setdiff1d(np.arange(len(r.q_rad)), drop))
-        tag = {} if len(recs) == 1 else {"recording": k + 1}
-        left_out += [
-            {**tag, "row": int(i), "why": "stale reading (repeats the previous row's point)"}
-            for i in flagged.stale
-        ]
-        left_out += [
-            {
-                **tag,
-                "row": int(i),
-                "why": f"a repeat of row {int(o)} at the same angles disagrees by {d:.3f} mm",
-            }
-            for (a, b), d in zip(flagged.pairs, flagged.distance_mm)
-            for i, o in ((a, b), (b, a))
-        ]
-    n = sum(len(k) for k in parts)
-    n_kin = 4 * N + len(arm.parallel_pairs())
-    if min(len(k) for k in parts) < 12 or n < max(40, 2 * n_kin):
-        raise BadInput(
-            f"{n} usable postures ({', '.join(str(len(k)) for k in parts)} per recording): "
-            f"discover needs at least {max(40, 2 * n_kin)} for the {arm.name}'s parameters"
-        )
-
-    def joined(name: str) -> np.ndarray | None:
-        cols = [getattr(r, name) for r in recs]
-        if any(c is None for c in cols):
-            return None
-        return np.concatenate([c[k] for c, k in zip(cols, parts)])
-
-    return ArmRows(
-        np.vstack([r.q_rad[k] for r, k in zip(recs, parts)]),
-        np.vstack([r.xyz_mm[k] for r, k in zip(recs, parts)]),
-        np.concatenate([np.full(len(k), i) for i, k in enumerate(parts)]),
-        parts,
-        left_out,
-        joined("temp_c"),
-        joined("t_s"),
-    )
-
-
-def residual_signal(chain, rows: ArmRows, state, drivers: dict, sim_mm: np.ndarray) -> Signal:
-    """The residual signal (3 n,): the measured points in the arm's base frame less the twin's
-    and the chain's remainder at the geometry's solution ``state``, with the scene model's free
-    columns (each recording's frame: a small turn and shift; the shared tool point).
-
-    The candidates are linear, the chain is not: over a 2 m arm a milliradian's error moves the
-    point's lever arms, and a tool guessed 100 mm off moves every joint's. So every column is
-    taken at the geometry's solution, and the signal loses the chain's remainder there
-    (f(d*) - f(d_twin) - J(d*) (d* - d_twin)): the geometry term then holds exactly at d*.
-    """
-    from calibench.estimators.arm.kinematics import pose
-    from calibench.estimators.rotations import skew
-
-    rec_id, n = rows.rec_id, len(rows.q_rad)
-    # each recording's points in the arm's base frame, by the frame the geometry's fit found
-    meas_base = np.einsum("nji,nj->ni", state.R[rec_id], rows.xyz_mm - state.t[rec_id])
-    at_twin = pose(chain, rows.q_rad, drivers["delta_twin"]).point
-    remainder = (
-        drivers["point"]
-        - at_twin
-        - np.einsum("nij,j->ni", drivers["J"], state.delta - drivers["delta_twin"])
-    )
-    r = meas_base - sim_mm - remainder
-    n_rec = len(rows.parts)
-    frame = np.zeros((n, 3, 6 * n_rec + 3))
-    for i in range(n_rec):
-        m = rec_id == i
-        frame[m, :, 6 * i : 6 * i + 3] = -skew(drivers["point"][m])
-        frame[m, :, 6 * i + 3 : 6 * i + 6] = np.eye(3)
-    frame[:, :, -3:] = drivers["flange_R"]
-    return Signal(
-        "xyz_meas - xyz_sim", "xyz", r.ravel(), frame.reshape(3 * n, -1), np.repeat(np.arange(n), 3)
-    )
 
 
 def _where(params: dict) -> str:
@@ -310,7 +214,7 @@ def _arm_summary(name: str, found, effects: list) -> str:
     if not names:
         return (
             f"the nominal {name} with its geometry calibrated explains the recording to "
-            f"{found.cv_final * 1000:.0f} um (held out): nothing else found"
+            f"{found.cv_final * 1000:.0f} um (held out): no other effect named"
         )
     steps = "; ".join(
         f"{e['name']} ({_where(e['params'])}): {e['cv_rms_before'] * 1000:.0f} -> "

@@ -75,10 +75,33 @@ def write_figure(path: Path, out: dict, fig: dict, before_fig: dict | None = Non
                 + (" not confirmed" if e.get("status") == "not confirmed" else "")
                 for e in out["effects"]
             )
-            or "nothing missing"
+            or _nothing_named(out)
         )
         + f"\nheld out ({out['holdout']}): {out['fit']['cv_rms_nominal'] * 1000:.1f} -> "
         f"{out['fit']['cv_rms_final'] * 1000:.1f} um; the panels: fitted on every row (in-sample)"
+        + _left_said(out)
     )
     f.savefig(path, dpi=80)
     plt.close(f)
+
+
+def _nothing_named(out: dict) -> str:
+    """The title's words when no effect was named: "nothing missing" only where the verdict
+    says so."""
+    return (
+        "nothing missing"
+        if out.get("verdict", "").startswith("nothing missing")
+        else ("no effect named")
+    )
+
+
+def _left_said(out: dict) -> str:
+    """A title line for what is left unexplained (discovery.json's ``unexplained``), if any."""
+    u = out.get("unexplained")
+    if not u:
+        return ""
+    at = f", follows {u['driver']}" if u.get("driver") else ""
+    return (
+        f"\nunexplained: {u['rms'] * 1000:.1f} um held out against a noise floor of "
+        f"{u['noise_floor'] * 1000:.1f} um{at}"
+    )

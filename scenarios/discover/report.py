@@ -1,8 +1,11 @@
 """What every plug-in's discovery.json says the same way: the accepted effects described from the
-final fit, the verdict against the repeatability, the fit and the noise.
+final fit, the judgement (the noise floor, what is left unexplained and where, the verdict), the
+fit and the noise.
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import numpy as np
 
@@ -10,8 +13,13 @@ from calibench.estimators.discovery.fit import (
     fit_terms,
     refined,
 )
+from calibench.estimators.discovery.noise import Floor, pooled
 
-UNEXPLAINED_RATIO = 1.5  # held-out RMS over repeatability beyond which something is left
+# the held-out RMS may exceed the noise floor by this factor before something is said to be left:
+# the held-out prediction's own scatter (a few % for the parameters fitted) and the floor's
+# sampling error (3 % from 500 pairs) stay well inside it; a slow effect at 1.5 times the noise
+# does not
+FLOOR_FACTOR = 1.2
 
 
 def fit_and_noise(
@@ -39,38 +47,92 @@ def fit_and_noise(
     return out
 
 
-def verdict(cv_final_mm: float, noise: dict, found_any: bool, located: list | None = None) -> str:
-    """What is left after the accepted effects, in words: the final held-out RMS (per
-    coordinate) against the repeatability from repeats (``noise``: axis -> Noise, after the
-    effects). Never a silent stop: unexplained structure, or no repeats to judge by, is said;
-    and never "nothing missing" beside structure ``located`` found (the two would contradict)."""
-    sig = [nz.sigma_mm for nz in noise.values() if nz.sigma_mm]
+def verdict(
+    cv_final_mm: float, floor: Floor | None, found_any: bool, located: list | None = None
+) -> str:
+    """What is left after the accepted effects, in words: the final held-out RMS (per reading)
+    against the recording's noise floor from its fastest repeats (:func:`noise_floor`). "Nothing
+    missing" only within :data:`FLOOR_FACTOR` of the floor and with nothing ``located``;
+    "unexplained" only beyond that factor of the floor's 95 % upper bound (few repeats, a loose
+    floor); between the two, that it cannot be said. No floor to judge by is said, never taken
+    for noise."""
     left = cv_final_mm * 1000
-    if not sig:
+    if floor is None or floor.sigma_mm is None:
         return (
-            f"what is left: {left:.2f} um held out; no station was visited twice, so the "
-            "repeatability is unknown and it cannot be said whether that is noise"
+            f"what is left: {left:.2f} um held out; the recording has no repeats close in time "
+            "and its successive readings are not repeats, so its noise floor is unknown and it "
+            "cannot be said whether that is noise"
         )
-    floor = float(np.sqrt(np.mean(np.square(sig)))) * 1000
-    if cv_final_mm * 1000 > UNEXPLAINED_RATIO * floor:
+    sigma = floor.sigma_mm * 1000
+    said = f"{sigma:.2f} um noise floor from {floor.source}"
+    upper = (floor.upper_mm or floor.sigma_mm) * 1000
+    if FLOOR_FACTOR * sigma < left <= FLOOR_FACTOR * upper:
         return (
-            f"unexplained: {left:.2f} um held out against {floor:.2f} um of repeatability; the "
-            "recording holds structure no candidate explains"
+            f"near the noise floor: {left:.2f} um held out against a {said}, which its "
+            f"{floor.pairs} pairs put anywhere up to {upper:.2f} um (95 %): whether something is "
+            "left cannot be said; more repeats close in time would tell"
+        )
+    if left > FLOOR_FACTOR * sigma:
+        return (
+            f"unexplained: {left:.2f} um held out against a {said} ({left / sigma:.1f} x, above "
+            f"{FLOOR_FACTOR:g} x); the residual's lag-1 correlation {floor.lag1_time:.2f} in time, "
+            f"{floor.lag1_path:.2f} along the path: structure no candidate explains"
         )
     if not found_any and located:
         drivers = ", ".join(sorted({d["driver"] for d in located}))
         return (
-            f"near the repeatability ({left:.2f} um held out, {floor:.2f} um from repeats), yet "
-            f"the residual follows {drivers} (located): structure no candidate cuts by the "
-            "acceptance floor, not noise"
+            f"near the noise floor ({left:.2f} um held out, {said}), yet the residual follows "
+            f"{drivers} (located): structure no candidate cuts by the acceptance floor, not noise"
         )
     what = (
         "the accepted effects explain" if found_any else "nothing missing: the scene model explains"
     )
     return (
-        f"{what} the recording to its repeatability ({left:.2f} um held out, {floor:.2f} um "
-        "from repeats)"
+        f"{what} the recording to its noise floor ({left:.2f} um held out, {said}, within "
+        f"{FLOOR_FACTOR:g} x)"
     )
+
+
+def judged(
+    cv_final_mm: float,
+    floors: dict[str, Floor],
+    found_any: bool,
+    located: list,
+    where_left: Callable[[], list[dict]],
+) -> dict:
+    """discovery.json's judgement, the same for every instrument: ``noise_floor`` (pooled over
+    the axes' ``floors``), ``unexplained`` (None, or what is left above :data:`FLOOR_FACTOR`
+    times the floor: its RMS, the floor, and where it lives, the first of ``where_left()``: the
+    instrument's location run on the final residual) and ``verdict``."""
+    floor = pooled(floors)
+    out: dict = {"noise_floor": None, "unexplained": None}
+    if floor is not None and floor.sigma_mm is not None:
+        out["noise_floor"] = {
+            "sigma_mm": floor.sigma_mm,
+            "from": floor.source,
+            "pairs": floor.pairs,
+            "upper_95_mm": floor.upper_mm,
+            "factor": FLOOR_FACTOR,
+            "lag1_time": floor.lag1_time,
+            "lag1_path": floor.lag1_path,
+        }
+        if cv_final_mm > FLOOR_FACTOR * (floor.upper_mm or floor.sigma_mm):
+            left = where_left()
+            out["unexplained"] = {
+                "rms": cv_final_mm,
+                "noise_floor": floor.sigma_mm,
+                "driver": left[0]["driver"] if left else None,
+                "where": left[0]["where"]
+                if left
+                else "follows none of the drivers searched: fast structure, or noise unlike the "
+                "floor's (heavy tails, a wander between passes)",
+            }
+    out["verdict"] = verdict(cv_final_mm, floor, found_any, located)
+    if out["unexplained"] is not None:
+        u = out["unexplained"]
+        at = f"follows {u['driver']}: " if u["driver"] else ""
+        out["verdict"] += f"; what is left {at}{u['where']}"
+    return out
 
 
 def describe_effects(signals, terms, found, drivers, noise):

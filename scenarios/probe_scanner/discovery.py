@@ -14,6 +14,8 @@ per turn; the held-out folds are whole turns.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from calibench.estimators.discovery.confounds import find_confounds
@@ -26,7 +28,7 @@ from calibench.estimators.discovery.fit import (
     lstsq,
     rms,
 )
-from calibench.estimators.discovery.noise import Noise, repeatability
+from calibench.estimators.discovery.noise import Noise, noise_floor, repeatability
 from calibench.estimators.discovery.nonsmooth import NONSMOOTH_Z
 from calibench.estimators.discovery.probe_scanner import (
     AXIS,
@@ -187,7 +189,7 @@ def discover_scanner(rec, seed: int = 0, floor: float = FLOOR, config=None) -> t
 
 
 def _discover_scanner(recs: list, seed: int, floor: float, config) -> tuple[dict, dict]:
-    from calibench.scenarios.discover.report import describe_effects, fit_and_noise, verdict
+    from calibench.scenarios.discover.report import describe_effects, fit_and_noise, judged
 
     for k, r in enumerate(recs):
         which = f"recording {k + 1}: " if len(recs) > 1 else ""
@@ -287,7 +289,14 @@ def _discover_scanner(recs: list, seed: int, floor: float, config) -> tuple[dict
         "not_accepted": found.rejected,
         "confounded": confounds,
         **sessions_said(sessions),
-        "verdict": verdict(found.cv_final, after_noise, bool(effects), located),
+        **judged(
+            found.cv_final,
+            # a turn's successive angles are near-repeats of what is smooth in the angle
+            {AXIS: noise_floor(fitted[AXIS], order, station, rec.turn, successive=True, path=th)},
+            bool(effects),
+            located,
+            lambda: locate_scanner(dataclasses.replace(sig, r=fitted[AXIS]), drivers, rec, seed),
+        ),
     }
     return out, {
         "signals": [sig],

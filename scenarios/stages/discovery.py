@@ -18,7 +18,7 @@ import numpy as np
 
 from calibench.estimators.discovery.effect import Effect
 from calibench.estimators.discovery.fit import Signal, cv_residuals, fit_terms, lstsq
-from calibench.estimators.discovery.noise import repeatability
+from calibench.estimators.discovery.noise import Floor, noise_floor, repeatability
 from calibench.estimators.discovery.nonsmooth import find_nonsmooth
 from calibench.estimators.discovery.select import FLOOR, Discovery, keep_table, refine, select
 from calibench.estimators.discovery.stage import (
@@ -30,7 +30,7 @@ from calibench.estimators.discovery.stage import (
 from calibench.recordings.stage import repeated_pass
 from calibench.scenarios.discover.folds import block_folds
 from calibench.scenarios.discover.fresh import structure
-from calibench.scenarios.discover.report import describe_effects, fit_and_noise, verdict
+from calibench.scenarios.discover.report import describe_effects, fit_and_noise, judged
 from calibench.scenarios.discover.twin_merge import carried, given_tables, stage_drives
 from calibench.scenarios.report import BadInput
 from calibench.scenarios.stages.discovery_words import locate_stage, stage_confounds
@@ -146,7 +146,15 @@ def discover_stage(
         "temp_mean_c": None if rec.temp_c is None else float(np.mean(rec.temp_c)),
         "not_accepted": found.rejected,
         "confounded": stage_confounds(signals, terms, found, candidates, drivers, rec),
-        "verdict": verdict(found.cv_final, after, bool(effects), located),
+        **judged(
+            found.cv_final,
+            stage_floors(scene, fitted, rec.run),
+            bool(effects),
+            located,
+            lambda: locate_stage(
+                [dataclasses.replace(s, r=fitted[s.axis]) for s in signals], drivers, seed
+            ),
+        ),
     }
     return out, {
         "signals": signals,
@@ -210,6 +218,20 @@ def stage_scene(scenario: str, rec, deg: int, truth=None, geometry=None) -> Stag
         1
     ].ravel()
     return StageScene(signals, drivers, station, order)
+
+
+def stage_floors(scene: StageScene, fitted: dict, run) -> dict[str, Floor]:
+    """Each axis's noise floor (:func:`~calibench.estimators.discovery.noise.noise_floor`) of its
+    residual after the accepted effects: a station's repeats at their shortest lags, or a pass's
+    successive readings (neighbouring stations of a line, near-repeats of what is smooth along
+    it), whichever is smaller."""
+    passes = np.zeros(len(scene.order), int) if run is None else np.asarray(run)
+    return {
+        s.axis: noise_floor(
+            fitted[s.axis], scene.order, scene.station, passes, successive=True, path=s.u
+        )
+        for s in scene.signals
+    }
 
 
 def _stage_candidates(drivers: StageDrivers, deg: int) -> list[Effect | PeriodSearch]:

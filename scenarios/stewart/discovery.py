@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from calibench.estimators.discovery.fit import Signal, lstsq
-from calibench.estimators.discovery.noise import repeatability
+from calibench.estimators.discovery.noise import noise_floor, repeatability
 from calibench.estimators.discovery.select import prune, select
 from calibench.estimators.discovery.stewart import AXIS, StewartDrivers, stewart_candidates
 from calibench.scenarios.discover.folds import block_folds
@@ -274,7 +274,7 @@ def _registered(rec, g) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _discover_stewart(rec, rec_id, seed: int, floor: float, config) -> tuple[dict, dict]:
-    from calibench.scenarios.discover.report import describe_effects, fit_and_noise, verdict
+    from calibench.scenarios.discover.report import describe_effects, fit_and_noise, judged
     from calibench.scenarios.stewart.scenario import StewartConfig
     from calibench.sim.stewart import leg_effects_mm
 
@@ -311,7 +311,8 @@ def _discover_stewart(rec, rec_id, seed: int, floor: float, config) -> tuple[dic
         parts = [block_folds(rec.readings_mm[rec_id == k], "poses") for k in np.unique(rec_id)]
         fold = np.concatenate([f for f, _ in parts])
         scheme = parts[0][1] + " of each recording"
-    station = np.repeat(stations(rec, repeat_tol), 6) * 6 + np.tile(np.arange(6), n)
+    legs = np.tile(np.arange(6), n)
+    station = np.repeat(stations(rec, repeat_tol), 6) * 6 + legs
     order = (
         np.repeat(rec.t_s if rec.t_s is not None else np.arange(n, dtype=float), 6)
         + np.tile(np.arange(6), n) * 1e-3
@@ -344,7 +345,14 @@ def _discover_stewart(rec, rec_id, seed: int, floor: float, config) -> tuple[dic
         "temp_mean_c": None if rec.temp_c is None else float(np.mean(rec.temp_c)),
         "not_accepted": found.rejected,
         "confounded": confounds,
-        "verdict": verdict(found.cv_final, after_noise, bool(names), located),
+        **judged(
+            found.cv_final,
+            # the poses come in random order: successive readings are not repeats
+            {AXIS: noise_floor(fitted[AXIS], order, station, legs, path=drivers["L"].ravel())},
+            bool(names),
+            located,
+            lambda: locate(fitted[AXIS].reshape(-1, 6), drivers, seed),
+        ),
     }
     if rec_id.max() > 0:
         out["recordings"] = int(rec_id.max()) + 1

@@ -5,11 +5,14 @@ moved is confounded whatever its columns."""
 
 import numpy as np
 
-from calibench.estimators.discovery.confounds import CONFOUNDED, find_confounds
+from calibench.estimators.discovery.confounds import find_confounds
 from calibench.estimators.discovery.fit import Signal
 from calibench.estimators.discovery.stage import ThermalExpansion
 
 N = 400
+# the share above which a look-alike is said confounded: docs/discover.md's 90 %, written here as
+# the documents state it (the product's constant is what this test checks)
+CONFOUNDED = 0.9
 
 
 def _signal(base: np.ndarray) -> dict[str, Signal]:

@@ -321,24 +321,25 @@ def test_paper_belt_stage_residual_is_table_3_and_lives_in_y(real_data):
     assert (top["signal"], top["driver"]) == ("y_meas - y_sim", "y")
 
 
-def test_what_is_left_is_judged_against_the_repeatability(monkeypatch):
-    """A null recording ends at its repeatability and says so; the same machine with lost motion
+def test_what_is_left_is_judged_against_the_noise_floor(monkeypatch):
+    """A null recording ends at its noise floor and says so; the same machine with lost motion
     and no candidate allowed to find it (the candidate list emptied) must not stop silently: it
-    reports the held-out RMS against the repeatability from repeats, after the effects."""
+    reports the held-out RMS against the floor from the fastest repeats, after the effects, and
+    where what is left lives (the direction of approach)."""
     import calibench.scenarios.stages.discovery as disc
 
     null, _ = stage_recording("vision-stage", "null", 5)
     d, _ = disc.discover_stage("vision-stage", null)
     assert d["located"] == [], d["located"]  # nothing concealed, nothing located
-    assert d["verdict"].startswith("nothing missing") and "um from repeats" in d["verdict"]
+    assert d["verdict"].startswith("nothing missing") and "um noise floor from" in d["verdict"]
     rec, _ = stage_recording("vision-stage", "backlash", 7)
     monkeypatch.setattr(disc, "stage_candidates", lambda drivers: [])
     monkeypatch.setattr(disc, "polynomial_candidates", lambda axis, deg: [])
     monkeypatch.setattr(disc, "find_nonsmooth", lambda *a, **k: None)
     d, _ = disc.discover_stage("vision-stage", rec)
-    assert d["verdict"].startswith("unexplained:") and "um of repeatability" in d["verdict"]
-    rep = max(v["repeatability_mm"] for v in d["noise_after_effects"].values())
-    assert d["fit"]["cv_rms_final"] > 1.5 * rep
+    assert d["verdict"].startswith("unexplained:") and "um noise floor from" in d["verdict"]
+    assert d["fit"]["cv_rms_final"] > 1.5 * d["noise_floor"]["sigma_mm"]
+    assert d["unexplained"]["driver"].startswith("dir_"), d["unexplained"]
 
 
 def test_an_effect_one_session_alone_shows_does_not_belong_to_the_machine(tmp_path):

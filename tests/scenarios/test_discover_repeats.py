@@ -34,3 +34,16 @@ def test_a_null_platform_under_a_noisy_tracker_is_judged_at_its_noise():
     assert out["fit"]["cv_rms_final"] < 1.15 * sigma
     assert not out["verdict"].startswith("unexplained")
     assert [e["name"] for e in out["effects"]] == ["geometry"]
+
+
+def test_every_commanded_repeat_pairs_up_at_the_default_tolerance():
+    """The generator visits each pose again in reverse order: the visits approached the same way
+    by every leg are the true repeats (counted from the plan, not from the readings).
+    discover's repeatability rests on exactly those pairs, six station pairs each (its dof): a
+    tolerance tighter than the readings' noise splits some, one looser merges none here."""
+    rec, _ = stewart_recording("null", 1)
+    n = len(rec) // 2
+    pairs = int(np.all(rec.direction[:n] == rec.direction[::-1][:n], axis=1).sum())
+    assert pairs >= 20
+    out, _ = discover_stewart(rec, 0)
+    assert out["noise"]["legs"]["dof"] == 6 * pairs

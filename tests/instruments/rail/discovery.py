@@ -16,11 +16,11 @@ import numpy as np
 
 from calibench.errors import BadInput
 from calibench.estimators.discovery.fit import Signal, fit_terms, lstsq
-from calibench.estimators.discovery.noise import repeatability
+from calibench.estimators.discovery.noise import noise_floor, repeatability
 from calibench.estimators.discovery.select import FLOOR, select
 from calibench.estimators.discovery.stage import Backlash, Polynomial, StageDrivers
 from calibench.scenarios.discover.fresh import structure
-from calibench.scenarios.discover.report import describe_effects, verdict
+from calibench.scenarios.discover.report import describe_effects, judged
 from tests.instruments.rail.recording import RailRecording, load_rail_csv
 from tests.instruments.rail.twin import RailTruth, friction_for, lost_motion_mm, plan, replay
 
@@ -118,7 +118,13 @@ def discover_rail(
         "scene_model": "the nominal twin (no scale error, no friction) plus the rail's offset",
         "not_accepted": found.rejected,
         "confounded": [],
-        "verdict": verdict(found.cv_final, after, bool(effects), []),
+        **judged(
+            found.cv_final,
+            {"x": noise_floor(fitted, idx, station, rec.run, successive=True, path=x)},
+            bool(effects),
+            [],
+            list,  # the rail's residual is tested against no driver
+        ),
     }
     fig = {"signals": [sig], "fitted": {"x": fitted}, "x": x, "y": np.zeros(n)}
     return out, {**fig, **structure(terms, drivers, fold)}
