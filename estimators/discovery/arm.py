@@ -20,7 +20,7 @@ class ArmDrivers(TypedDict, total=False):
     ``tau`` (n, N) the joints' gravity torques (N m, the twin's inverse dynamics; None without
     masses); ``point`` (n, 3) mm and ``flange_R`` (n, 3, 3) of the chain there; ``delta_twin``
     (5 N + 3,) the twin's own chain errors; ``rec`` (n,) each posture's recording; ``t_s``,
-    ``temp_c`` (n,) or None."""
+    ``temp_c`` (n,) or None; ``dir_q`` (n, N) each joint's direction of last motion."""
 
     q: np.ndarray
     J: np.ndarray
@@ -33,6 +33,7 @@ class ArmDrivers(TypedDict, total=False):
     rec: np.ndarray
     t_s: np.ndarray | None
     temp_c: np.ndarray | None
+    dir_q: np.ndarray | None
 
 
 # --- the arm --------------------------------------------------------------------------------------

@@ -69,6 +69,10 @@ class Driver:
     name: str
     values: np.ndarray | None
     null: str = "shift"
+    # what the residual is taken beyond: its means in quantile bins of these values are removed
+    # before the test (a direction of last motion beyond the angle it came to, which random
+    # postures tie it to)
+    given: np.ndarray | None = None
 
     def __post_init__(self):
         if self.null not in NULLS:
@@ -110,6 +114,15 @@ def _score_and_p(r, d: Driver, v, passes, rng, n_perm) -> tuple[float, float]:
     return score, (hits + 1) / (n_perm + 1)
 
 
+def _beyond(r: np.ndarray, given: np.ndarray, bins: int = 8) -> np.ndarray:
+    """``r`` (n, k) less its means in quantile bins of ``given`` (n,)."""
+    edges = np.quantile(given, np.linspace(0, 1, bins + 1)[1:-1])
+    idx = np.searchsorted(edges, given)
+    counts = np.bincount(idx, minlength=bins)[:, None]
+    means = np.stack([np.bincount(idx, weights=c, minlength=bins) for c in r.T], axis=1)
+    return r - (means / np.maximum(counts, 1))[idx]
+
+
 def follows(
     r: np.ndarray,
     drivers: list[Driver],
@@ -142,9 +155,10 @@ def follows(
         if d.values is None or np.ptp(d.values) == 0:
             continue
         values = np.asarray(d.values, float)
+        cols = columns if d.given is None else _beyond(columns, np.asarray(d.given, float))
         tried = [
-            _score_and_p(columns[:, k], d, values, passes, rng, n_perm) + (k,)
-            for k in range(columns.shape[1])
+            _score_and_p(cols[:, k], d, values, passes, rng, n_perm) + (k,)
+            for k in range(cols.shape[1])
         ]
         score, p, k = max(tried, key=lambda s: s[0])
         if p <= p_max and score >= score_min:

@@ -19,6 +19,7 @@ from typing import Any, cast
 import numpy as np
 
 from calibench.estimators.discovery.arm import ArmDrivers
+from calibench.estimators.discovery.motion import last_direction
 from calibench.estimators.discovery.noise import Noise
 from calibench.estimators.discovery.select import prune, select
 from calibench.scenarios.arm_cmm import NAME
@@ -137,6 +138,10 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
     )
     drivers, sim = arm_drivers(arm, rows.q_rad, rows.temp_c, rows.t_s, truth, solved.state.delta)
     drivers["rec"] = rows.rec_id
+    # each joint's direction of last motion, over each recording's rows in their order
+    drivers["dir_q"] = np.stack(
+        [last_direction(rows.q_rad[:, j], rows.rec_id) for j in range(N)], axis=1
+    )
     sig = residual_signal(chain, rows, solved.state, drivers, sim)
     among = arm_candidates(chain, arm, rows.q_rad, rows.xyz_mm, solved, drivers)
     # five contiguous blocks of each recording: every fold holds out a fifth of each setup
@@ -156,7 +161,7 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
     confounds = arm_confounds(sig, terms["xyz"], among.candidates, drivers, found)
     accepted = {t.key for t in terms["xyz"]}
     confounds += [c for key, c in among.alike.items() if key in accepted]
-    located = locate_arm(sig, terms["xyz"], drivers, rows.q_rad, rows.temp_c, seed)
+    located = locate_arm(sig, terms["xyz"], drivers, seed)
     out = {
         "scenario": NAME,
         "arm": arm.name,
@@ -185,12 +190,7 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
             any(e["name"] != "geometry" for e in effects),
             located,
             lambda: locate_arm(
-                dataclasses.replace(sig, r=fitted["xyz"]),
-                terms["xyz"],
-                drivers,
-                rows.q_rad,
-                rows.temp_c,
-                seed,
+                dataclasses.replace(sig, r=fitted["xyz"]), terms["xyz"], drivers, seed
             ),
         ),
     }

@@ -18,9 +18,11 @@ from calibench.estimators.discovery.arm import (
     TransmissionSearch,
     joint_table,
 )
+from calibench.estimators.discovery.arm_motion import JointBacklash
 from calibench.estimators.discovery.effect import Drivers, Effect
 from calibench.estimators.discovery.fit import Signal
 from calibench.estimators.discovery.select import Discovery, keep_table
+from calibench.estimators.discovery.step import StepSearch
 from calibench.scenarios.arm_cmm.discovery_compliance import compliance_candidates
 
 
@@ -33,7 +35,7 @@ class ArmCandidates:
     confound said when it is accepted}.
     """
 
-    candidates: list[Effect | TransmissionSearch]
+    candidates: list[Effect | TransmissionSearch | StepSearch]
     geometry: Effect | None
     not_applicable: dict
     alike: dict
@@ -60,7 +62,7 @@ def arm_candidates(
     geometry = Geometry(kept=kin, names=names, prior_weight=tuple(weight))
     # postures that move one joint only leave no kinematic error the frames and tool do not
     # absorb; a transmission's search fixes its harmonic on the rows it is fitted to (no Effect)
-    candidates: list[Effect | TransmissionSearch] = [geometry] if kin else []
+    candidates: list[Effect | TransmissionSearch | StepSearch] = [geometry] if kin else []
     candidates += [EncoderEccentricity(joint=j) for j in range(1, N + 1)]
     candidates += [
         TransmissionSearch(joint=j, harmonics=harmonic_grid(q[:, j - 1])) for j in range(1, N + 1)
@@ -74,6 +76,9 @@ def arm_candidates(
     compliance, not_applicable, alike = compliance_candidates(chain, q, drivers, arm.name)
     candidates += compliance
     candidates += [ArmThermalExpansion(), ArmDrift(driver="temp_c"), ArmDrift(driver="t_s")]
+    # what follows a joint's motion or a moment, not its angle: lost motion, a step
+    candidates += [JointBacklash(joint=j) for j in range(1, N + 1)]
+    candidates += [StepSearch(axis="xyz", joint=j) for j in range(1, N + 1)]
     candidates = [c for c in candidates if not hasattr(c, "applies") or c.applies(drivers)]
     return ArmCandidates(
         candidates, geometry if geometry in candidates else None, not_applicable, alike

@@ -1,0 +1,71 @@
+"""Drivers derived from a recording's logged columns, for every instrument: the direction of an
+axis's (or joint's) last motion, the distance it travelled since its last reversal, and a logged
+temperature seen through a first-order lag.
+
+Rows are taken in the order given (a recording's time order); ``series`` (n,) ids restart the
+history where a new pass or recording begins.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def _starts(series: np.ndarray | None, n: int) -> np.ndarray:
+    """(n,) bool: where a new series begins (the first row always)."""
+    start = np.zeros(n, bool)
+    start[:1] = True
+    if series is not None:
+        s = np.asarray(series)
+        start[1:] |= s[1:] != s[:-1]
+    return start
+
+
+def last_direction(u: np.ndarray, series: np.ndarray | None = None) -> np.ndarray:
+    """The sign (+1 / -1) of the last change of ``u`` (n,) before each row, 0 until the first
+    move of its series: the direction a drive last turned in, whatever the steps' size."""
+    u = np.asarray(u, float)
+    n = len(u)
+    start = _starts(series, n)
+    step = np.r_[0.0, np.diff(u)]
+    step[start] = 0.0
+    sign = np.sign(step)
+    rows = np.arange(n)
+    last = np.maximum.accumulate(np.where(sign != 0, rows, -1))  # the last move up to each row
+    first = np.maximum.accumulate(np.where(start, rows, 0))  # where each row's series began
+    return np.where(last >= first, sign[np.maximum(last, 0)], 0.0)
+
+
+def since_reversal(u: np.ndarray, series: np.ndarray | None = None) -> np.ndarray:
+    """The distance (|u| units) travelled since the last reversal of ``u``'s direction, (n,): what
+    an error that appears at a reversal and dies away with travel (stick-slip, settling) follows.
+    Before a series' first reversal, the distance since its start."""
+    u = np.asarray(u, float)
+    n = len(u)
+    start = _starts(series, n)
+    d = last_direction(u, series)
+    reversed_here = start | (np.r_[0.0, d[:-1]] * d < 0)
+    anchor = np.maximum.accumulate(np.where(reversed_here, np.arange(n), 0))
+    # at a reversal the travel restarts from the row before it, where the drive turned
+    turn = np.where(start[anchor], anchor, anchor - 1)
+    return np.abs(u - u[turn])
+
+
+def lagged(temp_c: np.ndarray, t_s: np.ndarray, tau_s: float) -> np.ndarray:
+    """The temperature a part with time constant ``tau_s`` reaches following ``temp_c`` (n,)
+    logged at ``t_s`` (n,, increasing): T' = (T_air - T) / tau, exact for an air temperature
+    linear between samples; it starts at the first reading."""
+    T = np.asarray(temp_c, float)
+    t = np.asarray(t_s, float)
+    out = np.empty_like(T)
+    out[0] = T[0]
+    dt = np.diff(t)
+    a = np.exp(-dt / tau_s)
+    # the exact response to a ramp between samples: the lag of the ramp's slope
+    slope = np.diff(T) / np.where(dt > 0, dt, 1.0)
+    lag = slope * tau_s
+    # a first-order filter: each row needs the one before (once per time constant tried, not in a
+    # fit's inner loop)
+    for k in range(1, len(T)):
+        out[k] = T[k] - lag[k - 1] + a[k - 1] * (out[k - 1] - T[k - 1] + lag[k - 1])
+    return out
