@@ -18,6 +18,7 @@ import dataclasses
 import numpy as np
 
 from calibench.estimators.discovery.effect import Drivers, Effect, coef_std
+from calibench.estimators.discovery.search import profile, within_one_sigma
 
 MIN_SIDE = 10  # samples on each side of a moment searched: a step at an end is an offset
 MAX_MOMENTS = 400  # moments tried at most (quantiles of the times beyond it)
@@ -105,20 +106,10 @@ class StepSearch:
             cuts = np.quantile(cuts, np.linspace(0, 1, MAX_MOMENTS))
         H = (t[:, None] >= cuts[None, :]).astype(float)
         C = _shape(drivers, self.joint, H)[rows]
-        X, y = others[rows], r[rows]
-        Q, _ = np.linalg.qr(X)
-        y_left = y - Q @ (Q.T @ y)
-        C_left = C - Q @ (Q.T @ C)
-        power = np.einsum("ij,ij->j", C_left, C_left)
-        gain = np.where(power > 1e-300, (C_left.T @ y_left) ** 2 / np.maximum(power, 1e-300), 0.0)
-        best = int(np.argmax(gain))
-        rss = float(y_left @ y_left) - gain
-        dof = max(len(y) - X.shape[1] - 2, 1)
-        sigma2 = rss[best] / dof
-        near = cuts[rss <= rss[best] + sigma2]
+        best, rss, sigma2 = profile(r[rows], others[rows], C)
         # the moment lies anywhere between the samples either side of the cut (uniform: the
         # interval over sqrt 12), or as wide as the profile says
         k = int(np.searchsorted(times, cuts[best]))
         gap = times[min(k, len(times) - 1)] - times[max(k - 1, 0)]
-        std = max((near.max() - near.min()) / 2, gap / np.sqrt(12))
+        std = max(within_one_sigma(cuts, rss, best, sigma2), gap / np.sqrt(12))
         return Step(axis=self.axis, joint=self.joint, at_s=float(cuts[best]), at_std_s=float(std))

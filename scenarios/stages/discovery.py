@@ -18,6 +18,7 @@ import numpy as np
 
 from calibench.estimators.discovery.effect import Effect
 from calibench.estimators.discovery.fit import Signal, cv_residuals, fit_terms, lstsq
+from calibench.estimators.discovery.lag import LagSearch
 from calibench.estimators.discovery.noise import Floor, noise_floor, repeatability
 from calibench.estimators.discovery.nonsmooth import find_nonsmooth
 from calibench.estimators.discovery.select import FLOOR, Discovery, keep_table, refine, select
@@ -27,6 +28,7 @@ from calibench.estimators.discovery.stage import (
     polynomial_candidates,
     stage_candidates,
 )
+from calibench.estimators.discovery.step import StepSearch
 from calibench.recordings.stage import repeated_pass
 from calibench.scenarios.discover.folds import block_folds
 from calibench.scenarios.discover.fresh import structure
@@ -234,14 +236,24 @@ def stage_floors(scene: StageScene, fitted: dict, run) -> dict[str, Floor]:
     }
 
 
-def _stage_candidates(drivers: StageDrivers, deg: int) -> list[Effect | PeriodSearch]:
+def _stage_candidates(
+    drivers: StageDrivers, deg: int
+) -> list[Effect | PeriodSearch | LagSearch | StepSearch]:
     """The stage's candidates, a periodic search over each axis's travel (uniform in frequency,
     five points per resolution element, 1 / travel) and the smooth terms above the map's
     degree."""
     x, y = drivers["x"], drivers["y"]
     step = np.median(np.diff(np.unique(np.r_[x, y]))) if len(np.unique(np.r_[x, y])) > 1 else 1.0
-    candidates: list[Effect | PeriodSearch] = list(stage_candidates(drivers))
+    candidates: list[Effect | PeriodSearch | LagSearch | StepSearch]
+    candidates = list(stage_candidates(drivers))
     for a, u in (("x", x), ("y", y)):
+        # a temperature the axis sees through a lag; a reading that steps once
+        searched: list[LagSearch | StepSearch] = [
+            LagSearch(a),
+            LagSearch(a, "thermal_drift"),
+            StepSearch(a),
+        ]
+        candidates += [c for c in searched if c.applies(drivers)]
         lo, hi = max(2.5 * step, 5.0), np.ptp(u) / 2
         if hi > lo:
             f = np.arange(1 / hi, 1 / lo, 1 / (5 * np.ptp(u)))

@@ -1,11 +1,12 @@
 """The verdict's noise floor (issue 61): from a recording's fastest repeats, so a slow effect no
-candidate writes down cannot raise it and hide behind it. The stages' unwritten ``lagged_thermal``
-recordings (the scale's own temperature follows the logged air through a first-order lag: the
-candidates' thermal expansion follows the air itself) and a null, against the generator's stated
-noise (1 um, Gaussian)."""
+candidate writes down cannot raise it and hide behind it; and the lag a scale's temperature
+follows the air with, searched. The stages' unwritten ``lagged_thermal`` recordings (the scale's
+own temperature follows the logged air through a first-order lag) and a null, against the
+generator's stated noise (1 um, Gaussian)."""
 
 import pytest
 
+from calibench.estimators.discovery.lag import LagSearch
 from calibench.scenarios.discover.report import FLOOR_FACTOR
 from calibench.scenarios.stages.discovery import discover_stage
 from calibench.sim.concealed import stage_recording
@@ -15,10 +16,12 @@ FLOOR_TOL = 0.05
 
 
 @pytest.mark.parametrize("scenario", ["belt-stage", "vision-stage"])
-def test_a_lagged_thermal_scale_is_left_unexplained_not_hidden_in_the_floor(scenario):
-    """The floor is the readings' noise, not noise plus the slow change between passes (the
-    repeatability from repeats hours apart was 3-4 x it); the held-out residual above 1.2 x the
-    floor is said ``unexplained``, with its RMS and the floor."""
+def test_a_lagged_thermal_scale_is_left_unexplained_not_hidden_in_the_floor(scenario, monkeypatch):
+    """Without the lag among the candidates (as before issue 61): the floor is the readings'
+    noise, not noise plus the slow change between passes (the repeatability from repeats hours
+    apart was 3-4 x it); the held-out residual above 1.2 x the floor is said ``unexplained``,
+    with its RMS and the floor."""
+    monkeypatch.setattr(LagSearch, "applies", lambda self, drivers: False)
     rec, manifest = stage_recording(scenario, "lagged_thermal", 0)
     noise = manifest["noise_um"] / 1000
     out, _ = discover_stage(scenario, rec, 0)
@@ -36,3 +39,24 @@ def test_a_null_stage_is_judged_at_its_noise_and_nothing_is_missing():
     out, _ = discover_stage("belt-stage", rec, 2)
     assert abs(out["noise_floor"]["sigma_mm"] / (manifest["noise_um"] / 1000) - 1) < FLOOR_TOL
     assert out["unexplained"] is None and out["verdict"].startswith("nothing missing")
+
+
+@pytest.mark.parametrize(("scenario", "seed"), [("belt-stage", 3), ("vision-stage", 0)])
+def test_a_lagged_thermal_scale_is_found_with_its_lag(scenario, seed):
+    """With the lag searched: each axis's thermal expansion named with a ``lag_s``, the lag and
+    the coefficient within 3 of their standard errors of the generator's (or 15 % of the lag:
+    the grid's 40 steps over the recording), and nothing left above the floor."""
+    rec, manifest = stage_recording(scenario, "lagged_thermal", seed)
+    truth = manifest["effects"][0]["params"]
+    out, _ = discover_stage(scenario, rec, seed)
+    lagged = [e for e in out["effects"] if "lag_s" in e["params"]]
+    assert {e["axis"] for e in lagged} == {"x", "y"}, out["effects"]
+    for e in lagged:
+        p, s = e["params"], e["stderr"]
+        assert e["name"] == "thermal_expansion"
+        assert abs(p["lag_s"] - truth["lag_s"]) < max(3 * s["lag_s"], 0.15 * truth["lag_s"]), e
+        assert (
+            abs(p["ppm_per_k"] - truth["ppm_per_k"])
+            < 3 * s["ppm_per_k"] + 0.02 * truth["ppm_per_k"]
+        ), e
+    assert out["unexplained"] is None, out["verdict"]

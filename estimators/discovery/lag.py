@@ -1,0 +1,106 @@
+"""A logged temperature seen through a first-order lag: a scale or a reference whose own
+temperature follows the air with time constant ``lag_s`` (a heat capacity behind a surface).
+
+    T_lag' = (T_air - T_lag) / lag_s
+    thermal_expansion:  e = k (T_lag - mean T_lag) u      (k ppm/K, u the axis's position)
+    thermal_drift:      e = c (T_lag - mean T_lag)        (c mm/K)
+
+The time constant is searched on the rows the term is fitted to (:meth:`LagSearch.fix`) over a
+log grid from a minute to the recording's length; its uncertainty is the profile's.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from calibench.estimators.discovery.effect import Drivers, Effect, coef_std
+from calibench.estimators.discovery.motion import lagged
+from calibench.estimators.discovery.search import profile, within_one_sigma
+
+LAG_GRID = 40  # time constants tried, log-spaced
+SHORTEST_LAG_S = 60.0
+
+
+@dataclasses.dataclass(frozen=True)
+class LaggedThermal(Effect):
+    """``thermal_expansion`` (``drift`` False) or ``thermal_drift`` of an axis following the
+    logged temperature through a lag of ``lag_s`` (std ``lag_std_s``)."""
+
+    name: str = "thermal_expansion"
+    lag_s: float = 0.0
+    lag_std_s: float = 0.0
+
+    def __post_init__(self):
+        object.__setattr__(self, "needs", ("temp_c", "t_s", self.axis))
+
+    @property
+    def key(self) -> str:
+        """Beside the unlagged term of the same name and axis."""
+        return f"{self.name}:{self.axis}:lagged"
+
+    def columns(self, d: Drivers) -> np.ndarray:
+        return _column(d, self.axis, self.name, self.lag_s)[:, None]
+
+    def describe(self, coef, cov):
+        k = float(coef[0])
+        lag = {"lag_s": self.lag_s}
+        if self.name == "thermal_expansion":
+            params, std = {"ppm_per_k": k, **lag}, {"ppm_per_k": coef_std(cov, 0)}
+            said = f"the {self.axis.upper()} scale grows {k:.2f} ppm per kelvin"
+        else:
+            params, std = {"mm_per_k": k, **lag}, {"mm_per_k": coef_std(cov, 0)}
+            said = f"the whole {self.axis.upper()} axis shifts {k * 1000:+.2f} um per kelvin"
+        return (
+            params,
+            {**std, "lag_s": self.lag_std_s},
+            f"{said} of a temperature that follows the logged air {self.lag_s:.0f} s behind "
+            f"(+- {self.lag_std_s:.0f} s): a part with a heat capacity of its own",
+        )
+
+
+def _column(d: Drivers, axis: str, name: str, lag_s: float) -> np.ndarray:
+    """The term's column (n,) at one time constant."""
+    t = np.asarray(d["t_s"], float)
+    order = np.argsort(t, kind="stable")  # the lag runs in time, whatever the rows' order
+    T = np.empty(len(t))
+    T[order] = lagged(np.asarray(d["temp_c"], float)[order], t[order], lag_s)
+    T = T - T.mean()
+    return T * np.asarray(d[axis], float) * 1e-6 if name == "thermal_expansion" else T
+
+
+@dataclasses.dataclass(frozen=True)
+class LagSearch:
+    """A lagged thermal term whose time constant is found on the rows it is fitted to."""
+
+    axis: str
+    name: str = "thermal_expansion"
+
+    @property
+    def key(self) -> str:
+        """As the term it fixes."""
+        return LaggedThermal(name=self.name, axis=self.axis).key
+
+    def applies(self, drivers: Drivers) -> bool:
+        """A logged temperature that moves, with its times."""
+        T, t = drivers.get("temp_c"), drivers.get("t_s")
+        return (
+            T is not None
+            and t is not None
+            and np.ptp(np.asarray(T, float)) > 0
+            and np.ptp(np.asarray(t, float)) > SHORTEST_LAG_S
+        )
+
+    def fix(
+        self, r: np.ndarray, others: np.ndarray, rows: np.ndarray, drivers: Drivers
+    ) -> LaggedThermal:
+        """The time constant whose term cuts ``r`` (m,) most beside ``others`` on ``rows``."""
+        t = np.asarray(drivers["t_s"], float)
+        grid = np.geomspace(SHORTEST_LAG_S, np.ptp(t), LAG_GRID)
+        C = np.stack([_column(drivers, self.axis, self.name, tau) for tau in grid], axis=1)
+        best, rss, sigma2 = profile(r[rows], others[rows], C[rows])
+        # no finer than the grid's step about the best
+        step = grid[min(best + 1, len(grid) - 1)] - grid[max(best - 1, 0)]
+        std = max(within_one_sigma(grid, rss, best, sigma2), step / 2 / np.sqrt(3))
+        return LaggedThermal(name=self.name, axis=self.axis, lag_s=float(grid[best]), lag_std_s=std)
