@@ -29,6 +29,7 @@ from calibench.estimators.discovery.stage import (
     stage_candidates,
 )
 from calibench.estimators.discovery.step import StepSearch
+from calibench.estimators.discovery.transient import TransientSearch
 from calibench.recordings.stage import repeated_pass
 from calibench.scenarios.discover.folds import block_folds
 from calibench.scenarios.discover.fresh import structure
@@ -238,20 +239,21 @@ def stage_floors(scene: StageScene, fitted: dict, run) -> dict[str, Floor]:
 
 def _stage_candidates(
     drivers: StageDrivers, deg: int
-) -> list[Effect | PeriodSearch | LagSearch | StepSearch]:
+) -> list[Effect | PeriodSearch | LagSearch | StepSearch | TransientSearch]:
     """The stage's candidates, a periodic search over each axis's travel (uniform in frequency,
     five points per resolution element, 1 / travel) and the smooth terms above the map's
     degree."""
     x, y = drivers["x"], drivers["y"]
     step = np.median(np.diff(np.unique(np.r_[x, y]))) if len(np.unique(np.r_[x, y])) > 1 else 1.0
-    candidates: list[Effect | PeriodSearch | LagSearch | StepSearch]
+    candidates: list[Effect | PeriodSearch | LagSearch | StepSearch | TransientSearch]
     candidates = list(stage_candidates(drivers))
     for a, u in (("x", x), ("y", y)):
         # a temperature the axis sees through a lag; a reading that steps once
-        searched: list[LagSearch | StepSearch] = [
+        searched: list[LagSearch | StepSearch | TransientSearch] = [
             LagSearch(a),
             LagSearch(a, "thermal_drift"),
             StepSearch(a),
+            TransientSearch(a),
         ]
         candidates += [c for c in searched if c.applies(drivers)]
         lo, hi = max(2.5 * step, 5.0), np.ptp(u) / 2
