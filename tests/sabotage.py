@@ -363,6 +363,11 @@ FAULTS: dict[str, Fault] = {
         more.floor_factor_1p5,
         ("tests/scenarios/test_discover_drift.py",),
     ),
+    "local_judged_on_every_row": Fault(
+        "an effect confined to a few rows judged on the whole axis's held-out RMS",
+        more.local_judged_on_every_row,
+        ("tests/estimators/test_discovery_local.py",),
+    ),
     "suite_arm_ignored": Fault(
         "the suites' NAME:ARM cases recorded and searched with the seed's arm",
         more.suite_arm_ignored,

@@ -238,3 +238,9 @@ def floor_factor_1p5(mp: pytest.MonkeyPatch) -> None:
     from calibench.scenarios.discover import report
 
     mp.setattr(report, "FLOOR_FACTOR", 1.5)
+
+
+def local_judged_on_every_row(mp: pytest.MonkeyPatch) -> None:
+    """An effect confined to a few rows judged on the whole axis's held-out RMS (its rows'
+    cut ignored)."""
+    replace(mp, "calibench.estimators.discovery.select", "gain_where_it_acts", lambda *a: 0.0)

@@ -20,6 +20,7 @@ from calibench.estimators.discovery.fit import (
     lstsq,
     rms,
     session_residuals,
+    term_columns,
 )
 
 MAX_WORKERS = 4  # threads scoring candidates: numpy's kernels release the GIL
@@ -104,6 +105,27 @@ def helps_everywhere(sig, terms, drivers, cache, fold, parts: int = 4, need: int
     return sum(better) >= need
 
 
+# a local effect's rows: where its column reaches this share of its largest
+ACTING_SHARE = 0.1
+
+
+def gain_where_it_acts(sig, terms: list, c, drivers: Drivers, cache: dict, fold) -> float:
+    """The cut of the held-out RMS a ``local`` candidate ``c`` (an effect confined to some rows:
+    a transient after each reversal) makes on the rows it acts on (its column, fixed on every
+    row beside ``terms``, at least :data:`ACTING_SHARE` of its largest), beside ``terms``."""
+    X = sig.base
+    for t in terms:
+        X = np.c_[X, term_columns(t, drivers, sig, X, None, cache)]
+    fixed = c.fix(sig.r, X, np.ones(len(sig.r), bool), drivers) if hasattr(c, "fix") else c
+    col = np.abs(np.asarray(fixed.columns(drivers), float)).max(axis=1)
+    acting = col >= ACTING_SHARE * col.max() if col.max() > 0 else np.zeros(len(col), bool)
+    if not acting.any():
+        return 0.0
+    before = cv_residuals(sig, terms, drivers, fold, cache)[acting]
+    after = cv_residuals(sig, terms + [c], drivers, fold, cache)[acting]
+    return float(1 - np.sqrt(np.sum(after**2) / max(np.sum(before**2), 1e-300)))
+
+
 def select(
     signals: list[Signal],
     candidates: list,
@@ -157,6 +179,11 @@ def select(
         for gain, c, sse in trials:
             a = c.axis
             sig_a = noise[a].sigma_mm * noise[a].inflation if noise[a].sigma_mm else None
+            if gain < floor and getattr(c, "local", False) and gain > 0:
+                # an effect confined to some rows is judged on them, the rest not risen
+                gain_there = gain_where_it_acts(by_axis[a], terms[a], c, drivers, caches[a], fold)
+                if gain_there >= floor:
+                    gain = gain_there
             if gain < floor:
                 if c.key not in rejected:
                     z = _coef_z(

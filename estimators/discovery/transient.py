@@ -47,6 +47,7 @@ class ReversalTransient(Effect):
 
     name: str = "reversal_transient"
     decay_mm: float = 1.0
+    local = True  # acts near reversals only: judged on those rows (select's gain_where_it_acts)
     decay_std_mm: float = 0.0
 
     def __post_init__(self):
@@ -78,6 +79,7 @@ class TransientSearch:
 
     axis: str
     name: str = "reversal_transient"
+    local = True  # as the transient it fixes
 
     @property
     def key(self) -> str:
