@@ -54,18 +54,31 @@ def since_reversal(u: np.ndarray, series: np.ndarray | None = None) -> np.ndarra
 def lagged(temp_c: np.ndarray, t_s: np.ndarray, tau_s: float) -> np.ndarray:
     """The temperature a part with time constant ``tau_s`` reaches following ``temp_c`` (n,)
     logged at ``t_s`` (n,, increasing): T' = (T_air - T) / tau, exact for an air temperature
-    linear between samples; it starts at the first reading."""
+    linear between samples; it starts at the first reading.
+
+    Between samples k - 1 and k (a = exp(-dt / tau), s the air's slope) the recursion is
+    y_k = a y_{k-1} + b_k, b_k = T_k - s tau - a (T_{k-1} - s tau), solved in closed form,
+    y_k = A_k (y_0 + sum_j b_j / A_j) with A_k the product of the a's, in stretches short enough
+    that 1 / A stays finite.
+    """
     T = np.asarray(temp_c, float)
     t = np.asarray(t_s, float)
     out = np.empty_like(T)
     out[0] = T[0]
+    if len(T) < 2:
+        return out
     dt = np.diff(t)
-    a = np.exp(-dt / tau_s)
-    # the exact response to a ramp between samples: the lag of the ramp's slope
+    log_a = -dt / tau_s
+    a = np.exp(log_a)
     slope = np.diff(T) / np.where(dt > 0, dt, 1.0)
-    lag = slope * tau_s
-    # a first-order filter: each row needs the one before (once per time constant tried, not in a
-    # fit's inner loop)
-    for k in range(1, len(T)):
-        out[k] = T[k] - lag[k - 1] + a[k - 1] * (out[k - 1] - T[k - 1] + lag[k - 1])
+    b = T[1:] - slope * tau_s - a * (T[:-1] - slope * tau_s)
+    decay = np.cumsum(log_a)  # log A_k, k = 1 .. n - 1
+    start, y = 0, T[0]
+    while start < len(b):
+        # a stretch over which A falls by at most e^-600 (1 / A finite)
+        base = decay[start - 1] if start else 0.0
+        end = max(int(np.searchsorted(-(decay - base), 600.0, side="right")), start + 1)
+        L = decay[start:end] - base
+        out[start + 1 : end + 1] = np.exp(L) * (y + np.cumsum(b[start:end] * np.exp(-L)))
+        start, y = end, out[end]
     return out

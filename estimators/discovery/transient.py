@@ -22,6 +22,7 @@ from calibench.estimators.discovery.search import profile, within_one_sigma
 
 DECAY_GRID = 30  # decay lengths tried, log-spaced
 SHORTEST_DECAY_MM = 0.2
+LONGEST_DECAY = 1 / 20  # of the travel: beyond it a transient is lost motion that grows
 
 
 def reversal_drivers(u: np.ndarray, t_s, series) -> tuple[np.ndarray, np.ndarray]:
@@ -89,7 +90,7 @@ class TransientSearch:
     def applies(self, drivers: Drivers) -> bool:
         """An axis that reverses, with a travel to decay over."""
         u = drivers.get(self.axis)
-        if u is None or np.ptp(np.asarray(u, float)) <= 4 * SHORTEST_DECAY_MM:
+        if u is None or np.ptp(np.asarray(u, float)) * LONGEST_DECAY <= 2 * SHORTEST_DECAY_MM:
             return False
         direction, _ = reversal_drivers(u, drivers.get("t_s"), drivers.get("run"))
         return bool(np.any(direction > 0) and np.any(direction < 0))
@@ -99,7 +100,7 @@ class TransientSearch:
     ) -> ReversalTransient:
         """The decay length whose transient cuts ``r`` (m,) most beside ``others`` on ``rows``."""
         travel = float(np.ptp(np.asarray(drivers[self.axis], float)))
-        grid = np.geomspace(SHORTEST_DECAY_MM, travel / 4, DECAY_GRID)
+        grid = np.geomspace(SHORTEST_DECAY_MM, travel * LONGEST_DECAY, DECAY_GRID)
         direction, since = reversal_drivers(
             drivers[self.axis], drivers.get("t_s"), drivers.get("run")
         )

@@ -28,7 +28,6 @@ from calibench.estimators.discovery.stage import (
     polynomial_candidates,
     stage_candidates,
 )
-from calibench.estimators.discovery.step import StepSearch
 from calibench.estimators.discovery.transient import TransientSearch
 from calibench.recordings.stage import repeated_pass
 from calibench.scenarios.discover.folds import block_folds
@@ -239,20 +238,21 @@ def stage_floors(scene: StageScene, fitted: dict, run) -> dict[str, Floor]:
 
 def _stage_candidates(
     drivers: StageDrivers, deg: int
-) -> list[Effect | PeriodSearch | LagSearch | StepSearch | TransientSearch]:
+) -> list[Effect | PeriodSearch | LagSearch | TransientSearch]:
     """The stage's candidates, a periodic search over each axis's travel (uniform in frequency,
     five points per resolution element, 1 / travel) and the smooth terms above the map's
     degree."""
     x, y = drivers["x"], drivers["y"]
     step = np.median(np.diff(np.unique(np.r_[x, y]))) if len(np.unique(np.r_[x, y])) > 1 else 1.0
-    candidates: list[Effect | PeriodSearch | LagSearch | StepSearch | TransientSearch]
+    candidates: list[Effect | PeriodSearch | LagSearch | TransientSearch]
     candidates = list(stage_candidates(drivers))
     for a, u in (("x", x), ("y", y)):
-        # a temperature the axis sees through a lag; a reading that steps once
-        searched: list[LagSearch | StepSearch | TransientSearch] = [
+        # a temperature the axis sees through a lag, a transient after each reversal. No step in
+        # time: held out by pass, one between passes is a pass's offset, and one within a pass is
+        # tested by that pass alone (a drifting null took one for a claim)
+        searched: list[LagSearch | TransientSearch] = [
             LagSearch(a),
             LagSearch(a, "thermal_drift"),
-            StepSearch(a),
             TransientSearch(a),
         ]
         candidates += [c for c in searched if c.applies(drivers)]
