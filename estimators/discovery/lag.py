@@ -15,6 +15,7 @@ import dataclasses
 
 import numpy as np
 
+from calibench.estimators.discovery.confounds import MIN_TEMPERATURE_SPAN_K
 from calibench.estimators.discovery.effect import Drivers, Effect, coef_std
 from calibench.estimators.discovery.motion import lagged
 from calibench.estimators.discovery.search import profile, within_one_sigma
@@ -83,12 +84,13 @@ class LagSearch:
         return LaggedThermal(name=self.name, axis=self.axis).key
 
     def applies(self, drivers: Drivers) -> bool:
-        """A logged temperature that moves, with its times."""
+        """A logged temperature that moves by a kelvin or more, with its times: a lag of a
+        temperature that barely moves is any slow drift in time, whatever the air did."""
         T, t = drivers.get("temp_c"), drivers.get("t_s")
         return (
             T is not None
             and t is not None
-            and np.ptp(np.asarray(T, float)) > 0
+            and np.ptp(np.asarray(T, float)) >= MIN_TEMPERATURE_SPAN_K
             and np.ptp(np.asarray(t, float)) > SHORTEST_LAG_S
         )
 
