@@ -9,7 +9,8 @@ Stages:
 
 - ``presliding``: the drive's friction builds up over a presliding distance after each reversal
   (Dahl's model), so the lost motion is reached gradually, not at once: e = dir B/2 (1 - 2
-  exp(-s / lambda)), s the travel since the last reversal. Nearest: ``backlash``.
+  exp(-s / lambda)), s the travel since the last reversal. Nearest: ``backlash`` (its
+  ``reversal_transient``, of -B over lambda, is alike: the rest of the same mechanism).
 - ``lagged_thermal``: the scale's own temperature follows the logged air through a first-order
   lag of 15-40 min, so its expansion is not proportional to the logged temperature. Nearest:
   ``thermal_expansion`` on each axis.
@@ -123,7 +124,13 @@ def stage_effect(
         u, d = c[a], c[f"dir_{a}"]
         s = travel_since_reversal(u, d)
         err[:, "xy".index(a)] = d * B / 2 * (1 - 2 * np.exp(-s / lam))
-        said = {"name": "presliding_friction", "axis": a, "nearest": "backlash"}
+        said = {
+            "name": "presliding_friction",
+            "axis": a,
+            "nearest": "backlash",
+            # e = backlash + a transient of -B decaying over lambda: the transient is its part
+            "alike": ["reversal_transient"],
+        }
         return err, [{**said, "params": {"reversal_mm": B, "presliding_mm": lam}}], temp_c
     if kind == "lagged_thermal":
         rise, tau_air = rng.uniform(2, 5), t[-1] / rng.uniform(1.5, 3)
