@@ -109,14 +109,17 @@ def helps_everywhere(sig, terms, drivers, cache, fold, parts: int = 4, need: int
 ACTING_SHARE = 0.1
 
 
-def gain_where_it_acts(sig, terms: list, c, drivers: Drivers, cache: dict, fold) -> float:
+def gain_where_it_acts(sig, terms: list, c, drivers: Drivers, cache: dict, fold) -> float | None:
     """The cut of the held-out RMS a ``local`` candidate ``c`` (an effect confined to some rows:
     a transient after each reversal) makes on the rows it acts on (its column, fixed on every
-    row beside ``terms``, at least :data:`ACTING_SHARE` of its largest), beside ``terms``."""
+    row beside ``terms``, at least :data:`ACTING_SHARE` of its largest), beside ``terms``; None
+    when its shape, fixed there, runs to the bound of its search (then it is not confined)."""
     X = sig.base
     for t in terms:
         X = np.c_[X, term_columns(t, drivers, sig, X, None, cache)]
     fixed = c.fix(sig.r, X, np.ones(len(sig.r), bool), drivers) if hasattr(c, "fix") else c
+    if getattr(fixed, "at_bound", False):
+        return None
     col = np.abs(np.asarray(fixed.columns(drivers), float)).max(axis=1)
     acting = col >= ACTING_SHARE * col.max() if col.max() > 0 else np.zeros(len(col), bool)
     if not acting.any():
@@ -179,10 +182,15 @@ def select(
         for gain, c, sse in trials:
             a = c.axis
             sig_a = noise[a].sigma_mm * noise[a].inflation if noise[a].sigma_mm else None
-            if gain < floor and getattr(c, "local", False) and gain > 0:
+            if getattr(c, "local", False):
                 # an effect confined to some rows is judged on them, the rest not risen
                 gain_there = gain_where_it_acts(by_axis[a], terms[a], c, drivers, caches[a], fold)
-                if gain_there >= floor:
+                if gain_there is None:
+                    rejected[c.key] = (
+                        "its shape runs to the longest tried: not confined to a few rows"
+                    )
+                    continue
+                if floor > gain > 0 and gain_there >= floor:
                     gain = gain_there
             if gain < floor:
                 if c.key not in rejected:

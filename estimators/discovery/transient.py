@@ -23,6 +23,7 @@ from calibench.estimators.discovery.search import profile, within_one_sigma
 DECAY_GRID = 30  # decay lengths tried, log-spaced
 SHORTEST_DECAY_MM = 0.2
 LONGEST_DECAY = 1 / 20  # of the travel: beyond it a transient is lost motion that grows
+LONGEST_DECAY_MM = 10.0  # and at most this: stick-slip and settling die within millimetres
 
 
 def reversal_drivers(u: np.ndarray, t_s, series) -> tuple[np.ndarray, np.ndarray]:
@@ -48,8 +49,10 @@ class ReversalTransient(Effect):
 
     name: str = "reversal_transient"
     decay_mm: float = 1.0
-    local = True  # acts near reversals only: judged on those rows (select's gain_where_it_acts)
     decay_std_mm: float = 0.0
+    # the search's best decay was its longest: no transient, lost motion that grows or stays
+    at_bound: bool = False
+    local = True  # acts near reversals only: judged on those rows (select's gain_where_it_acts)
 
     def __post_init__(self):
         object.__setattr__(self, "needs", (self.axis,))
@@ -100,7 +103,8 @@ class TransientSearch:
     ) -> ReversalTransient:
         """The decay length whose transient cuts ``r`` (m,) most beside ``others`` on ``rows``."""
         travel = float(np.ptp(np.asarray(drivers[self.axis], float)))
-        grid = np.geomspace(SHORTEST_DECAY_MM, travel * LONGEST_DECAY, DECAY_GRID)
+        longest = min(travel * LONGEST_DECAY, LONGEST_DECAY_MM)
+        grid = np.geomspace(SHORTEST_DECAY_MM, longest, DECAY_GRID)
         direction, since = reversal_drivers(
             drivers[self.axis], drivers.get("t_s"), drivers.get("run")
         )
@@ -108,4 +112,9 @@ class TransientSearch:
         best, rss, sigma2 = profile(r[rows], others[rows], C[rows])
         step = grid[min(best + 1, len(grid) - 1)] - grid[max(best - 1, 0)]
         std = max(within_one_sigma(grid, rss, best, sigma2), step / 2 / np.sqrt(3))
-        return ReversalTransient(axis=self.axis, decay_mm=float(grid[best]), decay_std_mm=std)
+        return ReversalTransient(
+            axis=self.axis,
+            decay_mm=float(grid[best]),
+            decay_std_mm=std,
+            at_bound=best == len(grid) - 1,
+        )

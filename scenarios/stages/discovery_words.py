@@ -104,6 +104,7 @@ def stage_confounds(
         c
         for c in candidates
         if c.key not in accepted
+        and f"{c.name}:{c.axis}" not in accepted  # a lagged variant of an accepted effect
         and not isinstance(c, PeriodSearch)
         and c.name not in ("positioning", "straightness", "cross_coupling")
     ]
