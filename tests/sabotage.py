@@ -368,6 +368,12 @@ FAULTS: dict[str, Fault] = {
         more.local_judged_on_every_row,
         ("tests/estimators/test_discovery_local.py",),
     ),
+    "rival_beaten_by_z_alone": Fault(
+        "a mechanism named when it beats its look-alike by 2 standard errors, however little its "
+        "held-out RMS is below the look-alike's",
+        more.rival_beaten_by_z_alone,
+        ("tests/estimators/test_discovery_rivals.py",),
+    ),
     "suite_arm_ignored": Fault(
         "the suites' NAME:ARM cases recorded and searched with the seed's arm",
         more.suite_arm_ignored,

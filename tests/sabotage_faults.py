@@ -244,3 +244,10 @@ def local_judged_on_every_row(mp: pytest.MonkeyPatch) -> None:
     """An effect confined to a few rows judged on the whole axis's held-out RMS (its rows'
     cut ignored)."""
     replace(mp, "calibench.estimators.discovery.select", "gain_where_it_acts", lambda *a: 0.0)
+
+
+def rival_beaten_by_z_alone(mp: pytest.MonkeyPatch) -> None:
+    """A mechanism named when it beats its strongest look-alike by z alone (no margin)."""
+    from calibench.estimators.discovery import rivals
+
+    mp.setattr(rivals, "MARGIN", -np.inf)

@@ -24,6 +24,9 @@ DECAY_GRID = 30  # decay lengths tried, log-spaced
 SHORTEST_DECAY_MM = 0.2
 LONGEST_DECAY = 1 / 20  # of the travel: beyond it a transient is lost motion that grows
 LONGEST_DECAY_MM = 10.0  # and at most this: stick-slip and settling die within millimetres
+# rows within one decay length of a reversal that resolve a transient: with fewer, its amplitude
+# is extrapolated from rows where it has died away (a 1e43 mm transient fitted one far row)
+RESOLVED_ROWS = 3
 
 
 def reversal_drivers(u: np.ndarray, t_s, series) -> tuple[np.ndarray, np.ndarray]:
@@ -72,6 +75,17 @@ class ReversalTransient(Effect):
         )
 
 
+def _grid(u) -> np.ndarray:
+    """The decay lengths searched (K,) over an axis's positions ``u`` (n,)."""
+    longest = min(float(np.ptp(np.asarray(u, float))) * LONGEST_DECAY, LONGEST_DECAY_MM)
+    return np.geomspace(SHORTEST_DECAY_MM, longest, DECAY_GRID)
+
+
+def _resolved(grid: np.ndarray, since: np.ndarray) -> np.ndarray:
+    """Which decay lengths (K,) have :data:`RESOLVED_ROWS` rows within them of a reversal."""
+    return np.count_nonzero(since[:, None] <= grid[None, :], axis=0) >= RESOLVED_ROWS
+
+
 def _column(d: Drivers, axis: str, decay_mm: float) -> np.ndarray:
     direction, since = reversal_drivers(d[axis], d.get("t_s"), d.get("run"))
     return direction * np.exp(-since / decay_mm)
@@ -95,19 +109,19 @@ class TransientSearch:
         u = drivers.get(self.axis)
         if u is None or np.ptp(np.asarray(u, float)) * LONGEST_DECAY <= 2 * SHORTEST_DECAY_MM:
             return False
-        direction, _ = reversal_drivers(u, drivers.get("t_s"), drivers.get("run"))
-        return bool(np.any(direction > 0) and np.any(direction < 0))
+        direction, since = reversal_drivers(u, drivers.get("t_s"), drivers.get("run"))
+        reverses = bool(np.any(direction > 0) and np.any(direction < 0))
+        return reverses and bool(np.any(_resolved(_grid(u), since)))
 
     def fix(
         self, r: np.ndarray, others: np.ndarray, rows: np.ndarray, drivers: Drivers
     ) -> ReversalTransient:
         """The decay length whose transient cuts ``r`` (m,) most beside ``others`` on ``rows``."""
-        travel = float(np.ptp(np.asarray(drivers[self.axis], float)))
-        longest = min(travel * LONGEST_DECAY, LONGEST_DECAY_MM)
-        grid = np.geomspace(SHORTEST_DECAY_MM, longest, DECAY_GRID)
+        grid = _grid(drivers[self.axis])
         direction, since = reversal_drivers(
             drivers[self.axis], drivers.get("t_s"), drivers.get("run")
         )
+        grid = grid[_resolved(grid, since)]
         C = direction[:, None] * np.exp(-since[:, None] / grid[None, :])
         best, rss, sigma2 = profile(r[rows], others[rows], C[rows])
         step = grid[min(best + 1, len(grid) - 1)] - grid[max(best - 1, 0)]

@@ -21,6 +21,7 @@ import numpy as np
 from calibench.estimators.discovery.arm import ArmDrivers
 from calibench.estimators.discovery.motion import last_direction
 from calibench.estimators.discovery.noise import Noise
+from calibench.estimators.discovery.rivals import ties
 from calibench.estimators.discovery.select import prune, select
 from calibench.scenarios.arm_cmm import NAME
 from calibench.scenarios.arm_cmm.discovery_candidates import add_joint_table, arm_candidates
@@ -32,7 +33,12 @@ from calibench.scenarios.arm_cmm.discovery_sessions import (
 )
 from calibench.scenarios.arm_cmm.discovery_words import arm_confounds, locate_arm
 from calibench.scenarios.discover.fresh import structure
-from calibench.scenarios.discover.report import describe_effects, fit_and_noise, judged
+from calibench.scenarios.discover.report import (
+    describe_effects,
+    fit_and_noise,
+    judged,
+    named_only,
+)
 from calibench.scenarios.report import BadInput
 from calibench.scenes.arm_cmm import DEFAULT_ARM
 
@@ -158,7 +164,11 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
         )
     effects, fitted = describe_effects([sig], terms, found, drivers, noise)
     say_belonging(effects, found.steps, carry)
-    confounds = arm_confounds(sig, terms["xyz"], among.candidates, drivers, found)
+    # a joint's mechanism is named only when it beats its look-alikes held out
+    duels = ties([sig], terms, among.candidates, drivers, fold)
+    tied = named_only(effects, found, duels)
+    said = {k for d in duels for k in (d.term.key, d.rival.key)}
+    confounds = arm_confounds(sig, terms["xyz"], among.candidates, drivers, found, said) + tied
     accepted = {t.key for t in terms["xyz"]}
     confounds += [c for key, c in among.alike.items() if key in accepted]
     located = locate_arm(sig, terms["xyz"], drivers, seed)

@@ -32,13 +32,14 @@ def torque_range(tau: np.ndarray) -> str:
     return f"{lo:.3g} to {hi:.3g}"
 
 
-def arm_confounds(sig, terms, candidates, drivers, found) -> list[dict]:
+def arm_confounds(sig, terms, candidates, drivers, found, said=frozenset()) -> list[dict]:
     """Candidates the data cannot tell from what was accepted, in plain words: compliance and
     eccentricity of one joint look alike when its gravity torque is nearly a sinusoid of its own
     angle; a compliance the geometry absorbs within these postures (a narrow band of the joint)
-    would still matter on postures that load the joint otherwise."""
+    would still matter on postures that load the joint otherwise. ``said``: the keys of
+    candidates already said confounded (a tie held out), left out here."""
     out = []
-    accepted = {t.key for t in terms}
+    accepted = {t.key for t in terms} | set(said)
     asked = [
         c
         for c in candidates

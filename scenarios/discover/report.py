@@ -182,3 +182,66 @@ def plain(d: dict) -> dict:
         return int(v) if isinstance(v, (int, np.integer)) else float(v)
 
     return {k: one(v) for k, v in d.items()}
+
+
+# what separates two look-alike mechanisms, by their names (either order)
+SEPARATES = {
+    frozenset({"backlash", "encoder_eccentricity"}): "approach the same angles from both "
+    "directions: lost motion flips with the direction, an eccentricity does not",
+    frozenset({"backlash", "periodic"}): "approach the same positions from both directions: lost "
+    "motion flips with the direction, a periodic error does not",
+    frozenset({"backlash", "reversal_transient"}): "measure finely over the first millimetres "
+    "after a reversal: a transient dies away there, lost motion stays",
+    frozenset({"encoder_eccentricity", "periodic"}): "measure over a whole turn of the joint at "
+    "a finer step: the harmonic's order tells them apart",
+    frozenset({"encoder_eccentricity", "joint_compliance"}): "take postures at the same angle "
+    "under different gravity torques (the elbow folded and stretched)",
+    frozenset({"thermal_expansion", "thermal_drift"}): "let the temperature move over the whole "
+    "travel: an expansion grows with the position, a drift does not",
+}
+
+
+def separating(a: str, b: str) -> str:
+    """The experiment that tells mechanism ``a`` from ``b``: a step at one moment against
+    anything else, by repeating postures before and after it; otherwise from
+    :data:`SEPARATES`, or repeating the rows where the two predict most differently."""
+    if "step" in (a, b):
+        return (
+            "measure the same positions again at the start and the end: a step at one moment "
+            "shows as the same offset on every repeat after it"
+        )
+    return SEPARATES.get(
+        frozenset({a, b}),
+        f"repeat the rows where {a} and {b} predict most differently, with more samples there",
+    )
+
+
+def named_only(effects: list[dict], found, duels: list) -> list[dict]:
+    """Take out of ``effects`` (in ``found.steps``' order) each effect whose term did not beat
+    its strongest look-alike (``duels``, :func:`~calibench.estimators.discovery.rivals.ties`):
+    the model keeps it, the report names neither. Returns their ``confounded`` entries (the
+    pair, the held-out RMS with each, the z and the experiment that separates them). In place
+    on ``effects``."""
+    tied = {id(d.term): d for d in duels}
+    out, keep = [], []
+    for e, st in zip(effects, found.steps):
+        d = tied.get(id(st.term))
+        if d is None:
+            keep.append(e)
+            continue
+        rival = d.rival.name
+        out.append(
+            {
+                "effect": e["name"],
+                "axis": e["axis"],
+                "with": d.rival.key,
+                "params": e["params"],
+                "why": f"held out, {e['name']} leaves {1000 * d.cv_term:.1f} um and {rival} in "
+                f"its place {1000 * d.cv_rival:.1f} um: {e['name']} is only {d.z:.1f} standard "
+                "errors better, so the recording cannot say which acts (the model keeps what they "
+                "share)",
+                "experiment": separating(e["name"], rival),
+            }
+        )
+    effects[:] = keep
+    return out

@@ -21,6 +21,7 @@ from calibench.estimators.discovery.fit import Signal, cv_residuals, fit_terms, 
 from calibench.estimators.discovery.lag import LagSearch
 from calibench.estimators.discovery.noise import Floor, noise_floor, repeatability
 from calibench.estimators.discovery.nonsmooth import find_nonsmooth
+from calibench.estimators.discovery.rivals import ties
 from calibench.estimators.discovery.select import FLOOR, Discovery, keep_table, refine, select
 from calibench.estimators.discovery.stage import (
     PeriodSearch,
@@ -32,7 +33,7 @@ from calibench.estimators.discovery.transient import TransientSearch
 from calibench.recordings.stage import repeated_pass
 from calibench.scenarios.discover.folds import block_folds
 from calibench.scenarios.discover.fresh import structure
-from calibench.scenarios.discover.report import describe_effects, fit_and_noise, judged
+from calibench.scenarios.discover.report import describe_effects, fit_and_noise, judged, named_only
 from calibench.scenarios.discover.twin_merge import carried, given_tables, stage_drives
 from calibench.scenarios.report import BadInput
 from calibench.scenarios.stages.discovery_words import locate_stage, stage_confounds
@@ -135,6 +136,8 @@ def discover_stage(
     growing = _grow_backlash(signals, terms, found, drivers, fold, noise, floor)
     _add_station_tables(signals, terms, found, drivers, fold, noise, floor)
     effects, fitted, after = _described(scene, rec.run, terms, found, growing)
+    # a mechanism is named only when it beats its look-alikes held out
+    tied = named_only(effects, found, ties(signals, terms, candidates, drivers, fold))
     located = locate_stage(signals, drivers, seed)
     out = {
         "scenario": scenario,
@@ -147,7 +150,7 @@ def discover_stage(
         "scene_model": f"the twin plus its degree-{deg} error map in (x, y), calibrated",
         "temp_mean_c": None if rec.temp_c is None else float(np.mean(rec.temp_c)),
         "not_accepted": found.rejected,
-        "confounded": stage_confounds(signals, terms, found, candidates, drivers, rec),
+        "confounded": stage_confounds(signals, terms, found, candidates, drivers, rec) + tied,
         **judged(
             found.cv_final,
             stage_floors(scene, fitted, rec.run),

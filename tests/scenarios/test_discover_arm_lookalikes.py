@@ -15,7 +15,6 @@ import pytest
 from calibench.recordings import load_arm_csv
 from calibench.recordings.records import ArmRecording
 from calibench.scenarios.arm_cmm.discovery import discover_arm
-from calibench.scenarios.arm_cmm.discovery_words import ARM_EXPERIMENTS
 from calibench.scenarios.cli import main
 from calibench.scenarios.discover.same_machine import EXPLAINED, SAME_ARM_MM, own_geometry_rms
 from calibench.scenarios.report import BadInput
@@ -61,14 +60,17 @@ def _discover(tmp_path, paths) -> dict:
 
 def test_a_shoulder_s_compliance_with_the_elbow_held_looks_like_an_eccentricity(shoulder, tmp_path):
     """One recording, the elbow near 30 deg: the shoulder's gravity torque is a sinusoid of its
-    angle, so whichever of the two is named, the other is said to be confounded with it (over
-    90 % one signal), with the experiment that separates them: the elbow folded and stretched."""
+    angle, so whichever of the two the selection takes does not beat the other held out (issue
+    61): neither is named, the pair is said to be confounded once, with the experiment that
+    separates them: the elbow folded and stretched. The model keeps what they share: the
+    held-out RMS is the reference's noise (10 um, within 20 %)."""
     d = _discover(tmp_path, [_elbow_held(shoulder, 30.0, 1, tmp_path / "r30.csv")])
     named = {e["name"] for e in d["effects"]} & {"joint_compliance", "encoder_eccentricity"}
-    assert len(named) == 1, d["effects"]
+    assert not named, d["effects"]
     (c,) = [c for c in d["confounded"] if c["with"].endswith(":joint2")]
     assert {c["effect"], c["with"].split(":")[0]} == {"joint_compliance", "encoder_eccentricity"}
-    assert c["experiment"] == ARM_EXPERIMENTS[c["effect"]] and "elbow folded" in c["experiment"]
+    assert "elbow folded" in c["experiment"]
+    assert d["fit"]["cv_rms_final"] < 1.2 * NOISE_MM
 
 
 def test_a_second_recording_with_the_elbow_elsewhere_separates_them(shoulder, tmp_path):
