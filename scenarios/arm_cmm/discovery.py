@@ -367,11 +367,13 @@ def search(
 
 
 def recording_kinds(scenario: str) -> tuple[str, ...]:
-    """The effects a run's recording may conceal: the proof set's, then the second suite's."""
+    """The effects a run's recording may conceal: the proof set's, then the second suite's and
+    the third's."""
     from calibench.sim.concealed.arm import ARM_KINDS
+    from calibench.sim.concealed.simulated import SIMULATED_ARM_KINDS
     from calibench.sim.concealed.unwritten import UNWRITTEN_ARM_KINDS
 
-    return ARM_KINDS + UNWRITTEN_ARM_KINDS
+    return ARM_KINDS + UNWRITTEN_ARM_KINDS + SIMULATED_ARM_KINDS
 
 
 def run_recording(scenario: str, config, seed: int) -> tuple[object, dict]:

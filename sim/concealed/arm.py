@@ -3,7 +3,8 @@ concealed effects.
 
 Kinds: ``null``, ``eccentricity`` (one joint's encoder), ``thermal`` (the links' growth),
 ``compliance`` (joints giving way under gravity, by MuJoCo's physics), ``transmission`` (one
-joint's gear train).
+joint's gear train); the second suite's (``sim.concealed.unwritten``) and the third's, simulated
+in MuJoCo (``sim.concealed.simulated``).
 """
 
 from __future__ import annotations
@@ -17,6 +18,11 @@ from calibench.errors import BadInput
 from calibench.recordings import ArmRecording
 from calibench.scenes.arm_cmm import DEFAULT_ARM
 from calibench.sim.concealed.noise import repeat_noise
+from calibench.sim.concealed.simulated import (
+    SIMULATED_ARM_KINDS,
+    encoder_slip,
+    gear_play_angles,
+)
 from calibench.sim.concealed.unwritten import (
     UNWRITTEN_ARM_KINDS,
     bent_link_points,
@@ -103,11 +109,11 @@ def arm_recording(
     from calibench.scenes.arm_cmm import load_arm
     from calibench.sim.arm_cmm import ArmSim, ArmTruth, drawn_errors
 
-    if kind not in ARM_KINDS + UNWRITTEN_ARM_KINDS:
-        raise ValueError(f"unknown kind {kind!r} (known: {', '.join(ARM_KINDS)})")
+    if kind not in ARM_KINDS + UNWRITTEN_ARM_KINDS + SIMULATED_ARM_KINDS:
+        known = ARM_KINDS + UNWRITTEN_ARM_KINDS + SIMULATED_ARM_KINDS
+        raise ValueError(f"unknown kind {kind!r} (known: {', '.join(known)})")
     rng = np.random.default_rng(seed)
     description = load_arm(arm)
-    N = description.n_joints
     if truth is None:
         truth = ArmTruth(delta=drawn_errors(description, machine) if machine else ())
     sim = ArmSim(description, truth)
@@ -116,16 +122,9 @@ def arm_recording(
     T = 20.0 + np.cumsum(rng.normal(0, 0.002, n))
     noisy = repeat_noise(noise, rng, seed, repeat)
     q_read = q + noisy(q.shape, truth.encoder_noise_urad * 1e-6, "gaussian")
-    effects: list[dict[str, Any]] = []
-    if kind in ("eccentricity", "transmission"):
-        # the arm stands where it stands; its encoders read it off
-        j, off_rad, effect = (
-            _eccentric_encoder(q, rng, N, joint)
-            if kind == "eccentricity"
-            else _geared_joint(q, rng, N, joint, harmonic, phase_rad, amplitude_urad)
-        )
-        q_read[:, j - 1] += off_rad
-        effects.append(effect)
+    # the arm stands where it stands; its encoders read it off
+    off, effects = _read_off(kind, q, t, rng, joint, (harmonic, phase_rad, amplitude_urad))
+    q_read += off
     T, xyz, placed = _probed_points(kind, sim, truth, q, t, T, rng)
     effects += placed
     R, p = truth.tracker2base()
@@ -147,6 +146,28 @@ def arm_recording(
     )
 
 
+def _read_off(
+    kind: str, q: np.ndarray, t: np.ndarray, rng: np.random.Generator, joint, gear: tuple
+) -> tuple[np.ndarray, list[dict[str, Any]]]:
+    """What the encoders of an arm at angles ``q`` (n, N) rad read off (n, N) rad, and the
+    effects: an eccentric disc, a gear train's harmonic (``gear``: its harmonic, phase and
+    amplitude, each None to draw), a disc that slipped once (the third suite's, by MuJoCo)."""
+    off = np.zeros_like(q)
+    N = q.shape[1]
+    if kind in ("eccentricity", "transmission"):
+        j, off_rad, effect = (
+            _eccentric_encoder(q, rng, N, joint)
+            if kind == "eccentricity"
+            else _geared_joint(q, rng, N, joint, *gear)
+        )
+        off[:, j - 1] = off_rad
+        return off, [effect]
+    if kind == "encoder_slip":
+        off, effect = encoder_slip(t, N, rng)
+        return off, [effect]
+    return off, []
+
+
 def _probed_points(
     kind: str, sim, truth, q: np.ndarray, t: np.ndarray, T: np.ndarray, rng: np.random.Generator
 ) -> tuple[np.ndarray, np.ndarray, list[dict[str, Any]]]:
@@ -162,6 +183,11 @@ def _probed_points(
     if kind in UNWRITTEN_ARM_KINDS:  # the second suite's: no candidate writes it down
         xyz, effect = _unwritten_points(kind, sim, q, t, rng)
         return T, xyz, [effect]
+    if kind == "gear_play":  # the third suite's: the play's contacts and friction, by MuJoCo
+        if not sim.arm.has_masses:
+            raise BadInput(f"the arm {sim.arm.name} has no masses: no load on its gears")
+        q_link, effect = gear_play_angles(sim, q, rng)
+        return T, sim.point_mm(q_link), [effect]
     return T, sim.probe_mm(q), []
 
 
