@@ -12,10 +12,11 @@ Arms:
   the motor and the link whose range is the play (MuJoCo's joint limit: a contact that drags the
   link once the play is taken up) and whose friction holds the link where the move left it
   unless gravity's torque beats it. The arm moves from posture to posture in the recording's
-  order (a smooth 0.5 s move, 0.25 s to settle) and the link rests where the solver puts it:
-  lagging the motor by the play after a move where friction holds it, on gravity's side where
-  gravity wins. Nearest: ``backlash`` on that joint (``joint_compliance`` there is alike: the
-  play taken up on gravity's side follows the torque's sign).
+  order (a smooth move, its fastest joint peaking at 1.5 rad/s, 0.25 s to settle) and the link
+  rests where the solver puts it: lagging the motor by half the play after a move where friction
+  holds it, on gravity's side where gravity wins. Nearest: ``backlash`` on that joint
+  (``joint_compliance`` there is alike: the play taken up on gravity's side follows the
+  torque's sign).
 - ``encoder_slip``: once, between two postures, the arm runs a joint into its hard stop (a joint
   limit in MuJoCo, at 1-3 rad/s) and the encoder's disc, clamped to the shaft by friction, slips
   on it: its inertia carries it on while the stop halts the shaft, until the clamp's friction
@@ -31,7 +32,8 @@ import mujoco
 import numpy as np
 
 SIMULATED_ARM_KINDS = ("gear_play", "encoder_slip")
-MOVE_S, SETTLE_S = 0.5, 0.25  # a move between postures and the rest after it
+MOVE_S, SETTLE_S = 0.5, 0.25  # the shortest move between postures and the rest after it
+PEAK_RAD_S = 1.5  # the fastest joint's peak speed in a move (a UR10's shoulder: 2 rad/s at most)
 STEP_S = 0.002  # the play's simulation step (its contact's time constant is twice it)
 PLAY_URAD = (100.0, 300.0)  # half the gear's play, drawn
 # the gear's friction, a share of the joint's largest gravity torque: held where the move left
@@ -56,6 +58,7 @@ def gear_play_angles(
         m.jnt_limited[j],
         m.jnt_range[j].copy(),
         m.jnt_solref[j].copy(),
+        m.jnt_solimp[j].copy(),
         m.dof_frictionloss[j],
         m.dof_damping[j],
         m.dof_solref[j].copy(),
@@ -63,7 +66,9 @@ def gear_play_angles(
     )
     m.opt.timestep = STEP_S
     m.jnt_limited[j] = 1
+    # the play's contacts as hard as the solver allows: the teeth's own give is another effect
     m.jnt_solref[j] = (2 * STEP_S, 1.0)
+    m.jnt_solimp[j] = (0.9999, 0.9999, 0.001, 0.5, 2.0)
     m.dof_frictionloss[j] = friction
     # friction that holds, not a slow creep: MuJoCo's soft constraints creep at the default
     # impedance, over a play of a few hundred urad within the rest
@@ -73,8 +78,9 @@ def gear_play_angles(
     try:
         q_link = _moved_through(m, d, q_motor, j, play)
     finally:
-        (m.opt.timestep, m.jnt_limited[j], m.jnt_range[j], m.jnt_solref[j]) = saved[:4]
-        m.dof_frictionloss[j], m.dof_damping[j], m.dof_solref[j], m.dof_solimp[j] = saved[4:]
+        (m.opt.timestep, m.jnt_limited[j], m.jnt_range[j]) = saved[:3]
+        m.jnt_solref[j], m.jnt_solimp[j] = saved[3:5]
+        m.dof_frictionloss[j], m.dof_damping[j], m.dof_solref[j], m.dof_solimp[j] = saved[5:]
     truth = {
         "name": "gear_play",
         "axis": "xyz",
@@ -89,9 +95,7 @@ def _moved_through(m, d, q_motor: np.ndarray, j: int, play: float) -> np.ndarray
     """The link angles (n, N) at rest after each move of :func:`gear_play_angles`: the other
     joints follow their motors exactly, joint ``j``'s link is MuJoCo's (gravity, the play's
     contacts, friction), its range the play around its motor."""
-    n_move, n_rest = int(MOVE_S / STEP_S), int(SETTLE_S / STEP_S)
-    s = np.minimum(np.arange(1, n_move + n_rest + 1) / n_move, 1.0)
-    shape, rate = 3 * s**2 - 2 * s**3, (6 * s - 6 * s**2) / MOVE_S  # a smooth move, then rest
+    n_rest = int(SETTLE_S / STEP_S)
     others = np.arange(m.nv) != j
     out = np.empty_like(q_motor)
     d.qpos[:], d.qvel[:] = q_motor[0], 0.0
@@ -99,6 +103,11 @@ def _moved_through(m, d, q_motor: np.ndarray, j: int, play: float) -> np.ndarray
     previous = q_motor[0]
     for i, target in enumerate(q_motor):
         step = target - previous
+        # a smooth move at the arm's speed: its fastest joint peaks at PEAK_RAD_S
+        duration = max(MOVE_S, 1.5 * float(np.abs(step).max()) / PEAK_RAD_S)
+        n_move = int(duration / STEP_S)
+        s = np.minimum(np.arange(1, n_move + n_rest + 1) / n_move, 1.0)
+        shape, rate = 3 * s**2 - 2 * s**3, (6 * s - 6 * s**2) / duration
         for a, v in zip(shape, rate):  # the motors' path is prescribed: a loop in time
             m.jnt_range[j] = (previous[j] + a * step[j] - play, previous[j] + a * step[j] + play)
             d.qpos[others] = previous[others] + a * step[others]

@@ -2,8 +2,8 @@
 for: an encoder disc that slips on its shaft at a hard stop keeps the kinetic energy its clamp
 must take out, I w^2 / 2 = C slip (the shock's finite stiffness adds a little: within 25 %); a
 link behind a gear with play, whose friction beats gravity's torque, rests on the side of the
-play the move dragged it to, past half the play by the contact's give only (on moves under 2 rad
-in 0.5 s: a longer move's braking carries the link's inertia over to the leading side)."""
+play the move dragged it to, half the play behind its motor (within a tenth: the contact's give,
+and a link the braking eased off the contact)."""
 
 import numpy as np
 import pytest
@@ -32,7 +32,5 @@ def test_a_link_held_by_friction_lags_its_motor_by_the_play(monkeypatch):
     off = (q_link - q)[1:, j]
     moved = np.sign(np.diff(q[:, j]))
     assert np.array_equal(np.delete(q_link, j, axis=1), np.delete(q, j, axis=1))
-    short = np.abs(np.diff(q[:, j])) < 2.0
-    assert short.sum() >= 30
-    assert np.mean(np.sign(off[short]) == -moved[short]) >= 0.95  # behind, as it was dragged
-    assert np.all(np.abs(off) <= 2.5 * half) and np.median(np.abs(off)) >= half
+    assert np.mean(np.sign(off) == -moved) >= 0.95  # behind, as it was dragged
+    assert np.all(np.abs(off) <= 1.1 * half) and np.median(np.abs(off)) >= 0.9 * half
