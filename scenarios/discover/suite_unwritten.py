@@ -31,7 +31,9 @@ from calibench.scenarios.discover.engine import plugin
 from calibench.scenarios.discover.fresh import FreshScore, score_on_fresh
 from calibench.scenarios.discover.suite import recorded, searched
 from calibench.scenarios.registry import instruments
-from calibench.sim.concealed.noise import MISSPECIFIED
+from calibench.sim.concealed.heated_scale import SIMULATED_STAGE_KINDS
+from calibench.sim.concealed.noise import MISSPECIFIED, THIRD_SUITE_NOISES
+from calibench.sim.concealed.simulated import SIMULATED_ARM_KINDS
 
 SEEDS = 3  # per kind: each kind sees every misspecified noise once
 
@@ -49,11 +51,14 @@ def unwritten_cases() -> tuple[tuple[str, str, int], ...]:
 
 SEED0 = 9000  # the recordings' seeds: apart from the first suite's and the coverage study's
 NOT_CONCEALED = ("geometry",)
+SIMULATED_KINDS = SIMULATED_ARM_KINDS + SIMULATED_STAGE_KINDS
 
 
-def case_noise(seed: int) -> str:
-    """The case's reading noise: the misspecified kinds in turn."""
-    return MISSPECIFIED[seed % len(MISSPECIFIED)]
+def case_noise(seed: int, kind: str = "") -> str:
+    """The case's reading noise: the misspecified kinds in turn (the third suite's, ``kind`` a
+    simulated mechanism, quantised readings among them)."""
+    kinds = THIRD_SUITE_NOISES if kind in SIMULATED_KINDS else MISSPECIFIED
+    return kinds[seed % len(kinds)]
 
 
 @dataclasses.dataclass
@@ -90,9 +95,9 @@ def _explained(scenario: str, truth: list, f: dict) -> bool:
     )
 
 
-def run_unwritten(scenario: str, kind: str, seed: int) -> UnwrittenResult:
-    """One case through discover, scored against its manifest."""
-    noise, rec_seed = case_noise(seed), SEED0 + 100 * seed + len(kind)
+def run_unwritten(scenario: str, kind: str, seed: int, noise: str | None = None) -> UnwrittenResult:
+    """One case through discover, scored against its manifest (``noise``: None, the case's)."""
+    noise, rec_seed = noise or case_noise(seed, kind), SEED0 + 100 * seed + len(kind)
 
     def discovered(repeat: int) -> tuple[dict, dict, dict]:
         rec, manifest = recorded(scenario, kind, rec_seed, noise=noise, repeat=repeat)

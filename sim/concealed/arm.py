@@ -17,7 +17,7 @@ import numpy as np
 from calibench.errors import BadInput
 from calibench.recordings import ArmRecording
 from calibench.scenes.arm_cmm import DEFAULT_ARM
-from calibench.sim.concealed.noise import repeat_noise
+from calibench.sim.concealed.noise import read, repeat_noise
 from calibench.sim.concealed.simulated import (
     SIMULATED_ARM_KINDS,
     encoder_slip,
@@ -79,7 +79,8 @@ def arm_recording(
         The gear's cycles per turn, phase (rad) and amplitude (urad); None: each drawn (given,
         sessions of one gear train can be recorded).
     noise : str
-        The reference's reading noise, one of ``noise.NOISE_KINDS`` (``gaussian``: as stated).
+        The reference's reading noise, one of ``noise.NOISE_KINDS`` (``gaussian``: as stated)
+        or ``quantised``.
     repeat : int
         The same arm probed again at the same postures: its errors the same draws, the encoders'
         and the reference's noise fresh (``k`` > 0: the ``k``-th repeat; 0: the first).
@@ -129,7 +130,7 @@ def arm_recording(
     effects += placed
     R, p = truth.tracker2base()
     xyz = (xyz - p) @ R  # the instrument reports in its own frame
-    xyz = xyz + noisy(xyz.shape, noise_um / 1000)
+    xyz = read(noise, xyz + noisy(xyz.shape, noise_um / 1000), noise_um / 1000)
     return (
         ArmRecording(q_read, xyz, t, np.round(T, 3)),
         {

@@ -11,7 +11,13 @@ reading's own scatter, so a recording states the noise its maker believes in:
   (heavy tails: one reading in 70 beyond 3 sigma, against one in 370);
 - ``drift``: N(0, sigma) plus a slow drift, a stationary Ornstein-Uhlenbeck process of standard
   deviation ``sigma`` whose correlation lasts :data:`DRIFT_SHARE` of the recording;
-- ``outliers``: N(0, sigma) plus :data:`OUTLIER_SHARE` of readings displaced by 10 to 30 sigma.
+- ``outliers``: N(0, sigma) plus :data:`OUTLIER_SHARE` of readings displaced by 10 to 30 sigma;
+- ``quantised`` (the third suite's, kept out of :data:`NOISE_KINDS` so the earlier studies draw
+  as they did): an instrument that reports in counts of :data:`QUANTUM_SIGMAS` sigma, its own
+  scatter before the count sigma / 2, so a reading's whole scatter is still sigma (a uniform
+  count's 3 / sqrt(12) = 0.87 and the half in quadrature). A reading taken again at the same
+  place mostly repeats to the count: the scatter that short repeats show is not the reading's.
+  :func:`read` applies the count.
 """
 
 from __future__ import annotations
@@ -21,6 +27,10 @@ from scipy.signal import lfilter
 
 NOISE_KINDS = ("gaussian", "t3", "drift", "outliers")
 MISSPECIFIED = NOISE_KINDS[1:]
+QUANTISED = "quantised"
+THIRD_SUITE_NOISES = MISSPECIFIED + (QUANTISED,)
+QUANTUM_SIGMAS = 3.0  # a count of the quantised instrument, in sigma
+QUANTISED_SCATTER = 0.5  # its scatter before the count, in sigma
 DRIFT_SHARE = 0.02  # the drift's correlation length, as a share of the recording's readings
 OUTLIER_SHARE = 0.01
 OUTLIER_SIGMAS = (10.0, 30.0)
@@ -34,7 +44,8 @@ def reading_noise(
     Parameters
     ----------
     kind : str
-        One of :data:`NOISE_KINDS`.
+        One of :data:`NOISE_KINDS` or ``quantised`` (the scatter before the count: pass the
+        readings through :func:`read`).
     rng : numpy.random.Generator
         The recording's generator; ``gaussian`` draws exactly ``rng.normal(0, sigma, shape)``,
         so recordings made before the other kinds existed are unchanged bit for bit.
@@ -48,8 +59,10 @@ def reading_noise(
     ndarray
         ``shape``.
     """
-    if kind not in NOISE_KINDS:
-        raise ValueError(f"unknown noise {kind!r} (known: {', '.join(NOISE_KINDS)})")
+    if kind not in NOISE_KINDS + (QUANTISED,):
+        raise ValueError(f"unknown noise {kind!r} (known: {', '.join(NOISE_KINDS)}, {QUANTISED})")
+    if kind == QUANTISED:
+        return rng.normal(0, QUANTISED_SCATTER * sigma, shape)
     if kind == "t3":
         return sigma / np.sqrt(3.0) * rng.standard_t(3, shape)
     white = rng.normal(0, sigma, shape)
@@ -67,6 +80,16 @@ def reading_noise(
         flat.flat[at] += jump
         return flat.reshape(shape)
     return white
+
+
+def read(kind: str, values: np.ndarray, sigma: float) -> np.ndarray:
+    """What an instrument whose reading noise is ``kind`` reports for ``values`` (any shape),
+    its noise already added: the ``quantised`` kind's count (:data:`QUANTUM_SIGMAS` sigma, from
+    zero), the others as they are."""
+    if kind != QUANTISED:
+        return values
+    count = QUANTUM_SIGMAS * sigma
+    return np.round(np.asarray(values) / count) * count
 
 
 def repeat_noise(kind: str, rng: np.random.Generator, seed: int, repeat: int):

@@ -22,7 +22,8 @@ from calibench.sim.concealed.effects import (
     lost_motion_mm,
     periodic_mm,
 )
-from calibench.sim.concealed.noise import reading_noise
+from calibench.sim.concealed.heated_scale import SIMULATED_STAGE_KINDS, heated_scale
+from calibench.sim.concealed.noise import read, reading_noise
 from calibench.sim.concealed.sessions import (
     ROOM_C,
     first_order_rise,
@@ -138,13 +139,13 @@ def stage_recording(
     scenario : str
         ``belt-stage`` or ``vision-stage`` (a key of ``PLANS``).
     kind : str
-        One of ``STAGE_KINDS`` (``elastic`` for the belt stage only) or of the second suite's
-        ``unwritten.UNWRITTEN_STAGE_KINDS``.
+        One of ``STAGE_KINDS`` (``elastic`` for the belt stage only), of the second suite's
+        ``unwritten.UNWRITTEN_STAGE_KINDS`` or the third's ``heated_scale.SIMULATED_STAGE_KINDS``.
     seed : int
         Every draw's seed: the same seed gives the same recording, bit for bit.
     noise : str
         The reference's reading noise, one of ``noise.NOISE_KINDS`` (``gaussian``: as every
-        estimator assumes).
+        estimator assumes) or ``quantised``.
     rise_k : float or None
         ``thermal``'s rise of the room over the recording, K; None: drawn (2-5 K).
     warmer_k : float
@@ -175,7 +176,7 @@ def stage_recording(
     ValueError
         An unknown kind, or ``elastic`` on the vision stage.
     """
-    if kind not in STAGE_KINDS + UNWRITTEN_STAGE_KINDS:
+    if kind not in STAGE_KINDS + UNWRITTEN_STAGE_KINDS + SIMULATED_STAGE_KINDS:
         raise ValueError(f"unknown kind {kind!r}")
     rng = np.random.default_rng(seed)
     plan = plan or PLANS[scenario]
@@ -206,7 +207,7 @@ def stage_recording(
     if pos is None:
         temp = None if truth is None else T
         pos = replay_stage(geometry or twin_geometry(scenario), x, y, temp_c=temp, truth=truth)
-    meas = pos + err
+    meas = read(noise, pos + err, REFERENCE_NOISE_UM / 1000)
     rec = StageRecording(
         x_cmd_mm=x,
         y_cmd_mm=y,
@@ -311,6 +312,10 @@ def concealed_errors(
         effects.append(effect("nonsmooth", "y", x_mm=x0, width_mm=w, height_mm=h))
     if kind in UNWRITTEN_STAGE_KINDS:  # the second suite's: no candidate writes them down
         more, truths, temp_c = stage_effect(kind, rng, c, travel_mm, temp_c)
+        err_mm += more
+        effects += truths
+    if kind in SIMULATED_STAGE_KINDS:  # the third suite's: the scales' heat, integrated
+        more, truths, temp_c = heated_scale(rng, c, temp_c)
         err_mm += more
         effects += truths
     return err_mm, temp_c, effects

@@ -8,13 +8,21 @@ truth's ``nearest`` candidate on its joint).
 - a gear with play whose friction holds the link where the move left it: named ``backlash`` on
   that joint, the play within 10 % (where gravity beats the friction the play is taken up on
   gravity's side, which no candidate writes), nothing false claimed beside it;
-- nulls: nothing claimed."""
+- nulls: nothing claimed;
+- a stage's scales heated through the machine's heat capacities (a network integrated in time,
+  not the candidates' first-order lag) as the room warms, under heavy-tailed, drifting, gross
+  and quantised reading noise: named ``thermal_expansion`` on both axes, its coefficient within
+  3 standard errors or 15 % (the lag's single time constant absorbs what the network's second
+  one adds: up to 10 % on these cases) and carried to the same stage recorded again;
+- quantised readings (counts of 3 sigma) on a null of each instrument: nothing claimed, and
+  where the recording gives a floor it is the reading's whole scatter, not the repeats'."""
 
 import pytest
 
 from calibench.scenarios.discover.suite_unwritten import run_unwritten
 
 ARM = "arm-cmm:ur10"
+STAGES = ("belt-stage", "vision-stage")
 
 
 @pytest.mark.parametrize("seed", range(3))
@@ -47,3 +55,37 @@ def test_a_gear_s_play_held_by_friction_is_backlash_on_its_joint(seed):
 def test_nothing_is_claimed_on_a_null_under_misspecified_noise(seed):
     r = run_unwritten(ARM, "null", seed)
     assert r.found == [], r.found
+
+
+@pytest.mark.parametrize("scenario", STAGES)
+@pytest.mark.parametrize("seed", range(4))
+def test_a_scale_heated_through_its_capacities_is_thermal_expansion(scenario, seed):
+    r = run_unwritten(scenario, "heated_scale", seed)
+    assert r.detected == 2 and r.false_claims == 0, (r.truth, r.found)
+    for truth in r.truth:
+        (f,) = [
+            f for f in r.found if f["name"] == "thermal_expansion" and f["axis"] == truth["axis"]
+        ]
+        k = truth["params"]["ppm_per_k"]
+        std = f["stderr"]["ppm_per_k"]
+        assert abs(f["params"]["ppm_per_k"] - k) <= max(0.15 * k, 3 * std), (f, truth)
+    assert r.fresh.cv_rms_with_effects < 0.6 * r.fresh.cv_rms_scene_model, r.fresh
+
+
+@pytest.mark.parametrize("scenario", (ARM,) + STAGES)
+def test_nothing_is_claimed_on_quantised_readings(scenario):
+    r = run_unwritten(scenario, "null", 0, noise="quantised")
+    assert r.found == [], r.found
+
+
+@pytest.mark.parametrize("scenario", STAGES)
+def test_the_floor_of_quantised_readings_is_their_whole_scatter(scenario):
+    from calibench.scenarios.discover.suite import recorded, searched
+
+    rec, manifest = recorded(scenario, "null", 11, noise="quantised")
+    out, _ = searched(scenario, rec, 11)
+    sigma = manifest["noise_um"] / 1000  # the whole scatter: the count's and the half sigma
+    # 6000-odd successive pairs give their standard deviation within 3 % (three of its errors);
+    # the rest of the 10 % is what changes between successive readings (a pass's offset)
+    assert abs(out["noise_floor"]["sigma_mm"] / sigma - 1.0) < 0.1, out["noise_floor"]
+    assert out["verdict"].startswith("nothing missing"), out["verdict"]

@@ -3,13 +3,15 @@ for: an encoder disc that slips on its shaft at a hard stop keeps the kinetic en
 must take out, I w^2 / 2 = C slip (the shock's finite stiffness adds a little: within 25 %); a
 link behind a gear with play, whose friction beats gravity's torque, rests on the side of the
 play the move dragged it to, half the play behind its motor (within a tenth: the contact's give,
-and a link the braking eased off the contact)."""
+and a link the braking eased off the contact); a stage's scale heated through the machine's heat
+capacities (an ODE integrated) trails the air as its network's transfer function says; quantised
+readings are counts whose scatter is the stated one."""
 
 import numpy as np
 import pytest
 
 from calibench.sim.arm_cmm import ArmSim
-from calibench.sim.concealed import simulated
+from calibench.sim.concealed import heated_scale, noise, simulated
 from calibench.sim.concealed.simulated import DISC_INERTIA_KG_M2, disc_slip, gear_play_angles
 
 
@@ -34,3 +36,32 @@ def test_a_link_held_by_friction_lags_its_motor_by_the_play(monkeypatch):
     assert np.array_equal(np.delete(q_link, j, axis=1), np.delete(q, j, axis=1))
     assert np.mean(np.sign(off) == -moved) >= 0.95  # behind, as it was dragged
     assert np.all(np.abs(off) <= 1.1 * half) and np.median(np.abs(off)) >= 0.9 * half
+
+
+def test_a_heated_scale_trails_a_ramp_of_the_air_by_its_network_s_mean_delay():
+    # the integrated network against its transfer function: a steady ramp of the air is
+    # followed at the ramp's slope, the mean delay behind (-H'(0)), and a step settles on it
+    A, b = heated_scale.network(1800.0, 300.0, 0.25, 0.05)
+    t = np.arange(0.0, 8 * 3600.0, 3.0)
+    ramp = 20.0 + 1e-4 * t  # 0.36 K per hour
+    scale = heated_scale.scale_temperature(t, ramp, A, b)
+    late = t > 4 * 3600.0  # five base time constants in: the start's transient gone
+    delay = (ramp[late] - scale[late]) / 1e-4
+    assert np.ptp(delay) < 1.0, np.ptp(delay)  # steady
+    assert abs(delay.mean() - heated_scale.mean_delay_s(A, b)) < 1.0, delay.mean()
+    step = heated_scale.scale_temperature(t, np.where(t > 60, 21.0, 20.0), A, b)
+    assert abs(step[-1] - 21.0) < 1e-6 and step.max() <= 21.0 + 1e-9
+
+
+def test_quantised_readings_keep_the_stated_scatter_in_counts():
+    rng, n = np.random.default_rng(0), 20000
+    sigma, truth = 1e-3, rng.uniform(0, 1, n)
+    scatter = noise.reading_noise("quantised", rng, (n,), sigma)
+    read = noise.read("quantised", truth + scatter, sigma)
+    counts = read / (noise.QUANTUM_SIGMAS * sigma)
+    assert np.allclose(counts, np.round(counts))
+    # a uniform count's 3 / sqrt(12) and the half sigma before it, in quadrature: sigma, within
+    # three standard errors of a standard deviation of n readings, sqrt((kurtosis - 1) / 4 n)
+    e = read - truth
+    kurtosis = np.mean((e - e.mean()) ** 4) / np.var(e) ** 2
+    assert abs(np.std(e) / sigma - 1.0) < 3 * np.sqrt((kurtosis - 1) / (4 * n))
