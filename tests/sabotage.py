@@ -374,6 +374,18 @@ FAULTS: dict[str, Fault] = {
         more.rival_beaten_by_z_alone,
         ("tests/estimators/test_discovery_rivals.py",),
     ),
+    "warmup_counted_from_mid_recording": Fault(
+        "a Stewart leg's warm-up counted from mid-recording, not from the recording's first time",
+        more.warmup_counted_from_mid_recording,
+        ("tests/estimators/test_discovery_warmup.py",),
+    ),
+    "heat_delay_of_one_inverse": Fault(
+        "a heat network's mean delay behind a ramp of the air taken as c A^-1 b, not c A^-2 b",
+        more.heat_delay_of_one_inverse,
+        (
+            "tests/sim/test_concealed_simulated.py::test_a_heated_scale_trails_a_ramp_of_the_air_by_its_network_s_mean_delay",
+        ),
+    ),
     "suite_arm_ignored": Fault(
         "the suites' NAME:ARM cases recorded and searched with the seed's arm",
         more.suite_arm_ignored,

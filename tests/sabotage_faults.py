@@ -251,3 +251,23 @@ def rival_beaten_by_z_alone(mp: pytest.MonkeyPatch) -> None:
     from calibench.estimators.discovery import rivals
 
     mp.setattr(rivals, "MARGIN", -np.inf)
+
+
+def warmup_counted_from_mid_recording(mp: pytest.MonkeyPatch) -> None:
+    """A leg's warm-up counted from mid-recording, not from its first time: its shape the same,
+    its settled size scaled by exp((t_mid - t_0) / settle_s)."""
+    from calibench.estimators.discovery import warmup
+
+    def settling(d, settle_s):
+        t = np.asarray(d["t_s"], float)
+        s = 1.0 - np.exp(-(t - t.mean()) / settle_s)
+        return s - s.mean()
+
+    mp.setattr(warmup, "_settling", settling)
+
+
+def heat_delay_of_one_inverse(mp: pytest.MonkeyPatch) -> None:
+    """A heat network's mean delay taken as c A^-1 b (the steady gain, negated), not c A^-2 b."""
+    from calibench.sim.concealed import heat
+
+    mp.setattr(heat, "mean_delay_s", lambda A, b: float(-np.linalg.solve(A, b)[1]))

@@ -53,6 +53,39 @@ def unwritten_table(scores: dict) -> str:
     )
 
 
+@block(seconds=700, ci=False)
+def discover_simulated():
+    """The third suite (scenarios/discover/suite_simulated.py): mechanisms simulated, not
+    written, per instrument."""
+    from calibench.scenarios.discover.suite_simulated import (
+        run_simulated,
+        simulated_cases,
+        simulated_scores,
+    )
+
+    scores = simulated_scores([run_simulated(*case) for case in simulated_cases()])
+    rows = [
+        [
+            label,
+            str(s["recordings"]),
+            f"{s['detection']:.0%}",
+            str(s["false_recordings"]),
+            f"{s['improved_fresh']:.0%} ({s['fresh_ratio']:.2f})",
+        ]
+        for label, s in scores.items()
+    ]
+    return table(
+        [
+            "instrument",
+            "recordings",
+            "detection (nearest named effect, where it lives)",
+            "recordings with a false claim",
+            "improved on a fresh recording, held out (median RMS after / before)",
+        ],
+        rows,
+    )
+
+
 @block(seconds=3100, ci=False)
 def discover_coverage():
     """discover's stated intervals against the truth, under each reading noise

@@ -72,7 +72,9 @@ class Duel:
 
 
 def _same_place(a, b) -> bool:
-    return a.axis == b.axis and getattr(a, "joint", None) == getattr(b, "joint", None)
+    return a.axis == b.axis and all(
+        getattr(a, where, None) == getattr(b, where, None) for where in ("joint", "leg")
+    )
 
 
 def duel(sig: Signal, terms: list, index: int, rival, drivers: Drivers, fold: np.ndarray) -> Duel:

@@ -326,9 +326,12 @@ class TrackerDrift(Effect):
 
 def stewart_candidates(drivers: Drivers) -> list:
     """Every Stewart candidate the recording's columns support."""
-    out: list[Effect | LegPitchSearch] = [HingeGeometry()]
+    from calibench.estimators.discovery.warmup import LegWarmupSearch  # it builds on LegEffect
+
+    out: list[Effect | LegPitchSearch | LegWarmupSearch] = [HingeGeometry()]
     for leg in range(1, 7):
         out += [LegThermal(leg=leg), LegBacklash(leg=leg), LegDrift(leg=leg)]
+        out.append(LegWarmupSearch(leg))
         L = np.asarray(drivers["L"], float)[:, leg - 1]
         span = float(np.ptp(L))
         if span > 10.0:  # periods from 2 mm to a third of the span, uniform in frequency

@@ -31,7 +31,7 @@ from calibench.scenarios.discover.engine import plugin
 from calibench.scenarios.discover.fresh import FreshScore, score_on_fresh
 from calibench.scenarios.discover.suite import recorded, searched
 from calibench.scenarios.registry import instruments
-from calibench.sim.concealed.heated_scale import SIMULATED_STAGE_KINDS
+from calibench.sim.concealed.heat import SIMULATED_STAGE_KINDS, SIMULATED_STEWART_KINDS
 from calibench.sim.concealed.noise import MISSPECIFIED, THIRD_SUITE_NOISES
 from calibench.sim.concealed.simulated import SIMULATED_ARM_KINDS
 
@@ -51,7 +51,7 @@ def unwritten_cases() -> tuple[tuple[str, str, int], ...]:
 
 SEED0 = 9000  # the recordings' seeds: apart from the first suite's and the coverage study's
 NOT_CONCEALED = ("geometry",)
-SIMULATED_KINDS = SIMULATED_ARM_KINDS + SIMULATED_STAGE_KINDS
+SIMULATED_KINDS = SIMULATED_ARM_KINDS + SIMULATED_STAGE_KINDS + SIMULATED_STEWART_KINDS
 
 
 def case_noise(seed: int, kind: str = "") -> str:

@@ -454,7 +454,7 @@ def search(
 def recording_kinds(scenario: str) -> tuple[str, ...]:
     """The effects a run's recording may conceal: the proof set's (an elastic belt on the belt
     stage only), then the second suite's and the third's."""
-    from calibench.sim.concealed.heated_scale import SIMULATED_STAGE_KINDS
+    from calibench.sim.concealed.heat import SIMULATED_STAGE_KINDS
     from calibench.sim.concealed.stage import STAGE_KINDS
     from calibench.sim.concealed.unwritten import UNWRITTEN_STAGE_KINDS
 

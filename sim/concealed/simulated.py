@@ -86,9 +86,26 @@ def gear_play_angles(
         "axis": "xyz",
         "nearest": "backlash",
         "alike": ["joint_compliance"],
-        "params": {"joint": j + 1, "play_urad": 2 * play * 1e6, "friction_nm": friction},
+        "params": {
+            "joint": j + 1,
+            "play_urad": 2 * play * 1e6,
+            "shown_urad": shown_play_urad(q_motor[:, j], q_link[:, j]),
+            "friction_nm": friction,
+        },
     }
     return q_link, truth
+
+
+def shown_play_urad(q_motor: np.ndarray, q_link: np.ndarray) -> float:
+    """The lost motion a joint's link shows (urad): its lag behind the motor ``q_link - q_motor``
+    (n,) rad fitted, with an offset, to half a play in the direction the motor last turned. What
+    ``backlash`` fitted to the link itself would give: the play less the contacts' give and what
+    gravity takes up on its own side (the value the estimator's stated error is about)."""
+    turned = np.sign(np.diff(q_motor, prepend=q_motor[0]))
+    turned[turned == 0] = 1.0
+    X = np.c_[np.ones_like(turned), turned / 2]
+    coef, *_ = np.linalg.lstsq(X, (q_link - q_motor) * 1e6, rcond=None)
+    return float(-coef[1])
 
 
 def _moved_through(m, d, q_motor: np.ndarray, j: int, play: float) -> np.ndarray:

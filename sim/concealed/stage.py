@@ -22,7 +22,7 @@ from calibench.sim.concealed.effects import (
     lost_motion_mm,
     periodic_mm,
 )
-from calibench.sim.concealed.heated_scale import SIMULATED_STAGE_KINDS, heated_scale
+from calibench.sim.concealed.heat import SIMULATED_STAGE_KINDS, heated_scale
 from calibench.sim.concealed.noise import read, reading_noise
 from calibench.sim.concealed.sessions import (
     ROOM_C,
@@ -140,7 +140,7 @@ def stage_recording(
         ``belt-stage`` or ``vision-stage`` (a key of ``PLANS``).
     kind : str
         One of ``STAGE_KINDS`` (``elastic`` for the belt stage only), of the second suite's
-        ``unwritten.UNWRITTEN_STAGE_KINDS`` or the third's ``heated_scale.SIMULATED_STAGE_KINDS``.
+        ``unwritten.UNWRITTEN_STAGE_KINDS`` or the third's ``heat.SIMULATED_STAGE_KINDS``.
     seed : int
         Every draw's seed: the same seed gives the same recording, bit for bit.
     noise : str

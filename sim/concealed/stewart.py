@@ -17,7 +17,8 @@ from calibench.sim.concealed.effects import (
     lost_motion_mm,
     periodic_mm,
 )
-from calibench.sim.concealed.noise import repeat_noise
+from calibench.sim.concealed.heat import SIMULATED_STEWART_KINDS, heated_leg
+from calibench.sim.concealed.noise import read, repeat_noise
 from calibench.sim.concealed.sessions import first_order_rise, manifest, room_temperature
 from calibench.sim.concealed.unwritten import (
     UNWRITTEN_STEWART_KINDS,
@@ -59,14 +60,15 @@ def stewart_recording(
     Parameters
     ----------
     kind : str
-        One of ``STEWART_KINDS`` or of the second suite's ``unwritten.UNWRITTEN_STEWART_KINDS``.
+        One of ``STEWART_KINDS``, of the second suite's ``unwritten.UNWRITTEN_STEWART_KINDS`` or
+        the third's ``heat.SIMULATED_STEWART_KINDS``.
     seed : int
         Every draw's seed: the same seed gives the same recording, bit for bit.
     n_poses : int
         How many poses (each visited twice: the recording has 2 ``n_poses`` rows).
     noise : str
         The legs' and the tracker's reading noise, one of ``noise.NOISE_KINDS`` (``gaussian``:
-        as assumed).
+        as assumed) or ``quantised`` (the legs' readings in counts).
     repeat : int
         The same platform recorded again at the same poses from the same tracker station: its
         errors the same draws, the legs' and the tracker's noise fresh (``k`` > 0: the ``k``-th
@@ -100,7 +102,7 @@ def stewart_recording(
     from calibench.scenes.stewart import StewartGeometry
     from calibench.sim.stewart import StewartTruth
 
-    if kind not in STEWART_KINDS + UNWRITTEN_STEWART_KINDS:
+    if kind not in STEWART_KINDS + UNWRITTEN_STEWART_KINDS + SIMULATED_STEWART_KINDS:
         raise ValueError(f"unknown kind {kind!r} (known: {', '.join(STEWART_KINDS)})")
     rng = np.random.default_rng(seed)
     noisy = repeat_noise(noise, rng, seed, repeat)
@@ -111,7 +113,7 @@ def stewart_recording(
     poses = poses + poses[::-1]
     n = len(poses)
     load = 500.0 * (np.arange(n) % 3)
-    L, force = leg_lengths_and_forces(sim, poses, load, kind == "compliance")
+    L, force = leg_lengths_and_forces(sim, poses, load, kind in ("compliance", "heated_leg"))
     step = np.diff(np.vstack([L[:1] - 1.0, L]), axis=0)  # homed from below
     direction = np.sign(step)
     t_s = np.arange(n) * 30.0
@@ -129,7 +131,11 @@ def stewart_recording(
         more, truth = stewart_effect(kind, rng, direction, leg, t_s)
         readings += more
         effects.append(truth)
-    readings += noisy(readings.shape, 1e-3)
+    if kind in SIMULATED_STEWART_KINDS:  # the third suite's: a motor's heat, integrated
+        short, truth = heated_leg(rng, t_s, force, L, leg)
+        readings[:, leg - 1] -= short
+        effects.append(truth)
+    readings = read(noise, readings + noisy(readings.shape, 1e-3), 1e-3)
     R_tr, t_tr = tracker_station(rng)
     # the tracker's noise, in time order: (n, reflectors, 3)
     tracker_noise = noisy((n, len(g.reflectors_mm), 3), 2e-3)

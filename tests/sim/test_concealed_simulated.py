@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from calibench.sim.arm_cmm import ArmSim
-from calibench.sim.concealed import heated_scale, noise, simulated
+from calibench.sim.concealed import heat, noise, simulated
 from calibench.sim.concealed.simulated import DISC_INERTIA_KG_M2, disc_slip, gear_play_angles
 
 
@@ -41,15 +41,15 @@ def test_a_link_held_by_friction_lags_its_motor_by_the_play(monkeypatch):
 def test_a_heated_scale_trails_a_ramp_of_the_air_by_its_network_s_mean_delay():
     # the integrated network against its transfer function: a steady ramp of the air is
     # followed at the ramp's slope, the mean delay behind (-H'(0)), and a step settles on it
-    A, b = heated_scale.network(1800.0, 300.0, 0.25, 0.05)
+    A, b = heat.network(1800.0, 300.0, 0.25, 0.05)
     t = np.arange(0.0, 8 * 3600.0, 3.0)
     ramp = 20.0 + 1e-4 * t  # 0.36 K per hour
-    scale = heated_scale.scale_temperature(t, ramp, A, b)
+    scale = heat.thin_temperature(t, ramp, A, b)
     late = t > 4 * 3600.0  # five base time constants in: the start's transient gone
     delay = (ramp[late] - scale[late]) / 1e-4
     assert np.ptp(delay) < 1.0, np.ptp(delay)  # steady
-    assert abs(delay.mean() - heated_scale.mean_delay_s(A, b)) < 1.0, delay.mean()
-    step = heated_scale.scale_temperature(t, np.where(t > 60, 21.0, 20.0), A, b)
+    assert abs(delay.mean() - heat.mean_delay_s(A, b)) < 1.0, delay.mean()
+    step = heat.thin_temperature(t, np.where(t > 60, 21.0, 20.0), A, b)
     assert abs(step[-1] - 21.0) < 1e-6 and step.max() <= 21.0 + 1e-9
 
 
