@@ -6,9 +6,10 @@ candidates' parameters: an arm's encoder disc slipped at a hard stop (MuJoCo's s
 time constant and coefficient), an arm's gear with play (MuJoCo's contacts: ``backlash``'s
 play, the truth the play the link shows: the play less the contacts' give and what gravity
 takes up, ``simulated.shown_play_urad``; the gear's own play differs from it by up to a tenth,
-which no stated error of the noise's covers). Each recording's reading noise is one of ``gaussian`` and the third suite's
-misspecified kinds in turn (heavy tails, drift, gross readings, counts). For each parameter
-found, z = (estimate - truth) / stated std; the coverage is the share with |z| <= 1.96.
+which no stated error of the noise's covers). Each recording's reading noise is one of
+``gaussian`` and the third suite's misspecified kinds in turn (heavy tails, drift, gross
+readings, counts). For each parameter found, z = (estimate - truth) / stated std; the coverage
+is the share with |z| <= 1.96.
 
 A moment is known to the gap between two readings: the truth is the gap's middle and a found
 moment's std at least the gap over sqrt(12), so the moment is covered where its gap is found (a

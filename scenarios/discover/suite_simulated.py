@@ -46,8 +46,11 @@ def run_simulated(label: str, kind: str, seed: int, noise: str) -> UnwrittenResu
 
 
 def simulated_scores(results: list[UnwrittenResult]) -> dict:
-    """Per instrument, the second suite's scores and the recordings with any false claim."""
+    """Per instrument, the second suite's scores, the recordings with any false claim and those
+    whose verdict says "nothing missing" above 1.5 times the true noise."""
     scores = score_unwritten(results)
     for label, s in scores.items():
-        s["false_recordings"] = sum(r.false_claims > 0 for r in results if r.scenario == label)
+        mine = [r for r in results if r.scenario == label]
+        s["false_recordings"] = sum(r.false_claims > 0 for r in mine)
+        s["blind_verdicts"] = sum(r.blind_verdict for r in mine)
     return scores

@@ -74,6 +74,14 @@ class UnwrittenResult:
     cv_before: float
     cv_after: float
     fresh: FreshScore
+    verdict: str = ""
+    noise_mm: float = 0.0  # the reading noise the recording was made with (1 sigma)
+
+    @property
+    def blind_verdict(self) -> bool:
+        """Whether the verdict says "nothing missing" while the held-out residual is above 1.5
+        times the true noise (the acceptance's figure)."""
+        return self.verdict.startswith("nothing missing") and self.cv_after > 1.5 * self.noise_mm
 
 
 def _matches(scenario: str, t: dict, f: dict) -> bool:
@@ -123,6 +131,8 @@ def run_unwritten(scenario: str, kind: str, seed: int, noise: str | None = None)
         before,
         out["fit"]["cv_rms_final"],
         fresh,
+        out.get("verdict", ""),
+        manifest["noise_um"] / 1000,
     )
 
 

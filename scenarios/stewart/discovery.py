@@ -286,13 +286,7 @@ def _registered(rec, g) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _discover_stewart(rec, rec_id, seed: int, floor: float, config) -> tuple[dict, dict]:
-    from calibench.estimators.discovery.rivals import ties
-    from calibench.scenarios.discover.report import (
-        describe_effects,
-        fit_and_noise,
-        judged,
-        named_only,
-    )
+    from calibench.scenarios.discover.report import describe_effects, fit_and_noise, judged
     from calibench.scenarios.stewart.scenario import StewartConfig
     from calibench.sim.stewart import leg_effects_mm
 
@@ -348,10 +342,11 @@ def _discover_stewart(rec, rec_id, seed: int, floor: float, config) -> tuple[dic
         refuse_another(moved, left, SAME_PLATFORM_MM, "platform", "hinges")
     effects, fitted = describe_effects([sig], terms, found, drivers, noise)
     after_noise = {AXIS: repeatability(fitted[AXIS], station, order)}
-    # a mechanism is named only when it beats its leg's look-alikes held out
-    tied = named_only(effects, found, ties([sig], terms, candidates, drivers, fold))
-    confounds = stewart_confounds(sig, terms, candidates, drivers, rec.temp_c) + tied
-    names = [e["name"] for e in effects if e["name"] != "geometry"] + [c["effect"] for c in tied]
+    # the platform keeps its written pairs (stewart_confounds), not the head to head of the arm
+    # and the stages: a leg's growth with a temperature that rises as a first-order lag has the
+    # very shape of a warm-up in time, and the two tie held out (the first suite's thermal leg)
+    confounds = stewart_confounds(sig, terms, candidates, drivers, rec.temp_c)
+    names = [e["name"] for e in effects if e["name"] != "geometry"]
     located = locate(geometry_residual(rec, g, Rf, tf), drivers, seed)
     out = {
         "scenario": NAME,
