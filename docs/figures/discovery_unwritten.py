@@ -103,7 +103,7 @@ def discover_mechanism_coverage():
     from calibench.scenarios.discover.mechanism_coverage import mechanism_coverage
 
     rows = []
-    for c in mechanism_coverage(MECHANISM_SEEDS, workers=os.cpu_count() or 1):
+    for c in mechanism_coverage(MECHANISM_SEEDS, workers=len(os.sched_getaffinity(0))):
         z_rms = float(np.sqrt(np.mean(c.z**2))) if len(c.z) else float("nan")
         rows.append(
             [

@@ -6,7 +6,14 @@ temperature follows the air with time constant ``lag_s`` (a heat capacity behind
     thermal_drift:      e = c (T_lag - mean T_lag)        (c mm/K)
 
 The time constant is searched on the rows the term is fitted to (:meth:`LagSearch.fix`) over a
-log grid from a minute to the recording's length; its uncertainty is the profile's.
+log grid from a minute to the recording's length, then finely between the best's neighbours.
+Its uncertainty is the profile's, widened by what the fit's covariance (robust to drifting and
+heavy-tailed readings) makes of the coefficient beside white noise; the coefficient's std takes
+the time constant's in, through how the coefficient moves along the profile:
+
+    var k = var k | lag + (dk / dlag)^2 var lag
+
+A time constant at either end of the grid is a bound, not an estimate: its std is itself.
 """
 
 from __future__ import annotations
@@ -18,9 +25,14 @@ import numpy as np
 from calibench.estimators.discovery.confounds import MIN_TEMPERATURE_SPAN_K
 from calibench.estimators.discovery.effect import Drivers, Effect, coef_std
 from calibench.estimators.discovery.motion import lagged
-from calibench.estimators.discovery.search import profile, within_one_sigma
+from calibench.estimators.discovery.search import (
+    profile,
+    profile_coefficients,
+    within_one_sigma,
+)
 
 LAG_GRID = 40  # time constants tried, log-spaced
+FINE_GRID = 21  # then between the best's neighbours, evenly
 SHORTEST_LAG_S = 60.0
 
 
@@ -32,6 +44,8 @@ class LaggedThermal(Effect):
     name: str = "thermal_expansion"
     lag_s: float = 0.0
     lag_std_s: float = 0.0
+    white_std: float = 0.0  # the coefficient's std at this lag under the profile's white noise
+    coef_per_lag: float = 0.0  # d coefficient / d lag_s along the profile
 
     def __post_init__(self):
         object.__setattr__(self, "needs", ("temp_c", "t_s", self.axis))
@@ -47,17 +61,21 @@ class LaggedThermal(Effect):
     def describe(self, coef, cov):
         k = float(coef[0])
         lag = {"lag_s": self.lag_s}
+        # the fit's covariance against white noise's: the profile's interval widens alike
+        widen = max(coef_std(cov, 0) / self.white_std, 1.0) if self.white_std > 0 else 1.0
+        lag_std = self.lag_std_s * widen
+        k_std = float(np.hypot(coef_std(cov, 0), self.coef_per_lag * lag_std))
         if self.name == "thermal_expansion":
-            params, std = {"ppm_per_k": k, **lag}, {"ppm_per_k": coef_std(cov, 0)}
+            params, std = {"ppm_per_k": k, **lag}, {"ppm_per_k": k_std}
             said = f"the {self.axis.upper()} scale grows {k:.2f} ppm per kelvin"
         else:
-            params, std = {"mm_per_k": k, **lag}, {"mm_per_k": coef_std(cov, 0)}
+            params, std = {"mm_per_k": k, **lag}, {"mm_per_k": k_std}
             said = f"the whole {self.axis.upper()} axis shifts {k * 1000:+.2f} um per kelvin"
         return (
             params,
-            {**std, "lag_s": self.lag_std_s},
+            {**std, "lag_s": lag_std},
             f"{said} of a temperature that follows the logged air {self.lag_s:.0f} s behind "
-            f"(+- {self.lag_std_s:.0f} s): a part with a heat capacity of its own",
+            f"(+- {lag_std:.0f} s): a part with a heat capacity of its own",
         )
 
 
@@ -99,10 +117,30 @@ class LagSearch:
     ) -> LaggedThermal:
         """The time constant whose term cuts ``r`` (m,) most beside ``others`` on ``rows``."""
         t = np.asarray(drivers["t_s"], float)
-        grid = np.geomspace(SHORTEST_LAG_S, np.ptp(t), LAG_GRID)
-        C = np.stack([_column(drivers, self.axis, self.name, tau) for tau in grid], axis=1)
+        coarse = np.geomspace(SHORTEST_LAG_S, np.ptp(t), LAG_GRID)
+        C = self._columns(drivers, coarse)
+        best, _, _ = profile(r[rows], others[rows], C[rows])
+        # refined between the best's neighbours, the profile read on both grids together
+        lo, hi = coarse[max(best - 1, 0)], coarse[min(best + 1, LAG_GRID - 1)]
+        fine = np.linspace(lo, hi, FINE_GRID)[1:-1]
+        grid = np.r_[coarse, fine]
+        order = np.argsort(grid, kind="stable")
+        grid, C = grid[order], np.c_[C, self._columns(drivers, fine)][:, order]
         best, rss, sigma2 = profile(r[rows], others[rows], C[rows])
-        # no finer than the grid's step about the best
-        step = grid[min(best + 1, len(grid) - 1)] - grid[max(best - 1, 0)]
-        std = max(within_one_sigma(grid, rss, best, sigma2), step / 2 / np.sqrt(3))
-        return LaggedThermal(name=self.name, axis=self.axis, lag_s=float(grid[best]), lag_std_s=std)
+        coef, power = profile_coefficients(r[rows], others[rows], C[rows])
+        lo_i, hi_i = max(best - 1, 0), min(best + 1, len(grid) - 1)
+        std = max(within_one_sigma(grid, rss, best, sigma2), (grid[hi_i] - grid[lo_i]) / 2)
+        if grid[best] in (coarse[0], coarse[-1]):  # at an end, a bound: as large as itself
+            std = max(std, float(grid[best]))
+        return LaggedThermal(
+            name=self.name,
+            axis=self.axis,
+            lag_s=float(grid[best]),
+            lag_std_s=std,
+            white_std=float(np.sqrt(sigma2 / max(power[best], 1e-300))),
+            coef_per_lag=float((coef[hi_i] - coef[lo_i]) / (grid[hi_i] - grid[lo_i])),
+        )
+
+    def _columns(self, drivers: Drivers, lags: np.ndarray) -> np.ndarray:
+        """The term's columns (n, K) at the time constants ``lags`` (K,)."""
+        return np.stack([_column(drivers, self.axis, self.name, tau) for tau in lags], axis=1)

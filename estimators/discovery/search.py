@@ -25,6 +25,18 @@ def profile(y: np.ndarray, X: np.ndarray, C: np.ndarray) -> tuple[int, np.ndarra
     return best, rss, float(rss[best] / max(len(y) - X.shape[1] - 2, 1))
 
 
+def profile_coefficients(
+    y: np.ndarray, X: np.ndarray, C: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Each candidate's own coefficient (K,) beside the columns ``X`` and the power (K,) of
+    its column left after them (a coefficient's white-noise variance is sigma^2 over it)."""
+    Q, _ = np.linalg.qr(X) if X.shape[1] else (np.zeros((len(y), 0)), None)
+    y_left = y - Q @ (Q.T @ y)
+    C_left = C - Q @ (Q.T @ C)
+    power = np.einsum("ij,ij->j", C_left, C_left)
+    return (C_left.T @ y_left) / np.maximum(power, 1e-300), power
+
+
 def within_one_sigma(grid: np.ndarray, rss: np.ndarray, best: int, sigma2: float) -> float:
     """Half the span of the grid values whose rss is within one noise variance of the best: the
     profile's 1-sigma half-width of the searched parameter."""

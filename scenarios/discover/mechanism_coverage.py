@@ -77,7 +77,12 @@ def case_z(label: str, kind: str, name: str, pairs: tuple, seed: int) -> list[fl
     out, _ = searched(label, rec, 0)
     z: list[float | None] = []
     for t in manifest["effects"]:
-        hit = [f for f in out["effects"] if f["name"] == name and _where(t, f)]
+        # the mechanism with all its parameters (an unlagged expansion is another model)
+        hit = [
+            f
+            for f in out["effects"]
+            if f["name"] == name and _where(t, f) and all(q in f["params"] for _, q in pairs)
+        ]
         for truth_p, found_p in pairs:
             if not hit or found_p not in hit[0]["stderr"]:
                 z.append(None)

@@ -32,7 +32,7 @@ from calibench.scenarios.discover.fresh import FreshScore, score_on_fresh
 from calibench.scenarios.discover.suite import recorded, searched
 from calibench.scenarios.registry import instruments
 from calibench.sim.concealed.heat import SIMULATED_STAGE_KINDS, SIMULATED_STEWART_KINDS
-from calibench.sim.concealed.noise import MISSPECIFIED, THIRD_SUITE_NOISES
+from calibench.sim.concealed.noise import MISSPECIFIED, THIRD_SUITE_NOISES, noise_rms
 from calibench.sim.concealed.simulated import SIMULATED_ARM_KINDS
 
 SEEDS = 3  # per kind: each kind sees every misspecified noise once
@@ -75,7 +75,7 @@ class UnwrittenResult:
     cv_after: float
     fresh: FreshScore
     verdict: str = ""
-    noise_mm: float = 0.0  # the reading noise the recording was made with (1 sigma)
+    noise_mm: float = 0.0  # the RMS of the reading noise the recording was made with
 
     @property
     def blind_verdict(self) -> bool:
@@ -132,7 +132,7 @@ def run_unwritten(scenario: str, kind: str, seed: int, noise: str | None = None)
         out["fit"]["cv_rms_final"],
         fresh,
         out.get("verdict", ""),
-        manifest["noise_um"] / 1000,
+        noise_rms(noise, manifest["noise_um"] / 1000),
     )
 
 

@@ -82,6 +82,18 @@ def reading_noise(
     return white
 
 
+def noise_rms(kind: str, sigma: float) -> float:
+    """The RMS of ``kind``'s noise at the stated 1-sigma ``sigma``: what the readings truly
+    scatter by, the drift's share and the gross readings' included (a verdict's "true noise")."""
+    if kind == "drift":  # white and the drift, each of standard deviation sigma
+        return float(np.sqrt(2.0) * sigma)
+    if kind == "outliers":
+        lo, hi = OUTLIER_SIGMAS
+        jump2 = (hi**3 - lo**3) / (3 * (hi - lo))  # E[u^2], u uniform on the displacements
+        return float(sigma * np.sqrt(1.0 + OUTLIER_SHARE * jump2))
+    return float(sigma)  # gaussian, t3 (scaled to sigma), quantised (the count's and before it)
+
+
 def read(kind: str, values: np.ndarray, sigma: float) -> np.ndarray:
     """What an instrument whose reading noise is ``kind`` reports for ``values`` (any shape),
     its noise already added: the ``quantised`` kind's count (:data:`QUANTUM_SIGMAS` sigma, from
