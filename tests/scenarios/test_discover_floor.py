@@ -44,8 +44,9 @@ def test_a_null_stage_is_judged_at_its_noise_and_nothing_is_missing():
 @pytest.mark.parametrize(("scenario", "seed"), [("belt-stage", 3), ("vision-stage", 0)])
 def test_a_lagged_thermal_scale_is_found_with_its_lag(scenario, seed):
     """With the lag searched: each axis's thermal expansion named with a ``lag_s``, the lag and
-    the coefficient within 3 of their standard errors of the generator's (or 15 % of the lag:
-    the grid's 40 steps over the recording), and nothing left above the floor."""
+    the coefficient within 3 of their standard errors of the generator's (the lag refined
+    between its grid's neighbours, the coefficient's std taking the lag's in; the lag's std
+    known to run small), and nothing left above the floor."""
     rec, manifest = stage_recording(scenario, "lagged_thermal", seed)
     truth = manifest["effects"][0]["params"]
     out, _ = discover_stage(scenario, rec, seed)
@@ -54,9 +55,8 @@ def test_a_lagged_thermal_scale_is_found_with_its_lag(scenario, seed):
     for e in lagged:
         p, s = e["params"], e["stderr"]
         assert e["name"] == "thermal_expansion"
-        assert abs(p["lag_s"] - truth["lag_s"]) < max(3 * s["lag_s"], 0.15 * truth["lag_s"]), e
-        assert (
-            abs(p["ppm_per_k"] - truth["ppm_per_k"])
-            < 3 * s["ppm_per_k"] + 0.02 * truth["ppm_per_k"]
-        ), e
+        # the stated lag std runs about 1.4 times too small (docs/discover.md, the coverage of
+        # the new mechanisms): 3 of it, times 1.5
+        assert abs(p["lag_s"] - truth["lag_s"]) < 4.5 * s["lag_s"], e
+        assert abs(p["ppm_per_k"] - truth["ppm_per_k"]) < 3 * s["ppm_per_k"], e
     assert out["unexplained"] is None, out["verdict"]
