@@ -48,6 +48,11 @@ class Instrument:
         no candidate writes down, "null" first.
     unwritten_nulls : int
         Null recordings in the second suite (the other kinds take 3).
+    simulated : tuple of str
+        The third suite's kinds (:mod:`calibench.scenarios.discover.suite_simulated`):
+        mechanisms simulated rather than written; its nulls are added.
+    simulated_arm : str or None
+        The arm the third suite runs the instrument with (labelled ``NAME:ARM``); None: its own.
     options : tuple of str
         The command-line options only it takes (``--arm``: an ARM.toml or a built-in arm;
         ``--save-images``: ``run``'s rendered views for another calibration tool).
@@ -67,5 +72,7 @@ class Instrument:
     suite_arms: tuple[tuple[str, tuple[tuple[str, int], ...]], ...] = ()
     unwritten: tuple[str, ...] = ()
     unwritten_nulls: int = 6
+    simulated: tuple[str, ...] = ()
+    simulated_arm: str | None = None
     coverage: tuple[str, int] | None = None
     options: tuple[str, ...] = ()

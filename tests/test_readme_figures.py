@@ -16,7 +16,10 @@ ur10-sessions-floor (four more leave-one-session-out folds, eleven minutes:
 (four leave-one-session-out folds twice: eight minutes), which would keep CI past its 40 minutes
 (``make figures-check FIGURES="ur10-all-four ur10-sessions-table"``), and discover-nulls (120
 fresh null recordings judged at three or four floors, seven minutes: the suites'
-nulls keep the house floor's false-claim rate in CI). Two are checked by the
+nulls keep the house floor's false-claim rate in CI), discover-simulated (the third suite's 36
+discoveries, eleven minutes: tests/scenarios/test_discover_simulated.py runs its cases) and
+discover-mechanism-coverage (120 discoveries, 25 minutes on 2 cores, a minute on the lent
+16-core machine). Two are checked by the
 tests that run their computation anyway, on that one run
 (``docs.figures.engine.readme_disagrees``): discover-suite (tests/scenarios/test_discover_suite.py)
 and discover-unwritten (tests/scenarios/test_discover_unwritten.py).

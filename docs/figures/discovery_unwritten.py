@@ -62,6 +62,7 @@ def discover_simulated():
         simulated_cases,
         simulated_scores,
     )
+    from calibench.scenarios.discover.suite_unwritten import BLIND_FACTOR
 
     scores = simulated_scores([run_simulated(*case) for case in simulated_cases()])
     rows = [
@@ -81,7 +82,7 @@ def discover_simulated():
             "recordings",
             "detection (nearest named effect, where it lives)",
             "recordings with a false claim",
-            '"nothing missing" above 1.5 x the true noise',
+            f'"nothing missing" above {BLIND_FACTOR} x the true noise',
             "improved on a fresh recording, held out (median RMS after / before)",
         ],
         rows,
@@ -121,7 +122,7 @@ def discover_mechanism_coverage():
             "parameter",
             "recordings",
             "found",
-            "coverage of the stated 95 % intervals",
+            f"coverage of the stated {COVERAGE_PCT} % intervals",
             "RMS of (estimate - truth) / stated std",
         ],
         rows,

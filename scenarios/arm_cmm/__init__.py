@@ -17,4 +17,6 @@ INSTRUMENT = Instrument(
     suite=(("null", 3), ("eccentricity", 3), ("thermal", 2), ("compliance", 2)),
     suite_arms=(("ur10", (("null", 2), ("eccentricity", 1), ("compliance", 2))),),
     unwritten=("null", "harmonic_drive", "link_bending", "pedestal_warmup"),
+    simulated=("gear_play", "encoder_slip"),
+    simulated_arm="ur10",
 )

@@ -25,6 +25,7 @@ INSTRUMENT = Instrument(
         ("elastic", 2),
     ),
     unwritten=("null", "presliding", "lagged_thermal", "rail_step"),
+    simulated=("heated_scale",),
     coverage=("combined", 1),
     options=("--save-images",),
 )

@@ -27,20 +27,34 @@ import numpy as np
 
 from calibench.scenarios.discover.stated_errors import Z_95
 from calibench.scenarios.discover.suite import recorded, searched
+from calibench.scenarios.registry import instruments
 from calibench.sim.concealed.noise import THIRD_SUITE_NOISES
 
 NOISES = ("gaussian",) + THIRD_SUITE_NOISES
-# (suite label, concealed kind, the found effect's name, [(truth's parameter, found's)])
-CASES = (
-    ("arm-cmm:ur10", "encoder_slip", "step", (("slip_urad", "size_urad"), ("t_s", "at_s"))),
-    (
-        "belt-stage",
-        "lagged_thermal",
-        "thermal_expansion",
-        (("lag_s", "lag_s"), ("ppm_per_k", "ppm_per_k")),
-    ),
-    ("arm-cmm:ur10", "gear_play", "backlash", (("shown_urad", "urad"),)),
+# (concealed kind, the found effect's name, [(truth's parameter, found's)]), each recorded on
+# the first instrument whose suites carry the kind (the arm's with its third-suite arm)
+MECHANISMS = (
+    ("encoder_slip", "step", (("slip_urad", "size_urad"), ("t_s", "at_s"))),
+    ("lagged_thermal", "thermal_expansion", (("lag_s", "lag_s"), ("ppm_per_k", "ppm_per_k"))),
+    ("gear_play", "backlash", (("shown_urad", "urad"),)),
 )
+
+
+def _label(kind: str) -> str:
+    """The suite label of the first instrument whose second or third suite carries ``kind``."""
+    for row in instruments():
+        if kind in row.simulated:
+            return f"{row.name}:{row.simulated_arm}" if row.simulated_arm else row.name
+        if kind in row.unwritten:
+            return row.name
+    raise ValueError(f"no instrument records {kind!r}")
+
+
+def cases() -> tuple[tuple[str, str, str, tuple], ...]:
+    """The study's cases (suite label, kind, the found effect's name, parameter pairs)."""
+    return tuple((_label(kind), kind, name, pairs) for kind, name, pairs in MECHANISMS)
+
+
 SEED0 = 11000  # the study's recordings: apart from the suites' and the first coverage study's
 
 
@@ -93,11 +107,11 @@ def case_z(label: str, kind: str, name: str, pairs: tuple, seed: int) -> list[fl
 
 
 def mechanism_coverage(seeds: int, workers: int = 1) -> list[MechanismCoverage]:
-    """Every case of :data:`CASES` on ``seeds`` recordings (the noises of :data:`NOISES` in
+    """Every case of :func:`cases` on ``seeds`` recordings (the noises of :data:`NOISES` in
     turn), shared over ``workers`` spawned processes (the same figures, recording for recording,
     whatever the count); one row per case and parameter, in their order."""
     jobs = [
-        (label, kind, name, pairs, s) for label, kind, name, pairs in CASES for s in range(seeds)
+        (label, kind, name, pairs, s) for label, kind, name, pairs in cases() for s in range(seeds)
     ]
     if workers > 1:
         ctx = multiprocessing.get_context("spawn")
@@ -106,7 +120,7 @@ def mechanism_coverage(seeds: int, workers: int = 1) -> list[MechanismCoverage]:
     else:
         got = [case_z(*job) for job in jobs]
     rows, k = [], 0
-    for _, kind, _, pairs in CASES:
+    for _, kind, _, pairs in cases():
         mine = got[k : k + seeds]
         k += seeds
         for i, (_, found_p) in enumerate(pairs):

@@ -16,17 +16,20 @@ from calibench.scenarios.discover.suite_unwritten import (
     run_unwritten,
     score_unwritten,
 )
-from calibench.sim.concealed.heat import SIMULATED_STAGE_KINDS, SIMULATED_STEWART_KINDS
+from calibench.scenarios.registry import instruments
 from calibench.sim.concealed.noise import THIRD_SUITE_NOISES
-from calibench.sim.concealed.simulated import SIMULATED_ARM_KINDS
 
 SEEDS = len(THIRD_SUITE_NOISES)  # per kind and instrument: each noise once
-KINDS = {
-    "arm-cmm:ur10": SIMULATED_ARM_KINDS,
-    "belt-stage": SIMULATED_STAGE_KINDS,
-    "vision-stage": SIMULATED_STAGE_KINDS,
-    "stewart": SIMULATED_STEWART_KINDS,
-}
+
+
+def simulated_kinds() -> tuple[tuple[str, tuple[str, ...]], ...]:
+    """Each instrument's suite label (``NAME:ARM`` where it runs with an arm of its own) and its
+    third-suite kinds, as the registry lists them."""
+    return tuple(
+        (f"{row.name}:{row.simulated_arm}" if row.simulated_arm else row.name, row.simulated)
+        for row in instruments()
+        if row.simulated
+    )
 
 
 def simulated_cases() -> tuple[tuple[str, str, int, str], ...]:
@@ -34,7 +37,7 @@ def simulated_cases() -> tuple[tuple[str, str, int, str], ...]:
     null, :data:`SEEDS` recordings of each, the noises in turn."""
     return tuple(
         (label, kind, s, THIRD_SUITE_NOISES[s % len(THIRD_SUITE_NOISES)])
-        for label, kinds in KINDS.items()
+        for label, kinds in simulated_kinds()
         for kind in (*kinds, "null")
         for s in range(SEEDS)
     )

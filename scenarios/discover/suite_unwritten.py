@@ -51,6 +51,7 @@ def unwritten_cases() -> tuple[tuple[str, str, int], ...]:
 
 SEED0 = 9000  # the recordings' seeds: apart from the first suite's and the coverage study's
 NOT_CONCEALED = ("geometry",)
+BLIND_FACTOR = 1.5  # "nothing missing" above this many times the true noise is blind
 SIMULATED_KINDS = SIMULATED_ARM_KINDS + SIMULATED_STAGE_KINDS + SIMULATED_STEWART_KINDS
 
 
@@ -79,9 +80,12 @@ class UnwrittenResult:
 
     @property
     def blind_verdict(self) -> bool:
-        """Whether the verdict says "nothing missing" while the held-out residual is above 1.5
-        times the true noise (the acceptance's figure)."""
-        return self.verdict.startswith("nothing missing") and self.cv_after > 1.5 * self.noise_mm
+        """Whether the verdict says "nothing missing" while the held-out residual is above
+        :data:`BLIND_FACTOR` times the true noise (the acceptance's figure)."""
+        return (
+            self.verdict.startswith("nothing missing")
+            and self.cv_after > BLIND_FACTOR * self.noise_mm
+        )
 
 
 def _matches(scenario: str, t: dict, f: dict) -> bool:

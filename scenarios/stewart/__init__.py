@@ -14,5 +14,6 @@ INSTRUMENT = Instrument(
     run_s=5.0,
     suite=(("null", 3), ("thermal", 1), ("backlash", 2), ("pitch", 2), ("compliance", 2)),
     unwritten=("null", "stick_slip", "sensor_warmup", "tracker_air"),
+    simulated=("heated_leg",),
     unwritten_nulls=3,  # the platform's recordings take 20-40 s each: one null per noise
 )

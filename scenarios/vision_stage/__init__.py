@@ -24,5 +24,6 @@ INSTRUMENT = Instrument(
         ("mixed", 1),
     ),
     unwritten=("null", "presliding", "lagged_thermal", "rail_step"),
+    simulated=("heated_scale",),
     coverage=("combined", 1),
 )
