@@ -19,13 +19,11 @@ place in the gap).
 
 from __future__ import annotations
 
-import concurrent.futures as cf
 import dataclasses
-import multiprocessing
 
 import numpy as np
 
-from calibench.scenarios.discover.stated_errors import Z_95
+from calibench.scenarios.discover.stated_errors import covered, spread
 from calibench.scenarios.discover.suite import recorded, searched
 from calibench.scenarios.registry import instruments
 from calibench.sim.concealed.noise import THIRD_SUITE_NOISES
@@ -72,7 +70,7 @@ class MechanismCoverage:
     @property
     def coverage(self) -> float:
         """Share of |z| <= 1.96 (NaN with none found)."""
-        return float(np.mean(np.abs(self.z) <= Z_95)) if len(self.z) else float("nan")
+        return covered(self.z)
 
 
 def _where(truth: dict, found: dict) -> bool:
@@ -113,12 +111,7 @@ def mechanism_coverage(seeds: int, workers: int = 1) -> list[MechanismCoverage]:
     jobs = [
         (label, kind, name, pairs, s) for label, kind, name, pairs in cases() for s in range(seeds)
     ]
-    if workers > 1:
-        ctx = multiprocessing.get_context("spawn")
-        with cf.ProcessPoolExecutor(workers, mp_context=ctx) as pool:
-            got = list(pool.map(case_z, *zip(*jobs)))
-    else:
-        got = [case_z(*job) for job in jobs]
+    got = spread(case_z, jobs, workers)
     rows, k = [], 0
     for _, kind, _, pairs in cases():
         mine = got[k : k + seeds]

@@ -47,7 +47,22 @@ class Coverage:
     @property
     def coverage(self) -> float:
         """Share of |z| <= 1.96 (NaN with no effect found)."""
-        return float(np.mean(np.abs(self.z) <= Z_95)) if len(self.z) else float("nan")
+        return covered(self.z)
+
+
+def covered(z: np.ndarray) -> float:
+    """Share of the standardised errors ``z`` (k,) with |z| <= 1.96 (NaN with none)."""
+    return float(np.mean(np.abs(z) <= Z_95)) if len(z) else float("nan")
+
+
+def spread(fn, jobs: list[tuple], workers: int) -> list:
+    """``fn`` of each job's arguments, in order, over ``workers`` spawned processes (a forked
+    child of a process that made a GL context hangs); 1 runs them here."""
+    if workers > 1:
+        ctx = multiprocessing.get_context("spawn")
+        with cf.ProcessPoolExecutor(workers, mp_context=ctx) as pool:
+            return list(pool.map(fn, *zip(*jobs)))
+    return [fn(*job) for job in jobs]
 
 
 def case_z(scenario: str, kind: str, noise: str, seed: int) -> tuple[list[float], int]:
@@ -92,12 +107,7 @@ def coverage_study(
     """
     families = [(sc, kind, noise, seeds * f) for sc, kind, f in CASES for noise in noises]
     jobs = [(sc, kind, noise, SEED0 + s) for sc, kind, noise, n in families for s in range(n)]
-    if workers > 1:
-        ctx = multiprocessing.get_context("spawn")
-        with cf.ProcessPoolExecutor(workers, mp_context=ctx) as pool:
-            got = list(pool.map(case_z, *zip(*jobs)))
-    else:
-        got = [case_z(*job) for job in jobs]
+    got = spread(case_z, jobs, workers)
     out, k = [], 0
     for sc, _, noise, n in families:
         z = [v for zs, _ in got[k : k + n] for v in zs]

@@ -100,6 +100,23 @@ def thin_temperature(
     return sol.y[1]
 
 
+def _drawn_network(
+    rng: np.random.Generator, heavy_lag_s: tuple, thin_lag_s: tuple
+) -> tuple[np.ndarray, np.ndarray, float, dict]:
+    """A network drawn from the ranges (its heavy and thin parts' time constants, the air's
+    share, the capacity ratio, in that order) and the thin part's expansion ``k`` ppm/K:
+    ``A``, ``b``, ``k`` and the draws."""
+    taus = rng.uniform(*heavy_lag_s), rng.uniform(*thin_lag_s)
+    share, ratio, k = (
+        rng.uniform(*AIR_SHARE),
+        rng.uniform(*CAPACITY_RATIO),
+        rng.uniform(*PPM_PER_K),
+    )
+    A, b = network(*taus, share, ratio)
+    physics = {"heavy_lag_s": taus[0], "thin_lag_s": taus[1], "air_share": share}
+    return A, b, float(k), {**physics, "capacity_ratio": ratio}
+
+
 def heated_scale(
     rng: np.random.Generator, c: dict, temp_c: np.ndarray
 ) -> tuple[np.ndarray, list[dict], np.ndarray]:
@@ -127,13 +144,7 @@ def heated_scale(
     temp_c = temp_c + rise * (1 - np.exp(-t / tau_air))
     err, effects = np.zeros((len(t), 2)), []
     for i, a in enumerate("xy"):  # each axis's scale on its own part of the base
-        taus = rng.uniform(*BASE_LAG_S), rng.uniform(*SCALE_LAG_S)
-        share, ratio, k = (
-            rng.uniform(*AIR_SHARE),
-            rng.uniform(*CAPACITY_RATIO),
-            rng.uniform(*PPM_PER_K),
-        )
-        A, b = network(*taus, share, ratio)
+        A, b, k, physics = _drawn_network(rng, BASE_LAG_S, SCALE_LAG_S)
         scale_c = thin_temperature(t, temp_c, A, b)
         err[:, i] = k * 1e-6 * (scale_c - scale_c[0]) * np.asarray(c[a], float)
         effects.append(
@@ -144,10 +155,10 @@ def heated_scale(
                 "alike": ["thermal_drift"],
                 "params": {"ppm_per_k": k, "lag_s": mean_delay_s(A, b)},
                 "physics": {
-                    "base_lag_s": taus[0],
-                    "scale_lag_s": taus[1],
-                    "air_share": share,
-                    "capacity_ratio": ratio,
+                    "base_lag_s": physics["heavy_lag_s"],
+                    "scale_lag_s": physics["thin_lag_s"],
+                    "air_share": physics["air_share"],
+                    "capacity_ratio": physics["capacity_ratio"],
                 },
             }
         )
@@ -162,16 +173,12 @@ def heated_leg(
     room's air steady), the tube's growth ``k dT L_mm`` of its length (n, 6); and the truth.
     The motor's power is set so that the tube ends 1.5-4 K warm."""
     i = leg - 1
-    taus = rng.uniform(*MOTOR_LAG_S), rng.uniform(*TUBE_LAG_S)
-    share, ratio, k = (
-        rng.uniform(*AIR_SHARE),
-        rng.uniform(*CAPACITY_RATIO),
-        rng.uniform(*PPM_PER_K),
-    )
-    A, b = network(*taus, share, ratio)
+    A, b, k, physics = _drawn_network(rng, MOTOR_LAG_S, TUBE_LAG_S)
     loss = (force_n[:, i] / np.abs(force_n[:, i]).max()) ** 2  # I^2 R: the holding current's
     still = np.zeros(len(t_s))
-    unit = thin_temperature(t_s, still, A, b, loss / taus[0])  # 1 K steady at the largest load
+    unit = thin_temperature(
+        t_s, still, A, b, loss / physics["heavy_lag_s"]
+    )  # 1 K steady at the largest load
     rise = rng.uniform(*LEG_RISE_K)
     tube_k = unit * rise / unit[-1]
     short_mm = k * 1e-6 * tube_k * L_mm[:, i]
@@ -181,10 +188,10 @@ def heated_leg(
         "nearest": "thermal_drift",
         "params": {"leg": leg, "ppm_per_k": k, "rise_k": rise},
         "physics": {
-            "motor_lag_s": taus[0],
-            "tube_lag_s": taus[1],
-            "air_share": share,
-            "capacity_ratio": ratio,
+            "motor_lag_s": physics["heavy_lag_s"],
+            "tube_lag_s": physics["thin_lag_s"],
+            "air_share": physics["air_share"],
+            "capacity_ratio": physics["capacity_ratio"],
             "largest_force_n": float(np.abs(force_n[:, i]).max()),
         },
     }
