@@ -4,9 +4,9 @@ they load anyway: a plotting library's import costs more than their work (issue 
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
+
+from calibench.writing import write_bytes
 
 FONT = 0  # cv2.FONT_HERSHEY_SIMPLEX
 INK, GREY = (0, 0, 0), (200, 200, 200)  # BGR
@@ -65,4 +65,4 @@ def write_png(path, img) -> None:
     ok, buf = cv2.imencode(".png", img)
     if not ok:
         raise OSError(f"cannot encode {path}")
-    Path(path).write_bytes(buf.tobytes())
+    write_bytes(path, buf.tobytes())

@@ -17,6 +17,7 @@ import numpy as np
 from calibench.estimators.stage import iso230_2
 from calibench.recordings import RecordingError, load_axis_run
 from calibench.scenarios.report import BadInput
+from calibench.writing import write_text
 
 PER_TARGET = (
     "mean_up",
@@ -113,7 +114,7 @@ def run_iso230(path: Path, out_dir: Path) -> dict:
         msg = str(e)
         raise BadInput(msg if str(path) in msg else f"{path}: {msg}") from None
     out_dir.mkdir(parents=True, exist_ok=True)
-    (out_dir / "iso230.json").write_text(json.dumps(result, indent=2) + "\n")
+    write_text(out_dir / "iso230.json", json.dumps(result, indent=2) + "\n")
     figure(out_dir / "iso230.png", result)
     return result
 

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from calibench.errors import BadInput  # noqa: F401 - re-exported: the rooms raise it from here
+from calibench.writing import write_text
 
 
 def progress(items, what: str, total: int | None = None):
@@ -132,7 +133,7 @@ class Report:
         """Write ``out_dir/report.json``; returns its path."""
         out_dir.mkdir(parents=True, exist_ok=True)
         path = out_dir / "report.json"
-        path.write_text(json.dumps(self.as_dict(), indent=2) + "\n")
+        write_text(path, json.dumps(self.as_dict(), indent=2) + "\n")
         return path
 
     def table(self) -> str:

@@ -21,6 +21,7 @@ import numpy as np
 
 from calibench.errors import BadInput
 from calibench.recordings.records import Recording
+from calibench.writing import replaced, write_text
 
 RECORDING = "recording.csv"
 TRUTH = "recording.truth.json"
@@ -193,7 +194,8 @@ def write_recording(
     Path(out_dir).mkdir(parents=True, exist_ok=True)  # from Python, a folder not yet made
     recording, manifest = simulate(scenario, config, seed)
     path = Path(out_dir) / RECORDING
-    recording.to_csv(path)
+    with replaced(path) as tmp:
+        recording.to_csv(tmp)
     sealed = {
         **manifest,
         "conceal": config.recording.conceal,
@@ -203,7 +205,7 @@ def write_recording(
         "twin": "the run's config (its truth and geometry tables): the effects listed are "
         "concealed on top of it",
     }
-    (Path(out_dir) / TRUTH).write_text(json.dumps(sealed, indent=1, default=_plain) + "\n")
+    write_text(Path(out_dir) / TRUTH, json.dumps(sealed, indent=1, default=_plain) + "\n")
     info["recording"] = RECORDING
     return path
 

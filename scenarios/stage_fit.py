@@ -9,6 +9,7 @@ from pathlib import Path
 from calibench.estimators.stage.error_map import fit_cubic, fit_quadratic
 from calibench.recordings import StageRecording, load_stage_csv
 from calibench.scenarios.report import BadInput
+from calibench.writing import write_text
 
 N_COEF = {"quadratic": 6, "cubic": 10}
 
@@ -52,5 +53,5 @@ def run_fit(scenario: str, model: str, csv_path: Path, out_dir: Path) -> dict:
     its content (per axis: coefficients in mm, SSE mm^2, R^2, RMSE mm, n)."""
     result = fit_recording(scenario, model, load_stage_csv(csv_path, MAX_ROWS))
     out_dir.mkdir(parents=True, exist_ok=True)
-    (out_dir / "fit.json").write_text(json.dumps(result, indent=2) + "\n")
+    write_text(out_dir / "fit.json", json.dumps(result, indent=2) + "\n")
     return result

@@ -63,6 +63,7 @@ from calibench.scenarios.arm_cmm.training import (
 from calibench.scenarios.provenance import chose_by_effects, chose_or_none, entry, record_score
 from calibench.scenarios.report import BadInput
 from calibench.scenes.arm_cmm import DEFAULT_ARM, ArmDescription
+from calibench.writing import write_text
 
 # what other modules read from here (sessions, the benchmarks, the README's figures)
 __all__ = ["MAX_ROWS", "REGISTER_FRACTION", "SPLIT_SEED", "run_arm_fit"]
@@ -146,7 +147,7 @@ def run_arm_fit(
     for sentence in said:
         result["coverage"]["warnings"].insert(0, sentence)
     out_dir.mkdir(parents=True, exist_ok=True)
-    (out_dir / "fit.json").write_text(json.dumps(result, indent=2) + "\n")
+    write_text(out_dir / "fit.json", json.dumps(result, indent=2) + "\n")
     write_residuals(out_dir / "residuals.csv", out.residuals, e_fit)
     write_fit_figure(out_dir / "fit.png", result, out.figures)
     return result
@@ -448,4 +449,4 @@ def write_residuals(path: Path, parts: list[ResidualPart], e_train: np.ndarray) 
             f"{part.file},{r},{part.role},{x:.6f},{y:.6f},{z:.6f}"
             for r, (x, y, z) in zip(part.rows, e)
         ]
-    path.write_text("\n".join(lines) + "\n")
+    write_text(path, "\n".join(lines) + "\n")

@@ -19,6 +19,7 @@ from calibench.scenarios.arm_cmm import NAME
 from calibench.scenarios.arm_cmm.fit import REGISTER_FRACTION, SPLIT_SEED, run_arm_fit
 from calibench.scenarios.progress import advance, expect, step
 from calibench.scenarios.report import BadInput
+from calibench.writing import write_text
 
 FIGURES = ("samples", "mean_mm", "rms_mm", "p95_mm", "max_mm")
 
@@ -76,5 +77,5 @@ def leave_one_session_out(
         "split": {"register_fraction": REGISTER_FRACTION, "seed": SPLIT_SEED},
     }
     out_dir.mkdir(parents=True, exist_ok=True)
-    (out_dir / "fit.json").write_text(json.dumps(result, indent=2) + "\n")
+    write_text(out_dir / "fit.json", json.dumps(result, indent=2) + "\n")
     return result

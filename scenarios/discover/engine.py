@@ -42,6 +42,7 @@ from calibench.scenarios.discover.twin_merge import split_confirmed, twin_note
 from calibench.scenarios.progress import stage
 from calibench.scenarios.provenance import entry
 from calibench.scenarios.report import BadInput
+from calibench.writing import write_text
 
 # Rows per recording: the candidates' design matrices grow with it (a 1e6-row stage recording
 # would need tens of GB); refused before any work, with the advice to decimate.
@@ -223,7 +224,7 @@ def run_discover(
         write_toml(twin, tables, twin_note(paths[0], left, unconfirmed))
         out["twin"] = {"path": str(twin), "not_carried": left, "not_confirmed": unconfirmed}
     out_dir.mkdir(parents=True, exist_ok=True)
-    (out_dir / "discovery.json").write_text(json.dumps(out, indent=2, default=json_default) + "\n")
+    write_text(out_dir / "discovery.json", json.dumps(out, indent=2, default=json_default) + "\n")
     stage("drawing discovery.png")
     write_figure(out_dir / "discovery.png", out, fig, before)
     return out
@@ -256,7 +257,7 @@ def write_toml(path: Path, tables: dict, comment: str) -> None:
     for name, d in tables.items():
         table(name, d)
     try:
-        Path(path).write_text("\n".join(lines) + "\n")
+        write_text(path, "\n".join(lines) + "\n")
     except OSError as e:
         raise BadInput(f"cannot write the twin {path}: {e.strerror}") from None
 
