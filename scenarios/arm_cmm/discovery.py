@@ -34,8 +34,9 @@ from calibench.scenarios.arm_cmm.discovery_sessions import (
 from calibench.scenarios.arm_cmm.discovery_words import arm_confounds, locate_arm
 from calibench.scenarios.discover.fresh import structure
 from calibench.scenarios.discover.report import (
+    Findings,
     describe_effects,
-    fit_and_noise,
+    discovery_json,
     judged,
     named_only,
 )
@@ -172,29 +173,16 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
     accepted = {t.key for t in terms["xyz"]}
     confounds += [c for key, c in among.alike.items() if key in accepted]
     located = locate_arm(sig, terms["xyz"], drivers, seed)
-    out = {
-        "scenario": NAME,
-        "arm": arm.name,
-        "samples": len(rows.q_rad),
-        "unit": "mm",
-        "located": located,
-        "effects": effects,
-        **fit_and_noise(np.sqrt(np.mean(sig.r**2)), found),
-        "holdout": "five contiguous blocks of postures"
-        + (" of each recording" if len(recs) > 1 else ""),
-        "scene_model": f"MuJoCo's nominal {arm.name} (drawing values, rigid), the base frame"
-        + ("s" if len(recs) > 1 else "")
-        + " and tool registered",
-        "dropped": [
-            {"name": k, "why": v}
-            for k, v in solved.ident.basis.dropped.items()
-            if not k.startswith(("base_", "tool_"))
-        ],
-        "left_out_rows": rows.left_out,
-        "not_accepted": {**found.rejected, **among.not_applicable},
-        "confounded": confounds,
-        "summary": _arm_summary(arm.name, found, effects),
-        **judged(
+    several = len(recs) > 1
+    findings = Findings(
+        scenario=NAME,
+        samples=len(rows.q_rad),
+        rms_nominal=float(np.sqrt(np.mean(sig.r**2))),
+        found=found,
+        effects=effects,
+        located=located,
+        confounded=confounds,
+        judgement=judged(
             found.cv_final,
             {"xyz": arm_floor(fitted["xyz"], rows)},
             any(e["name"] != "geometry" for e in effects),
@@ -203,7 +191,24 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
                 dataclasses.replace(sig, r=fitted["xyz"]), terms["xyz"], drivers, seed
             ),
         ),
+        holdout="five contiguous blocks of postures" + (" of each recording" if several else ""),
+        scene_model=f"MuJoCo's nominal {arm.name} (drawing values, rigid), the base frame"
+        + ("s" if several else "")
+        + " and tool registered",
+        not_accepted={**found.rejected, **among.not_applicable},
+    )
+    dropped = solved.ident.basis.dropped
+    own = {
+        "arm": arm.name,
+        "dropped": [
+            {"name": k, "why": v}
+            for k, v in dropped.items()
+            if not k.startswith(("base_", "tool_"))
+        ],
+        "left_out_rows": rows.left_out,
+        "summary": _arm_summary(arm.name, found, effects),
     }
+    out = discovery_json(findings, own)
     return out, {
         "signals": [sig],
         "fitted": fitted,

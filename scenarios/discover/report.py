@@ -5,6 +5,7 @@ fit and the noise.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 
 import numpy as np
@@ -14,6 +15,7 @@ from calibench.estimators.discovery.fit import (
     refined,
 )
 from calibench.estimators.discovery.noise import Floor, pooled
+from calibench.estimators.discovery.select import Discovery
 
 # the held-out RMS may exceed the noise floor by this factor before something is said to be left:
 # the held-out prediction's own scatter (a few % for the parameters fitted) and the floor's
@@ -45,6 +47,53 @@ def fit_and_noise(
             a: {"repeatability_mm": nz.sigma_mm, "dof": nz.dof} for a, nz in after_noise.items()
         }
     return out
+
+
+@dataclasses.dataclass
+class Findings:
+    """What an adapter found on one recording: the part of discovery.json every instrument
+    writes the same way (docs/formats.md), before :func:`discovery_json` writes it.
+
+    ``rms_nominal`` is the scene model's RMS over every reading (mm), ``found`` the selection
+    (its held-out RMS and what it did not accept), ``judgement`` :func:`judged`'s keys, ``noise``
+    and ``after_noise`` the repeatability by axis before and after the effects (None where the
+    instrument does not judge by repeats), ``not_accepted`` the selection's rejected candidates
+    unless the adapter has more to say (the arm's candidates that do not apply).
+    """
+
+    scenario: str
+    samples: int
+    rms_nominal: float
+    found: Discovery
+    effects: list[dict]
+    located: list[dict]
+    confounded: list[dict]
+    judgement: dict
+    holdout: str
+    scene_model: str
+    noise: dict | None = None
+    after_noise: dict | None = None
+    not_accepted: dict | None = None
+
+
+def discovery_json(f: Findings, own: dict | None = None) -> dict:
+    """discovery.json's content: the keys every instrument writes, in one order, with the
+    instrument's ``own`` keys (its arm, its tracker's frame, its rail, its sessions) after the
+    scene model."""
+    return {
+        "scenario": f.scenario,
+        "samples": int(f.samples),
+        "unit": "mm",
+        "located": f.located,
+        "effects": f.effects,
+        **fit_and_noise(f.rms_nominal, f.found, f.noise, f.after_noise),
+        "holdout": f.holdout,
+        "scene_model": f.scene_model,
+        **(own or {}),
+        "not_accepted": f.found.rejected if f.not_accepted is None else f.not_accepted,
+        "confounded": f.confounded,
+        **f.judgement,
+    }
 
 
 def verdict(

@@ -189,7 +189,12 @@ def discover_scanner(rec, seed: int = 0, floor: float = FLOOR, config=None) -> t
 
 
 def _discover_scanner(recs: list, seed: int, floor: float, config) -> tuple[dict, dict]:
-    from calibench.scenarios.discover.report import describe_effects, fit_and_noise, judged
+    from calibench.scenarios.discover.report import (
+        Findings,
+        describe_effects,
+        discovery_json,
+        judged,
+    )
 
     for k, r in enumerate(recs):
         which = f"recording {k + 1}: " if len(recs) > 1 else ""
@@ -266,30 +271,15 @@ def _discover_scanner(recs: list, seed: int, floor: float, config) -> tuple[dict
         )
     confounds += look_alikes(sig, terms[AXIS], drivers)
     located = locate_scanner(sig, drivers, rec, seed)
-    out = {
-        "scenario": NAME,
-        "samples": n,
-        "unit": "mm",
-        "located": located,
-        "effects": effects,
-        **fit_and_noise(np.sqrt(np.mean(first**2)), found, noise, after_noise),
-        "holdout": scheme,
-        "scene_model": (
-            f"the twin (MuJoCo's ray on the {2 * config.geometry.plate.half_side_mm:g} mm plate) "
-            f"with its rail calibrated: d {cal.d_mm:.4f} mm, dL {cal.dL_mm:.4f} mm, alpha0 "
-            f"{np.degrees(cal.alpha0_rad):.4f} deg, plate centre ({cal.centre_mm[0]:.4f}, "
-            f"{cal.centre_mm[1]:.4f}) mm"
-        ),
-        "twin_rail": {
-            "d_mm": cal.d_mm,
-            "dL_mm": cal.dL_mm,
-            "alpha0_rad": cal.alpha0_rad,
-            "plate_centre_mm": [float(c) for c in cal.centre_mm],
-        },
-        "not_accepted": found.rejected,
-        "confounded": confounds,
-        **sessions_said(sessions),
-        **judged(
+    findings = Findings(
+        scenario=NAME,
+        samples=n,
+        rms_nominal=float(np.sqrt(np.mean(first**2))),
+        found=found,
+        effects=effects,
+        located=located,
+        confounded=confounds,
+        judgement=judged(
             found.cv_final,
             # a turn's successive angles are near-repeats of what is smooth in the angle
             {AXIS: noise_floor(fitted[AXIS], order, station, rec.turn, successive=True, path=th)},
@@ -297,7 +287,23 @@ def _discover_scanner(recs: list, seed: int, floor: float, config) -> tuple[dict
             located,
             lambda: locate_scanner(dataclasses.replace(sig, r=fitted[AXIS]), drivers, rec, seed),
         ),
+        holdout=scheme,
+        scene_model=(
+            f"the twin (MuJoCo's ray on the {2 * config.geometry.plate.half_side_mm:g} mm plate) "
+            f"with its rail calibrated: d {cal.d_mm:.4f} mm, dL {cal.dL_mm:.4f} mm, alpha0 "
+            f"{np.degrees(cal.alpha0_rad):.4f} deg, plate centre ({cal.centre_mm[0]:.4f}, "
+            f"{cal.centre_mm[1]:.4f}) mm"
+        ),
+        noise=noise,
+        after_noise=after_noise,
+    )
+    rail = {
+        "d_mm": cal.d_mm,
+        "dL_mm": cal.dL_mm,
+        "alpha0_rad": cal.alpha0_rad,
+        "plate_centre_mm": [float(c) for c in cal.centre_mm],
     }
+    out = discovery_json(findings, {"twin_rail": rail, **sessions_said(sessions)})
     return out, {
         "signals": [sig],
         "fitted": fitted,

@@ -33,7 +33,13 @@ from calibench.estimators.discovery.transient import TransientSearch
 from calibench.recordings.stage import repeated_pass
 from calibench.scenarios.discover.folds import block_folds
 from calibench.scenarios.discover.fresh import structure
-from calibench.scenarios.discover.report import describe_effects, fit_and_noise, judged, named_only
+from calibench.scenarios.discover.report import (
+    Findings,
+    describe_effects,
+    discovery_json,
+    judged,
+    named_only,
+)
 from calibench.scenarios.discover.twin_merge import carried, given_tables, stage_drives
 from calibench.scenarios.report import BadInput
 from calibench.scenarios.stages.discovery_words import locate_stage, stage_confounds
@@ -139,19 +145,15 @@ def discover_stage(
     # a mechanism is named only when it beats its look-alikes held out
     tied = named_only(effects, found, ties(signals, terms, candidates, drivers, fold))
     located = locate_stage(signals, drivers, seed)
-    out = {
-        "scenario": scenario,
-        "samples": len(rec),
-        "unit": "mm",
-        "located": located,
-        "effects": effects,
-        **fit_and_noise(found.rms_nominal, found, noise, after),
-        "holdout": scheme,
-        "scene_model": f"the twin plus its degree-{deg} error map in (x, y), calibrated",
-        "temp_mean_c": None if rec.temp_c is None else float(np.mean(rec.temp_c)),
-        "not_accepted": found.rejected,
-        "confounded": stage_confounds(signals, terms, found, candidates, drivers, rec) + tied,
-        **judged(
+    findings = Findings(
+        scenario=scenario,
+        samples=len(rec),
+        rms_nominal=found.rms_nominal,
+        found=found,
+        effects=effects,
+        located=located,
+        confounded=stage_confounds(signals, terms, found, candidates, drivers, rec) + tied,
+        judgement=judged(
             found.cv_final,
             stage_floors(scene, fitted, rec.run),
             bool(effects),
@@ -160,7 +162,13 @@ def discover_stage(
                 [dataclasses.replace(s, r=fitted[s.axis]) for s in signals], drivers, seed
             ),
         ),
-    }
+        holdout=scheme,
+        scene_model=f"the twin plus its degree-{deg} error map in (x, y), calibrated",
+        noise=noise,
+        after_noise=after,
+    )
+    temp = None if rec.temp_c is None else float(np.mean(rec.temp_c))
+    out = discovery_json(findings, {"temp_mean_c": temp})
     return out, {
         "signals": signals,
         "fitted": fitted,

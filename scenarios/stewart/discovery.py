@@ -286,7 +286,12 @@ def _registered(rec, g) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _discover_stewart(rec, rec_id, seed: int, floor: float, config) -> tuple[dict, dict]:
-    from calibench.scenarios.discover.report import describe_effects, fit_and_noise, judged
+    from calibench.scenarios.discover.report import (
+        Findings,
+        describe_effects,
+        discovery_json,
+        judged,
+    )
     from calibench.scenarios.stewart.scenario import StewartConfig
     from calibench.sim.stewart import leg_effects_mm
 
@@ -348,21 +353,15 @@ def _discover_stewart(rec, rec_id, seed: int, floor: float, config) -> tuple[dic
     confounds = stewart_confounds(sig, terms, candidates, drivers, rec.temp_c)
     names = [e["name"] for e in effects if e["name"] != "geometry"]
     located = locate(geometry_residual(rec, g, Rf, tf), drivers, seed)
-    out = {
-        "scenario": NAME,
-        "samples": n,
-        "unit": "mm",
-        "located": located,
-        "effects": effects,
-        **fit_and_noise(np.sqrt(np.mean(r**2)), found, noise, after_noise),
-        "holdout": scheme,
-        "scene_model": "the nominal platform (drawing hinges, rigid legs) at the tracker's poses, "
-        "the tracker's frame registered",
-        "tracker_frame": {"R": Rf.tolist(), "t_mm": tf.tolist()},
-        "temp_mean_c": None if rec.temp_c is None else float(np.mean(rec.temp_c)),
-        "not_accepted": found.rejected,
-        "confounded": confounds,
-        **judged(
+    findings = Findings(
+        scenario=NAME,
+        samples=n,
+        rms_nominal=float(np.sqrt(np.mean(r**2))),
+        found=found,
+        effects=effects,
+        located=located,
+        confounded=confounds,
+        judgement=judged(
             found.cv_final,
             # the poses come in random order: successive readings are not repeats
             {AXIS: noise_floor(fitted[AXIS], order, station, legs, path=drivers["L"].ravel())},
@@ -370,7 +369,17 @@ def _discover_stewart(rec, rec_id, seed: int, floor: float, config) -> tuple[dic
             located,
             lambda: locate(fitted[AXIS].reshape(-1, 6), drivers, seed),
         ),
+        holdout=scheme,
+        scene_model="the nominal platform (drawing hinges, rigid legs) at the tracker's poses, "
+        "the tracker's frame registered",
+        noise=noise,
+        after_noise=after_noise,
+    )
+    said = {
+        "tracker_frame": {"R": Rf.tolist(), "t_mm": tf.tolist()},
+        "temp_mean_c": None if rec.temp_c is None else float(np.mean(rec.temp_c)),
     }
+    out = discovery_json(findings, said)
     if rec_id.max() > 0:
         out["recordings"] = int(rec_id.max()) + 1
     return out, {

@@ -20,7 +20,12 @@ from calibench.estimators.discovery.noise import noise_floor, repeatability
 from calibench.estimators.discovery.select import FLOOR, select
 from calibench.estimators.discovery.stage import Backlash, Polynomial, StageDrivers
 from calibench.scenarios.discover.fresh import structure
-from calibench.scenarios.discover.report import describe_effects, judged
+from calibench.scenarios.discover.report import (
+    Findings,
+    describe_effects,
+    discovery_json,
+    judged,
+)
 from tests.instruments.rail.recording import RailRecording, load_rail_csv
 from tests.instruments.rail.twin import RailTruth, friction_for, lost_motion_mm, plan, replay
 
@@ -93,39 +98,27 @@ def discover_rail(
             e["params"]["scale_ppm"] = e["params"]["x1y0_mm"] / span * 1e6
             e["stderr"]["scale_ppm"] = e["stderr"]["x1y0_mm"] / span * 1e6
             e["physics"] += f": a scale error of {e['params']['scale_ppm']:+.1f} ppm"
-    out = {
-        "scenario": "rail",
-        "samples": n,
-        "unit": "mm",
-        "located": [],
-        "effects": effects,
-        "fit": {
-            "rms_nominal": found.rms_nominal,
-            "cv_rms_nominal": found.cv_nominal,
-            "cv_rms_final": found.cv_final,
-        },
-        "noise": {
-            "x": {
-                "repeatability_mm": noise["x"].sigma_mm,
-                "lag1_correlation": noise["x"].lag1,
-                "dof": noise["x"].dof,
-            }
-        },
-        "noise_after_effects": {
-            "x": {"repeatability_mm": after["x"].sigma_mm, "dof": after["x"].dof}
-        },
-        "holdout": "leave one pass out",
-        "scene_model": "the nominal twin (no scale error, no friction) plus the rail's offset",
-        "not_accepted": found.rejected,
-        "confounded": [],
-        **judged(
+    findings = Findings(
+        scenario="rail",
+        samples=n,
+        rms_nominal=found.rms_nominal,
+        found=found,
+        effects=effects,
+        located=[],
+        confounded=[],
+        judgement=judged(
             found.cv_final,
             {"x": noise_floor(fitted, idx, station, rec.run, successive=True, path=x)},
             bool(effects),
             [],
             list,  # the rail's residual is tested against no driver
         ),
-    }
+        holdout="leave one pass out",
+        scene_model="the nominal twin (no scale error, no friction) plus the rail's offset",
+        noise=noise,
+        after_noise=after,
+    )
+    out = discovery_json(findings)
     fig = {"signals": [sig], "fitted": {"x": fitted}, "x": x, "y": np.zeros(n)}
     return out, {**fig, **structure(terms, drivers, fold)}
 
