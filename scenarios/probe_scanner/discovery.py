@@ -297,13 +297,7 @@ def _discover_scanner(recs: list, seed: int, floor: float, config) -> tuple[dict
         noise=noise,
         after_noise=after_noise,
     )
-    rail = {
-        "d_mm": cal.d_mm,
-        "dL_mm": cal.dL_mm,
-        "alpha0_rad": cal.alpha0_rad,
-        "plate_centre_mm": [float(c) for c in cal.centre_mm],
-    }
-    out = discovery_json(findings, {"twin_rail": rail, **sessions_said(sessions)})
+    out = discovery_json(findings, {"twin_rail": _twin_rail(cal), **sessions_said(sessions)})
     return out, {
         "signals": [sig],
         "fitted": fitted,
@@ -390,6 +384,16 @@ def run_recording(scenario: str, config, seed: int) -> tuple[object, dict]:
     return scanner_recording(
         plan.conceal, seed, turns=plan.turns, twin=config.truth, geometry=config.geometry
     )
+
+
+def _twin_rail(cal) -> dict:
+    """discovery.json's ``twin_rail``: the rail the twin was calibrated to (mm, rad)."""
+    return {
+        "d_mm": cal.d_mm,
+        "dL_mm": cal.dL_mm,
+        "alpha0_rad": cal.alpha0_rad,
+        "plate_centre_mm": [float(c) for c in cal.centre_mm],
+    }
 
 
 def nonsmooth_at(scenario: str, truth: dict, found: dict) -> bool:
