@@ -10,6 +10,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from calibench import MAX_IMAGE_PIXELS
 from calibench.estimators.camera.board_extent import seeming_size
 from calibench.estimators.camera.chessboard import find_chessboard_corners, gross_corners
 from calibench.estimators.camera.zhang import CalibrationError, calibrate_camera
@@ -35,8 +36,9 @@ def calibrate_photos(
 
     ``corners_out``, when given, receives each used photo's corners, (cols * rows, 2) px (NaN
     where left out), by the photo's name."""
-    if cols < 2 or rows < 2 or square_mm <= 0:
-        raise BadInput("camera: --cols and --rows must be >= 2 and --square-mm > 0")
+    # OpenCV's chessboard detector refuses a pattern of 2 inner corners a way (an assertion)
+    if cols < 3 or rows < 3 or square_mm <= 0:
+        raise BadInput("camera: --cols and --rows must be >= 3 and --square-mm > 0")
     if radial not in (2, 3):
         raise BadInput("camera: --radial must be 2 or 3")
     for p in paths:
@@ -208,8 +210,6 @@ def _labels(paths: list[Path]) -> dict[Path, str]:
     return {p: p.name if counts[p.name] == 1 else str(p) for p in paths}
 
 
-# a calibration photo needs no more (a 50-megapixel sensor is 8192 x 6144); three 10000 x 10000
-# photos took 20 GB to decode and detect in
 # OpenCV's order of the distortion coefficients (radial k1 k2, tangential p1 p2, radial k3)
 DIST_NAMES = ("k1", "k2", "p1", "p2", "k3")
 # what to change when the solve wanders: the views, or the model they cannot determine
@@ -223,52 +223,135 @@ _COUNT_INNER = (
     "; --cols and --rows count inner corners, where four squares meet: a board of "
     "{cols} x {rows} squares has --cols {c} --rows {r}"
 )
-MAX_PIXELS = 50_000_000
-MAX_FILE_BYTES = 300_000_000
-
-
-def header_size(data: bytes) -> tuple[int, int] | None:
-    """(width, height) from a PNG's or a JPEG's header, without decoding; None for another
-    format or a header that does not say."""
-    if data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) >= 24:
-        return int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
-    if data[:2] != b"\xff\xd8":
-        return None
-    i = 2
-    while i + 9 < len(data):
-        if data[i] != 0xFF:
-            return None
-        marker = data[i + 1]
-        if 0xC0 <= marker <= 0xCF and marker not in (0xC4, 0xC8, 0xCC):  # a start of frame
-            return int.from_bytes(data[i + 7 : i + 9], "big"), int.from_bytes(
-                data[i + 5 : i + 7], "big"
-            )
-        i += 2 + int.from_bytes(data[i + 2 : i + 4], "big")
-    return None
+MAX_PIXELS = MAX_IMAGE_PIXELS
+# px: OpenCV's chessboard detector asserts on an image of 14 px or less a side (its adaptive
+# threshold's block); no board's corners are found in so few pixels anyway
+MIN_SIDE = 16
+# bytes: the file is held while it is decoded, beside the decoder's own buffer (an uncompressed
+# 16-bit TIFF: as large again); a 32-megapixel photo is 96 MB as an uncompressed 8-bit TIFF
+MAX_FILE_BYTES = 100_000_000
+# the formats a calibration photo comes in, by their first bytes; OpenCV's other decoders
+# (JPEG 2000, AVIF, Radiance HDR, PFM, GIF) took 10-20 bytes a pixel, and no bound on pixels
+# keeps those under the bound on memory
+PHOTO_SIGNATURES = (
+    b"\xff\xd8\xff",  # JPEG
+    b"\x89PNG\r\n\x1a\n",
+    b"II*\x00",  # TIFF, little- and big-endian, and BigTIFF
+    b"MM\x00*",
+    b"II+\x00",
+    b"MM\x00+",
+    b"BM",  # BMP
+    b"P1",  # PBM, PGM, PPM, plain and binary, and PAM
+    b"P2",
+    b"P3",
+    b"P4",
+    b"P5",
+    b"P6",
+    b"P7",
+)
+_UNREADABLE = (
+    "not a readable image (truncated, not an image, or not a JPEG, PNG, TIFF, BMP, PGM/PPM or "
+    "WebP file)"
+)
 
 
 def _read_gray(path: Path) -> tuple[np.ndarray | None, str]:
     """The photo in grey levels, or None and why. Decoded from its bytes: imdecode refuses a
     truncated JPEG, where imread would return its grey remainder and print libjpeg's warning.
-    A photo over :data:`MAX_PIXELS` (or a file over :data:`MAX_FILE_BYTES`) is refused before it
-    is decoded."""
+
+    A photo over :data:`MAX_PIXELS`, in any format, is refused by OpenCV itself between reading
+    its header and allocating its pixels (``OPENCV_IO_MAX_IMAGE_PIXELS``, set by
+    :mod:`calibench` before cv2 loads); a file over :data:`MAX_FILE_BYTES`, or in a format other
+    than :data:`PHOTO_SIGNATURES`', before it is read or decoded.
+    """
     try:
         if path.stat().st_size > MAX_FILE_BYTES:
-            return None, f"a file over {MAX_FILE_BYTES / 1e6:.0f} MB: not a calibration photo"
+            return None, (
+                f"a file over {MAX_FILE_BYTES / 1e6:.0f} MB: not a calibration photo (save it "
+                "as PNG or JPEG)"
+            )
         raw = path.read_bytes()
     except OSError as e:
         return None, f"cannot read it ({e.strerror})"
-    size = header_size(raw)
-    if size is not None and size[0] * size[1] > MAX_PIXELS:
-        return None, (
-            f"{size[0]} x {size[1]} pixels, over the {MAX_PIXELS / 1e6:.0f}-megapixel limit "
-            "(a calibration needs no more: scale the photos down)"
-        )
-    data = np.frombuffer(raw, np.uint8)
-    img = cv2.imdecode(data, cv2.IMREAD_GRAYSCALE) if data.size else None
+    webp = raw[:4] == b"RIFF" and raw[8:12] == b"WEBP"
+    if not (webp or raw.startswith(PHOTO_SIGNATURES)):
+        return None, _UNREADABLE
+    why = tiff_tiles_beyond_the_image(raw)
+    if why:
+        return None, why
+    decoding_is_bounded()
+    try:
+        img = cv2.imdecode(np.frombuffer(raw, np.uint8), cv2.IMREAD_GRAYSCALE)
+    except cv2.error as e:
+        if _OVER_LIMIT in str(e):
+            return None, (
+                f"more than {MAX_PIXELS / 1e6:.0f} megapixels, over the limit of what is decoded "
+                "(a calibration needs no more: scale the photos down)"
+            )
+        img = None  # a decoder's own assertion on a malformed file
     if img is None:
-        return None, "not a readable image (truncated, or not an image)"
+        return None, _UNREADABLE
+    if min(img.shape) < MIN_SIDE:
+        return None, (
+            f"{img.shape[1]} x {img.shape[0]} pixels: too small to show a chessboard (at least "
+            f"{MIN_SIDE} px a side)"
+        )
     return img, ""
+
+
+def tiff_tiles_beyond_the_image(raw: bytes) -> str:
+    """Why a TIFF is refused, or "": tiles larger than its image (padded to 1024 px).
+
+    OpenCV's TIFF decoder allocates a whole tile as the file declares it, before the pixel
+    bound can say anything: a 16 x 16 TIFF of 900 bytes declaring 11520 x 11520 tiles took
+    550 MB. The tags are read by Pillow, without decoding.
+    """
+    if raw[:4] not in (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+"):
+        return ""
+    import io
+
+    from PIL import Image
+
+    try:
+        with Image.open(io.BytesIO(raw)) as im:
+            w, h = im.size
+            tags = getattr(im, "tag_v2", {})
+            tile = int(tags.get(322, 0)), int(tags.get(323, 0))
+    except Exception:  # noqa: BLE001 - a file Pillow cannot read is OpenCV's to judge
+        return ""
+    if tile[0] > max(w, 1024) + 15 or tile[1] > max(h, 1024) + 15:
+        return (
+            f"a TIFF of {w} x {h} pixels declaring tiles of {tile[0]} x {tile[1]}: not a "
+            "calibration photo (save it as PNG or JPEG)"
+        )
+    return ""
+
+
+# what OpenCV's refusal of an image over OPENCV_IO_MAX_IMAGE_PIXELS says
+_OVER_LIMIT = "CV_IO_MAX_IMAGE_PIXELS"
+_BOUNDED: list[bool] = []
+
+
+def decoding_is_bounded() -> None:
+    """RuntimeError unless OpenCV refuses to decode more than :data:`MAX_PIXELS` pixels.
+
+    OpenCV reads its limit once, when cv2 loads: a program that imported cv2 before calibench
+    decodes up to a gigapixel. Asked once per process, by decoding a header just over the limit
+    with no pixels behind it (refused before anything is allocated where the limit holds).
+    """
+    if not _BOUNDED:
+        side = int(MAX_PIXELS**0.5) + 1
+        probe = np.frombuffer(f"P5\n{side} {side}\n255\n".encode(), np.uint8)
+        try:
+            cv2.imdecode(probe, cv2.IMREAD_GRAYSCALE)
+            _BOUNDED.append(False)
+        except cv2.error as e:
+            _BOUNDED.append(_OVER_LIMIT in str(e))
+    if not _BOUNDED[0]:
+        raise RuntimeError(
+            "OpenCV was loaded before calibench set its decoding limit "
+            "(OPENCV_IO_MAX_IMAGE_PIXELS): import calibench before cv2"
+        )
 
 
 def run_camera(

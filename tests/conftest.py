@@ -13,6 +13,10 @@ os.environ.setdefault("CALIBENCH_PROGRESS", "off")
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
+# calibench before cv2: importing it sets OpenCV's decoding limit, which cv2 reads as it loads
+import calibench  # noqa: E402, F401
+
+# isort: split
 import cv2  # noqa: E402
 
 # the tests call scenarios' run() directly: the same single-threaded OpenCV as Scenario.execute
