@@ -73,6 +73,8 @@ def replaced(path: str | Path) -> Iterator[Path]:
         _flush(tmp)
         refuse_link(path)  # planted while the file was written: still never replaced
         os.replace(tmp, path)
+    except OSError as e:  # a full disk, a size limit: said of the output, not its temporary
+        raise OSError(e.errno, e.strerror, str(path)) from None
     finally:
         tmp.unlink(missing_ok=True)
     _flush_folder(path.parent)

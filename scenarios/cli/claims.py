@@ -16,6 +16,7 @@ user's: refused, ``--force`` or not.
 from __future__ import annotations
 
 import dataclasses
+import errno
 import fcntl
 import json
 import os
@@ -28,13 +29,23 @@ from pathlib import Path
 from typing import IO
 
 from calibench.errors import BadInput
-from calibench.scenarios.cli.folders import MAIN_FILE, MARK, OUTPUTS, is_file, owner, said
-from calibench.scenarios.study.journal import study_running
+from calibench.scenarios.cli.folders import (
+    CLAIM,
+    LOCK,
+    LOGS,
+    MAIN_FILE,
+    MARK,
+    OUTPUTS,
+    is_calibench_log,
+    is_file,
+    made_before_the_mark,
+    marked,
+    owner,
+    said,
+)
+from calibench.scenarios.study.journal import STUDY_LOCK, study_running
+from calibench.writing import is_temporary, write_text
 
-LOCK = ".calibench.lock"  # held (flock) by the command writing in the folder
-# while a command writes: what it found (claim.json: the mark, the results' stats) and the results
-# --force set aside
-CLAIM = ".calibench-claim"
 # the files whose writing makes a command's results: its main file, and a study's summary (a
 # figure or a recording written before them is a part, a study's description or empty journal none)
 RESULTS = (*(name for name in MAIN_FILE if name != "study.json"), "summary.json")
@@ -73,7 +84,7 @@ def claim(folder: Path, command: str, scenario: str | None, force: bool, held: l
     folder = folder.absolute()
     try:
         folder.mkdir(parents=True, exist_ok=True)
-        had_lock = (folder / LOCK).exists()
+        had_lock = os.path.lexists(folder / LOCK)
         lock = _lock(folder)
     except OSError as e:  # run all's folder a file, a file system without locks
         raise BadInput(f"--out {folder}: cannot write there ({e.strerror})") from None
@@ -97,12 +108,13 @@ def claim(folder: Path, command: str, scenario: str | None, force: bool, held: l
             }
             # a study resumed extends its results rather than replacing them: nothing to say
             state["say"] = force or command != "montecarlo"
-            (folder / CLAIM / "claim.json").write_text(json.dumps(state))
-            for name in OUTPUTS if force else ():
-                if is_file(folder / name):
-                    (folder / name).rename(folder / CLAIM / name)
+            write_text(folder / CLAIM / "claim.json", json.dumps(state))
+            for name in _replaceable(folder) if force else ():
+                (folder / name).rename(folder / CLAIM / name)
+            if mark is not None:  # set aside whole (rewritten, a full disk could leave it empty)
+                (folder / MARK).rename(folder / CLAIM / MARK)
             mine = {"command": command, "scenario": scenario}
-            (folder / MARK).write_text(json.dumps(mine) + "\n")
+            write_text(folder / MARK, json.dumps(mine) + "\n")
             held.append(Claim(folder, lock))
             made = True
     finally:
@@ -127,6 +139,7 @@ def release(held: list[Claim], reraise: bool = False) -> None:
                     print(f"calibench: {one.folder}: {replaced}", file=sys.stderr, flush=True)
                 if not is_file(one.folder / MARK):  # no results of any command's: no trace left
                     (one.folder / LOCK).unlink(missing_ok=True)
+                    (one.folder / STUDY_LOCK).unlink(missing_ok=True)
             finally:
                 one.lock.close()
                 held.pop()
@@ -134,16 +147,27 @@ def release(held: list[Claim], reraise: bool = False) -> None:
 
 def _check(folder: Path, command: str, scenario: str | None, force: bool) -> None:
     """BadInput unless the command may write in ``folder``."""
+    links = [name for name in (*OUTPUTS, CLAIM) if os.path.islink(folder / name)]
+    if links:  # written through, a user's file elsewhere would be overwritten
+        raise BadInput(
+            f"--out {folder}: {links[0]} is a symbolic link; calibench neither writes through a "
+            "link nor replaces one: remove it or give another --out"
+        )
     held = owner(folder)
     home = Path("calibench-out").absolute().resolve()
-    if held is None and home != folder.resolve() and home not in folder.resolve().parents:
-        # a crash's traceback is calibench's whatever folder it is in
-        strays = [name for name in OUTPUTS if name != "error.log" and is_file(folder / name)]
+    outside = home != folder.resolve() and home not in folder.resolve().parents
+    if outside and marked(folder) is None and not made_before_the_mark(folder):
+        # what is calibench's is known from the folder's mark, never from a file's name alone
+        strays = [name for name in OUTPUTS if name not in LOGS and is_file(folder / name)]
+        strays += [n for n in LOGS if is_file(folder / n) and not is_calibench_log(folder / n)]
         if strays:
+            named = [said(MAIN_FILE[n], None) for n in strays if n in MAIN_FILE]
+            what = f"the results of {named[0]} by name only" if named else "files named"
             raise BadInput(
-                f"--out {folder} holds {', '.join(strays[:3])}, named as calibench's outputs but "
-                f"written by no calibench command (there is no {MARK}): give another --out, or "
-                "remove them if they are calibench's (--force replaces only what calibench wrote)"
+                f"--out {folder} holds {what} ({', '.join(strays[:3])}), as calibench's outputs "
+                f"are, but written by no calibench command (there is no {MARK}): give another "
+                "--out, or remove them if they are calibench's (--force replaces only what "
+                "calibench wrote)"
             )
     same = held is not None and held[0] == command and held[1] in (None, scenario)
     if held is not None and not same and not force:
@@ -165,6 +189,9 @@ def _settle(folder: Path) -> str | None:
         words (None for a study resumed, which extends its own).
     """
     state = folder / CLAIM
+    for left in os.listdir(folder):  # a write cut off by a kill: never a result
+        if is_temporary(left):
+            (folder / left).unlink(missing_ok=True)
     if is_file(state):  # no claim's: in the way of the next
         state.unlink()
     if not state.is_dir():
@@ -175,24 +202,51 @@ def _settle(folder: Path) -> str | None:
     except (OSError, ValueError, KeyError, TypeError):  # cut off before its record
         shutil.rmtree(state, ignore_errors=True)
         return None
-    written = any(found.get(name) != stat for name, stat in _results(folder).items())
+    now = _results(folder)
+    # a result counts only whole: one that cannot be told from a torn one is none
+    written = any(found.get(name) != st and _whole(folder / name) for name, st in now.items())
     replaced = _replaced(found, mark) if written and found and info.get("say", True) else None
     if not written:
         # no results written: what the command did write (a study's description, an empty
-        # journal) goes, and what it found comes back; a crash's traceback stays
+        # journal, a torn result) goes, and what it found comes back; a crash's traceback stays
         for name in OUTPUTS:
-            if name not in present and name != "error.log" and is_file(folder / name):
+            torn = name in now and found.get(name) != now[name]
+            if (name not in present or torn) and name not in LOGS and is_file(folder / name):
                 (folder / name).unlink()
         for path in state.iterdir():
-            kept = path.name == "error.log" and is_file(folder / path.name)
-            if path.name not in ("claim.json", MARK) and not kept:
+            kept = path.name in LOGS and is_file(folder / path.name)
+            if path.name != "claim.json" and not kept:
                 path.rename(folder / path.name)
         if mark is None:
             (folder / MARK).unlink(missing_ok=True)
-        else:
-            (folder / MARK).write_text(mark)
+        elif not is_file(state / MARK) and not is_file(folder / MARK):  # a claim of before
+            write_text(folder / MARK, mark)
     shutil.rmtree(state, ignore_errors=True)
     return replaced
+
+
+def _replaceable(folder: Path) -> list[str]:
+    """The outputs of calibench's in ``folder`` that --force sets aside (a user's error.log is
+    theirs: kept in place)."""
+    return [
+        name
+        for name in OUTPUTS
+        if name != MARK
+        and is_file(folder / name)
+        and (name not in LOGS or is_calibench_log(folder / name))
+    ]
+
+
+def _whole(path: Path) -> bool:
+    """Whether a result file is whole: a JSON one parses (every output is written whole,
+    calibench.writing; this tells a torn one left by any other writer)."""
+    if path.suffix != ".json":
+        return True
+    try:
+        json.loads(path.read_bytes())
+    except (OSError, ValueError):
+        return False
+    return True
 
 
 def _replaced(found: dict[str, list[int]], mark: str | None) -> str:
@@ -221,7 +275,17 @@ def _results(folder: Path) -> dict[str, list[int]]:
 def _lock(folder: Path) -> IO[str]:
     """The folder's :data:`LOCK`, held; BadInput if another command holds it."""
     while True:
-        f = open(folder / LOCK, "a")
+        try:  # a link planted at the lock's name is not followed out of the folder
+            how = os.O_WRONLY | os.O_CREAT | os.O_APPEND | os.O_NOFOLLOW
+            fd = os.open(folder / LOCK, how, 0o644)
+        except OSError as e:
+            if e.errno != errno.ELOOP:
+                raise
+            raise BadInput(
+                f"--out {folder}: {LOCK} is a symbolic link; calibench neither writes through a "
+                "link nor replaces one: remove it or give another --out"
+            ) from None
+        f = os.fdopen(fd, "a")
         try:
             fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:

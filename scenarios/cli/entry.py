@@ -10,6 +10,7 @@ import os
 import signal
 import sys
 import threading
+import warnings
 from pathlib import Path
 
 from calibench.scenarios.cli import claims, folders, verbs
@@ -19,6 +20,7 @@ from calibench.scenarios.cli.status import (
     EXIT_INTERNAL,
     EXIT_INTERRUPTED,
     EXIT_OK,
+    one_line,
 )
 from calibench.scenarios.progress import for_command
 
@@ -40,6 +42,7 @@ def main(argv: list[str] | None = None) -> int:
     os.environ.setdefault(
         "MUJOCO_GL", "egl"
     )  # before MuJoCo's first import: renders without a display
+    _said_in_any_encoding()
     try:
         args = build_parser().parse_args(argv)
     except SystemExit as e:  # usage errors (status 2) and --help (0), as a return value
@@ -50,8 +53,13 @@ def main(argv: list[str] | None = None) -> int:
     created: list[Path | None] = []
     held: list[claims.Claim] = []  # the folders this command claimed, released at its end
     old_term = _terminate_as_interrupt()
+    caught = warnings.catch_warnings(record=True)
+    noted = caught.__enter__()  # said after the command's end, unless it ends in bad input's line
+    warnings.simplefilter("default")
     try:
         _default_out(args)
+        if hasattr(args, "out"):
+            folders.inputs_outside(args)
         # the folders a command writes, checked before any work (made, and removed again if
         # the command ends in bad input and they are still empty)
         created.append(folders.writable_folder(getattr(args, "out", None)))
@@ -85,7 +93,8 @@ def main(argv: list[str] | None = None) -> int:
         if said is not None:
             e = BadInput(said)
         if isinstance(e, BadInput):
-            print(f"calibench: {e}", file=sys.stderr)
+            noted.clear()  # one line: a library's warnings on the way there are not the answer
+            print(f"calibench: {one_line(str(e))}", file=sys.stderr)
             claims.release(held)
             for made in created:
                 if made is not None and made.is_dir() and not any(made.iterdir()):
@@ -96,6 +105,9 @@ def main(argv: list[str] | None = None) -> int:
         claims.release(held)  # whatever the end: what --force set aside is gone, or put back
         if old_term is not None:
             signal.signal(signal.SIGTERM, old_term)
+        caught.__exit__(None, None, None)
+        for w in noted:
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
 
 
 def command() -> None:
@@ -166,11 +178,25 @@ def _said_as_bad_input(e: Exception) -> str | None:
     """The line for errors that are the user's to fix, not calibench's: a full disk, a symbolic
     link loop (Python 3.11's ``Path.resolve`` raises RuntimeError for it), a file nested too deep
     to read (RecursionError: a TOML of thousands of nested tables)."""
+    kept = "nothing half-written is left, the folder's former results are kept; a study resumes"
     if isinstance(e, OSError) and e.errno in (errno.ENOSPC, errno.EDQUOT):
         where = f" writing {e.filename}" if e.filename else ""
+        return f"the disk is full{where}: free some space and rerun ({kept})"
+    if isinstance(e, OSError) and e.errno == errno.EFBIG:
+        where = f" writing {e.filename}" if e.filename else ""
         return (
-            f"the disk is full{where}: free some space and rerun (what was finished is kept; a "
-            "study resumes)"
+            f"a file grew past this system's file-size limit{where} (ulimit -f): raise the limit "
+            f"and rerun ({kept})"
+        )
+    if isinstance(e, MemoryError):
+        return (
+            "out of memory: the input is too large for this machine's memory (or a memory limit "
+            f"is set): give a smaller one, or more memory ({kept})"
+        )
+    if _dask_lost(e):
+        return (
+            "the Dask cluster went away mid-study (its scheduler stopped, or it lost its "
+            "workers): finished trials are kept; rerun the same command to resume"
         )
     if isinstance(e, RecursionError):
         return (
@@ -190,17 +216,47 @@ def _internal_error(e: Exception, out: Path | None) -> int:
         where = Path(out) if out is not None and not Path(out).is_file() else Path("calibench-out")
     except OSError:
         where = Path("calibench-out")
-    text = "".join(traceback.format_exception(e))
+    from calibench import __version__
+    from calibench.writing import write_text
+
+    text = f"{folders.LOG_HEADER} (calibench {__version__})\n" + "".join(
+        traceback.format_exception(e)
+    )
+    log = where / folders.LOGS[0]
+    if folders.is_file(log) and not folders.is_calibench_log(log):  # the user's own: kept
+        log = where / folders.LOGS[1]
     try:
         where.mkdir(parents=True, exist_ok=True)
-        (where / "error.log").write_text(text)
-        said = f"the traceback is in {where / 'error.log'}"
-    except OSError:
-        said = "the traceback could not be written"
+        write_text(log, text)  # whole or not at all (an empty log on a full disk says nothing)
+        said = f"the traceback is in {log}"
+    except (OSError, ValueError) as w:  # a full disk, a link planted at the name (BadInput)
+        said = f"the traceback could not be written ({getattr(w, 'strerror', None) or w})"
+    first = str(e).splitlines()[0] if str(e).strip() else ""
     print(
-        f"calibench: internal error ({type(e).__name__}: "
-        f"{str(e).splitlines()[0] if str(e) else ''}); this is a "
-        f"defect of calibench, please report it; {said}",
+        f"calibench: internal error ({type(e).__name__}: {one_line(first)}); this is a "
+        f"defect of calibench, please report it; {one_line(said)}",
         file=sys.stderr,
     )
     return EXIT_INTERNAL
+
+
+def _dask_lost(e: BaseException) -> bool:
+    """Whether ``e`` is a Dask cluster lost mid-study (its scheduler killed: a cancelled future,
+    a closed connection), an end of the environment's, not a defect."""
+    import concurrent.futures as cf
+
+    if "distributed" not in sys.modules:
+        return False
+    names = {type(e).__name__, *(t.__name__ for t in type(e).__mro__)}
+    lost = {"CancelledError", "CommClosedError", "FutureCancelledError", "KilledWorker"}
+    return isinstance(e, cf.CancelledError) or bool(names & lost)
+
+
+def _said_in_any_encoding() -> None:
+    """stdout and stderr write what their encoding cannot hold as escapes (PYTHONIOENCODING=ascii
+    and a folder's name in another script) instead of failing the command at its last line."""
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.reconfigure(errors="backslashreplace")  # type: ignore[union-attr]
+        except (AttributeError, ValueError, OSError):  # a stream replaced (a test's capture)
+            pass

@@ -10,12 +10,23 @@ replaced, never a user's other files (``claims``: how a command takes a folder a
 
 from __future__ import annotations
 
+import errno
 import json
+import os
+import re
+import stat
+import tempfile
 from pathlib import Path
 
 from calibench.errors import BadInput
 
 MARK = ".calibench.json"
+LOCK = ".calibench.lock"  # held (flock) by the command writing in the folder
+# while a command writes: what it found (claim.json: the mark, the results' stats) and the results
+# --force set aside
+CLAIM = ".calibench-claim"
+LOG_HEADER = "calibench: internal error"  # the first line of the error.log calibench writes
+_NAME = re.compile(r"[a-z0-9][a-z0-9-]{0,39}")  # a command's or a scenario's name in a mark
 
 # each command's main output: who wrote a folder made before MARK existed
 MAIN_FILE = {
@@ -28,6 +39,9 @@ MAIN_FILE = {
     "iso230.json": "iso230",
 }
 
+# a crash's traceback: error.log, or beside a user's own error.log the second name
+LOGS = ("error.log", "calibench-error.log")
+
 # what --force removes: every file a command of calibench's writes, by name
 OUTPUTS = (
     *MAIN_FILE,
@@ -39,7 +53,7 @@ OUTPUTS = (
     "run.rrd",
     "recording.csv",  # a run's simulated recording and what it conceals: parts of its results
     "recording.truth.json",
-    "error.log",
+    *LOGS,
     "fit.png",
     "residuals.csv",
     "discovery.png",
@@ -67,18 +81,98 @@ def default_out(command: str, scenario: str | None) -> Path:
 
 def owner(folder: Path) -> tuple[str, str | None] | None:
     """(command, scenario) whose results ``folder`` holds, or None for a folder of none."""
-    try:
-        mark = json.loads((folder / MARK).read_text())
-        return str(mark["command"]), mark.get("scenario")
-    except FileNotFoundError:
-        pass
-    except (OSError, ValueError, KeyError, TypeError):
-        raise BadInput(
-            f"{folder / MARK} does not say which command wrote {folder} (corrupt?): remove it or "
-            "use another --out"
-        ) from None
+    held = marked(folder)
+    if held is not None:
+        return held
     found = next((cmd for name, cmd in MAIN_FILE.items() if (folder / name).is_file()), None)
     return None if found is None else (found, None)
+
+
+def marked(folder: Path) -> tuple[str, str | None] | None:
+    """(command, scenario) that ``folder``'s :data:`MARK` names, or None where it has none.
+
+    Raises
+    ------
+    BadInput
+        The mark is not a plain file (a link, a folder, a pipe), or does not name a command as
+        calibench writes it (corrupt, or not calibench's).
+    """
+    path = folder / MARK
+    try:  # never through a link, never blocked on a pipe planted at the name
+        fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK)
+    except FileNotFoundError:
+        return None
+    except OSError as e:
+        why = "a symbolic link" if e.errno == errno.ELOOP else e.strerror
+        raise _bad_mark(folder, why) from None
+    if not stat.S_ISREG(os.fstat(fd).st_mode):  # a folder, a pipe
+        os.close(fd)
+        raise _bad_mark(folder, "not a file")
+    with os.fdopen(fd, "rb") as f:
+        text = f.read(4096)
+    try:
+        mark = json.loads(text)
+        command, scenario = mark["command"], mark.get("scenario")
+    except (ValueError, KeyError, TypeError, AttributeError):
+        raise _bad_mark(folder, "corrupt?") from None
+    if not (isinstance(command, str) and _NAME.fullmatch(command)) or not (
+        scenario is None or (isinstance(scenario, str) and _NAME.fullmatch(scenario))
+    ):
+        raise _bad_mark(folder, "corrupt?")
+    return command, scenario
+
+
+def _bad_mark(folder: Path, why: str | None) -> BadInput:
+    return BadInput(
+        f"{folder / MARK} does not say which command wrote {folder} ({why}): remove it or use "
+        "another --out"
+    )
+
+
+# the keys each main file of calibench's holds: a folder made before the mark is known as
+# calibench's by its main file's content, never by a name alone (a user's own report.json)
+_KEYS = {
+    "report.json": {"scenario", "parameters", "checks", "ok"},
+    "fit.json": {"scenario", "model"},
+    "discovery.json": {"scenario", "samples", "effects"},
+    "study.json": {"scenario", "seed", "fidelity"},
+    "intrinsics.json": {"image_size", "K", "dist", "used", "rejected"},
+    "iso230.json": {"axis", "per_target"},
+    "trials.jsonl": {"trial"},  # its first row
+}
+
+
+def made_before_the_mark(folder: Path) -> bool:
+    """Whether ``folder`` (without :data:`MARK`) holds a main file whose content is calibench's:
+    a folder some command wrote before the mark existed."""
+    for name, keys in _KEYS.items():
+        try:
+            if (folder / name).is_symlink() or (folder / name).stat().st_size > 2**24:
+                continue  # a link is nobody's result; a result is not that large
+            text = (folder / name).read_bytes()
+            held = json.loads(text.split(b"\n", 1)[0] if name.endswith(".jsonl") else text)
+        except (OSError, ValueError):
+            continue
+        if isinstance(held, dict) and keys <= held.keys():
+            return True
+    return False
+
+
+def is_calibench_log(path: Path) -> bool:
+    """Whether ``path`` is a traceback calibench wrote (its first line :data:`LOG_HEADER`'s, or,
+    before the header, a Python traceback through calibench's code): never known by its name
+    alone, a user's own error.log is theirs."""
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK)
+    except OSError:
+        return False
+    if not stat.S_ISREG(os.fstat(fd).st_mode):
+        os.close(fd)
+        return False
+    with os.fdopen(fd, "rb") as f:
+        head = f.read(65536).decode("utf-8", "replace")
+    old = head.startswith("Traceback (most recent call last):") and "calibench" in head
+    return head.startswith(LOG_HEADER) or old
 
 
 def said(command: str, scenario: str | None) -> str:
@@ -98,6 +192,9 @@ def writable_folder(out: Path | None, option: str = "--out") -> Path | None:
     if out is None:
         return None
     out = Path(out)
+    inside = [part for part in out.absolute().parts if part in (MARK, LOCK, CLAIM)]
+    if inside:  # the folder's own bookkeeping: the next command there would remove or replace it
+        raise BadInput(f"{option} {out}: {inside[0]} is calibench's own name in a folder, not one")
     try:
         for parent in [out, *out.parents]:
             if parent.exists() and not parent.is_dir():
@@ -110,9 +207,59 @@ def writable_folder(out: Path | None, option: str = "--out") -> Path | None:
         ) from None
     try:
         out.mkdir(parents=True, exist_ok=True)
-        probe = out / ".calibench-write-test"
-        probe.touch()
-        probe.unlink()
+        # a name of this command's own: commands started together in one folder each test theirs
+        fd, probe = tempfile.mkstemp(prefix=".calibench-write-test.", dir=out)
+        os.close(fd)
+        os.unlink(probe)
     except OSError as e:
         raise BadInput(f"{option} {out}: cannot write there ({e.strerror})") from None
     return created
+
+
+# the arguments that name a command's input files (one path or a list of them)
+_INPUTS = ("recordings", "recording", "run", "images", "test", "test_new_frame", "arm", "config")
+
+
+def inputs_outside(args) -> None:
+    """BadInput if one of the command's inputs (or --twin, an output of the user's naming) is a
+    file the command may replace in its --out: an input is never an output.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command, its --out set.
+    """
+    out = getattr(args, "out", None)
+    if out is None:
+        return
+    named: list = []
+    for key in _INPUTS:
+        v = getattr(args, key, None)
+        named += v if isinstance(v, list) else [] if v is None else [v]
+    twin = getattr(args, "twin", None)
+    try:
+        folder = Path(out).absolute().resolve()
+        ours = [folder / n for n in (*OUTPUTS, LOCK, CLAIM) if os.path.lexists(folder / n)]
+    except (OSError, RuntimeError):  # a link loop, a name too long: said by writable_folder
+        return
+    for given in [*named, *([] if twin is None else [twin])]:
+        try:
+            p = Path(given).absolute().resolve()
+            hit = p.parent == folder and p.name in (*OUTPUTS, LOCK, CLAIM)
+            hit = hit or folder / CLAIM in p.parents or any(_same(p, o) for o in ours)
+        except (OSError, RuntimeError, ValueError):
+            continue
+        if hit:
+            role = "--twin" if given is twin else "an input"
+            raise BadInput(
+                f"{given}: {role} is one of the files calibench writes or replaces in --out "
+                f"{out}: copy it elsewhere first, or give another --out"
+            )
+
+
+def _same(a: Path, b: Path) -> bool:
+    """Whether ``a`` (an existing file) and ``b`` are one file (a hard link, say)."""
+    try:
+        return a.samefile(b)
+    except OSError:
+        return False

@@ -8,7 +8,7 @@ import argparse
 import os
 from pathlib import Path
 
-from calibench.scenarios.cli.status import EXIT_BAD_INPUT
+from calibench.scenarios.cli.status import EXIT_BAD_INPUT, one_line
 
 MAX_TRIALS = 1_000_000
 
@@ -17,7 +17,7 @@ class _Parser(argparse.ArgumentParser):
     """argparse that reports a usage error in one line (it prints usage plus a line by default)."""
 
     def error(self, message: str):
-        self.exit(EXIT_BAD_INPUT, f"{self.prog}: {message} (see {self.prog} --help)\n")
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: {one_line(message)} (see {self.prog} --help)\n")
 
 
 def _ranged(kind: type, ok, rule: str):

@@ -30,3 +30,9 @@ def run_verdict(failed: list[str], total: int, say: bool) -> int:
             else f"\n{len(failed)} of {total} scenarios failed: {', '.join(failed)}"
         )
     return EXIT_CHECK_FAILED if failed else EXIT_OK
+
+
+def one_line(text: str) -> str:
+    """``text`` as one line: a newline or another control character (in a file's name, in an
+    argument) written as its escape, so that a message is never split."""
+    return "".join(c if c.isprintable() or c == " " else repr(c)[1:-1] for c in text)

@@ -5,14 +5,18 @@ study.json, which says which study the folder holds (one study per folder)."""
 from __future__ import annotations
 
 import contextlib
+import errno
 import fcntl
 import json
+import os
 from pathlib import Path
 from typing import TextIO
 
 from calibench.errors import BadInput
+from calibench.writing import write_text
 
 JOURNAL = "trials.jsonl"
+STUDY_LOCK = ".study.lock"  # held (flock) by the study running in the folder
 ROW_START = '{"trial": '  # how every row of the journal begins
 
 
@@ -96,7 +100,7 @@ def open_journal(out_dir: Path) -> TextIO:
     """
     path = out_dir / JOURNAL
     torn = path.exists() and path.stat().st_size and not path.read_bytes().endswith(b"\n")
-    journal = open(path, "a")  # the caller's with block closes it
+    journal = _appended(path)  # the caller's with block closes it
     if torn:  # an interruption cut the last line: start a fresh one
         journal.write("\n")
     return journal
@@ -133,15 +137,34 @@ def record_study(out_dir: Path, meta: dict) -> None:
             f"{out_dir} holds a different study ({meta_path.read_text().strip()}); use another "
             "--out, or --force to replace it"
         )
-    meta_path.write_text(json.dumps(meta) + "\n")
+    write_text(meta_path, json.dumps(meta) + "\n")
+    from calibench.scenarios.cli.folders import MARK, marked  # the command line's, which needs this
+
+    if marked(out_dir) is None:  # a study started from Python: its folder known as calibench's
+        mine = {"command": "montecarlo", "scenario": meta["scenario"]}
+        write_text(out_dir / MARK, json.dumps(mine) + "\n")
+
+
+def _appended(path: Path) -> TextIO:
+    """``path`` opened to append, never through a symbolic link (refused in one line)."""
+    try:
+        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_APPEND | os.O_NOFOLLOW, 0o644)
+    except OSError as e:
+        if e.errno != errno.ELOOP:
+            raise
+        raise BadInput(
+            f"{path} is a symbolic link: calibench neither writes through a link nor replaces "
+            "one; remove it or give another --out"
+        ) from None
+    return os.fdopen(fd, "a")
 
 
 def study_running(out_dir: Path) -> bool:
     """Whether a study holds ``out_dir``'s lock now (:func:`study_lock`)."""
-    lock = out_dir / ".study.lock"
-    if not lock.is_file():
+    lock = out_dir / STUDY_LOCK
+    if not lock.is_file() or lock.is_symlink():
         return False
-    with open(lock, "a") as f:
+    with _appended(lock) as f:
         try:
             fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
@@ -155,7 +178,7 @@ def study_lock(out_dir: Path):
     (the same command twice, say) is refused instead of doing all the work again beside the
     first. The lock is the operating system's (``flock``): a killed study leaves none behind."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    f = open(out_dir / ".study.lock", "a")
+    f = _appended(out_dir / STUDY_LOCK)
     try:
         try:
             fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
