@@ -79,3 +79,26 @@ def test_this_process_decodes_under_the_bound():
     from calibench.scenarios.camera import decoding_is_bounded
 
     decoding_is_bounded()  # raises where it is not
+
+
+def test_a_line_of_fifty_million_commas_is_refused_in_bounded_memory(tmp_path):
+    """A header, one row and 50 million commas: exit 0 at 916 MB before; now one line, read no
+    further than the bound on a line."""
+    with open(tmp_path / "r.csv", "w") as f:
+        f.write("x_cmd_mm,y_cmd_mm,x_meas_mm,y_meas_mm\n1,2,3,4")
+        for _ in range(50):
+            f.write("," * 1_000_000)
+        f.write("\n")
+    status, err, peak = _command(["fit", "belt-stage", "r.csv", "--out", "o"], tmp_path)
+    assert status == 2 and len(err.splitlines()) == 1, err
+    assert "r.csv line 2: over 100,000 characters" in err, err
+    assert peak < LIMIT_KB, f"{peak / MB:.0f} MB"
+
+
+@pytest.mark.parametrize("verb", [["fit", "belt-stage"], ["iso230"], ["discover", "belt-stage"]])
+def test_dev_zero_is_refused_in_bounded_memory(tmp_path, verb):
+    """A file without a line end that never ends: `fit belt-stage /dev/zero` grew without bound."""
+    status, err, peak = _command([*verb, "/dev/zero", "--out", "o"], tmp_path)
+    assert status == 2 and len(err.splitlines()) == 1, err
+    assert "/dev/zero" in err, err
+    assert peak < LIMIT_KB, f"{peak / MB:.0f} MB"

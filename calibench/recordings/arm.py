@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-import csv
 from pathlib import Path
 
 import numpy as np
 
-from calibench.recordings.csv_io import RecordingError, read_columns
+from calibench.recordings.csv_io import RecordingError, read_columns, read_header
 from calibench.recordings.records import ArmRecording
 
 ARM_REQUIRED = tuple(f"q{j}_deg" for j in range(1, 7)) + ("x_mm", "y_mm", "z_mm")
@@ -22,11 +21,7 @@ ARM_OPTIONAL = ("x_std_mm", "y_std_mm", "z_std_mm", "t_s", "temp_c")
 
 def _joint_columns(path: Path) -> int:
     """How many q<j>_deg columns the header names, q1 upward without a gap."""
-    try:
-        with open(path, newline="", encoding="utf-8-sig") as f:
-            header = [h.strip() for h in next(csv.reader(f), [])]
-    except (OSError, UnicodeDecodeError):
-        return 0  # read_columns says what is wrong
+    header = read_header(path)  # [] where it cannot be read: read_columns says why
     n = 0
     while f"q{n + 1}_deg" in header:
         n += 1
@@ -35,11 +30,7 @@ def _joint_columns(path: Path) -> int:
 
 def _joint_gap(path: Path) -> str | None:
     """The first q<j>_deg missing below the highest one the header names (a gap), or None."""
-    try:
-        with open(path, newline="", encoding="utf-8-sig") as f:
-            header = [h.strip() for h in next(csv.reader(f), [])]
-    except (OSError, UnicodeDecodeError):
-        return None
+    header = read_header(path)
     named = [
         int(h[1:-4])
         for h in header

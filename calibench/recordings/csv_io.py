@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import csv
 import re
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -57,12 +58,95 @@ def _near_miss(header: list[str], known: tuple) -> tuple[str, str] | None:
     return None
 
 
-def _rows(reader, path: Path, max_rows: int | None) -> list[list[str]]:
+# characters: the longest line a recording's CSV may have. A row of 20 numbers is about 500 and a
+# header of 50 named columns under 2,000; a line is read at most this far before it is judged,
+# so a file without line ends (a header, one row and 50 million commas; /dev/zero) is refused
+# in bounded memory instead of read whole
+MAX_LINE_CHARS = 100_000
+
+
+def bounded_lines(f, path: Path) -> Iterator[str]:
+    """The lines of the text file ``f`` (opened with ``newline=""``), each read at most
+    :data:`MAX_LINE_CHARS` characters far: a longer one, or one holding NUL characters (UTF-16
+    text, or not text at all), refused."""
+    at = 0
+    while True:
+        line = f.readline(MAX_LINE_CHARS + 1)
+        if not line:
+            return
+        at += 1
+        if len(line) > MAX_LINE_CHARS:
+            raise RecordingError(
+                f"{path} line {at}: over {MAX_LINE_CHARS:,} characters without a line end: not a "
+                "recording's row (a row of 20 numbers is about 500)"
+            )
+        if "\x00" in line:
+            raise RecordingError(_nul_message(path, line))
+        yield line
+
+
+def _nul_message(path: Path, line: str) -> str:
+    """What a line holding NUL characters says of its file: UTF-16 where every other character
+    is one (an ASCII text saved as UTF-16 without its byte-order mark), else not text."""
+    body = line.rstrip("\r\n")
+    if len(body) >= 2 and ("\x00" not in body[0::2] or "\x00" not in body[1::2]):
+        if set(body[1::2]) <= {"\x00"} or set(body[0::2]) <= {"\x00"}:
+            return (
+                f"{path} is not UTF-8 text: it looks like UTF-16 (every other byte zero): save "
+                "it as UTF-8 CSV"
+            )
+    return f"{path} is not UTF-8 text: it holds NUL characters (a binary file, not a CSV?)"
+
+
+def _encoding_guess(path: Path) -> str:
+    """What a file that is not UTF-8 may be, in words, from its byte-order mark."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(2)
+    except OSError:
+        head = b""
+    if head in (b"\xff\xfe", b"\xfe\xff"):
+        return "UTF-16, by its byte-order mark"
+    return "Latin-1, or not a CSV at all?"
+
+
+def read_header(path: Path) -> list[str]:
+    """The CSV's first row (stripped names), read through :func:`bounded_lines`; [] where the
+    file cannot be read (:func:`read_columns` then says what is wrong)."""
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as f:
+            return [h.strip() for h in next(csv.reader(bounded_lines(f, path)), [])]
+    except (OSError, UnicodeDecodeError, csv.Error, RecordingError):
+        return []
+
+
+def _named_alike(header: list[str], known: tuple) -> tuple[str, str] | None:
+    """A column the format reads and another of ``header`` that names it too (``X_CMD_MM``
+    beside ``x_cmd_mm``, ``temperature_c`` beside ``temp_c``), or None: one of the two would be
+    read and the other ignored without a word."""
+    for k in known:
+        if k not in header:
+            continue
+        keys = {_key(k)} | {_key(a) for a in ALIASES.get(k, ())}
+        other = next((h for h in header if h and h != k and _key(h) in keys), None)
+        if other is not None:
+            return k, other
+    return None
+
+
+def _rows(reader, path: Path, max_rows: int | None, width: list[int]) -> list[list[str]]:
     """The CSV's rows, refused as soon as it holds more than ``max_rows`` data rows (read on
-    only to count them, the whole file would be in memory first)."""
+    only to count them, the whole file would be in memory first). A row's empty cells beyond
+    the header's (``width[0]``, set from the first row) are dropped as it is read: harmless,
+    and a line of commas would be a list of as many cells."""
     rows: list[list[str]] = []
     data = 0
     for r in reader:
+        if not rows:
+            width.append(len(r))
+        elif len(r) > width[0]:
+            while len(r) > width[0] and not r[-1].strip():
+                r.pop()
         rows.append(r)
         if len(rows) > 1 and any(cell.strip() for cell in r):
             data += 1
@@ -123,14 +207,14 @@ def read_rows(path: Path, max_rows: int | None) -> list[list[str]]:
     a file that cannot be read as such, or holds more than ``max_rows`` data rows, refused."""
     try:
         with open(path, newline="", encoding="utf-8-sig") as f:
-            rows = _rows(csv.reader(f), path, max_rows)
+            rows = _rows(csv.reader(bounded_lines(f, path)), path, max_rows, [])
     except IsADirectoryError:
         raise RecordingError(f"{path} is a folder, not a CSV file") from None
     except OSError as e:
         raise RecordingError(f"cannot read {path}: {e.strerror}") from None
     except UnicodeDecodeError:
         raise RecordingError(
-            f"{path} is not UTF-8 text (Latin-1, or not a CSV at all?): save it as UTF-8 CSV"
+            f"{path} is not UTF-8 text ({_encoding_guess(path)}): save it as UTF-8 CSV"
         ) from None
     except csv.Error as e:
         raise RecordingError(f"{path} is not a CSV file ({e})") from None
@@ -155,6 +239,12 @@ def checked_header(
     if twice:
         raise RecordingError(
             f"{path}: column(s) {', '.join(twice)} named twice: which one is meant cannot be told"
+        )
+    alike = _named_alike(header, required + optional)
+    if alike is not None:
+        raise RecordingError(
+            f"{path}: columns {alike[0]} and {alike[1]} both name {alike[0]} (another case, "
+            "spelling or usual name): which one is meant cannot be told; drop or rename one"
         )
     near = _near_miss(header, required + optional)
     if near is not None:

@@ -454,4 +454,11 @@ CASES = [
         2,
         "a pipe or a device, which can be read only once",
     ),
+    (  # the joint columns were counted from a header read without bound
+        "arm-recording-without-line-ends",
+        {"r.csv": lambda p: p.write_text("q1_deg" + ",q" * 100_000)},
+        ["fit", "arm-cmm", "{d}/r.csv", "--arm", "ur10"],
+        2,
+        "r.csv line 1: over 100,000 characters",
+    ),
 ]

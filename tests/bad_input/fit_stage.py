@@ -281,4 +281,71 @@ CASES = [
         2,
         "more than 1000000 rows",
     ),
+    # issue 62, item 4: a line's length is bounded, read in bounded chunks
+    (  # a header, one row and 50 million commas: exit 0 at 916 MB (one million here)
+        "fit-a-line-of-commas",
+        {"r.csv": lambda p: p.write_text(STAGE_HEAD + "\n1,2,3,4" + "," * 1_000_000 + "\n")},
+        ["fit", "belt-stage", "{d}/r.csv"],
+        2,
+        "r.csv line 2: over 100,000 characters without a line end",
+    ),
+    (  # no line end at all: grew without bound
+        "fit-dev-zero",
+        {},
+        ["fit", "belt-stage", "/dev/zero", "--out", "{d}/o"],
+        2,
+        "/dev/zero line 1: over 100,000 characters",
+    ),
+    (  # a row's empty cells beyond the header's are harmless, as before
+        "fit-trailing-empty-cells",
+        {"r.csv": stage_csv().replace("\n", ",,,\n")},
+        ["fit", "belt-stage", "{d}/r.csv", "--out", "{d}/o"],
+        0,
+        "",
+    ),
+    # issue 62, item 10: another encoding said as such
+    (  # was "line contains NUL"
+        "fit-utf16le-without-bom",
+        {"r.csv": stage_csv().encode("utf-16-le")},
+        ["fit", "belt-stage", "{d}/r.csv"],
+        2,
+        "r.csv is not UTF-8 text: it looks like UTF-16",
+    ),
+    (
+        "fit-utf16-with-bom",
+        {"r.csv": stage_csv().encode("utf-16")},
+        ["fit", "belt-stage", "{d}/r.csv"],
+        2,
+        "r.csv is not UTF-8 text (UTF-16, by its byte-order mark)",
+    ),
+    (
+        "fit-nul-characters",
+        {"r.csv": stage_csv().replace("0,", "0\x00,", 1).encode()},
+        ["fit", "belt-stage", "{d}/r.csv"],
+        2,
+        "it holds NUL characters",
+    ),
+    # issue 62, item 8: a column named twice in two cases was read once, silently
+    (
+        "fit-column-in-two-cases",
+        {
+            "r.csv": stage_csv(extra=",X_CMD_MM")
+            .replace("\n", ",0\n")
+            .replace(",X_CMD_MM,0", ",X_CMD_MM", 1)
+        },
+        ["fit", "belt-stage", "{d}/r.csv"],
+        2,
+        "columns x_cmd_mm and X_CMD_MM both name x_cmd_mm",
+    ),
+    (
+        "fit-column-and-its-alias",
+        {
+            "r.csv": stage_csv(extra=",temp_c,temperature_c")
+            .replace("\n", ",20,20\n")
+            .replace(",temp_c,temperature_c,20,20", ",temp_c,temperature_c", 1)
+        },
+        ["fit", "belt-stage", "{d}/r.csv"],
+        2,
+        "columns temp_c and temperature_c both name temp_c",
+    ),
 ]
