@@ -114,13 +114,20 @@ POSITIVE = (
 # Scatters beyond anything the instrument could be: a detector's corner noise of 10 px is no
 # detector (the estimators then fail for reasons no message could name).
 AT_MOST = {"noise_px": 10.0}
+# And below anything a detector reaches: the best sub-pixel chessboard corners scatter 0.01 px,
+# and on corners within 1e-4 px of their truth (down to none at all) the camera's bundle
+# adjustment wanders at the corners' float32 rounding and never converges (exit 3 before)
+AT_LEAST = {"corner_noise_px": 1e-3}
 
 
 def load_toml(path: str | Path) -> dict:
-    """A TOML file as nested dicts; BadInput naming the file when it cannot be read or parsed."""
+    """A TOML file as nested dicts; BadInput naming the file when it cannot be read or parsed.
+    A UTF-8 byte-order mark (what Windows editors write) is read past: TOML forbids it, and the
+    file is UTF-8 all the same."""
     try:
         with open(path, "rb") as f:
-            return tomllib.load(f)
+            data = f.read()
+        return tomllib.loads(data.removeprefix(b"\xef\xbb\xbf").decode("utf-8"))
     except OSError as e:
         raise BadInput(f"cannot read config {path}: {e.strerror}") from None
     except UnicodeDecodeError:
@@ -131,6 +138,23 @@ def load_toml(path: str | Path) -> dict:
         raise BadInput(
             f"config {path} is nested too deep to read (thousands of levels): not a config"
         ) from None
+
+
+def check_tables(path: str | Path, doc: dict, chosen: list[str], known: list[str]) -> None:
+    """BadInput when the config ``doc`` (read from ``path``) has a table that no scenario of
+    ``chosen`` reads: an unknown name, or another scenario's table, which would be ignored
+    without a word (``run vision-stage`` with only a ``[belt-stage]`` table ran the defaults).
+    ``known``: every scenario's name."""
+    unknown = [k for k in doc if k not in known]
+    if unknown:
+        raise BadInput(f"config {path}: unknown scenario table(s) {', '.join(unknown)}")
+    other = [k for k in doc if k not in chosen]
+    if other:
+        raise BadInput(
+            f"config {path}: a run of {', '.join(chosen)} takes only its "
+            f"{', '.join(f'[{c}]' for c in chosen)} table (found [{'], ['.join(other)}], which "
+            "it would ignore)"
+        )
 
 
 def override(obj: Any, table: dict, where: str) -> Any:
@@ -176,6 +200,12 @@ def _check_range(key: str, value: float, where: str) -> None:
     for end, most in AT_MOST.items():
         if key.endswith(end) and value > most:
             raise BadInput(f"config: {where} = {value}: at most {most:g}")
+    for end, least in AT_LEAST.items():
+        if key.endswith(end) and value < least:
+            raise BadInput(
+                f"config: {where} = {value}: at least {least:g} (a chessboard detector's corners "
+                "scatter 0.01 px at best; the calibration does not converge on noise-free corners)"
+            )
 
 
 def _coerce(current: Any, value: Any, where: str) -> Any:
