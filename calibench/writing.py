@@ -3,8 +3,9 @@
 Every output is written to a temporary file beside its name (same folder, so the rename cannot
 cross file systems), flushed to the disk (``fsync``) and renamed over the name (``os.replace``):
 a full disk, a file-size limit or a kill midway leaves the former file as it was, never a torn
-one. A symbolic link at the name is refused in one line (:class:`~calibench.errors.BadInput`),
-never written through (a user's file elsewhere) and never silently replaced. A temporary file
+one. A symbolic link at the name is replaced by the rename, never written through (a user's file
+elsewhere stays as it was); whose the name is, a link there included, the command line's claim
+on the folder decides before anything is written (``scenarios/cli/claims.py``). A temporary file
 left by a command killed outright is known by its name (:func:`is_temporary`): the next command
 in that folder removes it. Needs nothing but Python.
 """
@@ -13,11 +14,10 @@ from __future__ import annotations
 
 import contextlib
 import os
+import shutil
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
-
-from calibench.errors import BadInput
 
 # a temporary file's name: PREFIX + "<random>." + the output's name (its suffix kept: a writer
 # that picks its format by the suffix, a figure's or an image's, writes the right one)
@@ -29,15 +29,6 @@ os.umask(_UMASK)
 def is_temporary(name: str) -> bool:
     """Whether ``name`` is a temporary file of :func:`replaced`'s (one a killed command left)."""
     return name.startswith(PREFIX)
-
-
-def refuse_link(path: Path) -> None:
-    """BadInput if ``path`` is a symbolic link: an output is never written through one."""
-    if os.path.islink(path):
-        raise BadInput(
-            f"{path} is a symbolic link: calibench neither writes through a link nor replaces "
-            "one; remove it or give another --out"
-        )
 
 
 @contextlib.contextmanager
@@ -57,11 +48,10 @@ def replaced(path: str | Path) -> Iterator[Path]:
 
     Raises
     ------
-    BadInput
-        ``path`` is a symbolic link (before anything is written, and again before the rename).
+    OSError
+        The file could not be written (a full disk, a size limit), said of ``path``.
     """
     path = Path(path)
-    refuse_link(path)
     fd, name = tempfile.mkstemp(prefix=PREFIX, suffix=f".{path.name[-100:]}", dir=path.parent)
     try:  # mkstemp's 0600 would hide a result from the user's group: the mode open() gives
         os.fchmod(fd, 0o666 & ~_UMASK)
@@ -71,13 +61,44 @@ def replaced(path: str | Path) -> Iterator[Path]:
     try:
         yield tmp
         _flush(tmp)
-        refuse_link(path)  # planted while the file was written: still never replaced
-        os.replace(tmp, path)
+        os.replace(tmp, path)  # a link at the name is replaced, not followed
     except OSError as e:  # a full disk, a size limit: said of the output, not its temporary
         raise OSError(e.errno, e.strerror, str(path)) from None
     finally:
         tmp.unlink(missing_ok=True)
     _flush_folder(path.parent)
+
+
+@contextlib.contextmanager
+def replaced_in(folder: str | Path) -> Iterator[Path]:
+    """A temporary folder inside ``folder`` for a writer that names its own files (a figure's
+    ``out_dir / FIGURE``): each file it holds when the block ends is flushed and renamed into
+    ``folder`` (as :func:`replaced`); the temporary folder goes whatever the end.
+
+    Parameters
+    ----------
+    folder : str or Path
+        Where the files belong.
+
+    Yields
+    ------
+    Path
+        The temporary folder (its name calibench's own: :func:`is_temporary`).
+    """
+    folder = Path(folder)
+    tmp = Path(tempfile.mkdtemp(prefix=PREFIX, suffix=".d", dir=folder))
+    try:
+        yield tmp
+        for made in sorted(tmp.iterdir()):
+            path = folder / made.name
+            try:
+                _flush(made)
+                os.replace(made, path)
+            except OSError as e:
+                raise OSError(e.errno, e.strerror, str(path)) from None
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    _flush_folder(folder)
 
 
 def write_bytes(path: str | Path, data: bytes) -> None:

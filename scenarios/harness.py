@@ -11,6 +11,7 @@ import importlib
 from pathlib import Path
 
 from calibench.scenarios.report import Report
+from calibench.writing import replaced_in
 
 RRD = "run.rrd"
 FIGURE = "figure.png"  # every scenario's run figure has this one name, beside report.json
@@ -38,7 +39,8 @@ def write_outputs(
     """
     if out_dir is None:
         return report
-    importlib.import_module(f"{package}.figure").write_figure(out_dir, report, artifacts)
+    with replaced_in(out_dir) as tmp:  # the figure whole or not at all, never through a link
+        importlib.import_module(f"{package}.figure").write_figure(tmp, report, artifacts)
     if rrd:
         importlib.import_module(f"{package}.viewer").log_run(out_dir / RRD, report, artifacts)
         report.rrd = RRD

@@ -17,7 +17,7 @@ import numpy as np
 from calibench.estimators.stage import iso230_2
 from calibench.recordings import RecordingError, load_axis_run
 from calibench.scenarios.report import BadInput
-from calibench.writing import write_text
+from calibench.writing import replaced, write_text
 
 PER_TARGET = (
     "mean_up",
@@ -115,7 +115,8 @@ def run_iso230(path: Path, out_dir: Path) -> dict:
         raise BadInput(msg if str(path) in msg else f"{path}: {msg}") from None
     out_dir.mkdir(parents=True, exist_ok=True)
     write_text(out_dir / "iso230.json", json.dumps(result, indent=2) + "\n")
-    figure(out_dir / "iso230.png", result)
+    with replaced(out_dir / "iso230.png") as tmp:
+        figure(tmp, result)
     return result
 
 

@@ -15,12 +15,21 @@ half second they take to load.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import errno
+import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
-import rerun as rr
+
+# rerun's own log lines (coloured, several for one failed write) are not calibench's answer:
+# a failure to write is raised and said in one line
+os.environ.setdefault("RUST_LOG", "off")
+import rerun as rr  # noqa: E402
+
+from calibench.writing import replaced  # noqa: E402
 
 if TYPE_CHECKING:
     import trimesh
@@ -106,18 +115,48 @@ def send_layout(rec: rr.RecordingStream, columns: list[list[View]], timeline: st
     rec.send_blueprint(blueprint(columns, timeline), make_active=True, make_default=True)
 
 
+# each open recording's (temporary file, its name): written beside, renamed when closed whole
+_WRITING: dict[int, tuple[contextlib.AbstractContextManager[Path], Path, Path]] = {}
+
+
 def open_recording(path: Path, application_id: str) -> rr.RecordingStream:
-    """A recording stream that writes to ``path`` (an .rrd file)."""
+    """A recording stream that writes to ``path`` (an .rrd file), whole or not at all: to a
+    temporary file beside it, renamed by :func:`close`."""
     rec = rr.RecordingStream(application_id, recording_id=f"{application_id}-{path.parent.name}")
-    rec.save(str(path))
+    writing = replaced(path)
+    tmp = writing.__enter__()
+    _WRITING[id(rec)] = (writing, tmp, path)
+    rec.save(str(tmp))
     rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
     return rec
 
 
 def close(rec: rr.RecordingStream) -> None:
-    """Flush and close the recording."""
-    rec.flush()
+    """Flush and close the recording, and put it in place; OSError where rerun's writer stopped
+    (a full disk, a file-size limit: its own messages are silenced, RUST_LOG above)."""
+    writing, tmp, path = _WRITING.pop(id(rec))
+    try:
+        rec.flush()
+    except RuntimeError:  # rerun says only that its file writer stopped: the disk says why
+        rec.disconnect()
+        code = _why_unwritten(tmp)
+        tmp.unlink(missing_ok=True)
+        raise OSError(code, os.strerror(code), str(path)) from None
     rec.disconnect()
+    writing.__exit__(None, None, None)
+
+
+def _why_unwritten(tmp: Path) -> int:
+    """The errno of a recording rerun could not write: a full disk, a file-size limit, or EIO."""
+    import resource
+
+    st = os.statvfs(tmp.parent)
+    if st.f_bavail * st.f_frsize < 1 << 20:
+        return errno.ENOSPC
+    limit = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+    if limit != resource.RLIM_INFINITY and tmp.stat().st_size >= limit - (1 << 16):
+        return errno.EFBIG
+    return errno.EIO
 
 
 def set_step(rec: rr.RecordingStream, timeline: str, step: int) -> None:

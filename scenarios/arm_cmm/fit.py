@@ -63,7 +63,7 @@ from calibench.scenarios.arm_cmm.training import (
 from calibench.scenarios.provenance import chose_by_effects, chose_or_none, entry, record_score
 from calibench.scenarios.report import BadInput
 from calibench.scenes.arm_cmm import DEFAULT_ARM, ArmDescription
-from calibench.writing import write_text
+from calibench.writing import replaced, write_text
 
 # what other modules read from here (sessions, the benchmarks, the README's figures)
 __all__ = ["MAX_ROWS", "REGISTER_FRACTION", "SPLIT_SEED", "run_arm_fit"]
@@ -149,7 +149,8 @@ def run_arm_fit(
     out_dir.mkdir(parents=True, exist_ok=True)
     write_text(out_dir / "fit.json", json.dumps(result, indent=2) + "\n")
     write_residuals(out_dir / "residuals.csv", out.residuals, e_fit)
-    write_fit_figure(out_dir / "fit.png", result, out.figures)
+    with replaced(out_dir / "fit.png") as tmp:
+        write_fit_figure(tmp, result, out.figures)
     return result
 
 

@@ -19,9 +19,11 @@ import numpy as np
 
 from calibench.scenarios.belt_stage.scenario import BeltStageConfig
 from calibench.scenarios.belt_stage.views import record_views
+from calibench.scenarios.cvplot import write_png
 from calibench.scenes.camera import PinholeCamera
 from calibench.sim.belt_stage import PULSES_PER_MM, BeltStageSim, intrinsic_view_poses
 from calibench.sim.frame_workers import frame_workers
+from calibench.writing import write_text
 
 
 def save_rendered_views(config: BeltStageConfig, seed: int, folder: Path) -> dict:
@@ -63,7 +65,7 @@ def save_rendered_views(config: BeltStageConfig, seed: int, folder: Path) -> dic
     for views_of, true in ((calib, calib_true), (stations, station_true)):
         assert views_of.images is not None  # rendered, not windowed: every image kept
         for name, img, corners in zip(views_of.names, views_of.images, true):
-            cv2.imwrite(str(folder / f"{name}.png"), cv2.cvtColor(img, cv2.COLOR_RGB2BGR))
+            write_png(folder / f"{name}.png", cv2.cvtColor(img, cv2.COLOR_RGB2BGR))
             views[f"{name}.png"] = np.asarray(corners).round(4).tolist()
     truth = {
         "camera": _camera(g.camera),
@@ -76,7 +78,7 @@ def save_rendered_views(config: BeltStageConfig, seed: int, folder: Path) -> dic
         "seed": seed,
         "corners_px": views,
     }
-    (folder / "truth.json").write_text(json.dumps(truth, indent=1) + "\n")
+    write_text(folder / "truth.json", json.dumps(truth, indent=1) + "\n")
     return truth
 
 

@@ -46,6 +46,8 @@ from calibench.scenarios.cli.folders import (
 from calibench.scenarios.study.journal import STUDY_LOCK, study_running
 from calibench.writing import is_temporary, write_text
 
+# outputs whose writers still write in place, through a link at the name: refused there
+IN_PLACE = ("intrinsics.json",)
 # the files whose writing makes a command's results: its main file, and a study's summary (a
 # figure or a recording written before them is a part, a study's description or empty journal none)
 RESULTS = (*(name for name in MAIN_FILE if name != "study.json"), "summary.json")
@@ -147,8 +149,10 @@ def release(held: list[Claim], reraise: bool = False) -> None:
 
 def _check(folder: Path, command: str, scenario: str | None, force: bool) -> None:
     """BadInput unless the command may write in ``folder``."""
-    links = [name for name in (*OUTPUTS, CLAIM) if os.path.islink(folder / name)]
-    if links:  # written through, a user's file elsewhere would be overwritten
+    # calibench.writing replaces a link at an output's name, never follows it; these would be
+    # followed (the claim's own folder, an output still written in place by its writer)
+    links = [name for name in (CLAIM, *IN_PLACE) if os.path.islink(folder / name)]
+    if links:
         raise BadInput(
             f"--out {folder}: {links[0]} is a symbolic link; calibench neither writes through a "
             "link nor replaces one: remove it or give another --out"
@@ -190,7 +194,9 @@ def _settle(folder: Path) -> str | None:
     """
     state = folder / CLAIM
     for left in os.listdir(folder):  # a write cut off by a kill: never a result
-        if is_temporary(left):
+        if is_temporary(left) and (folder / left).is_dir() and not (folder / left).is_symlink():
+            shutil.rmtree(folder / left, ignore_errors=True)
+        elif is_temporary(left):
             (folder / left).unlink(missing_ok=True)
     if is_file(state):  # no claim's: in the way of the next
         state.unlink()

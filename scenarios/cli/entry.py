@@ -64,6 +64,7 @@ def main(argv: list[str] | None = None) -> int:
         # the command ends in bad input and they are still empty)
         created.append(folders.writable_folder(getattr(args, "out", None)))
         created.append(folders.writable_folder(getattr(args, "save_images", None), "--save-images"))
+        folders.views_folder_free(getattr(args, "save_images", None))
         _claim(args, held)
         verb = {
             "run": verbs.run,
@@ -188,6 +189,8 @@ def _said_as_bad_input(e: Exception) -> str | None:
             f"a file grew past this system's file-size limit{where} (ulimit -f): raise the limit "
             f"and rerun ({kept})"
         )
+    if isinstance(e, OSError) and e.filename and e.errno in _UNWRITABLE:  # the folder's, not ours
+        return f"cannot write {e.filename}: {e.strerror}"
     if isinstance(e, MemoryError):
         return (
             "out of memory: the input is too large for this machine's memory (or a memory limit "
@@ -238,6 +241,11 @@ def _internal_error(e: Exception, out: Path | None) -> int:
         file=sys.stderr,
     )
     return EXIT_INTERNAL
+
+
+# an output that could not be written for the file system's reasons (a folder made read-only or
+# removed meanwhile, a failing disk)
+_UNWRITABLE = (errno.EACCES, errno.EPERM, errno.EROFS, errno.EIO, errno.ENAMETOOLONG)
 
 
 def _dask_lost(e: BaseException) -> bool:

@@ -263,3 +263,32 @@ def _same(a: Path, b: Path) -> bool:
         return a.samefile(b)
     except OSError:
         return False
+
+
+_VIEW = re.compile(r"view\d+\.png|x-?[\d.e+-]+_y-?[\d.e+-]+\.png|truth\.json")  # --save-images's
+
+
+def views_folder_free(folder: Path | None) -> None:
+    """BadInput unless ``run --save-images``'s folder is empty of the names it writes, or holds a
+    former ``--save-images``'s views (its truth.json calibench's by content): a user's own
+    truth.json or view00.png is never replaced, nor written through a link."""
+    if folder is None or not folder.is_dir():
+        return
+    taken = sorted(n for n in os.listdir(folder) if _VIEW.fullmatch(n))
+    links = [n for n in taken if (folder / n).is_symlink()]
+    if links:
+        raise BadInput(
+            f"--save-images {folder}: {links[0]} is a symbolic link; calibench neither writes "
+            "through a link nor replaces one: remove it or give another folder"
+        )
+    try:
+        truth = json.loads((folder / "truth.json").read_bytes())
+        ours = isinstance(truth, dict) and {"camera", "board", "seed", "corners_px"} <= truth.keys()
+    except (OSError, ValueError):
+        ours = False
+    if taken and not ours:
+        raise BadInput(
+            f"--save-images {folder} holds {', '.join(taken[:3])}, named as the views calibench "
+            "writes but not written by `calibench run belt-stage --save-images` (no truth.json "
+            "of its own): give another folder, or remove them"
+        )

@@ -5,6 +5,7 @@ prints what the user reads on the console and returns the exit status (bad input
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import time
 from pathlib import Path
@@ -100,7 +101,12 @@ def run(args: argparse.Namespace) -> int:
             failed.append(s.name)
     if args.save_images is not None:
         from calibench.scenarios.belt_stage.images import save_rendered_views
+        from calibench.writing import write_text
 
+        # the folder known as the views' from their start (a save cut off is resumed by the next),
+        # and no former truth.json left to vouch for views half replaced
+        stub = {"camera": None, "board": None, "seed": args.seed, "corners_px": {}}
+        write_text(args.save_images / "truth.json", json.dumps({**stub, "note": "being written"}))
         truth = save_rendered_views(configs[args.scenario], args.seed, args.save_images)
         print(
             f"-> {args.save_images}: {len(truth['corners_px'])} rendered views and truth.json "

@@ -42,7 +42,7 @@ from calibench.scenarios.discover.twin_merge import split_confirmed, twin_note
 from calibench.scenarios.progress import stage
 from calibench.scenarios.provenance import entry
 from calibench.scenarios.report import BadInput
-from calibench.writing import write_text
+from calibench.writing import replaced, write_text
 
 # Rows per recording: the candidates' design matrices grow with it (a 1e6-row stage recording
 # would need tens of GB); refused before any work, with the advice to decimate.
@@ -226,7 +226,8 @@ def run_discover(
     out_dir.mkdir(parents=True, exist_ok=True)
     write_text(out_dir / "discovery.json", json.dumps(out, indent=2, default=json_default) + "\n")
     stage("drawing discovery.png")
-    write_figure(out_dir / "discovery.png", out, fig, before)
+    with replaced(out_dir / "discovery.png") as tmp:
+        write_figure(tmp, out, fig, before)
     return out
 
 

@@ -3,27 +3,13 @@ study.rrd."""
 
 from __future__ import annotations
 
-import contextlib
 import json
-import os
 from pathlib import Path
 
 from calibench.scenarios.study.figure import write_study_figure
 from calibench.scenarios.study.journal import row_keys
 from calibench.scenarios.study.summary import checks_table, summary_table
-
-
-@contextlib.contextmanager
-def replaced(path: Path):
-    """A temporary name beside ``path`` to write to, renamed over ``path`` when the block ends
-    (an interrupted write leaves the old file whole; a symbolic link planted at ``path`` is
-    replaced, not followed out of the folder). The temporary file goes if the block fails."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        yield tmp
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
+from calibench.writing import replaced
 
 
 def write_outputs(out_dir: Path, rows: list[dict], summary: dict) -> None:
