@@ -325,3 +325,56 @@ def check_camera(cam, where: str) -> None:
             f"{how}{'' if np.all(det > 0) else ' and folds the image'}"
             f": a calibratable lens bends them by at most {MAX_LENS_BEND:.0%}, one-to-one"
         )
+
+
+# MuJoCo's own GL backends on Linux (mujoco/rendering/classic/gl_context.py): any other value of
+# MUJOCO_GL makes ``import mujoco`` itself raise, whatever the command
+GL_OFF = ("disable", "disabled", "off", "false", "0")
+GL_WINDOWED = ("enable", "enabled", "on", "true", "1", "glfw", "", "glx")  # need a display
+MUJOCO_GL_VALUES = GL_OFF + GL_WINDOWED + ("egl", "osmesa")
+
+
+def check_mujoco_gl(renders: bool = False) -> None:
+    """BadInput when the environment's ``MUJOCO_GL`` is no backend MuJoCo knows, or OSMesa
+    without its library: ``import mujoco`` would raise (an internal error's exit 3). With
+    ``renders`` (a command that will render), also a backend that renders nothing here:
+    rendering disabled, or a window system's (GLFW, GLX) without a display. Call it before MuJoCo
+    is first imported; what still fails is said where the first context is made
+    (:func:`calibench.sim.offscreen.no_gl_context`)."""
+    import os
+
+    said = os.environ.get("MUJOCO_GL")
+    if said is None:
+        return
+    value = said.lower().strip()
+    if renders and value in GL_OFF:
+        raise BadInput(
+            f"MUJOCO_GL={said!r} disables rendering, and this run renders: set MUJOCO_GL=egl "
+            "(Mesa renders offscreen on the CPU, no display needed), or run with --fidelity "
+            "analytic"
+        )
+    windowed = value in MUJOCO_GL_VALUES[5:13] or value == "glx"
+    if (
+        renders
+        and windowed
+        and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+    ):
+        raise BadInput(
+            f"MUJOCO_GL={said!r} renders through a window system, and there is no display "
+            "(DISPLAY is not set): set MUJOCO_GL=egl (Mesa renders offscreen on the CPU), or run "
+            "with --fidelity analytic"
+        )
+    if value not in MUJOCO_GL_VALUES:
+        raise BadInput(
+            f"MUJOCO_GL={said!r} is not a MuJoCo GL backend: set MUJOCO_GL=egl (Mesa renders "
+            "offscreen on the CPU, no display needed), or osmesa or glfw where those work"
+        )
+    if value == "osmesa":
+        import ctypes.util
+
+        # PyOpenGL loads the library as MuJoCo is imported, and fails there without it
+        if ctypes.util.find_library("OSMesa") is None:
+            raise BadInput(
+                "MUJOCO_GL='osmesa' but the OSMesa library is not installed: set MUJOCO_GL=egl "
+                "(Mesa renders offscreen on the CPU, no display needed), or install libosmesa"
+            )

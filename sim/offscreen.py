@@ -9,10 +9,13 @@ The render contexts of a thread are made in one GL context, kept for the process
 
 from __future__ import annotations
 
+import os
 import threading
 
 import mujoco
 import numpy as np
+
+from calibench.errors import BadInput
 
 # This thread's GL contexts, kept for the process: MuJoCo's render contexts are made in one after
 # another, as a study worker's trials make theirs (a fresh GL context's first render context
@@ -32,6 +35,19 @@ def _gl_context(width: int, height: int) -> mujoco.GLContext:
     if gl is None:
         gl = contexts[key] = mujoco.GLContext(width, height)
     return gl
+
+
+def no_gl_context(e: BaseException) -> BadInput:
+    """The bad input where no offscreen GL context could be made: the environment's MUJOCO_GL
+    (garbage, empty, ``glfw`` without a display, ``osmesa`` without its library, ``disable``),
+    said with what to set. ``e``: the backend's own failure, quoted in short."""
+    said = os.environ.get("MUJOCO_GL")
+    why = (str(e).strip().splitlines() or [type(e).__name__])[-1][:100]
+    backend = "MUJOCO_GL unset" if said is None else f"MUJOCO_GL={said!r}"
+    return BadInput(
+        f"cannot render offscreen with {backend} ({why}): set MUJOCO_GL=egl (Mesa renders on "
+        "the CPU, no display needed), or run with --fidelity analytic"
+    )
 
 
 def _renderer_name() -> str:
@@ -74,8 +90,11 @@ class Offscreen:
     def __init__(self, model: mujoco.MjModel, max_geom: int = 10000):
         self.model = model
         self.max_size = (int(model.vis.global_.offwidth), int(model.vis.global_.offheight))
-        self._gl = _gl_context(*self.max_size)
-        self._gl.make_current()
+        try:
+            self._gl = _gl_context(*self.max_size)
+            self._gl.make_current()
+        except Exception as e:  # noqa: BLE001 - every backend fails in its own words
+            raise no_gl_context(e) from None
         # no light casts a shadow, so no shadow pass: the shadow map (4096 px square by default)
         # would be allocated for nothing, and it was most of a render context's cost; MuJoCo
         # reads the size only here, so the caller's model keeps its own
@@ -84,6 +103,11 @@ class Offscreen:
             model.vis.quality.shadowsize = 0
         try:
             self._context = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_150.value)
+        except mujoco.FatalError as e:
+            # GLFW without a display "makes" a context that is none: MuJoCo finds out here
+            if "OpenGL" not in str(e):
+                raise
+            raise no_gl_context(e) from None
         finally:
             model.vis.quality.shadowsize = shadow
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, self._context)
