@@ -15,6 +15,10 @@ MAX_ROWS = 1_000_000
 # room (actual_mm to 3 decimals is up to 0.5 um off, deviation_um's own rounding besides), not
 # a second reading's
 AGREE_UM = 1.0
+# mm: the farthest target of an axis. No machine's axis is a kilometre long, and float64 keeps
+# a deviation's digits only near the target's scale (at 1e12 mm, actual_mm - target_mm is
+# 0.1 um coarse; at a kilometre, 1e-7 um); a target beyond is a wrong unit or a corrupt value
+MAX_TARGET_MM = 1e6
 
 
 def load_axis_run(path: str | Path) -> AxisRun:
@@ -34,13 +38,21 @@ def load_axis_run(path: str | Path) -> AxisRun:
     Raises
     ------
     RecordingError
-        A missing column, a direction other than +1 / -1, a deviation over a metre, over
-        :data:`MAX_ROWS` readings.
+        A missing column, a direction other than +1 / -1, a target beyond
+        :data:`MAX_TARGET_MM`, a deviation over a metre, over :data:`MAX_ROWS` readings.
     """
     path = Path(path)
     cols, line = read_columns(
         path, ("target_mm", "run", "direction"), ("deviation_um", "actual_mm"), MAX_ROWS
     )
+    far = np.abs(cols["target_mm"]) > MAX_TARGET_MM
+    if far.any():
+        bad = int(np.argmax(far))
+        raise RecordingError(
+            f"{path} line {line[bad]}: target_mm is {cols['target_mm'][bad]:.3g}, over a "
+            "kilometre: no machine's axis (a wrong unit or a corrupt value), and float64 would "
+            "keep no micrometre of its deviation"
+        )
     if "deviation_um" in cols:
         dev = cols["deviation_um"]
         if "actual_mm" in cols:  # both given: they must say the same, else which one is meant?

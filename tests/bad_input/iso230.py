@@ -5,6 +5,21 @@ See tests/test_bad_input.py, which runs every case.
 
 from __future__ import annotations
 
+
+def _run(targets, column="deviation_um"):
+    """A bidirectional run, 2 passes each way, at ``targets`` (mm): its deviations 1-4 um, as
+    ``deviation_um`` or as ``actual_mm``."""
+    rows = [f"target_mm,run,direction,{column}"]
+    for k, t in enumerate(targets):
+        for run in (1, 2):
+            for d in (1, -1):
+                dev = 1 + k % 2 + run + (d < 0)
+                rows.append(
+                    f"{t!r},{run},{d},{dev if column == 'deviation_um' else t + dev / 1000!r}"
+                )
+    return "\n".join(rows) + "\n"
+
+
 # (id, files to write {name: text or bytes or callable(path)}, argv with {d} for the case folder,
 #  expected exit status, a fragment the message must contain)
 CASES = [
@@ -96,6 +111,28 @@ CASES = [
                 for t in (0, 100, 200)
             )
         },
+        ["iso230", "{d}/r.csv", "--out", "{d}/o"],
+        0,
+        "",
+    ),
+    # issue 62, item 8: targets far beyond any axis were taken, their deviations' digits lost
+    (
+        "iso-target-1e15-mm",
+        {"r.csv": _run([0.0, 5e14, 1e15])},
+        ["iso230", "{d}/r.csv"],
+        2,
+        "target_mm is 5e+14, over a kilometre",
+    ),
+    (  # actual_mm - target_mm at 1e12 mm is 0.1 um coarse: the deviation silently rounded
+        "iso-target-1e12-mm-actual",
+        {"r.csv": _run([1e12, 1e12 + 100, 1e12 + 200], column="actual_mm")},
+        ["iso230", "{d}/r.csv"],
+        2,
+        "float64 would keep no micrometre",
+    ),
+    (  # a long axis within the bound is evaluated
+        "iso-a-ten-metre-axis",
+        {"r.csv": _run([0.0, 5000.0, 10000.0], column="actual_mm")},
         ["iso230", "{d}/r.csv", "--out", "{d}/o"],
         0,
         "",
