@@ -35,7 +35,8 @@ def load_stage_csv(path: str | Path, max_rows: int | None = None) -> StageRecord
     RecordingError
         One clear message for any defect: a missing column, a value that is not a number or not
         finite, a coordinate beyond 50 m or every one within 2 mm (micrometres, metres), a
-        measured axis that does not follow its commanded one, a direction other than -1, 0, +1.
+        measured axis that does not follow its commanded one, a direction other than -1, 0, +1,
+        a run column that makes most rows a pass of their own.
     """
     cols, line = read_columns(path, StageRecording.REQUIRED, StageRecording.OPTIONAL, max_rows)
     for name in StageRecording.REQUIRED:
@@ -53,6 +54,7 @@ def load_stage_csv(path: str | Path, max_rows: int | None = None) -> StageRecord
             "metres? the format wants millimetres (x_cmd_mm, ...)"
         )
     _measured_follow_commanded(path, cols)
+    _passes_hold_rows(path, cols)
     for name in ("dir_x", "dir_y"):
         if name in cols and not np.isin(cols[name], (-1.0, 0.0, 1.0)).all():
             i = int(np.argmax(~np.isin(cols[name], (-1.0, 0.0, 1.0))))
@@ -84,6 +86,23 @@ def _measured_follow_commanded(path, cols: dict) -> None:
                 "measured positions do not follow the commanded ones (a frozen reading, x and y "
                 "swapped, another unit or frame?)"
             )
+
+
+def _passes_hold_rows(path, cols: dict) -> None:
+    """RecordingError when the ``run`` column makes most rows a pass of their own (more passes
+    than half the rows: a row index exported as the pass id). Refused rather than read as no
+    passes: the file says something of its structure that is not so, and ``discover`` held out
+    "a pass" that was one row, calling an effect confirmed by leaving one pass out."""
+    run = cols.get("run")
+    if run is None or len(run) < 4:
+        return
+    passes = len(np.unique(run))
+    if 2 * passes > len(run):
+        raise RecordingError(
+            f"{path}: column run names {passes} passes for {len(run)} rows, most of them a row "
+            "of its own (a row index?); a pass is one traverse over several stations: give its "
+            "id, or drop the column if the recording has no passes"
+        )
 
 
 def repeated_pass(rec: StageRecording) -> str | None:

@@ -413,4 +413,21 @@ CASES = [
         2,
         "line 82: an angle of 9.9e+09 deg in rx/ry/rz, where the other rows are in range",
     ),
+    # issue 62, item 8: run set to the row index: each "pass" one row, both effects "confirmed
+    # by leaving one pass out"
+    (
+        "discover-run-is-the-row-index",
+        {
+            "r.csv": lambda p: p.write_text(
+                "\n".join(
+                    line + ("," + ("run" if k == 0 else str(k)))
+                    for k, line in enumerate(stage_csv().splitlines())
+                )
+                + "\n"
+            )
+        },
+        ["discover", "belt-stage", "{d}/r.csv"],
+        2,
+        "column run names 36 passes for 36 rows",
+    ),
 ]
