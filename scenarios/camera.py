@@ -262,7 +262,7 @@ def _read_gray(path: Path) -> tuple[np.ndarray | None, str]:
     A photo over :data:`MAX_PIXELS`, in any format, is refused by OpenCV itself between reading
     its header and allocating its pixels (``OPENCV_IO_MAX_IMAGE_PIXELS``, set by
     :mod:`calibench` before cv2 loads); a file over :data:`MAX_FILE_BYTES`, or in a format other
-    than :data:`PHOTO_SIGNATURES`', before it is read or decoded.
+    than :data:`PHOTO_SIGNATURES` (and WebP), before it is decoded.
     """
     try:
         if path.stat().st_size > MAX_FILE_BYTES:

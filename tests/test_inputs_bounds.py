@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.bad_input.camera import _filled_jpeg, _tiff
+from tests.bad_input.camera import filled_jpeg, tiff_header
 
 MB = 1024  # ru_maxrss is in KiB on Linux
 LIMIT_KB = 600 * MB
@@ -43,10 +43,10 @@ def _command(args: list[str], cwd: Path, timeout: float = 120) -> tuple[int, str
 @pytest.mark.parametrize(
     "name, make",
     [
-        ("big.tiff", _tiff),  # a deflate TIFF of 14000 x 14000 px: 1.1 GB decoded
-        ("fill.jpg", _filled_jpeg),  # 9000 x 9000, a fill byte before the frame header
+        ("big.tiff", tiff_header),  # a deflate TIFF of 14000 x 14000 px: 1.1 GB decoded
+        ("fill.jpg", filled_jpeg),  # 9000 x 9000, a fill byte before the frame header
         ("big.pgm", lambda p: p.write_bytes(b"P5\n9000 9000\n255\n" + bytes(81_000_000))),
-        ("tiles.tiff", lambda p: _tiff(p, 16, 16, tile=11520)),  # OpenCV allocated a tile
+        ("tiles.tiff", lambda p: tiff_header(p, 16, 16, tile=11520)),  # OpenCV allocated a tile
     ],
 )
 def test_an_image_over_the_bound_is_refused_in_one_line_under_600_mb(tmp_path, name, make):

@@ -33,7 +33,7 @@ def _truncated_jpeg(path):
     path.write_bytes(data[: len(data) // 2])
 
 
-def _tiff(path, width=14000, height=14000, tile=0, compression=8):
+def tiff_header(path, width=14000, height=14000, tile=0, compression=8):
     """A TIFF's header and one tiny strip (or tile): 16-bit RGBA, ``width`` x ``height``, and
     tiles of ``tile`` x ``tile`` where given. What the decoder allocates is what it declares."""
     import struct
@@ -72,7 +72,7 @@ def _png_header(width, height):
     return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", idat) + chunk(b"IEND", b"")
 
 
-def _filled_jpeg(path, side=9000):
+def filled_jpeg(path, side=9000):
     """A JPEG whose frame header says ``side`` x ``side``, one 0xFF fill byte before it (legal,
     and what a header parser that expects a marker at once misses)."""
     import cv2
@@ -280,7 +280,7 @@ CASES = [
     # issue 62, item 3: one bound on decoded pixels, OpenCV's own, for every format
     (  # a 644 KB deflate TIFF of 14000 x 14000 decoded to 1.1 GB
         "camera-tiff-too-many-pixels",
-        {"big.tiff": _tiff},
+        {"big.tiff": tiff_header},
         _one("big.tiff"),
         2,
         "big.tiff: more than 32 megapixels",
@@ -294,14 +294,14 @@ CASES = [
     ),
     (  # a fill byte before the frame header hid the size from the former header parser
         "camera-jpeg-fill-byte-too-many-pixels",
-        {"fill.jpg": _filled_jpeg},
+        {"fill.jpg": filled_jpeg},
         _one("fill.jpg"),
         2,
         "fill.jpg: more than 32 megapixels",
     ),
     (  # 16 x 16 pixels in tiles of 11520 x 11520: OpenCV allocated the tile, 550 MB
         "camera-tiff-huge-tiles",
-        {"tiles.tiff": lambda p: _tiff(p, 16, 16, tile=11520)},
+        {"tiles.tiff": lambda p: tiff_header(p, 16, 16, tile=11520)},
         _one("tiles.tiff"),
         2,
         "declaring tiles of 11520 x 11520",
