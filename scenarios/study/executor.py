@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import contextlib
+import logging
 import multiprocessing
 import os
 import re
@@ -192,6 +193,11 @@ def make_executor(
 
         executor = client.get_executor()
         executor.dask_workers = len(client.scheduler_info().get("workers", {}))
+        executor.workers_now = lambda: len(client.scheduler_info().get("workers", {}))
+        # a scheduler gone mid-study is said in one line (cluster_result), not in Dask's dozens
+        for name in ["distributed", *logging.root.manager.loggerDict]:  # each has its own level
+            if name.split(".")[0] == "distributed":
+                logging.getLogger(name).setLevel(logging.CRITICAL)
         return executor, close_client
     n = workers or os.cpu_count() or 1
     # The workers' environment, for the pool's life only (a program this one starts later keeps
@@ -232,3 +238,49 @@ def make_executor(
         ex.shutdown(wait=True, cancel_futures=True)
 
     return ex, close
+
+
+NO_WORKERS_S = 60.0  # an adaptive cluster may have none for a moment while it scales
+LOST = (
+    "the Dask cluster went away mid-study ({why}): finished trials are kept; start its "
+    "scheduler and workers again and rerun the same command to resume"
+)
+
+
+def cluster_result(fut: cf.Future):
+    """A finished future's result; BadInput where a Dask cluster lost it (its scheduler killed:
+    the future cancelled, the connection closed), which is the environment's end, not a trial's.
+    """
+    try:
+        return fut.result()
+    except cf.CancelledError:
+        raise BadInput(LOST.format(why="its scheduler stopped")) from None
+    except OSError as e:
+        if type(e).__name__ != "CommClosedError":  # Dask's: the scheduler's connection closed
+            raise
+        raise BadInput(LOST.format(why="its scheduler stopped")) from None
+
+
+class WorkersGone:
+    """Watches a Dask cluster's workers while a study waits on it: a cluster with none for
+    :data:`NO_WORKERS_S` is said in one line (BadInput) instead of waiting silently for ever;
+    a local pool is never watched."""
+
+    def __init__(self, executor):
+        self.count = getattr(executor, "workers_now", None)
+        self.since: float | None = None
+
+    def check(self) -> None:
+        """BadInput once the cluster has had no worker for :data:`NO_WORKERS_S`."""
+        if self.count is None:
+            return
+        try:
+            n = self.count()
+        except Exception:  # noqa: BLE001 - the scheduler unreachable: its futures say so
+            return
+        if n:
+            self.since = None
+            return
+        self.since = self.since or time.monotonic()
+        if time.monotonic() - self.since > NO_WORKERS_S:
+            raise BadInput(LOST.format(why=f"no worker left for {NO_WORKERS_S:g} s"))

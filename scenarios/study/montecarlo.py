@@ -21,7 +21,12 @@ from pathlib import Path
 
 from calibench.errors import BadInput
 from calibench.scenarios.progress import Progress, advance, expect, stage
-from calibench.scenarios.study.executor import interrupt_flag, make_executor
+from calibench.scenarios.study.executor import (
+    WorkersGone,
+    cluster_result,
+    interrupt_flag,
+    make_executor,
+)
 from calibench.scenarios.study.journal import (
     load_journal,
     open_journal,
@@ -284,13 +289,15 @@ def _run_todo(
                 for j in range(0, len(todo), k)
             ]
             pending = set(futures)
+            alone = WorkersGone(executor)
             while pending:
                 if stop.is_set():
                     raise KeyboardInterrupt
+                alone.check()
                 finished, pending = cf.wait(pending, timeout=0.2, return_when=cf.FIRST_COMPLETED)
                 for fut in sorted(finished, key=futures.index):
-                    for row in fut.result():
+                    for row in cluster_result(fut):
                         journal.write(json.dumps(row) + "\n")
                         done[row["trial"]] = row
                     journal.flush()
-                    advance(len(fut.result()))
+                    advance(len(cluster_result(fut)))
