@@ -35,6 +35,8 @@ MIN_COUNT = {
     "width": 16,
     "height": 16,
     "align_max_turns": 0,
+    # the probe scanner judges its paper's method by the method's scatter over these turns
+    "sweep_turns": 5,
 }
 MAX_PIXELS = 8192  # a camera side
 # Lists that are a point, a pair or a model's coefficients (other lists: as long as you like)

