@@ -2,15 +2,20 @@
 
 A command claims its folder before writing any output (:func:`claim`) and releases it whatever its
 end (:func:`release`). One command writes in a folder at a time (:data:`LOCK`). The claim writes the
-folder's :data:`~calibench.scenarios.cli.folders.MARK` at once, so an interrupted first run's folder
-is still known as calibench's. ``--force`` does not delete the results it replaces: it sets them
-aside in :data:`CLAIM`, and the release discards them only if the command wrote results of its own;
-a command that wrote none (refused as bad input, interrupted, crashed) leaves the folder's results
-and mark as it found them; one that replaced results (a second ``fit`` in its folder, or forced)
-says so in one line at its release. A claim left by a command killed outright is settled by the next
-command in that folder, as its release would have. A folder outside ``calibench-out`` that no
-command marked, holding files by an output's name (a paper's ``x_axis_error_mm.csv``), is a
-user's: refused, ``--force`` or not.
+folder's :data:`~calibench.scenarios.cli.folders.MARK` at once (the former mark set aside by a
+rename, the new one written whole), so an interrupted first run's folder is still known as
+calibench's. ``--force`` does not delete the results it replaces: it sets them aside in
+:data:`CLAIM`, and the release discards them only if the command wrote results of its own, whole
+(every output is written whole, :mod:`calibench.writing`; a result that cannot be told from a torn
+one counts as none and is removed); a command that wrote none (refused as bad input, interrupted,
+crashed, stopped by a full disk) leaves the folder's results and mark as it found them; one that
+replaced results (a second ``fit`` in its folder, or forced) says so in one line at its release.
+A claim left by a command killed outright, and its writes' temporary files, are settled by the
+next command in that folder, as its release would have. A folder outside ``calibench-out`` that no
+command marked, holding files by an output's name (a paper's ``x_axis_error_mm.csv``, a user's
+own report.json or error.log), is a user's: refused, ``--force`` or not, unless its main file's
+content is a result of calibench's (a folder written before the mark). A link at an output's name
+is replaced by the output, never followed; the lock and the mark are never opened through one.
 """
 
 from __future__ import annotations
@@ -219,13 +224,14 @@ def _settle(folder: Path) -> str | None:
             torn = name in now and found.get(name) != now[name]
             if (name not in present or torn) and name not in LOGS and is_file(folder / name):
                 (folder / name).unlink()
+        aside = is_file(state / MARK)  # the former mark, set aside whole (a claim of before: text)
         for path in state.iterdir():
             kept = path.name in LOGS and is_file(folder / path.name)
             if path.name != "claim.json" and not kept:
                 path.rename(folder / path.name)
         if mark is None:
             (folder / MARK).unlink(missing_ok=True)
-        elif not is_file(state / MARK) and not is_file(folder / MARK):  # a claim of before
+        elif not aside:
             write_text(folder / MARK, mark)
     shutil.rmtree(state, ignore_errors=True)
     return replaced

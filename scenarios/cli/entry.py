@@ -190,7 +190,7 @@ def _said_as_bad_input(e: Exception) -> str | None:
             f"and rerun ({kept})"
         )
     if isinstance(e, OSError) and e.filename and e.errno in _UNWRITABLE:  # the folder's, not ours
-        return f"cannot write {e.filename}: {e.strerror}"
+        return f"{e.filename}: {e.strerror} (the file system's answer: check the folder's rights)"
     if isinstance(e, MemoryError):
         return (
             "out of memory: the input is too large for this machine's memory (or a memory limit "
@@ -243,8 +243,8 @@ def _internal_error(e: Exception, out: Path | None) -> int:
     return EXIT_INTERNAL
 
 
-# an output that could not be written for the file system's reasons (a folder made read-only or
-# removed meanwhile, a failing disk)
+# a file that could not be written or read for the file system's reasons (a folder made read-only
+# meanwhile, a failing disk)
 _UNWRITABLE = (errno.EACCES, errno.EPERM, errno.EROFS, errno.EIO, errno.ENAMETOOLONG)
 
 

@@ -266,7 +266,7 @@ class WorkersGone:
     :data:`NO_WORKERS_S` is said in one line (BadInput) instead of waiting silently for ever;
     a local pool is never watched."""
 
-    def __init__(self, executor):
+    def __init__(self, executor: object) -> None:
         self.count = getattr(executor, "workers_now", None)
         self.since: float | None = None
 
