@@ -130,3 +130,34 @@ def test_an_output_keeps_the_folder_s_usual_mode(tmp_path):
     mask = os.umask(0)
     os.umask(mask)
     assert (tmp_path / "a.json").stat().st_mode & 0o777 == 0o666 & ~mask
+
+
+def test_sigkill_at_any_moment_of_a_forced_fit_leaves_old_or_new_results_whole(tmp_path):
+    """A forced fit killed outright at several moments (the mark set aside, the results moved, the
+    fit written): the next command in the folder finds the former iso230 results and their mark,
+    or the whole new fit with its own; never a torn file, never a temporary one."""
+    import signal
+    import time
+
+    run = _iso_run(tmp_path / "R.csv")
+    env = {**os.environ, "MUJOCO_GL": "egl", "CALIBENCH_PROGRESS": "off"}
+    seen = set()
+    for k, delay in enumerate((0.5, 0.9, 1.2, 1.5, 1.8, 2.4)):
+        out = tmp_path / f"d{k}"
+        assert main(["iso230", str(run), "--out", str(out)]) == 0
+        iso = (out / "iso230.json").read_bytes()
+        argv = [*CLI, "fit", "belt-stage", str(EXAMPLE), "--out", str(out), "--force"]
+        proc = subprocess.Popen(argv, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        time.sleep(delay)
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+        # the next command settles what the killed one left, as its release would have
+        assert main(["iso230", str(run), "--out", str(out)]) in (0, 2)
+        held = json.loads((out / MARK).read_text())["command"]
+        if held == "iso230":
+            assert (out / "iso230.json").read_bytes() == iso and not (out / "fit.json").exists()
+        else:
+            assert json.loads((out / "fit.json").read_text())["scenario"] == "belt-stage"
+        assert not _leftovers(out) and not (out / ".calibench-claim").exists()
+        seen.add(held)
+    assert "iso230" in seen, seen  # at least one kill landed before the fit was written
