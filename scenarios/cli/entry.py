@@ -53,8 +53,10 @@ def main(argv: list[str] | None = None) -> int:
     created: list[Path | None] = []
     held: list[claims.Claim] = []  # the folders this command claimed, released at its end
     old_term = _terminate_as_interrupt()
+    # a library's warnings (numpy's) said after a command that ends with its results; an end said
+    # in one line (bad input, interrupted, a defect) is that line alone
     caught = warnings.catch_warnings(record=True)
-    noted = caught.__enter__()  # said after the command's end, unless it ends in bad input's line
+    noted = caught.__enter__()
     warnings.simplefilter("default")
     try:
         _default_out(args)
@@ -86,6 +88,7 @@ def main(argv: list[str] | None = None) -> int:
             else ""
         )
         print(f"calibench: interrupted{kept}", file=sys.stderr)
+        noted.clear()
         return EXIT_INTERRUPTED
     except Exception as e:  # noqa: BLE001 - bad input is reported in one line
         from calibench.errors import BadInput
@@ -93,8 +96,8 @@ def main(argv: list[str] | None = None) -> int:
         said = _said_as_bad_input(e)
         if said is not None:
             e = BadInput(said)
+        noted.clear()
         if isinstance(e, BadInput):
-            noted.clear()  # one line: a library's warnings on the way there are not the answer
             print(f"calibench: {one_line(str(e))}", file=sys.stderr)
             claims.release(held)
             for made in created:
