@@ -22,8 +22,8 @@ def write_outputs(
 ) -> Report:
     """Write ``package``'s figure (``package.figure.write_figure(out_dir, report, artifacts)``)
     into ``out_dir``, and with ``rrd`` its rerun recording (``package.viewer.log_run``) as
-    ``out_dir/run.rrd`` (without, a former run's is removed); nothing when ``out_dir`` is None
-    (a Monte-Carlo trial).
+    ``out_dir/run.rrd`` (without, :func:`without_former_recording` once the report is written);
+    nothing when ``out_dir`` is None (a Monte-Carlo trial).
 
     Parameters
     ----------
@@ -39,11 +39,17 @@ def write_outputs(
     """
     if out_dir is None:
         return report
+    out_dir.mkdir(parents=True, exist_ok=True)  # from Python, a folder not yet made
     with replaced_in(out_dir) as tmp:  # the figure whole or not at all, never through a link
         importlib.import_module(f"{package}.figure").write_figure(tmp, report, artifacts)
     if rrd:
         importlib.import_module(f"{package}.viewer").log_run(out_dir / RRD, report, artifacts)
         report.rrd = RRD
-    else:  # a former run's recording left beside this report would pass for this run's
-        (out_dir / RRD).unlink(missing_ok=True)
     return report
+
+
+def without_former_recording(out_dir: Path) -> None:
+    """Remove a former run's run.rrd from ``out_dir``, once a report without one is written there:
+    left beside it, it would pass for this run's; removed before, a run that then fails would
+    have lost it with the former results it keeps."""
+    (out_dir / RRD).unlink(missing_ok=True)

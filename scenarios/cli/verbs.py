@@ -87,6 +87,10 @@ def run(args: argparse.Namespace) -> int:
             report = s.execute(configs[s.name], args.seed, fidelity, out, not args.no_rrd)
             report.elapsed_s = time.perf_counter() - t0
             path = report.write(out)
+            if args.no_rrd:
+                from calibench.scenarios.harness import without_former_recording
+
+                without_former_recording(out)
         except BadInput as e:
             raise BadInput(f"{s.name}: {e}") from None
         finally:
