@@ -6,7 +6,8 @@ temperature follows the air with time constant ``lag_s`` (a heat capacity behind
     thermal_drift:      e = c (T_lag - mean T_lag)        (c mm/K)
 
 The time constant is searched on the rows the term is fitted to (:meth:`LagSearch.fix`) over a
-log grid from a minute to the recording's length, then finely between the best's neighbours.
+log grid from a minute (a scanner's: seconds) to the recording's length, then finely between the
+best's neighbours.
 Its uncertainty is the fit's linearised about it (Gauss-Newton's): the term's column and its
 derivative in the time constant, times the coefficient, fitted beside the rest, the covariance
 robust to a slow drift (:func:`robust.long_run_cov`). A profile's 1-sigma interval widened by
@@ -79,7 +80,11 @@ class LaggedThermal(Effect):
             said = f"the {self.axis.upper()} scale grows {k:.2f} ppm per kelvin"
         else:
             params, std = {"mm_per_k": k, **lag}, {"mm_per_k": k_std}
-            said = f"the whole {self.axis.upper()} axis shifts {k * 1000:+.2f} um per kelvin"
+            # a stage's axis, or another instrument's one reading (a scanner's radius)
+            what = (
+                f"whole {self.axis.upper()} axis" if self.axis in "xy" else f"{self.axis} reading"
+            )
+            said = f"the {what} shifts {k * 1000:+.2f} um per kelvin"
         return (
             params,
             {**std, "lag_s": lag_std},
@@ -104,6 +109,9 @@ class LagSearch:
 
     axis: str
     name: str = "thermal_expansion"
+    # the grid's shortest time constant: a stage's scale lags by minutes, a scanner's probe
+    # mount, over a recording of a minute or two, by seconds
+    shortest_s: float = SHORTEST_LAG_S
 
     @property
     def key(self) -> str:
@@ -118,7 +126,7 @@ class LagSearch:
             T is not None
             and t is not None
             and np.ptp(np.asarray(T, float)) >= MIN_TEMPERATURE_SPAN_K
-            and np.ptp(np.asarray(t, float)) > SHORTEST_LAG_S
+            and np.ptp(np.asarray(t, float)) > self.shortest_s
         )
 
     def fix(
@@ -126,7 +134,7 @@ class LagSearch:
     ) -> LaggedThermal:
         """The time constant whose term cuts ``r`` (m,) most beside ``others`` on ``rows``."""
         t = np.asarray(drivers["t_s"], float)
-        coarse = np.geomspace(SHORTEST_LAG_S, np.ptp(t), LAG_GRID)
+        coarse = np.geomspace(self.shortest_s, np.ptp(t), LAG_GRID)
         C = self._columns(drivers, coarse)
         best, _, _ = profile(r[rows], others[rows], C[rows])
         # refined between the best's neighbours, the profile read on both grids together

@@ -15,6 +15,7 @@ from typing import TypedDict
 import numpy as np
 
 from calibench.estimators.discovery.effect import Drivers, Effect, amplitude, coef_std
+from calibench.estimators.discovery.lag import LagSearch
 from calibench.estimators.discovery.stage import ThermalDrift
 
 
@@ -32,6 +33,7 @@ class ScannerDrivers(TypedDict, total=False):
 
 
 AXIS = "rho"
+SHORTEST_MOUNT_LAG_S = 2.0  # a fifth of a turn: a shorter lag is the air itself
 
 
 @dataclasses.dataclass(frozen=True)
@@ -256,8 +258,8 @@ def scanner_candidates(
     the artefact's ``symmetry`` (a square's form error repeats four times a turn: a runout there
     cannot be told from it) not in ``told_apart`` (those recordings of the plate turned on the
     table separate), the encoder's eccentricity, the probe's scale and offset, its zero's
-    drift with temperature or time (where the recording logs them; ``nonsmooth`` is looked for
-    after them, on what they leave)."""
+    drift with temperature or time, and with the logged temperature through a lag (where the
+    recording logs them; ``nonsmooth`` is looked for after them, on what they leave)."""
     harmonics = tuple(k for k in range(1, top + 1) if k % symmetry or k in told_apart)
     return [RunoutSearch(harmonics=harmonics, rank=k) for k in range(1, n_runout + 1)] + [
         TableEccentricity(),
@@ -265,4 +267,6 @@ def scanner_candidates(
         ProbeOffset(),
         ProbeDrift(driver="temp_c"),
         ProbeDrift(driver="t_s"),
+        # a mount with a heat capacity follows the logged air behind it
+        LagSearch(axis=AXIS, name="thermal_drift", shortest_s=SHORTEST_MOUNT_LAG_S),
     ]

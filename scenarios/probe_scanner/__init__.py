@@ -22,6 +22,7 @@ INSTRUMENT = Instrument(
         ("drift", 2),
     ),
     unwritten=("null", "thin_wall"),
+    simulated=("heated_mount",),
     # a scanner recording covers one parameter, a stage's four: three times the recordings
     coverage=("runout", 3),
 )

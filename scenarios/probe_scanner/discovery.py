@@ -28,7 +28,7 @@ from calibench.estimators.discovery.fit import (
     lstsq,
     rms,
 )
-from calibench.estimators.discovery.noise import Noise, noise_floor, repeatability
+from calibench.estimators.discovery.noise import Noise, noise_floor, repeatability, resolution
 from calibench.estimators.discovery.nonsmooth import NONSMOOTH_Z
 from calibench.estimators.discovery.probe_scanner import (
     AXIS,
@@ -137,11 +137,18 @@ def scene_model(rec, config) -> tuple[object, np.ndarray, np.ndarray, np.ndarray
 
 
 def find_angle_table(
-    sig: Signal, terms: list, drivers: Drivers, noise: Noise, fold: np.ndarray, floor: float
+    sig: Signal,
+    terms: list,
+    drivers: Drivers,
+    noise: Noise,
+    fold: np.ndarray,
+    floor: float,
+    count_mm: float = 0.0,
 ) -> AngleTable | None:
-    """Bands of the angle whose mean residual (over turns) stands out of the repeatability,
-    grown to their neighbours (|z| > 2, within 3 bands, around the turn); kept only if a
-    correction there helps held out."""
+    """Bands of the angle whose mean residual (over turns) stands out of the repeatability and
+    beyond half the reading's count ``count_mm`` (:func:`noise.resolution`: a coarse count
+    repeats its error at each angle), grown to their neighbours (|z| > 2, within 3 bands,
+    around the turn); kept only if a correction there helps held out."""
     if noise.sigma_mm is None:
         return None
     _, _, _, res = fit_terms(sig, terms, drivers, {}, None)
@@ -151,7 +158,7 @@ def find_angle_table(
     means = np.bincount(band, weights=res, minlength=n_bins) / np.maximum(counts, 1)
     z = means / (noise.sigma_mm * noise.inflation / np.sqrt(np.maximum(counts, 1)))
     z[counts < 2] = 0.0
-    hot = np.abs(z) > NONSMOOTH_Z
+    hot = (np.abs(z) > NONSMOOTH_Z) & (np.abs(means) > count_mm / 2)
     if hot.sum() < 2:
         return None
     near = np.zeros(n_bins, bool)
@@ -235,7 +242,8 @@ def _discover_scanner(recs: list, seed: int, floor: float, config) -> tuple[dict
     candidates = scanner_candidates(told_apart=sessions.form_harmonics)
     found, terms = select([sig], candidates, drivers, fold, noise, floor=floor)
     prune(sig, found, terms, drivers, fold, floor)
-    table = find_angle_table(sig, terms[AXIS], drivers, noise[AXIS], fold, floor)
+    count = resolution(rec.rho_mm)
+    table = find_angle_table(sig, terms[AXIS], drivers, noise[AXIS], fold, floor, count)
     if table is not None:  # helps where it acts (find_angle_table): kept by the engine
         keep_table([sig], terms, found, drivers, fold, [table])
     effects, fitted = describe_effects([sig], terms, found, drivers, noise)
@@ -368,11 +376,13 @@ def search(
 
 
 def recording_kinds(scenario: str) -> tuple[str, ...]:
-    """The effects a run's recording may conceal: the proof set's, then the second suite's."""
+    """The effects a run's recording may conceal: the proof set's, then the second suite's and
+    the third's."""
+    from calibench.sim.concealed.heat import SIMULATED_SCANNER_KINDS
     from calibench.sim.concealed.scanner import SCANNER_KINDS
     from calibench.sim.concealed.unwritten import UNWRITTEN_SCANNER_KINDS
 
-    return SCANNER_KINDS + UNWRITTEN_SCANNER_KINDS
+    return SCANNER_KINDS + UNWRITTEN_SCANNER_KINDS + SIMULATED_SCANNER_KINDS
 
 
 def run_recording(scenario: str, config, seed: int) -> tuple[object, dict]:

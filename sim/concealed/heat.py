@@ -21,9 +21,12 @@ writes.
   under each pose's payload); its tube warms through the motor and grows ``k (T_1 - T_1(0)) L``
   that the screw's sensor does not see, the room quiet and no temperature logged for it.
   Nearest: ``thermal_drift`` on that leg (a warm-up in time, its ripple the payload's).
+- ``heated_mount`` (probe scanner): the room warms 1.5-3 K over the turns and the logged air says
+  so; the stylus mount warms through the probe's column and moves the probe's zero
+  ``k (T_1 - T_1(0))``. Nearest: ``thermal_drift`` of the probe's reading.
 
 Units: times s, temperatures deg C, heat capacities relative to the heavy part's (only ratios of
-capacity to conductance matter), heat in K/s of the heavy part, ``k`` ppm/K.
+capacity to conductance matter), heat in K/s of the heavy part, ``k`` ppm/K (the mount's mm/K).
 """
 
 from __future__ import annotations
@@ -33,6 +36,7 @@ from scipy.integrate import solve_ivp
 
 SIMULATED_STAGE_KINDS = ("heated_scale",)
 SIMULATED_STEWART_KINDS = ("heated_leg",)
+SIMULATED_SCANNER_KINDS = ("heated_mount",)
 BASE_LAG_S = (20 * 60.0, 50 * 60.0)  # the base casting's time constant against the air
 SCALE_LAG_S = (3 * 60.0, 10 * 60.0)  # the scale's, against the base and air together
 AIR_SHARE = (0.1, 0.4)  # the scale's conductance that goes to the air, not the base
@@ -43,6 +47,11 @@ PPM_PER_K = (10.0, 25.0)  # a steel tape's to an aluminium carrier's
 MOTOR_LAG_S = (20 * 60.0, 45 * 60.0)
 TUBE_LAG_S = (3 * 60.0, 8 * 60.0)
 LEG_RISE_K = (1.5, 4.0)  # the tube's warming by the recording's end
+# the scanner's probe column against the air, and its stylus mount's against the column and the
+# air: a recording is a minute or two, so parts of seconds to minutes
+COLUMN_LAG_S = (60.0, 150.0)
+MOUNT_LAG_S = (10.0, 40.0)
+MOUNT_UM_PER_K = (6.0, 12.0)  # the probe's zero, per kelvin of the mount
 
 
 def network(
@@ -195,3 +204,34 @@ def heated_leg(
             "largest_force_n": float(np.abs(force_n[:, i]).max()),
         },
     }
+
+
+def heated_mount(
+    rng: np.random.Generator, t_s: np.ndarray, temp_c: np.ndarray
+) -> tuple[np.ndarray, dict, np.ndarray]:
+    """How far (n,) mm the probe's zero moves while its stylus mount, on the probe's column,
+    warms through the network as the room warms 1.5-3 K over the recording (logged); the truth
+    and the logged temperature (n,). The mount's growth moves the zero 6-12 um per kelvin of it.
+    Nearest: ``thermal_drift`` of the probe's reading, its lag about the network's mean delay."""
+    t = np.asarray(t_s, float)
+    rise, tau_air = rng.uniform(1.5, 3.0), t[-1] / rng.uniform(1.5, 3)
+    temp_c = temp_c + rise * (1 - np.exp(-t / tau_air))
+    A, b, _, physics = _drawn_network(rng, COLUMN_LAG_S, MOUNT_LAG_S)
+    k = rng.uniform(*MOUNT_UM_PER_K) / 1000
+    mount_c = thin_temperature(t, temp_c, A, b)
+    return (
+        k * (mount_c - mount_c[0]),
+        {
+            "name": "heated_mount",
+            "axis": "rho",
+            "nearest": "thermal_drift",
+            "params": {"mm_per_k": k, "lag_s": mean_delay_s(A, b)},
+            "physics": {
+                "column_lag_s": physics["heavy_lag_s"],
+                "mount_lag_s": physics["thin_lag_s"],
+                "air_share": physics["air_share"],
+                "capacity_ratio": physics["capacity_ratio"],
+            },
+        },
+        temp_c,
+    )

@@ -14,7 +14,8 @@ import numpy as np
 
 from calibench.recordings import ScannerRecording
 from calibench.sim.concealed.effects import effect
-from calibench.sim.concealed.noise import reading_noise
+from calibench.sim.concealed.heat import SIMULATED_SCANNER_KINDS, heated_mount
+from calibench.sim.concealed.noise import read, reading_noise
 from calibench.sim.concealed.sessions import (
     first_order_rise,
     manifest,
@@ -56,18 +57,21 @@ def scanner_recording(
     - ``drift``: the room warms 1-2 K over the recording (a first-order rise); the probe's
       mount follows the air with its own lag (25-60 s) and its growth moves the probe's zero by
       4-8 um per kelvin of the mount: the zero drifts turn after turn, not linearly in the
-      logged temperature (the lag), so no candidate writes it down exactly.
+      logged temperature (the lag), so no candidate writes it down exactly;
+    - ``heated_mount`` (the third suite's): the mount warmed through the probe's column as the
+      room warms, both heat capacities integrated in time (``heat.heated_mount``).
 
     Parameters
     ----------
     kind : str
-        One of ``SCANNER_KINDS`` or of the second suite's ``unwritten.UNWRITTEN_SCANNER_KINDS``.
+        One of ``SCANNER_KINDS`` or the second and third suites' kinds (``unwritten``, ``heat``).
     seed : int
         Every draw's seed: the same seed gives the same recording, bit for bit.
     turns : int
         How many turns, each of the scanner's samples per turn.
     noise : str
-        The probe's reading noise, one of ``noise.NOISE_KINDS`` (``gaussian``: as assumed).
+        The probe's reading noise, one of ``noise.NOISE_KINDS`` or ``noise.QUANTISED``
+        (``gaussian``: as assumed).
     plate_turn_deg : float
         The plate turned on the table by this much about the table's axis (its clamping offset
         turned with it): a second recording of the same machine, its errors the same draws, its
@@ -103,11 +107,11 @@ def scanner_recording(
     from calibench.scenes.probe_scanner import ProbeScannerGeometry
     from calibench.sim.probe_scanner import ProbeScannerSim
 
-    if kind not in SCANNER_KINDS + UNWRITTEN_SCANNER_KINDS:
+    if kind not in SCANNER_KINDS + UNWRITTEN_SCANNER_KINDS + SIMULATED_SCANNER_KINDS:
         raise ValueError(f"unknown kind {kind!r} (known: {', '.join(SCANNER_KINDS)})")
     rng = np.random.default_rng(seed)
     g = geometry or ProbeScannerGeometry()
-    turns = DRIFT_TURNS if kind == "drift" else turns
+    turns = DRIFT_TURNS if kind in ("drift",) + SIMULATED_SCANNER_KINDS else turns
     truth = as_built_rail(rng, twin, plate_turn_deg)
     # a turned plate's recording, or a repeat, is another session: its own jitter and noise, the
     # same machine
@@ -130,11 +134,9 @@ def scanner_recording(
     rho, found = probe_scale(wanted, rng, rho, truth.probe_scale_ppm)
     effects += found
     t = np.arange(len(rho)) * 10.0 / m  # ten seconds a turn
-    air = room_temperature(rng, len(rho), 1e-3)
-    if kind == "drift":
-        air, grown, drift = mount_drift(rng, t, air)
-        rho += grown
-        effects.append(drift)
+    air, grown, found = thermal_errors(kind, rng, t)
+    rho += grown
+    effects += found
     rho = probe_readings_mm(rho, noise, session, truth.probe_noise_um, truth.quantum_um)
     rec = ScannerRecording(turn, nominal, rho, t, np.round(air, 3))
     sigma_um = float(np.hypot(truth.probe_noise_um, truth.quantum_um / np.sqrt(12)))
@@ -291,6 +293,23 @@ def probe_scale(
     return rho_mm, [effect("scale", "rho", ppm=s)]
 
 
+def thermal_errors(
+    kind: str, rng: np.random.Generator, t_s: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, list[dict]]:
+    """The room's logged temperature (n,) deg C and how far the probe's zero moves with it (n,)
+    mm: a ``drift``'s mount lagging the air, a ``heated_mount`` warmed through the probe's
+    column (the third suite's, its heat integrated in time); nothing for the other kinds. With
+    the effects' truths."""
+    air = room_temperature(rng, len(t_s), 1e-3)
+    if kind == "drift":
+        air, grown, drift = mount_drift(rng, t_s, air)
+        return air, grown, [drift]
+    if kind in SIMULATED_SCANNER_KINDS:
+        grown, heated, air = heated_mount(rng, t_s, air)
+        return air, grown, [heated]
+    return air, np.zeros(len(t_s)), []
+
+
 def mount_drift(
     rng: np.random.Generator, t_s: np.ndarray, air_c: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, dict]:
@@ -328,4 +347,9 @@ def probe_readings_mm(
     """What the probe reads of the radius (n,) mm: its noise of kind ``noise`` and 1-sigma
     ``noise_um``, drawn from the ``session``'s generator, then its linear encoder's quantum."""
     q = quantum_um / 1000
-    return np.round((rho_mm + reading_noise(noise, session, rho_mm.shape, noise_um / 1000)) / q) * q
+    read_mm = read(
+        noise,
+        rho_mm + reading_noise(noise, session, rho_mm.shape, noise_um / 1000),
+        noise_um / 1000,
+    )
+    return np.round(read_mm / q) * q
