@@ -216,10 +216,13 @@ def gross_samples(res: np.ndarray, sample: np.ndarray) -> np.ndarray:
 
 
 def resolution(values: np.ndarray) -> float:
-    """The reading's resolution (its count) from the distinct values ``values`` (n,) takes: the
-    mean gap between neighbouring values where they lie dense (gaps up to 3 times the median).
-    A count that a finer grid rounds again (counts of 7.4 um read by a 5 um encoder: gaps of 5
-    and 10 um) is read as its own size; continuous readings give a gap far below their noise.
+    """The reading's resolution (its count) from the distinct values ``values`` (n,) takes, 0 for
+    readings that are not quantised (gaps that are not whole multiples of the smallest).
+
+    The count is the mean gap between neighbouring values where they lie dense (gaps up to 3
+    times the median), so a count that a finer grid rounds again (counts of 7.4 um read by a
+    5 um encoder: gaps of 5 and 10 um) is read as its own size. Where the readings leave levels
+    empty (fewer readings than levels over their range) it is read larger than it is.
 
     A coarse count with little scatter before it makes an error that repeats at each place the
     instrument revisits (up to half a count), which repeats cannot tell from a local effect:
@@ -230,4 +233,7 @@ def resolution(values: np.ndarray) -> float:
     if len(u) < 3:
         return 0.0
     gaps = np.diff(u)
+    steps = gaps / gaps.min()
+    if np.mean(np.abs(steps - np.round(steps)) < 1e-3) < 0.99:  # not on a grid
+        return 0.0
     return float(np.mean(gaps[gaps <= 3 * np.median(gaps)]))
