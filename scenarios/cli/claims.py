@@ -116,8 +116,11 @@ def claim(folder: Path, command: str, scenario: str | None, force: bool, held: l
             # a study resumed extends its results rather than replacing them: nothing to say
             state["say"] = force or command != "montecarlo"
             write_text(folder / CLAIM / "claim.json", json.dumps(state))
-            for name in _replaceable(folder) if force else ():
-                (folder / name).rename(folder / CLAIM / name)
+            for name in _replaceable(folder):
+                if force:
+                    (folder / name).rename(folder / CLAIM / name)
+                else:  # left in place, and a second name kept: put back if no result is written
+                    _second_name(folder / name, folder / CLAIM / name)
             if mark is not None:  # set aside whole (rewritten, a full disk could leave it empty)
                 (folder / MARK).rename(folder / CLAIM / MARK)
             mine = {"command": command, "scenario": scenario}
@@ -247,6 +250,15 @@ def _replaceable(folder: Path) -> list[str]:
         and is_file(folder / name)
         and (name not in LOGS or is_calibench_log(folder / name))
     ]
+
+
+def _second_name(path: Path, aside: Path) -> None:
+    """A hard link of ``path`` at ``aside``: each output is replaced by a rename (a new file), so
+    the former stays whole under its second name. A file system without hard links keeps none."""
+    try:
+        os.link(path, aside, follow_symlinks=False)
+    except OSError:
+        pass
 
 
 def _whole(path: Path) -> bool:

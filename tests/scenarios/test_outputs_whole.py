@@ -161,3 +161,15 @@ def test_sigkill_at_any_moment_of_a_forced_fit_leaves_old_or_new_results_whole(t
         assert not _leftovers(out) and not (out / ".calibench-claim").exists()
         seen.add(held)
     assert "iso230" in seen, seen  # at least one kill landed before the fit was written
+
+
+def test_a_rerun_cut_off_by_the_disk_keeps_every_former_output(tmp_path):
+    """The same command again (no --force) on a disk that fills at run.rrd: the recording and
+    figure it had already replaced come back with the former report, bit for bit: never a
+    report of one seed beside another seed's recording."""
+    out = tmp_path / "o"
+    assert main(["run", "stewart", "--out", str(out)]) == 0
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    got = _limited(["run", "stewart", "--seed", "1", "--out", str(out)], 200_000, tmp_path)
+    assert got.returncode == 2, got.stderr
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
