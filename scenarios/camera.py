@@ -3,6 +3,7 @@ intrinsics.json)."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 from pathlib import Path
@@ -166,6 +167,7 @@ def _detect_all(paths: list[Path], cols: int, rows: int) -> list[tuple]:
 
     out: list = [None] * len(paths)
     failed: list[BaseException] = []
+    one_large = threading.Lock()
 
     def detect(every: int, first: int) -> None:
         try:
@@ -174,7 +176,10 @@ def _detect_all(paths: list[Path], cols: int, rows: int) -> list[tuple]:
                 if img is None:
                     out[k] = None, None, why, None
                 else:
-                    found = find_chessboard_corners(img, cols, rows)
+                    # a large photo's search takes a few hundred MB (the sector detector on
+                    # its reduced copy): one at a time, the others decoded meanwhile
+                    with one_large if img.size > LARGE_PIXELS else contextlib.nullcontext():
+                        found = find_chessboard_corners(img, cols, rows)
                     # judged while the photo is in memory: only its corners are kept
                     seems = None if found is None else seeming_size(img, found, cols, rows)
                     out[k] = img.shape[::-1], found, "", seems
@@ -224,6 +229,10 @@ _COUNT_INNER = (
     "{cols} x {rows} squares has --cols {c} --rows {r}"
 )
 MAX_PIXELS = MAX_IMAGE_PIXELS
+# px: a photo over this is searched for its board one at a time (the sector detector's copy of
+# 1024 px took 200 MB where no board was found: a few at once would pass the 600 MB a command
+# may take)
+LARGE_PIXELS = 4_000_000
 # px: OpenCV's chessboard detector asserts on an image of 14 px or less a side (its adaptive
 # threshold's block); no board's corners are found in so few pixels anyway
 MIN_SIDE = 16
