@@ -123,8 +123,8 @@ def load_arm(spec: str | Path) -> ArmDescription:
         )
         if key in _LOADED:
             return _LOADED[key]
-        with open(path, "rb") as f:
-            table = tomllib.load(f)
+        # an editor's UTF-8 byte-order mark read past, as a run's config's is
+        table = tomllib.loads(path.read_bytes().removeprefix(b"\xef\xbb\xbf").decode("utf-8"))
     except FileNotFoundError:
         known = ", ".join(BUILTIN)
         raise ArmFileError(f"arm {spec}: no such file (or built-in arm: {known})") from None

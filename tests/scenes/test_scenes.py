@@ -216,3 +216,16 @@ def test_arm_names_are_quoted_as_saxutils_quotes_them():
     names = ["ur10", "a&b", "<x>", 'say "hi"', "it's", "both ' and \" here", "t\tn\nr\r", ""]
     for name in names + ["&amp;", "\"&'<>\n"]:
         assert quoteattr(name) == saxutils_quoteattr(name), name
+
+
+def test_an_arm_file_saved_with_a_byte_order_mark_reads_as_without(tmp_path):
+    import dataclasses
+    from pathlib import Path
+
+    from calibench.scenes.arm_cmm import load_arm
+
+    plain = Path(__file__).resolve().parents[2] / "scenes" / "arms" / "ur10.toml"
+    marked = tmp_path / "ur10.toml"
+    marked.write_bytes(b"\xef\xbb\xbf" + plain.read_bytes())
+    a, b = load_arm(marked), load_arm(plain)
+    assert dataclasses.replace(a, source=b.source) == b
