@@ -5,11 +5,13 @@ end (:func:`release`). One command writes in a folder at a time (:data:`LOCK`). 
 folder's :data:`~calibench.scenarios.cli.folders.MARK` at once (the former mark set aside by a
 rename, the new one written whole), so an interrupted first run's folder is still known as
 calibench's. ``--force`` does not delete the results it replaces: it sets them aside in
-:data:`CLAIM`, and the release discards them only if the command wrote results of its own, whole
-(every output is written whole, :mod:`calibench.writing`; a result that cannot be told from a torn
-one counts as none and is removed); a command that wrote none (refused as bad input, interrupted,
-crashed, stopped by a full disk) leaves the folder's results and mark as it found them; one that
-replaced results (a second ``fit`` in its folder, or forced) says so in one line at its release.
+:data:`CLAIM` (the same command again keeps a second name of each there, a hard link, as it
+replaces them one by one), and the release discards them only if the command wrote results of
+its own, whole (every output is written whole, :mod:`calibench.writing`; a result that cannot be
+told from a torn one counts as none and is removed); a command that wrote none (refused as bad
+input, interrupted, crashed, stopped by a full disk) leaves the folder's results and mark as it
+found them; one that replaced results (a second ``fit`` in its folder, or forced) says so in one
+line at its release.
 A claim left by a command killed outright, and its writes' temporary files, are settled by the
 next command in that folder, as its release would have. A folder outside ``calibench-out`` that no
 command marked, holding files by an output's name (a paper's ``x_axis_error_mm.csv``, a user's
