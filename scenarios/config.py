@@ -116,10 +116,6 @@ POSITIVE = (
 # Scatters beyond anything the instrument could be: a detector's corner noise of 10 px is no
 # detector (the estimators then fail for reasons no message could name).
 AT_MOST = {"noise_px": 10.0}
-# And below anything a detector reaches: the best sub-pixel chessboard corners scatter 0.01 px,
-# and on corners within 1e-4 px of their truth (down to none at all) the camera's bundle
-# adjustment wanders at the corners' float32 rounding and never converges (exit 3 before)
-AT_LEAST = {"corner_noise_px": 1e-3}
 
 
 def load_toml(path: str | Path) -> dict:
@@ -202,12 +198,6 @@ def _check_range(key: str, value: float, where: str) -> None:
     for end, most in AT_MOST.items():
         if key.endswith(end) and value > most:
             raise BadInput(f"config: {where} = {value}: at most {most:g}")
-    for end, least in AT_LEAST.items():
-        if key.endswith(end) and value < least:
-            raise BadInput(
-                f"config: {where} = {value}: at least {least:g} (a chessboard detector's corners "
-                "scatter 0.01 px at best; the calibration does not converge on noise-free corners)"
-            )
 
 
 def _coerce(current: Any, value: Any, where: str) -> Any:

@@ -117,6 +117,7 @@ def board2cam_pnp(
 
 
 XTOL = 1e-8  # a refinement's last step, in units of each pose parameter's std
+SIGMA_FLOOR_PX = 1e-3  # the residual's scale XTOL is taken of, at least
 
 
 def board2cam_refine(
@@ -175,7 +176,9 @@ def board2cam_refine(
         t_new = t + step[:, 3:]
         r_new, _ = residuals(R_new, t_new, False)
         cost_new = np.sum(r_new * r_new, axis=1)
-        sigma = np.maximum(np.sqrt(cost / dof), 1e-9)
+        # floored as the calibration's is (zhang.SIGMA_FLOOR_PX): on corners without noise
+        # XTOL of a smaller scale asks for steps under float64's rounding of the pixels
+        sigma = np.maximum(np.sqrt(cost / dof), SIGMA_FLOOR_PX)
         size = (
             np.max(np.abs(step) * np.sqrt(diag), axis=1) / sigma
         )  # in units of each parameter's std

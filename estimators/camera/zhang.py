@@ -196,6 +196,7 @@ def _initial_intrinsics(H: np.ndarray, image_size, fix_aspect: bool) -> np.ndarr
 
 
 XTOL = 1e-8  # the bundle adjustment's last step, in units of each parameter's std
+SIGMA_FLOOR_PX = 1e-3  # the residual's scale XTOL is taken of, at least
 
 
 @dataclasses.dataclass(frozen=True)
@@ -271,9 +272,11 @@ def _bundle_adjust(obj, pixels, intrinsics, R, t, names, fix_aspect, max_iter: i
                 x_new, R_new, t_new, obj, pixels, kept, names, fix_aspect, jacobians=False
             )
             cost_new = float(np.sum(r_new * r_new))
-            # the step in units of each parameter's (conditional) std; the corners' rounding
-            # sets the floor of the residual's scale
-            sigma = max(np.sqrt(cost / max(n_res - n_params, 1)), 1e-9)
+            # the step in units of each parameter's (conditional) std; the residual's scale
+            # floored at 1e-3 px: below it (corners without noise, their float32 rounding
+            # 4e-5 px) XTOL of the std would ask for steps under float64's own rounding of the
+            # pixel coordinates, and the solve would wander there for ever
+            sigma = max(np.sqrt(cost / max(n_res - n_params, 1)), SIGMA_FLOOR_PX)
             size = (
                 max(np.max(np.abs(di) * np.sqrt(diag_i)), np.max(np.abs(de) * np.sqrt(diag_e)))
                 / sigma

@@ -134,3 +134,19 @@ def test_fixed_aspect_reports_the_real_std_of_fx():
     assert min(std) > 0
     ratio = np.std(est, ddof=1) / np.mean(std)
     assert 0.7 < ratio < 1.5, ratio
+
+
+@pytest.mark.parametrize("noise_px", [0.0, 1e-12, 1e-4])
+def test_corners_without_noise_converge_to_the_truth(noise_px):
+    """Corners at (or within 1e-4 px of) their exact projection, rounded to float32 as a
+    detector gives them (4e-5 px at 640 px): the solve ends (it wandered at that rounding, its
+    steps measured against a residual scale of 1e-5 px) and the intrinsics are the truth's to
+    what the rounding leaves (1e-3 px of fx: the scatter's std over 15 views of 54 corners at
+    1e-4 px is 1e-3 px)."""
+    rng = np.random.default_rng(0)
+    obj = BOARD.corners_mm()
+    _, pix = random_views(rng, obj, K, 15, dist=DIST)
+    pts = [(p + rng.normal(0, noise_px, p.shape)).astype(np.float32).astype(float) for p in pix]
+    cal = calibrate_camera(obj, pts, (640, 480))
+    assert cal.K[0, 0] == pytest.approx(TRUTH["fx"], abs=5e-3)
+    assert cal.K[0, 2] == pytest.approx(TRUTH["cx"], abs=5e-3)
