@@ -59,6 +59,9 @@ def main(argv: list[str] | None = None) -> int:
     noted = caught.__enter__()
     warnings.simplefilter("default")
     try:
+        from calibench.scenarios.config import check_mujoco_gl
+
+        check_mujoco_gl()  # before MuJoCo's first import, which a backend it lacks would fail
         _default_out(args)
         if hasattr(args, "out"):
             folders.inputs_outside(args)

@@ -56,7 +56,7 @@ _square_mm = _ranged(
 )
 # OpenCV takes a board's size as C ints; no printed board has a thousand corners a side
 _board_count = _ranged(
-    int, lambda v: 2 <= v <= 1000, "a board has 2 to 1000 inner corners each way"
+    int, lambda v: 3 <= v <= 1000, "a board has 3 to 1000 inner corners each way"
 )
 
 

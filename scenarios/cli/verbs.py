@@ -48,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
     int
         0 when every check passed, 1 when one failed.
     """
-    from calibench.scenarios.config import load_toml, override
+    from calibench.scenarios.config import check_mujoco_gl, check_tables, load_toml, override
     from calibench.scenarios.registry import NAMES
     from calibench.scenarios.report import BadInput
 
@@ -57,10 +57,9 @@ def run(args: argparse.Namespace) -> int:
     if args.scenario != "all":  # all: rendered where a scenario has a camera
         check_fidelity(args.scenario, args.fidelity)
     fidelity = args.fidelity or "render"
+    check_mujoco_gl(renders=fidelity == "render" and any(s.renders for s in scenarios))
     table = load_toml(args.config) if args.config else {}
-    unknown = [k for k in table if k not in NAMES]
-    if unknown:
-        raise BadInput(f"config {args.config}: unknown scenario table(s) {', '.join(unknown)}")
+    check_tables(args.config, table, names, list(NAMES))
     configs = {s.name: override(s.config(), table.get(s.name, {}), s.name) for s in scenarios}
     check_option("--save-images", args.save_images, args.scenario)
     arms = [n for n in configs if n in takers("--arm")]

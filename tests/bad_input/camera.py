@@ -138,7 +138,7 @@ CASES = [
         {},
         ["camera", "{d}/a.jpg", "--cols", "2147483648", "--rows", "6", "--square-mm", "25"],
         2,
-        "2 to 1000 inner corners",
+        "3 to 1000 inner corners",
     ),
     (
         "camera-no-image",
@@ -325,6 +325,6 @@ CASES = [
         {"a.png": png},
         ["camera", "{d}/a.png", "--cols", "2", "--rows", "2", "--square-mm", "25"],
         2,
-        "--cols and --rows must be >= 3",
+        "3 to 1000 inner corners each way",
     ),
 ]

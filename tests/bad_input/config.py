@@ -359,6 +359,14 @@ CASES = [
         2,
         "thermal_ppm_per_k = 1000000000.0: at most 1000",
     ),
+    # issue 62, item 8: ran the defaults without a word (montecarlo refused it)
+    (
+        "config-other-scenarios-table",
+        {"c.toml": "[belt-stage]\nn_check = 5\n"},
+        ["run", "vision-stage", "--fidelity", "analytic", "--config", "{d}/c.toml"],
+        2,
+        "takes only its [vision-stage] table",
+    ),
     # issue 62, item 10: a UTF-8 byte-order mark was "not valid TOML"; now read past (the
     # table's own check speaks: the file was parsed)
     (
