@@ -21,6 +21,7 @@ from calibench.scenarios.cvplot import warm_fonts
 from calibench.scenarios.progress import advance
 from calibench.scenarios.report import BadInput
 from calibench.scenes.checkerboard import Chessboard
+from calibench.writing import write_text
 
 
 def calibrate_photos(
@@ -388,7 +389,7 @@ def run_camera(
     )
     result["corner_coverage"] = coverage(corners, tuple(result["image_size"]))
     out_dir.mkdir(parents=True, exist_ok=True)
-    (out_dir / "intrinsics.json").write_text(json.dumps(result, indent=2) + "\n")
+    write_text(out_dir / "intrinsics.json", json.dumps(result, indent=2) + "\n")
     fonts.join()
     write_camera_figure(out_dir / "camera.png", result, corners)
     return result

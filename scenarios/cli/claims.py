@@ -53,8 +53,6 @@ from calibench.scenarios.cli.folders import (
 from calibench.scenarios.study.journal import STUDY_LOCK, study_running
 from calibench.writing import is_temporary, write_text
 
-# outputs whose writers still write in place, through a link at the name: refused there
-IN_PLACE = ("intrinsics.json",)
 # the files whose writing makes a command's results: its main file, and a study's summary (a
 # figure or a recording written before them is a part, a study's description or empty journal none)
 RESULTS = (*(name for name in MAIN_FILE if name != "study.json"), "summary.json")
@@ -159,9 +157,9 @@ def release(held: list[Claim], reraise: bool = False) -> None:
 
 def _check(folder: Path, command: str, scenario: str | None, force: bool) -> None:
     """BadInput unless the command may write in ``folder``."""
-    # calibench.writing replaces a link at an output's name, never follows it; these would be
-    # followed (the claim's own folder, an output still written in place by its writer)
-    links = [name for name in (CLAIM, *IN_PLACE) if os.path.islink(folder / name)]
+    # calibench.writing replaces a link at an output's name, never follows it; the claim's own
+    # folder would be followed
+    links = [name for name in (CLAIM,) if os.path.islink(folder / name)]
     if links:
         raise BadInput(
             f"--out {folder}: {links[0]} is a symbolic link; calibench neither writes through a "

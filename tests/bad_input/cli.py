@@ -238,17 +238,6 @@ CASES += [
         2,
         "view00.png is a symbolic link",
     ),
-    (  # camera's intrinsics.json is still written in place: a link there is refused
-        "camera-intrinsics-is-a-link",
-        {
-            "o/.calibench.json": '{"command": "camera", "scenario": null}',
-            "o/intrinsics.json": lambda p: p.symlink_to("../v/p"),
-        },
-        ["camera", "{d}/a.png", "--cols", "9", "--rows", "6", "--square-mm", "25"]
-        + ["--out", "{d}/o"],
-        2,
-        "intrinsics.json is a symbolic link",
-    ),
     (  # a newline inside an argument: still one line
         "argument-with-a-newline",
         {},

@@ -173,3 +173,18 @@ def test_a_rerun_cut_off_by_the_disk_keeps_every_former_output(tmp_path):
     got = _limited(["run", "stewart", "--seed", "1", "--out", str(out)], 200_000, tmp_path)
     assert got.returncode == 2, got.stderr
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+
+
+def test_camera_replaces_a_link_at_intrinsics_json_never_writes_through_it(real_data, tmp_path):
+    """Issue 62, item 2: a link at an output's name is replaced by the rename, its target kept."""
+    images = sorted((real_data / "opencv_left").glob("*.jpg"))
+    out, precious = tmp_path / "o", tmp_path / "p"
+    argv = ["camera", *map(str, images), "--cols", "9", "--rows", "6", "--square-mm", "25"]
+    assert main([*argv, "--out", str(out)]) == 0
+    precious.write_text("PRECIOUS")
+    (out / "intrinsics.json").unlink()
+    (out / "intrinsics.json").symlink_to(precious)
+    assert main([*argv, "--out", str(out), "--force"]) == 0
+    assert precious.read_text() == "PRECIOUS"
+    assert not (out / "intrinsics.json").is_symlink()
+    assert "K" in json.loads((out / "intrinsics.json").read_text())
