@@ -391,6 +391,19 @@ FAULTS: dict[str, Fault] = {
         more.suite_arm_ignored,
         ("tests/scenarios/test_registry.py::test_a_suite_s_arm_reaches_its_recording",),
     ),
+    "count_ignored_on_the_scanner": Fault(
+        "the probe scanner's angle table judged without half the reading's count",
+        more.count_ignored_on_the_scanner,
+        (
+            "tests/scenarios/test_discover_simulated.py::"
+            "test_nothing_is_claimed_on_quantised_readings[probe-scanner]",
+        ),
+    ),
+    "other_scenarios_table_ignored": Fault(
+        "run ignoring a config table of another scenario than the one it runs",
+        more.other_scenarios_table_ignored,
+        ("tests/test_bad_input.py::test_bad_input[config-other-scenarios-table]",),
+    ),
 }
 
 _state: dict = {"name": None, "mp": None, "caught": []}

@@ -271,3 +271,19 @@ def heat_delay_of_one_inverse(mp: pytest.MonkeyPatch) -> None:
     from calibench.sim.concealed import heat
 
     mp.setattr(heat, "mean_delay_s", lambda A, b: float(-np.linalg.solve(A, b)[1]))
+
+
+def count_ignored_on_the_scanner(mp: pytest.MonkeyPatch) -> None:
+    """The scanner's angle table judged without the reading's count (half a count of repeatable
+    quantisation error taken for a local effect)."""
+    from calibench.scenarios.probe_scanner import discovery
+
+    mp.setattr(discovery, "resolution", lambda values: 0.0)
+
+
+def other_scenarios_table_ignored(mp: pytest.MonkeyPatch) -> None:
+    """run's config check taking any scenario's table (the belt stage's, for a vision-stage run)
+    as if it were read."""
+    from calibench.scenarios import config
+
+    mp.setattr(config, "check_tables", lambda *a: None)
