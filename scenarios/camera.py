@@ -6,6 +6,10 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import sys
+import tempfile
+import threading
+from collections.abc import Iterator
 from pathlib import Path
 
 import cv2
@@ -164,7 +168,6 @@ def _detect_all(paths: list[Path], cols: int, rows: int) -> list[tuple]:
     (:func:`seeming_size`) or None) or (None, None, why it is refused, None), in order. A photo
     per core at a time (OpenCV's decoding and detection release the GIL), only its corners
     kept: memory stays that of a few photos."""
-    import threading
 
     out: list = [None] * len(paths)
     failed: list[BaseException] = []
@@ -265,6 +268,37 @@ _UNREADABLE = (
 )
 
 
+_DECODING = threading.Lock()
+
+
+@contextlib.contextmanager
+def _libpng_said_nowhere() -> Iterator[None]:
+    """The process's stderr (file descriptor 2) caught while a PNG decodes: libpng writes its
+    warnings there itself ("libpng warning: tEXt: CRC error"), where they would come before the
+    command's one line; anything else written meanwhile (another thread's progress) is written
+    back after. One decode at a time; where no temporary file can be made, nothing is caught."""
+    with _DECODING:
+        try:
+            tmp = tempfile.TemporaryFile()
+        except OSError:
+            yield
+            return
+        with tmp:
+            sys.stderr.flush()
+            saved = os.dup(2)
+            os.dup2(tmp.fileno(), 2)
+            try:
+                yield
+            finally:
+                sys.stderr.flush()
+                os.dup2(saved, 2)
+                os.close(saved)
+                tmp.seek(0)
+                kept = [ln for ln in tmp.read().splitlines(True) if not ln.startswith(b"libpng")]
+                if kept:
+                    os.write(2, b"".join(kept))
+
+
 def _read_gray(path: Path) -> tuple[np.ndarray | None, str]:
     """The photo in grey levels, or None and why. Decoded from its bytes: imdecode refuses a
     truncated JPEG, where imread would return its grey remainder and print libjpeg's warning.
@@ -291,7 +325,8 @@ def _read_gray(path: Path) -> tuple[np.ndarray | None, str]:
         return None, why
     decoding_is_bounded()
     try:
-        img = cv2.imdecode(np.frombuffer(raw, np.uint8), cv2.IMREAD_GRAYSCALE)
+        with _libpng_said_nowhere() if raw.startswith(b"\x89PNG") else contextlib.nullcontext():
+            img = cv2.imdecode(np.frombuffer(raw, np.uint8), cv2.IMREAD_GRAYSCALE)
     except cv2.error as e:
         if _OVER_LIMIT in str(e):
             return None, (
