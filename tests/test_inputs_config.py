@@ -32,4 +32,6 @@ def test_another_scenarios_table_is_refused_as_montecarlo_refuses_it():
         check_tables("c.toml", {"belt-stagee": {}}, ["belt-stage"], NAMES)
     check_tables("c.toml", {"belt-stage": {}, "stewart": {}}, NAMES, NAMES)  # run all
     check_tables("c.toml", {"belt-stage": {}}, ["belt-stage"], NAMES)
+    # one file for several scenarios (examples/conceal.toml) serves each of them
+    check_tables("c.toml", {"belt-stage": {}, "vision-stage": {}}, ["vision-stage"], NAMES)
     check_tables("c.toml", {}, ["belt-stage"], NAMES)
