@@ -287,3 +287,72 @@ def other_scenarios_table_ignored(mp: pytest.MonkeyPatch) -> None:
     from calibench.scenarios import config
 
     mp.setattr(config, "check_tables", lambda *a: None)
+
+
+# --- issue 63: the arm's sabotage gaps (a left-out session's rows, its prior, a coupling) --------
+def left_out_session_fitted_on_scored_rows(said: bool) -> Callable[[pytest.MonkeyPatch], None]:
+    """A fault fitting a new session's frame and own terms on the rows that score it (what
+    ``register_on_scored`` does for the floor) while its score is still called held out;
+    ``said``: its report names those rows as fitted (else it names the registration rows, so
+    only what the fit touched shows it)."""
+
+    def apply(mp: pytest.MonkeyPatch) -> None:
+        from calibench.scenarios.arm_cmm import scoring
+
+        real = scoring.register_new_frame
+
+        @functools.wraps(real)
+        def register(problem, state, path, rec, usable, register_on_scored):
+            nf = real(problem, state, path, rec, usable, True)
+            if said or register_on_scored:
+                return nf
+            return dataclasses.replace(nf, fitted_on=nf.register_rows)
+
+        replace(mp, "calibench.scenarios.arm_cmm.scoring", "register_new_frame", register)
+
+    return apply
+
+
+def session_prior_10x_tight(mp: pytest.MonkeyPatch) -> None:
+    """A new session's corrections to the shared terms held to the machine's values by a prior
+    ten times too tight (1e-5 rad, not 1e-4)."""
+    from calibench.estimators.arm import session
+
+    tight = session.SESSION_PRIOR_RAD / 10
+    replace(mp, "calibench.estimators.arm.session", "SESSION_PRIOR_RAD", tight)
+
+
+def arm_cable_coupling_transposed(mp: pytest.MonkeyPatch) -> None:
+    """The estimators' arm model built with the coupling transposed: each motor's cable stretches
+    under the torque its row of the coupling carries back, and its stretch turns the joints of
+    that row (its column, in both, is the physics)."""
+    from calibench.estimators.arm import point
+
+    real = point.PointProblem.__init__
+
+    @functools.wraps(real)
+    def init(self, chain, *a, **k):
+        if chain.coupling is None:
+            return real(self, chain, *a, **k)
+        transposed = dataclasses.replace(chain, coupling=np.asarray(chain.coupling, float).T)
+        real(self, transposed, *a, **k)
+        self.chain = chain  # the problem's arm as given: only the cables' columns transposed
+
+    mp.setattr(point.PointProblem, "__init__", init)
+
+
+def twin_cable_coupling_transposed(mp: pytest.MonkeyPatch) -> None:
+    """The twin's cables with the coupling transposed in its statics (frictionless cables): the
+    links settle by coupling.T diag(c) coupling tau, not coupling diag(c) coupling.T tau
+    (MuJoCo's tendons untouched)."""
+    from calibench.sim.arm_cmm import ArmSim
+
+    real = ArmSim.__init__
+
+    @functools.wraps(real)
+    def init(self, *a, **k):
+        real(self, *a, **k)
+        C, c = self.coupling, self.cable_compliance
+        self.compliance = self.compliance - (C * c) @ C.T + (C.T * c) @ C
+
+    mp.setattr(ArmSim, "__init__", init)
