@@ -57,6 +57,7 @@ def unwritten_table(scores: dict) -> str:
 def discover_simulated():
     """The third suite (scenarios/discover/suite_simulated.py): mechanisms simulated, not
     written, per instrument."""
+    from calibench.estimators.discovery.select import FLOOR
     from calibench.scenarios.discover.suite_simulated import (
         run_simulated,
         simulated_cases,
@@ -70,6 +71,7 @@ def discover_simulated():
             label,
             str(s["recordings"]),
             f"{s['detection']:.0%}",
+            str(s["below_floor"]),
             str(s["false_recordings"]),
             str(s["blind_verdicts"]),
             f"{s['improved_fresh']:.0%} ({s['fresh_ratio']:.2f})",
@@ -80,7 +82,8 @@ def discover_simulated():
         [
             "instrument",
             "recordings",
-            "detection (nearest named effect, where it lives)",
+            "detection (nearest named effect, where it lives, of those within reach)",
+            f"beyond reach (removed whole, it would cut the held-out RMS by < {FLOOR:.0%})",
             "recordings with a false claim",
             f'"nothing missing" above {BLIND_FACTOR} x the true noise',
             "improved on a fresh recording, held out (median RMS after / before)",

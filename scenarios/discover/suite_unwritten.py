@@ -7,7 +7,9 @@ through ``discover`` blind. Scoring, against the sealed manifest afterwards:
 
 - detection: the truth's ``nearest`` named effect found on its axis; a ``nonsmooth`` also
   located where the effect lives (a stage: its largest deviation within a tenth of the travel of
-  the joint; the scanner: on the thin arc, 2 deg of slack);
+  the joint; the scanner: on the thin arc, 2 deg of slack). A truth that states its size
+  (``rms_um``) and is too small for any candidate to pass the selection's floor is counted
+  apart (:func:`within_reach`): removed whole, it would not cut the held-out RMS by the floor;
 - false claims: an effect found that is neither a truth's nearest (on its axis, leg or joint,
   where it lives) nor named ``alike`` by it (on a null: any effect; an arm's calibrated
   ``geometry`` is the scene model's, not a claim);
@@ -27,6 +29,7 @@ from collections import defaultdict
 
 import numpy as np
 
+from calibench.estimators.discovery.select import FLOOR
 from calibench.scenarios.discover.engine import plugin
 from calibench.scenarios.discover.fresh import FreshScore, score_on_fresh
 from calibench.scenarios.discover.suite import recorded, searched
@@ -77,6 +80,8 @@ class UnwrittenResult:
     fresh: FreshScore
     verdict: str = ""
     noise_mm: float = 0.0  # the RMS of the reading noise the recording was made with
+    below_floor: int = 0  # truths out of the selection's reach (:func:`within_reach`)
+    detected_below: int = 0  # of those, found all the same
 
     @property
     def blind_verdict(self) -> bool:
@@ -107,6 +112,17 @@ def _explained(scenario: str, truth: list, f: dict) -> bool:
     )
 
 
+def within_reach(truth: dict, cv_before_mm: float) -> bool:
+    """Whether a truth, removed whole, would cut the held-out RMS ``cv_before_mm`` (which holds
+    it) by the selection's floor: ``1 - sqrt(cv^2 - e^2) / cv >= FLOOR``, ``e`` its stated RMS
+    (``rms_um``; a truth that states none is taken to be within reach). The best any candidate
+    can do, so a truth beyond it is missed by the rule, not by the search."""
+    if "rms_um" not in truth:
+        return True
+    left = np.sqrt(max(cv_before_mm**2 - (truth["rms_um"] / 1000) ** 2, 0.0))
+    return bool(1 - left / cv_before_mm >= FLOOR)
+
+
 def run_unwritten(scenario: str, kind: str, seed: int, noise: str | None = None) -> UnwrittenResult:
     """One case through discover, scored against its manifest (``noise``: None, the case's)."""
     noise, rec_seed = noise or case_noise(seed, kind), SEED0 + 100 * seed + len(kind)
@@ -119,10 +135,11 @@ def run_unwritten(scenario: str, kind: str, seed: int, noise: str | None = None)
     fresh = score_on_fresh(chosen, discovered(1)[1])
     truth = manifest["effects"]
     found = [e for e in out["effects"] if e["name"] not in NOT_CONCEALED]
-    detected = sum(any(_matches(scenario, t, f) for f in found) for t in truth)
+    hit = [any(_matches(scenario, t, f) for f in found) for t in truth]
     false = sum(not _explained(scenario, truth, f) for f in found)
     geo = [e for e in out["effects"] if e["name"] in NOT_CONCEALED]
     before = geo[-1]["cv_rms_after"] if geo else out["fit"]["cv_rms_nominal"]
+    beyond = [not within_reach(t, before) for t in truth]
     return UnwrittenResult(
         scenario,
         kind,
@@ -130,18 +147,21 @@ def run_unwritten(scenario: str, kind: str, seed: int, noise: str | None = None)
         noise,
         truth,
         found,
-        detected,
+        sum(hit),
         false,
         before,
         out["fit"]["cv_rms_final"],
         fresh,
         out.get("verdict", ""),
         noise_rms(noise, manifest["noise_um"] / 1000),
+        sum(beyond),
+        sum(h and b for h, b in zip(hit, beyond)),
     )
 
 
 def score_unwritten(results: list[UnwrittenResult]) -> dict:
-    """Per instrument: recordings, detection, the share of null recordings with a false claim,
+    """Per instrument: recordings, detection (of the truths within the selection's reach), the
+    truths beyond it, the share of null recordings with a false claim,
     false claims beside real effects, the share of effect recordings improved on the
     selection's folds (in-sample for the structure) and on a fresh recording (held out: its
     rows chose nothing) with the median of its RMS after over before, and the null recordings
@@ -153,10 +173,11 @@ def score_unwritten(results: list[UnwrittenResult]) -> dict:
     for scenario, rs in by.items():
         nulls = [r for r in rs if r.kind == "null"]
         real = [r for r in rs if r.kind != "null"]
-        concealed = sum(len(r.truth) for r in real)
+        reach = sum(len(r.truth) - r.below_floor for r in real)
         out[scenario] = {
             "recordings": len(rs),
-            "detection": sum(r.detected for r in real) / max(concealed, 1),
+            "detection": sum(r.detected - r.detected_below for r in real) / max(reach, 1),
+            "below_floor": sum(r.below_floor for r in real),
             "null_false_claim_rate": sum(r.false_claims > 0 for r in nulls) / max(len(nulls), 1),
             "spurious_claims": sum(r.false_claims for r in real),
             "improved": sum(r.cv_after < r.cv_before for r in real) / max(len(real), 1),

@@ -219,13 +219,17 @@ def heated_mount(
     A, b, _, physics = _drawn_network(rng, COLUMN_LAG_S, MOUNT_LAG_S)
     k = rng.uniform(*MOUNT_UM_PER_K) / 1000
     mount_c = thin_temperature(t, temp_c, A, b)
+    grown_mm = k * (mount_c - mount_c[0])
     return (
-        k * (mount_c - mount_c[0]),
+        grown_mm,
         {
             "name": "heated_mount",
             "axis": "rho",
             "nearest": "thermal_drift",
             "params": {"mm_per_k": k, "lag_s": mean_delay_s(A, b)},
+            # its size where it acts, about its mean (the rail's dL takes a constant): a column
+            # lagging the air by minutes warms the mount little over a recording of a minute
+            "rms_um": 1000 * float(np.std(grown_mm)),
             "physics": {
                 "column_lag_s": physics["heavy_lag_s"],
                 "mount_lag_s": physics["thin_lag_s"],
