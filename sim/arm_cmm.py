@@ -99,11 +99,15 @@ class ArmTruth:
     stiffness_nm_per_rad : (N,) per joint, or () for a rigid arm (inf is rigid too).
     cable_stiffness_nm_per_rad : (N,) per motor of an arm with a transmission, or () for the
         description's cables (inf: a rigid cable).
+    cable_friction_nm : (N,) per motor, the dry friction its cable drive holds (N m at the
+        motor), or (): none. A soft cable then stays stretched where the last posture left it
+        until the torque it carries leaves the friction's band (:meth:`ArmSim.link_angles`).
     """
 
     delta: tuple = ()
     stiffness_nm_per_rad: tuple = ()
     cable_stiffness_nm_per_rad: tuple = ()
+    cable_friction_nm: tuple = ()
     tracker_pos_mm: tuple = (2200.0, -900.0, 350.0)  # the tracker's head in the base frame
     tracker_yaw_rad: float = 2.75  # it faces the arm
     tracker_tilt_rad: tuple = (0.004, -0.003)
@@ -239,6 +243,10 @@ class ArmSim:
             + (self.coupling * cable_c) @ self.coupling.T
         )
         self.cable_compliance = cable_c
+        f = np.asarray(truth.cable_friction_nm, float) if len(truth.cable_friction_nm) else None
+        if f is not None and (len(f) != N or np.any(~(f >= 0)) or np.any(~np.isfinite(f))):
+            raise BadInput(f"truth.cable_friction_nm: {N} values, each finite and at least 0")
+        self.cable_friction = f
         R, p = truth.tracker2base()
         q = np.empty(4)
         mujoco.mju_mat2Quat(q, R.ravel())
@@ -302,6 +310,9 @@ class ArmSim:
         q_motor = np.atleast_2d(np.asarray(q_motor, float))
         if not self.compliant:
             return q_motor.copy()
+        f = self.cable_friction
+        if f is not None and np.any(f * self.cable_compliance):
+            return self._link_angles_with_friction(q_motor, f, tol_rad, max_iter)
         diagonal = not np.any(self.compliance - np.diag(np.diag(self.compliance)))
         c = np.diag(self.compliance) if diagonal else None
         q = q_motor.copy()
@@ -314,6 +325,41 @@ class ArmSim:
         raise RuntimeError(
             "the arm's static equilibrium did not converge (stiffness too low for its weight?)"
         )
+
+    def _link_angles_with_friction(
+        self, q_motor: np.ndarray, friction_nm: np.ndarray, tol_rad: float, max_iter: int
+    ) -> np.ndarray:
+        """:meth:`link_angles` for cables whose drive holds a dry friction f, the postures (n, N)
+        reached in their order, slowly: each motor's cable stretch s stays where the last posture
+        left it (the link held while the motor turns, s falls by the motor's move) until the
+        torque it carries, t = coupling.T @ tau_gravity, pushes it out of the band
+        |s - c t| <= c f (Coulomb friction on a spring: a play operator). The first posture
+        starts at the band's centre. A move longer than the band leaves the link lagging its
+        motor by c f in the direction it turned; a shorter one, by less."""
+        C, c = self.coupling, self.cable_compliance
+        band = c * friction_nm
+        joint_c = np.diag(self.compliance - (C * c) @ C.T)  # each joint's own spring
+        m = np.linalg.solve(C, q_motor.T).T
+        out = np.empty_like(q_motor)
+        stretch = None
+        for i, qm in enumerate(q_motor):
+            q = qm.copy()
+            for _ in range(max_iter):
+                tau = self.gravity_torques(q)[0]
+                centre = c * (C.T @ tau)
+                held = centre if stretch is None else stretch - (m[i] - m[i - 1])
+                s = np.clip(held, centre - band, centre + band)
+                q_new = qm + C @ s + joint_c * tau
+                if np.max(np.abs(q_new - q)) < tol_rad:
+                    break
+                q = q_new
+            else:
+                raise RuntimeError(
+                    "the arm's static equilibrium did not converge (stiffness too low for its "
+                    "weight?)"
+                )
+            out[i], stretch = q_new, s
+        return out
 
     def cable_references(self, q_motor: np.ndarray) -> None:
         """Set the MuJoCo cables' rest lengths to motor angles ``q_motor`` (N,) (joint units):

@@ -30,6 +30,7 @@ import numpy as np
 
 from calibench.estimators.arm.kinematics import Chain, gravity_torques, parallel_axes_note
 from calibench.estimators.arm.point import PointProblem, PointState
+from calibench.estimators.arm.terms import directions
 from calibench.estimators.identification.basis import Basis, identifiable_basis
 from calibench.estimators.identification.solver import Identification, identify
 from calibench.estimators.rotations import rigid_transform
@@ -131,14 +132,19 @@ def loaded_motors(chain: Chain, q_rad: np.ndarray) -> tuple[tuple[int, ...], dic
     """
     if not chain.has_masses or chain.coupling is None:
         return (), {}
-    tau = np.abs(gravity_torques(chain, q_rad) @ np.asarray(chain.coupling, float))
+    coupling = np.asarray(chain.coupling, float)
+    # each motor's torque over its column's norm: the joint-side torque, whatever the unit its
+    # angle is written in (a column scaled by 1 / s carries back a torque scaled by 1 / s)
+    norm = np.maximum(np.linalg.norm(coupling, axis=0), 1e-300)
+    tau = np.abs(gravity_torques(chain, q_rad) @ coupling) / norm
     peak = tau.max(axis=0)
     top = max(peak.max(), 1e-12)
     keep = tuple(m for m, p in enumerate(peak, 1) if p >= CABLE_LOADED_FRACTION * top)
     why = {
         f"cable_compliance{m}": (
-            f"motor {m}'s cable carries at most {p:.2g} N m of gravity torque here (under "
-            f"{100 * CABLE_LOADED_FRACTION:.0f} % of the {top:.3g} N m of the most loaded motor): "
+            f"motor {m}'s cable carries at most {p:.2g} N m of gravity torque here, seen at the "
+            f"joints (under {100 * CABLE_LOADED_FRACTION:.0f} % of the {top:.3g} N m of the most "
+            "loaded motor): "
             "its stretch would not show"
         )
         for m, p in enumerate(peak, 1)
@@ -158,6 +164,7 @@ def calibrate(
     robust: bool = True,
     prior: float | None = PRIOR,
     angle_terms=(),
+    dirs: np.ndarray | None = None,
 ) -> ArmCalibration:
     """The module's recipe on stacked rows of one or several recordings.
 
@@ -175,8 +182,11 @@ def calibrate(
         parameters' reasons.
     robust : whether to leave out the rows no Gaussian scatter explains (step 3).
     prior : the kinematic errors' prior in units of their typical size; None: none.
-    angle_terms : :class:`~calibench.estimators.arm.point.AngleTerm` s, joint-angle errors
+    angle_terms : :class:`~calibench.estimators.arm.terms.AngleTerm` s, joint-angle errors
         (a discovery's).
+    dirs : (n, 2 N) the joints' and motors' directions of last motion at the rows, taken over
+        their recordings' every row (:func:`~calibench.estimators.arm.terms.directions`); None:
+        over these rows, in their order. Only direction terms read them.
 
     Returns
     -------
@@ -190,7 +200,17 @@ def calibrate(
     """
     try:
         return _calibrate(
-            chain, q_rad, xyz_mm, recording, sigma_mm, model, parallel, robust, prior, angle_terms
+            chain,
+            q_rad,
+            xyz_mm,
+            recording,
+            sigma_mm,
+            model,
+            parallel,
+            robust,
+            prior,
+            angle_terms,
+            dirs,
         )
     except np.linalg.LinAlgError:
         raise DegenerateFit(
@@ -201,7 +221,7 @@ def calibrate(
 
 
 def _calibrate(
-    chain, q_rad, xyz_mm, recording, sigma_mm, model, parallel, robust, prior, angle_terms
+    chain, q_rad, xyz_mm, recording, sigma_mm, model, parallel, robust, prior, angle_terms, dirs
 ) -> ArmCalibration:
     """:func:`calibrate`, its singular systems not yet said."""
     joints: tuple[int, ...] = ()
@@ -213,6 +233,10 @@ def _calibrate(
         joints, why = loaded_joints(chain, q_rad)
     keep = np.ones(len(q_rad), bool)
     outliers = np.zeros(0, int)
+    # the drives' directions over every row in its order: a row left out does not move them
+    if dirs is None and any(t.kind == "direction" for t in angle_terms):
+        coupling = None if chain.coupling is None else np.asarray(chain.coupling, float)
+        dirs = directions(q_rad, recording, coupling)
     for _ in range(4):
         problem = PointProblem(
             chain,
@@ -224,6 +248,7 @@ def _calibrate(
             prior=prior,
             angle_terms=angle_terms,
             cable_motors=motors,
+            dirs=None if dirs is None else dirs[keep],
         )
         held = problem.held_tool()
         n_par = len(problem.names)
@@ -237,13 +262,14 @@ def _calibrate(
         problem.prior = None
         basis = identifiable_basis(problem, reg.state, note=parallel_axes_note(list(parallel)))
         problem.prior = prior
-        ident = identify(problem, basis, reg.state)
+        ident, basis, bound = identify_physical(problem, basis, cast(PointState, reg.state))
         sigma = 0.0
         for _ in range(2):
             # the solver hands back the problem's own state type
             state = cast(PointState, ident.state)
             sigma = problem.reweight(state, 3 * keep.sum() - len(basis.kept))
-            ident = identify(problem, basis, state)
+            ident, basis, more = identify_physical(problem, basis, state)
+            bound |= more
         if not robust:
             break
         e = (problem.y - problem.model(cast(PointState, ident.state))) * problem.weights()
@@ -260,8 +286,60 @@ def _calibrate(
         outliers = np.r_[outliers, rows[bad]]
         keep[rows[bad]] = False
     return ArmCalibration(
-        problem, ident, model, {**why, **held}, np.sort(outliers), sigma, problem.names
+        problem, ident, model, {**why, **held, **bound}, np.sort(outliers), sigma, problem.names
     )
+
+
+COMPLIANCES = ("compliance", "tilt_compliance", "cable_compliance")
+IMPLAUSIBLE_Z = 2.0  # a compliance this many std below zero: the data push it out, not scatter
+
+
+def identify_physical(
+    problem: PointProblem, basis: Basis, state: PointState
+) -> tuple[Identification, Basis, dict[str, str]]:
+    """:func:`identify`, every compliance at or above zero: an active set. While a kept
+    compliance is fitted below zero, the one furthest below (in its std) is held at zero, its
+    bound, and the rest fitted again. A compliance below zero is a joint or cable that pushes
+    back harder the more it is loaded: within :data:`IMPLAUSIBLE_Z` std of zero it sits at its
+    bound, beyond that the data push it out of its physical range (another effect in a
+    compliance's clothes) and it is said implausible. Never used either way.
+
+    Returns
+    -------
+    (ident, basis, why) : the identification, its basis (the held compliances among the dropped)
+        and {held compliance: why}.
+    """
+    names = problem.names
+    why: dict[str, str] = {}
+    while True:
+        ident = identify(problem, basis, state)
+        below = [
+            (ident.estimate[n] / max(ident.std[n], 1e-300), n)
+            for n in (names[k] for k in basis.kept)
+            if n.startswith(COMPLIANCES) and ident.estimate[n] < 0
+        ]
+        if not below:
+            return ident, basis, why
+        z, name = min(below)
+        c, std = 1e6 * ident.estimate[name], 1e6 * ident.std[name]
+        fitted = f"fitted at {c:.3g} +- {std:.2g} urad / N m"
+        why[name] = (
+            f"implausible: {fitted}, {-z:.1f} std below zero (a stiffness that pushes back harder "
+            "the more it is loaded): the data push it out of its physical range, which another "
+            "effect usually explains (`calibench discover`); left out of the model"
+            if z < -IMPLAUSIBLE_Z
+            else f"at its physical bound: {fitted}, within {-z:.1f} std of zero; held at zero"
+        )
+        k = names.index(name)
+        basis = dataclasses.replace(
+            basis,
+            kept=basis.kept[basis.kept != k],
+            dropped={**basis.dropped, name: why[name]},
+        )
+        state = cast(PointState, ident.state)
+        comp = state.comp.copy()
+        comp[k - problem.nk] = 0.0
+        state = dataclasses.replace(state, comp=comp)
 
 
 @dataclasses.dataclass(frozen=True)

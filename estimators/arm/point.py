@@ -41,51 +41,13 @@ from calibench.estimators.arm.kinematics import (
     pose,
     theta_index,
 )
+from calibench.estimators.arm.terms import directions
 from calibench.estimators.identification.basis import identifiable_basis
 from calibench.estimators.identification.problem import Regrouped
 from calibench.estimators.rotations import matrix_to_rotvec, rigid_transform, rotvec_to_matrix, skew
 
 
 # --- points in the instrument's frame ------------------------------------------------------------
-@dataclasses.dataclass(frozen=True)
-class AngleTerm:
-    """A joint's angle error as a combination of known functions of its own angle: the reading
-    is off by F(q_j) @ c (rad), the link at q_j - F(q_j) @ c. ``kind``: ``harmonic`` (sin and
-    cos of ``harmonic`` q_j: an encoder's eccentricity at 1, a gear's harmonics beyond) or
-    ``table`` (one value per band of q_j between ``edges_rad``: what no law explains).
-    ``recording``: None for an error every recording shares; an index for one that holds only in
-    that recording's rows (a periodic error whose phase is set anew at each power-up: its own
-    coefficients per session, none for a session the fit has not seen)."""
-
-    joint: int
-    kind: str
-    harmonic: float = 1.0
-    edges_rad: tuple = ()
-    label: str = ""
-    recording: int | None = None
-
-    def functions(self, q_joint: np.ndarray) -> np.ndarray:
-        """F (n, k) at the joint's angles (n,)."""
-        if self.kind == "harmonic":
-            h = self.harmonic * np.asarray(q_joint, float)
-            return np.stack([np.sin(h), np.cos(h)], axis=1)
-        e = np.asarray(self.edges_rad, float)
-        band = np.clip(np.searchsorted(e, q_joint, side="right") - 1, 0, len(e) - 2)
-        F = np.zeros((len(q_joint), len(e) - 1))
-        F[np.arange(len(q_joint)), band] = 1.0
-        return F
-
-    @property
-    def names(self) -> tuple[str, ...]:
-        """Parameter names of the term's coefficients (``angle_<label><joint>_...``)."""
-        stem = f"angle_{self.label or self.kind}{self.joint}"
-        if self.recording is not None:
-            stem += f"_rec{self.recording + 1}"
-        if self.kind == "harmonic":
-            return (f"{stem}_sin", f"{stem}_cos")
-        return tuple(f"{stem}_band{k + 1}" for k in range(len(self.edges_rad) - 1))
-
-
 @dataclasses.dataclass
 class PointState:
     """delta (5 N + 3,) kinematic errors and tool; comp: the compliances (rad / N m), first about
@@ -138,6 +100,7 @@ class PointProblem(ArmParameters):
         prior: float | None = None,
         angle_terms=(),
         cable_motors=(),
+        dirs: np.ndarray | None = None,
     ):
         self.chain = chain
         self.q = np.asarray(q_rad, float)
@@ -174,7 +137,11 @@ class PointProblem(ArmParameters):
         self.N = N
         self.nk = n_params(N)
         self.terms = tuple(angle_terms)
-        self.F = self._term_functions(self.q, self.rec)
+        self.coupling = coupling
+        # each drive's direction of last motion, for the direction terms (lost motion, a cable's
+        # friction): the caller's, taken over every row of its recordings in their order
+        self.dirs = dirs if dirs is not None else self._directions(self.q, self.rec)
+        self.F = self._term_functions(self.q, self.rec, self.dirs)
         self.na = sum(F.shape[1] for F in self.F)
         self.n_phys = len(self.cj) + len(self.tj) + len(self.cm)
         self.nc = self.n_phys + self.na
@@ -203,12 +170,25 @@ class PointProblem(ArmParameters):
         self.held = tuple(int(names.index(n)) for n in why)
         return why
 
-    def _term_functions(self, q_rad: np.ndarray, rec: np.ndarray | None) -> list[np.ndarray]:
+    def _directions(self, q_rad: np.ndarray, rec: np.ndarray | None) -> np.ndarray | None:
+        """The joints' and motors' directions of last motion (n, 2 N) over rows ``q_rad`` in
+        their order, where a term needs them (None otherwise)."""
+        if not any(t.kind == "direction" for t in self.terms):
+            return None
+        return directions(q_rad, rec, None if self.chain.coupling is None else self.coupling)
+
+    def _term_functions(
+        self, q_rad: np.ndarray, rec: np.ndarray | None, dirs: np.ndarray | None
+    ) -> list[np.ndarray]:
         """Each angle term's functions (n, k) at postures ``q_rad`` (n, N) of recordings ``rec``
-        (n,) (None: a recording the fit has not seen, where per-recording terms are zero)."""
+        (n,) (None: a recording the fit has not seen, where per-recording terms are zero), its
+        drives' directions ``dirs`` (n, 2 N) (joints', then motors')."""
         out = []
         for t in self.terms:
-            F = t.functions(q_rad[:, t.joint - 1])
+            d = None
+            if t.kind == "direction" and dirs is not None:
+                d = dirs[:, (self.N if t.column else 0) + t.joint - 1]
+            F = t.functions(q_rad[:, t.joint - 1], d)
             if t.recording is not None:
                 F = F * (rec == t.recording)[:, None] if rec is not None else np.zeros_like(F)
             out.append(F)
@@ -249,6 +229,18 @@ class PointProblem(ArmParameters):
             out.append(np.arange(nk + n_comp, nk + self.nc))
         return out
 
+    def scales(self) -> np.ndarray:
+        """(n,) typical sizes of the parameters' errors (:func:`parameter_scales`), a cable's
+        compliance at its motor divided by its coupling column's squared norm: a motor's angle in
+        any unit (its column scaled by 1 / s, its compliance by s^2) then gives the same scaled
+        column, so what is dropped never depends on the unit the transmission is written in."""
+        out = parameter_scales(self.names)
+        if len(self.cm):
+            k = self.nk + len(self.cj) + len(self.tj)
+            out = out.copy()
+            out[k : k + len(self.cm)] /= np.maximum(np.sum(self.cable_cols**2, axis=0), 1e-300)
+        return out
+
     def weights(self) -> np.ndarray:
         """1 / sigma per value, (n, 3): the stated sigma and the model-error variance (one per
         recording: each setup its own)."""
@@ -287,7 +279,11 @@ class PointProblem(ArmParameters):
             out += (tau_motor * s.comp[k : k + len(self.cm)]) @ self.cable_cols.T
         k += len(self.cm)
         for t, Ft in zip(self.terms, F or ()):
-            out[:, t.joint - 1] -= Ft @ s.comp[k : k + Ft.shape[1]]
+            err = Ft @ s.comp[k : k + Ft.shape[1]]
+            if t.column:  # a motor's: every joint it drives
+                out -= err[:, None] * np.asarray(t.column, float)
+            else:
+                out[:, t.joint - 1] -= err
             k += Ft.shape[1]
         return out
 
@@ -319,9 +315,8 @@ class PointProblem(ArmParameters):
                     cable_motors=self.cm,
                 )
                 tau, m_perp, tau_motor = other.tau, other.m_perp, other.tau_motor
-            F = self._term_functions(
-                q_rad, None if session is None else np.full(len(q_rad), session)
-            )
+            rec = None if session is None else np.full(len(q_rad), session)
+            F = self._term_functions(q_rad, rec, self._directions(q_rad, None))
             q_eff = self._q_eff(s, q_rad, tau, F, tau_motor)
         P = pose(self.chain, q_eff, s.delta)
         return P.point + (self._tilt(s, P, m_perp)[0] if len(self.tj) else 0.0)
@@ -376,7 +371,12 @@ class PointProblem(ArmParameters):
             Jc = np.einsum("nij,jk,nk->nik", Jq, self.cable_cols, self.tau_motor)
             cols.append(np.einsum("nij,njk->nik", R, Jc))
         for t, Ft in zip(self.terms, self.F):
-            Jq = Jk[:, :, theta_index(t.joint)]  # (n, 3): the link turns by -Ft @ c
+            if t.column:  # (n, 3): a motor's error turns the joints along its column
+                Jq = Jk[:, :, [theta_index(j) for j in range(1, self.N + 1)]] @ np.asarray(
+                    t.column, float
+                )
+            else:
+                Jq = Jk[:, :, theta_index(t.joint)]  # (n, 3): the link turns by -Ft @ c
             cols.append(-np.einsum("nij,nj,nk->nik", R, Jq, Ft))
         Rp = np.einsum("nij,nj->ni", R, p)
         Jf = np.zeros((n, 3, 6 * self.n_rec))

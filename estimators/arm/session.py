@@ -3,7 +3,7 @@
 A calibration carries the machine to a new set-up: its geometry, compliance and the joint-angle
 terms every session shares. Two things belong to the session and are unknown there: the
 instrument's frame, and the terms whose phase each power-up sets (an
-:class:`~calibench.estimators.arm.point.AngleTerm` with a ``recording``: a motor-side gear
+:class:`~calibench.estimators.arm.terms.AngleTerm` with a ``recording``: a motor-side gear
 harmonic). :func:`register_session` fits both on the rows set aside to register the session
 (never on the rows that score it): a rigid registration first, then Gauss-Newton on the frame's
 small turn and shift and the session terms' coefficients, the machine held as calibrated.

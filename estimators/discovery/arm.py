@@ -9,7 +9,13 @@ from typing import TypedDict
 import numpy as np
 
 from calibench.estimators.arm.session import SESSION_PRIOR_RAD
-from calibench.estimators.discovery.effect import Drivers, Effect, amplitude, coef_std, drift_vector
+from calibench.estimators.discovery.effect import (
+    Drivers,
+    Effect,
+    amplitude,
+    coef_std,
+    drift_vector,
+)
 from calibench.estimators.discovery.harmonics import best_harmonic
 
 
@@ -20,7 +26,8 @@ class ArmDrivers(TypedDict, total=False):
     ``tau`` (n, N) the joints' gravity torques (N m, the twin's inverse dynamics; None without
     masses); ``point`` (n, 3) mm and ``flange_R`` (n, 3, 3) of the chain there; ``delta_twin``
     (5 N + 3,) the twin's own chain errors; ``rec`` (n,) each posture's recording; ``t_s``,
-    ``temp_c`` (n,) or None; ``dir_q`` (n, N) each joint's direction of last motion."""
+    ``temp_c`` (n,) or None; ``dir_q`` (n, N) each joint's direction of last motion and, with a
+    transmission, ``dir_motor`` (n, N) each motor's."""
 
     q: np.ndarray
     J: np.ndarray
@@ -34,6 +41,7 @@ class ArmDrivers(TypedDict, total=False):
     t_s: np.ndarray | None
     temp_c: np.ndarray | None
     dir_q: np.ndarray | None
+    dir_motor: np.ndarray | None
 
 
 # --- the arm --------------------------------------------------------------------------------------
@@ -118,90 +126,6 @@ class EncoderEccentricity(JointEffect):
             {"amplitude_urad": amp_std * 1e6},
             f"joint {self.joint}'s encoder reads {amp * 1e6:.0f} urad off once per turn: its disc "
             f"is mounted off-centre (eccentricity)",
-        )
-
-
-@dataclasses.dataclass(frozen=True)
-class JointCompliance(JointEffect):
-    """Joint j's link turns by c tau_j from its encoder's angle, tau_j the gravity torque on the
-    joint (``tau`` (n, N) N m, from the twin's physics)."""
-
-    name: str = "joint_compliance"
-
-    def __post_init__(self):
-        object.__setattr__(self, "needs", ("Jq", "tau"))
-
-    def applies(self, drivers):
-        tau = drivers.get("tau")
-        return (
-            drivers.get("Jq") is not None
-            and tau is not None
-            and np.ptp(np.asarray(tau)[:, self.joint - 1]) > 0
-        )
-
-    def columns(self, d):
-        tau = np.asarray(d["tau"], float)[:, self.joint - 1]
-        return (joint_column(d, self.joint) * (tau * 1e-6)[:, None]).reshape(
-            -1, 1
-        )  # coefficient: urad / N m
-
-    def describe(self, coef, cov):
-        c = float(coef[0])
-        stiff = f" (a stiffness of {1e6 / c:.3g} N m / rad)" if c > 0 else ""
-        return (
-            {"joint": self.joint, "urad_per_nm": c},
-            {"urad_per_nm": coef_std(cov, 0)},
-            f"joint {self.joint} gives way under the gravity torque it carries: {c:.3g} urad per "
-            f"N m{stiff}",
-        )
-
-
-@dataclasses.dataclass(frozen=True)
-class CableCompliance(Effect):
-    """Motor m's cable stretches by c times the torque the coupling carries back to the motor
-    (``column`` . tau, ``column`` (N,) the motor's column of the motor-to-joint coupling), and the
-    stretch turns every joint the motor drives by ``column`` times it. Where the motor drives
-    several joints (a differential wrist) the joints turn together, which no joint's own
-    compliance does."""
-
-    name: str = "cable_compliance"
-    axis: str = "xyz"
-    motor: int = 1
-    column: tuple = ()
-
-    def __post_init__(self):
-        object.__setattr__(self, "needs", ("Jq", "tau"))
-
-    @property
-    def key(self) -> str:
-        """One candidate per motor."""
-        return f"{self.name}:motor{self.motor}"
-
-    def applies(self, drivers):
-        tau = drivers.get("tau")
-        return (
-            drivers.get("Jq") is not None
-            and tau is not None
-            and np.ptp(np.asarray(tau) @ np.asarray(self.column)) > 0
-        )
-
-    def columns(self, d):
-        c = np.asarray(self.column, float)
-        tau_motor = np.asarray(d["tau"], float) @ c
-        turn = np.asarray(d["Jq"], float) @ c  # (n, 3): the point's move per unit stretch
-        return (turn * (tau_motor * 1e-6)[:, None]).reshape(-1, 1)  # coefficient: urad / N m
-
-    def describe(self, coef, cov):
-        c = float(coef[0])
-        joints = [j + 1 for j, v in enumerate(self.column) if v != 0]
-        stiff = f" (a stiffness of {1e6 / c:.3g} N m / rad)" if c > 0 else ""
-        drives = " and ".join(f"{j}" for j in joints)
-        return (
-            {"motor": self.motor, "urad_per_nm": c, "joints": joints},
-            {"urad_per_nm": coef_std(cov, 0)},
-            f"motor {self.motor}'s cable stretches under the torque it carries: {c:.3g} urad per "
-            f"N m{stiff}, turning joint{'s' if len(joints) > 1 else ''} {drives}"
-            + (" together" if len(joints) > 1 else ""),
         )
 
 

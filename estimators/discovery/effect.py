@@ -61,6 +61,23 @@ class Effect:
         discover prints."""
         raise NotImplementedError
 
+    def implausible(self, coef: np.ndarray, cov: np.ndarray) -> str:
+        """Why fitted coefficients (k,) lie outside the effect's physical range (a compliance
+        below zero), or "" where they do not: such a fit is not accepted, whatever it cuts."""
+        return ""
+
+
+def below_zero(what: str, coef: np.ndarray, cov: np.ndarray, unit: str) -> str:
+    """The words for a compliance fitted below zero (its first coefficient), or "": a part that
+    pushes back harder the more it is loaded is another effect in a compliance's clothes."""
+    c = float(coef[0])
+    if c >= 0:
+        return ""
+    return (
+        f"{what} fitted at {c:.3g} +- {coef_std(cov, 0):.2g} {unit}, below zero: a stiffness "
+        "that pushes back harder the more it is loaded is outside its physical range"
+    )
+
 
 def coef_std(cov: np.ndarray, i: int) -> float:
     """The std of coefficient ``i`` from a covariance (k, k), a rounding-negative variance as 0."""

@@ -69,6 +69,16 @@ def _coef_z(sig, terms, drivers, cache, sigma, term_index) -> float:
     return float(np.sqrt(z2)) if np.isfinite(z2) and z2 > 0 else 0.0
 
 
+def _implausible(sig, terms, drivers, cache, sigma, term_index) -> str:
+    """The candidate's words where its fit on every row lies outside its physical range."""
+    fixed, coef, cov, _ = fit_terms(sig, terms, drivers, cache, sigma)
+    term, start, k = fixed[term_index]
+    check = getattr(term, "implausible", None)
+    return (
+        check(coef[start : start + k], cov[start : start + k, start : start + k]) if check else ""
+    )
+
+
 def small_gain(axis: str, gain: float, floor: float, z: float, z_min: float) -> str:
     """Why a candidate below the floor is not accepted, its gain to two figures (a real effect
     that matters little here is not scored zero) and, when its coefficients stand out of the
@@ -202,6 +212,10 @@ def select(
             z = _coef_z(by_axis[a], terms[a] + [c], drivers, caches[a], sig_a, len(terms[a]))
             if z < z_min:
                 rejected[c.key] = f"coefficients only {z:.1f} standard errors from zero"
+                continue
+            odd = _implausible(by_axis[a], terms[a] + [c], drivers, caches[a], sig_a, len(terms[a]))
+            if odd:
+                rejected[c.key] = odd
                 continue
             if getattr(c, "periodic", False) and not helps_everywhere(
                 by_axis[a], terms[a] + [c], drivers, caches[a], fold

@@ -15,7 +15,14 @@ from typing import TypedDict
 
 import numpy as np
 
-from calibench.estimators.discovery.effect import Drivers, Effect, amplitude, coef_std, drift_vector
+from calibench.estimators.discovery.effect import (
+    Drivers,
+    Effect,
+    amplitude,
+    below_zero,
+    coef_std,
+    drift_vector,
+)
 
 
 class StewartDrivers(TypedDict, total=False):
@@ -270,6 +277,14 @@ class LegCompliance(Effect):
             {"um_per_n": coef_std(cov, 0)},
             f"{who} gives {c:.3g} um per N of the axial load the platform's weight puts on "
             f"it{stiff}",
+        )
+
+    def implausible(self, coef, cov):
+        return below_zero(
+            f"{'every leg' if self.leg == 0 else f'leg {self.leg}'}'s compliance",
+            coef,
+            cov,
+            "um / N",
         )
 
 

@@ -18,6 +18,7 @@ from typing import Any, cast
 
 import numpy as np
 
+from calibench.estimators.arm.terms import directions
 from calibench.estimators.discovery.arm import ArmDrivers
 from calibench.estimators.discovery.motion import last_direction
 from calibench.estimators.discovery.noise import Noise
@@ -149,6 +150,9 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
     drivers["dir_q"] = np.stack(
         [last_direction(rows.q_rad[:, j], rows.rec_id) for j in range(N)], axis=1
     )
+    if chain.coupling is not None:  # and each motor's, its angle the inverse coupling's
+        coupling = np.asarray(chain.coupling, float)
+        drivers["dir_motor"] = directions(rows.q_rad, rows.rec_id, coupling)[:, N:]
     sig = residual_signal(chain, rows, solved.state, drivers, sim)
     among = arm_candidates(chain, arm, rows.q_rad, rows.xyz_mm, solved, drivers)
     # five contiguous blocks of each recording: every fold holds out a fifth of each setup

@@ -18,7 +18,7 @@ from calibench.estimators.discovery.arm import (
     TransmissionSearch,
     joint_table,
 )
-from calibench.estimators.discovery.arm_motion import JointBacklash
+from calibench.estimators.discovery.arm_motion import CableFriction, JointBacklash
 from calibench.estimators.discovery.effect import Drivers, Effect
 from calibench.estimators.discovery.fit import Signal
 from calibench.estimators.discovery.select import Discovery, keep_table
@@ -78,6 +78,15 @@ def arm_candidates(
     candidates += [ArmThermalExpansion(), ArmDrift(driver="temp_c"), ArmDrift(driver="t_s")]
     # what follows a joint's motion or a moment, not its angle: lost motion, a step
     candidates += [JointBacklash(joint=j) for j in range(1, N + 1)]
+    # a differential's motor: its cables' friction turns its joints together (a motor that drives
+    # one joint alone is that joint's lost motion under another name)
+    if chain.coupling is not None:
+        coupling = np.asarray(chain.coupling, float)
+        candidates += [
+            CableFriction(motor=m, column=tuple(coupling[:, m - 1]))
+            for m in range(1, N + 1)
+            if np.count_nonzero(coupling[:, m - 1]) > 1
+        ]
     candidates += [StepSearch(axis="xyz", joint=j) for j in range(1, N + 1)]
     candidates = [c for c in candidates if not hasattr(c, "applies") or c.applies(drivers)]
     return ArmCandidates(

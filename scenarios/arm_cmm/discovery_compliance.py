@@ -25,7 +25,7 @@ def compliance_candidates(chain, q: np.ndarray, drivers, name: str) -> tuple[lis
         loaded_joints,
         loaded_motors,
     )
-    from calibench.estimators.discovery.arm import CableCompliance, JointCompliance
+    from calibench.estimators.discovery.arm_compliance import CableCompliance, JointCompliance
 
     if drivers["tau"] is None:
         return (

@@ -1,6 +1,7 @@
 """The joint-angle effects a ``discover arm-cmm`` found, read from its discovery.json, as terms
 of ``fit arm-cmm``'s model (``--effects``): transmission harmonics, encoder eccentricity, a
-nonsmooth table over a joint's angle. Every defect of the file is one BadInput line."""
+nonsmooth table over a joint's angle, a joint's lost motion and a motor's cable friction (by the
+direction each last turned). Every defect of the file is one BadInput line."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from calibench.estimators.arm.point import AngleTerm
+from calibench.estimators.arm.terms import AngleTerm
 from calibench.scenarios.arm_cmm import NAME
 from calibench.scenarios.report import BadInput
 
@@ -47,7 +48,10 @@ def angle_terms_from_discovery(path, n_joints: int, n_recordings: int = 1) -> li
                 f"{path}: effect {name!r} is not an arm's "
                 f"(the arm's effects: {', '.join(ARM_EFFECTS)})"
             )
-        if name not in ("transmission", "encoder_eccentricity", "nonsmooth"):
+        if name == "cable_friction":
+            terms.append(_cable_friction(p, n_joints, path))
+            continue
+        if name not in ("transmission", "encoder_eccentricity", "nonsmooth", "backlash"):
             continue  # the model's own (geometry, compliance) or none the fit has a term for
         j = p.get("joint")
         if isinstance(j, bool) or not isinstance(j, int) or not 1 <= j <= n_joints:
@@ -71,6 +75,8 @@ def angle_terms_from_discovery(path, n_joints: int, n_recordings: int = 1) -> li
             ]
         elif name == "encoder_eccentricity":
             terms.append(AngleTerm(j, "harmonic", harmonic=1.0, label="eccentricity"))
+        elif name == "backlash":
+            terms.append(AngleTerm(j, "direction", label="backlash"))
         elif "edges_deg" in p:
             edges_deg = _numbers(p["edges_deg"], f"{path}: joint {j}'s edges_deg", -3600.0, 3600.0)
             if np.any(np.diff(edges_deg) <= 0):
@@ -86,6 +92,20 @@ def angle_terms_from_discovery(path, n_joints: int, n_recordings: int = 1) -> li
     return terms
 
 
+def _cable_friction(p: dict, n_joints: int, path) -> AngleTerm:
+    """A motor's cable friction as the fit's term: its direction of last motion along its
+    coupling column, as the discovery wrote them."""
+    m = p.get("motor")
+    if isinstance(m, bool) or not isinstance(m, int) or not 1 <= m <= n_joints:
+        raise BadInput(f"{path}: cable_friction names motor {m!r}; the arm has {n_joints} motors")
+    column = _numbers(p.get("column"), f"{path}: motor {m}'s coupling column", -1e9, 1e9)
+    if len(column) != n_joints or not any(column):
+        raise BadInput(
+            f"{path}: motor {m}'s coupling column has {len(column)} values, not {n_joints}"
+        )
+    return AngleTerm(m, "direction", label="cable_friction", column=tuple(column))
+
+
 # the effects a discover arm-cmm names (docs/formats.md's effect names for an arm)
 ARM_EFFECTS = (
     "geometry",
@@ -96,6 +116,9 @@ ARM_EFFECTS = (
     "thermal_drift",
     "transmission",
     "nonsmooth",
+    "backlash",
+    "cable_friction",
+    "step",
 )
 
 

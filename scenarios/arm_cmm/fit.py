@@ -33,7 +33,8 @@ import numpy as np
 
 from calibench.estimators.arm.calibration import ArmCalibration, error_statistics
 from calibench.estimators.arm.kinematics import Chain, param_is_angle, param_names
-from calibench.estimators.arm.point import AngleTerm, PointProblem
+from calibench.estimators.arm.point import PointProblem
+from calibench.estimators.arm.terms import AngleTerm
 from calibench.estimators.arm.workspace import coverage_warnings
 from calibench.estimators.rotations import matrix_to_rotvec
 from calibench.scenarios.arm_cmm import NAME
@@ -257,14 +258,18 @@ def fit_summary(
         if name.startswith("base_"):
             continue  # each recording's frame: under "bases"
         u = units[name]
-        result["parameters"].append(
-            {
-                "name": name,
-                "unit": u.name,
-                "estimate": ident.estimate[name] * u.factor,
-                "std": ident.std[name] * u.factor,
-            }
-        )
+        entry = {
+            "name": name,
+            "unit": u.name,
+            "estimate": ident.estimate[name] * u.factor,
+            "std": ident.std[name] * u.factor,
+        }
+        if name.startswith("cable_compliance") and chain.coupling is not None:
+            # at the motor in the coupling's motor unit; seen at its joints whatever that unit
+            m = int(name.removeprefix("cable_compliance"))
+            norm2 = float(np.sum(np.asarray(chain.coupling, float)[:, m - 1] ** 2))
+            entry["at_joints"] = {k: entry[k] * norm2 for k in ("estimate", "std")}
+        result["parameters"].append(entry)
     dropped = {**ident.basis.dropped, **cal.compliance_dropped}
     result["dropped"] = [{"name": k, "why": v} for k, v in dropped.items()]
     bases = {
@@ -300,7 +305,7 @@ def training_residuals(
         parts.append(ResidualPart(tr.label, rows.rows[mine & ~outliers], "train", None))
         if outliers[mine].any():
             r = rows.rows[mine & outliers]
-            e = tr.rec.xyz_mm[r] - prob.model(state, tr.rec.q_rad[r], frame=i, session=i)
+            e = tr.rec.xyz_mm[r] - prob.model(state, tr.rec.q_rad, frame=i, session=i)[r]
             parts.append(ResidualPart(tr.label, r, "left_out", e))
     return parts
 

@@ -96,7 +96,8 @@ def score_holdout(
     if m.sum() == 0:
         return None
     rec = tr.rec
-    e = problem.model(state, rec.q_rad[m], frame=i, session=i) - rec.xyz_mm[m]
+    # modelled over the whole recording: a drive's direction of last motion is its rows' order
+    e = problem.model(state, rec.q_rad, frame=i, session=i)[m] - rec.xyz_mm[m]
     rows = np.flatnonzero(m)
     return Score(
         "holdout",
@@ -123,7 +124,7 @@ def score_same_frame(
     enough_to_judge(path, s.keep)
     model_xyz = problem.model(state, rec.q_rad, frame=0)
     settle_pairs(s.keep, s.flagged, s.pairs, model_xyz, rec.xyz_mm, s.repeatability_mm)
-    e = problem.model(state, rec.q_rad[s.keep], frame=0) - rec.xyz_mm[s.keep]
+    e = model_xyz[s.keep] - rec.xyz_mm[s.keep]
     rows = np.flatnonzero(s.keep)
     return Score(
         "test",

@@ -17,8 +17,8 @@ import numpy as np
 from calibench.estimators.arm import calibration
 from calibench.estimators.arm.calibration import ArmCalibration, DegenerateFit
 from calibench.estimators.arm.kinematics import Chain
-from calibench.estimators.arm.point import AngleTerm
 from calibench.estimators.arm.screening import screen
+from calibench.estimators.arm.terms import AngleTerm, directions
 from calibench.recordings import ArmRecording, load_arm_csv
 from calibench.scenarios.progress import staged
 from calibench.scenarios.report import BadInput
@@ -232,6 +232,18 @@ def stacked(training: list[TrainingRecording]) -> Stacked:
     )
 
 
+def stacked_directions(
+    training: list[TrainingRecording], chain: Chain, terms: list[AngleTerm]
+) -> np.ndarray | None:
+    """Each drive's direction of last motion (n, 2 N) at the rows :func:`stacked` keeps, taken
+    over every row of its recording (a row held out or left out still moved the drives); None
+    where no term needs it."""
+    if not any(t.kind == "direction" for t in terms):
+        return None
+    coupling = None if chain.coupling is None else np.asarray(chain.coupling, float)
+    return np.vstack([directions(tr.rec.q_rad, None, coupling)[tr.used] for tr in training])
+
+
 def calibrate_and_settle(
     training: list[TrainingRecording],
     arm: ArmDescription,
@@ -257,6 +269,7 @@ def calibrate_and_settle(
             model,
             arm.parallel_pairs(),
             angle_terms=terms,
+            dirs=stacked_directions(training, chain, terms),
         )
 
     rows = stacked(training)

@@ -16,7 +16,8 @@ from calibench.estimators.arm.kinematics import (
     parameter_scales,
     point,
 )
-from calibench.estimators.arm.point import AngleTerm, PointProblem
+from calibench.estimators.arm.point import PointProblem
+from calibench.estimators.arm.terms import AngleTerm
 from calibench.estimators.arm.tracker import ConeProblem, TrackerProblem
 from calibench.estimators.identification.basis import identifiable_basis
 from calibench.estimators.identification.solver import identify, identify_identifiable

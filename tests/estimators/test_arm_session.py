@@ -4,7 +4,8 @@ machine's values by the session prior."""
 import numpy as np
 
 from calibench.estimators.arm import session
-from calibench.estimators.arm.point import AngleTerm, PointProblem
+from calibench.estimators.arm.point import PointProblem
+from calibench.estimators.arm.terms import AngleTerm
 from calibench.estimators.identification.solver import identify_identifiable
 from calibench.estimators.rotations import rotvec_to_matrix
 from calibench.scenarios.arm_cmm.arms import chain_of

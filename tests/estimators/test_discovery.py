@@ -6,11 +6,8 @@ import numpy as np
 import pytest
 
 from calibench.estimators.arm.kinematics import Chain, jacobian, point, theta_index
-from calibench.estimators.discovery.arm import (
-    EncoderEccentricity,
-    JointCompliance,
-    TransmissionSearch,
-)
+from calibench.estimators.discovery.arm import EncoderEccentricity, TransmissionSearch
+from calibench.estimators.discovery.arm_compliance import JointCompliance
 from calibench.estimators.discovery.fit import Signal, fit_terms
 from calibench.estimators.discovery.harmonics import (
     best_harmonic,
@@ -192,6 +189,35 @@ def test_compliance_column_is_the_sag_of_the_gravity_torque():
     moved = point(chain, q + np.where(np.arange(6) == 1, c * 1e-6 * tau, 0.0)) - point(chain, q)
     cols = JointCompliance(joint=2).columns({**_drivers(chain, q), "tau": tau})
     np.testing.assert_allclose(cols[:, 0] * c, moved.ravel(), atol=5e-8)
+
+
+@pytest.mark.parametrize("c_urad_per_nm", (0.3, -0.3))
+def test_a_compliance_below_zero_is_never_accepted_whatever_it_cuts(c_urad_per_nm):
+    """Joint 2 turned by c tau_2 (the chain moved to q + c tau, 300 postures, 2 um of noise): a
+    compliance of 0.3 urad / N m (up to 15 urad) is found at its size within 4 std; the same
+    sag against gravity (c < 0: a joint that pushes back harder the more it is loaded) cuts the
+    held-out RMS as much, yet is refused with its value, outside its physical range."""
+    from calibench.estimators.discovery.noise import Noise
+
+    rng = np.random.default_rng(47)
+    chain = _chain()
+    n = 300
+    q = rng.uniform(-np.pi, np.pi, (n, 6))
+    tau = rng.uniform(-50, 50, (n, 6))
+    sag = np.where(np.arange(6) == 1, c_urad_per_nm * 1e-6 * tau, 0.0)
+    r = (point(chain, q + sag) - point(chain, q)).ravel() + rng.normal(0, 0.002, 3 * n)
+    sig = Signal("xyz", "xyz", r, np.ones((3 * n, 1)), np.repeat(np.arange(n), 3))
+    drivers = {**_drivers(chain, q), "tau": tau}
+    fold = np.repeat(np.arange(n) % 5, 3)
+    noise = {"xyz": Noise(0.002, 0.0, 3 * n)}
+    found, terms = select([sig], [JointCompliance(joint=2)], drivers, fold, noise)
+    if c_urad_per_nm > 0:
+        assert [s.term.name for s in found.steps] == ["joint_compliance"], found.rejected
+        _, coef, cov, _ = fit_terms(sig, terms["xyz"], drivers, {}, 0.002)
+        assert abs(coef[1] - c_urad_per_nm) < 4 * np.sqrt(cov[1, 1]), (coef, cov)
+    else:
+        assert found.steps == [], found.steps
+        assert "below zero" in found.rejected["joint_compliance:joint2"], found.rejected
 
 
 def test_stewart_pitch_effect_reports_the_injected_amplitude_and_phase():
