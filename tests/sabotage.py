@@ -28,6 +28,7 @@ import numpy as np
 import pytest
 
 from tests import sabotage_faults as more
+from tests.sabotage_arm import ARM_FAULTS
 from tests.sabotage_faults import replace as _replace
 from tests.sabotage_faults import wrap as _wrap
 
@@ -190,11 +191,6 @@ def _arm_always_converged(mp):
 
 
 KIN = "tests/estimators/test_arm_kinematics.py"
-LOSO_ROWS = (
-    "tests/scenarios/test_arm_left_out_rows.py::"
-    "test_a_left_out_sessions_fitted_rows_are_never_its_scored_rows"
-)
-CABLES = "tests/scenarios/test_arm_cables_asymmetric.py"
 FAULTS: dict[str, Fault] = {
     "arm_dh_alpha_100urad": Fault(
         "joint 3's nominal alpha 100 urad off in the estimators' chain",
@@ -409,37 +405,9 @@ FAULTS: dict[str, Fault] = {
         more.other_scenarios_table_ignored,
         ("tests/test_bad_input.py::test_bad_input[config-other-scenarios-table]",),
     ),
-    # --- issue 63: the arm's sabotage gaps
-    "left_out_session_fitted_on_scored_rows": Fault(
-        "a left-out session's frame and own terms fitted on the rows that score it, said so in "
-        "its rows but not in its score (held out, not in-sample)",
-        more.left_out_session_fitted_on_scored_rows(said=True),
-        (LOSO_ROWS,),
-    ),
-    "left_out_session_fitted_on_scored_rows_unsaid": Fault(
-        "the same, its report naming the registration rows as the rows it was fitted on",
-        more.left_out_session_fitted_on_scored_rows(said=False),
-        (LOSO_ROWS,),
-    ),
-    "session_prior_10x_tight": Fault(
-        "a new session's corrections to the shared terms held by a prior of 1e-5 rad, not 1e-4",
-        more.session_prior_10x_tight,
-        (
-            "tests/estimators/test_arm_session.py::"
-            "test_a_sessions_shift_is_recovered_not_pulled_to_the_machines_value",
-        ),
-    ),
-    "arm_cable_coupling_transposed": Fault(
-        "the estimators' cable compliance applied through the coupling transposed",
-        more.arm_cable_coupling_transposed,
-        (f"{CABLES}::test_fit_recovers_each_cable_through_an_asymmetric_coupling",),
-    ),
-    "twin_cable_coupling_transposed": Fault(
-        "the twin's cables settling the links through the coupling transposed",
-        more.twin_cable_coupling_transposed,
-        (f"{CABLES}::test_the_twins_cables_hold_gravity_through_an_asymmetric_coupling",),
-    ),
 }
+# issue 63's, the arm's: kept in their own module within the house's length of a file
+FAULTS.update({name: Fault(*spec) for name, spec in ARM_FAULTS.items()})
 
 _state: dict = {"name": None, "mp": None, "caught": []}
 
