@@ -78,6 +78,7 @@ def main(argv: list[str] | None = None) -> int:
             "montecarlo": verbs.montecarlo,
             "discover": verbs.discover,
             "iso230": verbs.iso230,
+            "acceptance": verbs.acceptance,
         }[args.command]
         with for_command(args):  # its one bar, or a line every 30 s off a terminal (stderr)
             return verb(args)

@@ -37,6 +37,7 @@ MAIN_FILE = {
     "trials.jsonl": "montecarlo",
     "intrinsics.json": "camera",
     "iso230.json": "iso230",
+    "acceptance.json": "acceptance",
 }
 
 # a crash's traceback: error.log, or beside a user's own error.log the second name
@@ -138,6 +139,7 @@ _KEYS = {
     "study.json": {"scenario", "seed", "fidelity"},
     "intrinsics.json": {"image_size", "K", "dist", "used", "rejected"},
     "iso230.json": {"axis", "per_target"},
+    "acceptance.json": {"scenario", "test", "before", "after"},
     "trials.jsonl": {"trial"},  # its first row
 }
 

@@ -74,6 +74,7 @@ _FORCE = {
     "discover": "a former discovery's are replaced without it",
     "camera": "a former calibration's are replaced without it",
     "iso230": "a former evaluation's are replaced without it",
+    "acceptance": "a former test's are replaced without it",
 }
 
 
@@ -119,6 +120,7 @@ def build_parser() -> argparse.ArgumentParser:
     _discover_verb(sub)
     _camera_verb(sub)
     _iso230_verb(sub)
+    _acceptance_verb(sub)
     p.epilog = f"Instruments: {', '.join(NAMES)}." + (
         f" Planned but not built yet: {', '.join(PLANNED)}." if PLANNED else ""
     )
@@ -364,3 +366,24 @@ def _iso230_verb(sub) -> None:
     )
     i.add_argument("run", type=Path, metavar="RUN.csv", help="the run, one row per reading")
     _out(i, "iso230", "iso230")
+
+
+def _acceptance_verb(sub) -> None:
+    """``calibench acceptance``'s parser (a standard's acceptance test on a twin), added to
+    ``sub``."""
+    from calibench.scenarios.acceptance import ALL_TESTS
+
+    a = sub.add_parser(
+        "acceptance",
+        help="a standard's acceptance test run on an instrument's twin, before and after "
+        "calibration",
+        description="Run a standard's acceptance test (ISO 9283 for an arm used as a robot, ISO "
+        "10360-12 for an articulated-arm CMM) on the instrument's twin before and after its "
+        "calibration; writes DIR/acceptance.json. A config's [acceptance.mpe] table states the "
+        "maker's limits by the figures' names.",
+    )
+    a.add_argument("scenario", help="the instrument (arm-cmm)")
+    a.add_argument("--test", required=True, choices=ALL_TESTS, help="the standard's test")
+    a.add_argument("--config", type=Path, help="TOML overrides ([arm-cmm], [acceptance.mpe])")
+    a.add_argument("--seed", type=_seed, default=0, help="the machine's and the test's draws")
+    _out(a, "SCENARIO-acceptance", "acceptance")

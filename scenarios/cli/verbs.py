@@ -351,6 +351,46 @@ def iso230(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def acceptance(args: argparse.Namespace) -> int:
+    """``calibench acceptance``: a standard's acceptance test on an instrument's twin, before and
+    after its calibration.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed arguments of ``calibench acceptance``.
+
+    Returns
+    -------
+    int
+        0 when the test ran and every stated MPE holds after calibration, 1 when one does not.
+    """
+    from calibench.scenarios.acceptance import procedure, run_acceptance
+    from calibench.scenarios.config import check_tables, load_toml, override
+
+    s = _scenario(args.scenario)
+    procedure(s.name, args.test)  # a test that does not apply is said before any work
+    table = load_toml(args.config) if args.config else {}
+    check_tables(args.config, table, [s.name, "acceptance"], [*_names(), "acceptance"])
+    config = override(s.config(), table.get(s.name, {}), s.name)
+    print(f"calibench: {s.name} {args.test} (seed {args.seed})", file=sys.stderr, flush=True)
+    r = run_acceptance(s.name, args.test, config, table, args.seed, args.out)
+    before, after = r["before"], r["after"]
+    for name in (k for k, v in after.items() if isinstance(v, float)):
+        print(f"  {name}: {before[name]:.4g} before calibration, {after[name]:.4g} after")
+    failed = [k for k, v in r.get("mpe", {}).items() if not v["conforms"]]
+    for k, v in r.get("mpe", {}).items():
+        print(f"  {k} MPE {v['mpe']:g}: {'conforms' if v['conforms'] else 'does not conform'}")
+    print(f"-> {args.out / 'acceptance.json'}")
+    return EXIT_CHECK_FAILED if failed else EXIT_OK
+
+
+def _names() -> list[str]:
+    from calibench.scenarios.registry import NAMES
+
+    return list(NAMES)
+
+
 def camera(args: argparse.Namespace) -> int:
     """``calibench camera``: a camera's intrinsics from chessboard photos.
 

@@ -1,0 +1,77 @@
+"""``calibench acceptance SCENARIO --test ...``: a standard's acceptance test run on the
+scenario's twin, before and after its calibration, with the maker's MPE's verdict when the
+config states one (DIR/acceptance.json, ../shared/CONTRACT.md).
+
+Each instrument names the tests that apply to it (:data:`TESTS`); the procedures are its own
+(``scenarios/arm_cmm/acceptance.py``: ISO 9283; ``scenarios/arm_cmm/iso10360.py``: ISO
+10360-12). A config's ``[acceptance.mpe]`` table states the maker's maximum permissible errors by
+the figures' names (``E_UNI_um = 25``); each figure after calibration is then judged against it.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Callable
+from pathlib import Path
+
+from calibench.scenarios.report import BadInput
+from calibench.writing import write_text
+
+TESTS = {"arm-cmm": ("iso9283", "iso10360-12")}
+ALL_TESTS = ("iso9283", "iso10360-12", "iso230-2")
+
+
+def procedure(scenario: str, test: str) -> Callable[[object, int], dict]:
+    """The test's procedure on the scenario's twin, ``(config, seed) -> figures``."""
+    if test not in TESTS.get(scenario, ()):
+        have = TESTS.get(scenario, ())
+        raise BadInput(
+            f"--test {test} does not apply to {scenario}"
+            + (
+                f" (its tests: {', '.join(have)})"
+                if have
+                else " (no acceptance test is built for it)"
+            )
+        )
+    if test == "iso9283":
+        from calibench.scenarios.arm_cmm.acceptance import iso9283
+
+        return iso9283  # type: ignore[return-value]
+    from calibench.scenarios.arm_cmm.iso10360 import iso10360_12
+
+    return iso10360_12  # type: ignore[return-value]
+
+
+def judged(figures: dict, mpe: dict) -> dict:
+    """Each stated MPE against the figure after calibration (its absolute value): {name: {"mpe",
+    "after", "conforms"}}; a name the test does not report is refused."""
+    out = {}
+    for name, limit in mpe.items():
+        if name not in figures:
+            raise BadInput(
+                f"[acceptance.mpe] states {name}, which this test does not report (it reports "
+                f"{', '.join(k for k in figures if not k.endswith('s_um') and k != 'per_pose')})"
+            )
+        if isinstance(limit, bool) or not isinstance(limit, (int, float)) or not limit > 0:
+            raise BadInput(f"[acceptance.mpe] {name} = {limit!r}: a positive number")
+        after = abs(float(figures[name]))
+        out[name] = {"mpe": float(limit), "after": after, "conforms": after <= limit}
+    return out
+
+
+def run_acceptance(scenario: str, test: str, config, table: dict, seed: int, out: Path) -> dict:
+    """Run ``test`` on ``scenario``'s twin (``config`` its scenario config, ``table`` the config
+    file's whole content for ``[acceptance]``) and write DIR/acceptance.json."""
+    figures = procedure(scenario, test)(config, seed)
+    mpe = table.get("acceptance", {}).get("mpe", {})
+    if not isinstance(mpe, dict):
+        raise BadInput("[acceptance.mpe] must be a table of the figures' limits")
+    result = {"scenario": scenario, "test": test, "seed": seed, **figures}
+    if mpe:
+        result["mpe"] = judged(figures["after"], mpe)
+    for which in ("before", "after"):
+        if not all(math.isfinite(v) for v in figures[which].values() if isinstance(v, float)):
+            raise RuntimeError(f"acceptance {test}: a figure {which} calibration is not finite")
+    write_text(out / "acceptance.json", json.dumps(result, indent=1) + "\n")
+    return result
