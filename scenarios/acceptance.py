@@ -20,6 +20,10 @@ from calibench.writing import write_text
 
 TESTS = {"arm-cmm": ("iso9283", "iso10360-12")}
 ALL_TESTS = ("iso9283", "iso10360-12", "iso230-2")
+FIGURES = {  # each test's figures, by the names an MPE states them
+    "iso9283": ("AP_mm", "RP_mm"),
+    "iso10360-12": ("E_UNI_um", "L_Dia_um", "P_Size_um", "P_Form_um"),
+}
 
 
 def procedure(scenario: str, test: str) -> Callable[[object, int], dict]:
@@ -43,18 +47,32 @@ def procedure(scenario: str, test: str) -> Callable[[object, int], dict]:
     return iso10360_12  # type: ignore[return-value]
 
 
-def judged(figures: dict, mpe: dict) -> dict:
-    """Each stated MPE against the figure after calibration (its absolute value): {name: {"mpe",
-    "after", "conforms"}}; a name the test does not report is refused."""
-    out = {}
+def stated_mpe(test: str, table: dict) -> dict:
+    """The config's ``[acceptance.mpe]`` (``table`` the whole file), checked: a table of positive
+    numbers, each named by one of the test's figures."""
+    mpe = table.get("acceptance", {})
+    if not isinstance(mpe, dict) or not isinstance(mpe.get("mpe", {}), dict):
+        raise BadInput("[acceptance.mpe] must be a table of the figures' limits")
+    unknown = set(mpe) - {"mpe"}
+    if unknown:
+        raise BadInput(f"[acceptance] holds {', '.join(sorted(unknown))}: only its mpe table")
+    mpe = mpe.get("mpe", {})
     for name, limit in mpe.items():
-        if name not in figures:
+        if name not in FIGURES[test]:
             raise BadInput(
-                f"[acceptance.mpe] states {name}, which this test does not report (it reports "
-                f"{', '.join(k for k in figures if not k.endswith('s_um') and k != 'per_pose')})"
+                f"[acceptance.mpe] states {name}, which {test} does not report (it reports "
+                f"{', '.join(FIGURES[test])})"
             )
         if isinstance(limit, bool) or not isinstance(limit, (int, float)) or not limit > 0:
             raise BadInput(f"[acceptance.mpe] {name} = {limit!r}: a positive number")
+    return mpe
+
+
+def judged(figures: dict, mpe: dict) -> dict:
+    """Each stated MPE against the figure after calibration (its absolute value): {name: {"mpe",
+    "after", "conforms"}}."""
+    out = {}
+    for name, limit in mpe.items():
         after = abs(float(figures[name]))
         out[name] = {"mpe": float(limit), "after": after, "conforms": after <= limit}
     return out
@@ -63,10 +81,8 @@ def judged(figures: dict, mpe: dict) -> dict:
 def run_acceptance(scenario: str, test: str, config, table: dict, seed: int, out: Path) -> dict:
     """Run ``test`` on ``scenario``'s twin (``config`` its scenario config, ``table`` the config
     file's whole content for ``[acceptance]``) and write DIR/acceptance.json."""
+    mpe = stated_mpe(test, table)
     figures = procedure(scenario, test)(config, seed)
-    mpe = table.get("acceptance", {}).get("mpe", {})
-    if not isinstance(mpe, dict):
-        raise BadInput("[acceptance.mpe] must be a table of the figures' limits")
     result = {"scenario": scenario, "test": test, "seed": seed, **figures}
     if mpe:
         result["mpe"] = judged(figures["after"], mpe)

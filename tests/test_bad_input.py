@@ -17,6 +17,7 @@ import pytest
 from calibench.scenarios.cli import main
 from tests.bad_input import (
     arm_probe,
+    acceptance,
     camera,
     cli,
     config,
@@ -34,6 +35,7 @@ RESULTS = (
     "summary.json",
     "intrinsics.json",
     "iso230.json",
+    "acceptance.json",
 )
 
 # --- the corpus: one module per verb under tests/bad_input/ ---------------------------------
@@ -49,6 +51,7 @@ CASES = (
     + montecarlo.CASES
     + camera.CASES
     + iso230.CASES
+    + acceptance.CASES
 )
 
 # the photo cases that need the shared data (real boards): (id, builder(shared, d) -> argv,

@@ -365,7 +365,7 @@ def acceptance(args: argparse.Namespace) -> int:
     int
         0 when the test ran and every stated MPE holds after calibration, 1 when one does not.
     """
-    from calibench.scenarios.acceptance import procedure, run_acceptance
+    from calibench.scenarios.acceptance import procedure, run_acceptance, stated_mpe
     from calibench.scenarios.config import check_tables, load_toml, override
 
     s = _scenario(args.scenario)
@@ -373,6 +373,7 @@ def acceptance(args: argparse.Namespace) -> int:
     table = load_toml(args.config) if args.config else {}
     check_tables(args.config, table, [s.name, "acceptance"], [*_names(), "acceptance"])
     config = override(s.config(), table.get(s.name, {}), s.name)
+    stated_mpe(args.test, table)
     print(f"calibench: {s.name} {args.test} (seed {args.seed})", file=sys.stderr, flush=True)
     r = run_acceptance(s.name, args.test, config, table, args.seed, args.out)
     before, after = r["before"], r["after"]

@@ -334,6 +334,7 @@ def test_a_run_without_its_recording_removes_a_former_one(tmp_path):
         ("discover", "a former discovery's"),
         ("camera", "a former calibration's"),
         ("iso230", "a former evaluation's"),
+        ("acceptance", "a former test's"),
         ("montecarlo", "the study starts anew"),
     ],
 )

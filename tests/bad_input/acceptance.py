@@ -1,0 +1,56 @@
+"""Bad-input cases, `acceptance`: tests and limits it must refuse before any work.
+
+See tests/test_bad_input.py, which runs every case.
+"""
+
+from __future__ import annotations
+
+_ACC = ["acceptance", "arm-cmm", "--test", "iso10360-12", "--out", "{d}/o"]
+
+# (id, files to write {name: text or bytes or callable(path)}, argv with {d} for the case folder,
+#  expected exit status, a fragment the message must contain)
+CASES = [
+    (
+        "acceptance-test-of-another-instrument",
+        {},
+        ["acceptance", "stewart", "--test", "iso9283", "--out", "{d}/o"],
+        2,
+        "does not apply to stewart",
+    ),
+    (
+        "acceptance-unknown-scenario",
+        {},
+        ["acceptance", "hexapod", "--test", "iso9283", "--out", "{d}/o"],
+        2,
+        "hexapod",
+    ),
+    ("acceptance-unknown-test", {}, ["acceptance", "arm-cmm", "--test", "iso1"], 2, "iso1"),
+    (
+        "acceptance-mpe-of-a-figure-it-does-not-report",
+        {"c.toml": "[acceptance.mpe]\nAP_mm = 0.1\n"},
+        [*_ACC, "--config", "{d}/c.toml"],
+        2,
+        "does not report",
+    ),
+    (
+        "acceptance-mpe-below-zero",
+        {"c.toml": "[acceptance.mpe]\nE_UNI_um = -3\n"},
+        [*_ACC, "--config", "{d}/c.toml"],
+        2,
+        "a positive number",
+    ),
+    (
+        "acceptance-mpe-not-a-table",
+        {"c.toml": "[acceptance]\nmpe = 3\n"},
+        [*_ACC, "--config", "{d}/c.toml"],
+        2,
+        "must be a table",
+    ),
+    (
+        "acceptance-config-of-another-scenario",
+        {"c.toml": "[stewart]\nn_poses = 40\n"},
+        [*_ACC, "--config", "{d}/c.toml"],
+        2,
+        "takes only",
+    ),
+]
