@@ -191,6 +191,7 @@ def _arm_always_converged(mp):
 
 
 KIN = "tests/estimators/test_arm_kinematics.py"
+STUDY_TABLE = "tests/scenarios/test_study_table.py"
 FAULTS: dict[str, Fault] = {
     "arm_dh_alpha_100urad": Fault(
         "joint 3's nominal alpha 100 urad off in the estimators' chain",
@@ -404,6 +405,19 @@ FAULTS: dict[str, Fault] = {
         "run ignoring a config table of another scenario than the one it runs",
         more.other_scenarios_table_ignored,
         ("tests/test_bad_input.py::test_bad_input[config-other-scenarios-table]",),
+    ),
+    # --- issue 64: the study's coverage band on its values and at its edge
+    "coverage_band_90": Fault(
+        "the study's coverage band from the 5 % and 95 % quantiles, not 2.5 % and 97.5 %",
+        more.coverage_band_90,
+        (f"{STUDY_TABLE}::test_the_coverage_band_is_the_binomial_scatter_of_an_honest_std",),
+    ),
+    "band_edge_outside": Fault(
+        "a coverage on the band's edge counted outside",
+        more.band_edge_outside,
+        (
+            f"{STUDY_TABLE}::test_a_coverage_on_the_band_s_edge_is_inside_in_the_summary_and_the_figure",
+        ),
     ),
 }
 # issue 63's, the arm's: kept in their own module within the house's length of a file
