@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from calibench.errors import BadInput
+from calibench.scenes import arm_tree
 
 ARMS_DIR = Path(__file__).resolve().parent / "arms"
 DEFAULT_ARM = "arm-cmm"  # the seed's 6-joint arm CMM, the arm a run builds when none is named
@@ -43,6 +44,15 @@ class ArmDescription:
         coupling @ motor angles (None: each motor turns its own joint).
     cable_stiffness_nm_per_rad : (N,) or None: each motor's cable, seen at the motor (inf: rigid);
         the cables stretch under the joints' loads carried back through the coupling.
+    parent : (N,) or None: a branched arm's joints' parents (0 the base, k joint k, 1-based);
+        None for a serial arm.
+    follows : (N, N) or None: joint angles = follows @ readings, a joint without an encoder of
+        its own (its row the coefficients of the joints it follows, its column zero); None when
+        every joint reads its own.
+    tools_mm, tools_joint, tools_mass_kg : (T, 3), (T,), (T,) or None: several tools (or one on
+        another joint than the last), each's point in its joint's link frame, that joint
+        (1-based) and its mass; None for the one tool of ``tool_mm`` on the last joint (where
+        several, ``tool_mm`` and ``tool_mass_kg`` are the first's).
     """
 
     name: str
@@ -59,6 +69,11 @@ class ArmDescription:
     gravity_m_s2: tuple = (0.0, 0.0, -9.81)
     coupling: tuple | None = None
     cable_stiffness_nm_per_rad: tuple | None = None
+    parent: tuple | None = None
+    follows: tuple | None = None
+    tools_mm: tuple | None = None
+    tools_joint: tuple | None = None
+    tools_mass_kg: tuple | None = None
     source: str = ""
 
     @property
@@ -70,6 +85,50 @@ class ArmDescription:
     def has_masses(self) -> bool:
         """Whether every joint's link has a mass and a centre of mass."""
         return self.mass_kg is not None
+
+    @property
+    def n_tools(self) -> int:
+        """The number of tools (measured points)."""
+        return 1 if self.tools_mm is None else len(self.tools_mm)
+
+    @property
+    def branched(self) -> bool:
+        """Whether the arm is more than one serial chain to one tool at its flange: joints on
+        other parents, followers, several tools or a tool elsewhere."""
+        return self.parent is not None or self.follows is not None or self.tools_mm is not None
+
+    def parents(self) -> np.ndarray:
+        """(N,) int each joint's parent (0 the base, k joint k)."""
+        return np.arange(self.n_joints) if self.parent is None else np.array(self.parent, int)
+
+    def tool_offsets(self) -> np.ndarray:
+        """(T, 3) each tool's point in its joint's link frame, mm."""
+        return np.array([self.tool_mm] if self.tools_mm is None else self.tools_mm, float)
+
+    def tool_joints(self) -> np.ndarray:
+        """(T,) int the joint (1-based) whose link carries each tool."""
+        return np.array([self.n_joints] if self.tools_joint is None else self.tools_joint, int)
+
+    def tool_masses(self) -> np.ndarray:
+        """(T,) each tool's mass, kg."""
+        return np.array(
+            [self.tool_mass_kg] if self.tools_mass_kg is None else self.tools_mass_kg, float
+        )
+
+    def followers(self) -> list[int]:
+        """The joints (1-based) that follow others (no encoder of their own)."""
+        if self.follows is None:
+            return []
+        return [j + 1 for j in range(self.n_joints) if self.follows[j][j] == 0.0]
+
+    def joint_angles(self, readings: np.ndarray) -> np.ndarray:
+        """The joints' angles (n, N) at ``readings`` (n, N): each follower's from the joints it
+        follows (its own column ignored)."""
+        q = np.array(readings, float)
+        for f in self.followers():
+            row = self.follows[f - 1]  # type: ignore[index]
+            q[:, f - 1] = sum(a * q[:, k] for k, a in enumerate(row) if a != 0.0)
+        return q
 
     def motor_to_joint(self) -> np.ndarray:
         """(N, N) joint angles = this @ motor angles (the identity without a coupling)."""
@@ -90,18 +149,25 @@ class ArmDescription:
     def reach_mm(self) -> float:
         """An upper bound of the tool point's distance from the first joint's axis."""
         return float(
-            np.sum(np.abs(self.a_mm)) + np.sum(np.abs(self.d_mm[1:])) + np.linalg.norm(self.tool_mm)
+            np.sum(np.abs(self.a_mm))
+            + np.sum(np.abs(self.d_mm[1:]))
+            + np.linalg.norm(self.tool_offsets(), axis=1).max()
         )
 
     def parallel_pairs(self, tol_rad: float = math.radians(5)) -> list[tuple[int, int]]:
-        """Consecutive joints (1-based) whose axes are (nearly) parallel, nominally."""
+        """Consecutive joints (1-based; a joint and its parent on a branched arm) whose axes are
+        (nearly) parallel, nominally."""
         al = np.asarray(self.alpha_rad)
+        parent = self.parents()
         pairs = []
-        for i in range(self.n_joints - 1):
-            # dh: alpha_i turns z_{i-1} into z_i; mdh: alpha_{i+1} turns z_i into z_{i+1}
-            twist = al[i] if self.convention == "dh" else al[i + 1]
+        for c in range(1, self.n_joints):
+            p = int(parent[c])  # joint c + 1's parent, 1-based (0: the base, no pair)
+            if p == 0:
+                continue
+            # dh: alpha_p turns z_{p-1} into z_p; mdh: alpha_c turns z_p into z_c
+            twist = al[p - 1] if self.convention == "dh" else al[c]
             if abs(math.sin(twist)) < math.sin(tol_rad):
-                pairs.append((i + 1, i + 2))
+                pairs.append((p, c + 1))
         return pairs
 
 
@@ -204,7 +270,17 @@ def arm_from_table(t: dict, where: str = "arm") -> ArmDescription:
     if len(joints) > MAX_JOINTS:
         raise ArmFileError(f"{where}: {len(joints)} joints; at most {MAX_JOINTS}")
     a, d, al, th, rng, mass, com = [], [], [], [], [], [], []
-    jkeys = {"a_mm", "d_mm", "alpha_deg", "theta_deg", "range_deg", "mass_kg", "com_mm"}
+    jkeys = {
+        "a_mm",
+        "d_mm",
+        "alpha_deg",
+        "theta_deg",
+        "range_deg",
+        "mass_kg",
+        "com_mm",
+        "parent",
+        "follows",
+    }
     for i, j in enumerate(joints, 1):
         w = f"{where}: joint {i}"
         extra = set(j) - jkeys
@@ -234,17 +310,12 @@ def arm_from_table(t: dict, where: str = "arm") -> ArmDescription:
             f"{where}: mass_kg and com_mm on {len(mass)} of {len(joints)} joints: give them for "
             "every joint or none"
         )
-    tool = t.get("tool", {})
-    if not isinstance(tool, dict):
-        raise ArmFileError(f"{where}: [tool] must be a table")
-    extra = set(tool) - {"offset_mm", "mass_kg"}
-    if extra:
-        raise ArmFileError(
-            f"{where}: [tool]: unknown field(s) {', '.join(sorted(extra))} (known: mass_kg, "
-            "offset_mm)"
-        )
-    tool_mm = _vector(tool, "offset_mm", f"{where}: [tool]", 3, default=(0.0, 0.0, 0.0), bound=1e5)
-    if sum(abs(x) for x in a + d) + np.linalg.norm(tool_mm) < 1.0:
+    parent = arm_tree.parents(joints, where, ArmFileError)
+    follows = arm_tree.follows(joints, where, ArmFileError)
+    tools = arm_tree.tools(t.get("tool", {}), where, len(joints), ArmFileError, _number, _vector)
+    tool_mm, _, tool_mass = tools[0]
+    several = len(tools) > 1 or tools[0][1] != len(joints)
+    if sum(abs(x) for x in a + d) + max(np.linalg.norm(o) for o, _, _ in tools) < 1.0:
         raise ArmFileError(
             f"{where}: every a_mm, d_mm and the tool's offset_mm are zero: the arm has no length, "
             "its tool point never moves"
@@ -255,6 +326,11 @@ def arm_from_table(t: dict, where: str = "arm") -> ArmDescription:
             f"{where}: gravity_m_s2 has magnitude {np.linalg.norm(g):.3g}: expected about 9.81"
         )
     coupling, cables = _transmission(t.get("transmission"), where, len(joints))
+    if follows is not None and (coupling is not None or cables is not None):
+        raise ArmFileError(
+            f"{where}: a joint that follows others (follows) and a [transmission] together: not "
+            "supported; give the coupling in one of them"
+        )
     return ArmDescription(
         name=name,
         convention=conv,
@@ -266,10 +342,15 @@ def arm_from_table(t: dict, where: str = "arm") -> ArmDescription:
         tool_mm=tool_mm,
         mass_kg=tuple(mass) if mass else None,
         com_mm=tuple(com) if com else None,
-        tool_mass_kg=_number(tool, "mass_kg", f"{where}: [tool]", default=0.0, lo=0.0, hi=1e4),
+        tool_mass_kg=tool_mass,
         gravity_m_s2=g,
         coupling=coupling,
         cable_stiffness_nm_per_rad=cables,
+        parent=parent,
+        follows=follows,
+        tools_mm=tuple(o for o, _, _ in tools) if several else None,
+        tools_joint=tuple(j for _, j, _ in tools) if several else None,
+        tools_mass_kg=tuple(m for _, _, m in tools) if several else None,
         source=where,
     )
 

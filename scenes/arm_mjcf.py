@@ -102,7 +102,7 @@ class _Links:
     hinge body ``joint{i}`` at pre_t (N, 3) turned by pre_quat (N, 4); link body ``link{i}`` at
     post_t, post_quat in it; the link's mass (N,), centre com (N, 3) and rod inertia (N,) in the
     hinge body; its capsule from the hinge to post_t (a sphere where that is shorter than 1 um);
-    the tool point tool (3,) in the flange."""
+    the tool points tools (T, 3), each in its joint's link frame."""
 
     pre_t: np.ndarray
     pre_quat: np.ndarray
@@ -112,12 +112,12 @@ class _Links:
     com: np.ndarray
     inertia: np.ndarray
     capsule: tuple
-    tool: np.ndarray
+    tools: np.ndarray
 
 
 def _links(arm: ArmDescription, values: np.ndarray | None, tool_mm) -> _Links:
-    """:class:`_Links` of ``arm`` with as-built ``values`` (N, 5) and ``tool_mm`` (nominal when
-    None)."""
+    """:class:`_Links` of ``arm`` with as-built ``values`` (N, 5) and ``tool_mm`` (3,), or (T, 3)
+    for an arm with several tools (nominal when None)."""
     N = arm.n_joints
     values = np.asarray(arm.nominal() if values is None else values, float)
     a, d, al, th, be = values.T
@@ -130,7 +130,8 @@ def _links(arm: ArmDescription, values: np.ndarray | None, tool_mm) -> _Links:
         inertia = mass * (0.05**2 + np.sum(post_t * post_t, axis=1) / 12)
     else:
         mass, com, inertia = np.full(N, 0.1), post_t / 2, np.full(N, 1e-3)
-    tool = np.asarray(arm.tool_mm if tool_mm is None else tool_mm, float) / 1000
+    tool = np.asarray(arm.tool_offsets() if tool_mm is None else tool_mm, float).reshape(-1, 3)
+    tool = tool / 1000
     return _Links(
         pre_t,
         pre_quat,
@@ -158,6 +159,65 @@ def _g(v) -> str:
     return " ".join(f"{x:.17g}" for x in np.atleast_1d(v))
 
 
+def _flexing(arm: ArmDescription, bend, flex) -> dict[int, float]:
+    """{link j (1-based): its flex springs' stiffness}: ``bend``'s one and ``flex``'s."""
+    out = dict(flex or {})
+    if bend is not None:
+        out[int(bend[0])] = float(bend[1])
+    for j in out:
+        if not 1 <= j <= arm.n_joints:
+            raise ValueError(f"link {j} to flex: the arm has links 1..{arm.n_joints}")
+    return out
+
+
+def _body(arm: ArmDescription, L: _Links, k: np.ndarray, flex: dict, i: int) -> str:
+    """Joint i's (0-based) body, its link's and, nested in the link, its children's and its
+    tools': a serial arm's chain of bodies is each joint's one child. On a link that flexes
+    (``flex``), the outer segment sits on two springs across it halfway."""
+    spring = f' stiffness="{k[i]:.17g}"' if np.isfinite(k[i]) else ""
+    geom = (
+        f'<geom type="capsule" fromto="0 0 0 {_g(L.post_t[i])}" size="0.03" rgba="0.75 0.75 '
+        '0.78 1"/>'
+        if L.capsule[i]
+        else '<geom type="sphere" size="0.035" rgba="0.75 0.75 0.78 1"/>'
+    )
+    # armature 0.1 kg m^2: a geared motor's rotor seen through its reduction; with the 0.5 ms
+    # step it keeps a stiff joint's spring stable when the model is stepped
+    text = f"""
+      <body name="joint{i + 1}" pos="{_g(L.pre_t[i])}" quat="{_g(L.pre_quat[i])}">
+        <joint name="q{i + 1}" type="hinge" axis="0 0 1" damping="2" armature="0.1"{spring}/>
+        <inertial pos="{_g(L.com[i])}" mass="{L.mass[i]:.17g}"
+            diaginertia="{_g([L.inertia[i]] * 3)}"/>
+        {geom}"""
+    link_at, close = _g(L.post_t[i]), "\n        </body>\n      </body>"
+    if i + 1 in flex:  # the outer segment, on a spring halfway
+        across, kf = _across(L.post_t[i]), flex[i + 1]
+        text += f"""
+        <body name="bend{i + 1}" pos="{_g(L.post_t[i] / 2)}">
+        <joint name="bend{i + 1}a" type="hinge" axis="{_g(across[0])}" stiffness="{kf:.17g}"/>
+        <joint name="bend{i + 1}b" type="hinge" axis="{_g(across[1])}" stiffness="{kf:.17g}"/>
+        <inertial pos="0 0 0" mass="1e-6" diaginertia="1e-9 1e-9 1e-9"/>"""
+        link_at, close = _g(L.post_t[i] / 2), close + "\n        </body>"
+    text += f"""
+        <body name="link{i + 1}" pos="{link_at}" quat="{_g(L.post_quat[i])}">"""
+    parents = arm.parents()
+    text += "".join(
+        _body(arm, L, k, flex, c) for c in range(i + 1, arm.n_joints) if parents[c] == i + 1
+    )
+    masses = arm.tool_masses()
+    for t, at in enumerate(arm.tool_joints()):
+        if at != i + 1:
+            continue
+        name = "" if t == 0 else str(t + 1)
+        flange = '\n          <site name="flange" pos="0 0 0" size="0.005" rgba="0.3 0.3 0.9 1"/>'
+        text += f"""{flange if t == 0 else ""}
+          <site name="probe{name}" pos="{_g(L.tools[t])}" size="0.006" rgba="0.9 0.2 0.2 1"/>
+          <body name="tool{name}" pos="{_g(L.tools[t])}">
+            <inertial pos="0 0 0" mass="{max(masses[t], 1e-6):.17g}" diaginertia="1e-5 1e-5 1e-5"/>
+          </body>"""
+    return text + close
+
+
 def build_mjcf(
     arm: ArmDescription,
     values: np.ndarray | None = None,
@@ -167,6 +227,7 @@ def build_mjcf(
     tracker_quat=None,
     cones_m=None,
     bend: tuple[int, float] | None = None,
+    flex: dict[int, float] | None = None,
 ) -> str:
     """MJCF of ``arm`` built with as-built ``values`` (N, 5): a, d (mm), alpha, theta, beta (rad)
     per joint (nominal when None), the tool point ``tool_mm`` (3,), each hinge's spring
@@ -174,7 +235,10 @@ def build_mjcf(
     ``bend``: (link j, stiffness N m / rad): link j made of two segments joined halfway by two
     hinges ``bend{j}a``, ``bend{j}b`` across it, each with that spring (a link that bends under
     the load it carries, either way; the second suite's), the rest of the chain on the outer
-    segment."""
+    segment. ``flex``: {link j: stiffness N m / rad}, as many such links as given (a branched
+    arm's lateral compliance). A branched arm's joints nest in their parents' links, each tool
+    on its joint's link (site ``probe``, body ``tool``; ``probe2``, ``tool2``, ... for the
+    others), a follower held to the joints it follows by an equality on a fixed tendon."""
     N = arm.n_joints
     k = (
         np.full(N, np.inf)
@@ -183,49 +247,9 @@ def build_mjcf(
     )
     g = arm.gravity_m_s2
     L = _links(arm, values, tool_mm)
-    body, close = "", ""
-    for i in range(N):
-        spring = f' stiffness="{k[i]:.17g}"' if np.isfinite(k[i]) else ""
-        geom = (
-            f'<geom type="capsule" fromto="0 0 0 {_g(L.post_t[i])}" size="0.03" rgba="0.75 0.75 '
-            '0.78 1"/>'
-            if L.capsule[i]
-            else '<geom type="sphere" size="0.035" rgba="0.75 0.75 0.78 1"/>'
-        )
-        # armature 0.1 kg m^2: a geared motor's rotor seen through its reduction; with the 0.5 ms
-        # step it keeps a stiff joint's spring stable when the model is stepped
-        link_at = _g(L.post_t[i])
-        if bend is not None and bend[0] == i + 1:  # the outer segment, on a spring halfway
-            across = _across(L.post_t[i])
-            body += f"""
-      <body name="joint{i + 1}" pos="{_g(L.pre_t[i])}" quat="{_g(L.pre_quat[i])}">
-        <joint name="q{i + 1}" type="hinge" axis="0 0 1" damping="2" armature="0.1"{spring}/>
-        <inertial pos="{_g(L.com[i])}" mass="{L.mass[i]:.17g}"
-            diaginertia="{_g([L.inertia[i]] * 3)}"/>
-        {geom}
-        <body name="bend{i + 1}" pos="{_g(L.post_t[i] / 2)}">
-        <joint name="bend{i + 1}a" type="hinge" axis="{_g(across[0])}" stiffness="{bend[1]:.17g}"/>
-        <joint name="bend{i + 1}b" type="hinge" axis="{_g(across[1])}" stiffness="{bend[1]:.17g}"/>
-        <inertial pos="0 0 0" mass="1e-6" diaginertia="1e-9 1e-9 1e-9"/>"""
-            link_at = _g(L.post_t[i] / 2)
-            close = "\n        </body>" + close
-        else:
-            body += f"""
-      <body name="joint{i + 1}" pos="{_g(L.pre_t[i])}" quat="{_g(L.pre_quat[i])}">
-        <joint name="q{i + 1}" type="hinge" axis="0 0 1" damping="2" armature="0.1"{spring}/>
-        <inertial pos="{_g(L.com[i])}" mass="{L.mass[i]:.17g}"
-            diaginertia="{_g([L.inertia[i]] * 3)}"/>
-        {geom}"""
-        body += f"""
-        <body name="link{i + 1}" pos="{link_at}" quat="{_g(L.post_quat[i])}">"""
-        close = "\n        </body>\n      </body>" + close
-    tool_mass = max(arm.tool_mass_kg, 1e-6)
-    body += f"""
-          <site name="flange" pos="0 0 0" size="0.005" rgba="0.3 0.3 0.9 1"/>
-          <site name="probe" pos="{_g(L.tool)}" size="0.006" rgba="0.9 0.2 0.2 1"/>
-          <body name="tool" pos="{_g(L.tool)}">
-            <inertial pos="0 0 0" mass="{tool_mass:.17g}" diaginertia="1e-5 1e-5 1e-5"/>
-          </body>"""
+    flex = _flexing(arm, bend, flex)
+    roots = [i for i in range(N) if arm.parents()[i] == 0]
+    body = "".join(_body(arm, L, k, flex, i) for i in roots)
     world = ""
     if tracker_pos_m is not None:
         tp = np.asarray(tracker_pos_m, float)
@@ -246,7 +270,7 @@ def build_mjcf(
         fromto="{ca[0]} {ca[1]} {ca[2] - 0.02} {cb[0]} {cb[1]} {cb[2] - 0.02}" size="0.008"
         rgba="0.3 0.3 0.35 1"/>"""
     reach = max(arm.reach_mm / 1000, 0.5)
-    return _with_cables(
+    xml = _with_cables(
         arm,
         f"""
 <mujoco model={quoteattr(arm.name)}>
@@ -261,12 +285,13 @@ def build_mjcf(
         pos="0 0 {-0.35 * reach:.3f}" rgba="0.2 0.22 0.25 1"/>
     <geom name="pedestal" type="cylinder" size="0.06 {0.17 * reach:.3f}"
         pos="0 0 {-0.18 * reach:.3f}" rgba="0.3 0.3 0.32 1"/>{world}
-    <body name="base" pos="0 0 0">{body}{close}
+    <body name="base" pos="0 0 0">{body}
     </body>
   </worldbody>
 </mujoco>
 """,
     )
+    return _with_followers(arm, xml)
 
 
 def _with_cables(arm: ArmDescription, xml: str) -> str:
@@ -287,6 +312,34 @@ def _with_cables(arm: ArmDescription, xml: str) -> str:
         )
         cables += f'\n    <fixed name="cable{m + 1}" stiffness="{k[m]:.17g}">{joints}</fixed>'
     return xml.replace("</worldbody>", f"</worldbody>\n  <tendon>{cables}\n  </tendon>", 1)
+
+
+# a follower's coupling, as stiff as the 0.5 ms step allows: the statics set its angle from the
+# joints it follows exactly (sim.arm_cmm); the constraint is what stepping the model holds
+FOLLOW_SOLREF, FOLLOW_SOLIMP = "0.001 1", "0.9999 0.9999 0.001"
+
+
+def _with_followers(arm: ArmDescription, xml: str) -> str:
+    """``xml`` with each follower held to the joints it follows: a fixed tendon q_f - a q_i -
+    b q_j (its length zero at the arm's zero posture) and an equality keeping it there."""
+    if not arm.followers():
+        return xml
+    tendons, equalities = "", ""
+    for f in arm.followers():
+        row = arm.follows[f - 1]  # type: ignore[index]
+        joints = f'<joint joint="q{f}" coef="1"/>' + "".join(
+            f'<joint joint="q{k + 1}" coef="{-a:.17g}"/>' for k, a in enumerate(row) if a != 0.0
+        )
+        tendons += f'\n    <fixed name="follow{f}">{joints}</fixed>'
+        equalities += (
+            f'\n    <tendon name="follows{f}" tendon1="follow{f}" solref="{FOLLOW_SOLREF}" '
+            f'solimp="{FOLLOW_SOLIMP}"/>'
+        )
+    return xml.replace(
+        "</worldbody>",
+        f"</worldbody>\n  <tendon>{tendons}\n  </tendon>\n  <equality>{equalities}\n  </equality>",
+        1,
+    )
 
 
 def _key(v) -> tuple | None:
@@ -316,21 +369,31 @@ def as_built_model(
     tracker_pos_m=None,
     tracker_quat=None,
     cones_m=None,
+    flex: dict[int, float] | None = None,
 ):
     """The MjModel of :func:`build_mjcf` with the same arguments, without writing and parsing the
     MJCF each time: the nominal arm's MJCF is parsed once per arm and setup, and each as-built
-    arm writes its frames, centres of mass and tool into that spec before compiling (a Monte-Carlo
-    trial makes one per trial). A test checks every array of the model against the MJCF's."""
+    arm writes its frames, centres of mass and tools into that spec before compiling (a
+    Monte-Carlo trial makes one per trial). A test checks every array of the model against the
+    MJCF's. An arm whose links flex (``flex``) is compiled from its MJCF (its flex hinges' axes
+    follow each as-built link)."""
     import mujoco
 
     L = _links(arm, values, tool_mm)
     spec, capsule = _spec(
         arm, _key(stiffness_nm_per_rad), _key(tracker_pos_m), _key(tracker_quat), _key(cones_m)
     )
-    if L.capsule != capsule:  # a link's capsule became a sphere or back: another MJCF
+    if L.capsule != capsule or flex:  # a link's capsule became a sphere or back: another MJCF
         return mujoco.MjModel.from_xml_string(
             build_mjcf(
-                arm, values, tool_mm, stiffness_nm_per_rad, tracker_pos_m, tracker_quat, cones_m
+                arm,
+                values,
+                tool_mm,
+                stiffness_nm_per_rad,
+                tracker_pos_m,
+                tracker_quat,
+                cones_m,
+                flex=flex,
             )
         )
     with _SPEC_LOCK:
@@ -341,9 +404,15 @@ def as_built_model(
             link.pos, link.quat = L.post_t[i], L.post_quat[i]
             if L.capsule[i]:
                 hinge.geoms[0].fromto = np.r_[0.0, 0.0, 0.0, L.post_t[i]]
-        spec.site("probe").pos = L.tool
-        spec.body("tool").pos = L.tool
+        for t, name in enumerate(_tool_names(L)):
+            spec.site(f"probe{name}").pos = L.tools[t]
+            spec.body(f"tool{name}").pos = L.tools[t]
         return spec.compile()
+
+
+def _tool_names(L: _Links) -> list[str]:
+    """The tools' suffixes in the MJCF: ``probe``, ``tool`` for the first, ``probe2`` ... after."""
+    return ["" if t == 0 else str(t + 1) for t in range(len(L.tools))]
 
 
 def write_as_built(model, arm: ArmDescription, values: np.ndarray, tool_mm) -> bool:
@@ -383,8 +452,9 @@ def write_as_built(model, arm: ArmDescription, values: np.ndarray, tool_mm) -> b
     model.geom_size[g, 1] = half
     model.geom_rbound[g] = model.geom_size[g, 0] + half
     model.geom_aabb[g, 5] = model.geom_size[g, 0] + half
-    model.site_pos[model.site("probe").id] = L.tool
-    model.body_pos[model.body("tool").id] = L.tool
+    for t, name in enumerate(_tool_names(L)):
+        model.site_pos[model.site(f"probe{name}").id] = L.tools[t]
+        model.body_pos[model.body(f"tool{name}").id] = L.tools[t]
     return True
 
 

@@ -19,127 +19,22 @@ Instruments:
 
 from __future__ import annotations
 
-import dataclasses
-import functools
 import threading
 
 import mujoco
 import numpy as np
 
 from calibench.errors import BadInput
-from calibench.scenes.arm_cmm import DEFAULT_ARM, ArmDescription, load_arm
+from calibench.scenes.arm_cmm import ArmDescription, load_arm
 from calibench.scenes.arm_mjcf import as_built_model, write_as_built
-
-# The seed's Table 1 errors: (da, dd, dalpha, dtheta) of links 1-6 (mm, mm, rad, rad), then dd7,
-# the stylus length (mm): the tool point's z in the flange frame.
-TABLE1_DELTA = (
-    0.10,
-    -0.05,
-    0.0010,
-    0.0014,
-    -0.08,
-    0.11,
-    0.0014,
-    -0.0023,
-    -0.12,
-    0.06,
-    -0.0012,
-    0.0017,
-    0.03,
-    0.13,
-    0.0017,
-    0.0010,
-    0.07,
-    -0.04,
-    0.0010,
-    -0.0014,
-    -0.14,
-    0.05,
-    -0.0010,
-    0.0010,
-    -0.03,
+from calibench.sim.arm_tree_twin import TreeStatics
+from calibench.sim.arm_truth import (  # noqa: F401  (re-exported: the twin's truth's old home)
+    TABLE1_DELTA,
+    ArmTruth,
+    default_errors,
+    drawn_errors,
+    table1_errors,
 )
-
-
-@functools.lru_cache(maxsize=1)
-def table1_errors() -> tuple:
-    """Table 1 in the general layout: (da, dd, dalpha, dtheta, dbeta) per joint, tool (x, y, z)."""
-    t = np.asarray(TABLE1_DELTA)
-    per = np.c_[t[:24].reshape(6, 4), np.zeros(6)]
-    return tuple(np.r_[per.ravel(), 0.0, 0.0, t[24]])
-
-
-def default_errors(arm: ArmDescription, seed: int = 0) -> tuple:
-    """The as-built errors a run injects when the config gives none: Table 1 for the seed's arm;
-    for any other arm a fixed draw of the seed's sizes (lengths 0.1 mm, angles 1 mrad; beta only
-    where two axes are parallel, where it is the error DH cannot express)."""
-    if arm.name == DEFAULT_ARM and arm.n_joints == 6:
-        return table1_errors()
-    return drawn_errors(arm, seed)
-
-
-def drawn_errors(arm: ArmDescription, seed: int) -> tuple:
-    """As-built errors (5 N + 3,) of the seed's sizes drawn for ``arm`` with ``seed``: lengths
-    0.1 mm, angles 1 mrad, beta only where two axes are parallel (another arm of one drawing is
-    another seed)."""
-    rng = np.random.default_rng(seed)
-    N = arm.n_joints
-    per = np.c_[rng.normal(0, 0.1, (N, 2)), rng.normal(0, 1e-3, (N, 3))]
-    per[:, 4] = 0.0
-    for i, _ in arm.parallel_pairs():
-        per[i - 1, 4] = rng.normal(0, 1e-3)
-    return tuple(np.r_[per.ravel(), 0.0, 0.0, 0.0])
-
-
-@dataclasses.dataclass(frozen=True)
-class ArmTruth:
-    """The as-built arm and its instruments.
-
-    delta : (5 N + 3,) errors, or () for :func:`default_errors`.
-    stiffness_nm_per_rad : (N,) per joint, or () for a rigid arm (inf is rigid too).
-    cable_stiffness_nm_per_rad : (N,) per motor of an arm with a transmission, or () for the
-        description's cables (inf: a rigid cable).
-    cable_friction_nm : (N,) per motor, the dry friction its cable drive holds (N m at the
-        motor), or (): none. A soft cable then stays stretched where the last posture left it
-        until the torque it carries leaves the friction's band (:meth:`ArmSim.link_angles`).
-    """
-
-    delta: tuple = ()
-    stiffness_nm_per_rad: tuple = ()
-    cable_stiffness_nm_per_rad: tuple = ()
-    cable_friction_nm: tuple = ()
-    tracker_pos_mm: tuple = (2200.0, -900.0, 350.0)  # the tracker's head in the base frame
-    tracker_yaw_rad: float = 2.75  # it faces the arm
-    tracker_tilt_rad: tuple = (0.004, -0.003)
-    cone_a_mm: tuple = (450.0, 250.0, -150.0)
-    cone_b_mm: tuple = (450.0, -350.0, -150.0)  # 600 mm bar
-    encoder_noise_urad: float = 5.0
-    range_noise_um: tuple = (5.0, 1.0)  # a + b * range(m), 1-sigma
-    angle_noise_urad: float = 4.0
-    cone_seat_um: float = 2.0
-
-    def __post_init__(self):
-        if (
-            self.bar_length_mm < 1.0
-        ):  # the bar's MJCF capsule, and its length's information, need one
-            raise ValueError(
-                "cone_a_mm and cone_b_mm coincide (within 1 mm): the length bar between the cones "
-                "has no length"
-            )
-
-    @property
-    def bar_length_mm(self) -> float:
-        """The length bar's true length (mm): the distance between the two cones' centres."""
-        return float(np.linalg.norm(np.subtract(self.cone_a_mm, self.cone_b_mm)))
-
-    def tracker2base(self) -> tuple[np.ndarray, np.ndarray]:
-        """The tracker frame in the base frame: R (3, 3), position (3,) mm."""
-        cz, sz = np.cos(self.tracker_yaw_rad), np.sin(self.tracker_yaw_rad)
-        Rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
-        ax, ay = self.tracker_tilt_rad
-        Rx = np.array([[1, 0, 0], [0, np.cos(ax), -np.sin(ax)], [0, np.sin(ax), np.cos(ax)]])
-        Ry = np.array([[np.cos(ay), 0, np.sin(ay)], [0, 1, 0], [-np.sin(ay), 0, np.cos(ay)]])
-        return Rz @ Ry @ Rx, np.asarray(self.tracker_pos_mm, float)
 
 
 def _within(q: np.ndarray, lim: np.ndarray) -> np.ndarray | None:
@@ -166,6 +61,8 @@ def gravity_at_rest(model: mujoco.MjModel, data: mujoco.MjData, out: np.ndarray)
     np.negative(out, out=out)  # qfrc_bias at rest holds gravity: gravity's own is its negative
     return out
 
+
+DEFAULT_TRUTH = ArmTruth()  # the seed's errors (Table 1, or a fixed draw), rigid
 
 # one reusable (model, data) per thread and setup, for :class:`ArmSim`'s ``reuse``
 _TWINS = threading.local()
@@ -195,8 +92,9 @@ def _reused_twin(arm: ArmDescription, values: np.ndarray, tool_mm: np.ndarray, *
     return model, data
 
 
-class ArmSim:
-    """The as-built arm in MuJoCo. ``arm``: a description or the name/path of one.
+class ArmSim(TreeStatics):
+    """The as-built arm in MuJoCo. ``arm``: a description or the name/path of one, serial or
+    branched (its followers and flexing links' statics: :class:`TreeStatics`).
 
     ``reuse``: write this arm into the thread's last MuJoCo model of the same arm and setup
     instead of compiling one (a Monte-Carlo trial: compiling and a new MjData are a seventh of
@@ -204,15 +102,16 @@ class ArmSim:
     so a reused sim is for one piece of work at a time, not to keep beside another."""
 
     def __init__(
-        self, arm: ArmDescription | str, truth: ArmTruth = ArmTruth(), reuse: bool = False
+        self, arm: ArmDescription | str, truth: ArmTruth = DEFAULT_TRUTH, reuse: bool = False
     ):
         self.arm = load_arm(arm) if isinstance(arm, str) else arm
         self.truth = truth
-        N = self.arm.n_joints
+        N, T = self.arm.n_joints, self.arm.n_tools
         delta = np.asarray(truth.delta if truth.delta else default_errors(self.arm), float)
-        if len(delta) != 5 * N + 3:
+        if len(delta) != 5 * N + 3 * T:
             raise BadInput(
-                f"truth.delta has {len(delta)} values; the arm {self.arm.name} needs 5 x {N} + 3"
+                f"truth.delta has {len(delta)} values; the arm {self.arm.name} needs 5 x {N} + "
+                f"3{f' x {T}' if T > 1 else ''}"
             )
         self.delta = delta
         k = (
@@ -224,7 +123,18 @@ class ArmSim:
             raise BadInput(
                 f"truth.stiffness_nm_per_rad: {N} positive values (inf for a rigid joint)"
             )
+        if any(np.isfinite(k[f - 1]) for f in self.arm.followers()):
+            raise BadInput(
+                "truth.stiffness_nm_per_rad: a joint that follows others has no spring of its own "
+                "(inf): the joints it follows carry its load"
+            )
         self.stiffness = k
+        kf = np.asarray(truth.flex_stiffness_nm_per_rad, float)
+        if len(kf) and (len(kf) != N or np.any(~(kf > 0))):
+            raise BadInput(
+                f"truth.flex_stiffness_nm_per_rad: {N} positive values (inf for a rigid link)"
+            )
+        self.flex = {j + 1: float(v) for j, v in enumerate(kf) if np.isfinite(v)}
         self.coupling = self.arm.motor_to_joint()
         if len(truth.cable_stiffness_nm_per_rad):
             kc = np.asarray(truth.cable_stiffness_nm_per_rad, float)
@@ -253,20 +163,23 @@ class ArmSim:
         args = (
             self.arm,
             self.arm.nominal() + delta[: 5 * N].reshape(N, 5),
-            np.asarray(self.arm.tool_mm) + delta[5 * N :],
+            self.arm.tool_offsets() + delta[5 * N :].reshape(T, 3),
             k,
             p / 1000,
             q,
             (np.asarray(truth.cone_a_mm) / 1000, np.asarray(truth.cone_b_mm) / 1000),
         )
-        if reuse:
+        if reuse and not self.flex:  # a flexing link's hinges follow its as-built frame: compiled
             self.model, self.data = _reused_twin(*args)
         else:
-            self.model = as_built_model(*args)
+            self.model = as_built_model(*args, flex=self.flex or None)
             self.data = mujoco.MjData(self.model)
         self._probe = self.model.site("probe").id
         self._jac = np.zeros((3, self.model.nv))
-        if self.model.ntendon:  # the cables' springs, for MuJoCo's own statics (a test's check)
+        self._tree_setup()
+        # the cables' springs, for MuJoCo's own statics (a test's check; a follower's tendon has
+        # none)
+        if self.model.ntendon and not self.arm.followers():
             self.model.tendon_stiffness[:] = np.where(
                 cable_c > 0, 1.0 / np.maximum(cable_c, 1e-300), 0.0
             )
@@ -278,13 +191,16 @@ class ArmSim:
 
     @property
     def compliant(self) -> bool:
-        """Whether any joint or cable gives way (the postures then sag under gravity)."""
-        return bool(np.any(self.compliance != 0))
+        """Whether any joint, cable or link gives way (the postures then sag under gravity)."""
+        return bool(np.any(self.compliance != 0)) or bool(self.flex)
 
     # --- physics ----------------------------------------------------------------------------------
     def gravity_torques(self, q_rad: np.ndarray) -> np.ndarray:
-        """The torque gravity puts on each joint at rest, MuJoCo's inverse dynamics, (n, N) N m."""
+        """The torque gravity puts on each joint at rest at joint angles (n, N) (rigid links; a
+        follower's angle made from its joints'), MuJoCo's inverse dynamics, (n, N) N m."""
         q = np.atleast_2d(q_rad)
+        if not self.plain:
+            return np.stack([self._gravity_at(p)[self._hinge_dof] for p in self.qpos_of(q)])
         out = np.empty(q.shape)
         model, data, rne = self.model, self.data, self._rne
         qpos = data.qpos
@@ -308,6 +224,8 @@ class ArmSim:
         Fixed-point iteration on MuJoCo's gravity torques; rigid joints stay at the motor angle.
         """
         q_motor = np.atleast_2d(np.asarray(q_motor, float))
+        if not self.plain:
+            return self.settled(q_motor, tol_rad, max_iter)[:, self._hinge]
         if not self.compliant:
             return q_motor.copy()
         f = self.cable_friction
@@ -370,7 +288,10 @@ class ArmSim:
     def settle_by_stepping(self, q_motor: np.ndarray, seconds: float = 10.0) -> np.ndarray:
         """The same equilibrium reached the long way: the model stepped to rest from the motor
         angle, its springs referenced to it and each joint critically damped (for the test that
-        checks :meth:`link_angles`). Every joint needs a finite stiffness here."""
+        checks :meth:`link_angles`). Every joint needs a finite stiffness here (a follower none:
+        its equality holds it). Returns the qpos (the joints' angles on a serial arm)."""
+        if not self.plain:
+            return self.step_tree_to_rest(q_motor, seconds)
         if not np.all(np.isfinite(self.stiffness)):
             raise ValueError("stepping to rest needs a spring on every joint")
         q_motor = np.asarray(q_motor, float)
@@ -394,9 +315,12 @@ class ArmSim:
         self.data.qpos[:] = q_rad
         mujoco.mj_kinematics(self.model, self.data)
 
-    def point_mm(self, q_link: np.ndarray) -> np.ndarray:
-        """True tool points (base frame) for link angles (n, N) -> (n, 3) mm."""
+    def point_mm(self, q_link: np.ndarray, tool: np.ndarray | None = None) -> np.ndarray:
+        """True tool points (base frame) for link angles (n, N) -> (n, 3) mm: each row's
+        ``tool`` (n,) (0-based; the first if None), the links rigid."""
         q = np.atleast_2d(q_link)
+        if not self.plain or self.arm.n_tools > 1:
+            return self.points_at(self.qpos_of(q), tool)
         out = np.empty((len(q), 3))
         # the loop is the time of a Monte-Carlo trial's truth: no lookups in it (views stay valid,
         # MuJoCo writes into the same buffers)
@@ -408,22 +332,29 @@ class ArmSim:
             out[i] = probe
         return out * 1000
 
-    def probe_mm(self, q_motor: np.ndarray) -> np.ndarray:
-        """True tool points for motor angles (n, N): the links settled under gravity first."""
-        return self.point_mm(self.link_angles(q_motor))
+    def probe_mm(self, q_motor: np.ndarray, tool: np.ndarray | None = None) -> np.ndarray:
+        """True tool points for motor angles (n, N): the links settled under gravity first, each
+        row's ``tool`` (n,) (0-based; the first if None)."""
+        if not self.plain:
+            return self.points_at(self.settled(q_motor), tool)
+        return self.point_mm(self.link_angles(q_motor), tool)
 
     # --- postures and instruments -----------------------------------------------------------------
     def random_postures(
         self, n: int, rng: np.random.Generator, min_z_mm: float | None = None
     ) -> np.ndarray:
-        """Motor angles within the description's ranges whose tool point stays above ``min_z_mm``
-        (default: 0.3 of the reach below the base), (n, N)."""
+        """Motor angles within the description's ranges whose tool points stay above
+        ``min_z_mm`` (default: 0.3 of the reach below the base), (n, N); a follower's column its
+        angle from the joints it follows."""
         lim = np.array(self.arm.range_rad)
         floor = -0.3 * self.arm.reach_mm if min_z_mm is None else min_z_mm
         out, found = [], 0
         for _ in range(1000):
-            q = rng.uniform(lim[:, 0], lim[:, 1], (n, self.n_joints))
-            out.append(q[self.point_mm(q)[:, 2] > floor])
+            q = self.arm.joint_angles(rng.uniform(lim[:, 0], lim[:, 1], (n, self.n_joints)))
+            low = np.min(
+                [self.point_mm(q, np.full(n, t))[:, 2] for t in range(self.arm.n_tools)], axis=0
+            )
+            out.append(q[low > floor])
             found += len(out[-1])
             if found >= n:
                 return np.concatenate(out)[:n]

@@ -120,7 +120,7 @@ class StageRecording:
 
 @dataclasses.dataclass
 class ArmRecording:
-    """Postures of a serial arm and the point a reference instrument measured at each.
+    """Postures of an arm and the point a reference instrument measured at each.
 
     Attributes
     ----------
@@ -132,6 +132,9 @@ class ArmRecording:
         (n,) seconds since start and machine temperature (deg C).
     xyz_std_mm : ndarray or None
         (n, 3) the instrument's 1-sigma per value, mm.
+    tool : ndarray or None
+        (n,) int, which of a branched arm's tools each row measures, 0-based (the CSV's ``tool``
+        column is 1-based); None: every row the first.
     """
 
     q_rad: np.ndarray
@@ -139,6 +142,7 @@ class ArmRecording:
     t_s: np.ndarray | None = None
     temp_c: np.ndarray | None = None
     xyz_std_mm: np.ndarray | None = None
+    tool: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.q_rad)
@@ -165,7 +169,7 @@ class ArmRecording:
 
     def to_csv(self, path) -> None:
         """Write docs/formats.md's arm CSV: q1_deg..qN_deg, x_mm, y_mm, z_mm and what is present of
-        x_std_mm, y_std_mm, z_std_mm, t_s, temp_c (nine significant digits).
+        x_std_mm, y_std_mm, z_std_mm, t_s, temp_c, tool (1-based) (nine significant digits).
 
         Parameters
         ----------
@@ -181,6 +185,9 @@ class ArmRecording:
             if getattr(self, name) is not None:
                 cols.append(name)
                 data.append(getattr(self, name)[:, None])
+        if self.tool is not None:
+            cols.append("tool")
+            data.append(np.asarray(self.tool, float)[:, None] + 1)
         np.savetxt(
             path, np.hstack(data), delimiter=",", header=",".join(cols), comments="", fmt="%.9g"
         )

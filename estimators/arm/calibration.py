@@ -28,7 +28,13 @@ from typing import cast
 
 import numpy as np
 
-from calibench.estimators.arm.kinematics import Chain, gravity_torques, parallel_axes_note
+from calibench.estimators.arm.kinematics import (
+    Chain,
+    gravity_torques,
+    in_readings,
+    parallel_axes_note,
+)
+from calibench.estimators.arm.parameters import COMPLIANCE_PREFIXES
 from calibench.estimators.arm.point import PointProblem, PointState
 from calibench.estimators.arm.terms import directions
 from calibench.estimators.identification.basis import Basis, identifiable_basis
@@ -90,7 +96,9 @@ def loaded_joints(
     chain: Chain, q_rad: np.ndarray, fraction: float = LOADED_FRACTION
 ) -> tuple[tuple[int, ...], dict[str, str]]:
     """The joints whose compliance is a parameter: those whose gravity torque over the postures
-    is large enough for it to show.
+    is large enough for it to show, beside the most loaded joint that carries the same tools (on
+    a serial arm, every joint; on a torso with two arms, an arm's joints beside that arm's, not
+    beside the torso's, which carries both).
 
     Parameters
     ----------
@@ -101,22 +109,62 @@ def loaded_joints(
     Returns
     -------
     (joints, why) : the joints (1-based) whose peak gravity torque is at least
-    ``fraction`` of the most loaded joint's, and {``compliance<j>``: why} for the others.
+    ``fraction`` of the most loaded joint's carrying its tools, and {``compliance<j>``: why} for
+    the others.
     """
     if not chain.has_masses:
         return (), {}
-    tau = np.abs(gravity_torques(chain, q_rad))
+    # on the readings: a joint carries what the joints that follow it carry (by their share)
+    tau = np.abs(in_readings(chain, gravity_torques(chain, q_rad)))
     peak = tau.max(axis=0)
-    top = max(peak.max(), 1e-12)
+    branch = [tuple(c) for c in chain.on_path.T]  # the tools each joint carries
+    tops = {b: max(max(p for p, c in zip(peak, branch) if c == b), 1e-12) for b in branch}
     keep, why = [], {}
     for j, p in enumerate(peak, 1):
-        if p >= fraction * top:
+        top = tops[branch[j - 1]]
+        if j in chain.followers:
+            why[f"compliance{j}"] = (
+                f"joint {j} follows others (no encoder of its own): its load is theirs, and "
+                "their compliance carries it"
+            )
+        elif p >= fraction * top:
             keep.append(j)
         else:
             why[f"compliance{j}"] = (
                 f"joint {j} carries at most {p:.2g} N m of gravity torque here (under "
-                f"{100 * fraction:.0f} % of the {top:.3g} N m of the most loaded joint): "
-                "its compliance would not show"
+                f"{100 * fraction:.0f} % of the {top:.3g} N m of the most loaded joint"
+                f"{' on its branch' if len(tops) > 1 else ''}): its compliance would not show"
+            )
+    return tuple(keep), why
+
+
+def flexing_links(chain: Chain) -> tuple[tuple[int, ...], dict[str, str]]:
+    """On a branched arm with masses, the links whose lateral flex is a parameter: those where
+    its branches meet (a link that carries two or more joints or tools), whose weight beyond them
+    bends them across. None on a serial arm (its links' flex, where any, the joints' compliance
+    and the geometry absorb: the serial model is as it was).
+
+    Returns
+    -------
+    (links, why) : the links (1-based joints) kept, {``flex_compliance<j>``: why} for a link
+    where branches meet that has no length to bend.
+    """
+    if not chain.has_masses:
+        return (), {}
+    N = chain.n_joints
+    children = np.bincount(chain.frames, minlength=N + 1)[1:]
+    children += np.bincount(chain.tool_frames, minlength=N + 1)[1:]
+    nominal = chain.nominal()
+    keep, why = [], {}
+    for j in np.flatnonzero(children >= 2) + 1:
+        a, d = nominal[j - 1, :2]
+        # the link from its joint's axis to its frame: (a, d) in DH, d alone in modified DH
+        length = float(np.hypot(a, d) if chain.convention == "dh" else abs(d))
+        if length >= 1.0:
+            keep.append(int(j))
+        else:
+            why[f"flex_compliance{j}"] = (
+                f"link {j} carries the branches but has no length ({length:.2g} mm) to bend"
             )
     return tuple(keep), why
 
@@ -165,6 +213,7 @@ def calibrate(
     prior: float | None = PRIOR,
     angle_terms=(),
     dirs: np.ndarray | None = None,
+    tool: np.ndarray | None = None,
 ) -> ArmCalibration:
     """The module's recipe on stacked rows of one or several recordings.
 
@@ -177,7 +226,8 @@ def calibrate(
     sigma_mm : (n, 3) the instrument's stated 1-sigma per value, or None.
     model : ``"geometry"``, or ``"physics"`` (adds the loaded joints' compliance; for an arm
         with a transmission, the loaded motors' cables' instead: a cable that drives one joint
-        alone is that joint's compliance under another name).
+        alone is that joint's compliance under another name; on a branched arm besides, the
+        lateral flex of the links where its branches meet, :func:`flexing_links`).
     parallel : consecutive joint pairs (1-based) with parallel axes, for the dropped
         parameters' reasons.
     robust : whether to leave out the rows no Gaussian scatter explains (step 3).
@@ -187,6 +237,7 @@ def calibrate(
     dirs : (n, 2 N) the joints' and motors' directions of last motion at the rows, taken over
         their recordings' every row (:func:`~calibench.estimators.arm.terms.directions`); None:
         over these rows, in their order. Only direction terms read them.
+    tool : (n,) int, each row's tool (0-based) on an arm with several; None: the first.
 
     Returns
     -------
@@ -211,6 +262,7 @@ def calibrate(
             prior,
             angle_terms,
             dirs,
+            tool,
         )
     except np.linalg.LinAlgError:
         raise DegenerateFit(
@@ -221,16 +273,31 @@ def calibrate(
 
 
 def _calibrate(
-    chain, q_rad, xyz_mm, recording, sigma_mm, model, parallel, robust, prior, angle_terms, dirs
+    chain,
+    q_rad,
+    xyz_mm,
+    recording,
+    sigma_mm,
+    model,
+    parallel,
+    robust,
+    prior,
+    angle_terms,
+    dirs,
+    tool,
 ) -> ArmCalibration:
     """:func:`calibrate`, its singular systems not yet said."""
     joints: tuple[int, ...] = ()
     motors: tuple[int, ...] = ()
+    links: tuple[int, ...] = ()
     why: dict[str, str] = {}
     if model == "physics" and chain.coupling is not None:
         motors, why = loaded_motors(chain, q_rad)
     elif model == "physics":
         joints, why = loaded_joints(chain, q_rad)
+    if model == "physics":
+        links, flat = flexing_links(chain)
+        why = {**why, **flat}
     keep = np.ones(len(q_rad), bool)
     outliers = np.zeros(0, int)
     # the drives' directions over every row in its order: a row left out does not move them
@@ -249,6 +316,8 @@ def _calibrate(
             angle_terms=angle_terms,
             cable_motors=motors,
             dirs=None if dirs is None else dirs[keep],
+            flex_links=links,
+            tool=None if tool is None else tool[keep],
         )
         held = problem.held_tool()
         n_par = len(problem.names)
@@ -290,7 +359,7 @@ def _calibrate(
     )
 
 
-COMPLIANCES = ("compliance", "tilt_compliance", "cable_compliance")
+COMPLIANCES = COMPLIANCE_PREFIXES
 IMPLAUSIBLE_Z = 2.0  # a compliance this many std below zero: the data push it out, not scatter
 
 

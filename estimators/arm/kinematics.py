@@ -1,4 +1,5 @@
-"""Kinematics of a serial arm: forward kinematics, the parameter Jacobian, gravity torques.
+"""Kinematics of an arm, serial or branched: forward kinematics, the parameter Jacobian, gravity
+torques.
 
 Conventions (docs/formats.md, "Arm descriptions"), for joint i = 1..N with reading q_i:
 
@@ -9,140 +10,61 @@ beta_i (Hayati's turn about y) is zero nominally. It is the parameter that descr
 tilt between two nearly parallel axes, where DH's common normal is ill-defined and the d's of
 the parallel joints become one combination (the identification drops the dependent ones).
 
-Frames: the base is frame 0, link frame i follows T_i, the flange is frame N; the measured point
-is ``tool_mm`` in the flange frame. Lengths mm, angles rad, masses kg, torques N m.
+Frames: the base is frame 0, link frame i follows T_i from its parent's frame (the previous
+joint's on a serial arm; ``Chain.parent`` on a branched one: a torso carrying two arms), the
+flange is frame N; the measured point is ``tool_mm`` in the flange frame, or each of several
+tools' in its own joint's frame (``Chain.tools_mm``, ``Chain.tools_joint``). A row measures one
+tool (``tool``, 0-based; the first if None): its point moves with the joints on its path from
+the base only. A joint that follows others (``Chain.follows``: its angle a q_i + b q_j, no
+encoder of its own) takes its angle from their readings. Lengths mm, angles rad, masses kg,
+torques N m.
 
-Parameter errors (``delta``, ``(5 N + 3,)``): per joint (da, dd, dalpha, dtheta, dbeta) added to
-the nominal values (dtheta is the joint's zero offset), then the tool point's (dx, dy, dz) in the
-flange frame. Names: ``da1 .. dbetaN, tool_x, tool_y, tool_z`` (:func:`param_names`).
+Parameter errors (``delta``, ``(5 N + 3 T,)``): per joint (da, dd, dalpha, dtheta, dbeta) added
+to the nominal values (dtheta is the joint's zero offset), then each tool point's (dx, dy, dz) in
+its frame. Names: ``da1 .. dbetaN, tool_x, tool_y, tool_z`` (then ``tool2_x`` ... for a second
+tool; :func:`param_names`).
 
-Everything is vectorised over postures: q is ``(n, N)``; the only loop runs over the N joints,
-chaining their transforms, never over postures.
+Everything is vectorised over postures: q is ``(n, N)``; the only loops run over the N joints
+(chaining their transforms) and the T tools, never over postures.
 """
 
 from __future__ import annotations
 
-import dataclasses
-import functools
-import re
-from collections.abc import Callable
-
 import numpy as np
 
-KINDS = ("da", "dd", "dalpha", "dtheta", "dbeta")
-_A, _D, _ALPHA, _THETA, _BETA = range(5)
-# each joint's elementary motions in order: (kind, axis index, which parameter)
-OPS = {
-    "dh": (
-        ("rot", 2, _THETA),
-        ("trans", 2, _D),
-        ("trans", 0, _A),
-        ("rot", 0, _ALPHA),
-        ("rot", 1, _BETA),
-    ),
-    "mdh": (
-        ("rot", 0, _ALPHA),
-        ("rot", 1, _BETA),
-        ("trans", 0, _A),
-        ("rot", 2, _THETA),
-        ("trans", 2, _D),
-    ),
-}
-N_TOOL = 3
-
-
-@dataclasses.dataclass(frozen=True)
-class Chain:
-    """A serial arm as the estimators see it: nominal kinematics and, optionally, the masses
-    that load its joints under gravity.
-
-    a_mm, d_mm, alpha_rad, theta_rad : (N,) nominal DH (or modified DH) values.
-    tool_mm : (3,) the measured point in the flange frame.
-    mass_kg : (N,) mass of the link each joint moves, or None (no gravity model).
-    com_mm : (N, 3) each link's centre of mass in its own link frame.
-    tool_mass_kg : mass carried at the tool point.
-    gravity_m_s2 : (3,) gravity in the base frame.
-    coupling : (N, N) joint angles = coupling @ motor angles (cables, differentials), or None
-        (each motor turns its own joint).
-
-    Treat a chain as immutable, its arrays too: its nominal table is computed once and kept.
-
-    The fields carry the names and units of an arm description's (ARM.toml): the scenarios make
-    a chain from a description field by field by name (``scenarios.arm_cmm.arms.chain_of``), so
-    a field added here must be one of the description's too.
-    """
-
-    convention: str
-    a_mm: np.ndarray
-    d_mm: np.ndarray
-    alpha_rad: np.ndarray
-    theta_rad: np.ndarray
-    tool_mm: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(3))
-    mass_kg: np.ndarray | None = None
-    com_mm: np.ndarray | None = None
-    tool_mass_kg: float = 0.0
-    gravity_m_s2: np.ndarray = dataclasses.field(
-        default_factory=lambda: np.array([0.0, 0.0, -9.81])
-    )
-    coupling: np.ndarray | None = None
-
-    def __post_init__(self):
-        if self.convention not in OPS:
-            raise ValueError(f"convention {self.convention!r}: dh or mdh")
-
-    @property
-    def n_joints(self) -> int:
-        """The number of joints N."""
-        return len(self.a_mm)
-
-    @property
-    def has_masses(self) -> bool:
-        """Whether every link has a mass and a centre of mass (gravity torques need them)."""
-        return self.mass_kg is not None
-
-    def nominal(self) -> np.ndarray:
-        """(N, 5) nominal a, d, alpha, theta, beta per joint."""
-        return self._nominal.copy()
-
-    @functools.cached_property
-    def _nominal(self) -> np.ndarray:
-        return np.stack(
-            [self.a_mm, self.d_mm, self.alpha_rad, self.theta_rad, np.zeros(self.n_joints)], axis=1
-        )
-
-
-@functools.cache
-def param_names(n_joints: int) -> tuple[str, ...]:
-    """Names of the error parameters, in ``delta``'s order."""
-    return tuple(f"{k}{i}" for i in range(1, n_joints + 1) for k in KINDS) + (
-        "tool_x",
-        "tool_y",
-        "tool_z",
-    )
-
-
-def param_is_angle(names) -> np.ndarray:
-    """For each parameter name, whether it is an angle (rad) rather than a length (mm), (k,)
-    bool."""
-    return np.array([n.startswith(("dalpha", "dtheta", "dbeta")) for n in names])
-
-
-def n_params(n_joints: int) -> int:
-    """The error parameters of an N-joint chain: 5 per joint (da, dd, dalpha, dtheta, dbeta) and
-    the tool's 3."""
-    return 5 * n_joints + N_TOOL
-
-
-def theta_index(joint: int) -> int:
-    """Index in ``delta`` of joint ``joint``'s (1-based) zero offset: d(point)/d(q_joint)."""
-    return 5 * (joint - 1) + _THETA
+from calibench.estimators.arm.chain import (  # noqa: F401  (re-exported: their old home)
+    _A,
+    _ALPHA,
+    _BETA,
+    _D,
+    _THETA,
+    KINDS,
+    N_TOOL,
+    OPS,
+    Chain,
+    chain_names,
+    in_readings,
+    joint_angles,
+    n_params,
+    param_is_angle,
+    param_names,
+    theta_index,
+)
+from calibench.estimators.arm.parameters import (  # noqa: F401  (re-exported: their old home)
+    ArmParameters,
+    geometric_columns,
+    parallel_axes_note,
+    parameter_scales,
+)
 
 
 class Pose:
     """The chain at n postures.
 
     link_R, link_o : (n, N + 1, 3, 3) and (n, N + 1, 3) frames 0..N.
-    point : (n, 3) the tool point (mm).
+    point : (n, 3) each row's tool point (mm).
+    tools : (n, T, 3) every tool's point (mm).
+    tool : (n,) int each row's tool (0-based), or None: the first.
     axis : (n, 5 N, 3) base-frame direction of each elementary motion.
     origin : (n, 5 N, 3) where it acts (mm); rotations turn about axis through origin.
 
@@ -161,9 +83,14 @@ class Pose:
         a: np.ndarray,
         d: np.ndarray,
         alpha: np.ndarray,
+        frames: np.ndarray | None = None,
+        tools: np.ndarray | None = None,
+        tool: np.ndarray | None = None,
     ):
         self.link_R, self.link_o, self.point = link_R, link_o, point
-        self._motions_of = (convention, c, s, a, d, alpha)
+        self.tools = point[:, None] if tools is None else tools
+        self.tool = tool
+        self._motions_of = (convention, c, s, a, d, alpha, frames)
         self._motions: tuple[np.ndarray, np.ndarray] | None = None
 
     @property
@@ -181,10 +108,16 @@ class Pose:
         frames, (n, 5 N, 3) each."""
         if self._motions is not None:
             return self._motions
-        convention, c, s, a, d, alpha = self._motions_of
+        convention, c, s, a, d, alpha, frames = self._motions_of
         link_R, link_o = self.link_R, self.link_o
         n, N = c.shape
-        R0, o0, R1, o1 = link_R[:, :-1], link_o[:, :-1], link_R[:, 1:], link_o[:, 1:]
+        # frame i-1 is joint i's parent's: the previous joint's on a serial arm
+        R0, o0 = (
+            (link_R[:, :-1], link_o[:, :-1])
+            if frames is None
+            else (link_R[:, frames], link_o[:, frames])
+        )
+        R1, o1 = link_R[:, 1:], link_o[:, 1:]
         axis, origin = np.empty((n, N, 5, 3)), np.empty((n, N, 5, 3))
         # dh: RotZ(theta + q), TransZ(d) about frame i-1's z; TransX(a), RotX(alpha) along the
         # turned x. mdh: RotX(alpha), RotY(beta), TransX(a) at frame i-1's origin; RotZ(theta + q),
@@ -223,20 +156,36 @@ def _xy_turn(alpha: np.ndarray, beta: np.ndarray) -> np.ndarray:
     return M
 
 
-def pose(chain: Chain, q_rad: np.ndarray, delta: np.ndarray | None = None) -> Pose:
-    """The chain at postures ``q_rad`` (n, N) with errors ``delta`` (5 N + 3,) (zero if None).
+def _tool_rows(chain: Chain, tool, n: int) -> np.ndarray | None:
+    """Each row's tool (n,) int checked against the chain's tools, or None: every row the
+    first."""
+    if tool is None:
+        return None
+    tool = np.asarray(tool, int)
+    if tool.shape != (n,):
+        raise ValueError(f"tool has shape {tool.shape}; one per posture, ({n},)")
+    if len(tool) and (tool.min() < 0 or tool.max() >= chain.n_tools):
+        raise ValueError(f"a row measures tool {tool.max() + 1}; the chain has {chain.n_tools}")
+    return tool
+
+
+def pose(chain: Chain, q_rad: np.ndarray, delta: np.ndarray | None = None, tool=None) -> Pose:
+    """The chain at readings ``q_rad`` (n, N) with errors ``delta`` (5 N + 3 T,) (zero if None),
+    each row's point that of its ``tool`` (n,) (0-based; the first if None).
 
     Every joint's turn and shift are made at once for all joints and postures; the loop over
-    joints only chains them (one product of (n, 3, 3) stacks per joint). The elementary motions'
-    axes and origins follow from the link frames, when asked for (:class:`Pose`)."""
+    joints only chains them (one product of (n, 3, 3) stacks per joint), each from its parent's
+    frame. The elementary motions' axes and origins follow from the link frames, when asked for
+    (:class:`Pose`)."""
     q = np.atleast_2d(np.asarray(q_rad, float))
-    N = chain.n_joints
+    N, T = chain.n_joints, chain.n_tools
     if q.shape[1] != N:
         raise ValueError(f"postures have {q.shape[1]} joints, the chain {N}")
-    delta = np.zeros(n_params(N)) if delta is None else np.asarray(delta, float)
+    tool = _tool_rows(chain, tool, len(q))
+    delta = np.zeros(n_params(N, T)) if delta is None else np.asarray(delta, float)
     a, d, alpha, theta, beta = (chain.nominal() + delta[: 5 * N].reshape(N, 5)).T
     n = len(q)
-    phi = q + theta  # (n, N)
+    phi = joint_angles(chain, q) + theta  # (n, N)
     c, s = np.cos(phi), np.sin(phi)
     M = _xy_turn(alpha, beta)  # (N, 3, 3)
     dh = chain.convention == "dh"
@@ -264,14 +213,17 @@ def pose(chain: Chain, q_rad: np.ndarray, delta: np.ndarray | None = None) -> Po
         p = a[:, None] * M[:, :, 0] + d[:, None] * A[..., 2]
     link_R, link_o = np.empty((n, N + 1, 3, 3)), np.empty((n, N + 1, 3))
     link_R[:, 0], link_o[:, 0] = np.eye(3), 0.0
+    frames = chain.frames
     for i in range(N):
-        R = link_R[:, i]
-        link_o[:, i + 1] = link_o[:, i] + (R @ p[:, i, :, None])[..., 0]
+        R = link_R[:, frames[i]]
+        link_o[:, i + 1] = link_o[:, frames[i]] + (R @ p[:, i, :, None])[..., 0]
         link_R[:, i + 1] = R @ A[:, i]
-    tool = chain.tool_mm + delta[5 * N :]
-    return Pose(
-        chain.convention, link_R, link_o, link_o[:, N] + link_R[:, N] @ tool, c, s, a, d, alpha
-    )
+    offsets = chain.tool_offsets() + delta[5 * N :].reshape(T, 3)
+    at = chain.tool_frames
+    tools = np.stack([link_o[:, f] + link_R[:, f] @ o for f, o in zip(at, offsets)], axis=1)
+    point = tools[:, 0] if tool is None else tools[np.arange(n), tool]
+    tree = None if chain.parent is None else frames
+    return Pose(chain.convention, link_R, link_o, point, c, s, a, d, alpha, tree, tools, tool)
 
 
 def cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -283,9 +235,20 @@ def cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
     return out
 
 
-def point(chain: Chain, q_rad: np.ndarray, delta: np.ndarray | None = None) -> np.ndarray:
-    """Base-frame position of the tool point, (n, 3) mm."""
-    return pose(chain, q_rad, delta).point
+def point(
+    chain: Chain, q_rad: np.ndarray, delta: np.ndarray | None = None, tool=None
+) -> np.ndarray:
+    """Base-frame position of each row's tool point, (n, 3) mm."""
+    return pose(chain, q_rad, delta, tool).point
+
+
+def carried_by(chain: Chain, P: Pose) -> np.ndarray | None:
+    """(n, N) bool: the joints whose turn moves each row's point (those on its tool's path), or
+    None where every joint moves every row's (a serial arm)."""
+    on = chain.on_path
+    if on.all():
+        return None
+    return on[0 if P.tool is None else P.tool]
 
 
 def jacobian(
@@ -293,44 +256,50 @@ def jacobian(
     q_rad: np.ndarray | None = None,
     delta: np.ndarray | None = None,
     P: Pose | None = None,
+    tool=None,
 ) -> np.ndarray:
-    """d(point) / d(delta), (n, 3, 5 N + 3), analytic.
+    """d(point) / d(delta), (n, 3, 5 N + 3 T), analytic: each row's point, that of its ``tool``
+    (n,) (0-based; the first if None; ``P``'s own where given).
 
     A turn about a unit axis w through o moves the point by w x (p - o); a shift along w by w;
-    the tool offset moves it through the flange's rotation. ``P``: the pose, when the caller has
-    it already. Column ``theta_index(j)`` is also d(point) / d(q_j).
+    the tool offset moves it through its link's rotation. A joint off a row's tool path (the other
+    arm of a torso) moves it not at all. ``P``: the pose, when the caller has it already. Column
+    ``theta_index(j)`` is also d(point) / d(q_j), q_j joint j's angle (a follower's too:
+    :func:`in_readings` turns them into the readings').
     """
     if P is None:
         assert q_rad is not None, "the postures q_rad, or their pose P"
-        P = pose(chain, q_rad, delta)
+        P = pose(chain, q_rad, delta, tool)
     N = P.link_R.shape[1] - 1
-    n = len(P.point)
-    J = np.empty((n, 3, n_params(N)))
+    n, T = len(P.point), chain.n_tools
+    J = np.empty((n, 3, n_params(N, T)))
     ops = OPS[chain.convention]
     rot = np.zeros(5 * N, bool)
     for kind, _, which in ops:
         rot[which::5] = kind == "rot"
     # every motion's turn made, the shifts' then discarded: one pass instead of a masked copy
     cols = np.where(rot[:, None], cross(P.axis, P.point[:, None] - P.origin), P.axis)
+    on = carried_by(chain, P)
+    if on is not None:
+        cols = cols * np.repeat(on, 5, axis=1)[:, :, None]
     J[:, :, : 5 * N] = cols.transpose(0, 2, 1)
-    J[:, :, 5 * N :] = P.link_R[:, N]
+    at = chain.tool_frames
+    if T == 1:
+        J[:, :, 5 * N :] = P.link_R[:, at[0]]
+        return J
+    J[:, :, 5 * N :] = 0.0
+    rows = np.zeros(n, int) if P.tool is None else P.tool
+    for k in range(T):
+        m = rows == k
+        J[m, :, 5 * N + 3 * k : 5 * N + 3 * k + 3] = P.link_R[m, at[k]]
     return J
 
 
-def gravity_moments(
-    chain: Chain,
-    q_rad: np.ndarray | None = None,
-    delta: np.ndarray | None = None,
-    P: Pose | None = None,
-) -> np.ndarray:
-    """The moment of the weight each joint carries, about a point on its axis, (n, N, 3) N m in
-    the base frame: M_i = sum over the links l >= i of (c_l - o_i) x (m_l g), c_l a centre of
-    mass (the tool's mass sits at the tool point), o_i the joint's frame origin on its axis."""
-    if not chain.has_masses:
-        raise ValueError("the chain has no masses: gravity moments need mass_kg and com_mm")
-    if P is None:
-        assert q_rad is not None, "the postures q_rad, or their pose P"
-        P = pose(chain, q_rad, delta)
+def _carried_weight(chain: Chain, P: Pose) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each joint's carried weight: the moment about the base origin (n, N, 3) N m and the force
+    (n, N, 3) N of the links and tools it carries (:attr:`Chain.carries`), and each link's own
+    moment (n, N, 3) about the base origin. Summed from the tips inward, each joint's into its
+    parent's (on a serial arm the running sum from the tool to the base)."""
     N = chain.n_joints
     g = np.asarray(chain.gravity_m_s2, float)
     com = P.link_o[:, 1:] + np.einsum(
@@ -340,16 +309,68 @@ def gravity_moments(
     f = np.concatenate(
         [
             np.broadcast_to(weights, com.shape),
-            (chain.tool_mass_kg * g)[None, None].repeat(len(com), 0),
+            np.broadcast_to((chain.tool_masses()[:, None] * g)[None], P.tools.shape),
         ],
         axis=1,
     )
-    x = np.concatenate([com, P.point[:, None]], axis=1) / 1000.0  # m
-    # moments about the base origin and forces, summed from the tip inward: links l..N and the tool
-    moment = np.cumsum(cross(x, f)[:, ::-1], axis=1)[:, ::-1]
-    force = np.cumsum(f[:, ::-1], axis=1)[:, ::-1]
+    x = np.concatenate([com, P.tools], axis=1) / 1000.0  # m
+    own = cross(x, f)
+    moment, force = own[:, :N].copy(), f[:, :N].copy()
+    for k, at in enumerate(chain.tool_frames):  # each tool into the link that carries it
+        moment[:, at - 1] += own[:, N + k]
+        force[:, at - 1] += f[:, N + k]
+    frames = chain.frames
+    for i in range(N - 1, -1, -1):  # a child comes after its parent: tips first
+        if frames[i] > 0:
+            moment[:, frames[i] - 1] += moment[:, i]
+            force[:, frames[i] - 1] += force[:, i]
+    return moment, force, own[:, :N]
+
+
+def gravity_moments(
+    chain: Chain,
+    q_rad: np.ndarray | None = None,
+    delta: np.ndarray | None = None,
+    P: Pose | None = None,
+) -> np.ndarray:
+    """The moment of the weight each joint carries, about a point on its axis, (n, N, 3) N m in
+    the base frame: M_i = sum over the links l joint i carries of (c_l - o_i) x (m_l g), c_l a
+    centre of mass (each tool's mass at its point), o_i the joint's frame origin on its axis. A
+    joint a torso's two arms hang from carries both."""
+    if not chain.has_masses:
+        raise ValueError("the chain has no masses: gravity moments need mass_kg and com_mm")
+    if P is None:
+        assert q_rad is not None, "the postures q_rad, or their pose P"
+        P = pose(chain, q_rad, delta)
+    moment, force, _ = _carried_weight(chain, P)
     o = P.origin[:, _THETA::5] / 1000.0
-    return moment[:, :N] - cross(o, force[:, :N])  # about o_i: M_0 - o_i x F
+    return moment - cross(o, force)  # about o_i: M_0 - o_i x F
+
+
+def link_middles(P: Pose, links) -> tuple[np.ndarray, np.ndarray]:
+    """Where links ``links`` (1-based joints) bend across: each one's middle (n, k, 3) mm, halfway
+    from its joint's axis point to its link frame's origin, and its direction (n, k, 3) there
+    (unit; the link's length must not be zero)."""
+    j = np.asarray(links, int) - 1
+    start, end = P.origin[:, _THETA::5][:, j], P.link_o[:, 1:][:, j]
+    u = end - start
+    return start + u / 2, u / np.linalg.norm(u, axis=2, keepdims=True)
+
+
+def flex_moments(chain: Chain, P: Pose, links) -> np.ndarray:
+    """The moment across each of links ``links`` (1-based joints) at its middle, (n, k, 3) N m:
+    the weight it carries beyond its own (the links and tools after it; its own mass sits in its
+    inner half) about the middle (:func:`link_middles`), less its part along the link (which
+    twists the link, not bends it)."""
+    if not chain.has_masses:
+        raise ValueError("the chain has no masses: gravity moments need mass_kg and com_mm")
+    moment, force, own = _carried_weight(chain, P)
+    j = np.asarray(links, int) - 1
+    g = np.asarray(chain.gravity_m_s2, float)
+    beyond = force[:, j] - np.asarray(chain.mass_kg, float)[j][:, None] * g
+    h, u = link_middles(P, links)
+    M = moment[:, j] - own[:, j] - cross(h / 1000.0, beyond)
+    return M - np.sum(M * u, axis=2, keepdims=True) * u
 
 
 def joint_axes(P: Pose) -> tuple[np.ndarray, np.ndarray]:
@@ -373,78 +394,3 @@ def gravity_torques(
         assert q_rad is not None, "the postures q_rad, or their pose P"
         P = pose(chain, q_rad, delta)
     return np.einsum("nij,nij->ni", P.axis[:, _THETA::5], gravity_moments(chain, P=P))
-
-
-def parameter_scales(names) -> np.ndarray:
-    """Typical sizes to make columns comparable: 0.1 mm for lengths, 1 mrad for angles, 100 urad
-    for a joint's angle error terms,
-    10 urad / N m for a joint's compliance (a robot's gearbox: 1e5 N m / rad), 1 urad / N m for a
-    bearing's tilt."""
-    return np.array(_scales(tuple(names)))
-
-
-@functools.lru_cache(maxsize=64)
-def _scales(names: tuple) -> tuple:
-    """The typical sizes of ``names``' errors, cached: a problem asks at every basis and bound."""
-    return tuple(
-        1e-3
-        if n.startswith(("dalpha", "dtheta", "dbeta", "tracker_r", "base_r", "cone_r"))
-        else 1e-4
-        if n.startswith("angle_")
-        else 1e-5
-        if n.startswith(("compliance", "cable_compliance"))
-        else 1e-6
-        if n.startswith("tilt_compliance")
-        else 0.1
-        for n in names
-    )
-
-
-def geometric_columns(names) -> np.ndarray:
-    """(n,) bool: the parameters that are not a compliance. The largest of their columns sets an
-    identifiable basis's tolerance: a compliance's column grows with the arm's torques (a 200 kg
-    arm's, 25 times an angle's), and would otherwise lift the tolerance over columns of the
-    geometry that the data do determine."""
-    return np.array(
-        [not n.startswith(("compliance", "tilt_compliance", "cable_compliance")) for n in names],
-        bool,
-    )
-
-
-class ArmParameters:
-    """What an arm's identification problems share beyond the protocol's own data: the typical
-    sizes of their parameters and the columns that set the rank tolerance, both by name."""
-
-    @property
-    def names(self) -> tuple[str, ...]:
-        """Every parameter's name, in column order (each problem says its own)."""
-        raise NotImplementedError
-
-    def scales(self) -> np.ndarray:
-        """(n,) typical sizes of the parameters' errors (:func:`parameter_scales`)."""
-        return parameter_scales(self.names)
-
-    def reference(self) -> np.ndarray:
-        """(n,) bool: the columns that set the rank tolerance (:func:`geometric_columns`)."""
-        return geometric_columns(self.names)
-
-
-def parallel_axes_note(parallel: list[tuple[int, int]]) -> Callable[[str, list[str]], str]:
-    """A note for :func:`~calibench.estimators.identification.basis.identifiable_basis`: ``'
-    (parallel axes i-j)'`` when a dropped d or theta depends on a neighbour across one of the
-    consecutive parallel joint pairs ``parallel``."""
-
-    def note(name: str, partners: list[str]) -> str:
-        m = re.fullmatch(r"(dd|dtheta|da|dalpha)(\d+)", name)
-        if not m:
-            return ""
-        j = int(m.group(2))
-        for i, k in parallel:
-            if j in (i, k) or j == k + 1:
-                for p in partners:
-                    mp = re.fullmatch(r"(dd|dtheta|da|dalpha|dbeta)(\d+)", p)
-                    if mp and int(mp.group(2)) in (i, k, k + 1) and int(mp.group(2)) != j:
-                        return f" (parallel axes {i}-{k})"
-        return ""
-
-    return note

@@ -28,15 +28,17 @@ import dataclasses
 
 import numpy as np
 
+from calibench.estimators.arm.bending import flex_columns, tilt_columns
 from calibench.estimators.arm.kinematics import (
     ArmParameters,
     Chain,
-    cross,
+    chain_names,
+    flex_moments,
     gravity_moments,
+    in_readings,
     jacobian,
     joint_axes,
     n_params,
-    param_names,
     parameter_scales,
     pose,
     theta_index,
@@ -50,8 +52,9 @@ from calibench.estimators.rotations import matrix_to_rotvec, rigid_transform, ro
 # --- points in the instrument's frame ------------------------------------------------------------
 @dataclasses.dataclass
 class PointState:
-    """delta (5 N + 3,) kinematic errors and tool; comp: the compliances (rad / N m), first about
-    the joints' axes then across them (tilt), then the angle terms' coefficients (rad); R (k, 3, 3),
+    """delta (5 N + 3 T,) kinematic errors and tools; comp: the compliances (rad / N m), first
+    about the joints' axes, across them (tilt), across the links (flex), the cables', then the
+    angle terms' coefficients (rad); R (k, 3, 3),
     t (k, 3) mm each recording's
     base-to-instrument transform (y = R p + t)."""
 
@@ -64,8 +67,10 @@ class PointState:
 class PointProblem(ArmParameters):
     """Tool points measured in the instrument's frame.
 
-    chain : the nominal arm (its ``tool_mm`` is the first guess of the tool point).
-    q_rad : (n, N) encoder readings; xyz_mm : (n, 3) measured points.
+    chain : the nominal arm, serial or branched (its tools' offsets are the first guess of the
+        tool points).
+    q_rad : (n, N) encoder readings (a follower's column ignored); xyz_mm : (n, 3) measured
+        points, each row's of its ``tool``.
     recording : (n,) int, which recording (own base frame) each row comes from; 0 if None.
     sigma_mm : (n, 3) the instrument's stated 1-sigma per value, or None (then one common
         sigma is estimated from the residuals).
@@ -73,6 +78,11 @@ class PointProblem(ArmParameters):
         the chain's masses); empty for a geometry-only model.
     tilt_joints : joints whose bearing tilts under the moment across their axis (rad / N m):
         everything the joint carries turns by c M_perp about the joint's origin.
+    flex_links : joints whose link bends across itself (rad / N m): everything beyond the
+        link's middle turns by c M_perp about the middle, M_perp the moment there of the weight
+        it carries beyond its own, across the link (:func:`flex_moments`).
+    tool : (n,) int, each row's tool (0-based; a branched arm's several measured points), or
+        None: every row the first.
     cable_motors : motors (1-based) of an arm with a transmission (``chain.coupling``) whose
         cable stretches (rad / N m at the motor): the joints' gravity torques carried back to the
         motor (coupling column . tau) stretch it, and the stretch turns the joints it drives
@@ -101,6 +111,8 @@ class PointProblem(ArmParameters):
         angle_terms=(),
         cable_motors=(),
         dirs: np.ndarray | None = None,
+        flex_links=(),
+        tool: np.ndarray | None = None,
     ):
         self.chain = chain
         self.q = np.asarray(q_rad, float)
@@ -114,28 +126,33 @@ class PointProblem(ArmParameters):
         self.cj = np.asarray(sorted(compliance_joints), int)
         self.tj = np.asarray(sorted(tilt_joints), int)
         self.cm = np.asarray(sorted(cable_motors), int)
+        self.fl = np.asarray(sorted(flex_links), int)
+        self.tool = None if tool is None else np.asarray(tool, int)
         coupling = np.eye(N) if chain.coupling is None else np.asarray(chain.coupling, float)
         self.cable_cols = coupling[:, self.cm - 1]  # (N, k): what a motor's stretch does to q
-        self.compliance = len(self.cj) + len(self.tj) + len(self.cm) > 0
+        self.compliance = len(self.cj) + len(self.tj) + len(self.fl) + len(self.cm) > 0
         if self.compliance and not chain.has_masses:
             raise ValueError("a compliance model needs the arm's masses")
         # gravity's moments at the readings, once: the links' sag is small enough that the
         # moments at the sagged posture differ by second-order amounts
         if self.compliance:
-            M = gravity_moments(chain, self.q)
-            w, _ = joint_axes(pose(chain, self.q))
-            tau = np.einsum("nij,nij->ni", w, M)
+            P0 = pose(chain, self.q, tool=self.tool)
+            M = gravity_moments(chain, P=P0)
+            w, _ = joint_axes(P0)
+            # on the readings: a follower's load is carried by the joints it follows
+            tau = in_readings(chain, np.einsum("nij,nij->ni", w, M))
             self.tau = tau[:, self.cj - 1]
             self.tau_motor = tau @ self.cable_cols
             Mt, wt = M[:, self.tj - 1], w[:, self.tj - 1]
             self.m_perp = Mt - np.einsum("nij,nij->ni", Mt, wt)[:, :, None] * wt
+            self.m_flex = flex_moments(chain, P0, self.fl) if len(self.fl) else np.zeros((n, 0, 3))
         else:
             self.tau, self.m_perp = np.zeros((n, 0)), np.zeros((n, 0, 3))
-            self.tau_motor = np.zeros((n, 0))
+            self.tau_motor, self.m_flex = np.zeros((n, 0)), np.zeros((n, 0, 3))
         if not (np.isfinite(self.q).all() and np.isfinite(self.y).all()):
             raise ValueError("point data must be finite")
         self.N = N
-        self.nk = n_params(N)
+        self.nk = n_params(N, chain.n_tools)
         self.terms = tuple(angle_terms)
         self.coupling = coupling
         # each drive's direction of last motion, for the direction terms (lost motion, a cable's
@@ -143,7 +160,7 @@ class PointProblem(ArmParameters):
         self.dirs = dirs if dirs is not None else self._directions(self.q, self.rec)
         self.F = self._term_functions(self.q, self.rec, self.dirs)
         self.na = sum(F.shape[1] for F in self.F)
-        self.n_phys = len(self.cj) + len(self.tj) + len(self.cm)
+        self.n_phys = len(self.cj) + len(self.tj) + len(self.fl) + len(self.cm)
         self.nc = self.n_phys + self.na
         frame = ("rx", "ry", "rz", "x", "y", "z")
         suffix = [""] if self.n_rec == 1 else [f"_{r + 1}" for r in range(self.n_rec)]
@@ -164,7 +181,7 @@ class PointProblem(ArmParameters):
         names = self.names
         # the identifiable basis with the frames always kept and the tool as the one group
         frames = np.arange(len(names) - len(self.frame_names), len(names))
-        view = Regrouped(self, always=frames, groups=[np.arange(self.nk - 3, self.nk)])
+        view = Regrouped(self, always=frames, groups=[np.arange(5 * self.N, self.nk)])
         dropped = identifiable_basis(view, s, rel_tol=rel_tol).dropped
         why = {n: f"{text}: held at the drawing's value" for n, text in dropped.items()}
         self.held = tuple(int(names.index(n)) for n in why)
@@ -198,9 +215,10 @@ class PointProblem(ArmParameters):
     def names(self) -> tuple[str, ...]:
         """Parameter names, in the column order of :meth:`jacobian` and :meth:`values`."""
         return (
-            param_names(self.N)
+            chain_names(self.chain)
             + tuple(f"compliance{j}" for j in self.cj)
             + tuple(f"tilt_compliance{j}" for j in self.tj)
+            + tuple(f"flex_compliance{j}" for j in self.fl)
             + tuple(f"cable_compliance{m}" for m in self.cm)
             + tuple(n for t in self.terms for n in t.names)
             + self.frame_names
@@ -208,10 +226,10 @@ class PointProblem(ArmParameters):
 
     @property
     def always(self) -> np.ndarray:
-        """Columns always estimated: the base frames and the tool point (but its
+        """Columns always estimated: the base frames and the tool points (but their
         :attr:`held` components)."""
         nf = len(self.frame_names)
-        tool = [k for k in range(self.nk - 3, self.nk) if k not in self.held]
+        tool = [k for k in range(5 * self.N, self.nk) if k not in self.held]
         return np.r_[np.array(tool, int), np.arange(len(self.names) - nf, len(self.names))]
 
     @property
@@ -236,7 +254,7 @@ class PointProblem(ArmParameters):
         column, so what is dropped never depends on the unit the transmission is written in."""
         out = parameter_scales(self.names)
         if len(self.cm):
-            k = self.nk + len(self.cj) + len(self.tj)
+            k = self.nk + len(self.cj) + len(self.tj) + len(self.fl)
             out = out.copy()
             out[k : k + len(self.cm)] /= np.maximum(np.sum(self.cable_cols**2, axis=0), 1e-300)
         return out
@@ -254,7 +272,7 @@ class PointProblem(ArmParameters):
     def start(self) -> PointState:
         """Nominal arm; each base frame from a rigid fit of its measured points to the
         nominal ones."""
-        p = pose(self.chain, self.q).point
+        p = pose(self.chain, self.q, tool=self.tool).point
         R, t = np.empty((self.n_rec, 3, 3)), np.empty((self.n_rec, 3))
         for r in range(self.n_rec):
             m = self.rec == r
@@ -274,7 +292,7 @@ class PointProblem(ArmParameters):
         out = q.copy()
         if self.compliance and tau is not None and len(self.cj):
             out[:, self.cj - 1] += s.comp[: len(self.cj)] * tau
-        k = len(self.cj) + len(self.tj)
+        k = len(self.cj) + len(self.tj) + len(self.fl)
         if len(self.cm) and tau_motor is not None:
             out += (tau_motor * s.comp[k : k + len(self.cm)]) @ self.cable_cols.T
         k += len(self.cm)
@@ -289,22 +307,40 @@ class PointProblem(ArmParameters):
 
     def _tilt(self, s: PointState, P, m_perp) -> tuple[np.ndarray, np.ndarray]:
         """The tool point's shift from the bearings' tilt, (n, 3) mm, and its columns (n, 3, nt)."""
-        _, o = joint_axes(P)
-        cols = cross(m_perp, P.point[:, None] - o[:, self.tj - 1]).transpose(0, 2, 1)
+        cols = tilt_columns(self.chain, P, self.tj, m_perp)
         return cols @ s.comp[len(self.cj) : len(self.cj) + len(self.tj)], cols
 
+    def _flex(self, s: PointState, P, m_flex) -> tuple[np.ndarray, np.ndarray]:
+        """The tool point's shift from the links' lateral flex, (n, 3) mm, and its columns
+        (n, 3, nf)."""
+        cols = flex_columns(self.chain, P, self.fl, m_flex)
+        k = len(self.cj) + len(self.tj)
+        return cols @ s.comp[k : k + len(self.fl)], cols
+
+    def _turns(self, Jk: np.ndarray, joints) -> np.ndarray:
+        """How each of ``joints`` (1-based) readings turns the points, (n, 3, k): its joint's
+        Jacobian column and, where joints follow it, theirs by its share."""
+        if not self.chain.followers:
+            return Jk[:, :, [theta_index(j) for j in joints]]
+        every = Jk[:, :, [theta_index(j) for j in range(1, self.N + 1)]]
+        return in_readings(self.chain, every)[:, :, np.asarray(joints, int) - 1]
+
     def base_points(
-        self, s: PointState, q_rad: np.ndarray | None = None, session: int | None = None
+        self,
+        s: PointState,
+        q_rad: np.ndarray | None = None,
+        session: int | None = None,
+        tool: np.ndarray | None = None,
     ) -> np.ndarray:
         """Modelled tool points in the arm's base frame, (n, 3) mm: this problem's postures, or
-        others ``q_rad`` (m, N) (their gravity loads computed here) taken in recording
-        ``session``'s session (None: one the fit has not seen, where per-recording angle terms
-        are unknown and left out)."""
+        others ``q_rad`` (m, N) (their gravity loads computed here) of tools ``tool`` (m,)
+        (0-based; None: the first) taken in recording ``session``'s session (None: one the fit
+        has not seen, where per-recording angle terms are unknown and left out)."""
         if q_rad is None:
-            q_eff, m_perp = self._q_eff(s), self.m_perp
+            q_eff, m_perp, m_flex, tool = self._q_eff(s), self.m_perp, self.m_flex, self.tool
         else:
             q_rad = np.atleast_2d(np.asarray(q_rad, float))
-            tau, m_perp, tau_motor = None, None, None
+            tau, m_perp, tau_motor, m_flex = None, None, None, None
             if self.compliance:
                 other = PointProblem(
                     self.chain,
@@ -313,13 +349,19 @@ class PointProblem(ArmParameters):
                     compliance_joints=self.cj,
                     tilt_joints=self.tj,
                     cable_motors=self.cm,
+                    flex_links=self.fl,
+                    tool=tool,
                 )
                 tau, m_perp, tau_motor = other.tau, other.m_perp, other.tau_motor
+                m_flex = other.m_flex
             rec = None if session is None else np.full(len(q_rad), session)
             F = self._term_functions(q_rad, rec, self._directions(q_rad, None))
             q_eff = self._q_eff(s, q_rad, tau, F, tau_motor)
-        P = pose(self.chain, q_eff, s.delta)
-        return P.point + (self._tilt(s, P, m_perp)[0] if len(self.tj) else 0.0)
+        P = pose(self.chain, q_eff, s.delta, tool)
+        shift = self._tilt(s, P, m_perp)[0] if len(self.tj) else 0.0
+        if len(self.fl):
+            shift = shift + self._flex(s, P, m_flex)[0]
+        return P.point + shift
 
     def model(
         self,
@@ -327,18 +369,19 @@ class PointProblem(ArmParameters):
         q_rad: np.ndarray | None = None,
         frame: int = 0,
         session: int | None = None,
+        tool: np.ndarray | None = None,
     ) -> np.ndarray:
         """Modelled points (n, 3) in the instrument frame: this problem's rows (each in its own
-        recording's frame), or postures ``q_rad`` (m, N) in recording ``frame``'s frame, with
-        recording ``session``'s per-recording angle terms (None: another session's rows, e.g. a
-        test recording in the same frame)."""
-        p = self.base_points(s, q_rad, session)
+        recording's frame), or postures ``q_rad`` (m, N) of tools ``tool`` (m,) (0-based; None:
+        the first) in recording ``frame``'s frame, with recording ``session``'s per-recording
+        angle terms (None: another session's rows, e.g. a test recording in the same frame)."""
+        p = self.base_points(s, q_rad, session, tool)
         rec = self.rec if q_rad is None else np.full(len(p), frame)
         return np.einsum("nij,nj->ni", s.R[rec], p) + s.t[rec]
 
     def _prior_rows(self) -> tuple[np.ndarray, np.ndarray]:
         """Which parameters carry the prior, (k,) indices, and its sigma (k,)."""
-        idx = np.arange(self.nk - 3)
+        idx = np.arange(5 * self.N)
         return idx, parameter_scales([self.names[i] for i in idx]) * self.prior
 
     def residuals(self, s: PointState) -> np.ndarray:
@@ -353,30 +396,29 @@ class PointProblem(ArmParameters):
     def jacobian(self, s: PointState) -> np.ndarray:
         """Whitened d(residuals) / d(parameters), (3 n, len(names)); residual = y - model."""
         q_eff = self._q_eff(s)
-        P = pose(self.chain, q_eff, s.delta)
+        P = pose(self.chain, q_eff, s.delta, self.tool)
         Jk = jacobian(self.chain, P=P)  # (n, 3, nk) base frame
         R = s.R[self.rec]
         n = len(self.q)
         cols = [np.einsum("nij,njk->nik", R, Jk)]
         p = P.point
         if len(self.cj):
-            Jq = Jk[:, :, [theta_index(j) for j in self.cj]]
+            Jq = self._turns(Jk, self.cj)
             cols.append(np.einsum("nij,njk->nik", R, Jq * self.tau[:, None, :]))
-        if len(self.tj):
-            shift, Jt = self._tilt(s, P, self.m_perp)
-            cols.append(np.einsum("nij,njk->nik", R, Jt))
-            p = p + shift
+        for on, bend, m in ((self.tj, self._tilt, self.m_perp), (self.fl, self._flex, self.m_flex)):
+            if len(on):
+                shift, Jt = bend(s, P, m)
+                cols.append(np.einsum("nij,njk->nik", R, Jt))
+                p = p + shift
         if len(self.cm):
-            Jq = Jk[:, :, [theta_index(j) for j in range(1, self.N + 1)]]  # (n, 3, N)
+            Jq = self._turns(Jk, range(1, self.N + 1))  # (n, 3, N)
             Jc = np.einsum("nij,jk,nk->nik", Jq, self.cable_cols, self.tau_motor)
             cols.append(np.einsum("nij,njk->nik", R, Jc))
         for t, Ft in zip(self.terms, self.F):
             if t.column:  # (n, 3): a motor's error turns the joints along its column
-                Jq = Jk[:, :, [theta_index(j) for j in range(1, self.N + 1)]] @ np.asarray(
-                    t.column, float
-                )
+                Jq = self._turns(Jk, range(1, self.N + 1)) @ np.asarray(t.column, float)
             else:
-                Jq = Jk[:, :, theta_index(t.joint)]  # (n, 3): the link turns by -Ft @ c
+                Jq = self._turns(Jk, [t.joint])[:, :, 0]  # (n, 3): the link turns by -Ft @ c
             cols.append(-np.einsum("nij,nj,nk->nik", R, Jq, Ft))
         Rp = np.einsum("nij,nj->ni", R, p)
         Jf = np.zeros((n, 3, 6 * self.n_rec))

@@ -40,12 +40,17 @@ def screen(
     q_tol_deg: float = 0.05,
     factor: float = 10.0,
     floor_mm: float = 0.1,
+    tool: np.ndarray | None = None,
 ) -> Screening:
-    """Stale rows and disagreeing repeats of a recording: q (n, N) rad, xyz (n, 3) mm.
+    """Stale rows and disagreeing repeats of a recording: q (n, N) rad, xyz (n, 3) mm, each row
+    of a branched arm's ``tool`` (n,) (None: one tool). Rows of one posture that measure
+    different tools are no repeats.
 
     A repeat disagrees when its distance exceeds ``factor`` times the median repeat distance
     and ``floor_mm``."""
     q = np.degrees(np.asarray(q_rad, float))
+    if tool is not None:  # another tool: as far as another posture
+        q = np.c_[q, 1e6 * q_tol_deg * np.asarray(tool, float)]
     y = np.asarray(xyz_mm, float)
     moved = np.any(np.abs(np.diff(q, axis=0)) > q_tol_deg, axis=1)
     same = np.all(np.diff(y, axis=0) == 0, axis=1)

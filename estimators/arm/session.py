@@ -15,7 +15,7 @@ import dataclasses
 
 import numpy as np
 
-from calibench.estimators.arm.kinematics import jacobian, pose, theta_index
+from calibench.estimators.arm.kinematics import in_readings, jacobian, pose, theta_index
 from calibench.estimators.rotations import rigid_transform, rotvec_to_matrix, skew
 
 
@@ -77,13 +77,18 @@ def _names(t) -> tuple[str, ...]:
     return tuple(n.replace(f"{t.joint}_", f"{t.joint}_h{t.harmonic:g}_", 1) for n in t.names)
 
 
-def session_columns(problem, state, q_rad: np.ndarray, terms) -> np.ndarray:
+def session_columns(problem, state, q_rad: np.ndarray, terms, tool=None) -> np.ndarray:
     """How each session term's coefficients move the tool point in the base frame, (n, 3, k) mm
     per rad: a joint's angle error F(q_j) @ c turns the link back by it (the Jacobian taken at
-    the readings: the sag's effect on it is second order)."""
-    J = jacobian(problem.chain, P=pose(problem.chain, q_rad, state.delta))
+    the readings: the sag's effect on it is second order), each row's of its ``tool`` (n,)
+    (a branched arm's; None: the first)."""
+    J = jacobian(problem.chain, P=pose(problem.chain, q_rad, state.delta, tool))
+    # a joint's reading turns the joints that follow it too
+    turns = in_readings(
+        problem.chain, J[:, :, [theta_index(j) for j in range(1, q_rad.shape[1] + 1)]]
+    )
     cols = [
-        -J[:, :, theta_index(t.joint)][:, :, None] * t.functions(q_rad[:, t.joint - 1])[:, None]
+        -turns[:, :, t.joint - 1][:, :, None] * t.functions(q_rad[:, t.joint - 1])[:, None]
         for t in terms
     ]
     return np.concatenate(cols, axis=2) if cols else np.zeros((len(q_rad), 3, 0))
@@ -95,7 +100,13 @@ STEP_TOL = 1e-11
 
 
 def register_session(
-    problem, state, q_rad: np.ndarray, xyz_mm: np.ndarray, rows: np.ndarray, iterations: int = 20
+    problem,
+    state,
+    q_rad: np.ndarray,
+    xyz_mm: np.ndarray,
+    rows: np.ndarray,
+    iterations: int = 20,
+    tool: np.ndarray | None = None,
 ) -> tuple[SessionFit, np.ndarray]:
     """Fit a new session's frame and own terms on its rows ``rows``.
 
@@ -105,6 +116,7 @@ def register_session(
     state : its fitted state (the machine, held).
     q_rad : (n, N) the session's readings; xyz_mm : (n, 3) its measured points.
     rows : (m,) the rows to register on (at least 3, and more than the session terms).
+    tool : (n,) each row's tool (0-based) on a branched arm; None: the first.
 
     The corrections to shared terms carry a zero-mean prior of :data:`SESSION_PRIOR_RAD`, as
     prior rows weighted by the calibration's scatter per value (as discovery's
@@ -120,8 +132,8 @@ def register_session(
     (SessionFit, (n, 3) the modelled points of every row in the session's frame)
     """
     terms = session_terms(problem.terms)
-    p0 = problem.base_points(state, q_rad)
-    cols = session_columns(problem, state, q_rad, terms)
+    p0 = problem.base_points(state, q_rad, tool=tool)
+    cols = session_columns(problem, state, q_rad, terms, tool)
     R, t = rigid_transform(p0[rows], xyz_mm[rows])
     c = np.zeros(cols.shape[2])
     held = set(corrections(problem.terms))

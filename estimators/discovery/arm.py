@@ -27,7 +27,10 @@ class ArmDrivers(TypedDict, total=False):
     masses); ``point`` (n, 3) mm and ``flange_R`` (n, 3, 3) of the chain there; ``delta_twin``
     (5 N + 3,) the twin's own chain errors; ``rec`` (n,) each posture's recording; ``t_s``,
     ``temp_c`` (n,) or None; ``dir_q`` (n, N) each joint's direction of last motion and, with a
-    transmission, ``dir_motor`` (n, N) each motor's."""
+    transmission, ``dir_motor`` (n, N) each motor's; on a branched arm ``tool`` (n,) each row's
+    tool (``Jq`` and ``tau`` then on the readings: a joint's turn moves its followers too) and
+    ``flex`` {link: (n, 3)} how each link its branches meet on moves the points bending across,
+    per rad / N m; ``followers`` the joints without a reading of their own."""
 
     q: np.ndarray
     J: np.ndarray
@@ -42,6 +45,9 @@ class ArmDrivers(TypedDict, total=False):
     temp_c: np.ndarray | None
     dir_q: np.ndarray | None
     dir_motor: np.ndarray | None
+    tool: np.ndarray | None
+    flex: dict[int, np.ndarray] | None
+    followers: tuple[int, ...]
 
 
 # --- the arm --------------------------------------------------------------------------------------

@@ -6,6 +6,11 @@ dynamics); a motor m's cable stretches by c times the torque the coupling carrie
 
     dp = J_q[:, j] c tau_j,    dp = (J_q @ column) c (column . tau)
 
+and a branched arm's link bends across under the weight beyond its middle (``flex`` (n, 3)
+per link: its columns, :func:`~calibench.estimators.arm.bending.flex_columns`)::
+
+    dp = c (M_perp x (p - h))
+
 A compliance below zero is outside its physical range (:meth:`implausible`).
 """
 
@@ -107,3 +112,42 @@ class CableCompliance(Effect):
 
     def implausible(self, coef, cov):
         return below_zero(f"motor {self.motor}'s cable compliance", coef, cov, "urad / N m")
+
+
+@dataclasses.dataclass(frozen=True)
+class LinkFlex(Effect):
+    """Link j bends across itself under the weight it carries beyond its middle: everything
+    beyond turns by c M_perp about the middle (``flex`` among the drivers: {link: (n, 3) mm per
+    rad / N m}, a branched arm's links where its branches meet)."""
+
+    name: str = "link_flex"
+    axis: str = "xyz"
+    link: int = 1
+
+    def __post_init__(self):
+        object.__setattr__(self, "needs", ("flex",))
+
+    @property
+    def key(self) -> str:
+        """One candidate per link."""
+        return f"{self.name}:link{self.link}"
+
+    def applies(self, drivers):
+        flex = drivers.get("flex")
+        return bool(flex) and self.link in flex and np.ptp(flex[self.link]) > 0
+
+    def columns(self, d):
+        return (np.asarray(d["flex"][self.link], float) * 1e-6).reshape(-1, 1)  # urad / N m
+
+    def describe(self, coef, cov):
+        c = float(coef[0])
+        stiff = f" (a stiffness of {1e6 / c:.3g} N m / rad)" if c > 0 else ""
+        return (
+            {"link": self.link, "urad_per_nm": c},
+            {"urad_per_nm": coef_std(cov, 0)},
+            f"link {self.link} bends across under the weight it carries: {c:.3g} urad per N m"
+            f"{stiff}",
+        )
+
+    def implausible(self, coef, cov):
+        return below_zero(f"link {self.link}'s lateral compliance", coef, cov, "urad / N m")

@@ -26,6 +26,7 @@ from calibench.estimators.discovery.rivals import ties
 from calibench.estimators.discovery.select import prune, select
 from calibench.scenarios.arm_cmm import NAME
 from calibench.scenarios.arm_cmm.discovery_candidates import add_joint_table, arm_candidates
+from calibench.scenarios.arm_cmm.discovery_compliance import link_flex_columns
 from calibench.scenarios.arm_cmm.discovery_rows import arm_floor, residual_signal, usable_rows
 from calibench.scenarios.arm_cmm.discovery_sessions import (
     carried_to_sessions,
@@ -46,38 +47,51 @@ from calibench.scenes.arm_cmm import DEFAULT_ARM
 
 
 def arm_drivers(
-    arm, q_rad: np.ndarray, temp_c=None, t_s=None, truth=None, delta: np.ndarray | None = None
+    arm,
+    q_rad: np.ndarray,
+    temp_c=None,
+    t_s=None,
+    truth=None,
+    delta: np.ndarray | None = None,
+    tool: np.ndarray | None = None,
 ) -> tuple[dict[str, Any], np.ndarray]:
     """What the arm's candidates need, and the twin's tool points: MuJoCo's nominal (rigid) arm
     at the readings (n, 3) mm, its gravity torques (MuJoCo's inverse dynamics) when the arm has
     masses, the chain's Jacobians, the twin's chain errors. ``truth``: a twin updated by
     ``discover --twin`` (its geometry, and its joints' stiffness: the links then settle under
     gravity in MuJoCo).
-    ``delta``: the chain's errors (5 N + 3,) at which the Jacobians, the points and the flange
-    are taken (the drawing's chain if None)."""
-    from calibench.estimators.arm.kinematics import jacobian, pose, theta_index
+    ``delta``: the chain's errors (5 N + 3 T,) at which the Jacobians, the points and the
+    flange are taken (the drawing's chain if None). ``tool``: each row's tool (n,) on a branched
+    arm (0-based; None: the first): its point, and its joints' turns on the readings (a joint's
+    turn moves the joints that follow it; ``Jq`` and ``tau`` are the readings')."""
+    from calibench.estimators.arm.kinematics import in_readings, jacobian, pose, theta_index
     from calibench.scenarios.arm_cmm.arms import chain_of
     from calibench.sim.arm_cmm import ArmSim, ArmTruth
 
-    N = arm.n_joints
-    twin = ArmSim(arm, truth if truth is not None else ArmTruth(delta=(0.0,) * (5 * N + 3)))
-    sim = twin.probe_mm(q_rad)
+    N, T = arm.n_joints, arm.n_tools
+    twin = ArmSim(arm, truth if truth is not None else ArmTruth(delta=(0.0,) * (5 * N + 3 * T)))
+    sim = twin.probe_mm(q_rad, tool)
     chain = chain_of(arm)
-    P = pose(chain, q_rad, delta)
+    P = pose(chain, q_rad, delta, tool)
     J = jacobian(chain, P=P)
-    grow = np.zeros(5 * N + 3)
-    grow[0 : 5 * N : 5], grow[1 : 5 * N : 5], grow[5 * N :] = arm.a_mm, arm.d_mm, arm.tool_mm
+    grow = np.zeros(5 * N + 3 * T)
+    grow[0 : 5 * N : 5], grow[1 : 5 * N : 5] = arm.a_mm, arm.d_mm
+    grow[5 * N :] = arm.tool_offsets().ravel()
+    at = chain.tool_frames[np.zeros(len(q_rad), int) if tool is None else tool]
     drivers: ArmDrivers = {
         "q": q_rad,
         "J": J,
-        "Jq": J[:, :, [theta_index(j) for j in range(1, N + 1)]],
+        "Jq": in_readings(chain, J[:, :, [theta_index(j) for j in range(1, N + 1)]]),
         "grow": grow,
         "temp_c": temp_c,
         "t_s": t_s,
-        "tau": twin.gravity_torques(q_rad) if arm.has_masses else None,
+        "tau": in_readings(chain, twin.gravity_torques(q_rad)) if arm.has_masses else None,
         "point": P.point,
-        "flange_R": P.link_R[:, N],
+        "flange_R": P.link_R[np.arange(len(q_rad)), at],
         "delta_twin": np.asarray(twin.delta, float),
+        "tool": tool,
+        "flex": link_flex_columns(chain, P),
+        "followers": chain.followers,
     }
     # the engine's functions take any dict of drivers; the TypedDict above checks this one's keys
     return cast("dict[str, Any]", drivers), sim
@@ -122,10 +136,11 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
     N = arm.n_joints
     recs = list(rec) if isinstance(rec, (list, tuple)) else [rec]
     rows = usable_rows(recs, arm)
-    if truth is not None and truth.delta and len(truth.delta) != 5 * N + 3:
+    T = arm.n_tools
+    if truth is not None and truth.delta and len(truth.delta) != 5 * N + 3 * T:
         raise BadInput(
             f"the twin's truth.delta has {len(truth.delta)} values; the arm {arm.name} needs 5 x "
-            f"{N} + 3"
+            f"{N} + 3{f' x {T}' if T > 1 else ''}"
         )
     chain = chain_of(arm)
     # fit's own step (fit --model physics where the arm has masses): the same prior, identifiable
@@ -143,8 +158,11 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
         arm.parallel_pairs(),
         robust=False,
         prior=PRIOR,
+        tool=rows.tool,
     )
-    drivers, sim = arm_drivers(arm, rows.q_rad, rows.temp_c, rows.t_s, truth, solved.state.delta)
+    drivers, sim = arm_drivers(
+        arm, rows.q_rad, rows.temp_c, rows.t_s, truth, solved.state.delta, rows.tool
+    )
     drivers["rec"] = rows.rec_id
     # each joint's direction of last motion, over each recording's rows in their order
     drivers["dir_q"] = np.stack(
@@ -205,9 +223,7 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
     own = {
         "arm": arm.name,
         "dropped": [
-            {"name": k, "why": v}
-            for k, v in dropped.items()
-            if not k.startswith(("base_", "tool_"))
+            {"name": k, "why": v} for k, v in dropped.items() if not k.startswith(("base_", "tool"))
         ],
         "left_out_rows": rows.left_out,
         "summary": _arm_summary(arm.name, found, effects),
@@ -223,6 +239,8 @@ def _discover_arm(rec, seed: int, floor: float, arm, truth=None) -> tuple[dict, 
 
 def _where(params: dict) -> str:
     """What an effect acts on, in words: a motor's cable or a joint."""
+    if "link" in params:  # a branched arm's link that bends across
+        return f"link {params['link']}"
     return f"motor {params['motor']}" if "motor" in params else f"joint {params.get('joint', '-')}"
 
 
@@ -257,7 +275,7 @@ def arm_truth(description, path: Path | None):
     from calibench.sim.arm_cmm import ArmTruth
 
     t = override(
-        ArmTruth(delta=(0.0,) * (5 * description.n_joints + 3)),
+        ArmTruth(delta=(0.0,) * (5 * description.n_joints + 3 * description.n_tools)),
         load_toml(path).get(NAME, {}).get("truth", {}),
         "arm-cmm.truth",
     )
@@ -274,9 +292,9 @@ def twin_tables(scenario: str, out: dict, config: Path | None, arm=None) -> tupl
     from calibench.scenes.arm_cmm import load_arm
 
     description = load_arm(arm or DEFAULT_ARM)
-    N = description.n_joints
+    N, T = description.n_joints, description.n_tools
     base = arm_truth(description, config)
-    delta = list(base.delta) if base is not None and base.delta else [0.0] * (5 * N + 3)
+    delta = list(base.delta) if base is not None and base.delta else [0.0] * (5 * N + 3 * T)
     stiffness = (
         list(base.stiffness_nm_per_rad)
         if base is not None and base.stiffness_nm_per_rad
@@ -287,7 +305,12 @@ def twin_tables(scenario: str, out: dict, config: Path | None, arm=None) -> tupl
         if base is not None and base.cable_stiffness_nm_per_rad
         else list(description.cable_stiffness_nm_per_rad or [math.inf] * N)
     )
-    names, left = param_names(N), []
+    names, left = param_names(N, T), []
+    flex = (
+        list(base.flex_stiffness_nm_per_rad)
+        if base is not None and base.flex_stiffness_nm_per_rad
+        else [math.inf] * N
+    )
     for e in out["effects"]:
         p = e["params"]
         if e["name"] == "geometry":
@@ -298,6 +321,10 @@ def twin_tables(scenario: str, out: dict, config: Path | None, arm=None) -> tupl
             j = p["joint"] - 1
             c = p["urad_per_nm"] * 1e-6 + (1 / stiffness[j] if math.isfinite(stiffness[j]) else 0.0)
             stiffness[j] = 1 / c
+        elif e["name"] == "link_flex" and p["urad_per_nm"] > 0:
+            j = p["link"] - 1
+            c = p["urad_per_nm"] * 1e-6 + (1 / flex[j] if math.isfinite(flex[j]) else 0.0)
+            flex[j] = 1 / c
         elif e["name"] == "cable_compliance" and p["urad_per_nm"] > 0:
             m = p["motor"] - 1
             c = p["urad_per_nm"] * 1e-6 + (1 / cables[m] if math.isfinite(cables[m]) else 0.0)
@@ -305,6 +332,8 @@ def twin_tables(scenario: str, out: dict, config: Path | None, arm=None) -> tupl
         else:
             left.append(e["name"] + (f" (joint {p['joint']})" if "joint" in p else ""))
     truth = {"delta": delta, "stiffness_nm_per_rad": stiffness}
+    if any(math.isfinite(k) for k in flex):
+        truth["flex_stiffness_nm_per_rad"] = flex
     if description.coupling is not None or any(math.isfinite(k) for k in cables):
         truth["cable_stiffness_nm_per_rad"] = cables
     from calibench.scenarios.discover.twin_merge import carried, given_tables
@@ -337,7 +366,14 @@ def load(scenario: str, paths: list, arm=None) -> ArmInput:
         raise BadInput("--arm is empty: give an ARM.toml or a built-in arm's name (arm-cmm, ur10)")
     description = load_arm(arm or DEFAULT_ARM)
     recs = [
-        load_arm_csv(p, description.n_joints, MAX_ROWS, np.degrees(description.range_rad))
+        load_arm_csv(
+            p,
+            description.n_joints,
+            MAX_ROWS,
+            np.degrees(description.range_rad),
+            description.follows,
+            description.n_tools,
+        )
         for p in paths
     ]
     return ArmInput(description, recs, list(paths))

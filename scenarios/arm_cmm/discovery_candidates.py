@@ -53,6 +53,8 @@ def arm_candidates(
     from calibench.estimators.discovery.harmonics import harmonic_grid
 
     N, q = arm.n_joints, q_rad
+    # a follower has no reading of its own: what acts on a joint's reading is its joints'
+    joints = [j for j in range(1, N + 1) if j not in chain.followers]
     problem, basis, s = solved.problem, solved.ident.basis, solved.state
     kin = tuple(int(k) for k in basis.kept if k < 5 * N)
     names = tuple(problem.names[k] for k in kin)
@@ -63,21 +65,21 @@ def arm_candidates(
     # postures that move one joint only leave no kinematic error the frames and tool do not
     # absorb; a transmission's search fixes its harmonic on the rows it is fitted to (no Effect)
     candidates: list[Effect | TransmissionSearch | StepSearch] = [geometry] if kin else []
-    candidates += [EncoderEccentricity(joint=j) for j in range(1, N + 1)]
+    candidates += [EncoderEccentricity(joint=j) for j in joints]
     candidates += [
-        TransmissionSearch(joint=j, harmonics=harmonic_grid(q[:, j - 1])) for j in range(1, N + 1)
+        TransmissionSearch(joint=j, harmonics=harmonic_grid(q[:, j - 1])) for j in joints
     ]
     # several recordings: a joint's harmonic may also keep its frequency and take a phase per
     # recording (a motor-side error, its phase set at each power-up)
     candidates += [
         TransmissionSearch(joint=j, harmonics=harmonic_grid(q[:, j - 1]), per_recording=True)
-        for j in range(1, N + 1)
+        for j in joints
     ]
     compliance, not_applicable, alike = compliance_candidates(chain, q, drivers, arm.name)
     candidates += compliance
     candidates += [ArmThermalExpansion(), ArmDrift(driver="temp_c"), ArmDrift(driver="t_s")]
     # what follows a joint's motion or a moment, not its angle: lost motion, a step
-    candidates += [JointBacklash(joint=j) for j in range(1, N + 1)]
+    candidates += [JointBacklash(joint=j) for j in joints]
     # a differential's motor: its cables' friction turns its joints together (a motor that drives
     # one joint alone is that joint's lost motion under another name)
     if chain.coupling is not None:
@@ -87,7 +89,7 @@ def arm_candidates(
             for m in range(1, N + 1)
             if np.count_nonzero(coupling[:, m - 1]) > 1
         ]
-    candidates += [StepSearch(axis="xyz", joint=j) for j in range(1, N + 1)]
+    candidates += [StepSearch(axis="xyz", joint=j) for j in joints]
     candidates = [c for c in candidates if not hasattr(c, "applies") or c.applies(drivers)]
     return ArmCandidates(
         candidates, geometry if geometry in candidates else None, not_applicable, alike
@@ -106,5 +108,8 @@ def add_joint_table(
     """What no candidate explains: a table over one joint's angle, each joint's proposed, the one
     that helps most kept by the engine's :func:`keep_table` if it cuts the held-out RMS by
     ``floor``."""
-    tables = [joint_table(q_rad[:, j - 1], j) for j in range(1, q_rad.shape[1] + 1)]
+    followers = drivers.get("followers") or ()
+    tables = [
+        joint_table(q_rad[:, j - 1], j) for j in range(1, q_rad.shape[1] + 1) if j not in followers
+    ]
     keep_table([sig], terms, found, drivers, fold, [t for t in tables if t is not None], floor)

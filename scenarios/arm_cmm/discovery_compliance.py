@@ -1,7 +1,7 @@
-"""The arm's compliance candidates for ``discover arm-cmm``: each loaded joint's, and for an arm
-with a transmission each loaded motor's cable, by fit's own rules, with the words for the
-joints and cables that are not offered and for a cable that is a joint's compliance under
-another name."""
+"""The arm's compliance candidates for ``discover arm-cmm``: each loaded joint's, for an arm
+with a transmission each loaded motor's cable, and on a branched arm the lateral flex of each
+link its branches meet on, by fit's own rules, with the words for the joints and cables that are
+not offered and for a cable that is a joint's compliance under another name."""
 
 from __future__ import annotations
 
@@ -25,7 +25,11 @@ def compliance_candidates(chain, q: np.ndarray, drivers, name: str) -> tuple[lis
         loaded_joints,
         loaded_motors,
     )
-    from calibench.estimators.discovery.arm_compliance import CableCompliance, JointCompliance
+    from calibench.estimators.discovery.arm_compliance import (
+        CableCompliance,
+        JointCompliance,
+        LinkFlex,
+    )
 
     if drivers["tau"] is None:
         return (
@@ -38,6 +42,7 @@ def compliance_candidates(chain, q: np.ndarray, drivers, name: str) -> tuple[lis
         loaded_joints(chain, q, CABLE_LOADED_FRACTION) if cabled else loaded_joints(chain, q)
     )
     out: list = [JointCompliance(joint=j) for j in loaded]
+    out += [LinkFlex(link=j) for j in drivers.get("flex") or {}]
     why = {f"joint_compliance:joint{k.removeprefix('compliance')}": v for k, v in unloaded.items()}
     alike = {}
     if cabled:
@@ -71,3 +76,21 @@ def compliance_candidates(chain, q: np.ndarray, drivers, name: str) -> tuple[lis
                 "cable), or measure the cable's stretch under a known torque on the bench",
             }
     return out, why, alike
+
+
+def link_flex_columns(chain, P) -> dict[int, np.ndarray] | None:
+    """On a branched arm with masses, how each link its branches meet on
+    (:func:`~calibench.estimators.arm.calibration.flexing_links`) moves the points by bending
+    across under the weight beyond its middle, per rad / N m: {link: (n, 3) mm}, at the pose
+    ``P`` (each row's tool); None where no link is offered."""
+    from calibench.estimators.arm.bending import flex_columns
+    from calibench.estimators.arm.calibration import flexing_links
+    from calibench.estimators.arm.kinematics import flex_moments
+
+    if not chain.has_masses:
+        return None
+    links, _ = flexing_links(chain)
+    if not links:
+        return None
+    cols = flex_columns(chain, P, np.array(links), flex_moments(chain, P, links))
+    return {j: cols[:, :, i] for i, j in enumerate(links)}

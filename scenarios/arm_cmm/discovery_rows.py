@@ -30,7 +30,11 @@ def arm_floor(r: np.ndarray, rows: ArmRows) -> Floor:
     q = np.asarray(rows.q_rad, float)
     n = len(q)
     ids = np.arange(n)
-    for i, j in sorted(cKDTree(q / SAME_POSTURE_RAD).query_pairs(1.0, p=np.inf)):
+    # a branched arm's rows of one posture that measure other tools are no repeats
+    key = (
+        q / SAME_POSTURE_RAD if rows.tool is None else np.c_[q / SAME_POSTURE_RAD, 1e3 * rows.tool]
+    )
+    for i, j in sorted(cKDTree(key).query_pairs(1.0, p=np.inf)):
         ids[j] = min(ids[j], ids[i])
     order = np.arange(n, dtype=float) if rows.t_s is None else np.asarray(rows.t_s, float)
     steps = np.abs(np.diff(q, axis=0)).max(axis=1)[np.diff(rows.rec_id) == 0]
@@ -51,7 +55,8 @@ class ArmRows:
     q_rad : (n, N) the readings; xyz_mm : (n, 3) the measured points, each in its recording's
     frame; rec_id : (n,) which recording; parts : each recording's rows kept, (k_i,) indices;
     left_out : the rows left out, with why (discovery.json's ``left_out_rows``); temp_c, t_s :
-    (n,) the logged temperature and time, or None where a recording has none.
+    (n,) the logged temperature and time, or None where a recording has none; tool : (n,) each
+    row's tool (0-based) on a branched arm, or None where no recording has a ``tool`` column.
     """
 
     q_rad: np.ndarray
@@ -61,6 +66,7 @@ class ArmRows:
     left_out: list[dict]
     temp_c: np.ndarray | None
     t_s: np.ndarray | None
+    tool: np.ndarray | None = None
 
 
 def usable_rows(recs: list, arm) -> ArmRows:
@@ -77,7 +83,7 @@ def usable_rows(recs: list, arm) -> ArmRows:
             raise BadInput(f"recording {k + 1} has {r.n_joints} joints, the arm {arm.name} {N}")
     check_postures(np.vstack([r.q_rad for r in recs]), len(recs))
     for k, r in enumerate(recs):
-        flagged = screen(r.q_rad, r.xyz_mm)
+        flagged = screen(r.q_rad, r.xyz_mm, tool=r.tool)
         drop = sorted({int(i) for i in flagged.stale} | {int(i) for i in flagged.pairs.ravel()})
         parts.append(np.setdiff1d(np.arange(len(r.q_rad)), drop))
         tag = {} if len(recs) == 1 else {"recording": k + 1}
@@ -116,6 +122,11 @@ def usable_rows(recs: list, arm) -> ArmRows:
         left_out,
         joined("temp_c"),
         joined("t_s"),
+        None
+        if all(r.tool is None for r in recs)
+        else np.concatenate(
+            [(np.zeros(len(r), int) if r.tool is None else r.tool)[k] for r, k in zip(recs, parts)]
+        ),
     )
 
 
@@ -135,20 +146,23 @@ def residual_signal(chain, rows: ArmRows, state, drivers: dict, sim_mm: np.ndarr
     rec_id, n = rows.rec_id, len(rows.q_rad)
     # each recording's points in the arm's base frame, by the frame the geometry's fit found
     meas_base = np.einsum("nji,nj->ni", state.R[rec_id], rows.xyz_mm - state.t[rec_id])
-    at_twin = pose(chain, rows.q_rad, drivers["delta_twin"]).point
+    at_twin = pose(chain, rows.q_rad, drivers["delta_twin"], rows.tool).point
     remainder = (
         drivers["point"]
         - at_twin
         - np.einsum("nij,j->ni", drivers["J"], state.delta - drivers["delta_twin"])
     )
     r = meas_base - sim_mm - remainder
-    n_rec = len(rows.parts)
-    frame = np.zeros((n, 3, 6 * n_rec + 3))
+    n_rec, T = len(rows.parts), chain.n_tools
+    frame = np.zeros((n, 3, 6 * n_rec + 3 * T))
     for i in range(n_rec):
         m = rec_id == i
         frame[m, :, 6 * i : 6 * i + 3] = -skew(drivers["point"][m])
         frame[m, :, 6 * i + 3 : 6 * i + 6] = np.eye(3)
-    frame[:, :, -3:] = drivers["flange_R"]
+    tool = np.zeros(n, int) if rows.tool is None else rows.tool
+    for k in range(T):  # each tool's point, on the rows that measure it
+        m = tool == k
+        frame[m, :, 6 * n_rec + 3 * k : 6 * n_rec + 3 * k + 3] = drivers["flange_R"][m]
     return Signal(
         "xyz_meas - xyz_sim", "xyz", r.ravel(), frame.reshape(3 * n, -1), np.repeat(np.arange(n), 3)
     )

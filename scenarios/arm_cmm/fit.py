@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from calibench.estimators.arm.calibration import ArmCalibration, error_statistics
-from calibench.estimators.arm.kinematics import Chain, param_is_angle, param_names
+from calibench.estimators.arm.kinematics import Chain, param_is_angle
 from calibench.estimators.arm.point import PointProblem
 from calibench.estimators.arm.terms import AngleTerm
 from calibench.estimators.arm.workspace import coverage_warnings
@@ -219,7 +219,7 @@ def parameter_units(problem: PointProblem) -> dict[str, Unit]:
     errors (angles or lengths, as :func:`~calibench.estimators.arm.kinematics.param_is_angle`
     says) and the tool, the compliances, the joint-angle terms' coefficients, the base frames
     (a turn and a shift each)."""
-    chain_names = param_names(problem.N)
+    chain_names = problem.names[: problem.nk]
     units = {n: URAD if a else MM for n, a in zip(chain_names, param_is_angle(chain_names))}
     compliances = problem.names[problem.nk : problem.nk + problem.n_phys]
     units.update({n: URAD_PER_NM for n in compliances})
@@ -281,7 +281,11 @@ def fit_summary(
     }
     result["base"] = bases[training[0].label]
     result["bases"] = bases
-    result["tool_mm"] = (np.asarray(chain.tool_mm) + s.delta[-3:]).tolist()
+    N = chain.n_joints
+    tools = chain.tool_offsets() + s.delta[5 * N :].reshape(-1, 3)
+    result["tool_mm"] = tools[0].tolist()
+    if chain.n_tools > 1:  # a branched arm's every tool, its [[tool]] tables' order
+        result["tools_mm"] = tools.tolist()
     fit_fig = error_statistics(e_fit)
     result["fit"] = {k: fit_fig[k] for k in ("mean_mm", "rms_mm", "max_mm")}
     result["sigma_model_mm"] = cal.sigma_model_mm
@@ -305,7 +309,8 @@ def training_residuals(
         parts.append(ResidualPart(tr.label, rows.rows[mine & ~outliers], "train", None))
         if outliers[mine].any():
             r = rows.rows[mine & outliers]
-            e = tr.rec.xyz_mm[r] - prob.model(state, tr.rec.q_rad, frame=i, session=i)[r]
+            modelled = prob.model(state, tr.rec.q_rad, frame=i, session=i, tool=tr.rec.tool)
+            e = tr.rec.xyz_mm[r] - modelled[r]
             parts.append(ResidualPart(tr.label, r, "left_out", e))
     return parts
 

@@ -84,6 +84,7 @@ class ArmCmmConfig:
 
     def __post_init__(self):
         check_plan(NAME, self.recording)
+        check_serial(self.arm)
         if self.recording.conceal in MASSES_NEEDED:  # said before the run, not after it
             from calibench.scenes.arm_cmm import load_arm
 
@@ -104,6 +105,27 @@ class ArmCmmConfig:
             tuple(self.stated_range_sigma_um),
             self.stated_angle_sigma_urad,
             self.stated_encoder_sigma_urad,
+        )
+
+
+def check_serial(arm: str | ArmDescription) -> None:
+    """``run`` and ``montecarlo`` simulate a serial arm's tracker, cone and bar procedures: a
+    branched arm (a tree of joints, followers, several tools) is refused in one line, said where
+    the config is read (an arm that cannot be read is said where it is loaded)."""
+    from calibench.scenes.arm_cmm import BUILTIN, ArmFileError, load_arm
+
+    if isinstance(arm, str) and arm in BUILTIN:
+        return
+    try:
+        described = arm if isinstance(arm, ArmDescription) else load_arm(arm)
+    except ArmFileError:
+        return
+    if described.branched:
+        raise BadInput(
+            f"config: arm-cmm.arm (or --arm): {described.name} is a branched arm (parent, follows "
+            "or [[tool]] in its file): run and montecarlo simulate a serial arm's tracker, cone "
+            "and bar procedures; calibrate a branched arm with fit arm-cmm or discover arm-cmm on "
+            "its recordings"
         )
 
 

@@ -74,6 +74,22 @@ class Score:
     in_sample_why: str | None = None
 
 
+def per_tool(problem: PointProblem, e_mm: np.ndarray, tool: np.ndarray | None) -> dict:
+    """A branched arm's figures tool by tool: ``{"tools": {"1": figures, ...}}`` of the errors
+    ``e_mm`` (k, 3) of rows measuring ``tool`` (k,) (0-based; None: the first), each tool that
+    has rows; empty for an arm with one tool."""
+    if problem.chain.n_tools == 1:
+        return {}
+    t = np.zeros(len(e_mm), int) if tool is None else np.asarray(tool, int)
+    return {
+        "tools": {
+            str(k + 1): error_statistics(e_mm[t == k])
+            for k in range(problem.chain.n_tools)
+            if np.any(t == k)
+        }
+    }
+
+
 def enough_to_judge(path: Path, keep: np.ndarray) -> None:
     """A test recording needs rows left to judge the fit on once its stale readings are out."""
     if keep.sum() < 3:
@@ -97,11 +113,12 @@ def score_holdout(
         return None
     rec = tr.rec
     # modelled over the whole recording: a drive's direction of last motion is its rows' order
-    e = problem.model(state, rec.q_rad, frame=i, session=i)[m] - rec.xyz_mm[m]
+    e = problem.model(state, rec.q_rad, frame=i, session=i, tool=rec.tool)[m] - rec.xyz_mm[m]
     rows = np.flatnonzero(m)
+    tools = per_tool(problem, e, None if rec.tool is None else rec.tool[m])
     return Score(
         "holdout",
-        {**error_statistics(e), "fraction": fraction, "kind": HOLDOUT_KIND},
+        {**error_statistics(e), "fraction": fraction, "kind": HOLDOUT_KIND, **tools},
         rows,
         np.empty(0, np.int64),
         [ResidualPart(tr.label, rows, "holdout", -e)],
@@ -122,13 +139,14 @@ def score_same_frame(
     that recording's name), its disagreeing repeats settled by the fitted model first."""
     s = screened(rec)
     enough_to_judge(path, s.keep)
-    model_xyz = problem.model(state, rec.q_rad, frame=0)
+    model_xyz = problem.model(state, rec.q_rad, frame=0, tool=rec.tool)
     settle_pairs(s.keep, s.flagged, s.pairs, model_xyz, rec.xyz_mm, s.repeatability_mm)
     e = model_xyz[s.keep] - rec.xyz_mm[s.keep]
     rows = np.flatnonzero(s.keep)
+    tools = per_tool(problem, e, None if rec.tool is None else rec.tool[s.keep])
     return Score(
         "test",
-        {**error_statistics(e), "frame": f"{frame_label}'s"},
+        {**error_statistics(e), "frame": f"{frame_label}'s", **tools},
         rows,
         np.empty(0, np.int64),
         [ResidualPart(label, rows, "test", -e)],
@@ -170,7 +188,7 @@ def register_new_frame(
     never on the rows that score it. ``register_on_scored``: the floor, frame and own terms
     fitted by least squares on the scored rows themselves, so no registration leaves them a lower
     RMS."""
-    base_pts = problem.base_points(state, rec.q_rad)
+    base_pts = problem.base_points(state, rec.q_rad, tool=rec.tool)
     try:
         frame = register_frame(base_pts, rec.xyz_mm, usable, REGISTER_FRACTION, SPLIT_SEED)
     except DegenerateFit as e:
@@ -179,7 +197,9 @@ def register_new_frame(
     on = frame.judge_rows if register_on_scored else frame.register_rows
     own: dict[str, float] = {}
     if session_terms(problem.terms):
-        fitted, model_xyz = register_session(problem, state, rec.q_rad, rec.xyz_mm, on)
+        fitted, model_xyz = register_session(
+            problem, state, rec.q_rad, rec.xyz_mm, on, tool=rec.tool
+        )
         own = {n: float(v) * 1e6 for n, v in zip(fitted.names, fitted.coef)}
     elif register_on_scored:
         R, t = rigid_transform(base_pts[on], rec.xyz_mm[on])
@@ -213,6 +233,7 @@ def score_new_frame(
     parts.append(ResidualPart(label, np.flatnonzero(ev), role, -e))
     figs = {
         **error_statistics(e),
+        **per_tool(problem, e, None if rec.tool is None else rec.tool[ev]),
         "frame": f"registered on {len(reg)} rows ({100 * REGISTER_FRACTION:.0f} %, "
         f"seed {SPLIT_SEED}), figures on the other {ev.sum()}",
     }

@@ -76,8 +76,11 @@ def recording_labels(paths: list[Path]) -> dict[Path, str]:
 
 
 def load_recording(path: Path, arm: ArmDescription) -> ArmRecording:
-    """An arm recording at ``path``, checked against the arm's joints and their ranges."""
-    return load_arm_csv(path, arm.n_joints, MAX_ROWS, np.degrees(arm.range_rad))
+    """An arm recording at ``path``, checked against the arm's joints and their ranges (and a
+    branched arm's followers and tools)."""
+    return load_arm_csv(
+        path, arm.n_joints, MAX_ROWS, np.degrees(arm.range_rad), arm.follows, arm.n_tools
+    )
 
 
 @dataclasses.dataclass
@@ -100,7 +103,7 @@ class Screened:
 def screened(rec: ArmRecording) -> Screened:
     """The rows of ``rec`` kept after the model-free screening, what was flagged, and the
     disagreeing pairs left for a model to settle."""
-    s = screen(rec.q_rad, rec.xyz_mm)
+    s = screen(rec.q_rad, rec.xyz_mm, tool=rec.tool)
     keep = np.ones(len(rec), bool)
     flagged: list[dict] = []
     for r in s.stale:
@@ -202,7 +205,8 @@ class Stacked:
 
     q_rad : (n, N) the readings; xyz_mm : (n, 3) the measured points, each in its recording's
     frame; rec_id : (n,) which recording; sigma_mm : (n, 3) the stated std, or None (not every
-    recording states one); rows : (n,) each row's index in its own recording.
+    recording states one); rows : (n,) each row's index in its own recording; tool : (n,) each
+    row's tool (0-based), or None where no recording has a ``tool`` column.
     """
 
     q_rad: np.ndarray
@@ -210,6 +214,7 @@ class Stacked:
     rec_id: np.ndarray
     sigma_mm: np.ndarray | None
     rows: np.ndarray
+    tool: np.ndarray | None = None
 
 
 def stacked(training: list[TrainingRecording]) -> Stacked:
@@ -229,6 +234,11 @@ def stacked(training: list[TrainingRecording]) -> Stacked:
         np.concatenate([np.full(k.sum(), i) for i, k in enumerate(used)]),
         sigma,
         np.concatenate([np.flatnonzero(k) for k in used]),
+        None
+        if all(r.tool is None for r in recs)
+        else np.concatenate([np.zeros(len(r), int) if r.tool is None else r.tool for r in recs])[
+            np.concatenate(used)
+        ],
     )
 
 
@@ -270,6 +280,7 @@ def calibrate_and_settle(
             arm.parallel_pairs(),
             angle_terms=terms,
             dirs=stacked_directions(training, chain, terms),
+            tool=rows.tool,
         )
 
     rows = stacked(training)
@@ -282,7 +293,7 @@ def calibrate_and_settle(
                 tr.used,
                 tr.screening.flagged,
                 tr.screening.pairs,
-                cal.problem.model(cal.state, tr.rec.q_rad, frame=i, session=i),
+                cal.problem.model(cal.state, tr.rec.q_rad, frame=i, session=i, tool=tr.rec.tool),
                 tr.rec.xyz_mm,
                 tr.screening.repeatability_mm,
             )

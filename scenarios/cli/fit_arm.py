@@ -65,6 +65,11 @@ def fit_arm(args: argparse.Namespace, out: Path) -> int:
                 f"{e['p95_mm']:.3f}  max {e['max_mm']:.3f} mm  (n = {e['samples']})"
                 + (f": {e['why']}" if title == "in-sample" else "")
             )
+            for tool, t in e.get("tools", {}).items():  # a branched arm's, tool by tool
+                print(
+                    f"    tool {tool}: mean {t['mean_mm']:.3f}  rms {t['rms_mm']:.3f}  max "
+                    f"{t['max_mm']:.3f} mm  (n = {t['samples']})"
+                )
     if r.get("holdout"):
         print(f"  (held out: {next(iter(r['holdout'].values()))['kind']})")
     for name, rows in r.get("flagged", {}).items():
