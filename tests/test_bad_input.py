@@ -16,8 +16,9 @@ import pytest
 
 from calibench.scenarios.cli import main
 from tests.bad_input import (
-    arm_probe,
     acceptance,
+    arm_probe,
+    arm_tree,
     camera,
     cli,
     config,
@@ -46,6 +47,7 @@ CASES = (
     + config.CASES
     + fit_stage.CASES
     + fit_arm.CASES
+    + arm_tree.CASES
     + arm_probe.CASES
     + discover.CASES
     + montecarlo.CASES
