@@ -60,6 +60,40 @@ def _tools(path: Path, tool: np.ndarray, line: np.ndarray, n_tools: int | None) 
     return tool.astype(int) - 1
 
 
+def _stds(path: Path, cols: dict, line: np.ndarray) -> np.ndarray | None:
+    """The stated std (n, 3) mm of ``x_std_mm, y_std_mm, z_std_mm`` (all three or none), each
+    positive, not finer than :data:`MIN_STD_MM` nor over :data:`MAX_STD_MM`; None without them."""
+    std_cols = ("x_std_mm", "y_std_mm", "z_std_mm")
+    present = [c for c in std_cols if c in cols]
+    if present and len(present) < 3:
+        raise RecordingError(
+            f"{path}: {', '.join(present)} without the others: "
+            "give all of x_std_mm, y_std_mm, z_std_mm"
+        )
+    if not present:
+        return None
+    std = np.stack([cols[c] for c in std_cols], axis=1)
+    if np.any(std <= 0):
+        bad = int(np.argmax(np.any(std <= 0, axis=1)))
+        raise RecordingError(
+            f"{path} line {line[bad]}: a std of zero or below (no instrument reads exactly: "
+            "leave the std columns out to have the scatter estimated)"
+        )
+    if np.any(std < MIN_STD_MM):
+        bad = int(np.argmax(np.any(std < MIN_STD_MM, axis=1)))
+        raise RecordingError(
+            f"{path} line {line[bad]}: a std of {std[bad].min():.3g} mm (under {MIN_STD_MM:g} "
+            "mm, finer than any instrument measures a point: one such row would outweigh "
+            "every other): a wrong unit or a corrupt value"
+        )
+    if np.any(std > MAX_STD_MM):
+        raise RecordingError(
+            f"{path} line {line[int(np.argmax(np.any(std > MAX_STD_MM, axis=1)))]}: a std of "
+            f"{std.max():.3g} mm (over {MAX_STD_MM:g} mm): a wrong unit or a corrupt value"
+        )
+    return std
+
+
 def load_arm_csv(
     path: str | Path,
     n_joints: int | None = None,
@@ -159,33 +193,6 @@ def load_arm_csv(
             f"{path}: a measured coordinate of {np.abs(xyz).max():.3g} mm (over a kilometre): "
             "wrong unit or a corrupt value"
         )
-    std = None
-    std_cols = ("x_std_mm", "y_std_mm", "z_std_mm")
-    present = [c for c in std_cols if c in cols]
-    if present and len(present) < 3:
-        raise RecordingError(
-            f"{path}: {', '.join(present)} without the others: "
-            "give all of x_std_mm, y_std_mm, z_std_mm"
-        )
-    if present:
-        std = np.stack([cols[c] for c in std_cols], axis=1)
-        if np.any(std <= 0):
-            bad = int(np.argmax(np.any(std <= 0, axis=1)))
-            raise RecordingError(
-                f"{path} line {line[bad]}: a std of zero or below (no instrument reads exactly: "
-                "leave the std columns out to have the scatter estimated)"
-            )
-        if np.any(std < MIN_STD_MM):
-            bad = int(np.argmax(np.any(std < MIN_STD_MM, axis=1)))
-            raise RecordingError(
-                f"{path} line {line[bad]}: a std of {std[bad].min():.3g} mm (under {MIN_STD_MM:g} "
-                "mm, finer than any instrument measures a point: one such row would outweigh "
-                "every other): a wrong unit or a corrupt value"
-            )
-        if np.any(std > MAX_STD_MM):
-            raise RecordingError(
-                f"{path} line {line[int(np.argmax(np.any(std > MAX_STD_MM, axis=1)))]}: a std of "
-                f"{std.max():.3g} mm (over {MAX_STD_MM:g} mm): a wrong unit or a corrupt value"
-            )
+    std = _stds(path, cols, line)
     tool = None if "tool" not in cols else _tools(path, cols["tool"], line, n_tools)
     return ArmRecording(np.deg2rad(q_deg), xyz, cols.get("t_s"), cols.get("temp_c"), std, tool)

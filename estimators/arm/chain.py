@@ -10,22 +10,23 @@ import functools
 import numpy as np
 
 KINDS = ("da", "dd", "dalpha", "dtheta", "dbeta")
-_A, _D, _ALPHA, _THETA, _BETA = range(5)
+# each joint's parameters in ``delta``: (da, dd, dalpha, dtheta, dbeta), these indices of its five
+I_A, I_D, I_ALPHA, I_THETA, I_BETA = range(5)
 # each joint's elementary motions in order: (kind, axis index, which parameter)
 OPS = {
     "dh": (
-        ("rot", 2, _THETA),
-        ("trans", 2, _D),
-        ("trans", 0, _A),
-        ("rot", 0, _ALPHA),
-        ("rot", 1, _BETA),
+        ("rot", 2, I_THETA),
+        ("trans", 2, I_D),
+        ("trans", 0, I_A),
+        ("rot", 0, I_ALPHA),
+        ("rot", 1, I_BETA),
     ),
     "mdh": (
-        ("rot", 0, _ALPHA),
-        ("rot", 1, _BETA),
-        ("trans", 0, _A),
-        ("rot", 2, _THETA),
-        ("trans", 2, _D),
+        ("rot", 0, I_ALPHA),
+        ("rot", 1, I_BETA),
+        ("trans", 0, I_A),
+        ("rot", 2, I_THETA),
+        ("trans", 2, I_D),
     ),
 }
 N_TOOL = 3
@@ -212,4 +213,4 @@ def in_readings(chain: Chain, per_joint: np.ndarray) -> np.ndarray:
 
 def theta_index(joint: int) -> int:
     """Index in ``delta`` of joint ``joint``'s (1-based) zero offset: d(point)/d(q_joint)."""
-    return 5 * (joint - 1) + _THETA
+    return 5 * (joint - 1) + I_THETA

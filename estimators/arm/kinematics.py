@@ -33,11 +33,11 @@ from __future__ import annotations
 import numpy as np
 
 from calibench.estimators.arm.chain import (  # noqa: F401  (re-exported: their old home)
-    _A,
-    _ALPHA,
-    _BETA,
-    _D,
-    _THETA,
+    I_A,
+    I_ALPHA,
+    I_BETA,
+    I_D,
+    I_THETA,
     KINDS,
     N_TOOL,
     OPS,
@@ -124,23 +124,23 @@ class Pose:
         # TransZ(d) on frame i's z.
         if convention == "dh":
             x1 = c[..., None] * R0[..., 0] + s[..., None] * R0[..., 1]
-            axis[:, :, _THETA] = axis[:, :, _D] = R0[..., 2]
-            origin[:, :, _THETA] = origin[:, :, _D] = o0
-            axis[:, :, _A] = axis[:, :, _ALPHA] = x1
-            origin[:, :, _A] = o0 + d[:, None] * R0[..., 2]
-            origin[:, :, _ALPHA] = origin[:, :, _BETA] = o1
-            axis[:, :, _BETA] = R1[..., 1]  # RotY keeps y: the turned frame's y is frame i's
+            axis[:, :, I_THETA] = axis[:, :, I_D] = R0[..., 2]
+            origin[:, :, I_THETA] = origin[:, :, I_D] = o0
+            axis[:, :, I_A] = axis[:, :, I_ALPHA] = x1
+            origin[:, :, I_A] = o0 + d[:, None] * R0[..., 2]
+            origin[:, :, I_ALPHA] = origin[:, :, I_BETA] = o1
+            axis[:, :, I_BETA] = R1[..., 1]  # RotY keeps y: the turned frame's y is frame i's
         else:
             ca, sa = np.cos(alpha)[:, None], np.sin(alpha)[:, None]
             xm = (
                 c[..., None] * R1[..., 0] - s[..., None] * R1[..., 1]
             )  # frame i-1 turned by M: its x
-            axis[:, :, _ALPHA] = R0[..., 0]
-            axis[:, :, _BETA] = ca * R0[..., 1] + sa * R0[..., 2]
-            axis[:, :, _A] = xm
-            origin[:, :, _ALPHA] = origin[:, :, _BETA] = origin[:, :, _A] = o0
-            axis[:, :, _THETA] = axis[:, :, _D] = R1[..., 2]
-            origin[:, :, _THETA] = origin[:, :, _D] = o0 + a[:, None] * xm
+            axis[:, :, I_ALPHA] = R0[..., 0]
+            axis[:, :, I_BETA] = ca * R0[..., 1] + sa * R0[..., 2]
+            axis[:, :, I_A] = xm
+            origin[:, :, I_ALPHA] = origin[:, :, I_BETA] = origin[:, :, I_A] = o0
+            axis[:, :, I_THETA] = axis[:, :, I_D] = R1[..., 2]
+            origin[:, :, I_THETA] = origin[:, :, I_D] = o0 + a[:, None] * xm
         self._motions = (axis.reshape(n, 5 * N, 3), origin.reshape(n, 5 * N, 3))
         return self._motions
 
@@ -343,7 +343,7 @@ def gravity_moments(
         assert q_rad is not None, "the postures q_rad, or their pose P"
         P = pose(chain, q_rad, delta)
     moment, force, _ = _carried_weight(chain, P)
-    o = P.origin[:, _THETA::5] / 1000.0
+    o = P.origin[:, I_THETA::5] / 1000.0
     return moment - cross(o, force)  # about o_i: M_0 - o_i x F
 
 
@@ -352,7 +352,7 @@ def link_middles(P: Pose, links) -> tuple[np.ndarray, np.ndarray]:
     from its joint's axis point to its link frame's origin, and its direction (n, k, 3) there
     (unit; the link's length must not be zero)."""
     j = np.asarray(links, int) - 1
-    start, end = P.origin[:, _THETA::5][:, j], P.link_o[:, 1:][:, j]
+    start, end = P.origin[:, I_THETA::5][:, j], P.link_o[:, 1:][:, j]
     u = end - start
     return start + u / 2, u / np.linalg.norm(u, axis=2, keepdims=True)
 
@@ -375,7 +375,7 @@ def flex_moments(chain: Chain, P: Pose, links) -> np.ndarray:
 
 def joint_axes(P: Pose) -> tuple[np.ndarray, np.ndarray]:
     """Each joint's axis (n, N, 3) and a point on it (n, N, 3) mm."""
-    return P.axis[:, _THETA::5], P.origin[:, _THETA::5]
+    return P.axis[:, I_THETA::5], P.origin[:, I_THETA::5]
 
 
 def gravity_torques(
@@ -393,4 +393,4 @@ def gravity_torques(
     if P is None:
         assert q_rad is not None, "the postures q_rad, or their pose P"
         P = pose(chain, q_rad, delta)
-    return np.einsum("nij,nij->ni", P.axis[:, _THETA::5], gravity_moments(chain, P=P))
+    return np.einsum("nij,nij->ni", P.axis[:, I_THETA::5], gravity_moments(chain, P=P))
