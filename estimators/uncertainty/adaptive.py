@@ -304,6 +304,7 @@ def adaptive(
     shortest: bool = False,
     delta_scale: float = 1.0,
     resume: Batches | None = None,
+    tolerance: float | None = None,
 ) -> Adaptive:
     """The adaptive Monte Carlo procedure of JCGM 101 7.9.4 over Q output quantities.
 
@@ -332,6 +333,9 @@ def adaptive(
     resume : Batches, optional
         Batches of an earlier run with the same M, p and interval: all are kept, and drawing
         goes on from batch ``resume.count`` while the tolerance is not met.
+    tolerance : float, optional
+        delta stated outright, in the quantities' unit, for every quantity (7.9.1 lets the user
+        state it), instead of n_dig digits of each u(y).
 
     Returns
     -------
@@ -349,7 +353,7 @@ def adaptive(
     averages = _resumed(resume, m, p, shortest) if resume is not None else _Averages(m, shortest)
     rows = list(resume.rows()) if resume is not None else []
     trace = [] if resume is None else list(_resumed_trace(resume))
-    met = averages.h > 1 and _met(averages, n_dig, delta_scale)[0]
+    met = averages.h > 1 and _met(averages, n_dig, delta_scale, tolerance)[0]
     while not met and (averages.h + 1) * m <= trials_max:
         q = rows[0].shape[1] if rows else None
         row, cand = _batch(draw, averages.h, m, q, p, shortest)
@@ -358,20 +362,31 @@ def adaptive(
         if averages.h < 2:
             trace.append(np.full(4, np.nan))
             continue
-        met, worst = _met(averages, n_dig, delta_scale)
+        met, worst = _met(averages, n_dig, delta_scale, tolerance)
         trace.append(worst)
-    return _result(rows, averages, p, delta_scale, n_dig, np.array(trace))
+    return _result(rows, averages, p, delta_scale, n_dig, np.array(trace), tolerance)
 
 
-def _met(averages: _Averages, n_dig: int, delta_scale: float) -> tuple[bool, np.ndarray]:
+def _delta(u: np.ndarray, n_dig: int, tolerance: float | None) -> np.ndarray:
+    """Each quantity's delta: ``tolerance`` where stated, else n_dig digits of its u(y)."""
+    if tolerance is None:
+        return numerical_tolerance(u, n_dig)
+    return np.full(np.shape(u), float(tolerance))
+
+
+def _met(
+    averages: _Averages, n_dig: int, delta_scale: float, tolerance: float | None = None
+) -> tuple[bool, np.ndarray]:
     """Whether 2 s <= delta_scale delta everywhere (7.9.4 k), and the largest ratio of each of
     the four results (4,)."""
     _, s = averages.summary()
-    ratio = _ratio(2 * s, delta_scale * numerical_tolerance(averages.u(), n_dig)[None, :])
+    ratio = _ratio(2 * s, delta_scale * _delta(averages.u(), n_dig, tolerance)[None, :])
     return bool(np.all(ratio <= 1)), ratio.max(axis=1)
 
 
-def _result(rows, averages: _Averages, p, delta_scale, n_dig, trace) -> Adaptive:
+def _result(
+    rows, averages: _Averages, p, delta_scale, n_dig, trace, tolerance: float | None = None
+) -> Adaptive:
     """The :class:`Adaptive` of the batches run."""
     stacked = np.stack(rows)  # (h, 4, Q)
     h, q, m = averages.h, stacked.shape[2], averages.m
@@ -388,7 +403,7 @@ def _result(rows, averages: _Averages, p, delta_scale, n_dig, trace) -> Adaptive
     )
     mean, s = averages.summary()
     u = averages.u()
-    delta = numerical_tolerance(u, n_dig)
+    delta = _delta(u, n_dig, tolerance)
     ratio = _ratio(2 * s, delta_scale * delta[None, :])
     converged = bool(np.all(ratio <= 1))
     if converged:
