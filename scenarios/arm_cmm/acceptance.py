@@ -154,7 +154,7 @@ def iso9283(config: ArmCmmConfig, seed: int) -> dict:
     R_true, t_true = sim.base2tracker()
     targets = points @ R_true.T + t_true  # commanded in the tracker's frame
     servo = sim.truth.encoder_noise_urad * 1e-6  # the servo reaches its angle within this
-    out = {}
+    out: dict = {}
     for which in ("before", "after"):
         R, t = models.frames[which]
         q_cmd = np.array(

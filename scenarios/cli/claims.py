@@ -114,7 +114,7 @@ def claim(folder: Path, command: str, scenario: str | None, force: bool, held: l
                 "present": present,
             }
             # a study resumed extends its results rather than replacing them: nothing to say
-            state["say"] = force or command != "montecarlo"
+            state["say"] = force or command not in ("montecarlo", "uncertainty")
             write_text(folder / CLAIM / "claim.json", json.dumps(state))
             for name in _replaceable(folder):
                 if force:

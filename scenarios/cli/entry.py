@@ -79,6 +79,7 @@ def main(argv: list[str] | None = None) -> int:
             "discover": verbs.discover,
             "iso230": verbs.iso230,
             "acceptance": verbs.acceptance,
+            "uncertainty": verbs.uncertainty,
         }[args.command]
         with for_command(args):  # its one bar, or a line every 30 s off a terminal (stderr)
             return verb(args)
@@ -88,7 +89,7 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         kept = (
             "; finished trials are kept, rerun the same command to resume"
-            if args.command == "montecarlo"
+            if args.command in ("montecarlo", "uncertainty")
             else ""
         )
         print(f"calibench: interrupted{kept}", file=sys.stderr)

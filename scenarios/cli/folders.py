@@ -38,6 +38,8 @@ MAIN_FILE = {
     "intrinsics.json": "camera",
     "iso230.json": "iso230",
     "acceptance.json": "acceptance",
+    "uncertainty.json": "uncertainty",
+    "uncertainty_trials.jsonl": "uncertainty",
 }
 
 # a crash's traceback: error.log, or beside a user's own error.log the second name
@@ -60,6 +62,7 @@ OUTPUTS = (
     "discovery.png",
     "camera.png",
     "iso230.png",
+    "uncertainty.png",
     "figure.png",
     "arm_cmm.png",  # the runs' figures' names before figure.png
     "error_map.png",
@@ -140,6 +143,8 @@ _KEYS = {
     "intrinsics.json": {"image_size", "K", "dist", "used", "rejected"},
     "iso230.json": {"axis", "per_target"},
     "acceptance.json": {"scenario", "test", "before", "after"},
+    "uncertainty.json": {"scenario", "task", "grid", "trials"},
+    "uncertainty_trials.jsonl": {"study", "batch", "trial", "values"},  # its first row
     "trials.jsonl": {"trial"},  # its first row
 }
 

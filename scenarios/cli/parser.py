@@ -5,6 +5,7 @@ exit status 2)."""
 from __future__ import annotations
 
 import argparse
+import math
 import os
 from pathlib import Path
 
@@ -81,7 +82,7 @@ _FORCE = {
 def _out(p: argparse.ArgumentParser, default: str, verb: str) -> None:
     """--out and --force: each command writes to a folder of its own."""
     p.add_argument("--out", type=_folder, help=f"output folder (default ./calibench-out/{default})")
-    if verb == "montecarlo":
+    if verb in ("montecarlo", "uncertainty"):
         force = (
             "replace the results --out holds (another command's, another study's) instead of "
             "refusing or resuming: the study starts anew"
@@ -121,6 +122,7 @@ def build_parser() -> argparse.ArgumentParser:
     _camera_verb(sub)
     _iso230_verb(sub)
     _acceptance_verb(sub)
+    _uncertainty_verb(sub)
     p.epilog = f"Instruments: {', '.join(NAMES)}." + (
         f" Planned but not built yet: {', '.join(PLANNED)}." if PLANNED else ""
     )
@@ -387,3 +389,45 @@ def _acceptance_verb(sub) -> None:
     a.add_argument("--config", type=Path, help="TOML overrides ([arm-cmm], [acceptance.mpe])")
     a.add_argument("--seed", type=_seed, default=0, help="the machine's and the test's draws")
     _out(a, "SCENARIO-acceptance", "acceptance")
+
+
+def _tolerance(text: str) -> float:
+    """--tolerance: a positive, finite number (the task's unit)."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (v > 0 and math.isfinite(v)):
+        raise argparse.ArgumentTypeError(f"{text}: a positive number in the task's unit")
+    return v
+
+
+def _uncertainty_verb(sub) -> None:
+    """``calibench uncertainty``'s parser (task-specific uncertainty, JCGM 101), added to
+    ``sub``."""
+    u = sub.add_parser(
+        "uncertainty",
+        help="the uncertainty of the calibrated instrument's task over its workspace "
+        "(adaptive Monte Carlo, JCGM 101), beside the GUM framework's",
+        description="Draw machines from the as-built distribution, calibrate each on simulated "
+        "recordings and evaluate its compensated task error on a grid over the workspace, in "
+        "batches until the numerical tolerance of every grid point's mean, standard uncertainty "
+        "and 95 %% interval holds (JCGM 101 7.9) or --trials-max; beside the GUM framework's "
+        "answer and its validation (JCGM 101 8), and machines drawn afresh as a check. Writes "
+        "DIR/uncertainty.json and DIR/uncertainty.png. Rerunning the same command resumes.",
+    )
+    u.add_argument("scenario", help="the instrument (arm-cmm)")
+    u.add_argument(
+        "--tolerance",
+        type=_tolerance,
+        help="the numerical tolerance, in the task's unit (default: half a unit of the last of "
+        "u's first significant digit)",
+    )
+    u.add_argument(
+        "--trials-max", type=_trials, default=4000, help="the most trials (default 4000)"
+    )
+    u.add_argument("--workers", type=_workers, help="local worker processes (default: all cores)")
+    u.add_argument("--scheduler", help="address of a Dask scheduler instead of local workers")
+    u.add_argument("--config", type=Path, help="TOML overrides ([arm-cmm])")
+    u.add_argument("--seed", type=_seed, default=0, help="study seed (default 0)")
+    _out(u, "SCENARIO-uncertainty", "uncertainty")

@@ -386,6 +386,52 @@ def acceptance(args: argparse.Namespace) -> int:
     return EXIT_CHECK_FAILED if failed else EXIT_OK
 
 
+def uncertainty(args: argparse.Namespace) -> int:
+    """``calibench uncertainty``: the task-specific uncertainty of a calibrated instrument over
+    its workspace (adaptive Monte Carlo, JCGM 101), beside the GUM framework's.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed arguments of ``calibench uncertainty``.
+
+    Returns
+    -------
+    int
+        0 when the study ran (whether its tolerance was met is said, and in uncertainty.json).
+    """
+    from calibench.scenarios.config import check_tables, load_toml, override
+    from calibench.scenarios.uncertainty import run_uncertainty, task_of
+
+    s = _scenario(args.scenario)
+    task_of(s.name)  # a scenario without a task is said before any work
+    table = load_toml(args.config) if args.config else {}
+    check_tables(args.config, table, [s.name], _names())
+    config = override(s.config(), table.get(s.name, {}), s.name)
+    print(f"calibench: {s.name} uncertainty (seed {args.seed})", file=sys.stderr, flush=True)
+    options = {
+        "tolerance": args.tolerance,
+        "trials_max": args.trials_max,
+        "workers": args.workers,
+        "scheduler": args.scheduler,
+    }
+    r = run_uncertainty(s.name, config, args.seed, args.out, options)
+    u = [g["u"] for g in r["grid"]]
+    v = r["gum_validation"]
+    print(
+        f"{r['task']}: u {min(u):.3g} to {max(u):.3g} {r['unit']} over {len(u)} quantities, "
+        f"{r['trials']} trials, stopped: {r['status']}"
+    )
+    print(
+        f"GUM framework {'validated' if v['valid'] else 'not validated'} at "
+        f"{v['valid_points']} of {len(u)} (worst d_low {v['worst_d_low']:.3g}, d_high "
+        f"{v['worst_d_high']:.3g} against delta {v['delta']:.3g} {r['unit']}); fresh machines "
+        f"inside their 95 % intervals: {r['coverage_check']['fraction_inside_95']:.3f}"
+    )
+    print(f"-> {args.out / 'uncertainty.json'}")
+    return EXIT_OK
+
+
 def _names() -> list[str]:
     from calibench.scenarios.registry import NAMES
 

@@ -336,6 +336,7 @@ def test_a_run_without_its_recording_removes_a_former_one(tmp_path):
         ("iso230", "a former evaluation's"),
         ("acceptance", "a former test's"),
         ("montecarlo", "the study starts anew"),
+        ("uncertainty", "the study starts anew"),
     ],
 )
 def test_each_verb_s_help_says_what_its_force_does(verb, former, capsys):
@@ -344,7 +345,7 @@ def test_each_verb_s_help_says_what_its_force_does(verb, former, capsys):
     text = " ".join(capsys.readouterr().out.split())  # argparse's wrapping undone
     force = text[text.index("--force ") :]
     assert former in force
-    assert ("starts anew" in force) == (verb == "montecarlo")
+    assert ("starts anew" in force) == (verb in ("montecarlo", "uncertainty"))
 
 
 @pytest.mark.parametrize("failing", [(), ("probe-scanner", "stewart")])
