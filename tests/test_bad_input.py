@@ -27,6 +27,7 @@ from tests.bad_input import (
     fit_stage,
     iso230,
     montecarlo,
+    uncertainty,
 )
 
 RESULTS = (
@@ -37,6 +38,7 @@ RESULTS = (
     "intrinsics.json",
     "iso230.json",
     "acceptance.json",
+    "uncertainty.json",
 )
 
 # --- the corpus: one module per verb under tests/bad_input/ ---------------------------------
@@ -54,6 +56,7 @@ CASES = (
     + camera.CASES
     + iso230.CASES
     + acceptance.CASES
+    + uncertainty.CASES
 )
 
 # the photo cases that need the shared data (real boards): (id, builder(shared, d) -> argv,
