@@ -33,6 +33,7 @@ import numpy as np
 from calibench.estimators.uncertainty.adaptive import adaptive
 from calibench.estimators.uncertainty.coverage import coverage_interval
 from calibench.estimators.uncertainty.gum import gum_interval, validate
+from calibench.scenarios import progress
 from calibench.scenarios.report import BadInput
 from calibench.writing import write_text
 
@@ -81,6 +82,9 @@ class Study:
         import concurrent.futures as cf
 
         todo = [j for j in range(count) if (batch, j) not in self.done]
+        if todo:  # said on the command's progress line: which batch, and its trials done
+            progress.expect(count, "trials", done=count - len(todo))
+            progress.step("fresh machines" if batch < 0 else f"batch {batch + 1}")
         run = self.task.trial
         futures = {
             self.executor.submit(run, self.config, self.grid_q, trial_seed(self.seed, batch, j)): j
@@ -94,6 +98,7 @@ class Study:
                 row = {"study": self.key, "batch": batch, "trial": j, "values": values.tolist()}
                 self.journal.write(json.dumps(row) + "\n")
                 self.journal.flush()
+                progress.advance()
                 if self.stop.is_set():
                     raise KeyboardInterrupt
         finally:
