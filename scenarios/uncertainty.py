@@ -216,7 +216,11 @@ def run_uncertainty(scenario: str, config, seed: int, out: Path, options: dict) 
     if not all(math.isfinite(v) for v in (*mc.u, *g.u)):
         raise RuntimeError("uncertainty: a standard uncertainty is not finite")
     write_text(out / "uncertainty.json", json.dumps(result, indent=1) + "\n")
-    from calibench.scenarios.uncertainty_figure import write_uncertainty_figure
+    from calibench.scenarios.uncertainty_figure import (
+        write_uncertainty_figure,
+        write_uncertainty_rrd,
+    )
 
     write_uncertainty_figure(out / "uncertainty.png", points, result)
+    write_uncertainty_rrd(out / "uncertainty.rrd", points, result, out / "uncertainty.png")
     return result

@@ -51,3 +51,41 @@ def write_uncertainty_figure(path: Path, points_mm: np.ndarray, result: dict) ->
     )
     text(img, "x (mm) right, y (mm) up, seen from above", (10, SIZE + 65), 0.4)
     write_png(path, img)
+
+
+def write_uncertainty_rrd(path: Path, points_mm: np.ndarray, result: dict, png: Path) -> None:
+    """The same map in rerun (uncertainty.rrd): each grid place at its point (m), coloured and
+    sized by its largest u, in red where the GUM framework is not validated there; the table of
+    every quantity and the figure beside."""
+    from calibench.scenarios import rrlog
+
+    grid = result["grid"]
+    per = len(grid) // len(points_mm)
+    u = np.array([g["u"] for g in grid]).reshape(len(points_mm), per).max(axis=1)
+    valid = [all(g["gum_valid"] for g in grid[k * per : (k + 1) * per]) for k in range(len(u))]
+    top = max(float(u.max()), 1e-12)
+    colours = [_colour(v / top)[::-1] for v in u]  # BGR to RGB
+    rec = rrlog.open_recording(path, "calibench-uncertainty")
+    try:
+        pts = np.asarray(points_mm, float) / 1000
+        rrlog.log_points3d(rec, "world/uncertainty/u", pts, colours, radius=0.01, static=True)
+        bad = pts[[not v for v in valid]]
+        if len(bad):
+            rrlog.log_points3d(
+                rec, "world/uncertainty/gum_not_validated", bad, rrlog.RED, 0.02, True
+            )
+        unit = result["unit"]
+        rows = "\n".join(
+            f"| {g['at']} | {g['quantity']} | {g['u']:.3g} | {g['interval_95'][0]:.3g} .. "
+            f"{g['interval_95'][1]:.3g} | {g['gum_u']:.3g} | {'yes' if g['gum_valid'] else 'no'} |"
+            for g in grid
+        )
+        table = (
+            f"**{result['task']}** ({unit}), {result['trials']} trials, {result['status']}\n\n"
+            "| at | quantity | u | 95 % interval | GUM u | GUM validated |\n"
+            "|---|---|---|---|---|---|\n" + rows
+        )
+        rrlog.log_text(rec, "report", table)
+        rrlog.log_figure(rec, "figure", png)
+    finally:
+        rrlog.close(rec)

@@ -63,6 +63,7 @@ OUTPUTS = (
     "camera.png",
     "iso230.png",
     "uncertainty.png",
+    "uncertainty.rrd",
     "figure.png",
     "arm_cmm.png",  # the runs' figures' names before figure.png
     "error_map.png",

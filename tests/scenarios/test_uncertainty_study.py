@@ -44,6 +44,9 @@ def test_the_study_states_the_law_it_samples(tmp_path, linear_task):
     # are correlated in pairs at most, so sqrt(0.95 0.05 / 2000) bounds it)
     inside = r["coverage_check"]["fraction_inside_95"]
     assert abs(inside - 0.95) < 4 * np.sqrt(0.95 * 0.05 / 2000), inside
+    from calibench.scenarios.rrlog import entity_paths
+
+    assert {"/world/uncertainty/u", "/report"} <= entity_paths(tmp_path / "u" / "uncertainty.rrd")
 
 
 def test_an_interrupted_study_resumes_to_the_same_numbers(tmp_path, linear_task):
