@@ -37,7 +37,10 @@ from calibench.scenarios import progress
 from calibench.scenarios.report import BadInput
 from calibench.writing import write_text
 
-TASKS = {"arm-cmm": "calibench.scenarios.arm_cmm.uncertainty"}
+TASKS = {
+    "arm-cmm": "calibench.scenarios.arm_cmm.uncertainty",
+    "belt-stage": "calibench.scenarios.belt_stage.uncertainty",
+}
 BATCH = 200  # trials per batch
 N_DIG = 1  # u's significant digits when no --tolerance is given: the tracker's stated sigma's
 FRESH_MACHINES = 100  # the coverage check's machines, drawn apart from the study's

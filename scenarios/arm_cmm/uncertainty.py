@@ -75,6 +75,15 @@ def gum(config: ArmCmmConfig, grid_q: np.ndarray, seed: int) -> tuple[np.ndarray
     per parameter unit (the model's point with respect to the kept parameters, at the reference
     machine's calibration) and that calibration's covariance (P, P)."""
     _, cal = calibrated(config, seed)
+    if cal.ident.cov is None:
+        raise RuntimeError("the calibration returned no covariance")
+    return 1000 * task_jacobian(cal, grid_q), cal.ident.cov
+
+
+def task_jacobian(cal: ArmCalibration, grid_q: np.ndarray) -> np.ndarray:
+    """d(the calibrated model's points at ``grid_q`` (G, N), tracker frame) / d(its kept
+    parameters), (3 G, P) mm per parameter unit: the point problem's own Jacobian at those
+    postures, unweighted (the residual's sign undone)."""
     p = cal.problem
     at = PointProblem(
         p.chain,
@@ -86,8 +95,4 @@ def gum(config: ArmCmmConfig, grid_q: np.ndarray, seed: int) -> tuple[np.ndarray
         cable_motors=p.cm,
     )
     at.R_ref = p.R_ref
-    kept = cal.ident.basis.kept
-    J = -at.jacobian(cal.state)[:, kept]  # d(model) / d(kept parameters), unit weights
-    if cal.ident.cov is None:
-        raise RuntimeError("the calibration returned no covariance")
-    return 1000 * J, cal.ident.cov
+    return -at.jacobian(cal.state)[:, cal.ident.basis.kept]

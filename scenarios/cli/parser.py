@@ -416,7 +416,7 @@ def _uncertainty_verb(sub) -> None:
         "answer and its validation (JCGM 101 8), and machines drawn afresh as a check. Writes "
         "DIR/uncertainty.json and DIR/uncertainty.png. Rerunning the same command resumes.",
     )
-    u.add_argument("scenario", help="the instrument (arm-cmm)")
+    u.add_argument("scenario", help="the instrument (arm-cmm, belt-stage)")
     u.add_argument(
         "--tolerance",
         type=_tolerance,
@@ -428,6 +428,6 @@ def _uncertainty_verb(sub) -> None:
     )
     u.add_argument("--workers", type=_workers, help="local worker processes (default: all cores)")
     u.add_argument("--scheduler", help="address of a Dask scheduler instead of local workers")
-    u.add_argument("--config", type=Path, help="TOML overrides ([arm-cmm])")
+    u.add_argument("--config", type=Path, help="TOML overrides (the instrument's table)")
     u.add_argument("--seed", type=_seed, default=0, help="study seed (default 0)")
     _out(u, "SCENARIO-uncertainty", "uncertainty")
