@@ -84,6 +84,8 @@ class Study:
         on the executor and journaled as each finishes; KeyboardInterrupt once the flag is set."""
         import concurrent.futures as cf
 
+        from calibench.scenarios.study.executor import cluster_result
+
         todo = [j for j in range(count) if (batch, j) not in self.done]
         if todo:  # said on the command's progress line: which batch, and its trials done
             progress.expect(count, "trials", done=count - len(todo))
@@ -93,20 +95,18 @@ class Study:
             self.executor.submit(run, self.config, self.grid_q, trial_seed(self.seed, batch, j)): j
             for j in todo
         }
-        try:
-            for fut in cf.as_completed(futures):
-                j = futures[fut]
-                values = np.asarray(fut.result(), float)
-                self.done[(batch, j)] = values
-                row = {"study": self.key, "batch": batch, "trial": j, "values": values.tolist()}
-                self.journal.write(json.dumps(row) + "\n")
-                self.journal.flush()
-                progress.advance()
-                if self.stop.is_set():
-                    raise KeyboardInterrupt
-        finally:
-            for f in futures:
-                f.cancel()
+        # no future is cancelled here: an interrupt's close stops the workers, and a future
+        # cancelled before that breaks the pool's own clean-up (Python 3.11: a traceback)
+        for fut in cf.as_completed(futures):
+            j = futures[fut]
+            values = np.asarray(cluster_result(fut), float)  # a cluster gone: one line
+            self.done[(batch, j)] = values
+            row = {"study": self.key, "batch": batch, "trial": j, "values": values.tolist()}
+            self.journal.write(json.dumps(row) + "\n")
+            self.journal.flush()
+            progress.advance()
+            if self.stop.is_set():
+                raise KeyboardInterrupt
         return np.stack([self.done[(batch, j)] for j in range(count)])
 
 

@@ -423,10 +423,11 @@ def uncertainty(args: argparse.Namespace) -> int:
         f"{r['trials']} trials, stopped: {r['status']}"
     )
     print(
-        f"GUM framework {'validated' if v['valid'] else 'not validated'} at "
-        f"{v['valid_points']} of {len(u)} (worst d_low {v['worst_d_low']:.3g}, d_high "
-        f"{v['worst_d_high']:.3g} against delta {v['delta']:.3g} {r['unit']}); fresh machines "
-        f"inside their 95 % intervals: {r['coverage_check']['fraction_inside_95']:.3f}"
+        f"GUM framework validated at {v['valid_points']} of {len(u)} quantities (worst d_low "
+        f"{v['worst_d_low']:.3g}, d_high {v['worst_d_high']:.3g} against delta "
+        f"{v['delta']:.3g} {r['unit']}: {'validated' if v['valid'] else 'state the Monte Carlo'}"
+        f"); fresh machines inside their 95 % intervals: "
+        f"{r['coverage_check']['fraction_inside_95']:.3f}"
     )
     print(f"-> {args.out / 'uncertainty.json'}")
     return EXIT_OK
