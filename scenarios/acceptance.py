@@ -4,8 +4,9 @@ config states one (DIR/acceptance.json, ../shared/CONTRACT.md).
 
 Each instrument names the tests that apply to it (:data:`TESTS`); the procedures are its own
 (``scenarios/arm_cmm/acceptance.py``: ISO 9283; ``scenarios/arm_cmm/iso10360.py``: ISO
-10360-12). A config's ``[acceptance.mpe]`` table states the maker's maximum permissible errors by
-the figures' names (``E_UNI_um = 25``); each figure after calibration is then judged against it.
+10360-12; ``scenarios/belt_stage/acceptance.py``: ISO 230-2 on each axis). A config's
+``[acceptance.mpe]`` table states the maker's maximum permissible errors by the figures' names
+(``E_UNI_um = 25``); each figure after calibration is then judged against it.
 """
 
 from __future__ import annotations
@@ -18,11 +19,12 @@ from pathlib import Path
 from calibench.scenarios.report import BadInput
 from calibench.writing import write_text
 
-TESTS = {"arm-cmm": ("iso9283", "iso10360-12")}
+TESTS = {"arm-cmm": ("iso9283", "iso10360-12"), "belt-stage": ("iso230-2",)}
 ALL_TESTS = ("iso9283", "iso10360-12", "iso230-2")
 FIGURES = {  # each test's figures, by the names an MPE states them
     "iso9283": ("AP_mm", "RP_mm"),
     "iso10360-12": ("E_UNI_um", "L_Dia_um", "P_Size_um", "P_Form_um"),
+    "iso230-2": tuple(f"{f}_{a}_um" for a in "xy" for f in ("A", "B", "E", "M", "R")),
 }
 
 
@@ -42,6 +44,10 @@ def procedure(scenario: str, test: str) -> Callable[[object, int], dict]:
         from calibench.scenarios.arm_cmm.acceptance import iso9283
 
         return iso9283  # type: ignore[return-value]
+    if test == "iso230-2":
+        from calibench.scenarios.belt_stage.acceptance import iso230_2_test
+
+        return iso230_2_test  # type: ignore[return-value]
     from calibench.scenarios.arm_cmm.iso10360 import iso10360_12
 
     return iso10360_12  # type: ignore[return-value]

@@ -53,7 +53,7 @@ def labels(points_mm: np.ndarray) -> list[dict]:
     ]
 
 
-def _maps(config: BeltStageConfig, seed: int):
+def measured_maps(config: BeltStageConfig, seed: int):
     """A machine drawn by ``seed``, its maps measured; returns (sim, maps)."""
     rng = np.random.default_rng(seed)
     drawn = prior(config, rng)
@@ -68,7 +68,7 @@ def _maps(config: BeltStageConfig, seed: int):
 def trial(config: BeltStageConfig, targets: np.ndarray, seed: int) -> np.ndarray:
     """One trial's compensated errors (2 G,) um: where the stage goes for each target's
     compensated command, less the target."""
-    sim, maps = _maps(config, seed)
+    sim, maps = measured_maps(config, seed)
     try:
         cmd = np.stack(
             compensated_command(targets[:, 0], targets[:, 1], maps.maps.fit_x, maps.maps.fit_y), 1
@@ -82,7 +82,7 @@ def trial(config: BeltStageConfig, targets: np.ndarray, seed: int) -> np.ndarray
 def gum(config: BeltStageConfig, targets: np.ndarray, seed: int) -> tuple[np.ndarray, np.ndarray]:
     """The task's Jacobian (2 G, 12) um per coefficient unit (minus each map's monomials at the
     targets) and the two maps' coefficient covariance (12, 12), of the reference machine."""
-    sim, maps = _maps(config, seed)
+    sim, maps = measured_maps(config, seed)
     sim.close()
     # a coefficient's unit (mm / mm^k) to the design's monomials of x / 100 mm
     scale = MONOMIAL_SCALE_MM ** np.array([i + j for i, j in monomial_powers(2)])

@@ -380,11 +380,12 @@ def _acceptance_verb(sub) -> None:
         help="a standard's acceptance test run on an instrument's twin, before and after "
         "calibration",
         description="Run a standard's acceptance test (ISO 9283 for an arm used as a robot, ISO "
-        "10360-12 for an articulated-arm CMM) on the instrument's twin before and after its "
+        "10360-12 for an articulated-arm CMM, ISO 230-2 for a stage's axes) on the instrument's "
+        "twin before and after its "
         "calibration; writes DIR/acceptance.json. A config's [acceptance.mpe] table states the "
         "maker's limits by the figures' names.",
     )
-    a.add_argument("scenario", help="the instrument (arm-cmm)")
+    a.add_argument("scenario", help="the instrument (arm-cmm, belt-stage)")
     a.add_argument("--test", required=True, choices=ALL_TESTS, help="the standard's test")
     a.add_argument("--config", type=Path, help="TOML overrides ([arm-cmm], [acceptance.mpe])")
     a.add_argument("--seed", type=_seed, default=0, help="the machine's and the test's draws")

@@ -26,6 +26,13 @@ CASES = [
     ),
     ("acceptance-unknown-test", {}, ["acceptance", "arm-cmm", "--test", "iso1"], 2, "iso1"),
     (
+        "acceptance-stage-test-on-the-arm",
+        {},
+        ["acceptance", "arm-cmm", "--test", "iso230-2", "--out", "{d}/o"],
+        2,
+        "its tests: iso9283, iso10360-12",
+    ),
+    (
         "acceptance-mpe-of-a-figure-it-does-not-report",
         {"c.toml": "[acceptance.mpe]\nAP_mm = 0.1\n"},
         [*_ACC, "--config", "{d}/c.toml"],
