@@ -51,6 +51,13 @@ def ur10_trained_on_c():
         for n in phys["parameters"]
         if n["name"].startswith("compliance")
     ]
+    # a compliance held at its bound (fitted below zero) is said beside the ones kept
+    held = [
+        d["name"].removeprefix("compliance")
+        for d in phys["dropped"]
+        if d["name"].startswith("compliance") and ("below zero" in d["why"] or "bound" in d["why"])
+    ]
+    held_said = f"; joint {words(held)}'s fitted below zero, held at zero" if held else ""
     cols = ["ur10_B.csv", "ur10_A.csv", "ur10_D.csv"]
     g = [geo["test"][c]["mean_mm"] for c in cols]
     p = [phys["test"][c]["mean_mm"] for c in cols]
@@ -67,7 +74,8 @@ def ur10_trained_on_c():
             ],
             ["`--model geometry`", *[b[0] for b in best]],
             [
-                f"`--model physics` (joints {words(joints)} compliant under the twin's gravity)",
+                f"`--model physics` (joint{'s' if len(joints) > 1 else ''} {words(joints)} "
+                f"compliant under the twin's gravity{held_said})",
                 *[b[1] for b in best],
             ],
         ],
