@@ -2,7 +2,7 @@
 scenario's twin, before and after its calibration, with the maker's MPE's verdict when the
 config states one (DIR/acceptance.json, ../shared/CONTRACT.md).
 
-Each instrument names the tests that apply to it (:data:`TESTS`); the procedures are its own
+Each instrument's registry line names the tests that apply to it; the procedures are its own
 (``scenarios/arm_cmm/acceptance.py``: ISO 9283; ``scenarios/arm_cmm/iso10360.py``: ISO
 10360-12; ``scenarios/belt_stage/acceptance.py``: ISO 230-2 on each axis). A config's
 ``[acceptance.mpe]`` table states the maker's maximum permissible errors by the figures' names
@@ -11,6 +11,7 @@ Each instrument names the tests that apply to it (:data:`TESTS`); the procedures
 
 from __future__ import annotations
 
+import importlib
 import json
 import math
 from collections.abc import Callable
@@ -19,7 +20,6 @@ from pathlib import Path
 from calibench.scenarios.report import BadInput
 from calibench.writing import write_text
 
-TESTS = {"arm-cmm": ("iso9283", "iso10360-12"), "belt-stage": ("iso230-2",)}
 ALL_TESTS = ("iso9283", "iso10360-12", "iso230-2")
 FIGURES = {  # each test's figures, by the names an MPE states them
     "iso9283": ("AP_mm", "RP_mm"),
@@ -29,28 +29,16 @@ FIGURES = {  # each test's figures, by the names an MPE states them
 
 
 def procedure(scenario: str, test: str) -> Callable[[object, int], dict]:
-    """The test's procedure on the scenario's twin, ``(config, seed) -> figures``."""
-    if test not in TESTS.get(scenario, ()):
-        have = TESTS.get(scenario, ())
-        raise BadInput(
-            f"--test {test} does not apply to {scenario}"
-            + (
-                f" (its tests: {', '.join(have)})"
-                if have
-                else " (no acceptance test is built for it)"
-            )
-        )
-    if test == "iso9283":
-        from calibench.scenarios.arm_cmm.acceptance import iso9283
+    """The test's procedure on the scenario's twin, ``(config, seed) -> figures``: the one its
+    registry line names (:attr:`~calibench.scenarios.instrument.Instrument.acceptance`)."""
+    from calibench.scenarios.registry import instrument
 
-        return iso9283  # type: ignore[return-value]
-    if test == "iso230-2":
-        from calibench.scenarios.belt_stage.acceptance import iso230_2_test
-
-        return iso230_2_test  # type: ignore[return-value]
-    from calibench.scenarios.arm_cmm.iso10360 import iso10360_12
-
-    return iso10360_12  # type: ignore[return-value]
+    have = dict(instrument(scenario).acceptance)
+    if test not in have:
+        its = f"its tests: {', '.join(have)}" if have else "no acceptance test is built for it"
+        raise BadInput(f"--test {test} does not apply to {scenario} ({its})")
+    module, function = have[test].split(":")
+    return getattr(importlib.import_module(module), function)
 
 
 def stated_mpe(test: str, table: dict) -> dict:

@@ -59,6 +59,12 @@ class Instrument:
     coverage : tuple of (str, int) or None
         The coverage study's concealed kind and recordings per seed asked
         (:mod:`calibench.scenarios.discover.stated_errors`); None: not in the study.
+    acceptance : tuple of (str, str)
+        The standards' acceptance tests that apply (``calibench acceptance NAME --test``): each
+        test's name and the ``module:function`` running its procedure on the twin.
+    uncertainty : str or None
+        Its task module for ``calibench uncertainty`` (``grid``, ``labels``, ``trial``, ``gum``);
+        None: no task is built.
     """
 
     name: str
@@ -76,3 +82,5 @@ class Instrument:
     simulated_arm: str | None = None
     coverage: tuple[str, int] | None = None
     options: tuple[str, ...] = ()
+    acceptance: tuple[tuple[str, str], ...] = ()
+    uncertainty: str | None = None

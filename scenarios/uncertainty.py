@@ -3,10 +3,11 @@ at each place of a grid over its workspace, by the adaptive Monte Carlo method o
 beside the GUM framework's answer and its validation (JCGM 101 8), and a check on fresh machines
 (DIR/uncertainty.json, ../shared/CONTRACT.md).
 
-Each instrument's task is a module of its own (:data:`TASKS`) with ``grid(config) -> (postures,
-points)``, ``labels(points)``, ``trial(config, grid, seed) -> (Q,)`` (one machine drawn from the
-as-built distribution, calibrated on simulated recordings, its compensated task error at the
-grid), ``gum(config, grid, seed) -> (J (Q, P), C (P, P))`` and ``TASK``, ``UNIT``.
+Each instrument's task is a module of its own (its registry line's ``uncertainty``) with
+``grid(config) -> (postures, points)``, ``labels(points)``, ``trial(config, grid, seed) ->
+(Q,)`` (one machine drawn from the as-built distribution, calibrated on simulated recordings,
+its compensated task error at the grid), ``gum(config, grid, seed) -> (J (Q, P), C (P, P))`` and
+``TASK``, ``UNIT``.
 
 Trials run in batches of :data:`BATCH` on the study's executor (a spawn pool, or Dask with
 ``--scheduler``). Every finished trial is journaled (DIR/uncertainty_trials.jsonl): the same
@@ -37,10 +38,6 @@ from calibench.scenarios import progress
 from calibench.scenarios.report import BadInput
 from calibench.writing import write_text
 
-TASKS = {
-    "arm-cmm": "calibench.scenarios.arm_cmm.uncertainty",
-    "belt-stage": "calibench.scenarios.belt_stage.uncertainty",
-}
 BATCH = 200  # trials per batch
 N_DIG = 1  # u's significant digits when no --tolerance is given: the tracker's stated sigma's
 FRESH_MACHINES = 100  # the coverage check's machines, drawn apart from the study's
@@ -48,12 +45,15 @@ JOURNAL = "uncertainty_trials.jsonl"
 
 
 def task_of(scenario: str):
-    """The scenario's task module, or BadInput naming those that have one."""
-    if scenario not in TASKS:
-        raise BadInput(
-            f"uncertainty: no task is built for {scenario} yet (built: {', '.join(TASKS)})"
-        )
-    return importlib.import_module(TASKS[scenario])
+    """The scenario's task module (its registry line's ``uncertainty``), or BadInput naming the
+    instruments that have one."""
+    from calibench.scenarios.registry import instrument, instruments
+
+    module = instrument(scenario).uncertainty
+    if module is None:
+        built = ", ".join(row.name for row in instruments() if row.uncertainty)
+        raise BadInput(f"uncertainty: no task is built for {scenario} yet (built: {built})")
+    return importlib.import_module(module)
 
 
 def trial_seed(seed: int, batch: int, j: int) -> int:

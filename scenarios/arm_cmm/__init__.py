@@ -19,4 +19,9 @@ INSTRUMENT = Instrument(
     unwritten=("null", "harmonic_drive", "link_bending", "pedestal_warmup"),
     simulated=("gear_play", "encoder_slip"),
     simulated_arm="ur10",
+    acceptance=(
+        ("iso9283", f"{__name__}.acceptance:iso9283"),
+        ("iso10360-12", f"{__name__}.iso10360:iso10360_12"),
+    ),
+    uncertainty=f"{__name__}.uncertainty",
 )

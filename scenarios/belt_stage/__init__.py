@@ -28,4 +28,6 @@ INSTRUMENT = Instrument(
     simulated=("heated_scale",),
     coverage=("combined", 1),
     options=("--save-images",),
+    acceptance=(("iso230-2", f"{__name__}.acceptance:iso230_2_test"),),
+    uncertainty=f"{__name__}.uncertainty",
 )

@@ -385,7 +385,7 @@ def _acceptance_verb(sub) -> None:
         "calibration; writes DIR/acceptance.json. A config's [acceptance.mpe] table states the "
         "maker's limits by the figures' names.",
     )
-    a.add_argument("scenario", help="the instrument (arm-cmm, belt-stage)")
+    a.add_argument("scenario", help=f"the instrument ({_having('acceptance')})")
     a.add_argument("--test", required=True, choices=ALL_TESTS, help="the standard's test")
     a.add_argument("--config", type=Path, help="TOML overrides ([arm-cmm], [acceptance.mpe])")
     a.add_argument("--seed", type=_seed, default=0, help="the machine's and the test's draws")
@@ -417,7 +417,7 @@ def _uncertainty_verb(sub) -> None:
         "answer and its validation (JCGM 101 8), and machines drawn afresh as a check. Writes "
         "DIR/uncertainty.json and DIR/uncertainty.png. Rerunning the same command resumes.",
     )
-    u.add_argument("scenario", help="the instrument (arm-cmm, belt-stage)")
+    u.add_argument("scenario", help=f"the instrument ({_having('uncertainty')})")
     u.add_argument(
         "--tolerance",
         type=_tolerance,
@@ -432,3 +432,11 @@ def _uncertainty_verb(sub) -> None:
     u.add_argument("--config", type=Path, help="TOML overrides (the instrument's table)")
     u.add_argument("--seed", type=_seed, default=0, help="study seed (default 0)")
     _out(u, "SCENARIO-uncertainty", "uncertainty")
+
+
+def _having(field: str) -> str:
+    """The instruments whose registry line has ``field`` (acceptance tests, an uncertainty
+    task), named."""
+    from calibench.scenarios.registry import instruments
+
+    return ", ".join(row.name for row in instruments() if getattr(row, field))

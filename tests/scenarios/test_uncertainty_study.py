@@ -18,7 +18,7 @@ U_TRUE = np.sqrt((linear.A**2) @ linear.S**2)  # each quantity's standard deviat
 
 @pytest.fixture()
 def linear_task(monkeypatch):
-    monkeypatch.setitem(uncertainty.TASKS, "arm-cmm", "tests.scenarios.uncertainty_linear_task")
+    monkeypatch.setattr(uncertainty, "task_of", lambda scenario: linear)
     monkeypatch.setattr(uncertainty, "FRESH_MACHINES", 2000)
 
 
