@@ -1,6 +1,6 @@
 """``calibench acceptance SCENARIO --test ...``: a standard's acceptance test run on the
 scenario's twin, before and after its calibration, with the maker's MPE's verdict when the
-config states one (DIR/acceptance.json, ../shared/CONTRACT.md).
+config states one (DIR/acceptance.json, docs/formats.md).
 
 Each instrument's registry line names the tests that apply to it; the procedures are its own
 (``scenarios/arm_cmm/acceptance.py``: ISO 9283; ``scenarios/arm_cmm/iso10360.py``: ISO

@@ -1,7 +1,7 @@
 """``calibench uncertainty SCENARIO``: the uncertainty of the task a calibrated instrument does,
 at each place of a grid over its workspace, by the adaptive Monte Carlo method of JCGM 101 7.9,
 beside the GUM framework's answer and its validation (JCGM 101 8), and a check on fresh machines
-(DIR/uncertainty.json, ../shared/CONTRACT.md).
+(DIR/uncertainty.json, docs/formats.md).
 
 Each instrument's task is a module of its own (its registry line's ``uncertainty``) with
 ``grid(config) -> (postures, points)``, ``labels(points)``, ``trial(config, grid, seed) ->
