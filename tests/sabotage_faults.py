@@ -305,3 +305,16 @@ def coverage_band_90(mp: pytest.MonkeyPatch) -> None:
 def band_edge_outside(mp: pytest.MonkeyPatch) -> None:
     """A coverage on the band's edge counted outside (< for <=)."""
     replace(mp, "calibench.scenarios.study.summary", "in_band", lambda c, b: bool(b[0] < c < b[1]))
+
+
+def iso9283_rp_two_sigma(mp: pytest.MonkeyPatch) -> None:
+    """ISO 9283's repeatability RP taken as l_mean + 2 S_l, not + 3 S_l."""
+    from calibench.scenarios.arm_cmm import acceptance
+
+    def figures(attained, commanded):
+        mean = attained.mean(axis=0)
+        l_j = np.linalg.norm(attained - mean, axis=2)
+        ap = np.linalg.norm(mean - commanded, axis=1)
+        return ap, l_j.mean(axis=0) + 2 * l_j.std(axis=0, ddof=1)
+
+    mp.setattr(acceptance, "pose_figures", figures)
