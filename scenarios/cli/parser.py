@@ -413,7 +413,7 @@ def _uncertainty_verb(sub) -> None:
         description="Draw machines from the as-built distribution, calibrate each on simulated "
         "recordings and evaluate its compensated task error on a grid over the workspace, in "
         "batches until the numerical tolerance of every grid point's mean, standard uncertainty "
-        "and 95 %% interval holds (JCGM 101 7.9) or --trials-max; beside the GUM framework's "
+        "and 95 % interval holds (JCGM 101 7.9) or --trials-max; beside the GUM framework's "
         "answer and its validation (JCGM 101 8), and machines drawn afresh as a check. Writes "
         "DIR/uncertainty.json and DIR/uncertainty.png. Rerunning the same command resumes.",
     )

@@ -63,7 +63,20 @@ def test_an_interrupted_study_resumes_to_the_same_numbers(tmp_path, linear_task)
     assert len(rows) == 250
 
 
-def test_a_scenario_without_a_task_is_refused_in_one_line(tmp_path, capsys):
+def test_a_scenario_without_a_task_is_refused_in_one_line(tmp_path, capsys, monkeypatch):
+    """An instrument whose registry line names no task (every one has one now: the line's field
+    taken away) is refused in one line."""
+    import dataclasses
+
+    from calibench.scenarios import registry
+
+    real = registry.instrument
+
+    def without_task(name):
+        row = real(name)
+        return dataclasses.replace(row, uncertainty=None) if name == "stewart" else row
+
+    monkeypatch.setattr(registry, "instrument", without_task)
     assert main(["uncertainty", "stewart", "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "no task is built for stewart" in err[0], err
