@@ -226,6 +226,24 @@ class ProbeScannerSim:
         q = t.quantum_um / 1000
         return Scan(theta_rad=np.arange(n) * 2 * np.pi / n, rho_mm=np.round(noisy / q) * q)
 
+    def radius_mm(self, part: str, phi_rad: np.ndarray) -> np.ndarray:
+        """The part's true radius (n,) mm about the table's axis at holder polar angles
+        ``phi_rad`` (n,): MuJoCo's ray from the axis, at the stylus's height, to the walls the
+        stylus meets (the chords, not the exact curve: what a traced radius is judged by)."""
+        self.turn_to(0.0)
+        j = self.model.joint("theta").id
+        origin = self.data.xanchor[j].copy()
+        origin[2] = self.data.site_xpos[self._q][2]
+        group = np.zeros(6, np.uint8)
+        group[PLATE_GROUP if part == "plate" else LENS_GROUP] = 1
+        out = np.empty(len(np.atleast_1d(phi_rad)))
+        for k, phi in enumerate(np.atleast_1d(np.asarray(phi_rad, float))):
+            u = np.array([np.cos(phi), np.sin(phi), 0.0])
+            out[k] = mujoco.mj_ray(self.model, self.data, origin, u, group, 1, -1, self._geomid)
+        if np.any(out < 0):
+            raise RuntimeError(f"no wall of the {part} all round the table's axis")
+        return out * 1000
+
     def true_outline_mm(self, part: str) -> np.ndarray:
         """The part's exact outline in the holder frame, dense, (n, 2) mm."""
         g = self.geometry

@@ -39,7 +39,8 @@ SIDE_NORMALS = np.deg2rad([0.0, 90.0, 180.0, 270.0])
 
 @dataclasses.dataclass(frozen=True)
 class ScannerCalibration:
-    """d_mm, dL_mm, alpha0_rad and the plate centre (cx, cy) mm; std of each (None: no std)."""
+    """d_mm, dL_mm, alpha0_rad and the plate centre (cx, cy) mm; std of each (None: no std) and
+    their covariance (5, 5) in that order, mm and rad (None: none stated)."""
 
     d_mm: float
     dL_mm: float
@@ -47,6 +48,7 @@ class ScannerCalibration:
     centre_mm: np.ndarray
     std: dict | None = None
     rms_mm: float | None = None
+    cov: np.ndarray | None = None
 
 
 def contour_points(
@@ -245,8 +247,8 @@ def calibrate_lsq(
 ) -> ScannerCalibration:
     """Least squares of (d, dL, alpha0, cx, cy) against every sample's exact reading.
 
-    Standard deviations from (J^T J)^-1 scaled by the residual variance (independent samples;
-    the reading's quantisation is part of that variance).
+    Standard deviations and covariance from (J^T J)^-1 scaled by the residual variance
+    (independent samples; the reading's quantisation is part of that variance).
     """
     th, rho = np.asarray(theta_rad, float), np.asarray(rho_mm, float)
     A, r = half_side_mm, corner_radius_mm
@@ -272,4 +274,5 @@ def calibrate_lsq(
         centre_mm=p[3:5].copy(),
         std={k: float(v) for k, v in std.items()},
         rms_mm=float(np.sqrt(s2)),
+        cov=cov,
     )
