@@ -211,25 +211,15 @@ def run(config: VisionStageConfig, seed: int, fidelity: str, out_dir: Path, rrd:
         phi_residual = phi_true[-1]
 
         # 2. point pairs -------------------------------------------------------------------------
-        nx, ny = config.grid
-        pitch = g.plate.pitch_mm
-        j, i = np.mgrid[0:ny, 0:nx]
-        nominal = np.stack([i.ravel(), j.ravel()], axis=1) * pitch
-        c, s = np.cos(phi_final), np.sin(phi_final)
-        nominal_machine = nominal @ np.array([[c, s], [-s, c]])  # turned by phi
-        readings = np.empty_like(nominal_machine)
         # a rendered look costs a frame, so each circle is aimed where its neighbours predict it
         # and one look usually settles it; the analytic look is free and keeps the draws its
         # results were made with
-        aim = predicted_correction if fidelity == "render" else (lambda *_: 0.0)
-        images: list[tuple] = []
-        for k, p in progress(enumerate(nominal_machine), "circles", len(nominal_machine)):
-            lead = aim(readings[:k] - s00 - nominal_machine[:k], k, nx)
-            readings[k], _ = servo(sim, scope, s00 + p + lead, config.servo_tolerance_px)
-            if scope.last_image is not None and k % nx in (0, nx - 1) and k // nx in (0, ny - 1):
-                images.append((k, scope.last_image, scope.last_found, scope.last_true))
+        nominal_machine, readings, images = point_pairs(
+            sim, scope, config, s00, phi_final, fidelity == "render", shown=True
+        )
 
         # 3. models ------------------------------------------------------------------------------
+        nx, pitch = config.grid[0], g.plate.pitch_mm
         plate = fit_plate(readings, nominal_machine, (nx - 1) * pitch)
         rulers = measure_rulers(sim, config, rng, s00)
 
@@ -276,6 +266,50 @@ def run(config: VisionStageConfig, seed: int, fidelity: str, out_dir: Path, rrd:
         return write_outputs(report, artifacts, out_dir, rrd, "calibench.scenarios.vision_stage")
     finally:
         sim.close()
+
+
+def point_pairs(
+    sim: VisionStageSim,
+    scope: Microscope,
+    config: VisionStageConfig,
+    s00: np.ndarray,
+    phi_rad: float,
+    aimed: bool,
+    shown: bool = False,
+) -> tuple[np.ndarray, np.ndarray, list[tuple]]:
+    """Servo each circle of the grid to the image centre (the seed's step 2), row by row.
+
+    Parameters
+    ----------
+    sim, scope : the machine and its microscope.
+    config : the set-up (its ``grid`` and ``servo_tolerance_px``).
+    s00 : (2,) the reading of circle (0, 0) from the alignment, mm.
+    phi_rad : the plate's measured angle: the nominal grid is turned by it.
+    aimed : aim each circle where the circles before it predict it
+        (:func:`~.procedure.predicted_correction`), else at its nominal place.
+    shown : report each circle to the command's progress line.
+
+    Returns
+    -------
+    nominal_mm : (n, 2) each circle's nominal place from circle (0, 0), turned by ``phi_rad``.
+    readings_mm : (n, 2) the reading at which each circle is on the optical axis.
+    images : (k, image, found, true) of the grid's four corner circles, when rendered.
+    """
+    nx, ny = config.grid
+    j, i = np.mgrid[0:ny, 0:nx]
+    nominal = np.stack([i.ravel(), j.ravel()], axis=1) * config.geometry.plate.pitch_mm
+    c, s = np.cos(phi_rad), np.sin(phi_rad)
+    nominal_machine = nominal @ np.array([[c, s], [-s, c]])  # turned by phi
+    readings = np.empty_like(nominal_machine)
+    aim = predicted_correction if aimed else (lambda *_: 0.0)
+    images: list[tuple] = []
+    circles = enumerate(nominal_machine)
+    for k, p in progress(circles, "circles", len(nominal_machine)) if shown else circles:
+        lead = aim(readings[:k] - s00 - nominal_machine[:k], k, nx)
+        readings[k], _ = servo(sim, scope, s00 + p + lead, config.servo_tolerance_px)
+        if scope.last_image is not None and k % nx in (0, nx - 1) and k // nx in (0, ny - 1):
+            images.append((k, scope.last_image, scope.last_found, scope.last_true))
+    return nominal_machine, readings, images
 
 
 def true_error_field(sim: VisionStageSim, readings: np.ndarray, phi_residual: float) -> np.ndarray:
