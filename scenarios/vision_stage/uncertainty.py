@@ -15,15 +15,16 @@ looks, the same readings' statistics), fits the cubic of each axis as ``fit_plat
 (without its model selection, which the task does not use and which costs ten trials' time) and
 commands the grid. Line rulers and the interferometer are left out: the task does not use them.
 
-The GUM framework's answer: the cubic's coefficients with the covariance of their least-squares
-fit to points of the scatter the scenario reports (``point_scatter_um``), plus the two errors
-that act on every point at once, each exactly as it enters the fit (:func:`coefficient_cov`):
-
-- the alignment's angle error turns the nominal grid: the cross slopes (x's a2, y's a1) move
-  together, opposite ways (the scenario's ``phi_urad`` std; in the reported ``cubic_std`` too);
-- the datum: every point's error is taken relative to circle (0, 0)'s reading, whose own scatter
-  (the circle's manufacturing error, the look's) shifts both a0 alike for all points. The
-  scenario's reported ``cubic_std`` leaves it out; at the plate's 0.5 um it is most of a0's.
+The GUM framework's answer: both cubics' coefficients with the covariance of their least-squares
+fit to points of the scatter the scenario reports (``point_scatter_um``), with the two errors
+that reach every point at once entered as they enter the fit (:func:`coefficient_cov`): the
+datum (each point's error is taken relative to circle (0, 0)'s reading, whose own error shifts
+them all alike) and the alignment's angle (measured on two circles of the first row, whose own
+errors turn the whole nominal grid). The scenario's reported ``cubic_std`` leaves the datum out
+and adds the angle's error to the cross slopes as if it were apart from the points' (it is made
+of two of them): the first is most of a0's uncertainty, the second nearly doubles the far targets' u in y.
+Propagated about a mean error of zero: the cubic's misfit of the true field (the scales'
+periodic errors, which no cubic follows) is the Monte Carlo's mean, not in the GUM's interval.
 
 The Jacobian is minus the monomials at each target (the command moves against the model's value,
 to first order in the error field's slope, 2e-4)::
