@@ -12,6 +12,7 @@ Curved walls are chords of the exact curve, fine enough that the ray's error sta
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import functools
 
@@ -144,10 +145,7 @@ def build_mjcf(
 ) -> str:
     """MJCF of the tracer with the rail at (d, dL, alpha0) and the plate centred as given."""
     plate_walls, lens_walls = _walls_xml(g)
-    u = np.array([np.cos(alpha0_rad), np.sin(alpha0_rad)])
-    n = np.array([-np.sin(alpha0_rad), np.cos(alpha0_rad)])
-    q = (d_mm * n + dL_mm * u) / 1000
-    rail_mid = (d_mm * n + (dL_mm + g.rail_length_mm / 2) * u) / 1000
+    q, tip, rail_mid = rail_placement_m(g, d_mm, dL_mm, alpha0_rad)
     pc = np.asarray(plate_centre_mm) / 1000
     return f"""
 <mujoco model="probe-scanner">
@@ -179,13 +177,62 @@ def build_mjcf(
             euler="0 0 {alpha0_rad}" material="rail" mass="0.1" group="2" contype="0"
             conaffinity="0"/>
         <site name="Q" pos="{q[0]} {q[1]} {RAY_HEIGHT_M}" size="0.0008"/>
-        <site name="rail_dir" pos="{q[0] + u[0] * 0.01} {q[1] + u[1] * 0.01} {RAY_HEIGHT_M}"
+        <site name="rail_dir" pos="{tip[0]} {tip[1]} {RAY_HEIGHT_M}"
             size="0.0004"/>
       </body>
     </body>
   </worldbody>
 </mujoco>
 """
+
+
+def rail_placement_m(
+    g: ProbeScannerGeometry, d_mm: float, dL_mm: float, alpha0_rad: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where the rail at (d, dL, alpha0) puts, in the turntable's frame, the stylus's start Q,
+    the site 1 cm along the rail from it and the rail's middle: each (2,) m, x and y."""
+    u = np.array([np.cos(alpha0_rad), np.sin(alpha0_rad)])
+    n = np.array([-np.sin(alpha0_rad), np.cos(alpha0_rad)])
+    q = (d_mm * n + dL_mm * u) / 1000
+    return q, q + u * 0.01, (d_mm * n + (dL_mm + g.rail_length_mm / 2) * u) / 1000
+
+
+@functools.lru_cache(maxsize=4)
+def _nominal_model(g: ProbeScannerGeometry):
+    """The tracer of the design values, compiled once per geometry (its 2,000-odd wall geoms
+    take tens of milliseconds to parse and compile: a Monte-Carlo trial's twin copies it)."""
+    import mujoco
+
+    n = ProbeScannerNominal()
+    return mujoco.MjModel.from_xml_string(build_mjcf(g, n.d_mm, n.dL_mm, n.alpha0_rad))
+
+
+def as_built_model(
+    g: ProbeScannerGeometry,
+    d_mm: float,
+    dL_mm: float,
+    alpha0_rad: float,
+    plate_centre_mm=(0.0, 0.0),
+):
+    """The MjModel of :func:`build_mjcf` with the same arguments, without parsing its MJCF: a
+    copy of the design's model with the as-built written in. Written: the plate's body, the
+    stylus's two sites, the rail's geom and its body's centre of mass and inertial frame (the
+    rail's one geom: its pose, as the compiler finds it); ``mj_setConst`` redoes what the
+    compiler derives at qpos0. A test checks every array against the MJCF's model."""
+    import mujoco
+
+    model = copy.copy(_nominal_model(g))
+    q, tip, mid = rail_placement_m(g, d_mm, dL_mm, alpha0_rad)
+    model.body_pos[model.body("plate").id, :2] = np.asarray(plate_centre_mm) / 1000
+    model.site_pos[model.site("Q").id, :2] = q
+    model.site_pos[model.site("rail_dir").id, :2] = tip
+    rail = model.geom("rail").id
+    model.geom_pos[rail, :2] = mid
+    mujoco.mju_euler2Quat(model.geom_quat[rail], np.array([0.0, 0.0, alpha0_rad]), "xyz")
+    body = model.geom_bodyid[rail]
+    model.body_ipos[body], model.body_iquat[body] = model.geom_pos[rail], model.geom_quat[rail]
+    mujoco.mj_setConst(model, mujoco.MjData(model))
+    return model
 
 
 def default_scenes() -> dict:

@@ -19,7 +19,7 @@ from calibench.scenes.probe_scanner import (
     LENS_GROUP,
     PLATE_GROUP,
     ProbeScannerGeometry,
-    build_mjcf,
+    as_built_model,
     walls_mjcf,
 )
 
@@ -72,8 +72,9 @@ class ProbeScannerSim:
 
     def __init__(self, geometry: ProbeScannerGeometry, truth: ProbeScannerTruth):
         self.geometry, self.truth = geometry, truth
-        xml = build_mjcf(geometry, truth.d_mm, truth.dL_mm, truth.alpha0_rad, truth.plate_centre_mm)
-        self.model = mujoco.MjModel.from_xml_string(xml)
+        self.model = as_built_model(
+            geometry, truth.d_mm, truth.dL_mm, truth.alpha0_rad, truth.plate_centre_mm
+        )
         self.data = mujoco.MjData(self.model)
         self._theta = self.model.jnt_qposadr[self.model.joint("theta").id]
         self._q = self.model.site("Q").id
