@@ -31,6 +31,7 @@ from tests import sabotage_faults as more
 from tests.sabotage_arm import ARM_FAULTS
 from tests.sabotage_faults import replace as _replace
 from tests.sabotage_faults import wrap as _wrap
+from tests.sabotage_uncertainty import UNCERTAINTY_FAULTS
 
 ENV = "CALIBENCH_SABOTAGE"
 
@@ -406,27 +407,11 @@ FAULTS: dict[str, Fault] = {
         more.other_scenarios_table_ignored,
         ("tests/test_bad_input.py::test_bad_input[config-other-scenarios-table]",),
     ),
-    # --- issue 64: the study's coverage band on its values and at its edge
-    "coverage_band_90": Fault(
-        "the study's coverage band from the 5 % and 95 % quantiles, not 2.5 % and 97.5 %",
-        more.coverage_band_90,
-        (f"{STUDY_TABLE}::test_the_coverage_band_is_the_binomial_scatter_of_an_honest_std",),
-    ),
-    "band_edge_outside": Fault(
-        "a coverage on the band's edge counted outside",
-        more.band_edge_outside,
-        (
-            f"{STUDY_TABLE}::test_a_coverage_on_the_band_s_edge_is_inside_in_the_summary_and_the_figure",
-        ),
-    ),
-    "iso9283_rp_two_sigma": Fault(
-        "ISO 9283's RP with two standard deviations of the distances, not three",
-        more.iso9283_rp_two_sigma,
-        ("tests/scenarios/test_acceptance.py::test_iso9283_figures_of_a_known_scatter",),
-    ),
 }
 # issue 63's, the arm's: kept in their own module within the house's length of a file
 FAULTS.update({name: Fault(*spec) for name, spec in ARM_FAULTS.items()})
+# issue 64's, uncertainty and acceptance
+FAULTS.update({name: Fault(*spec) for name, spec in UNCERTAINTY_FAULTS.items()})
 
 _state: dict = {"name": None, "mp": None, "caught": []}
 

@@ -287,34 +287,3 @@ def other_scenarios_table_ignored(mp: pytest.MonkeyPatch) -> None:
     from calibench.scenarios import config
 
     mp.setattr(config, "check_tables", lambda *a: None)
-
-
-def coverage_band_90(mp: pytest.MonkeyPatch) -> None:
-    """A study's coverage band from Binomial(n, 0.95)'s 5 % and 95 % quantiles, not 2.5 % and
-    97.5 %: the band where an honest std lands 90 % of the time, called 95 %."""
-    from calibench.scenarios.study.summary import binom_ppf
-
-    def band(trials):
-        n = max(int(trials), 1)
-        lo, hi = binom_ppf(np.array([0.05, 0.95]), n, 0.95) / n
-        return float(lo), float(hi)
-
-    replace(mp, "calibench.scenarios.study.summary", "coverage_band", band)
-
-
-def band_edge_outside(mp: pytest.MonkeyPatch) -> None:
-    """A coverage on the band's edge counted outside (< for <=)."""
-    replace(mp, "calibench.scenarios.study.summary", "in_band", lambda c, b: bool(b[0] < c < b[1]))
-
-
-def iso9283_rp_two_sigma(mp: pytest.MonkeyPatch) -> None:
-    """ISO 9283's repeatability RP taken as l_mean + 2 S_l, not + 3 S_l."""
-    from calibench.scenarios.arm_cmm import acceptance
-
-    def figures(attained, commanded):
-        mean = attained.mean(axis=0)
-        l_j = np.linalg.norm(attained - mean, axis=2)
-        ap = np.linalg.norm(mean - commanded, axis=1)
-        return ap, l_j.mean(axis=0) + 2 * l_j.std(axis=0, ddof=1)
-
-    mp.setattr(acceptance, "pose_figures", figures)

@@ -79,6 +79,43 @@ def fitted_sphere(p_mm: np.ndarray) -> tuple[np.ndarray, float]:
     return c, r
 
 
+def figures(
+    bars_mm: np.ndarray, ends_mm: np.ndarray, centres_mm: np.ndarray, probed_mm: np.ndarray
+) -> dict:
+    """The test's figures (um) from what the arm measured.
+
+    Parameters
+    ----------
+    bars_mm : ndarray, (B,)
+        Each bar's calibrated length.
+    ends_mm : ndarray, (B, 2, 3)
+        Each bar's two ends as the arm measured them.
+    centres_mm : ndarray, (L, 3)
+        The ball's centre in its cone, measured from each of the L postures.
+    probed_mm : ndarray, (K, 3)
+        The points probed on the test sphere (diameter :data:`SPHERE_MM`).
+
+    Returns
+    -------
+    dict
+        E_UNI = max |measured - calibrated length|; L_Dia = twice the largest distance of a
+        location from their mean (the diameter of the sphere about the mean that holds them);
+        P_Size = the least-squares sphere's diameter less the sphere's; P_Form = the range of
+        the points' radial distances from that sphere's centre; and each bar's error.
+    """
+    errors = np.linalg.norm(ends_mm[:, 1] - ends_mm[:, 0], axis=1) - bars_mm
+    spread = np.linalg.norm(centres_mm - centres_mm.mean(axis=0), axis=1)
+    c, r = fitted_sphere(probed_mm)
+    radial = np.linalg.norm(probed_mm - c, axis=1)
+    return {
+        "E_UNI_um": 1000 * float(np.abs(errors).max()),
+        "L_Dia_um": 1000 * float(2 * spread.max()),
+        "P_Size_um": 1000 * float(2 * r - SPHERE_MM),
+        "P_Form_um": 1000 * float(np.ptp(radial)),
+        "length_errors_um": (1000 * errors).round(2).tolist(),
+    }
+
+
 def iso10360_12(config: ArmCmmConfig, seed: int) -> dict:
     """E_UNI, L_Dia, P_Size and P_Form of the arm CMM before and after its calibration (um)."""
     sim, models, said = twin_and_models(config, seed)
@@ -108,20 +145,12 @@ def iso10360_12(config: ArmCmmConfig, seed: int) -> dict:
     }
     out: dict = {}
     for which in ("before", "after"):
-        ends = models.base_points(which, read["bar"]).reshape(-1, 2, 3)
-        errors = np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1) - np.array(bars)
-        centres = models.base_points(which, read["cone"])
-        spread = np.linalg.norm(centres - centres.mean(axis=0), axis=1)
-        probed = models.base_points(which, read["ball"])
-        c, r = fitted_sphere(probed)
-        radial = np.linalg.norm(probed - c, axis=1)
-        out[which] = {
-            "E_UNI_um": 1000 * float(np.abs(errors).max()),
-            "L_Dia_um": 1000 * float(2 * spread.max()),
-            "P_Size_um": 1000 * float(2 * r - SPHERE_MM),
-            "P_Form_um": 1000 * float(np.ptp(radial)),
-            "length_errors_um": (1000 * errors).round(2).tolist(),
-        }
+        out[which] = figures(
+            np.array(bars),
+            models.base_points(which, read["bar"]).reshape(-1, 2, 3),
+            models.base_points(which, read["cone"]),
+            models.base_points(which, read["ball"]),
+        )
     lengths = ", ".join(f"{s * reach:.0f}" for s in BAR_SHARES)
     out["procedure"] = (
         f"ISO 10360-12: E_UNI over bars of {lengths} mm, each in {BAR_POSITIONS} positions and "

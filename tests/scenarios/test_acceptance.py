@@ -12,7 +12,12 @@ import numpy as np
 import pytest
 
 from calibench.scenarios.arm_cmm.acceptance import pose_figures
-from calibench.scenarios.arm_cmm.iso10360 import fitted_sphere, sphere_directions
+from calibench.scenarios.arm_cmm.iso10360 import (
+    SPHERE_MM,
+    figures,
+    fitted_sphere,
+    sphere_directions,
+)
 from calibench.scenarios.cli import main
 
 CHI3_MEAN = np.sqrt(8 / np.pi)  # the mean length of a 3-D standard Gaussian vector
@@ -45,6 +50,31 @@ def test_the_probing_sphere_is_fitted_to_its_noise():
     assert np.ptp(np.linalg.norm(exact - c, axis=1)) < 1e-9 and r == pytest.approx(radius, abs=1e-9)
     c, r = fitted_sphere(exact + rng.normal(0, 1e-3, exact.shape))
     assert abs(r - radius) < 4 * 1e-3 / np.sqrt(25) * 2 and np.linalg.norm(c - centre) < 4e-3
+
+
+def test_iso10360_12_figures_of_known_measurements():
+    """Measurements made by hand with known errors: bars read 3 um long and 5 um short (E_UNI 5),
+    six locations on the axes at +-4 um about a centre (L_Dia 8: the diameter that holds them),
+    the sphere probed exactly at a radius 2 um large (P_Size 4, P_Form 0), then one point pushed
+    out by 3 um (P_Form about 3, the fit sharing it over 25 points)."""
+    rng = np.random.default_rng(9)
+    bars = np.array([150.0, 300.0])
+    u = rng.normal(size=(2, 3))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    measured = bars + np.array([0.003, -0.005])
+    ends = np.stack([np.zeros((2, 3)) + 100.0, 100.0 + u * measured[:, None]], 1)
+    centres = np.array([400.0, 50.0, 200.0]) + 0.004 * np.vstack([np.eye(3), -np.eye(3)])
+    sphere = np.array([10.0, -20.0, 300.0]) + (SPHERE_MM / 2 + 0.002) * sphere_directions()
+    f = figures(bars, ends, centres, sphere)
+    assert f["E_UNI_um"] == pytest.approx(5.0, abs=1e-6)
+    assert f["length_errors_um"] == pytest.approx([3.0, -5.0], abs=0.01)
+    assert f["L_Dia_um"] == pytest.approx(8.0, abs=1e-6)
+    assert f["P_Size_um"] == pytest.approx(4.0, abs=1e-6) and f["P_Form_um"] < 1e-6
+    bumped = sphere.copy()
+    bumped[0] += (
+        0.003 * (bumped[0] - sphere.mean(axis=0)) / np.linalg.norm(bumped[0] - sphere.mean(axis=0))
+    )
+    assert figures(bars, ends, centres, bumped)["P_Form_um"] == pytest.approx(3.0, rel=0.15)
 
 
 @pytest.fixture(scope="module")

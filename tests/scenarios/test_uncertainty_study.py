@@ -63,6 +63,16 @@ def test_an_interrupted_study_resumes_to_the_same_numbers(tmp_path, linear_task)
     assert len(rows) == 250
 
 
+def test_a_journal_of_another_seed_is_not_taken_for_this_studys(tmp_path, linear_task):
+    """Two studies in one directory: the second (another seed) journals beside the first and
+    draws every trial itself: its result is the one it makes alone."""
+    alone = _study(tmp_path / "alone", "--seed", "1")
+    out = tmp_path / "shared"
+    _study(out)
+    beside = _study(out, "--seed", "1")
+    assert beside["grid"] == alone["grid"] and beside["trials"] == alone["trials"]
+
+
 def test_a_scenario_without_a_task_is_refused_in_one_line(tmp_path, capsys, monkeypatch):
     """An instrument whose registry line names no task (every one has one now: the line's field
     taken away) is refused in one line."""
