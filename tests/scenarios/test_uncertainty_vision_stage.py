@@ -111,3 +111,16 @@ def test_iso230_2_after_the_cubic_is_better_than_the_bare_table(config):
             assert out["after"][f"{f}_{axis}_um"] <= out["before"][f"{f}_{axis}_um"] / 5, (f, axis)
     assert out["conforms"] and out["reason"] is None
     assert "ISO 230-2" in out["procedure"] and "bidirectional" in out["procedure"]
+
+
+def test_the_trials_cubic_is_the_scenarios_fit(config):
+    """The trial fits the cubic without ``fit_plate``'s model selection (ten trials' time): the
+    same coefficients to the bit, on the same point pairs."""
+    from calibench.estimators.stage.circle_plate import fit_plate
+
+    sim, cal = task.calibrated(config, 1)
+    sim.close()
+    plate = fit_plate(cal.readings_mm, cal.nominal_mm, cal.baseline_mm)
+    np.testing.assert_array_equal(plate.origin_mm, cal.origin_mm)
+    for mine, theirs in zip(cal.cubic, plate.cubic):
+        np.testing.assert_array_equal(mine.coef, theirs.coef)
