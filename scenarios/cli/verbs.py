@@ -408,7 +408,7 @@ def uncertainty(args: argparse.Namespace) -> int:
     table = load_toml(args.config) if args.config else {}
     check_tables(args.config, table, [s.name], _names())
     config = override(s.config(), table.get(s.name, {}), s.name)
-    print(f"calibench: {s.name} uncertainty (seed {args.seed})", file=sys.stderr, flush=True)
+    # no heading on stderr: a study's progress names itself, and an interrupt's line is its one
     options = {
         "tolerance": args.tolerance,
         "trials_max": args.trials_max,
