@@ -114,7 +114,7 @@ def test_iso230_2_after_the_cubic_is_better_than_the_bare_table(config):
 
 
 def test_the_trials_cubic_is_the_scenarios_fit(config):
-    """The trial fits the cubic without ``fit_plate``'s model selection (ten trials' time): the
+    """The trial fits the cubic without ``fit_plate``'s model selection (0.1 s a trial): the
     same coefficients to the bit, on the same point pairs."""
     from calibench.estimators.stage.circle_plate import fit_plate
 
