@@ -74,10 +74,11 @@ def test_the_monte_carlos_spread_is_the_gum_frameworks_u(poses):
     of freedom and 54 quantities at a family risk of 1e-3, the whitened std lies within
     sqrt(chi2_29 / 29)'s quantiles [0.49, 1.59] and the mean within t_29's 5.1 standard errors
     of zero. The study compares the Monte Carlo with one reference machine's u: the machines'
-    own u differ by up to 11 % (one std; their random calibration poses, measured over these
-    30), so the reference's u is within a factor 1.4 (3.5 such std) of their RMS, and the plain
-    spread within the chi-square band widened by that factor. Seen: whitened std 0.66-1.15,
-    reference 0.83-1.01 of the RMS, plain spread 0.74-1.36 of the reference's u."""
+    own u differ by about 10 % (one std, up to 11 % at a quantity: their random calibration
+    poses, measured over these 30), so the reference's u is within a factor 1.4 (3.5 such std)
+    of their RMS, and the plain spread within the chi-square band widened by that factor. Seen:
+    whitened std 0.71-1.19, the reference's u 0.84-1.02 of the RMS, plain spread 0.79-1.34 of
+    the reference's u."""
     nu = N_MACHINES - 1
     a = FAMILY_RISK / (2 * len(poses) * 6)
     lo, hi = np.sqrt(stats.chi2.ppf([a, 1 - a], nu) / nu)
