@@ -72,12 +72,37 @@ def judged(figures: dict, mpe: dict) -> dict:
     return out
 
 
-def run_acceptance(scenario: str, test: str, config, table: dict, seed: int, out: Path) -> dict:
+def real_repeatability(scenario: str, test: str, config, recordings: list[Path]) -> list[dict]:
+    """ISO 9283's RP from each real recording's repeated postures (arm-cmm's iso9283 only),
+    checked before the twin runs."""
+    if not recordings:
+        return []
+    if (scenario, test) != ("arm-cmm", "iso9283"):
+        raise BadInput("--recording: a real arm's RP from its repeated postures (arm-cmm, iso9283)")
+    from calibench.scenarios.arm_cmm.repeatability import recording_rp
+    from calibench.scenes.arm_cmm import load_arm
+
+    arm = load_arm(config.arm) if isinstance(config.arm, str) else config.arm
+    return [recording_rp(p, arm) for p in recordings]
+
+
+def run_acceptance(
+    scenario: str,
+    test: str,
+    config,
+    table: dict,
+    seed: int,
+    out: Path,
+    real: list[dict] | None = None,
+) -> dict:
     """Run ``test`` on ``scenario``'s twin (``config`` its scenario config, ``table`` the config
-    file's whole content for ``[acceptance]``) and write DIR/acceptance.json."""
+    file's whole content for ``[acceptance]``), with the real recordings' figures ``real``
+    (:func:`real_repeatability`) beside it, and write DIR/acceptance.json."""
     mpe = stated_mpe(test, table)
     figures = procedure(scenario, test)(config, seed)
     result = {"scenario": scenario, "test": test, "seed": seed, **figures}
+    if real:
+        result["recordings"] = real
     if mpe:
         result["mpe"] = judged(figures["after"], mpe)
     for which in ("before", "after"):

@@ -126,6 +126,31 @@ def iso230_2_repeatability_two_s(mp: pytest.MonkeyPatch) -> None:
     replace(mp, "calibench.estimators.stage.iso230_2", "evaluate", evaluate)
 
 
+def recording_rp_two_sigma(mp: pytest.MonkeyPatch) -> None:
+    """A recording's pooled RP as E[l_mean + 2 S_l], not + 3 S_l."""
+
+    def rp(cov_mm2, cycles=30, draws=20_000, seed=9283):
+        L = np.linalg.cholesky(np.asarray(cov_mm2, float) + 1e-30 * np.eye(3))
+        x = np.random.default_rng(seed).standard_normal((draws, cycles, 3)) @ L.T
+        l_j = np.linalg.norm(x - x.mean(axis=1, keepdims=True), axis=2)
+        return float(np.mean(l_j.mean(axis=1) + 2 * l_j.std(axis=1, ddof=1)))
+
+    replace(mp, "calibench.estimators.arm.repeatability", "expected_rp", rp)
+
+
+def stale_repeats_pooled(mp: pytest.MonkeyPatch) -> None:
+    """A recording's stale and disagreeing readings pooled into its repeatability."""
+    from calibench.estimators.arm import screening
+
+    real = screening.screen
+
+    def screen(*args, **kwargs):
+        s = real(*args, **kwargs)
+        return dataclasses.replace(s, stale=s.stale[:0], pairs=s.pairs[:0])
+
+    replace(mp, "calibench.estimators.arm.screening", "screen", screen)
+
+
 UNCERTAINTY_FAULTS = {
     "coverage_band_90": (
         "the study's coverage band from the 5 % and 95 % quantiles, not 2.5 % and 97.5 %",
@@ -173,5 +198,21 @@ UNCERTAINTY_FAULTS = {
         "ISO 230-2's unidirectional repeatability as 2 s, not 4 s",
         iso230_2_repeatability_two_s,
         ("tests/estimators/test_iso230_2.py",),
+    ),
+    "recording_rp_two_sigma": (
+        "a recording's pooled RP with two standard deviations of the distances, not three",
+        recording_rp_two_sigma,
+        (
+            "tests/estimators/test_arm_repeatability.py::"
+            "test_expected_rp_is_iso9283s_rp_of_that_scatter",
+        ),
+    ),
+    "stale_repeats_pooled": (
+        "a recording's stale and disagreeing readings pooled into its RP",
+        stale_repeats_pooled,
+        (
+            "tests/scenarios/test_acceptance_recording.py::"
+            "test_the_real_ur10s_rp_is_within_its_makers_figure",
+        ),
     ),
 }

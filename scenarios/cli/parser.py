@@ -389,6 +389,15 @@ def _acceptance_verb(sub) -> None:
     a.add_argument("--test", required=True, choices=ALL_TESTS, help="the standard's test")
     a.add_argument("--config", type=Path, help="TOML overrides ([arm-cmm], [acceptance.mpe])")
     a.add_argument("--seed", type=_seed, default=0, help="the machine's and the test's draws")
+    a.add_argument(
+        "--recording",
+        type=Path,
+        action="append",
+        default=[],
+        metavar="CSV",
+        help="iso9283: a real arm recording (docs/formats.md) whose repeated postures give the "
+        "real arm's RP beside the twin's (repeatable)",
+    )
     _out(a, "SCENARIO-acceptance", "acceptance")
 
 

@@ -365,7 +365,12 @@ def acceptance(args: argparse.Namespace) -> int:
     int
         0 when the test ran and every stated MPE holds after calibration, 1 when one does not.
     """
-    from calibench.scenarios.acceptance import procedure, run_acceptance, stated_mpe
+    from calibench.scenarios.acceptance import (
+        procedure,
+        real_repeatability,
+        run_acceptance,
+        stated_mpe,
+    )
     from calibench.scenarios.config import check_tables, load_toml, override
 
     s = _scenario(args.scenario)
@@ -374,11 +379,17 @@ def acceptance(args: argparse.Namespace) -> int:
     check_tables(args.config, table, [s.name, "acceptance"], [*_names(), "acceptance"])
     config = override(s.config(), table.get(s.name, {}), s.name)
     stated_mpe(args.test, table)
+    real = real_repeatability(s.name, args.test, config, args.recording)  # said before any work
     print(f"calibench: {s.name} {args.test} (seed {args.seed})", file=sys.stderr, flush=True)
-    r = run_acceptance(s.name, args.test, config, table, args.seed, args.out)
+    r = run_acceptance(s.name, args.test, config, table, args.seed, args.out, real)
     before, after = r["before"], r["after"]
     for name in (k for k, v in after.items() if isinstance(v, float)):
         print(f"  {name}: {before[name]:.4g} before calibration, {after[name]:.4g} after")
+    for real in r.get("recordings", []):
+        print(
+            f"  {real['recording']}: RP {real['RP_mm']:.3g} +- {real['u_RP_mm']:.2g} mm at 30 "
+            f"cycles, from {real['groups']} repeated postures ({len(real['left_out'])} left out)"
+        )
     failed = [k for k, v in r.get("mpe", {}).items() if not v["conforms"]]
     for k, v in r.get("mpe", {}).items():
         print(f"  {k} MPE {v['mpe']:g}: {'conforms' if v['conforms'] else 'does not conform'}")

@@ -26,4 +26,6 @@ INSTRUMENT = Instrument(
     unwritten=("null", "presliding", "lagged_thermal", "rail_step"),
     simulated=("heated_scale",),
     coverage=("combined", 1),
+    acceptance=(("iso230-2", f"{__name__}.acceptance:iso230_2_test"),),
+    uncertainty=f"{__name__}.uncertainty",
 )

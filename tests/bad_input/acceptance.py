@@ -60,4 +60,30 @@ CASES = [
         2,
         "takes only",
     ),
+    (
+        "acceptance-recording-for-a-test-without-one",
+        {},
+        [*_ACC, "--recording", "data/ur10_landgraf/ur10_D.csv"],
+        2,
+        "--recording: a real arm's RP",
+    ),
+    (
+        "acceptance-recording-without-repeats",
+        {
+            "r.csv": "q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,x_mm,y_mm,z_mm\n"
+            "0,10,20,30,40,50,1,2,3\n5,15,25,35,45,55,4,5,6\n"
+        },
+        [
+            "acceptance",
+            "arm-cmm",
+            "--test",
+            "iso9283",
+            "--recording",
+            "{d}/r.csv",
+            "--out",
+            "{d}/o",
+        ],
+        2,
+        "no posture is visited twice",
+    ),
 ]
