@@ -23,7 +23,12 @@ task's Jacobian at that machine's rim readings, about a mean error of zero::
     u(e_g)^2 = J_g C J_g^T,   J_g = (d/R - R' s/R^2, s/R + R' d/R^2, -R', 0, 0)
 
 with s = dL + rho, R = |P| and R' the rim's slope dR/dphi at phi_c (the plate's centre does not
-move the rim's trace: its columns are zero).
+move the rim's trace: its columns are zero). R' is the exact curve's: the chords' own slopes
+differ from it by under 0.25 mm/rad, a hundredth of a nanometre of u through alpha0's 50 urad.
+
+A trial costs about 65 ms of CPU: the twin written into the design's compiled model
+(:func:`~calibench.scenes.probe_scanner.as_built_model`), the plate's 1600 rays, the least
+squares (half of it), 48 rays at the rim.
 """
 
 from __future__ import annotations
