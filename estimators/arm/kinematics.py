@@ -92,6 +92,7 @@ class Pose:
         self.tool = tool
         self._motions_of = (convention, c, s, a, d, alpha, frames)
         self._motions: tuple[np.ndarray, np.ndarray] | None = None
+        self._kinds: list[tuple[np.ndarray, np.ndarray]] | None = None
 
     @property
     def axis(self) -> np.ndarray:
@@ -104,13 +105,24 @@ class Pose:
         return self._elementary()[1]
 
     def _elementary(self) -> tuple[np.ndarray, np.ndarray]:
-        """The elementary motions' axes and origins, in closed form per convention from the link
-        frames, (n, 5 N, 3) each."""
-        if self._motions is not None:
-            return self._motions
+        """The elementary motions' axes and origins, (n, 5 N, 3) each, interleaved per joint
+        from :meth:`motions`."""
+        if self._motions is None:
+            kinds = self.motions()
+            n, N = self.point.shape[0], self.link_R.shape[1] - 1
+            axis = np.stack([w for w, _ in kinds], axis=2).reshape(n, 5 * N, 3)
+            origin = np.stack([o for _, o in kinds], axis=2).reshape(n, 5 * N, 3)
+            self._motions = (axis, origin)
+        return self._motions
+
+    def motions(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Each kind of elementary motion's (axis, origin), (n, N, 3) each, in the order of a
+        joint's parameters (``I_A`` .. ``I_BETA``), in closed form per convention from the link
+        frames. Kept: the Jacobian reads them kind by kind, :attr:`axis` interleaves them."""
+        if self._kinds is not None:
+            return self._kinds
         convention, c, s, a, d, alpha, frames = self._motions_of
         link_R, link_o = self.link_R, self.link_o
-        n, N = c.shape
         # frame i-1 is joint i's parent's: the previous joint's on a serial arm
         R0, o0 = (
             (link_R[:, :-1], link_o[:, :-1])
@@ -118,31 +130,25 @@ class Pose:
             else (link_R[:, frames], link_o[:, frames])
         )
         R1, o1 = link_R[:, 1:], link_o[:, 1:]
-        axis, origin = np.empty((n, N, 5, 3)), np.empty((n, N, 5, 3))
+        out: list = [None] * 5
         # dh: RotZ(theta + q), TransZ(d) about frame i-1's z; TransX(a), RotX(alpha) along the
         # turned x. mdh: RotX(alpha), RotY(beta), TransX(a) at frame i-1's origin; RotZ(theta + q),
         # TransZ(d) on frame i's z.
         if convention == "dh":
             x1 = c[..., None] * R0[..., 0] + s[..., None] * R0[..., 1]
-            axis[:, :, I_THETA] = axis[:, :, I_D] = R0[..., 2]
-            origin[:, :, I_THETA] = origin[:, :, I_D] = o0
-            axis[:, :, I_A] = axis[:, :, I_ALPHA] = x1
-            origin[:, :, I_A] = o0 + d[:, None] * R0[..., 2]
-            origin[:, :, I_ALPHA] = origin[:, :, I_BETA] = o1
-            axis[:, :, I_BETA] = R1[..., 1]  # RotY keeps y: the turned frame's y is frame i's
+            out[I_THETA] = out[I_D] = (R0[..., 2], o0)
+            out[I_A] = (x1, o0 + d[:, None] * R0[..., 2])
+            out[I_ALPHA] = (x1, o1)
+            out[I_BETA] = (R1[..., 1], o1)  # RotY keeps y: the turned frame's y is frame i's
         else:
             ca, sa = np.cos(alpha)[:, None], np.sin(alpha)[:, None]
-            xm = (
-                c[..., None] * R1[..., 0] - s[..., None] * R1[..., 1]
-            )  # frame i-1 turned by M: its x
-            axis[:, :, I_ALPHA] = R0[..., 0]
-            axis[:, :, I_BETA] = ca * R0[..., 1] + sa * R0[..., 2]
-            axis[:, :, I_A] = xm
-            origin[:, :, I_ALPHA] = origin[:, :, I_BETA] = origin[:, :, I_A] = o0
-            axis[:, :, I_THETA] = axis[:, :, I_D] = R1[..., 2]
-            origin[:, :, I_THETA] = origin[:, :, I_D] = o0 + a[:, None] * xm
-        self._motions = (axis.reshape(n, 5 * N, 3), origin.reshape(n, 5 * N, 3))
-        return self._motions
+            xm = c[..., None] * R1[..., 0] - s[..., None] * R1[..., 1]  # frame i-1 turned: its x
+            out[I_ALPHA] = (R0[..., 0], o0)
+            out[I_BETA] = (ca * R0[..., 1] + sa * R0[..., 2], o0)
+            out[I_A] = (xm, o0)
+            out[I_THETA] = out[I_D] = (R1[..., 2], o0 + a[:, None] * xm)
+        self._kinds = out
+        return out
 
 
 def _xy_turn(alpha: np.ndarray, beta: np.ndarray) -> np.ndarray:
@@ -273,16 +279,21 @@ def jacobian(
     N = P.link_R.shape[1] - 1
     n, T = len(P.point), chain.n_tools
     J = np.empty((n, 3, n_params(N, T)))
-    ops = OPS[chain.convention]
-    rot = np.zeros(5 * N, bool)
-    for kind, _, which in ops:
-        rot[which::5] = kind == "rot"
-    # every motion's turn made, the shifts' then discarded: one pass instead of a masked copy
-    cols = np.where(rot[:, None], cross(P.axis, P.point[:, None] - P.origin), P.axis)
     on = carried_by(chain, P)
-    if on is not None:
-        cols = cols * np.repeat(on, 5, axis=1)[:, :, None]
-    J[:, :, : 5 * N] = cols.transpose(0, 2, 1)
+    # kind by kind into its columns (every joint's k-th, J[:, :, k::5]): a turn's w x (p - o)
+    # for the turns alone, a shift's w as it is
+    for kind, _, which in OPS[chain.convention]:
+        w, o = P.motions()[which]
+        cols = J[:, :, which : 5 * N : 5]  # (n, 3, N), a view
+        if kind == "rot":
+            v = P.point[:, None] - o
+            cols[:, 0] = w[..., 1] * v[..., 2] - w[..., 2] * v[..., 1]
+            cols[:, 1] = w[..., 2] * v[..., 0] - w[..., 0] * v[..., 2]
+            cols[:, 2] = w[..., 0] * v[..., 1] - w[..., 1] * v[..., 0]
+        else:
+            cols[:] = w.transpose(0, 2, 1)
+        if on is not None:
+            cols *= on[:, None, :]
     at = chain.tool_frames
     if T == 1:
         J[:, :, 5 * N :] = P.link_R[:, at[0]]

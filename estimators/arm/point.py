@@ -32,6 +32,7 @@ from calibench.estimators.arm.bending import flex_columns, tilt_columns
 from calibench.estimators.arm.kinematics import (
     ArmParameters,
     Chain,
+    Pose,
     chain_names,
     flex_moments,
     gravity_moments,
@@ -45,6 +46,7 @@ from calibench.estimators.arm.kinematics import (
 )
 from calibench.estimators.arm.terms import directions
 from calibench.estimators.identification.basis import identifiable_basis
+from calibench.estimators.identification.covariance import variance_component
 from calibench.estimators.identification.problem import Regrouped
 from calibench.estimators.rotations import matrix_to_rotvec, rigid_transform, rotvec_to_matrix, skew
 
@@ -170,6 +172,20 @@ class PointProblem(ArmParameters):
         # tool components held at the drawing's value: ones the base frames already move the data
         # as (an arm whose axes are all parallel: the tool's and the base's height), see held_tool
         self.held: tuple[int, ...] = ()
+        # the last state's chain at the rows (delta, comp, Pose): a solver's residuals at the
+        # state it accepts and its next Jacobian share one forward kinematics (see _pose)
+        self._pose_at: tuple[np.ndarray, np.ndarray, Pose] | None = None
+
+    def _pose(self, s: PointState) -> Pose:
+        """The chain at state ``s`` (its errors and compliances; not its frames) on this
+        problem's rows, the last one kept: a solver's residuals at a state and its Jacobian
+        there evaluate it once."""
+        at = self._pose_at
+        if at is not None and np.array_equal(at[0], s.delta) and np.array_equal(at[1], s.comp):
+            return at[2]
+        P = pose(self.chain, self._q_eff(s), s.delta, self.tool)
+        self._pose_at = (s.delta.copy(), s.comp.copy(), P)
+        return P
 
     def held_tool(self, state=None, rel_tol: float = 1e-6) -> dict[str, str]:
         """Hold each tool component the base frames (and the other tool components) already move
@@ -337,7 +353,7 @@ class PointProblem(ArmParameters):
         (0-based; None: the first) taken in recording ``session``'s session (None: one the fit
         has not seen, where per-recording angle terms are unknown and left out)."""
         if q_rad is None:
-            q_eff, m_perp, m_flex, tool = self._q_eff(s), self.m_perp, self.m_flex, self.tool
+            P, m_perp, m_flex = self._pose(s), self.m_perp, self.m_flex
         else:
             q_rad = np.atleast_2d(np.asarray(q_rad, float))
             tau, m_perp, tau_motor, m_flex = None, None, None, None
@@ -357,7 +373,7 @@ class PointProblem(ArmParameters):
             rec = None if session is None else np.full(len(q_rad), session)
             F = self._term_functions(q_rad, rec, self._directions(q_rad, None))
             q_eff = self._q_eff(s, q_rad, tau, F, tau_motor)
-        P = pose(self.chain, q_eff, s.delta, tool)
+            P = pose(self.chain, q_eff, s.delta, tool)
         shift = self._tilt(s, P, m_perp)[0] if len(self.tj) else 0.0
         if len(self.fl):
             shift = shift + self._flex(s, P, m_flex)[0]
@@ -394,46 +410,53 @@ class PointProblem(ArmParameters):
         return np.r_[r, s.delta[idx] / sig]
 
     def jacobian(self, s: PointState) -> np.ndarray:
-        """Whitened d(residuals) / d(parameters), (3 n, len(names)); residual = y - model."""
-        q_eff = self._q_eff(s)
-        P = pose(self.chain, q_eff, s.delta, self.tool)
+        """Whitened d(residuals) / d(parameters), (3 n, len(names)); residual = y - model.
+        Each block of columns is written into the one output in place (no stacked copies)."""
+        P = self._pose(s)
         Jk = jacobian(self.chain, P=P)  # (n, 3, nk) base frame
         R = s.R[self.rec]
         n = len(self.q)
-        cols = [np.einsum("nij,njk->nik", R, Jk)]
-        p = P.point
+        n_prior = 0 if self.prior is None else len(self._prior_rows()[0])
+        out = np.empty((3 * n + n_prior, len(self.names)))
+        J = out[: 3 * n].reshape(n, 3, -1)  # a view: the rows' block
+        blocks, p = [Jk], P.point  # base-frame columns, in the names' order
         if len(self.cj):
-            Jq = self._turns(Jk, self.cj)
-            cols.append(np.einsum("nij,njk->nik", R, Jq * self.tau[:, None, :]))
+            blocks.append(self._turns(Jk, self.cj) * self.tau[:, None, :])
         for on, bend, m in ((self.tj, self._tilt, self.m_perp), (self.fl, self._flex, self.m_flex)):
             if len(on):
                 shift, Jt = bend(s, P, m)
-                cols.append(np.einsum("nij,njk->nik", R, Jt))
+                blocks.append(Jt)
                 p = p + shift
         if len(self.cm):
             Jq = self._turns(Jk, range(1, self.N + 1))  # (n, 3, N)
-            Jc = np.einsum("nij,jk,nk->nik", Jq, self.cable_cols, self.tau_motor)
-            cols.append(np.einsum("nij,njk->nik", R, Jc))
+            blocks.append(np.einsum("nij,jk,nk->nik", Jq, self.cable_cols, self.tau_motor))
+        k = 0  # each block turned into its rows' frames, in place
+        for B in blocks:
+            np.einsum("nij,njk->nik", R, B, out=J[:, :, k : k + B.shape[2]])
+            k += B.shape[2]
         for t, Ft in zip(self.terms, self.F):
             if t.column:  # (n, 3): a motor's error turns the joints along its column
                 Jq = self._turns(Jk, range(1, self.N + 1)) @ np.asarray(t.column, float)
             else:
                 Jq = self._turns(Jk, [t.joint])[:, :, 0]  # (n, 3): the link turns by -Ft @ c
-            cols.append(-np.einsum("nij,nj,nk->nik", R, Jq, Ft))
+            J[:, :, k : k + Ft.shape[1]] = -np.einsum("nij,nj,nk->nik", R, Jq, Ft)
+            k += Ft.shape[1]
         Rp = np.einsum("nij,nj->ni", R, p)
-        Jf = np.zeros((n, 3, 6 * self.n_rec))
+        Jf = J[:, :, k:]
+        Jf[:] = 0.0
         for r in range(self.n_rec):
             m = self.rec == r
             Jf[m, :, 6 * r : 6 * r + 3] = -skew(Rp[m])  # left perturbation of R
             Jf[m, :, 6 * r + 3 : 6 * r + 6] = np.eye(3)
-        cols.append(Jf)
-        J = (-np.concatenate(cols, axis=2) * self.weights()[:, :, None]).reshape(3 * n, -1)
+        np.negative(J, out=J)
+        J *= self.weights()[:, :, None]
         if self.prior is None:
-            return J
+            return out
         idx, sig = self._prior_rows()
-        Jp = np.zeros((len(idx), J.shape[1]))
+        Jp = out[3 * n :]
+        Jp[:] = 0.0
         Jp[np.arange(len(idx)), idx] = 1.0 / sig
-        return np.r_[J, Jp]
+        return out
 
     def update(self, s: PointState, step: np.ndarray) -> PointState:
         """The state moved by ``step`` (len(names),): additive for the errors, a left
@@ -464,25 +487,8 @@ class PointProblem(ArmParameters):
         extra = np.zeros(self.n_rec)
         for r in range(self.n_rec):
             m = self.rec == r
-            extra[r] = _variance_component(e2[m], base[m], max(dof * e2[m].size / n_values, 1.0))
+            extra[r] = variance_component(e2[m], base[m], max(dof * e2[m].size / n_values, 1.0))
         self.extra_var = extra
         return float(
             np.sqrt(np.sum(extra * np.bincount(self.rec, minlength=self.n_rec)) / len(self.rec))
         )
-
-
-def _variance_component(e2: np.ndarray, base: np.ndarray, target: float) -> float:
-    """v >= 0 with sum(e2 / (base + v)) = target (0 if the stated sigma already covers it)."""
-
-    def chi2(v):
-        return float(np.sum(e2 / np.maximum(base + v, 1e-12)))
-
-    if chi2(0.0) <= target:
-        return 0.0
-    lo, hi = 0.0, float(np.mean(e2)) + 1e-12
-    while chi2(hi) > target:
-        hi *= 4
-    for _ in range(60):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if chi2(mid) > target else (lo, mid)
-    return hi

@@ -57,3 +57,20 @@ def _check(vif: np.ndarray) -> None:
         raise np.linalg.LinAlgError(
             "the kept parameters' normal matrix is singular to working precision"
         )
+
+
+def variance_component(e2: np.ndarray, base: np.ndarray, target: float) -> float:
+    """v >= 0 with sum(e2 / (base + v)) = target (0 if the stated sigma already covers it)."""
+
+    def chi2(v):
+        return float(np.sum(e2 / np.maximum(base + v, 1e-12)))
+
+    if chi2(0.0) <= target:
+        return 0.0
+    lo, hi = 0.0, float(np.mean(e2)) + 1e-12
+    while chi2(hi) > target:
+        hi *= 4
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if chi2(mid) > target else (lo, mid)
+    return hi
