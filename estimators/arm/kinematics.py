@@ -196,34 +196,36 @@ def pose(chain: Chain, q_rad: np.ndarray, delta: np.ndarray | None = None, tool=
     M = _xy_turn(alpha, beta)  # (N, 3, 3)
     dh = chain.convention == "dh"
     # each joint's turn, frame i-1 to frame i: RotZ(phi) M (DH) or M RotZ(phi) (MDH), written out
-    # (a stacked product of 3 x 3 matrices costs more than these few broadcasts)
-    A = np.empty((n, N, 3, 3))
-    c_, s_ = c[..., None], s[..., None]
-    if dh:
-        A[..., 0, :], A[..., 1, :], A[..., 2, :] = (
-            c_ * M[:, 0] - s_ * M[:, 1],
-            s_ * M[:, 0] + c_ * M[:, 1],
-            M[:, 2],
-        )
-    else:
-        A[..., 0], A[..., 1], A[..., 2] = (
-            c_ * M[..., 0] + s_ * M[..., 1],
-            c_ * M[..., 1] - s_ * M[..., 0],
-            M[..., 2],
-        )
+    # (a stacked product of 3 x 3 matrices costs more than these few broadcasts), joint-major:
+    # each joint's (n, 3, 3) stack one block, for the products below; an entry at a time over
+    # the postures (long inner loops, where a broadcast over a last axis of 3 has short ones)
+    cT, sT = c.T, s.T  # (N, n)
+    A = np.empty((N, n, 3, 3))
+    for k in range(3):
+        if dh:  # column k
+            m = M[:, :, k, None]  # (N, 3, 1)
+            A[:, :, 0, k], A[:, :, 1, k] = cT * m[:, 0] - sT * m[:, 1], sT * m[:, 0] + cT * m[:, 1]
+            A[:, :, 2, k] = m[:, 2]
+        else:  # row k
+            m = M[:, k, :, None]
+            A[:, :, k, 0], A[:, :, k, 1] = cT * m[:, 0] + sT * m[:, 1], cT * m[:, 1] - sT * m[:, 0]
+            A[:, :, k, 2] = m[:, 2]
     # each joint's shift in frame i-1: DH (a c, a s, d); MDH a along M's x, then d along A's z
     if dh:
-        p = np.empty((n, N, 3))
-        p[..., 0], p[..., 1], p[..., 2] = a * c, a * s, d
+        p = np.empty((N, n, 3))
+        p[..., 0], p[..., 1], p[..., 2] = a[:, None] * cT, a[:, None] * sT, d[:, None]
     else:
-        p = a[:, None] * M[:, :, 0] + d[:, None] * A[..., 2]
-    link_R, link_o = np.empty((n, N + 1, 3, 3)), np.empty((n, N + 1, 3))
-    link_R[:, 0], link_o[:, 0] = np.eye(3), 0.0
+        p = a[:, None, None] * M[:, None, :, 0] + d[:, None, None] * A[..., 2]
+    # chained joint-major (each product on contiguous stacks), then laid out posture-major
+    Rj, oj = np.empty((N + 1, n, 3, 3)), np.empty((N + 1, n, 3))
+    Rj[0], oj[0] = np.eye(3), 0.0
     frames = chain.frames
     for i in range(N):
-        R = link_R[:, frames[i]]
-        link_o[:, i + 1] = link_o[:, frames[i]] + (R @ p[:, i, :, None])[..., 0]
-        link_R[:, i + 1] = R @ A[:, i]
+        R = Rj[frames[i]]
+        oj[i + 1] = oj[frames[i]] + (R @ p[i, :, :, None])[..., 0]
+        Rj[i + 1] = R @ A[i]
+    link_R = np.ascontiguousarray(Rj.transpose(1, 0, 2, 3))
+    link_o = np.ascontiguousarray(oj.transpose(1, 0, 2))
     offsets = chain.tool_offsets() + delta[5 * N :].reshape(T, 3)
     at = chain.tool_frames
     tools = np.stack([link_o[:, f] + link_R[:, f] @ o for f, o in zip(at, offsets)], axis=1)

@@ -397,8 +397,8 @@ class PointProblem(ArmParameters):
 
     def _prior_rows(self) -> tuple[np.ndarray, np.ndarray]:
         """Which parameters carry the prior, (k,) indices, and its sigma (k,)."""
-        idx = np.arange(5 * self.N)
-        return idx, parameter_scales([self.names[i] for i in idx]) * self.prior
+        idx, names = np.arange(5 * self.N), self.names  # names: a tuple made at each call
+        return idx, parameter_scales([names[i] for i in idx]) * self.prior
 
     def residuals(self, s: PointState) -> np.ndarray:
         """Whitened residuals (3 n,) of measured minus modelled points (and the prior's rows
