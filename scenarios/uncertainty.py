@@ -110,10 +110,12 @@ class Study:
         return np.stack([self.done[(batch, j)] for j in range(count)])
 
 
-def study_key(scenario: str, config, seed: int) -> str:
-    """The study's identity: its scenario, config, seed and batch, hashed."""
+def study_key(scenario: str, config, seed: int, grid_q: np.ndarray) -> str:
+    """The study's identity: its scenario, config, seed, batch and grid (a task whose grid
+    changed is another study), hashed."""
     text = json.dumps([scenario, repr(config), seed, BATCH])
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
+    grid = np.ascontiguousarray(grid_q, float).tobytes()
+    return hashlib.sha256(text.encode() + grid).hexdigest()[:16]
 
 
 def load_trials(out: Path, key: str) -> dict[tuple[int, int], np.ndarray]:
@@ -141,7 +143,7 @@ def run_uncertainty(scenario: str, config, seed: int, out: Path, options: dict) 
 
     task = task_of(scenario)
     grid_q, points = task.grid(config)
-    key = study_key(scenario, config, seed)
+    key = study_key(scenario, config, seed, grid_q)
     study = Study(task, config, grid_q, seed, key, load_trials(out, key))
     path = out / JOURNAL
     if path.exists() and path.stat().st_size and not path.read_bytes().endswith(b"\n"):

@@ -13,7 +13,7 @@ import threading
 import warnings
 from pathlib import Path
 
-from calibench.scenarios.cli import claims, folders, verbs
+from calibench.scenarios.cli import claims, folders, standards, verbs
 from calibench.scenarios.cli.parser import build_parser
 from calibench.scenarios.cli.status import (
     EXIT_BAD_INPUT,
@@ -77,9 +77,9 @@ def main(argv: list[str] | None = None) -> int:
             "camera": verbs.camera,
             "montecarlo": verbs.montecarlo,
             "discover": verbs.discover,
-            "iso230": verbs.iso230,
-            "acceptance": verbs.acceptance,
-            "uncertainty": verbs.uncertainty,
+            "iso230": standards.iso230,
+            "acceptance": standards.acceptance,
+            "uncertainty": standards.uncertainty,
         }[args.command]
         with for_command(args):  # its one bar, or a line every 30 s off a terminal (stderr)
             return verb(args)

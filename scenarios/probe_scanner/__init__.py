@@ -25,4 +25,5 @@ INSTRUMENT = Instrument(
     simulated=("heated_mount",),
     # a scanner recording covers one parameter, a stage's four: three times the recordings
     coverage=("runout", 3),
+    uncertainty=f"{__name__}.uncertainty",
 )

@@ -16,4 +16,5 @@ INSTRUMENT = Instrument(
     unwritten=("null", "stick_slip", "sensor_warmup", "tracker_air"),
     simulated=("heated_leg",),
     unwritten_nulls=3,  # the platform's recordings take 20-40 s each: one null per noise
+    uncertainty=f"{__name__}.uncertainty",
 )

@@ -10,12 +10,13 @@ _UNC = ["uncertainty", "arm-cmm", "--out", "{d}/o"]
 # (id, files to write {name: text or bytes or callable(path)}, argv with {d} for the case folder,
 #  expected exit status, a fragment the message must contain)
 CASES = [
+    # an instrument without a task: tests/scenarios/test_uncertainty_study.py (each has one now)
     (
-        "uncertainty-no-task-for-the-instrument",
+        "uncertainty-unknown-scenario",
         {},
-        ["uncertainty", "stewart", "--out", "{d}/o"],
+        ["uncertainty", "hexapod", "--out", "{d}/o"],
         2,
-        "no task is built for stewart",
+        "unknown scenario 'hexapod'",
     ),
     ("uncertainty-tolerance-zero", {}, [*_UNC, "--tolerance", "0"], 2, "a positive number"),
     ("uncertainty-tolerance-nan", {}, [*_UNC, "--tolerance", "nan"], 2, "a positive number"),
