@@ -180,9 +180,10 @@ def pose(chain: Chain, q_rad: np.ndarray, delta: np.ndarray | None = None, tool=
     each row's point that of its ``tool`` (n,) (0-based; the first if None).
 
     Every joint's turn and shift are made at once for all joints and postures; the loop over
-    joints only chains them (one product of (n, 3, 3) stacks per joint), each from its parent's
-    frame. The elementary motions' axes and origins follow from the link frames, when asked for
-    (:class:`Pose`)."""
+    joints only chains them, each from its parent's frame, an entry at a time over all the
+    postures (a matrix product's sums written out: not a BLAS call per 3 x 3 product, whose
+    fused multiply-adds round differently, by an ulp). The elementary motions' axes and
+    origins follow from the link frames, when asked for (:class:`Pose`)."""
     q = np.atleast_2d(np.asarray(q_rad, float))
     N, T = chain.n_joints, chain.n_tools
     if q.shape[1] != N:
@@ -196,36 +197,38 @@ def pose(chain: Chain, q_rad: np.ndarray, delta: np.ndarray | None = None, tool=
     M = _xy_turn(alpha, beta)  # (N, 3, 3)
     dh = chain.convention == "dh"
     # each joint's turn, frame i-1 to frame i: RotZ(phi) M (DH) or M RotZ(phi) (MDH), written out
-    # (a stacked product of 3 x 3 matrices costs more than these few broadcasts), joint-major:
-    # each joint's (n, 3, 3) stack one block, for the products below; an entry at a time over
-    # the postures (long inner loops, where a broadcast over a last axis of 3 has short ones)
+    # entry by entry, each entry a run over the postures (N, 3, 3, n): numpy's loops are long
+    # where a stack of 3 x 3 matrices gives them 3 elements, or a BLAS call each
     cT, sT = c.T, s.T  # (N, n)
-    A = np.empty((N, n, 3, 3))
+    A = np.empty((N, 3, 3, n))
     for k in range(3):
         if dh:  # column k
             m = M[:, :, k, None]  # (N, 3, 1)
-            A[:, :, 0, k], A[:, :, 1, k] = cT * m[:, 0] - sT * m[:, 1], sT * m[:, 0] + cT * m[:, 1]
-            A[:, :, 2, k] = m[:, 2]
+            A[:, 0, k], A[:, 1, k] = cT * m[:, 0] - sT * m[:, 1], sT * m[:, 0] + cT * m[:, 1]
+            A[:, 2, k] = m[:, 2]
         else:  # row k
             m = M[:, k, :, None]
-            A[:, :, k, 0], A[:, :, k, 1] = cT * m[:, 0] + sT * m[:, 1], cT * m[:, 1] - sT * m[:, 0]
-            A[:, :, k, 2] = m[:, 2]
-    # each joint's shift in frame i-1: DH (a c, a s, d); MDH a along M's x, then d along A's z
+            A[:, k, 0], A[:, k, 1] = cT * m[:, 0] + sT * m[:, 1], cT * m[:, 1] - sT * m[:, 0]
+            A[:, k, 2] = m[:, 2]
+    # each joint's shift in frame i-1, (N, 3, n): DH (a c, a s, d); MDH a along M's x, then d
+    # along A's z
     if dh:
-        p = np.empty((N, n, 3))
-        p[..., 0], p[..., 1], p[..., 2] = a[:, None] * cT, a[:, None] * sT, d[:, None]
+        p = np.empty((N, 3, n))
+        p[:, 0], p[:, 1], p[:, 2] = a[:, None] * cT, a[:, None] * sT, d[:, None]
     else:
-        p = a[:, None, None] * M[:, None, :, 0] + d[:, None, None] * A[..., 2]
-    # chained joint-major (each product on contiguous stacks), then laid out posture-major
-    Rj, oj = np.empty((N + 1, n, 3, 3)), np.empty((N + 1, n, 3))
-    Rj[0], oj[0] = np.eye(3), 0.0
+        p = a[:, None, None] * M[:, :, 0, None] + d[:, None, None] * A[:, :, 2]
+    # chained component by component (R_i = R_parent A_i, o_i = o_parent + R_parent p_i), then
+    # laid out posture-major
+    Rc, oc = np.empty((N + 1, 3, 3, n)), np.empty((N + 1, 3, n))
+    Rc[0], oc[0] = np.eye(3)[:, :, None], 0.0
     frames = chain.frames
     for i in range(N):
-        R = Rj[frames[i]]
-        oj[i + 1] = oj[frames[i]] + (R @ p[i, :, :, None])[..., 0]
-        Rj[i + 1] = R @ A[i]
-    link_R = np.ascontiguousarray(Rj.transpose(1, 0, 2, 3))
-    link_o = np.ascontiguousarray(oj.transpose(1, 0, 2))
+        R, Ai, pi = Rc[frames[i]], A[i], p[i]
+        for r in range(3):
+            oc[i + 1, r] = oc[frames[i], r] + (R[r, 0] * pi[0] + R[r, 1] * pi[1] + R[r, 2] * pi[2])
+            Rc[i + 1, r] = R[r, 0] * Ai[0] + R[r, 1] * Ai[1] + R[r, 2] * Ai[2]
+    link_R = np.ascontiguousarray(Rc.transpose(3, 0, 1, 2))
+    link_o = np.ascontiguousarray(oc.transpose(2, 0, 1))
     offsets = chain.tool_offsets() + delta[5 * N :].reshape(T, 3)
     at = chain.tool_frames
     tools = np.stack([link_o[:, f] + link_R[:, f] @ o for f, o in zip(at, offsets)], axis=1)
