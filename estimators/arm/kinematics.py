@@ -86,8 +86,15 @@ class Pose:
         frames: np.ndarray | None = None,
         tools: np.ndarray | None = None,
         tool: np.ndarray | None = None,
+        by_component: tuple[np.ndarray, np.ndarray] | None = None,
     ):
         self.link_R, self.link_o, self.point = link_R, link_o, point
+        # the frames component-major, (N + 1, 3, 3, n) and (N + 1, 3, n): the motions' source,
+        # each component of a joint one run over the postures (link_R's own if not given)
+        self._by_component = by_component or (
+            link_R.transpose(1, 2, 3, 0),
+            link_o.transpose(1, 2, 0),
+        )
         self.tools = point[:, None] if tools is None else tools
         self.tool = tool
         self._motions_of = (convention, c, s, a, d, alpha, frames)
@@ -110,43 +117,42 @@ class Pose:
         if self._motions is None:
             kinds = self.motions()
             n, N = self.point.shape[0], self.link_R.shape[1] - 1
-            axis = np.stack([w for w, _ in kinds], axis=2).reshape(n, 5 * N, 3)
-            origin = np.stack([o for _, o in kinds], axis=2).reshape(n, 5 * N, 3)
+            # (5, N, 3, n) to (n, N, 5, 3): posture, joint, kind, component
+            axis = np.stack([w for w, _ in kinds]).transpose(3, 1, 0, 2).reshape(n, 5 * N, 3)
+            origin = np.stack([o for _, o in kinds]).transpose(3, 1, 0, 2).reshape(n, 5 * N, 3)
             self._motions = (axis, origin)
         return self._motions
 
     def motions(self) -> list[tuple[np.ndarray, np.ndarray]]:
-        """Each kind of elementary motion's (axis, origin), (n, N, 3) each, in the order of a
-        joint's parameters (``I_A`` .. ``I_BETA``), in closed form per convention from the link
-        frames. Kept: the Jacobian reads them kind by kind, :attr:`axis` interleaves them."""
+        """Each kind of elementary motion's (axis, origin), (N, 3, n) each (joint, component,
+        postures), in the order of a joint's parameters (``I_A`` .. ``I_BETA``), in closed form
+        per convention from the link frames. Kept: the Jacobian reads them kind by kind,
+        :attr:`axis` interleaves them."""
         if self._kinds is not None:
             return self._kinds
         convention, c, s, a, d, alpha, frames = self._motions_of
-        link_R, link_o = self.link_R, self.link_o
+        Rc, oc = self._by_component
         # frame i-1 is joint i's parent's: the previous joint's on a serial arm
-        R0, o0 = (
-            (link_R[:, :-1], link_o[:, :-1])
-            if frames is None
-            else (link_R[:, frames], link_o[:, frames])
-        )
-        R1, o1 = link_R[:, 1:], link_o[:, 1:]
+        R0, o0 = (Rc[:-1], oc[:-1]) if frames is None else (Rc[frames], oc[frames])
+        R1, o1 = Rc[1:], oc[1:]  # (N, 3, 3, n), (N, 3, n)
+        cT, sT = c.T[:, None], s.T[:, None]  # (N, 1, n)
         out: list = [None] * 5
         # dh: RotZ(theta + q), TransZ(d) about frame i-1's z; TransX(a), RotX(alpha) along the
         # turned x. mdh: RotX(alpha), RotY(beta), TransX(a) at frame i-1's origin; RotZ(theta + q),
         # TransZ(d) on frame i's z.
         if convention == "dh":
-            x1 = c[..., None] * R0[..., 0] + s[..., None] * R0[..., 1]
-            out[I_THETA] = out[I_D] = (R0[..., 2], o0)
-            out[I_A] = (x1, o0 + d[:, None] * R0[..., 2])
+            x1 = cT * R0[:, :, 0] + sT * R0[:, :, 1]
+            out[I_THETA] = out[I_D] = (R0[:, :, 2], o0)
+            out[I_A] = (x1, o0 + d[:, None, None] * R0[:, :, 2])
             out[I_ALPHA] = (x1, o1)
-            out[I_BETA] = (R1[..., 1], o1)  # RotY keeps y: the turned frame's y is frame i's
+            out[I_BETA] = (R1[:, :, 1], o1)  # RotY keeps y: the turned frame's y is frame i's
         else:
-            ca, sa = np.cos(alpha)[:, None], np.sin(alpha)[:, None]
-            xm = c[..., None] * R1[..., 0] - s[..., None] * R1[..., 1]  # frame i-1 turned: its x
-            out[I_ALPHA] = (R0[..., 0], o0)
-            out[I_BETA] = (ca * R0[..., 1] + sa * R0[..., 2], o0)
+            ca, sa = np.cos(alpha)[:, None, None], np.sin(alpha)[:, None, None]
+            xm = cT * R1[:, :, 0] - sT * R1[:, :, 1]  # frame i-1 turned: its x
+            out[I_ALPHA] = (R0[:, :, 0], o0)
+            out[I_BETA] = (ca * R0[:, :, 1] + sa * R0[:, :, 2], o0)
             out[I_A] = (xm, o0)
-            out[I_THETA] = out[I_D] = (R1[..., 2], o0 + a[:, None] * xm)
+            out[I_THETA] = out[I_D] = (R1[:, :, 2], o0 + a[:, None, None] * xm)
         self._kinds = out
         return out
 
@@ -234,7 +240,9 @@ def pose(chain: Chain, q_rad: np.ndarray, delta: np.ndarray | None = None, tool=
     tools = np.stack([link_o[:, f] + link_R[:, f] @ o for f, o in zip(at, offsets)], axis=1)
     point = tools[:, 0] if tool is None else tools[np.arange(n), tool]
     tree = None if chain.parent is None else frames
-    return Pose(chain.convention, link_R, link_o, point, c, s, a, d, alpha, tree, tools, tool)
+    return Pose(
+        chain.convention, link_R, link_o, point, c, s, a, d, alpha, tree, tools, tool, (Rc, oc)
+    )
 
 
 def cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -287,18 +295,19 @@ def jacobian(
     on = carried_by(chain, P)
     # kind by kind into its columns (every joint's k-th, J[:, :, k::5]): a turn's w x (p - o)
     # for the turns alone, a shift's w as it is
+    point = P.point.T  # (3, n)
     for kind, _, which in OPS[chain.convention]:
-        w, o = P.motions()[which]
-        cols = J[:, :, which : 5 * N : 5]  # (n, 3, N), a view
+        w, o = P.motions()[which]  # (N, 3, n)
+        cols = J[:, :, which : 5 * N : 5].transpose(2, 1, 0)  # (N, 3, n), a view
         if kind == "rot":
-            v = P.point[:, None] - o
-            cols[:, 0] = w[..., 1] * v[..., 2] - w[..., 2] * v[..., 1]
-            cols[:, 1] = w[..., 2] * v[..., 0] - w[..., 0] * v[..., 2]
-            cols[:, 2] = w[..., 0] * v[..., 1] - w[..., 1] * v[..., 0]
+            v = point - o
+            cols[:, 0] = w[:, 1] * v[:, 2] - w[:, 2] * v[:, 1]
+            cols[:, 1] = w[:, 2] * v[:, 0] - w[:, 0] * v[:, 2]
+            cols[:, 2] = w[:, 0] * v[:, 1] - w[:, 1] * v[:, 0]
         else:
-            cols[:] = w.transpose(0, 2, 1)
+            cols[:] = w
         if on is not None:
-            cols *= on[:, None, :]
+            cols *= on.T[:, None, :]
     at = chain.tool_frames
     if T == 1:
         J[:, :, 5 * N :] = P.link_R[:, at[0]]
