@@ -96,6 +96,9 @@ def fit_plate(readings_mm: np.ndarray, nominal_mm: np.ndarray, baseline_mm: floa
     stds = []
     for a in range(2):
         std = cubic[a].coef_std(u, v, sigma_um)
+        # circle (0, 0)'s reading is every point's datum: its own error shifts them all alike,
+        # which the points' independent scatter does not hold; it enters the constant whole
+        std[0] = np.hypot(std[0], sigma_um)
         # the alignment's own error turns the reference frame: it enters the cross slopes
         slope = 2 if a == 0 else 1
         std[slope] = np.hypot(std[slope], sigma_phi * 1000)

@@ -21,13 +21,14 @@ fit to points of the scatter the scenario reports (``point_scatter_um``), with t
 that reach every point at once entered as they enter the fit (:func:`coefficient_cov`): the
 datum (each point's error is taken relative to circle (0, 0)'s reading, whose own error shifts
 them all alike) and the alignment's angle (measured on two circles of the first row, whose own
-errors turn the whole nominal grid). The scenario's reported ``cubic_std`` leaves the datum out
-and adds the angle's error to the cross slopes as if it were apart from the points' (it is made
-of two of them): the first is most of a0's uncertainty, the second nearly doubles the far
-targets' u in y. A 400-trial study's spread is this u to 4 % at every grid point. It is
-propagated about a mean error of zero: the cubic's misfit of the true field (the scales'
-periodic errors, which no cubic follows; up to 1.3 um) is the Monte Carlo's mean, not in the
-GUM's interval, which is therefore not validated there (JCGM 101 8) although its u is right.
+errors turn the whole nominal grid). The scenario's reported ``cubic_std`` holds each coefficient
+alone (the datum's share of a0 in quadrature) and adds the angle's error to the cross slopes as
+if it were apart from the points' (it is made of two of them): with no correlation between the
+coefficients, it nearly doubles the far targets' u in y. A 400-trial study's spread is this u
+to 4 % at every grid point. It is propagated about a mean error of zero: the cubic's misfit of
+the true field (the scales' periodic errors, which no cubic follows; up to 1.3 um) is the Monte
+Carlo's mean, not in the GUM's interval, which is therefore not validated there (JCGM 101 8)
+although its u is right.
 
 The Jacobian is minus the monomials at each target's compensated command (the command moves
 against the model's value; :func:`task_jacobian`)::
@@ -205,7 +206,7 @@ def coefficient_cov(cal: Calibration) -> np.ndarray:
 
     The scenario's reported ``cubic_std`` treats the two shared errors apart: it adds the angle's
     in quadrature to the cross slopes (but the same n_f, n_0 are in the fit's points, and most
-    of it cancels at the far targets), and it leaves the datum out (most of a0's at 0.5 um).
+    of it cancels at the far targets), and the datum's to a0 alone (most of a0's at 0.5 um).
     """
     plate = fit_plate(cal.readings_mm, cal.nominal_mm, cal.baseline_mm)
     rel = cal.readings_mm - cal.origin_mm

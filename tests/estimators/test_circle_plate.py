@@ -34,21 +34,23 @@ def _true_um(rel):
 
 def _point_pairs(rng):
     """Readings (n, 2) mm, circle (0, 0) first, and the circles' nominal positions (n, 2) mm:
-    each circle truly lies at its reading plus the error, its nominal position scattered by
-    SIGMA_UM about that."""
+    each circle truly lies at its reading plus the error, each reading off by SIGMA_UM, circle
+    (0, 0)'s too: every position is taken from that reading, so its error shifts them all."""
     j, i = np.mgrid[0:NY, 0:NX]
     rel = np.stack([i.ravel(), j.ravel()], axis=1) * PITCH_MM
     rel[1:] += rng.uniform(-0.03, 0.03, (len(rel) - 1, 2))  # the servo's last offsets
     readings = np.array([40.0, 25.0]) + rel
-    nominal = rel + (_true_um(rel) + rng.normal(0, SIGMA_UM, rel.shape)) / 1000
+    noise = rng.normal(0, SIGMA_UM, rel.shape)
+    nominal = rel + (_true_um(rel) + noise - noise[0]) / 1000
     return readings, nominal
 
 
 def test_the_plate_gives_back_the_cubic_the_scatter_and_the_periodic_term():
     """Over 20 draws the cubic's coefficients scatter about the truth by the reported std (the
     periodic term biases X's cubic, so Y's alone: 200 values, their RMS 1 +- 0.05, the std
-    adding the alignment's share to one slope); the points' scatter and the periodic error that
-    cross-validation finds along X are the injected ones."""
+    adding the alignment's share to one slope and the datum's to the constant, whose z alone
+    is then 1 too: without the datum it would be some sqrt(n / 10) = 5); the points' scatter and
+    the periodic error that cross-validation finds along X are the injected ones."""
     z = []
     for seed in range(20):
         readings, nominal = _point_pairs(np.random.default_rng(seed))
@@ -63,6 +65,7 @@ def test_the_plate_gives_back_the_cubic_the_scatter_and_the_periodic_term():
     z = np.array(z)
     assert np.all(np.abs(z) < 5)
     assert 0.8 < np.sqrt(np.mean(z**2)) < 1.2
+    assert 0.6 < np.sqrt(np.mean(z[:, 0] ** 2)) < 1.5  # 20 values: chi's 99 % band
 
 
 def test_compensation_models_evaluate_each_model_at_the_readings():
