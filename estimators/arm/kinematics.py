@@ -61,22 +61,24 @@ from calibench.estimators.arm.parameters import (  # noqa: F401  (re-exported: t
 class Pose:
     """The chain at n postures.
 
-    link_R, link_o : (n, N + 1, 3, 3) and (n, N + 1, 3) frames 0..N.
+    Rc, oc : (N + 1, 3, 3, n) and (N + 1, 3, n) frames 0..N, component-major (each component
+        of a frame one run over the postures, as :func:`pose` chains them).
+    link_R, link_o : (n, N + 1, 3, 3) and (n, N + 1, 3) the same, posture-major.
     point : (n, 3) each row's tool point (mm).
     tools : (n, T, 3) every tool's point (mm).
     tool : (n,) int each row's tool (0-based), or None: the first.
     axis : (n, 5 N, 3) base-frame direction of each elementary motion.
     origin : (n, 5 N, 3) where it acts (mm); rotations turn about axis through origin.
 
-    ``axis`` and ``origin`` are made on first use: a residual needs the point alone, a Jacobian
-    the motions too.
+    ``link_R``, ``link_o``, ``axis`` and ``origin`` are made on first use: a residual needs the
+    point alone, a Jacobian the motions too (from ``Rc`` and ``oc``).
     """
 
     def __init__(
         self,
         convention: str,
-        link_R: np.ndarray,
-        link_o: np.ndarray,
+        Rc: np.ndarray,
+        oc: np.ndarray,
         point: np.ndarray,
         c: np.ndarray,
         s: np.ndarray,
@@ -86,20 +88,34 @@ class Pose:
         frames: np.ndarray | None = None,
         tools: np.ndarray | None = None,
         tool: np.ndarray | None = None,
-        by_component: tuple[np.ndarray, np.ndarray] | None = None,
     ):
-        self.link_R, self.link_o, self.point = link_R, link_o, point
-        # the frames component-major, (N + 1, 3, 3, n) and (N + 1, 3, n): the motions' source,
-        # each component of a joint one run over the postures (link_R's own if not given)
-        self._by_component = by_component or (
-            link_R.transpose(1, 2, 3, 0),
-            link_o.transpose(1, 2, 0),
-        )
+        self.Rc, self.oc, self.point = Rc, oc, point
+        self._links: tuple[np.ndarray, np.ndarray] | None = None
         self.tools = point[:, None] if tools is None else tools
         self.tool = tool
         self._motions_of = (convention, c, s, a, d, alpha, frames)
         self._motions: tuple[np.ndarray, np.ndarray] | None = None
         self._kinds: list[tuple[np.ndarray, np.ndarray]] | None = None
+
+    @property
+    def link_R(self) -> np.ndarray:
+        """(n, N + 1, 3, 3) the link frames' rotations, posture-major."""
+        return self._posture_major()[0]
+
+    @property
+    def link_o(self) -> np.ndarray:
+        """(n, N + 1, 3) the link frames' origins (mm), posture-major."""
+        return self._posture_major()[1]
+
+    def _posture_major(self) -> tuple[np.ndarray, np.ndarray]:
+        """``Rc`` and ``oc`` laid out posture-major, once (a copy of 10 MB on 15,000 postures,
+        which a residual does not need)."""
+        if self._links is None:
+            self._links = (
+                np.ascontiguousarray(self.Rc.transpose(3, 0, 1, 2)),
+                np.ascontiguousarray(self.oc.transpose(2, 0, 1)),
+            )
+        return self._links
 
     @property
     def axis(self) -> np.ndarray:
@@ -116,7 +132,7 @@ class Pose:
         from :meth:`motions`."""
         if self._motions is None:
             kinds = self.motions()
-            n, N = self.point.shape[0], self.link_R.shape[1] - 1
+            n, N = self.point.shape[0], self.Rc.shape[0] - 1
             # (5, N, 3, n) to (n, N, 5, 3): posture, joint, kind, component
             axis = np.stack([w for w, _ in kinds]).transpose(3, 1, 0, 2).reshape(n, 5 * N, 3)
             origin = np.stack([o for _, o in kinds]).transpose(3, 1, 0, 2).reshape(n, 5 * N, 3)
@@ -131,7 +147,7 @@ class Pose:
         if self._kinds is not None:
             return self._kinds
         convention, c, s, a, d, alpha, frames = self._motions_of
-        Rc, oc = self._by_component
+        Rc, oc = self.Rc, self.oc
         # frame i-1 is joint i's parent's: the previous joint's on a serial arm
         R0, o0 = (Rc[:-1], oc[:-1]) if frames is None else (Rc[frames], oc[frames])
         R1, o1 = Rc[1:], oc[1:]  # (N, 3, 3, n), (N, 3, n)
@@ -233,16 +249,16 @@ def pose(chain: Chain, q_rad: np.ndarray, delta: np.ndarray | None = None, tool=
         for r in range(3):
             oc[i + 1, r] = oc[frames[i], r] + (R[r, 0] * pi[0] + R[r, 1] * pi[1] + R[r, 2] * pi[2])
             Rc[i + 1, r] = R[r, 0] * Ai[0] + R[r, 1] * Ai[1] + R[r, 2] * Ai[2]
-    link_R = np.ascontiguousarray(Rc.transpose(3, 0, 1, 2))
-    link_o = np.ascontiguousarray(oc.transpose(2, 0, 1))
     offsets = chain.tool_offsets() + delta[5 * N :].reshape(T, 3)
     at = chain.tool_frames
-    tools = np.stack([link_o[:, f] + link_R[:, f] @ o for f, o in zip(at, offsets)], axis=1)
+    # each tool's frame posture-major for its product: its own stack alone, not every frame's
+    tools = np.stack(
+        [oc[f].T + np.ascontiguousarray(Rc[f].transpose(2, 0, 1)) @ o for f, o in zip(at, offsets)],
+        axis=1,
+    )
     point = tools[:, 0] if tool is None else tools[np.arange(n), tool]
     tree = None if chain.parent is None else frames
-    return Pose(
-        chain.convention, link_R, link_o, point, c, s, a, d, alpha, tree, tools, tool, (Rc, oc)
-    )
+    return Pose(chain.convention, Rc, oc, point, c, s, a, d, alpha, tree, tools, tool)
 
 
 def cross(u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -289,7 +305,7 @@ def jacobian(
     if P is None:
         assert q_rad is not None, "the postures q_rad, or their pose P"
         P = pose(chain, q_rad, delta, tool)
-    N = P.link_R.shape[1] - 1
+    N = P.Rc.shape[0] - 1
     n, T = len(P.point), chain.n_tools
     J = np.empty((n, 3, n_params(N, T)))
     on = carried_by(chain, P)
@@ -310,7 +326,7 @@ def jacobian(
             cols *= on.T[:, None, :]
     at = chain.tool_frames
     if T == 1:
-        J[:, :, 5 * N :] = P.link_R[:, at[0]]
+        J[:, :, 5 * N :].transpose(1, 2, 0)[:] = P.Rc[at[0]]  # (3, 3, n) views
         return J
     J[:, :, 5 * N :] = 0.0
     rows = np.zeros(n, int) if P.tool is None else P.tool
