@@ -36,16 +36,23 @@ def fit_arm(args: argparse.Namespace, out: Path) -> int:
         readable_twice(p)
     if args.leave_one_out:
         return _leave_one_out(args, out)
-    r = run_arm_fit(
-        args.recordings,
-        args.arm,
-        args.test,
-        args.test_new_frame,
-        args.holdout,
-        args.model,
-        out,
-        args.effects,
-    )
+    # on one BLAS thread, as each fold of --leave-one-out: the arm's normal equations have a
+    # few dozen columns, which a second thread does not speed up, and on a busy machine each
+    # product waits for the other thread's core (the UR10's four series, --holdout 0.3, on two
+    # shared cores: 115 s wall and 112 s CPU, the threads spinning; on one thread 10 s)
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(1):
+        r = run_arm_fit(
+            args.recordings,
+            args.arm,
+            args.test,
+            args.test_new_frame,
+            args.holdout,
+            args.model,
+            out,
+            args.effects,
+        )
     f = r["fit"]
     print(
         f"{r['arm']}, model {r['model']}: {r['samples']} training rows, {len(r['parameters'])} "
