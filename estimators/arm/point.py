@@ -441,15 +441,12 @@ class PointProblem(ArmParameters):
                 Jq = self._turns(Jk, [t.joint])[:, :, 0]  # (n, 3): the link turns by -Ft @ c
             J[:, :, k : k + Ft.shape[1]] = -np.einsum("nij,nj,nk->nik", R, Jq, Ft)
             k += Ft.shape[1]
-        Rp = np.einsum("nij,nj->ni", R, p)
-        Jf = J[:, :, k:]
-        Jf[:] = 0.0
-        for r in range(self.n_rec):
-            m = self.rec == r
-            Jf[m, :, 6 * r : 6 * r + 3] = -skew(Rp[m])  # left perturbation of R
-            Jf[m, :, 6 * r + 3 : 6 * r + 6] = np.eye(3)
-        np.negative(J, out=J)
-        J *= self.weights()[:, :, None]
+        turn = -skew(np.einsum("nij,nj->ni", R, p))  # left perturbation of R, (n, 3, 3)
+        for r in range(self.n_rec):  # each frame's columns, zero off its recording's rows
+            m = (self.rec == r)[:, None, None]
+            J[:, :, k + 6 * r : k + 6 * r + 3] = np.where(m, turn, 0.0)
+            J[:, :, k + 6 * r + 3 : k + 6 * r + 6] = np.where(m, np.eye(3), 0.0)
+        np.multiply(J, -self.weights()[:, :, None], out=J)  # residual = y - model: negated
         if self.prior is None:
             return out
         idx, sig = self._prior_rows()
