@@ -32,7 +32,7 @@ from calibench.scenarios.report import BadInput
 from calibench.writing import write_text
 
 FIGURES = ("samples", "mean_mm", "rms_mm", "p95_mm", "max_mm")
-POOL_WORKERS = 2  # folds at a time (the UR10's four on 2 cores: a minute and a half of CPU each)
+POOL_WORKERS = 2  # folds at a time (the UR10's four on 2 cores: 6-11 s of CPU each)
 # the recordings' size (bytes, their rows' stand-in) from which a pool pays for its start: two
 # interpreters importing numpy, scipy and the fit (about 2 s of CPU), against folds of seconds
 # each on thousands of rows (the UR10's four series: 1.8 MB)
