@@ -21,6 +21,13 @@ about four times as many), so 1.23 and 1.02 are what the guide's one run drew. T
 9.2.3 verdict follows from its numbers at that delta: d_low = d_high = 0.04 <= 0.05, validated
 (not at n_dig = 3, delta = 0.005). An exact figure is asserted to the digits the guide prints; a
 Monte Carlo one within half a unit of those digits plus the tolerance the procedure promises.
+
+Sources: the intervals and u(y) of Tables 2 and 3 (+-3.92, +-3.88, 2.00) as Sandia's suncal
+tests cite them (sandialabs/suncal, test/test_examples.py, "Table 2 in GUM Supplement 1");
+9.2.4's set-up as PTB's hands-on notebooks give it (TanjaDorst/MonteCarloHandsOn). The trial
+counts (1.23 and 1.02 x 10^6), n_dig = 2 and the verdicts are the guide's as this project read
+them, not re-checked against the printed tables here; every exact figure is computed, not
+quoted (9.2.4's u, intervals and d are the exact ones, which the guide rounds).
 """
 
 import dataclasses
