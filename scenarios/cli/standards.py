@@ -9,7 +9,7 @@ import argparse
 import sys
 
 from calibench.scenarios.cli.status import EXIT_CHECK_FAILED, EXIT_OK
-from calibench.scenarios.cli.verbs import _names, _scenario
+from calibench.scenarios.cli.verbs import scenario_named, scenario_names
 
 
 def iso230(args: argparse.Namespace) -> int:
@@ -62,10 +62,10 @@ def acceptance(args: argparse.Namespace) -> int:
     )
     from calibench.scenarios.config import check_tables, load_toml, override
 
-    s = _scenario(args.scenario)
+    s = scenario_named(args.scenario)
     procedure(s.name, args.test)  # a test that does not apply is said before any work
     table = load_toml(args.config) if args.config else {}
-    check_tables(args.config, table, [s.name, "acceptance"], [*_names(), "acceptance"])
+    check_tables(args.config, table, [s.name, "acceptance"], [*scenario_names(), "acceptance"])
     config = override(s.config(), table.get(s.name, {}), s.name)
     stated_mpe(args.test, table)
     real = real_repeatability(s.name, args.test, config, args.recording)  # said before any work
@@ -103,10 +103,10 @@ def uncertainty(args: argparse.Namespace) -> int:
     from calibench.scenarios.config import check_tables, load_toml, override
     from calibench.scenarios.uncertainty import run_uncertainty, task_of
 
-    s = _scenario(args.scenario)
+    s = scenario_named(args.scenario)
     task_of(s.name)  # a scenario without a task is said before any work
     table = load_toml(args.config) if args.config else {}
-    check_tables(args.config, table, [s.name], _names())
+    check_tables(args.config, table, [s.name], scenario_names())
     config = override(s.config(), table.get(s.name, {}), s.name)
     # no heading on stderr: a study's progress names itself, and an interrupt's line is its one
     options = {

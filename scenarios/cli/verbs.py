@@ -15,7 +15,7 @@ from calibench.scenarios.cli.status import EXIT_CHECK_FAILED, EXIT_OK, run_verdi
 from calibench.scenarios.registry import check_fidelity, check_option, takers
 
 
-def _scenario(name: str):
+def scenario_named(name: str):
     """A scenario by its name (checked), only its own module imported."""
     from calibench.scenarios.registry import scenario
 
@@ -53,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
     from calibench.scenarios.report import BadInput
 
     names = list(NAMES) if args.scenario == "all" else [args.scenario]
-    scenarios = [_scenario(n) for n in names]
+    scenarios = [scenario_named(n) for n in names]
     if args.scenario != "all":  # all: rendered where a scenario has a camera
         check_fidelity(args.scenario, args.fidelity)
     fidelity = args.fidelity or "render"
@@ -137,7 +137,7 @@ def fit(args: argparse.Namespace) -> int:
     from calibench.scenarios.registry import FIT_MODELS
     from calibench.scenarios.report import BadInput
 
-    s = _scenario(args.scenario)
+    s = scenario_named(args.scenario)
     out = args.out
     if s.fit_model == "arm":
         from calibench.scenarios.cli.fit_arm import fit_arm
@@ -323,7 +323,9 @@ def discover(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _names() -> list[str]:
+def scenario_names() -> list[str]:
+    """Every instrument's name, in the registry's order (a config's tables are checked
+    against them)."""
     from calibench.scenarios.registry import NAMES
 
     return list(NAMES)
