@@ -151,6 +151,18 @@ def stale_repeats_pooled(mp: pytest.MonkeyPatch) -> None:
     replace(mp, "calibench.estimators.arm.screening", "screen", screen)
 
 
+def belt_maps_cov_diagonal(mp: pytest.MonkeyPatch) -> None:
+    """The belt stage's maps' covariance without its correlations (the std alone)."""
+    from calibench.estimators.stage import belt_maps
+
+    real = belt_maps.propagated_cov
+
+    def cov(*args, **kwargs):
+        return np.diag(np.diag(real(*args, **kwargs)))
+
+    replace(mp, "calibench.estimators.stage.belt_maps", "propagated_cov", cov)
+
+
 UNCERTAINTY_FAULTS = {
     "coverage_band_90": (
         "the study's coverage band from the 5 % and 95 % quantiles, not 2.5 % and 97.5 %",
@@ -213,6 +225,14 @@ UNCERTAINTY_FAULTS = {
         (
             "tests/scenarios/test_acceptance_recording.py::"
             "test_the_real_ur10s_rp_is_within_its_makers_figure",
+        ),
+    ),
+    "belt_maps_cov_diagonal": (
+        "the belt stage's maps' covariance without its correlations",
+        belt_maps_cov_diagonal,
+        (
+            "tests/scenarios/test_uncertainty_tasks.py::"
+            "test_the_stage_tasks_gum_u_is_its_trials_spread",
         ),
     ),
 }

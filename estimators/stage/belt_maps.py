@@ -28,6 +28,7 @@ from calibench.estimators.camera.pose import (
     undistort_pixels,
 )
 from calibench.estimators.camera.zhang import CameraCalibration, intrinsic_covariance
+from calibench.estimators.stage.compensation import design
 from calibench.estimators.stage.error_map import QuadraticFit, fit_quadratic, quadratic_coefs
 from calibench.estimators.stage.travel import board_yaw, travel_from_camera_centres, travel_in_plane
 
@@ -199,7 +200,22 @@ def propagated_std(
     names: tuple[str, ...],
     cov_intr: np.ndarray,
 ) -> np.ndarray:
-    """1-sigma of (ex c0..c5, ey c0..c5, yaw): station noise plus two common-mode errors.
+    """1-sigma of (ex c0..c5, ey c0..c5, yaw), (13,): the diagonal of :func:`propagated_cov`."""
+    cov = propagated_cov(m, board_pts, K, dist, cmd, ref, names, cov_intr)
+    return np.sqrt(np.diag(cov))
+
+
+def propagated_cov(
+    m: StageMaps,
+    board_pts: np.ndarray,
+    K: np.ndarray,
+    dist: np.ndarray,
+    cmd: np.ndarray,
+    ref: int,
+    names: tuple[str, ...],
+    cov_intr: np.ndarray,
+) -> np.ndarray:
+    """Covariance of (ex c0..c5, ey c0..c5, yaw): station noise plus two common-mode errors.
 
     The intrinsics and the plane of motion are shared by every station, so their errors move
     the whole map coherently. Their effect is the Jacobian of the map coefficients with
@@ -219,7 +235,9 @@ def propagated_std(
 
     Returns
     -------
-    (13,) in mm, mm/mm, mm/mm^2 and rad.
+    (13, 13) in mm, mm/mm, mm/mm^2 and rad, squared and crossed: each map's own part with its
+    least-squares design's correlation, the common modes' with theirs (a focal length's error
+    moves both maps' slopes at once, which the diagonal alone does not say).
     """
     st = m.poses
     S = pose_sensitivity(board_pts, st.R_pnp, st.t_pnp, K, dist, names)
@@ -255,15 +273,17 @@ def propagated_std(
     k = D.shape[1]
     JJ = np.concatenate([coef[:, :k], coef[:, k:], D[2 * n :]], axis=0)  # (13, k)
     J, Js = JJ[:, : len(names)], JJ[:, len(names) :]
-    own = np.r_[m.fit_x.std, m.fit_y.std, m.yaw_std_rad]
-    # errors are measured from the home station, whose own scatter (the per-station RMSE) moves
-    # every error alike: a common offset the residuals cannot show, so it joins c0's variance
-    own[0] = np.hypot(own[0], m.fit_x.rmse)
-    own[6] = np.hypot(own[6], m.fit_y.rmse)
-    common = np.einsum("ij,jk,ik->i", J, cov_intr, J) + np.einsum(
-        "ij,jk,ik->i", Js, m.plane.slope_cov, Js
-    )
-    return np.sqrt(own**2 + common)
+    # each map's own: its coefficients' std with the design's correlation (one design, both maps)
+    inv = np.linalg.pinv(design(x, y, 2).T @ design(x, y, 2))
+    corr = inv / np.sqrt(np.outer(np.diag(inv), np.diag(inv)))
+    own = np.zeros((13, 13))
+    for a, fit in enumerate((m.fit_x, m.fit_y)):
+        own[6 * a : 6 * a + 6, 6 * a : 6 * a + 6] = corr * np.outer(fit.std, fit.std)
+        # errors are measured from the home station, whose own scatter (the per-station RMSE)
+        # moves every error alike: a common offset the residuals cannot show, c0's alone
+        own[6 * a, 6 * a] += fit.rmse**2
+    own[12, 12] = m.yaw_std_rad**2
+    return own + J @ cov_intr @ J.T + Js @ m.plane.slope_cov @ Js.T
 
 
 def station_poses(

@@ -6,19 +6,25 @@ x and y (um). One trial draws a machine from the scenario's prior (its maps' coe
 the board's yaw), renders nothing (the analytic camera: exact projection plus the detector's
 noise), calibrates the camera, measures the stations, fits both maps and commands the grid.
 
-The GUM framework's answer: each map's coefficients with their standard deviations as the
-scenario reports them (the fit's own with the intrinsics' covariance carried through), their
-correlation the least-squares design's over the stations, propagated to each target by the map's
-monomials there (a compensated error moves by minus what the map's value does)::
+The GUM framework's answer: the two maps' coefficients' whole covariance C (each map's own
+scatter with its least-squares design's correlation, and the intrinsics' and the plane of
+motion's errors carried through every station at once, which move both maps together), as the
+scenario's reported std is its diagonal, propagated to each target by the map's monomials there
+(a compensated error moves by minus what the map's value does)::
 
-    u(e_g)^2 = a_g^T C a_g,    a_g = the monomials at target g, C = D R D
+    u(e_g)^2 = a_g^T C a_g,    a_g = the monomials at target g
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from calibench.estimators.stage.belt_maps import measure_maps
+from calibench.estimators.stage.belt_maps import (
+    MAP_INTRINSICS,
+    intrinsics_cov,
+    measure_maps,
+    propagated_cov,
+)
 from calibench.estimators.stage.compensation import MONOMIAL_SCALE_MM, design, monomial_powers
 from calibench.estimators.stage.error_map import compensated_command
 from calibench.scenarios.belt_stage.procedure import (
@@ -90,19 +96,16 @@ def trial(config: BeltStageConfig, targets: np.ndarray, seed: int) -> np.ndarray
 
 def gum(config: BeltStageConfig, targets: np.ndarray, seed: int) -> tuple[np.ndarray, np.ndarray]:
     """The task's Jacobian (2 G, 12) um per coefficient unit (minus each map's monomials at the
-    targets) and the two maps' coefficient covariance (12, 12), of the reference machine."""
-    sim, maps = measured_maps(config, seed)
+    targets) and the two maps' coefficient covariance (12, 12) of the reference machine, whole:
+    each map's own with its design's correlation, and the intrinsics' and the plane's common
+    modes across both (:func:`~calibench.estimators.stage.belt_maps.propagated_cov`)."""
+    sim, _, board, stations, calib, points = _calibrated(config, seed)
     sim.close()
-    # a coefficient's unit (mm / mm^k) to the design's monomials of x / 100 mm
-    scale = MONOMIAL_SCALE_MM ** np.array([i + j for i, j in monomial_powers(2)])
-    X = design(maps.cmd[:, 0], maps.cmd[:, 1], 2) * scale
-    inv = np.linalg.pinv(X.T @ X)
-    R = inv / np.sqrt(np.outer(np.diag(inv), np.diag(inv)))
-    cov = np.zeros((12, 12))
-    for axis in range(2):
-        d = maps.std[6 * axis : 6 * axis + 6]
-        cov[6 * axis : 6 * axis + 6, 6 * axis : 6 * axis + 6] = R * np.outer(d, d)
-    return 1000 * task_jacobian(targets), cov
+    cmd, ref = stations.cmd_mm, stations.ref
+    m = measure_maps(board, stations.corners_px, calib.K, calib.dist, cmd, ref)
+    cov_intr = intrinsics_cov(calib, board, points)
+    cov = propagated_cov(m, board, calib.K, calib.dist, cmd, ref, MAP_INTRINSICS, cov_intr)
+    return 1000 * task_jacobian(targets), cov[:12, :12]
 
 
 def task_jacobian(targets: np.ndarray) -> np.ndarray:

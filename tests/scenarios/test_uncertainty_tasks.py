@@ -58,3 +58,22 @@ def test_the_stage_tasks_jacobian_is_the_compensations_differences():
         np.testing.assert_allclose(
             (plus - minus) / 2, J[:, k] * step, atol=1e-3 * abs(step) * np.abs(J[:, k]).max()
         )
+
+
+def test_the_stage_tasks_gum_u_is_its_trials_spread():
+    """60 machines' compensated errors scatter as the GUM framework's u says at every target:
+    the ratio within the chi band of 60 values (4 of its standard errors, 1 / sqrt(120) each)
+    widened by 1.25, the reference machine's u being one machine's (its spread over machines:
+    some 10 %). Without the common modes' correlation across the maps (a focal length's error
+    moves both maps' slopes) the GUM's u was half the spread (ratios 0.3-0.8)."""
+    from calibench.estimators.uncertainty.gum import propagate
+    from calibench.scenarios.belt_stage import uncertainty as stage
+    from calibench.scenarios.belt_stage.scenario import BeltStageConfig
+
+    config = BeltStageConfig()
+    targets, _ = stage.grid(config)
+    u = propagate(*stage.gum(config, targets, 0))
+    errors = np.array([stage.trial(config, targets, 1000 + k) for k in range(60)])
+    ratio = errors.std(axis=0, ddof=1) / u
+    band = 4 / np.sqrt(2 * 60)
+    assert np.all(ratio > (1 - band) / 1.25) and np.all(ratio < (1 + band) * 1.25), ratio
