@@ -10,6 +10,7 @@ detector can tell the board from its 180 degree turn when ``cols + rows`` is odd
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import cv2
 import numpy as np
@@ -91,7 +92,14 @@ class Chessboard:
         return np.repeat(img[:, :, None], 3, axis=2)
 
     def texture_png(self, px_per_square: int = TEXTURE_PX_PER_SQUARE) -> bytes:
-        """The board's texture as PNG bytes, ``px_per_square`` pixels a square."""
-        ok, buf = cv2.imencode(".png", self.texture(px_per_square))
-        assert ok
-        return buf.tobytes()
+        """The board's texture as PNG bytes, ``px_per_square`` pixels a square (encoded once per
+        board: a study builds thousands of twins of one board)."""
+        return _texture_png(self, px_per_square)
+
+
+@functools.lru_cache(maxsize=16)
+def _texture_png(board: Chessboard, px_per_square: int) -> bytes:
+    """:meth:`Chessboard.texture_png`, remembered (a frozen board: its PNG is a function of it)."""
+    ok, buf = cv2.imencode(".png", board.texture(px_per_square))
+    assert ok
+    return buf.tobytes()
