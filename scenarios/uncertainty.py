@@ -44,6 +44,16 @@ FRESH_MACHINES = 100  # the coverage check's machines, drawn apart from the stud
 JOURNAL = "uncertainty_trials.jsonl"
 
 
+def plane_labels(points_mm: np.ndarray) -> list[dict]:
+    """A stage task's quantities, x and y at each of its places (G, 2 or 3) mm, (2 G) in that
+    order: the labels of a task whose grid lies in the travel's plane."""
+    return [
+        {"at": {"x_mm": round(float(p[0]), 1), "y_mm": round(float(p[1]), 1)}, "quantity": a}
+        for p in points_mm
+        for a in "xy"
+    ]
+
+
 def task_of(scenario: str):
     """The scenario's task module (its registry line's ``uncertainty``), or BadInput naming the
     instruments that have one."""

@@ -35,6 +35,7 @@ from calibench.scenarios.belt_stage.procedure import (
     station_views,
 )
 from calibench.scenarios.belt_stage.scenario import BeltStageConfig, prior
+from calibench.scenarios.uncertainty import plane_labels
 from calibench.sim.belt_stage import PULSES_PER_MM, BeltStageSim
 
 GRID = (4, 3)  # targets along x and y, inside the travel's outer tenth
@@ -53,11 +54,7 @@ def grid(config: BeltStageConfig) -> tuple[np.ndarray, np.ndarray]:
 
 def labels(points_mm: np.ndarray) -> list[dict]:
     """Each quantity's place and name, (2 G) in the order of :func:`trial`'s values."""
-    return [
-        {"at": {"x_mm": round(float(p[0]), 1), "y_mm": round(float(p[1]), 1)}, "quantity": a}
-        for p in points_mm
-        for a in "xy"
-    ]
+    return plane_labels(points_mm)
 
 
 def measured_maps(config: BeltStageConfig, seed: int):

@@ -51,6 +51,7 @@ from calibench.estimators.stage.compensation import (
     fit_polynomial,
     monomial_powers,
 )
+from calibench.scenarios.uncertainty import plane_labels
 from calibench.scenarios.vision_stage.procedure import Microscope, align_plate
 from calibench.scenarios.vision_stage.scenario import (
     VisionStageConfig,
@@ -87,11 +88,7 @@ def grid(config: VisionStageConfig) -> tuple[np.ndarray, np.ndarray]:
 
 def labels(points_mm: np.ndarray) -> list[dict]:
     """Each quantity's place and name, (2 G) in the order of :func:`trial`'s values."""
-    return [
-        {"at": {"x_mm": round(float(p[0]), 1), "y_mm": round(float(p[1]), 1)}, "quantity": a}
-        for p in points_mm
-        for a in "xy"
-    ]
+    return plane_labels(points_mm)
 
 
 @dataclasses.dataclass(frozen=True)
