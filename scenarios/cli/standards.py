@@ -101,10 +101,13 @@ def uncertainty(args: argparse.Namespace) -> int:
         0 when the study ran (whether its tolerance was met is said, and in uncertainty.json).
     """
     from calibench.scenarios.config import check_tables, load_toml, override
-    from calibench.scenarios.uncertainty import run_uncertainty, task_of
+    from calibench.scenarios.report import BadInput
+    from calibench.scenarios.uncertainty import BATCH, run_uncertainty, task_of
 
     s = scenario_named(args.scenario)
     task_of(s.name)  # a scenario without a task is said before any work
+    if args.trials_max < 2 * BATCH:  # the adaptive stop compares batches: two at least
+        raise BadInput(f"--trials-max {args.trials_max}: at least {2 * BATCH} (two batches)")
     table = load_toml(args.config) if args.config else {}
     check_tables(args.config, table, [s.name], scenario_names())
     config = override(s.config(), table.get(s.name, {}), s.name)

@@ -23,6 +23,13 @@ CASES = [
     ("uncertainty-tolerance-word", {}, [*_UNC, "--tolerance", "tight"], 2, "not a number"),
     ("uncertainty-trials-max-zero", {}, [*_UNC, "--trials-max", "0"], 2, "trials-max"),
     (
+        "uncertainty-trials-max-below-two-batches",
+        {},
+        [*_UNC, "--trials-max", "200"],
+        2,
+        "at least 400 (two batches)",
+    ),
+    (
         "uncertainty-config-of-another-scenario",
         {"c.toml": "[stewart]\nn_poses = 40\n"},
         [*_UNC, "--config", "{d}/c.toml"],
